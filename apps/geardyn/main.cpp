@@ -1,0 +1,239 @@
+// geardyn command-line tool: parses arguments, calls the library, prints and writes. No
+// numerics here.
+//
+// Exit codes: 0 success, 1 numerical failure (reported with its reason), 2 bad input.
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include "geardyn/case.hpp"
+#include "geardyn/geometry.hpp"
+#include "geardyn/output.hpp"
+#include "geardyn/run.hpp"
+
+namespace {
+
+constexpr int kExitNumerical = 1;
+constexpr int kExitInput = 2;
+
+// Shows a progress bar on stderr once the work has taken more than a second.
+class ProgressBar {
+ public:
+  explicit ProgressBar(std::string label) : label_(std::move(label)), tty_(isatty(2) != 0) {}
+  ~ProgressBar() { finish(); }
+
+  bool operator()(double fraction) {
+    using namespace std::chrono;
+    const double elapsed = duration<double>(steady_clock::now() - start_).count();
+    if (elapsed < kQuietSeconds) return true;
+    const int percent = static_cast<int>(fraction * 100.0);
+    if (!tty_ && percent < last_percent_ + 10) return true;  // logs get a line per 10 %
+    last_percent_ = percent;
+    constexpr int kWidth = 30;
+    const int filled = static_cast<int>(fraction * kWidth);
+    const double left = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
+    fmt::print(stderr, "{}{} [{:<{}}] {:3d}%  {:.1f} s left{}", tty_ ? "\r" : "", label_,
+               std::string(std::max(0, filled), '#'), kWidth, percent, left, tty_ ? "" : "\n");
+    std::fflush(stderr);
+    shown_ = true;
+    return true;
+  }
+  void finish() {
+    if (shown_ && tty_) fmt::print(stderr, "\n");
+    shown_ = false;
+  }
+
+ private:
+  static constexpr double kQuietSeconds = 1.0;
+  std::string label_;
+  bool tty_;
+  bool shown_ = false;
+  int last_percent_ = -10;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+std::vector<geardyn::Override> parse_overrides(const std::vector<std::string>& sets) {
+  std::vector<geardyn::Override> out;
+  for (const std::string& s : sets) out.push_back(geardyn::parse_override(s));
+  return out;
+}
+
+std::optional<std::filesystem::path> case_path(const std::string& s) {
+  if (s.empty()) return std::nullopt;
+  return std::filesystem::path(s);
+}
+
+void print_warnings(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) fmt::print(stderr, "warning: {}\n", w);
+}
+
+std::string fmt_optional(const std::optional<double>& x, const char* spec_unit) {
+  if (!x) return "none";
+  return fmt::format("{:.6g}{}", *x, spec_unit);
+}
+
+void print_run_summary(const geardyn::RunResult& r) {
+  const auto& x = r.reading;
+  const auto& d = r.derived;
+  const auto& c = r.input;
+  fmt::print("geardyn run: {}{}\n", c.name, c.description.empty() ? "" : " - " + c.description);
+  fmt::print("  f1 = {} Hz (mesh {:.6g} Hz), b = {} um, xi = {}, F_a/F_m = {}, {} over {} s\n",
+             c.speed.shaft_frequency_hz, d.mesh_frequency_hz, c.mesh.backlash_um,
+             c.mesh.damping_ratio, c.load.fluctuation_ratio,
+             c.solver.method == geardyn::Method::kNewmark ? "newmark" : "dopri5",
+             c.solver.duration_s);
+  fmt::print("  m_eq = {:.6g} kg, contact natural frequency {:.6g} Hz, F_m = {:.6g} N, static "
+             "delta_bar = {:.6g}\n",
+             d.m_eq_kg, d.natural_frequency_hz, d.mean_force_n, d.static_delta_bar);
+  fmt::print("  regime            {}{}\n", geardyn::to_string(x.regime),
+             x.double_sided ? " (double-sided)" : "");
+  fmt::print("  impacts           {} ({} back side), max velocity {:.4g} m/s\n", x.impacts,
+             x.backside_impacts, x.max_impact_velocity_m_s);
+  fmt::print("  separations       {}, last at {}\n", x.separations,
+             fmt_optional(x.last_separation_s, " s"));
+  fmt::print("  separated         {:.4g} % of the time\n", 100.0 * x.separated_fraction);
+  fmt::print("  F_bar             min {:.5g}  max {:.5g}  mean {:.5g}  rms {:.5g}\n",
+             x.min_force_bar, x.max_force_bar, x.mean_force_bar, x.rms_force_bar);
+  fmt::print("  delta_bar         min {:.5g}  max {:.5g}  mean {:.5g}\n", x.min_delta_bar,
+             x.max_delta_bar, x.mean_delta_bar);
+  fmt::print("  dynamic factor    {}\n", fmt_optional(x.dynamic_factor, ""));
+  fmt::print("  steps             {} ({} transitions located){}, {:.3g} s wall\n",
+             r.integration.steps, r.integration.transitions,
+             d.time_step_s > 0 ? fmt::format(", dt = {:.4g} s", d.time_step_s) : "",
+             r.wall_time_s);
+  if (r.integration.unsplit_steps > 0)
+    fmt::print("  note: {} steps met more contact changes than are located per step\n",
+               r.integration.unsplit_steps);
+}
+
+int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
+            const std::string& out_dir) {
+  geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  ProgressBar bar("run " + c.name);
+  geardyn::RunOptions opts;
+  opts.progress = std::ref(bar);
+  geardyn::RunResult r = geardyn::run(c, opts);
+  bar.finish();
+  print_warnings(r.geometry.warnings);
+  if (!r.integration.ok()) {
+    fmt::print(stderr, "geardyn: numerical failure ({}): {}\n",
+               geardyn::ode::to_string(r.integration.termination), r.integration.message);
+    return kExitNumerical;
+  }
+  print_run_summary(r);
+  if (!out_dir.empty()) {
+    geardyn::write_run(out_dir, r);
+    fmt::print("  written to        {}/ (summary.json, timeseries.csv, events.csv, case.toml)\n",
+               out_dir);
+  }
+  return 0;
+}
+
+int cmd_geometry(const std::string& case_file, const std::vector<std::string>& sets, bool json) {
+  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  const geardyn::Geometry g = geardyn::compute_geometry(c.gear);
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  constexpr double kMm = 1e3;
+  if (json) {
+    nlohmann::json j = {
+        {"transverse_module_mm", g.transverse_module_m * kMm},
+        {"transverse_pressure_angle_deg", g.transverse_pressure_angle_rad * kDeg},
+        {"base_helix_angle_deg", g.base_helix_angle_rad * kDeg},
+        {"reference_diameter_mm",
+         {g.reference_diameter_m[0] * kMm, g.reference_diameter_m[1] * kMm}},
+        {"base_diameter_mm", {2 * g.base_radius_m[0] * kMm, 2 * g.base_radius_m[1] * kMm}},
+        {"root_diameter_mm", {g.root_diameter_m[0] * kMm, g.root_diameter_m[1] * kMm}},
+        {"expected_outside_diameter_mm",
+         {g.expected_outside_diameter_m[0] * kMm, g.expected_outside_diameter_m[1] * kMm}},
+        {"reference_center_distance_mm", g.reference_center_distance_m * kMm},
+        {"center_distance_mm", g.center_distance_m * kMm},
+        {"shift_center_distance_mm", g.shift_center_distance_m * kMm},
+        {"working_pressure_angle_deg", g.working_pressure_angle_rad * kDeg},
+        {"shift_working_pressure_angle_deg", g.shift_working_pressure_angle_rad * kDeg},
+        {"transverse_base_pitch_mm", g.transverse_base_pitch_m * kMm},
+        {"transverse_contact_ratio", g.transverse_contact_ratio},
+        {"overlap_ratio", g.overlap_ratio},
+        {"total_contact_ratio", g.total_contact_ratio()},
+        {"inertia_kg_m2", {g.inertia_kg_m2[0], g.inertia_kg_m2[1]}},
+        {"m_eq_kg", g.equivalent_mass_kg},
+        {"warnings", g.warnings},
+    };
+    fmt::print("{}\n", j.dump(2));
+    return 0;
+  }
+  print_warnings(g.warnings);
+  fmt::print("geometry of {}\n", c.name);
+  fmt::print("  transverse module          {:.6f} mm\n", g.transverse_module_m * kMm);
+  fmt::print("  transverse pressure angle  {:.6f} deg\n", g.transverse_pressure_angle_rad * kDeg);
+  fmt::print("  base helix angle           {:.6f} deg\n", g.base_helix_angle_rad * kDeg);
+  fmt::print("  reference diameters        {:.4f}, {:.4f} mm\n", g.reference_diameter_m[0] * kMm,
+             g.reference_diameter_m[1] * kMm);
+  fmt::print("  base diameters             {:.4f}, {:.4f} mm\n", 2 * g.base_radius_m[0] * kMm,
+             2 * g.base_radius_m[1] * kMm);
+  fmt::print("  outside diameters          {:.4f}, {:.4f} mm (standard rack: {:.4f}, {:.4f})\n",
+             2 * g.tip_radius_m[0] * kMm, 2 * g.tip_radius_m[1] * kMm,
+             g.expected_outside_diameter_m[0] * kMm, g.expected_outside_diameter_m[1] * kMm);
+  fmt::print("  centre distance            {:.4f} mm (profile shifts imply {:.4f}, reference "
+             "{:.4f})\n",
+             g.center_distance_m * kMm, g.shift_center_distance_m * kMm,
+             g.reference_center_distance_m * kMm);
+  fmt::print("  working pressure angle     {:.6f} deg (from the shifts {:.6f})\n",
+             g.working_pressure_angle_rad * kDeg, g.shift_working_pressure_angle_rad * kDeg);
+  fmt::print("  contact ratios             eps_alpha {:.4f}, eps_beta {:.4f}, total {:.4f}\n",
+             g.transverse_contact_ratio, g.overlap_ratio, g.total_contact_ratio());
+  fmt::print("  inertias                   {:.6g}, {:.6g} kg m^2\n", g.inertia_kg_m2[0],
+             g.inertia_kg_m2[1]);
+  fmt::print("  equivalent mass m_eq       {:.6g} kg\n", g.equivalent_mass_kg);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"geardyn: nonlinear dynamics of gear pairs with backlash"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "geardyn 0.1.0");
+
+  std::string case_file, out_dir;
+  std::vector<std::string> sets;
+  bool json = false;
+  auto add_case = [&](CLI::App* sub) {
+    sub->add_option("case", case_file, "case file (TOML); default: the paper's Table 1 gear");
+    sub->add_option("--set", sets, "override a case key: --set key=value (TOML value syntax)")
+        ->allow_extra_args(false);
+  };
+
+  CLI::App* run = app.add_subcommand("run", "integrate one case and read the run");
+  add_case(run);
+  run->add_option("--out", out_dir, "directory for summary.json, timeseries.csv, events.csv");
+
+  CLI::App* geometry = app.add_subcommand("geometry", "print the derived gear geometry");
+  add_case(geometry);
+  geometry->add_flag("--json", json, "print JSON");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : kExitInput;
+  }
+
+  try {
+    if (run->parsed()) return cmd_run(case_file, sets, out_dir);
+    if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
+  } catch (const geardyn::InputError& e) {
+    fmt::print(stderr, "geardyn: error: {}\n", e.what());
+    return kExitInput;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "geardyn: error: {}\n", e.what());
+    return kExitInput;
+  }
+  return 0;
+}

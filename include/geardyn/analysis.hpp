@@ -1,0 +1,119 @@
+// geardyn: reading a run, pipeline stage 6 (integrator -> analysis).
+//
+// A run is read as contact states over time (MODEL.md section 5): drive-side contact,
+// separation, back-side contact. RunReader is the integrators' Observer for the gear model: it
+// records the located transitions (impacts and separations), the time spent separated, the
+// extremes of the response at every step, and the uniform output samples.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geardyn/integrator.hpp"
+#include "geardyn/model.hpp"
+
+namespace geardyn {
+
+enum class Regime {
+  kNone,       // never separated
+  kTransient,  // separated, but not within the final part of the window
+  kSustained,  // separated within the final part of the window
+};
+const char* to_string(Regime r);
+
+enum class EventKind {
+  kImpact,          // entry into drive-side contact from separation
+  kBacksideImpact,  // entry into back-side contact from separation
+  kSeparation,      // exit from contact (either side) into separation
+};
+const char* to_string(EventKind k);
+
+struct ContactEvent {
+  double t_s;
+  EventKind kind;
+  double velocity_m_s;  // delta' at the event: the impact velocity for an impact
+};
+
+// Uniform output samples, one array per column (structure of arrays, so that each column can
+// be handed out without a copy).
+struct Timeseries {
+  std::vector<double> t_s;
+  std::vector<double> delta_bar;     // delta / b
+  std::vector<double> velocity_m_s;  // delta'
+  std::vector<double> force_bar;     // F_G / (b k_m)
+  std::vector<int> contact;          // 1 drive side, 0 separated, -1 back side
+  std::size_t size() const { return t_s.size(); }
+};
+
+// What a run reads as. Force and displacement are non-dimensional as in the paper's figures:
+// delta_bar = delta / b, F_bar = F_G / (b k_m).
+struct RunReading {
+  Regime regime = Regime::kNone;
+  bool double_sided = false;  // back-side contact occurred at all
+  std::int64_t impacts = 0;           // entries into contact from separation, both sides
+  std::int64_t backside_impacts = 0;  // of which on the back side
+  std::int64_t separations = 0;       // exits from contact into separation
+  std::optional<double> last_separation_s;  // time of the last exit from contact
+  double separated_fraction = 0;      // time separated over the window
+  double max_impact_velocity_m_s = 0;
+  // Extremes over every step end, transition and sample; mean and RMS over the samples.
+  double max_force_bar = 0, min_force_bar = 0, mean_force_bar = 0, rms_force_bar = 0;
+  double max_delta_bar = 0, min_delta_bar = 0, mean_delta_bar = 0, rms_delta_bar = 0;
+  // max F_G over the static mesh force F_m / cos^2(beta_b); absent when F_m <= 0.
+  std::optional<double> dynamic_factor;
+};
+
+class RunReader {
+ public:
+  // `keep_events` and `keep_samples` may be turned off when only the statistics are wanted.
+  // `progress` (may be empty) is called with the fraction done; returning false cancels.
+  RunReader(const GearPairModel& model, double t0_s, double t1_s, double final_fraction,
+            bool keep_events = true, bool keep_samples = true,
+            std::function<bool(double)> progress = {});
+
+  // Observer interface (integrator.hpp).
+  void on_step(const ode::State& s, const GearPairModel::Drive& d) {
+    const int cs = contact_state(s.region);
+    if (cs == 0) {
+      separated_time_ += s.t - last_t_;
+      if (s.t > final_start_) separated_in_final_ = true;
+    }
+    last_t_ = s.t;
+    const double f = model_.mesh_force(d, s.q, s.v, s.region);
+    if (f > max_force_) max_force_ = f;
+    if (f < min_force_) min_force_ = f;
+    if (s.q > max_delta_) max_delta_ = s.q;
+    if (s.q < min_delta_) min_delta_ = s.q;
+  }
+  void on_transition(const ode::State& s, int from_region);
+  void on_sample(const ode::State& s);
+  bool on_progress(double t_s) { return !progress_ || progress_((t_s - t0_) / (t1_ - t0_)); }
+
+  RunReading reading() const;
+  const std::vector<ContactEvent>& events() const { return events_; }
+  Timeseries& samples() { return samples_; }
+
+ private:
+  const GearPairModel& model_;
+  double t0_, t1_, final_start_;
+  bool keep_events_, keep_samples_;
+  std::function<bool(double)> progress_;
+  double b_, force_scale_;
+  double last_t_;
+  double separated_time_ = 0;
+  bool separated_in_final_ = false;
+  bool back_contact_ = false;
+  double max_force_, min_force_, max_delta_, min_delta_;
+  double sum_force_ = 0, sum_force2_ = 0, sum_delta_ = 0, sum_delta2_ = 0;
+  std::int64_t n_samples_ = 0;
+  std::int64_t impacts_ = 0, backside_impacts_ = 0, separations_ = 0;
+  std::optional<double> last_separation_;
+  double max_impact_velocity_ = 0;
+  std::vector<ContactEvent> events_;
+  Timeseries samples_;
+};
+
+}  // namespace geardyn

@@ -1,0 +1,145 @@
+// geardyn: the case, i.e. everything a run needs, as written in a case file.
+//
+// Pipeline stage 1 of 6: case file -> geometry -> mesh stiffness -> model -> integrator ->
+// analysis. A case is read from TOML (see docs/case-files.md for every key) and may be amended
+// by `--set key=value` overrides. Members carry the units of the case file in their names; the
+// later stages convert to SI once.
+//
+// Every member has a default: Table 1 of Park (2010) and the conditions of its Fig. 4(c)
+// (f_1 = 1 kHz, xi = 0.02, F_a/F_m = 0.25, b = 100 um), so `Case{}` is the paper's gear.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace geardyn {
+
+// Bad input: an unknown key, a wrong type, a value out of range, a file that cannot be read.
+// The message names the source (file and line, or the --set override), the key, the value and
+// what is allowed. The command-line tool exits with code 2 on it.
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// [gear]: Table 1 of the paper. Index 0 is the driving gear (pinion), 1 the driven gear.
+struct GearData {
+  double normal_module_mm = 2.5;
+  double normal_pressure_angle_deg = 20.0;
+  double helix_angle_deg = 20.0;
+  double center_distance_mm = 150.0;
+  std::array<int, 2> teeth = {56, 56};
+  double face_width_mm = 20.0;
+  std::array<double, 2> outside_diameter_mm = {154.98, 154.98};
+  std::array<double, 2> profile_shift = {0.2075, 0.2075};
+  double density_kg_m3 = 7850.0;
+  // Bore diameter of each blank; 0 = solid. Used only when inertia_kg_m2 is not given.
+  std::array<double, 2> bore_diameter_mm = {0.0, 0.0};
+  // Polar moments of inertia; when absent they follow from density, face width, reference
+  // diameter and bore (MODEL.md section 1).
+  std::optional<std::array<double, 2>> inertia_kg_m2;
+};
+
+enum class DampingForm {
+  kContact,  // c acts only in contact (the paper, eqs. 3a-3c)
+  kAlways,   // c acts on delta' at all times (Kahraman and Singh 1990)
+};
+enum class TensionRule {
+  kAllow,  // F_G as eqs. 3a/3c, may turn negative in contact (the paper)
+  kClip,   // F_G >= 0 on the drive side and <= 0 on the back side
+};
+
+// One term k_ai cos(i z1 omega_1 t + phi_i) of eq. 11, as a ratio to the mean stiffness.
+struct StiffnessHarmonic {
+  double ratio = 0.0;      // k_ai / k_m, >= 0
+  double phase_deg = 0.0;  // phi_i
+};
+
+// [mesh]
+struct MeshData {
+  double backlash_um = 100.0;  // b, the half of the total normal backlash 2b
+  double mean_stiffness_n_per_m = 2.34e8;
+  std::vector<StiffnessHarmonic> stiffness_harmonics;  // empty: constant k_m
+  double damping_ratio = 0.02;
+  DampingForm damping = DampingForm::kContact;
+  TensionRule tension = TensionRule::kAllow;
+};
+
+// [load]
+struct LoadData {
+  double torque_nm = 49.5;         // mean driving torque T1
+  double fluctuation_ratio = 0.25;  // amplitude of T1's fluctuation over its mean (= F_a/F_m)
+  double fluctuation_order = 1.0;   // torque frequency over shaft frequency
+  double fluctuation_phase_deg = 0.0;
+  // Independent, steady load torque T2 of eq. 6; absent: matched load T2 = R_b2 T1 / R_b1 (eq. 7).
+  std::optional<double> load_torque_nm;
+};
+
+// [speed]
+struct SpeedData {
+  double shaft_frequency_hz = 1000.0;  // f_1, rotation frequency of the driving gear
+};
+
+enum class Method { kNewmark, kDopri5 };
+
+enum class InitialCondition {
+  kCenter,  // delta = 0, delta' = 0: the middle of the backlash (eq. 15, the paper)
+  kStatic,  // delta' = 0 at the static contact deflection under F_m (for operating points)
+};
+
+// [solver]
+struct SolverData {
+  Method method = Method::kNewmark;
+  double duration_s = 0.05;
+  double time_step_s = 0.0;        // 0: automatic (docs/numerics.md)
+  double tolerance = 1e-10;        // relative and absolute tolerance of dopri5
+  double output_interval_s = 0.0;  // 0: automatic, duration / 5000
+  double final_fraction = 0.1;     // final part of the window in which separation is "sustained"
+  InitialCondition initial = InitialCondition::kCenter;
+};
+
+struct Case {
+  GearData gear;
+  MeshData mesh;
+  LoadData load;
+  SpeedData speed;
+  SolverData solver;
+  std::string name = "default";  // the case file's stem, or "default"
+  std::string description;       // free text from the case file's top-level `description`
+};
+
+// One `--set key=value` override: key is dotted (`speed.shaft_frequency_hz`), value is in TOML
+// value syntax (`100`, `"clip"`, `[[0.05, 0], [0.02, 0]]`).
+struct Override {
+  std::string key;
+  std::string value;
+};
+
+// Parses "key=value" as given on the command line. Throws InputError if there is no '='.
+Override parse_override(const std::string& assignment);
+
+// Reads a case file (or the defaults when `path` is empty) and applies the overrides in order.
+// Throws InputError naming file, line, key, value and what is allowed on any bad input.
+Case load_case(const std::optional<std::filesystem::path>& path,
+               const std::vector<Override>& overrides = {});
+
+// The same from TOML text; `source_name` is used in messages in place of a file name.
+Case parse_case(const std::string& toml_text, const std::string& source_name,
+                const std::vector<Override>& overrides = {});
+
+// Applies one override to a case already loaded (used by sweeps). Throws InputError.
+void set_case_value(Case& c, const Override& o);
+
+// Checks the ranges of every value (the same checks load_case applies). Returns an empty
+// string when valid, or the message of the first broken bound.
+std::string validate(const Case& c);
+
+// The case written back as TOML, with every key, in the units of the case file.
+std::string to_toml(const Case& c);
+
+}  // namespace geardyn

@@ -1,0 +1,157 @@
+// geardyn: the gear-pair model, pipeline stage 4 (mesh stiffness -> model).
+//
+// The one-degree-of-freedom torsional model of MODEL.md section 2 (Park 2010, eqs. 1-11), in
+// the dynamic transmission error along the line of action, normal to the tooth,
+// delta = cos(beta_b) (R_b1 theta_1 + R_b2 theta_2):
+//
+//     m_eq delta'' + cos^2(beta_b) F_G(t, delta, delta') = F(t)                  (eq. 6, 8)
+//     F(t)  = F_m + F_a cos(omega t + phi)                                        (eq. 10)
+//     k(t)  = k_m + sum_i k_ai cos(i z1 omega_1 t + phi_i)                        (eq. 11)
+//     F_G   = k(t) (delta - b) + c delta'   drive side,  delta >= b               (eq. 3a)
+//           = 0 (or c delta' with damping "always")      |delta| < b              (eq. 3b)
+//           = k(t) (delta + b) + c delta'   back side,   delta <= -b              (eq. 3c)
+//
+// It holds physics only; it is a SwitchedSystem for the integrators (integrator.hpp), its
+// regions being the contact states. Everything is SI.
+#pragma once
+
+#include <cstdint>
+
+#include "geardyn/case.hpp"
+#include "geardyn/geometry.hpp"
+#include "geardyn/harmonic_series.hpp"
+#include "geardyn/integrator.hpp"
+
+namespace geardyn {
+
+// Regions of the model. The contact state a run is read by (drive, separated, back) is the sign;
+// the clipped regions exist only with tension = "clip": the teeth overlap (|delta| >= b) but the
+// damper would pull, so F_G is held at 0.
+enum Region : int {
+  kBackClipped = -2,
+  kBackContact = -1,
+  kSeparated = 0,
+  kDriveContact = 1,
+  kDriveClipped = 2,
+};
+
+// Contact state of a region: 1 drive side, 0 separated, -1 back side.
+constexpr int contact_state(int region) { return (region > 0) - (region < 0); }
+
+// The model's constants, SI, derived once from the case, the geometry and the stiffness.
+struct GearPairParameters {
+  double equivalent_mass_kg = 0;  // m_eq of eq. 6
+  double cos_base_helix = 1;      // cos(beta_b)
+  double backlash_m = 0;          // b, half the total normal backlash
+  HarmonicSeries stiffness_n_per_m;  // k(t), eq. 11
+  double damping_n_s_per_m = 0;   // c = 2 xi sqrt(m_eq k_m) / cos(beta_b)
+  DampingForm damping = DampingForm::kContact;
+  TensionRule tension = TensionRule::kAllow;
+  HarmonicSeries force_n;  // F(t) = F_m + F_a cos(omega t + phi), eq. 10 (right side of eq. 6)
+
+  double mean_stiffness_n_per_m() const { return stiffness_n_per_m.offset; }
+  double mean_force_n() const { return force_n.offset; }
+  // Linearised contact natural frequency sqrt(cos^2(beta_b) k_m / m_eq), rad/s.
+  double natural_angular_frequency_rad_s() const;
+  // Static drive-side contact: F_G = F_m / cos^2(beta_b).
+  double static_mesh_force_n() const;
+};
+
+GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
+                                        const HarmonicSeries& stiffness_n_per_m);
+
+class GearPairModel {
+ public:
+  // The time-dependent inputs at one instant.
+  struct Drive {
+    double stiffness_n_per_m;  // k(t)
+    double force_n;            // F(t)
+  };
+
+  class DriveGrid {
+   public:
+    DriveGrid(const GearPairParameters& p, double t0_s, double dt_s)
+        : k_(p.stiffness_n_per_m, t0_s, dt_s), f_(p.force_n, t0_s, dt_s) {}
+    Drive next() { return {k_.next(), f_.next()}; }
+
+   private:
+    HarmonicGrid k_, f_;
+  };
+
+  static constexpr bool kPiecewiseLinear = true;
+
+  explicit GearPairModel(GearPairParameters p);
+
+  const GearPairParameters& parameters() const { return p_; }
+  double mass() const { return p_.equivalent_mass_kg; }
+  Drive drive(double t_s) const { return {p_.stiffness_n_per_m(t_s), p_.force_n(t_s)}; }
+  DriveGrid drive_grid(double t0_s, double dt_s) const { return DriveGrid(p_, t0_s, dt_s); }
+
+  // F_G, the mesh force normal to the tooth (eqs. 3a-3c with the options), in N.
+  double mesh_force(const Drive& d, double delta_m, double velocity_m_s, int region) const {
+    switch (region) {
+      case kDriveContact:
+        return d.stiffness_n_per_m * (delta_m - b_) + c_ * velocity_m_s;
+      case kBackContact:
+        return d.stiffness_n_per_m * (delta_m + b_) + c_ * velocity_m_s;
+      case kSeparated:
+        return c_free_ * velocity_m_s;
+      default:
+        return 0.0;  // clipped
+    }
+  }
+
+  ode::Force force(const Drive& d, double delta_m, double velocity_m_s, int region) const {
+    const double fg = mesh_force(d, delta_m, velocity_m_s, region);
+    double dk = 0, dc = c_free_;
+    if (region == kDriveContact || region == kBackContact) {
+      dk = d.stiffness_n_per_m;
+      dc = c_;
+    } else if (region != kSeparated) {
+      dc = 0;
+    }
+    return {d.force_n - cb2_ * fg, -cb2_ * dk, -cb2_ * dc};
+  }
+
+  ode::Guards guards(const Drive& d, double delta_m, double velocity_m_s, int region) const {
+    ode::Guards g;
+    const double k = d.stiffness_n_per_m;
+    switch (region) {
+      case kSeparated:
+        g.add(b_ - delta_m, kDriveContact);
+        g.add(delta_m + b_, kBackContact);
+        break;
+      case kDriveContact:
+        g.add(delta_m - b_, kSeparated);
+        if (clip_) g.add(k * (delta_m - b_) + c_ * velocity_m_s, kDriveClipped);
+        break;
+      case kDriveClipped:
+        g.add(delta_m - b_, kSeparated);
+        g.add(-(k * (delta_m - b_) + c_ * velocity_m_s), kDriveContact);
+        break;
+      case kBackContact:
+        g.add(-b_ - delta_m, kSeparated);
+        if (clip_) g.add(-(k * (delta_m + b_) + c_ * velocity_m_s), kBackClipped);
+        break;
+      case kBackClipped:
+        g.add(-b_ - delta_m, kSeparated);
+        g.add(k * (delta_m + b_) + c_ * velocity_m_s, kBackContact);
+        break;
+      default:
+        break;
+    }
+    return g;
+  }
+
+  // The region a state belongs to with no history (used for initial conditions).
+  int classify(const Drive& d, double delta_m, double velocity_m_s) const;
+
+ private:
+  GearPairParameters p_;
+  double b_, c_, c_free_, cb2_;
+  bool clip_;
+};
+
+static_assert(ode::SwitchedSystem<GearPairModel>);
+
+}  // namespace geardyn

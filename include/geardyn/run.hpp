@@ -1,0 +1,76 @@
+// geardyn: one run, the whole pipeline from a case to its reading.
+//
+// case -> geometry -> mesh stiffness -> model -> integrator -> analysis.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "geardyn/analysis.hpp"
+#include "geardyn/case.hpp"
+#include "geardyn/geometry.hpp"
+#include "geardyn/integrator.hpp"
+#include "geardyn/model.hpp"
+
+namespace geardyn {
+
+// Points per period of the fastest time scale of a case for the automatic Newmark step. The
+// convergence study in docs/numerics.md shows the readings converged to ~1e-4 at this value.
+constexpr double kStepsPerFastestPeriod = 200.0;
+// Automatic output interval: this many samples over the window.
+constexpr double kAutomaticSamples = 5000.0;
+// dopri5 never steps over more than this fraction of the fastest period, so that a contact
+// entered and left inside one step cannot go unseen.
+constexpr double kDopri5MaxStepFraction = 0.05;
+
+// Quantities derived from the case that a reader of the run wants beside it (summary.json).
+struct Derived {
+  double m_eq_kg = 0;
+  double natural_frequency_hz = 0;  // linearised contact, sqrt(cos^2 beta_b k_m / m_eq) / 2 pi
+  double damping_n_s_per_m = 0;
+  double mean_force_n = 0;          // F_m
+  double static_delta_bar = 0;      // 1 + F_m / (b k_m cos^2 beta_b)
+  double mesh_frequency_hz = 0;     // z1 f_1
+  double base_helix_angle_deg = 0;
+  double working_pressure_angle_deg = 0;
+  double transverse_contact_ratio = 0;
+  double overlap_ratio = 0;
+  double fastest_period_s = 0;      // the shortest time scale of the case
+  double time_step_s = 0;           // the Newmark step used (0 for dopri5)
+  double output_interval_s = 0;
+};
+
+struct RunOptions {
+  bool keep_samples = true;
+  bool keep_events = true;
+  // Called now and then with the fraction of the window done; returning false cancels.
+  std::function<bool(double)> progress;
+};
+
+struct RunResult {
+  Case input;
+  Geometry geometry;
+  Derived derived;
+  ode::IntegrationSummary integration;
+  RunReading reading;
+  std::vector<ContactEvent> events;
+  Timeseries samples;
+  double wall_time_s = 0;
+};
+
+// The shortest time scale of a model: the linearised contact period at the largest stiffness,
+// the period of the highest stiffness harmonic and of the torque fluctuation.
+double fastest_period_s(const GearPairParameters& p);
+
+// The automatic Newmark step: fastest_period_s / kStepsPerFastestPeriod.
+double automatic_time_step_s(const GearPairParameters& p);
+
+// The model of a case (geometry and stiffness included). Throws InputError.
+GearPairModel build_model(const Case& c, Geometry* geometry_out = nullptr);
+
+// Runs a case. Throws InputError on bad input; a numerical failure is reported in
+// result.integration (termination and message), never thrown.
+RunResult run(const Case& c, const RunOptions& options = {});
+
+}  // namespace geardyn

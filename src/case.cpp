@@ -1,0 +1,535 @@
+#include "geardyn/case.hpp"
+
+#include "geardyn/harmonic_series.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <toml++/toml.h>
+
+#include <fmt/format.h>
+
+namespace geardyn {
+namespace {
+
+// Where a node came from, for messages: "case.toml:12:5" or "--set mesh.backlash_um=-1".
+std::string where(const toml::source_region& src, const std::string& fallback) {
+  if (!src.path || src.path->empty()) return fallback;
+  const std::string& path = *src.path;
+  if (path.rfind("--set", 0) == 0) return path;
+  if (src.begin.line == 0) return path;
+  return fmt::format("{}:{}:{}", path, src.begin.line, src.begin.column);
+}
+
+std::string node_text(const toml::node& n) {
+  std::ostringstream out;
+  n.visit([&](auto&& v) {
+    if constexpr (toml::is_string<decltype(v)>) {
+      out << '"' << v.get() << '"';
+    } else {
+      out << v;
+    }
+  });
+  std::string s = out.str();
+  for (char& ch : s) {
+    if (ch == '\n') ch = ' ';
+  }
+  return s;
+}
+
+std::string format_number(double x) { return fmt::format("{}", x); }
+
+// A broken bound found in a decoded case: the dotted key (with [i] for array elements), the value
+// as text, and what is allowed.
+struct Violation {
+  std::string key;
+  std::string value;
+  std::string allowed;
+};
+
+using MaybeViolation = std::optional<Violation>;
+
+// The ranges of every value, written once; used for case files and for cases built in code.
+// Conditions are written so that NaN fails them.
+MaybeViolation check_ranges(const Case& c) {
+  auto bad = [](std::string key, double v, std::string allowed) {
+    return MaybeViolation(Violation{std::move(key), format_number(v), std::move(allowed)});
+  };
+  const GearData& g = c.gear;
+  if (!(g.normal_module_mm > 0 && g.normal_module_mm <= 100))
+    return bad("gear.normal_module_mm", g.normal_module_mm, "a module in (0, 100] mm");
+  if (!(g.normal_pressure_angle_deg > 0 && g.normal_pressure_angle_deg < 45))
+    return bad("gear.normal_pressure_angle_deg", g.normal_pressure_angle_deg,
+               "an angle in (0, 45) degrees");
+  if (!(g.helix_angle_deg >= 0 && g.helix_angle_deg < 60))
+    return bad("gear.helix_angle_deg", g.helix_angle_deg,
+               "an angle in [0, 60) degrees (0 is a spur gear)");
+  if (!(g.center_distance_mm > 0))
+    return bad("gear.center_distance_mm", g.center_distance_mm, "a distance > 0 mm");
+  for (int i = 0; i < 2; ++i) {
+    if (!(g.teeth[i] >= 5 && g.teeth[i] <= 10000))
+      return bad(fmt::format("gear.teeth[{}]", i), g.teeth[i],
+                 "a whole number of teeth from 5 to 10000 (external gears)");
+  }
+  if (!(g.face_width_mm > 0)) return bad("gear.face_width_mm", g.face_width_mm, "a width > 0 mm");
+  for (int i = 0; i < 2; ++i) {
+    if (!(g.outside_diameter_mm[i] > 0))
+      return bad(fmt::format("gear.outside_diameter_mm[{}]", i), g.outside_diameter_mm[i],
+                 "a diameter > 0 mm");
+    if (!(g.profile_shift[i] >= -1.5 && g.profile_shift[i] <= 1.5))
+      return bad(fmt::format("gear.profile_shift[{}]", i), g.profile_shift[i],
+                 "a profile shift coefficient in [-1.5, 1.5]");
+    if (!(g.bore_diameter_mm[i] >= 0))
+      return bad(fmt::format("gear.bore_diameter_mm[{}]", i), g.bore_diameter_mm[i],
+                 "a diameter >= 0 mm (0 is a solid blank)");
+    if (g.inertia_kg_m2 && !((*g.inertia_kg_m2)[i] > 0 && std::isfinite((*g.inertia_kg_m2)[i])))
+      return bad(fmt::format("gear.inertia_kg_m2[{}]", i), (*g.inertia_kg_m2)[i],
+                 "a finite moment of inertia > 0 kg m^2");
+  }
+  if (!(g.density_kg_m3 > 0 && std::isfinite(g.density_kg_m3)))
+    return bad("gear.density_kg_m3", g.density_kg_m3, "a finite density > 0 kg/m^3");
+
+  const MeshData& m = c.mesh;
+  if (!(m.backlash_um > 0 && std::isfinite(m.backlash_um)))
+    return bad("mesh.backlash_um", m.backlash_um,
+               "a finite half backlash b > 0 um (the total normal backlash is 2b)");
+  if (!(m.mean_stiffness_n_per_m > 0 && std::isfinite(m.mean_stiffness_n_per_m)))
+    return bad("mesh.mean_stiffness_n_per_m", m.mean_stiffness_n_per_m,
+               "a finite stiffness > 0 N/m");
+  if (m.stiffness_harmonics.size() > static_cast<std::size_t>(HarmonicSeries::kMaxTerms))
+    return bad("mesh.stiffness_harmonics", static_cast<double>(m.stiffness_harmonics.size()),
+               fmt::format("at most {} harmonics", HarmonicSeries::kMaxTerms));
+  double ratio_sum = 0.0;
+  for (std::size_t i = 0; i < m.stiffness_harmonics.size(); ++i) {
+    const StiffnessHarmonic& h = m.stiffness_harmonics[i];
+    if (!(h.ratio >= 0 && h.ratio < 1))
+      return bad(fmt::format("mesh.stiffness_harmonics[{}][0]", i), h.ratio,
+                 "a ratio k_ai/k_m in [0, 1)");
+    if (!std::isfinite(h.phase_deg))
+      return bad(fmt::format("mesh.stiffness_harmonics[{}][1]", i), h.phase_deg,
+                 "a finite phase in degrees");
+    ratio_sum += h.ratio;
+  }
+  if (!(ratio_sum < 1))
+    return bad("mesh.stiffness_harmonics", ratio_sum,
+               "harmonic ratios whose sum is < 1, so that k(t) stays positive");
+  if (!(m.damping_ratio >= 0 && m.damping_ratio < 1))
+    return bad("mesh.damping_ratio", m.damping_ratio, "a damping ratio in [0, 1)");
+
+  const LoadData& l = c.load;
+  if (!std::isfinite(l.torque_nm)) return bad("load.torque_nm", l.torque_nm, "a finite torque");
+  if (!(l.fluctuation_ratio >= 0 && std::isfinite(l.fluctuation_ratio)))
+    return bad("load.fluctuation_ratio", l.fluctuation_ratio, "a finite ratio F_a/F_m >= 0");
+  if (!(l.fluctuation_order > 0 && std::isfinite(l.fluctuation_order)))
+    return bad("load.fluctuation_order", l.fluctuation_order,
+               "a finite order > 0 (torque frequency over shaft frequency)");
+  if (!std::isfinite(l.fluctuation_phase_deg))
+    return bad("load.fluctuation_phase_deg", l.fluctuation_phase_deg, "a finite phase");
+  if (l.load_torque_nm && !std::isfinite(*l.load_torque_nm))
+    return bad("load.load_torque_nm", *l.load_torque_nm, "a finite torque");
+
+  if (!(c.speed.shaft_frequency_hz > 0 && std::isfinite(c.speed.shaft_frequency_hz)))
+    return bad("speed.shaft_frequency_hz", c.speed.shaft_frequency_hz,
+               "a finite frequency > 0 Hz");
+
+  const SolverData& s = c.solver;
+  if (!(s.duration_s > 0 && std::isfinite(s.duration_s)))
+    return bad("solver.duration_s", s.duration_s, "a finite duration > 0 s");
+  if (!(s.time_step_s >= 0 && s.time_step_s < s.duration_s))
+    return bad("solver.time_step_s", s.time_step_s,
+               fmt::format("0 (automatic) or a step > 0 s and smaller than solver.duration_s = {}",
+                           s.duration_s));
+  if (!(s.tolerance >= 1e-14 && s.tolerance <= 1e-3))
+    return bad("solver.tolerance", s.tolerance, "a tolerance in [1e-14, 1e-3]");
+  if (!(s.output_interval_s >= 0 && s.output_interval_s <= s.duration_s))
+    return bad("solver.output_interval_s", s.output_interval_s,
+               fmt::format("0 (automatic) or an interval > 0 s and at most solver.duration_s = {}",
+                           s.duration_s));
+  if (!(s.final_fraction > 0 && s.final_fraction < 1))
+    return bad("solver.final_fraction", s.final_fraction, "a fraction in (0, 1)");
+  return std::nullopt;
+}
+
+// Decodes a TOML table into a Case, remembering which keys it used so that any other key can be
+// reported as unknown.
+class Reader {
+ public:
+  Reader(const toml::table& root, std::string source) : root_(root), source_(std::move(source)) {}
+
+  void number(std::string_view section, std::string_view key, double& out) {
+    if (const toml::node* n = find(section, key)) out = as_number(*n, section, key, "a number");
+  }
+
+  void optional_number(std::string_view section, std::string_view key,
+                       std::optional<double>& out) {
+    if (const toml::node* n = find(section, key)) out = as_number(*n, section, key, "a number");
+  }
+
+  void number_pair(std::string_view section, std::string_view key, std::array<double, 2>& out) {
+    if (const toml::node* n = find(section, key)) out = as_pair(*n, section, key);
+  }
+
+  void optional_number_pair(std::string_view section, std::string_view key,
+                            std::optional<std::array<double, 2>>& out) {
+    if (const toml::node* n = find(section, key)) out = as_pair(*n, section, key);
+  }
+
+  void integer_pair(std::string_view section, std::string_view key, std::array<int, 2>& out) {
+    const toml::node* n = find(section, key);
+    if (!n) return;
+    const toml::array* a = n->as_array();
+    const char* allowed = "an array of two whole numbers, [z1, z2]";
+    if (!a || a->size() != 2) fail(*n, section, key, allowed);
+    for (std::size_t i = 0; i < 2; ++i) {
+      const auto* v = (*a)[i].as_integer();
+      if (!v) fail(*n, section, key, allowed);
+      const std::int64_t z = v->get();
+      if (z < -1000000 || z > 1000000) fail(*n, section, key, "teeth counts from 5 to 10000");
+      out[i] = static_cast<int>(z);
+    }
+  }
+
+  template <class Enum>
+  void choice(std::string_view section, std::string_view key, Enum& out,
+              std::initializer_list<std::pair<const char*, Enum>> options) {
+    const toml::node* n = find(section, key);
+    if (!n) return;
+    std::string allowed;
+    for (const auto& [name, value] : options) {
+      allowed += allowed.empty() ? "" : " | ";
+      allowed += fmt::format("\"{}\"", name);
+    }
+    const auto* s = n->as_string();
+    if (s) {
+      for (const auto& [name, value] : options) {
+        if (s->get() == name) {
+          out = value;
+          return;
+        }
+      }
+    }
+    fail(*n, section, key, "one of " + allowed);
+  }
+
+  void harmonics(std::string_view section, std::string_view key,
+                 std::vector<StiffnessHarmonic>& out) {
+    const toml::node* n = find(section, key);
+    if (!n) return;
+    const char* allowed = "an array of [ratio k_ai/k_m, phase_deg] pairs, e.g. [[0.05, 0], [0.02, 90]]";
+    const toml::array* a = n->as_array();
+    if (!a) fail(*n, section, key, allowed);
+    out.clear();
+    for (const toml::node& item : *a) {
+      const toml::array* pair = item.as_array();
+      if (!pair || pair->size() != 2 || !(*pair)[0].is_number() || !(*pair)[1].is_number())
+        fail(*n, section, key, allowed);
+      out.push_back({*(*pair)[0].value<double>(), *(*pair)[1].value<double>()});
+    }
+  }
+
+  void string(std::string_view key, std::string& out) {
+    const toml::node* n = root_.get(key);
+    if (!n) return;
+    used_.insert(std::string(key));
+    if (!n->is_string()) fail(*n, "", key, "a string");
+    out = *n->value<std::string>();
+  }
+
+  // Throws on the first key of the document that no reader call asked for.
+  void reject_unknown(const std::map<std::string, std::vector<std::string>>& schema) const {
+    for (auto&& [k, node] : root_) {
+      const std::string section(k.str());
+      if (used_.count(section)) continue;
+      auto it = schema.find(section);
+      if (it == schema.end()) {
+        std::string sections;
+        for (const auto& [name, keys] : schema) sections += (sections.empty() ? "" : ", ") + name;
+        throw InputError(fmt::format("{}: unknown key '{}'; allowed at the top level: {}",
+                                     where(k.source(), source_), section, sections));
+      }
+      const toml::table* t = node.as_table();
+      if (!t)
+        throw InputError(fmt::format("{}: '{}' = {}: must be a table [{}]",
+                                     where(node.source(), source_), section, node_text(node),
+                                     section));
+      for (auto&& [kk, child] : *t) {
+        const std::string full = section + "." + std::string(kk.str());
+        if (used_.count(full)) continue;
+        std::string keys;
+        for (const auto& name : it->second) keys += (keys.empty() ? "" : ", ") + name;
+        throw InputError(fmt::format("{}: unknown key '{}'; allowed in [{}]: {}",
+                                     where(kk.source(), source_), full, section, keys));
+      }
+    }
+  }
+
+  // The location of a dotted key, for range errors found after decoding.
+  std::string location(const std::string& dotted) const {
+    std::string path = dotted;
+    while (!path.empty()) {
+      toml::node_view<const toml::node> v = root_.at_path(path);
+      if (v) return where(v.node()->source(), source_);
+      const auto cut = path.find_last_of(".[");
+      if (cut == std::string::npos) break;
+      path.resize(cut);
+    }
+    return source_ + " (default value)";
+  }
+
+ private:
+  const toml::node* find(std::string_view section, std::string_view key) {
+    const toml::table* t = root_[section].as_table();
+    if (!t) return nullptr;
+    const toml::node* n = t->get(key);
+    if (n) used_.insert(fmt::format("{}.{}", section, key));
+    return n;
+  }
+
+  [[noreturn]] void fail(const toml::node& n, std::string_view section, std::string_view key,
+                         std::string_view allowed) const {
+    const std::string full =
+        section.empty() ? std::string(key) : fmt::format("{}.{}", section, key);
+    throw InputError(fmt::format("{}: {} = {}: must be {}", where(n.source(), source_), full,
+                                 node_text(n), allowed));
+  }
+
+  double as_number(const toml::node& n, std::string_view section, std::string_view key,
+                   std::string_view allowed) const {
+    if (!n.is_number()) fail(n, section, key, allowed);
+    return *n.value<double>();
+  }
+
+  std::array<double, 2> as_pair(const toml::node& n, std::string_view section,
+                                std::string_view key) const {
+    const char* allowed = "an array of two numbers, [gear 1, gear 2]";
+    const toml::array* a = n.as_array();
+    if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number())
+      fail(n, section, key, allowed);
+    return {*(*a)[0].value<double>(), *(*a)[1].value<double>()};
+  }
+
+  const toml::table& root_;
+  std::string source_;
+  std::set<std::string> used_;
+};
+
+// Copies every leaf of `from` into `into`, creating tables on the way (overrides).
+void merge(toml::table& into, const toml::table& from) {
+  for (auto&& [k, node] : from) {
+    if (const toml::table* sub = node.as_table()) {
+      toml::table* target = into[k].as_table();
+      if (!target) {
+        into.insert_or_assign(k, toml::table{});
+        target = into[k].as_table();
+      }
+      merge(*target, *sub);
+    } else {
+      node.visit([&](auto&& leaf) { into.insert_or_assign(k, leaf); });
+    }
+  }
+}
+
+Case decode(toml::table& root, const std::string& source, const std::vector<Override>& overrides,
+            std::string name) {
+  for (const Override& o : overrides) {
+    const std::string origin = fmt::format("--set {}={}", o.key, o.value);
+    toml::table patch;
+    try {
+      patch = toml::parse(o.key + " = " + o.value, origin);
+    } catch (const toml::parse_error& e) {
+      throw InputError(fmt::format("{}: not a valid key and TOML value ({}); write e.g. "
+                                   "--set speed.shaft_frequency_hz=100 or "
+                                   "--set mesh.tension='\"clip\"'",
+                                   origin, e.description()));
+    }
+    merge(root, patch);
+  }
+
+  Case c;
+  c.name = std::move(name);
+  Reader r(root, source);
+  r.string("description", c.description);
+  GearData& g = c.gear;
+  r.number("gear", "normal_module_mm", g.normal_module_mm);
+  r.number("gear", "normal_pressure_angle_deg", g.normal_pressure_angle_deg);
+  r.number("gear", "helix_angle_deg", g.helix_angle_deg);
+  r.number("gear", "center_distance_mm", g.center_distance_mm);
+  r.integer_pair("gear", "teeth", g.teeth);
+  r.number("gear", "face_width_mm", g.face_width_mm);
+  r.number_pair("gear", "outside_diameter_mm", g.outside_diameter_mm);
+  r.number_pair("gear", "profile_shift", g.profile_shift);
+  r.number("gear", "density_kg_m3", g.density_kg_m3);
+  r.number_pair("gear", "bore_diameter_mm", g.bore_diameter_mm);
+  r.optional_number_pair("gear", "inertia_kg_m2", g.inertia_kg_m2);
+
+  MeshData& m = c.mesh;
+  r.number("mesh", "backlash_um", m.backlash_um);
+  r.number("mesh", "mean_stiffness_n_per_m", m.mean_stiffness_n_per_m);
+  r.harmonics("mesh", "stiffness_harmonics", m.stiffness_harmonics);
+  r.number("mesh", "damping_ratio", m.damping_ratio);
+  r.choice("mesh", "damping", m.damping,
+           {{"contact", DampingForm::kContact}, {"always", DampingForm::kAlways}});
+  r.choice("mesh", "tension", m.tension,
+           {{"allow", TensionRule::kAllow}, {"clip", TensionRule::kClip}});
+
+  LoadData& l = c.load;
+  r.number("load", "torque_nm", l.torque_nm);
+  r.number("load", "fluctuation_ratio", l.fluctuation_ratio);
+  r.number("load", "fluctuation_order", l.fluctuation_order);
+  r.number("load", "fluctuation_phase_deg", l.fluctuation_phase_deg);
+  r.optional_number("load", "load_torque_nm", l.load_torque_nm);
+
+  r.number("speed", "shaft_frequency_hz", c.speed.shaft_frequency_hz);
+
+  SolverData& s = c.solver;
+  r.choice("solver", "method", s.method,
+           {{"newmark", Method::kNewmark}, {"dopri5", Method::kDopri5}});
+  r.number("solver", "duration_s", s.duration_s);
+  r.number("solver", "time_step_s", s.time_step_s);
+  r.number("solver", "tolerance", s.tolerance);
+  r.number("solver", "output_interval_s", s.output_interval_s);
+  r.number("solver", "final_fraction", s.final_fraction);
+  r.choice("solver", "initial", s.initial,
+           {{"center", InitialCondition::kCenter}, {"static", InitialCondition::kStatic}});
+
+  static const std::map<std::string, std::vector<std::string>> kSchema = {
+      {"description", {}},
+      {"gear",
+       {"normal_module_mm", "normal_pressure_angle_deg", "helix_angle_deg", "center_distance_mm",
+        "teeth", "face_width_mm", "outside_diameter_mm", "profile_shift", "density_kg_m3",
+        "bore_diameter_mm", "inertia_kg_m2"}},
+      {"mesh",
+       {"backlash_um", "mean_stiffness_n_per_m", "stiffness_harmonics", "damping_ratio",
+        "damping", "tension"}},
+      {"load",
+       {"torque_nm", "fluctuation_ratio", "fluctuation_order", "fluctuation_phase_deg",
+        "load_torque_nm"}},
+      {"speed", {"shaft_frequency_hz"}},
+      {"solver",
+       {"method", "duration_s", "time_step_s", "tolerance", "output_interval_s",
+        "final_fraction", "initial"}},
+  };
+  r.reject_unknown(kSchema);
+
+  if (MaybeViolation v = check_ranges(c)) {
+    throw InputError(fmt::format("{}: {} = {}: must be {}", r.location(v->key), v->key, v->value,
+                                 v->allowed));
+  }
+  return c;
+}
+
+}  // namespace
+
+Override parse_override(const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == assignment.size())
+    throw InputError(fmt::format(
+        "--set {}: must be key=value, e.g. --set speed.shaft_frequency_hz=100", assignment));
+  auto trim = [](std::string s) {
+    const auto b = s.find_first_not_of(" \t");
+    const auto e = s.find_last_not_of(" \t");
+    return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+  };
+  return {trim(assignment.substr(0, eq)), trim(assignment.substr(eq + 1))};
+}
+
+Case parse_case(const std::string& toml_text, const std::string& source_name,
+                const std::vector<Override>& overrides) {
+  toml::table root;
+  try {
+    root = toml::parse(toml_text, source_name);
+  } catch (const toml::parse_error& e) {
+    throw InputError(fmt::format("{}: not valid TOML: {}", where(e.source(), source_name),
+                                 e.description()));
+  }
+  return decode(root, source_name, overrides, "");
+}
+
+Case load_case(const std::optional<std::filesystem::path>& path,
+               const std::vector<Override>& overrides) {
+  if (!path) {
+    toml::table empty;
+    return decode(empty, "(defaults)", overrides, "default");
+  }
+  std::ifstream in(*path, std::ios::binary);
+  if (!in)
+    throw InputError(fmt::format("{}: cannot read the case file (missing or not readable)",
+                                 path->string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(fmt::format("{}: error while reading the case file",
+                                             path->string()));
+  Case c = parse_case(text.str(), path->string(), overrides);
+  c.name = path->stem().string();
+  return c;
+}
+
+void set_case_value(Case& c, const Override& o) {
+  const std::string name = c.name;
+  c = parse_case(to_toml(c), "(case)", {o});
+  c.name = name;
+}
+
+std::string validate(const Case& c) {
+  if (MaybeViolation v = check_ranges(c))
+    return fmt::format("{} = {}: must be {}", v->key, v->value, v->allowed);
+  return {};
+}
+
+std::string to_toml(const Case& c) {
+  auto pair = [](const auto& a) { return toml::array{a[0], a[1]}; };
+  toml::table gear{
+      {"normal_module_mm", c.gear.normal_module_mm},
+      {"normal_pressure_angle_deg", c.gear.normal_pressure_angle_deg},
+      {"helix_angle_deg", c.gear.helix_angle_deg},
+      {"center_distance_mm", c.gear.center_distance_mm},
+      {"teeth", pair(c.gear.teeth)},
+      {"face_width_mm", c.gear.face_width_mm},
+      {"outside_diameter_mm", pair(c.gear.outside_diameter_mm)},
+      {"profile_shift", pair(c.gear.profile_shift)},
+      {"density_kg_m3", c.gear.density_kg_m3},
+      {"bore_diameter_mm", pair(c.gear.bore_diameter_mm)},
+  };
+  if (c.gear.inertia_kg_m2) gear.insert("inertia_kg_m2", pair(*c.gear.inertia_kg_m2));
+  toml::array harmonics;
+  for (const StiffnessHarmonic& h : c.mesh.stiffness_harmonics)
+    harmonics.push_back(toml::array{h.ratio, h.phase_deg});
+  toml::table mesh{
+      {"backlash_um", c.mesh.backlash_um},
+      {"mean_stiffness_n_per_m", c.mesh.mean_stiffness_n_per_m},
+      {"stiffness_harmonics", harmonics},
+      {"damping_ratio", c.mesh.damping_ratio},
+      {"damping", c.mesh.damping == DampingForm::kContact ? "contact" : "always"},
+      {"tension", c.mesh.tension == TensionRule::kAllow ? "allow" : "clip"},
+  };
+  toml::table load{
+      {"torque_nm", c.load.torque_nm},
+      {"fluctuation_ratio", c.load.fluctuation_ratio},
+      {"fluctuation_order", c.load.fluctuation_order},
+      {"fluctuation_phase_deg", c.load.fluctuation_phase_deg},
+  };
+  if (c.load.load_torque_nm) load.insert("load_torque_nm", *c.load.load_torque_nm);
+  toml::table solver{
+      {"method", c.solver.method == Method::kNewmark ? "newmark" : "dopri5"},
+      {"duration_s", c.solver.duration_s},
+      {"time_step_s", c.solver.time_step_s},
+      {"tolerance", c.solver.tolerance},
+      {"output_interval_s", c.solver.output_interval_s},
+      {"final_fraction", c.solver.final_fraction},
+      {"initial", c.solver.initial == InitialCondition::kCenter ? "center" : "static"},
+  };
+  toml::table root{
+      {"description", c.description},
+      {"gear", gear},
+      {"mesh", mesh},
+      {"load", load},
+      {"speed", toml::table{{"shaft_frequency_hz", c.speed.shaft_frequency_hz}}},
+      {"solver", solver},
+  };
+  std::ostringstream out;
+  out << root << '\n';
+  return out.str();
+}
+
+}  // namespace geardyn

@@ -1,0 +1,134 @@
+#include "geardyn/output.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace geardyn {
+namespace {
+
+nlohmann::json optional_number(const std::optional<double>& x) {
+  if (x && std::isfinite(*x)) return *x;
+  return nullptr;
+}
+
+nlohmann::json finite_or_null(double x) {
+  if (std::isfinite(x)) return x;
+  return nullptr;
+}
+
+}  // namespace
+
+std::string summary_json(const RunResult& r, int indent) {
+  const RunReading& x = r.reading;
+  const Derived& d = r.derived;
+  nlohmann::json j;
+  j["case"] = r.input.name;
+  j["termination"] = ode::to_string(r.integration.termination);
+  j["message"] = r.integration.message;
+  j["regime"] = to_string(x.regime);
+  j["double_sided"] = x.double_sided;
+  j["impacts"] = x.impacts;
+  j["backside_impacts"] = x.backside_impacts;
+  j["separations"] = x.separations;
+  j["last_separation_s"] = optional_number(x.last_separation_s);
+  j["separated_fraction"] = x.separated_fraction;
+  j["max_impact_velocity_m_s"] = x.max_impact_velocity_m_s;
+  j["max_force_bar"] = finite_or_null(x.max_force_bar);
+  j["min_force_bar"] = finite_or_null(x.min_force_bar);
+  j["mean_force_bar"] = x.mean_force_bar;
+  j["rms_force_bar"] = x.rms_force_bar;
+  j["max_delta_bar"] = finite_or_null(x.max_delta_bar);
+  j["min_delta_bar"] = finite_or_null(x.min_delta_bar);
+  j["mean_delta_bar"] = x.mean_delta_bar;
+  j["rms_delta_bar"] = x.rms_delta_bar;
+  j["dynamic_factor"] = optional_number(x.dynamic_factor);
+  j["steps"] = r.integration.steps;
+  j["transitions"] = r.integration.transitions;
+  j["unsplit_steps"] = r.integration.unsplit_steps;
+  j["method"] = r.input.solver.method == Method::kNewmark ? "newmark" : "dopri5";
+  j["duration_s"] = r.input.solver.duration_s;
+  j["wall_time_s"] = r.wall_time_s;
+  j["warnings"] = r.geometry.warnings;
+  j["derived"] = {
+      {"m_eq_kg", d.m_eq_kg},
+      {"natural_frequency_hz", d.natural_frequency_hz},
+      {"damping_n_s_per_m", d.damping_n_s_per_m},
+      {"mean_force_n", d.mean_force_n},
+      {"static_delta_bar", d.static_delta_bar},
+      {"mesh_frequency_hz", d.mesh_frequency_hz},
+      {"base_helix_angle_deg", d.base_helix_angle_deg},
+      {"working_pressure_angle_deg", d.working_pressure_angle_deg},
+      {"transverse_contact_ratio", d.transverse_contact_ratio},
+      {"overlap_ratio", d.overlap_ratio},
+      {"fastest_period_s", d.fastest_period_s},
+      {"time_step_s", d.time_step_s},
+      {"output_interval_s", d.output_interval_s},
+  };
+  return j.dump(indent);
+}
+
+std::string timeseries_csv(const Timeseries& s) {
+  std::string out = "t_s,delta_bar,velocity_m_s,force_bar,contact\n";
+  out.reserve(out.size() + s.size() * 72);
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    fmt::format_to(std::back_inserter(out), "{:.10g},{:.10g},{:.10g},{:.10g},{}\n", s.t_s[i],
+                   s.delta_bar[i], s.velocity_m_s[i], s.force_bar[i], s.contact[i]);
+  }
+  return out;
+}
+
+std::string events_csv(const std::vector<ContactEvent>& events) {
+  std::string out = "t_s,kind,velocity_m_s\n";
+  for (const ContactEvent& e : events)
+    fmt::format_to(std::back_inserter(out), "{:.15g},{},{:.10g}\n", e.t_s, to_string(e.kind),
+                   e.velocity_m_s);
+  return out;
+}
+
+void write_files_atomically(const std::filesystem::path& dir,
+                            const std::vector<std::pair<std::string, std::string>>& files) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw std::runtime_error(
+        fmt::format("{}: cannot create the output directory: {}", dir.string(), ec.message()));
+  const std::string tag = fmt::format(".tmp-{:08x}", std::random_device{}());
+  std::vector<fs::path> written;
+  auto cleanup = [&] {
+    for (const fs::path& p : written) fs::remove(p, ec);
+  };
+  for (const auto& [name, text] : files) {
+    const fs::path tmp = dir / (name + tag);
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    written.push_back(tmp);
+    out << text;
+    out.close();
+    if (!out) {
+      cleanup();
+      throw std::runtime_error(fmt::format("{}: cannot write", (dir / name).string()));
+    }
+  }
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    fs::rename(written[i], dir / files[i].first, ec);
+    if (ec) {
+      cleanup();
+      throw std::runtime_error(fmt::format("{}: cannot write: {}",
+                                           (dir / files[i].first).string(), ec.message()));
+    }
+  }
+}
+
+void write_run(const std::filesystem::path& dir, const RunResult& r) {
+  write_files_atomically(dir, {{"summary.json", summary_json(r) + "\n"},
+                               {"timeseries.csv", timeseries_csv(r.samples)},
+                               {"events.csv", events_csv(r.events)},
+                               {"case.toml", to_toml(r.input)}});
+}
+
+}  // namespace geardyn

@@ -1,0 +1,95 @@
+#include "geardyn/run.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include "geardyn/stiffness.hpp"
+
+namespace geardyn {
+namespace {
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+}
+
+double fastest_period_s(const GearPairParameters& p) {
+  double k_max = p.stiffness_n_per_m.offset;
+  for (const Harmonic& h : p.stiffness_n_per_m.terms) k_max += std::abs(h.amplitude);
+  const double cb2 = p.cos_base_helix * p.cos_base_helix;
+  double w = std::sqrt(cb2 * k_max / p.equivalent_mass_kg);
+  w = std::max(w, p.stiffness_n_per_m.max_angular_frequency_rad_s());
+  w = std::max(w, p.force_n.max_angular_frequency_rad_s());
+  return kTwoPi / w;
+}
+
+double automatic_time_step_s(const GearPairParameters& p) {
+  return fastest_period_s(p) / kStepsPerFastestPeriod;
+}
+
+GearPairModel build_model(const Case& c, Geometry* geometry_out) {
+  if (const std::string err = validate(c); !err.empty()) throw InputError(err);
+  Geometry g = compute_geometry(c.gear);
+  HarmonicSeries k = mesh_stiffness_series(c, g);
+  GearPairModel model(gear_pair_parameters(c, g, k));
+  if (geometry_out) *geometry_out = std::move(g);
+  return model;
+}
+
+RunResult run(const Case& c, const RunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  RunResult result;
+  result.input = c;
+  const GearPairModel model = build_model(c, &result.geometry);
+  const GearPairParameters& p = model.parameters();
+  const Geometry& g = result.geometry;
+
+  Derived& d = result.derived;
+  d.m_eq_kg = p.equivalent_mass_kg;
+  d.natural_frequency_hz = p.natural_angular_frequency_rad_s() / kTwoPi;
+  d.damping_n_s_per_m = p.damping_n_s_per_m;
+  d.mean_force_n = p.mean_force_n();
+  const double cb2 = p.cos_base_helix * p.cos_base_helix;
+  d.static_delta_bar = 1.0 + p.mean_force_n() / (p.backlash_m * p.mean_stiffness_n_per_m() * cb2);
+  d.mesh_frequency_hz = mesh_frequency_hz(c);
+  d.base_helix_angle_deg = g.base_helix_angle_rad * 180.0 / std::numbers::pi;
+  d.working_pressure_angle_deg = g.working_pressure_angle_rad * 180.0 / std::numbers::pi;
+  d.transverse_contact_ratio = g.transverse_contact_ratio;
+  d.overlap_ratio = g.overlap_ratio;
+  d.fastest_period_s = fastest_period_s(p);
+
+  const double t0 = 0.0, t1 = c.solver.duration_s;
+  d.output_interval_s = c.solver.output_interval_s > 0 ? c.solver.output_interval_s
+                                                       : (t1 - t0) / kAutomaticSamples;
+  const ode::OutputGrid grid = ode::make_output_grid(t0, t1, d.output_interval_s);
+
+  ode::State initial{t0, 0.0, 0.0, 0.0, kSeparated};
+  if (c.solver.initial == InitialCondition::kStatic) {
+    const double sign = p.mean_force_n() >= 0 ? 1.0 : -1.0;
+    initial.q = sign * p.backlash_m + p.mean_force_n() / (cb2 * p.mean_stiffness_n_per_m());
+  }
+  initial.region = model.classify(model.drive(t0), initial.q, initial.v);
+
+  RunReader reader(model, t0, t1, c.solver.final_fraction, options.keep_events,
+                   options.keep_samples, options.progress);
+  if (c.solver.method == Method::kNewmark) {
+    d.time_step_s = c.solver.time_step_s > 0 ? c.solver.time_step_s : automatic_time_step_s(p);
+    result.integration = ode::integrate_newmark(model, initial, t1, d.time_step_s, grid, reader);
+    // Report the step actually taken: an integer number of steps fits the window.
+    d.time_step_s = (t1 - t0) / std::ceil((t1 - t0) / d.time_step_s - 1e-9);
+  } else {
+    ode::Dopri5Options o;
+    o.relative_tolerance = c.solver.tolerance;
+    o.absolute_tolerance = c.solver.tolerance * p.backlash_m;
+    o.max_step_s = kDopri5MaxStepFraction * d.fastest_period_s;
+    o.initial_step_s = o.max_step_s * 1e-3;
+    result.integration = ode::integrate_dopri5(model, initial, t1, grid, reader, o);
+  }
+  result.reading = reader.reading();
+  result.events = reader.events();
+  result.samples = std::move(reader.samples());
+  result.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return result;
+}
+
+}  // namespace geardyn
