@@ -1,14 +1,14 @@
 #include "geardyn/case.hpp"
 
-#include "geardyn/harmonic_series.hpp"
+#include <fmt/format.h>
+#include <toml++/toml.h>
 
 #include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
-#include <toml++/toml.h>
 
-#include <fmt/format.h>
+#include "geardyn/harmonic_series.hpp"
 
 namespace geardyn {
 namespace {
@@ -130,8 +130,7 @@ MaybeViolation check_ranges(const Case& c) {
     return bad("load.load_torque_nm", *l.load_torque_nm, "a finite torque");
 
   if (!(c.speed.shaft_frequency_hz > 0 && std::isfinite(c.speed.shaft_frequency_hz)))
-    return bad("speed.shaft_frequency_hz", c.speed.shaft_frequency_hz,
-               "a finite frequency > 0 Hz");
+    return bad("speed.shaft_frequency_hz", c.speed.shaft_frequency_hz, "a finite frequency > 0 Hz");
 
   const SolverData& s = c.solver;
   if (!(s.duration_s > 0 && std::isfinite(s.duration_s)))
@@ -155,14 +154,14 @@ MaybeViolation check_ranges(const Case& c) {
 // reported as unknown.
 class Reader {
  public:
-  Reader(const toml::table& root, std::string source) : root_(root), source_(std::move(source)) {}
+  Reader(const toml::table& root, std::string source, const std::vector<Override>& overrides)
+      : root_(root), source_(std::move(source)), overrides_(overrides) {}
 
   void number(std::string_view section, std::string_view key, double& out) {
     if (const toml::node* n = find(section, key)) out = as_number(*n, section, key, "a number");
   }
 
-  void optional_number(std::string_view section, std::string_view key,
-                       std::optional<double>& out) {
+  void optional_number(std::string_view section, std::string_view key, std::optional<double>& out) {
     if (const toml::node* n = find(section, key)) out = as_number(*n, section, key, "a number");
   }
 
@@ -216,7 +215,8 @@ class Reader {
                  std::vector<StiffnessHarmonic>& out) {
     const toml::node* n = find(section, key);
     if (!n) return;
-    const char* allowed = "an array of [ratio k_ai/k_m, phase_deg] pairs, e.g. [[0.05, 0], [0.02, 90]]";
+    const char* allowed =
+        "an array of [ratio k_ai/k_m, phase_deg] pairs, e.g. [[0.05, 0], [0.02, 90]]";
     const toml::array* a = n->as_array();
     if (!a) fail(*n, section, key, allowed);
     out.clear();
@@ -246,12 +246,12 @@ class Reader {
         std::string sections;
         for (const auto& [name, keys] : schema) sections += (sections.empty() ? "" : ", ") + name;
         throw InputError(fmt::format("{}: unknown key '{}'; allowed at the top level: {}",
-                                     where(k.source(), source_), section, sections));
+                                     origin(section, k.source()), section, sections));
       }
       const toml::table* t = node.as_table();
       if (!t)
         throw InputError(fmt::format("{}: '{}' = {}: must be a table [{}]",
-                                     where(node.source(), source_), section, node_text(node),
+                                     origin(section, node.source()), section, node_text(node),
                                      section));
       for (auto&& [kk, child] : *t) {
         const std::string full = section + "." + std::string(kk.str());
@@ -259,7 +259,7 @@ class Reader {
         std::string keys;
         for (const auto& name : it->second) keys += (keys.empty() ? "" : ", ") + name;
         throw InputError(fmt::format("{}: unknown key '{}'; allowed in [{}]: {}",
-                                     where(kk.source(), source_), full, section, keys));
+                                     origin(full, kk.source()), full, section, keys));
       }
     }
   }
@@ -269,7 +269,7 @@ class Reader {
     std::string path = dotted;
     while (!path.empty()) {
       toml::node_view<const toml::node> v = root_.at_path(path);
-      if (v) return where(v.node()->source(), source_);
+      if (v) return origin(dotted, v.node()->source());
       const auto cut = path.find_last_of(".[");
       if (cut == std::string::npos) break;
       path.resize(cut);
@@ -278,6 +278,18 @@ class Reader {
   }
 
  private:
+  // Where the value of a dotted key came from: the last --set that wrote it or anything under
+  // it, else the node's place in the file.
+  std::string origin(const std::string& dotted, const toml::source_region& src) const {
+    for (auto it = overrides_.rbegin(); it != overrides_.rend(); ++it) {
+      const std::string& k = it->key;
+      if (dotted == k || dotted.rfind(k + ".", 0) == 0 || dotted.rfind(k + "[", 0) == 0 ||
+          k.rfind(dotted + ".", 0) == 0)
+        return fmt::format("--set {}={}", it->key, it->value);
+    }
+    return where(src, source_);
+  }
+
   const toml::node* find(std::string_view section, std::string_view key) {
     const toml::table* t = root_[section].as_table();
     if (!t) return nullptr;
@@ -290,7 +302,7 @@ class Reader {
                          std::string_view allowed) const {
     const std::string full =
         section.empty() ? std::string(key) : fmt::format("{}.{}", section, key);
-    throw InputError(fmt::format("{}: {} = {}: must be {}", where(n.source(), source_), full,
+    throw InputError(fmt::format("{}: {} = {}: must be {}", origin(full, n.source()), full,
                                  node_text(n), allowed));
   }
 
@@ -311,6 +323,7 @@ class Reader {
 
   const toml::table& root_;
   std::string source_;
+  const std::vector<Override>& overrides_;
   std::set<std::string> used_;
 };
 
@@ -338,17 +351,18 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
     try {
       patch = toml::parse(o.key + " = " + o.value, origin);
     } catch (const toml::parse_error& e) {
-      throw InputError(fmt::format("{}: not a valid key and TOML value ({}); write e.g. "
-                                   "--set speed.shaft_frequency_hz=100 or "
-                                   "--set mesh.tension='\"clip\"'",
-                                   origin, e.description()));
+      throw InputError(
+          fmt::format("{}: not a valid key and TOML value ({}); write e.g. "
+                      "--set speed.shaft_frequency_hz=100 or "
+                      "--set mesh.tension='\"clip\"'",
+                      origin, e.description()));
     }
     merge(root, patch);
   }
 
   Case c;
   c.name = std::move(name);
-  Reader r(root, source);
+  Reader r(root, source, overrides);
   r.string("description", c.description);
   GearData& g = c.gear;
   r.number("gear", "normal_module_mm", g.normal_module_mm);
@@ -400,21 +414,21 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
         "teeth", "face_width_mm", "outside_diameter_mm", "profile_shift", "density_kg_m3",
         "bore_diameter_mm", "inertia_kg_m2"}},
       {"mesh",
-       {"backlash_um", "mean_stiffness_n_per_m", "stiffness_harmonics", "damping_ratio",
-        "damping", "tension"}},
+       {"backlash_um", "mean_stiffness_n_per_m", "stiffness_harmonics", "damping_ratio", "damping",
+        "tension"}},
       {"load",
        {"torque_nm", "fluctuation_ratio", "fluctuation_order", "fluctuation_phase_deg",
         "load_torque_nm"}},
       {"speed", {"shaft_frequency_hz"}},
       {"solver",
-       {"method", "duration_s", "time_step_s", "tolerance", "output_interval_s",
-        "final_fraction", "initial"}},
+       {"method", "duration_s", "time_step_s", "tolerance", "output_interval_s", "final_fraction",
+        "initial"}},
   };
   r.reject_unknown(kSchema);
 
   if (MaybeViolation v = check_ranges(c)) {
-    throw InputError(fmt::format("{}: {} = {}: must be {}", r.location(v->key), v->key, v->value,
-                                 v->allowed));
+    throw InputError(
+        fmt::format("{}: {} = {}: must be {}", r.location(v->key), v->key, v->value, v->allowed));
   }
   return c;
 }
@@ -440,8 +454,8 @@ Case parse_case(const std::string& toml_text, const std::string& source_name,
   try {
     root = toml::parse(toml_text, source_name);
   } catch (const toml::parse_error& e) {
-    throw InputError(fmt::format("{}: not valid TOML: {}", where(e.source(), source_name),
-                                 e.description()));
+    throw InputError(
+        fmt::format("{}: not valid TOML: {}", where(e.source(), source_name), e.description()));
   }
   return decode(root, source_name, overrides, "");
 }
@@ -454,12 +468,12 @@ Case load_case(const std::optional<std::filesystem::path>& path,
   }
   std::ifstream in(*path, std::ios::binary);
   if (!in)
-    throw InputError(fmt::format("{}: cannot read the case file (missing or not readable)",
-                                 path->string()));
+    throw InputError(
+        fmt::format("{}: cannot read the case file (missing or not readable)", path->string()));
   std::ostringstream text;
   text << in.rdbuf();
-  if (in.bad()) throw InputError(fmt::format("{}: error while reading the case file",
-                                             path->string()));
+  if (in.bad())
+    throw InputError(fmt::format("{}: error while reading the case file", path->string()));
   Case c = parse_case(text.str(), path->string(), overrides);
   c.name = path->stem().string();
   return c;

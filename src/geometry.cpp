@@ -1,10 +1,10 @@
 #include "geardyn/geometry.hpp"
 
+#include <fmt/format.h>
+
 #include <boost/math/tools/roots.hpp>
 #include <cmath>
 #include <numbers>
-
-#include <fmt/format.h>
 
 namespace geardyn {
 namespace {
@@ -57,7 +57,8 @@ Geometry compute_geometry(const GearData& g) {
     out.tip_radius_m[i] = 0.5 * g.outside_diameter_mm[i] * kMmToM;
     out.root_diameter_m[i] = out.reference_diameter_m[i] - 2.0 * mn * (1.25 - g.profile_shift[i]);
   }
-  out.reference_center_distance_m = 0.5 * (out.reference_diameter_m[0] + out.reference_diameter_m[1]);
+  out.reference_center_distance_m =
+      0.5 * (out.reference_diameter_m[0] + out.reference_diameter_m[1]);
 
   const double a = out.center_distance_m;
   const double rb_sum = out.base_radius_m[0] + out.base_radius_m[1];
@@ -78,8 +79,8 @@ Geometry compute_geometry(const GearData& g) {
         g.profile_shift[0], g.profile_shift[1], g.teeth[0], g.teeth[1]));
   }
   out.shift_working_pressure_angle_rad = inverse_involute(inv_wt);
-  out.shift_center_distance_m =
-      out.reference_center_distance_m * std::cos(at) / std::cos(out.shift_working_pressure_angle_rad);
+  out.shift_center_distance_m = out.reference_center_distance_m * std::cos(at) /
+                                std::cos(out.shift_working_pressure_angle_rad);
 
   const double tol_m = kDimensionToleranceModules * mn;
   if (std::abs(out.shift_center_distance_m - a) > tol_m) {
@@ -114,8 +115,8 @@ Geometry compute_geometry(const GearData& g) {
     }
     if (!(g.bore_diameter_mm[i] * kMmToM < out.root_diameter_m[i])) {
       throw InputError(fmt::format(
-          "gear.bore_diameter_mm[{}] = {}: must be smaller than the root diameter {:.4f} mm",
-          i, g.bore_diameter_mm[i], out.root_diameter_m[i] / kMmToM));
+          "gear.bore_diameter_mm[{}] = {}: must be smaller than the root diameter {:.4f} mm", i,
+          g.bore_diameter_mm[i], out.root_diameter_m[i] / kMmToM));
     }
   }
 

@@ -6,8 +6,7 @@
 namespace geardyn {
 
 double GearPairParameters::natural_angular_frequency_rad_s() const {
-  return std::sqrt(cos_base_helix * cos_base_helix * mean_stiffness_n_per_m() /
-                   equivalent_mass_kg);
+  return std::sqrt(cos_base_helix * cos_base_helix * mean_stiffness_n_per_m() / equivalent_mass_kg);
 }
 
 double GearPairParameters::static_mesh_force_n() const {
@@ -45,10 +44,9 @@ GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
   p.force_n.offset = mean;
   const double amplitude = per_t1 * T1 * c.load.fluctuation_ratio;
   if (amplitude != 0.0) {
-    p.force_n.terms.push_back({amplitude,
-                               2.0 * std::numbers::pi * c.load.fluctuation_order *
-                                   c.speed.shaft_frequency_hz,
-                               c.load.fluctuation_phase_deg * std::numbers::pi / 180.0});
+    p.force_n.terms.push_back(
+        {amplitude, 2.0 * std::numbers::pi * c.load.fluctuation_order * c.speed.shaft_frequency_hz,
+         c.load.fluctuation_phase_deg * std::numbers::pi / 180.0});
   }
   return p;
 }

@@ -1,12 +1,12 @@
 #include "geardyn/output.hpp"
 
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 namespace geardyn {
 namespace {
@@ -114,12 +114,21 @@ void write_files_atomically(const std::filesystem::path& dir,
       throw std::runtime_error(fmt::format("{}: cannot write", (dir / name).string()));
     }
   }
+  // Renames within one directory fail only when a target cannot be replaced: check all first.
+  for (const auto& [name, text] : files) {
+    if (fs::exists(dir / name) && !fs::is_regular_file(dir / name)) {
+      cleanup();
+      throw std::runtime_error(
+          fmt::format("{}: cannot write: exists and is not a regular file", (dir / name).string()));
+    }
+  }
   for (std::size_t i = 0; i < files.size(); ++i) {
     fs::rename(written[i], dir / files[i].first, ec);
     if (ec) {
+      for (std::size_t j = 0; j < i; ++j) fs::remove(dir / files[j].first);
       cleanup();
-      throw std::runtime_error(fmt::format("{}: cannot write: {}",
-                                           (dir / files[i].first).string(), ec.message()));
+      throw std::runtime_error(
+          fmt::format("{}: cannot write: {}", (dir / files[i].first).string(), ec.message()));
     }
   }
 }

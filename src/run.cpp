@@ -58,8 +58,8 @@ RunResult run(const Case& c, const RunOptions& options) {
   d.fastest_period_s = fastest_period_s(p);
 
   const double t0 = 0.0, t1 = c.solver.duration_s;
-  d.output_interval_s = c.solver.output_interval_s > 0 ? c.solver.output_interval_s
-                                                       : (t1 - t0) / kAutomaticSamples;
+  d.output_interval_s =
+      c.solver.output_interval_s > 0 ? c.solver.output_interval_s : (t1 - t0) / kAutomaticSamples;
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, d.output_interval_s);
 
   ode::State initial{t0, 0.0, 0.0, 0.0, kSeparated};

@@ -2,6 +2,9 @@
 // numerics here.
 //
 // Exit codes: 0 success, 1 numerical failure (reported with its reason), 2 bad input.
+#include <fmt/format.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
@@ -9,9 +12,6 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <unistd.h>
-
-#include <fmt/format.h>
 
 #include "geardyn/case.hpp"
 #include "geardyn/geometry.hpp"
@@ -89,9 +89,10 @@ void print_run_summary(const geardyn::RunResult& r) {
              c.mesh.damping_ratio, c.load.fluctuation_ratio,
              c.solver.method == geardyn::Method::kNewmark ? "newmark" : "dopri5",
              c.solver.duration_s);
-  fmt::print("  m_eq = {:.6g} kg, contact natural frequency {:.6g} Hz, F_m = {:.6g} N, static "
-             "delta_bar = {:.6g}\n",
-             d.m_eq_kg, d.natural_frequency_hz, d.mean_force_n, d.static_delta_bar);
+  fmt::print(
+      "  m_eq = {:.6g} kg, contact natural frequency {:.6g} Hz, F_m = {:.6g} N, static "
+      "delta_bar = {:.6g}\n",
+      d.m_eq_kg, d.natural_frequency_hz, d.mean_force_n, d.static_delta_bar);
   fmt::print("  regime            {}{}\n", geardyn::to_string(x.regime),
              x.double_sided ? " (double-sided)" : "");
   fmt::print("  impacts           {} ({} back side), max velocity {:.4g} m/s\n", x.impacts,
@@ -106,8 +107,7 @@ void print_run_summary(const geardyn::RunResult& r) {
   fmt::print("  dynamic factor    {}\n", fmt_optional(x.dynamic_factor, ""));
   fmt::print("  steps             {} ({} transitions located){}, {:.3g} s wall\n",
              r.integration.steps, r.integration.transitions,
-             d.time_step_s > 0 ? fmt::format(", dt = {:.4g} s", d.time_step_s) : "",
-             r.wall_time_s);
+             d.time_step_s > 0 ? fmt::format(", dt = {:.4g} s", d.time_step_s) : "", r.wall_time_s);
   if (r.integration.unsplit_steps > 0)
     fmt::print("  note: {} steps met more contact changes than are located per step\n",
                r.integration.unsplit_steps);
@@ -180,10 +180,11 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
   fmt::print("  outside diameters          {:.4f}, {:.4f} mm (standard rack: {:.4f}, {:.4f})\n",
              2 * g.tip_radius_m[0] * kMm, 2 * g.tip_radius_m[1] * kMm,
              g.expected_outside_diameter_m[0] * kMm, g.expected_outside_diameter_m[1] * kMm);
-  fmt::print("  centre distance            {:.4f} mm (profile shifts imply {:.4f}, reference "
-             "{:.4f})\n",
-             g.center_distance_m * kMm, g.shift_center_distance_m * kMm,
-             g.reference_center_distance_m * kMm);
+  fmt::print(
+      "  centre distance            {:.4f} mm (profile shifts imply {:.4f}, reference "
+      "{:.4f})\n",
+      g.center_distance_m * kMm, g.shift_center_distance_m * kMm,
+      g.reference_center_distance_m * kMm);
   fmt::print("  working pressure angle     {:.6f} deg (from the shifts {:.6f})\n",
              g.working_pressure_angle_rad * kDeg, g.shift_working_pressure_angle_rad * kDeg);
   fmt::print("  contact ratios             eps_alpha {:.4f}, eps_beta {:.4f}, total {:.4f}\n",

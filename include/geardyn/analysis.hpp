@@ -52,12 +52,12 @@ struct Timeseries {
 // delta_bar = delta / b, F_bar = F_G / (b k_m).
 struct RunReading {
   Regime regime = Regime::kNone;
-  bool double_sided = false;  // back-side contact occurred at all
-  std::int64_t impacts = 0;           // entries into contact from separation, both sides
-  std::int64_t backside_impacts = 0;  // of which on the back side
-  std::int64_t separations = 0;       // exits from contact into separation
+  bool double_sided = false;                // back-side contact occurred at all
+  std::int64_t impacts = 0;                 // entries into contact from separation, both sides
+  std::int64_t backside_impacts = 0;        // of which on the back side
+  std::int64_t separations = 0;             // exits from contact into separation
   std::optional<double> last_separation_s;  // time of the last exit from contact
-  double separated_fraction = 0;      // time separated over the window
+  double separated_fraction = 0;            // time separated over the window
   double max_impact_velocity_m_s = 0;
   // Extremes over every step end, transition and sample; mean and RMS over the samples.
   double max_force_bar = 0, min_force_bar = 0, mean_force_bar = 0, rms_force_bar = 0;

@@ -72,7 +72,7 @@ struct MeshData {
 
 // [load]
 struct LoadData {
-  double torque_nm = 49.5;         // mean driving torque T1
+  double torque_nm = 49.5;          // mean driving torque T1
   double fluctuation_ratio = 0.25;  // amplitude of T1's fluctuation over its mean (= F_a/F_m)
   double fluctuation_order = 1.0;   // torque frequency over shaft frequency
   double fluctuation_phase_deg = 0.0;

@@ -19,8 +19,8 @@ struct Geometry {
   double normal_pressure_angle_rad = 0;
   double helix_angle_rad = 0;
   double transverse_module_m = 0;
-  double transverse_pressure_angle_rad = 0;  // alpha_t = atan(tan alpha_n / cos beta)
-  double base_helix_angle_rad = 0;           // beta_b = asin(sin beta cos alpha_n)
+  double transverse_pressure_angle_rad = 0;      // alpha_t = atan(tan alpha_n / cos beta)
+  double base_helix_angle_rad = 0;               // beta_b = asin(sin beta cos alpha_n)
   std::array<double, 2> reference_diameter_m{};  // d = z m_n / cos beta
   std::array<double, 2> base_radius_m{};         // R_b = d cos alpha_t / 2
   std::array<double, 2> tip_radius_m{};          // the given outside diameters / 2
@@ -34,8 +34,8 @@ struct Geometry {
   double working_pressure_angle_rad = 0;
   // The same from the profile shifts: inv a_wt = inv a_t + 2 tan a_n (x1 + x2) / (z1 + z2).
   double shift_working_pressure_angle_rad = 0;
-  double shift_center_distance_m = 0;  // the centre distance the profile shifts imply
-  double transverse_base_pitch_m = 0;  // p_bt = pi m_t cos alpha_t
+  double shift_center_distance_m = 0;   // the centre distance the profile shifts imply
+  double transverse_base_pitch_m = 0;   // p_bt = pi m_t cos alpha_t
   double transverse_contact_ratio = 0;  // eps_alpha at the given centre distance and tip circles
   double overlap_ratio = 0;             // eps_beta = b sin beta / (pi m_n)
   double face_width_m = 0;

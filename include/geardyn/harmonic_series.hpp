@@ -14,9 +14,9 @@
 namespace geardyn {
 
 struct Harmonic {
-  double amplitude = 0;            // A_j, in the unit of the series
+  double amplitude = 0;                // A_j, in the unit of the series
   double angular_frequency_rad_s = 0;  // omega_j
-  double phase_rad = 0;            // phi_j
+  double phase_rad = 0;                // phi_j
 };
 
 struct HarmonicSeries {
@@ -28,14 +28,16 @@ struct HarmonicSeries {
 
   double operator()(double t_s) const {
     double x = offset;
-    for (const Harmonic& h : terms) x += h.amplitude * std::cos(h.angular_frequency_rad_s * t_s + h.phase_rad);
+    for (const Harmonic& h : terms)
+      x += h.amplitude * std::cos(h.angular_frequency_rad_s * t_s + h.phase_rad);
     return x;
   }
   // The highest angular frequency of a term with a non-zero amplitude; 0 for a constant.
   double max_angular_frequency_rad_s() const {
     double w = 0;
     for (const Harmonic& h : terms)
-      if (h.amplitude != 0 && std::abs(h.angular_frequency_rad_s) > w) w = std::abs(h.angular_frequency_rad_s);
+      if (h.amplitude != 0 && std::abs(h.angular_frequency_rad_s) > w)
+        w = std::abs(h.angular_frequency_rad_s);
     return w;
   }
 };

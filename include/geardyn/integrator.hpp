@@ -80,11 +80,11 @@ concept SwitchedSystem = requires(const S& s, const typename S::Drive& d, double
 };
 
 enum class Termination {
-  kCompleted,     // reached the end time
-  kDiverged,      // the state became non-finite
-  kNewtonFailed,  // Newton-Raphson did not converge within its iteration limit
-  kStepUnderflow, // the adaptive step fell below what the end time can resolve
-  kCancelled,     // the observer asked to stop
+  kCompleted,      // reached the end time
+  kDiverged,       // the state became non-finite
+  kNewtonFailed,   // Newton-Raphson did not converge within its iteration limit
+  kStepUnderflow,  // the adaptive step fell below what the end time can resolve
+  kCancelled,      // the observer asked to stop
 };
 
 const char* to_string(Termination t);
@@ -238,10 +238,10 @@ IntegrationSummary integrate_newmark(const S& sys, State initial, double t1, dou
     for (;;) {
       const double h = t_end - s.t;
       if (!newmark_substep(sys, s, h, d_end, o, trial))
-        return fail(Termination::kNewtonFailed,
-                    "Newton-Raphson did not converge in " +
-                        std::to_string(o.newton_max_iterations) + " iterations at t = " +
-                        std::to_string(s.t) + " s");
+        return fail(Termination::kNewtonFailed, "Newton-Raphson did not converge in " +
+                                                    std::to_string(o.newton_max_iterations) +
+                                                    " iterations at t = " + std::to_string(s.t) +
+                                                    " s");
       trial.t = t_end;
       const Guards g = sys.guards(d_end, trial.q, trial.v, s.region);
       int crossed = -1;
@@ -344,8 +344,8 @@ IntegrationSummary integrate_dopri5(const S& sys, State initial, double t1,
   auto state_at = [&](const X& x, double t) {
     return State{t, x[0], x[1], sys.force(sys.drive(t), x[0], x[1], region).value / m, region};
   };
-  auto stepper = odeint::make_dense_output(o.absolute_tolerance, o.relative_tolerance,
-                                           o.max_step_s, odeint::runge_kutta_dopri5<X>());
+  auto stepper = odeint::make_dense_output(o.absolute_tolerance, o.relative_tolerance, o.max_step_s,
+                                           odeint::runge_kutta_dopri5<X>());
   X x{initial.q, initial.v};
   double t = initial.t;
   stepper.initialize(x, t, std::min(o.initial_step_s, o.max_step_s));

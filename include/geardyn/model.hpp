@@ -40,11 +40,11 @@ constexpr int contact_state(int region) { return (region > 0) - (region < 0); }
 
 // The model's constants, SI, derived once from the case, the geometry and the stiffness.
 struct GearPairParameters {
-  double equivalent_mass_kg = 0;  // m_eq of eq. 6
-  double cos_base_helix = 1;      // cos(beta_b)
-  double backlash_m = 0;          // b, half the total normal backlash
+  double equivalent_mass_kg = 0;     // m_eq of eq. 6
+  double cos_base_helix = 1;         // cos(beta_b)
+  double backlash_m = 0;             // b, half the total normal backlash
   HarmonicSeries stiffness_n_per_m;  // k(t), eq. 11
-  double damping_n_s_per_m = 0;   // c = 2 xi sqrt(m_eq k_m) / cos(beta_b)
+  double damping_n_s_per_m = 0;      // c = 2 xi sqrt(m_eq k_m) / cos(beta_b)
   DampingForm damping = DampingForm::kContact;
   TensionRule tension = TensionRule::kAllow;
   HarmonicSeries force_n;  // F(t) = F_m + F_a cos(omega t + phi), eq. 10 (right side of eq. 6)

@@ -29,15 +29,15 @@ struct Derived {
   double m_eq_kg = 0;
   double natural_frequency_hz = 0;  // linearised contact, sqrt(cos^2 beta_b k_m / m_eq) / 2 pi
   double damping_n_s_per_m = 0;
-  double mean_force_n = 0;          // F_m
-  double static_delta_bar = 0;      // 1 + F_m / (b k_m cos^2 beta_b)
-  double mesh_frequency_hz = 0;     // z1 f_1
+  double mean_force_n = 0;       // F_m
+  double static_delta_bar = 0;   // 1 + F_m / (b k_m cos^2 beta_b)
+  double mesh_frequency_hz = 0;  // z1 f_1
   double base_helix_angle_deg = 0;
   double working_pressure_angle_deg = 0;
   double transverse_contact_ratio = 0;
   double overlap_ratio = 0;
-  double fastest_period_s = 0;      // the shortest time scale of the case
-  double time_step_s = 0;           // the Newmark step used (0 for dopri5)
+  double fastest_period_s = 0;  // the shortest time scale of the case
+  double time_step_s = 0;       // the Newmark step used (0 for dopri5)
   double output_interval_s = 0;
 };
 

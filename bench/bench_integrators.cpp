@@ -1,0 +1,51 @@
+// Integration speed on the paper's default case (Table 1, Fig. 4(c)): steps per second for
+// Newmark (the automatic step and a fine step, decimated output) and dopri5.
+//
+//   ./build/release/bench/bench_integrators
+#include <benchmark/benchmark.h>
+
+#include "geardyn/run.hpp"
+
+namespace {
+
+void run_case(benchmark::State& state, geardyn::Case c) {
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    const geardyn::RunResult r = geardyn::run(c);
+    benchmark::DoNotOptimize(r.reading.max_force_bar);
+    steps += r.integration.steps;
+  }
+  state.counters["steps_per_s"] =
+      benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
+}
+
+void BM_NewmarkDefaultCase(benchmark::State& state) {
+  geardyn::Case c;  // 0.05 s, automatic step, 5000 samples
+  run_case(state, c);
+}
+BENCHMARK(BM_NewmarkDefaultCase)->Unit(benchmark::kMillisecond);
+
+void BM_NewmarkFineStepDecimated(benchmark::State& state) {
+  geardyn::Case c;
+  c.solver.time_step_s = 1e-9;  // 5e7 steps, 5000 samples
+  run_case(state, c);
+}
+BENCHMARK(BM_NewmarkFineStepDecimated)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+void BM_NewmarkWithStiffnessHarmonics(benchmark::State& state) {
+  geardyn::Case c;
+  c.mesh.stiffness_harmonics = {{0.05, 0}, {0.02, 0}};
+  run_case(state, c);
+}
+BENCHMARK(BM_NewmarkWithStiffnessHarmonics)->Unit(benchmark::kMillisecond);
+
+void BM_Dopri5DefaultCase(benchmark::State& state) {
+  geardyn::Case c;
+  c.solver.method = geardyn::Method::kDopri5;
+  run_case(state, c);
+}
+BENCHMARK(BM_Dopri5DefaultCase)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

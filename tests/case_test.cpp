@@ -1,0 +1,155 @@
+#include "geardyn/case.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+namespace geardyn {
+namespace {
+
+const std::filesystem::path kCases = std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases";
+
+// The message of the InputError that `f` throws ("" if it does not throw).
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Case, DefaultsAreTable1AndFig4c) {
+  const Case c = load_case(std::nullopt);
+  EXPECT_EQ(c.gear.normal_module_mm, 2.5);
+  EXPECT_EQ(c.gear.helix_angle_deg, 20.0);
+  EXPECT_EQ(c.gear.center_distance_mm, 150.0);
+  EXPECT_EQ(c.gear.teeth[0], 56);
+  EXPECT_EQ(c.gear.profile_shift[1], 0.2075);
+  EXPECT_EQ(c.mesh.mean_stiffness_n_per_m, 2.34e8);
+  EXPECT_EQ(c.mesh.backlash_um, 100.0);
+  EXPECT_EQ(c.mesh.damping_ratio, 0.02);
+  EXPECT_EQ(c.load.torque_nm, 49.5);
+  EXPECT_EQ(c.load.fluctuation_ratio, 0.25);
+  EXPECT_EQ(c.speed.shaft_frequency_hz, 1000.0);
+  EXPECT_TRUE(c.mesh.stiffness_harmonics.empty());
+}
+
+TEST(Case, ShippedPark2010FileEqualsTheDefaults) {
+  const Case file = load_case(kCases / "park2010.toml");
+  EXPECT_EQ(to_toml(Case{}).substr(to_toml(Case{}).find("[gear]")),
+            to_toml(file).substr(to_toml(file).find("[gear]")));
+  EXPECT_EQ(file.name, "park2010");
+}
+
+TEST(Case, RoundTripsThroughToml) {
+  Case c;
+  c.mesh.stiffness_harmonics = {{0.05, 10}, {0.02, -30}};
+  c.mesh.tension = TensionRule::kClip;
+  c.load.load_torque_nm = 40.0;
+  c.gear.inertia_kg_m2 = std::array<double, 2>{0.01, 0.02};
+  c.solver.initial = InitialCondition::kStatic;
+  const Case back = parse_case(to_toml(c), "roundtrip");
+  EXPECT_EQ(to_toml(back), to_toml(c));
+}
+
+TEST(Case, OverridesUseTomlValueSyntax) {
+  const Case c =
+      load_case(std::nullopt,
+                {parse_override("speed.shaft_frequency_hz=100"),
+                 parse_override("mesh.stiffness_harmonics=[[0.05,0],[0.02,90]]"),
+                 parse_override("mesh.tension=\"clip\""), parse_override("gear.teeth = [20, 40]")});
+  EXPECT_EQ(c.speed.shaft_frequency_hz, 100.0);
+  ASSERT_EQ(c.mesh.stiffness_harmonics.size(), 2u);
+  EXPECT_EQ(c.mesh.stiffness_harmonics[1].phase_deg, 90.0);
+  EXPECT_EQ(c.mesh.tension, TensionRule::kClip);
+  EXPECT_EQ(c.gear.teeth[1], 40);
+}
+
+TEST(Case, SetCaseValueAmendsALoadedCase) {
+  Case c;
+  c.name = "mine";
+  set_case_value(c, {"mesh.backlash_um", "50"});
+  EXPECT_EQ(c.mesh.backlash_um, 50.0);
+  EXPECT_EQ(c.name, "mine");
+  EXPECT_NE(error_of([&] { set_case_value(c, {"mesh.backlash_um", "-1"}); }), "");
+}
+
+struct BadInput {
+  std::string toml;
+  std::vector<std::string> must_contain;
+};
+
+void PrintTo(const BadInput& b, std::ostream* os) { *os << b.toml; }
+
+class CaseErrors : public ::testing::TestWithParam<BadInput> {};
+
+TEST_P(CaseErrors, NameSourceKeyValueAndWhatIsAllowed) {
+  const BadInput& p = GetParam();
+  const std::string msg = error_of([&] { parse_case(p.toml, "bad.toml"); });
+  ASSERT_NE(msg, "") << "no error for:\n" << p.toml;
+  for (const std::string& s : p.must_contain) EXPECT_NE(msg.find(s), std::string::npos) << msg;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Case, CaseErrors,
+    ::testing::Values(
+        BadInput{"[mesh]\nbacklash_um = -5\n", {"bad.toml:2", "mesh.backlash_um", "-5", "> 0"}},
+        BadInput{"[mesh]\nbacklashum = 5\n",
+                 {"bad.toml:2", "unknown key", "mesh.backlashum", "backlash_um"}},
+        BadInput{"[gears]\nteeth = [1, 2]\n", {"bad.toml:1", "unknown key", "gears", "gear"}},
+        BadInput{"[mesh]\nbacklash_um = \"big\"\n",
+                 {"bad.toml:2", "mesh.backlash_um", "\"big\"", "a number"}},
+        BadInput{"[mesh]\nbacklash_um = nan\n", {"bad.toml:2", "mesh.backlash_um", "nan"}},
+        BadInput{"[gear]\ninertia_kg_m2 = [0.01, 0]\n",
+                 {"bad.toml:2", "gear.inertia_kg_m2[1]", "> 0"}},
+        BadInput{"[gear]\nteeth = [56.5, 56]\n", {"bad.toml:2", "gear.teeth", "whole numbers"}},
+        BadInput{"[gear]\nteeth = [3, 56]\n", {"bad.toml:2", "gear.teeth[0]", "5 to 10000"}},
+        BadInput{"[solver]\nduration_s = 0.01\ntime_step_s = 0.1\n",
+                 {"bad.toml:3", "solver.time_step_s", "0.1", "smaller than solver.duration_s"}},
+        BadInput{"[solver]\nmethod = \"euler\"\n",
+                 {"bad.toml:2", "solver.method", "\"euler\"", "\"newmark\" | \"dopri5\""}},
+        BadInput{"[mesh]\nstiffness_harmonics = [[0.6, 0], [0.5, 0]]\n",
+                 {"bad.toml:2", "mesh.stiffness_harmonics", "sum is < 1"}},
+        BadInput{"[mesh]\nstiffness_harmonics = [0.1, 0]\n",
+                 {"bad.toml:2", "mesh.stiffness_harmonics", "[ratio k_ai/k_m, phase_deg]"}},
+        BadInput{"[mesh]\ndamping_ratio = 1.5\n", {"mesh.damping_ratio", "1.5", "[0, 1)"}},
+        BadInput{"[speed]\nshaft_frequency_hz = 0\n", {"speed.shaft_frequency_hz", "> 0 Hz"}},
+        BadInput{"[mesh\nbacklash_um = 1\n", {"bad.toml:1", "not valid TOML"}},
+        BadInput{"mesh = 3\n", {"bad.toml:1", "'mesh'", "must be a table"}}));
+
+TEST(Case, OverrideErrorsNameTheOverride) {
+  std::string msg =
+      error_of([] { load_case(std::nullopt, {parse_override("mesh.backlash_um=-1")}); });
+  EXPECT_NE(msg.find("--set mesh.backlash_um=-1"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("> 0"), std::string::npos) << msg;
+
+  msg = error_of([] { load_case(std::nullopt, {parse_override("speed.rpm=100")}); });
+  EXPECT_NE(msg.find("--set speed.rpm=100"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("unknown key 'speed.rpm'"), std::string::npos) << msg;
+
+  msg = error_of([] { load_case(std::nullopt, {parse_override("mesh.tension=clip")}); });
+  EXPECT_NE(msg.find("not a valid key and TOML value"), std::string::npos) << msg;
+
+  msg = error_of([] { parse_override("speed.shaft_frequency_hz"); });
+  EXPECT_NE(msg.find("key=value"), std::string::npos) << msg;
+}
+
+TEST(Case, MissingFileIsAnInputError) {
+  const std::string msg = error_of([] { load_case(std::filesystem::path("no/such/case.toml")); });
+  EXPECT_NE(msg.find("no/such/case.toml"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("cannot read"), std::string::npos) << msg;
+}
+
+TEST(Case, ValidateReportsCasesBuiltInCode) {
+  Case c;
+  EXPECT_EQ(validate(c), "");
+  c.solver.final_fraction = 1.0;
+  EXPECT_NE(validate(c).find("solver.final_fraction"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace geardyn

@@ -1,0 +1,141 @@
+// The command-line tool end to end: outputs, exit codes and messages.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Outcome {
+  int code;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Outcome cli(const std::string& args) {
+  const fs::path tmp = fs::temp_directory_path() / ("geardyn_cli_test_" + std::to_string(getpid()));
+  fs::create_directories(tmp);
+  const std::string cmd = std::string(GEARDYN_CLI) + " " + args + " >" + (tmp / "out").string() +
+                          " 2>" + (tmp / "err").string() + " </dev/null";
+  const int status = std::system(cmd.c_str());
+  return {WEXITSTATUS(status), slurp(tmp / "out"), slurp(tmp / "err")};
+}
+
+fs::path fresh(const std::string& name) {
+  const fs::path d =
+      fs::temp_directory_path() / ("geardyn_cli_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(d);
+  return d;
+}
+
+const std::string kCase = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010.toml";
+
+TEST(Cli, RunWritesSummaryTimeseriesAndEvents) {
+  const fs::path d = fresh("run");
+  const Outcome o = cli("run " + kCase + " --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("regime            sustained"), std::string::npos) << o.out;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  EXPECT_EQ(j["regime"], "sustained");
+  EXPECT_GT(j["impacts"].get<int>(), 10);
+  const std::string ts = slurp(d / "timeseries.csv");
+  EXPECT_EQ(ts.substr(0, ts.find('\n')), "t_s,delta_bar,velocity_m_s,force_bar,contact");
+  EXPECT_EQ(slurp(d / "events.csv").substr(0, 22), "t_s,kind,velocity_m_s\n");
+  EXPECT_TRUE(fs::exists(d / "case.toml"));
+}
+
+TEST(Cli, SetOverridesAKey) {
+  const fs::path d = fresh("set");
+  const Outcome o =
+      cli("run --set speed.shaft_frequency_hz=100 --set solver.duration_s=0.1 --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_EQ(nlohmann::json::parse(slurp(d / "summary.json"))["regime"], "transient");
+}
+
+struct Bad {
+  std::string args;
+  std::vector<std::string> expect;
+};
+
+void PrintTo(const Bad& b, std::ostream* os) { *os << b.args; }
+
+class CliBadInput : public ::testing::TestWithParam<Bad> {};
+
+TEST_P(CliBadInput, ExitsWithTwoAndWritesNothing) {
+  const fs::path d = fresh("bad");
+  const Outcome o = cli(GetParam().args + " --out " + d.string());
+  EXPECT_EQ(o.code, 2) << o.err;
+  for (const std::string& s : GetParam().expect)
+    EXPECT_NE(o.err.find(s), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(d));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cli, CliBadInput,
+    ::testing::Values(Bad{"run --set mesh.backlash_um=-1",
+                          {"--set mesh.backlash_um=-1", "mesh.backlash_um = -1", "> 0"}},
+                      Bad{"run --set gear.inertia_kg_m2=[0,1]", {"gear.inertia_kg_m2[0]", "> 0"}},
+                      Bad{"run --set solver.time_step_s=1",
+                          {"solver.time_step_s = 1", "smaller than solver.duration_s"}},
+                      Bad{"run --set mesh.backlash_um=nan", {"mesh.backlash_um = nan"}},
+                      Bad{"run --set speed.rpm=3", {"unknown key 'speed.rpm'"}},
+                      Bad{"run no/such/file.toml", {"no/such/file.toml", "cannot read"}},
+                      Bad{"run --set gear.center_distance_mm=100",
+                          {"gear.center_distance_mm = 100", "base radii"}},
+                      Bad{"run --bogus", {"bogus"}}));
+
+TEST(Cli, UnknownKeyInAFileNamesFileAndLine) {
+  const fs::path dir = fresh("file");
+  fs::create_directories(dir);
+  std::ofstream(dir / "c.toml") << "[mesh]\nbacklash_um = 50\nstiffnes = 3\n";
+  const Outcome o = cli("run " + (dir / "c.toml").string());
+  EXPECT_EQ(o.code, 2);
+  EXPECT_NE(o.err.find("c.toml:3"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("mesh.stiffnes"), std::string::npos) << o.err;
+}
+
+TEST(Cli, NumericalFailureExitsWithOneAndTheReason) {
+  const fs::path d = fresh("diverge");
+  const Outcome o =
+      cli("run --set load.torque_nm=1e307 --set load.fluctuation_ratio=1e300 --out " + d.string());
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_NE(o.err.find("numerical failure"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("non-finite"), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(d));
+}
+
+TEST(Cli, GeometryJson) {
+  const Outcome o = cli("geometry --json");
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(o.out);
+  EXPECT_NEAR(j["reference_diameter_mm"][0].get<double>(), 148.98, 0.005);
+  EXPECT_NEAR(j["shift_center_distance_mm"].get<double>(), 150.0, 0.025);
+  EXPECT_TRUE(j["warnings"].empty());
+}
+
+TEST(Cli, GeometryWarnsOnDisagreeingData) {
+  const Outcome o = cli("geometry --set gear.center_distance_mm=151");
+  EXPECT_EQ(o.code, 0);
+  EXPECT_NE(o.err.find("warning: gear.center_distance_mm = 151"), std::string::npos) << o.err;
+}
+
+TEST(Cli, LongRunShowsProgress) {
+  const Outcome o = cli("run --set solver.time_step_s=1e-9 --set solver.duration_s=0.04");
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.err.find("%"), std::string::npos) << o.err;
+}
+
+}  // namespace
