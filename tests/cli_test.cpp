@@ -133,7 +133,8 @@ TEST(Cli, GeometryWarnsOnDisagreeingData) {
 }
 
 TEST(Cli, LongRunShowsProgress) {
-  const Outcome o = cli("run --set solver.time_step_s=1e-9 --set solver.duration_s=0.04");
+  // 1.5e8 steps: well over the one second after which progress is shown.
+  const Outcome o = cli("run --set solver.time_step_s=1e-9 --set solver.duration_s=0.15");
   ASSERT_EQ(o.code, 0) << o.err;
   EXPECT_NE(o.err.find("%"), std::string::npos) << o.err;
 }

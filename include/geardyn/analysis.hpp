@@ -6,6 +6,7 @@
 // extremes of the response at every step, and the uniform output samples.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -83,10 +84,10 @@ class RunReader {
     }
     last_t_ = s.t;
     const double f = model_.mesh_force(d, s.q, s.v, s.region);
-    if (f > max_force_) max_force_ = f;
-    if (f < min_force_) min_force_ = f;
-    if (s.q > max_delta_) max_delta_ = s.q;
-    if (s.q < min_delta_) min_delta_ = s.q;
+    max_force_ = std::max(max_force_, f);
+    min_force_ = std::min(min_force_, f);
+    max_delta_ = std::max(max_delta_, s.q);
+    min_delta_ = std::min(min_delta_, s.q);
   }
   void on_transition(const ode::State& s, int from_region);
   void on_sample(const ode::State& s);

@@ -55,7 +55,7 @@ struct Guard {
 
 struct Guards {
   static constexpr int kMax = 2;
-  std::array<Guard, kMax> items{};
+  std::array<Guard, kMax> items;  // only the first `count` are set
   int count = 0;
   void add(double value, int target) { items[count++] = {value, target}; }
 };
@@ -157,43 +157,109 @@ inline State interpolate(const State& s0, const State& s1, double t) {
 
 }  // namespace detail
 
-// One Newmark-beta step of size h in a fixed region, solved for the end acceleration by
-// Newton-Raphson (the paper's eqs. 13-17 in acceleration form: the unknown a_{n+1} keeps the
-// iteration well conditioned for the tiny sub-steps at a transition).
-// Returns false if Newton-Raphson did not converge.
+// The coefficients of a Newmark-beta step of size h.
+struct NewmarkStep {
+  double h;    // step size
+  double bh2;  // beta h^2
+  double gh;   // gamma h
+  double qa;   // (1/2 - beta) h^2
+  double va;   // (1 - gamma) h
+  NewmarkStep(double h_s, const NewmarkOptions& o)
+      : h(h_s),
+        bh2(o.beta * h_s * h_s),
+        gh(o.gamma * h_s),
+        qa((0.5 - o.beta) * h_s * h_s),
+        va((1.0 - o.gamma) * h_s) {}
+};
+
+// One Newmark-beta step in a fixed region, solved for the end acceleration by Newton-Raphson
+// (the paper's eqs. 13-17 in acceleration form: the unknown a_{n+1} keeps the iteration well
+// conditioned for the tiny sub-steps at a transition). m is sys.mass().
+// Returns false if Newton-Raphson did not converge. Always inlined: it is the hot loop's body.
 template <SwitchedSystem S>
-bool newmark_substep(const S& sys, const State& s0, double h, const typename S::Drive& d1,
-                     const NewmarkOptions& o, State& s1) {
-  const double m = sys.mass();
-  const double bh2 = o.beta * h * h;
-  const double gh = o.gamma * h;
-  const double qp = s0.q + h * s0.v + (0.5 - o.beta) * h * h * s0.a;
-  const double vp = s0.v + (1.0 - o.gamma) * h * s0.a;
+[[gnu::always_inline]] inline bool newmark_substep(const S& sys, double m, const State& s0,
+                                                   const NewmarkStep& k,
+                                                   const typename S::Drive& d1,
+                                                   const NewmarkOptions& o, State& s1) {
+  const double qp = s0.q + k.h * s0.v + k.qa * s0.a;
+  const double vp = s0.v + k.va * s0.a;
   double a = s0.a;
   bool converged = false;
-  for (int it = 0; it < o.newton_max_iterations; ++it) {
-    const Force f = sys.force(d1, qp + bh2 * a, vp + gh * a, s0.region);
+  if constexpr (S::kPiecewiseLinear) {
+    // Affine region, f = f(0, 0) + f_q q + f_v v: Newton-Raphson lands on the root in one
+    // update from any start; written in closed form, everything but the last line depends on
+    // the drive alone, which keeps it off the chain of dependent operations between steps.
+    const Force f = sys.force(d1, 0.0, 0.0, s0.region);
+    const double inv_tangent = 1.0 / (m - f.d_dq * k.bh2 - f.d_dv * k.gh);
+    a = (f.value + f.d_dq * qp + f.d_dv * vp) * inv_tangent;
+    converged = true;
+  }
+  for (int it = 0; !S::kPiecewiseLinear && it < o.newton_max_iterations; ++it) {
+    const Force f = sys.force(d1, qp + k.bh2 * a, vp + k.gh * a, s0.region);
     const double residual = m * a - f.value;
-    const double tangent = m - f.d_dq * bh2 - f.d_dv * gh;
-    const double da = -residual / tangent;
+    // The tangent does not depend on the state: its reciprocal is computed off the chain of
+    // dependent operations that limits the step rate.
+    const double inv_tangent = 1.0 / (m - f.d_dq * k.bh2 - f.d_dv * k.gh);
+    const double da = -residual * inv_tangent;
     a += da;
-    if constexpr (S::kPiecewiseLinear) {
-      converged = true;  // affine residual: the first update is the root
+    if (std::abs(da) <= o.newton_relative_tolerance * (std::abs(a) + std::abs(s0.a))) {
+      converged = true;
       break;
-    } else {
-      if (std::abs(da) <= o.newton_relative_tolerance * (std::abs(a) + std::abs(s0.a))) {
-        converged = true;
-        break;
-      }
     }
   }
-  s1.t = s0.t + h;
-  s1.q = qp + bh2 * a;
-  s1.v = vp + gh * a;
+  s1.t = s0.t + k.h;
+  s1.q = qp + k.bh2 * a;
+  s1.v = vp + k.gh * a;
   s1.a = a;
   s1.region = s0.region;
   return converged;
 }
+
+namespace detail {
+
+struct Crossing {
+  double h;    // time from the step's start to the guard surface
+  int target;  // the region on the other side
+  State at;    // the state there, still in the old region
+};
+
+// Locates the earliest zero among the guards of `s.region` that are negative at the end of a
+// step of size h from s. Kept out of line (and s taken by value) so that the hot loop's state
+// stays in registers.
+template <SwitchedSystem S>
+[[gnu::noinline]] Crossing locate_crossing(const S& sys, double m, State s, double h,
+                                           const Guards& at_end, const NewmarkOptions& o) {
+  Crossing c{h, s.region, s};
+  bool found = false;
+  for (int i = 0; i < at_end.count; ++i) {
+    if (!(at_end.items[i].value < 0)) continue;
+    State sub;
+    auto guard_after = [&](double hh) {
+      const typename S::Drive d = sys.drive(s.t + hh);
+      newmark_substep(sys, m, s, NewmarkStep(hh, o), d, o, sub);
+      return sys.guards(d, sub.q, sub.v, s.region).items[i].value;
+    };
+    const double g0 = sys.guards(sys.drive(s.t), s.q, s.v, s.region).items[i].value;
+    double hi = 0.0;  // a guard already on its surface at the start crosses at once
+    if (g0 > 0) {
+      std::uintmax_t iterations = kTransitionMaxIterations;
+      hi = boost::math::tools::toms748_solve(
+               guard_after, 0.0, h, g0, at_end.items[i].value,
+               boost::math::tools::eps_tolerance<double>(kTransitionBits), iterations)
+               .second;  // the side on which the guard has turned negative
+    }
+    if (!found || hi < c.h) {
+      found = true;
+      c.h = hi;
+      c.target = at_end.items[i].target;
+    }
+  }
+  if (c.h > 0) newmark_substep(sys, m, s, NewmarkStep(c.h, o), sys.drive(s.t + c.h), o, c.at);
+  c.at.t = s.t + c.h;
+  return c;
+}
+
+}  // namespace detail
 
 // Integrates from `initial` (its a is recomputed from the equation) to t1 on the uniform grid
 // t0 + n dt, dt = (t1 - t0) / ceil((t1 - t0) / dt_max). A step whose end lies in another region
@@ -213,21 +279,30 @@ IntegrationSummary integrate_newmark(const S& sys, State initial, double t1, dou
 
   State s = initial;
   s.a = sys.force(sys.drive(s.t), s.q, s.v, s.region).value / m;
+  constexpr double kNever = std::numeric_limits<double>::infinity();
   std::int64_t next_sample = 0;
-  auto emit_samples = [&](const State& a, const State& b) {
-    while (next_sample < output.count && output.time(next_sample) <= b.t) {
-      obs.on_sample(detail::interpolate(a, b, std::max(output.time(next_sample), a.t)));
+  double next_sample_t = output.count > 0 ? output.time(0) : kNever;
+  auto emit_samples = [&next_sample, &next_sample_t, &output, &obs](const State& a,
+                                                                    const State& b) {
+    while (next_sample_t <= b.t) {
+      obs.on_sample(detail::interpolate(a, b, std::max(next_sample_t, a.t)));
       ++next_sample;
+      next_sample_t = next_sample < output.count ? output.time(next_sample) : kNever;
     }
   };
   emit_samples(s, s);
 
-  auto fail = [&](Termination t, std::string msg) {
+  auto fail = [&sum](Termination t, double at_s, const std::string& what) {
     sum.termination = t;
-    sum.message = std::move(msg);
-    sum.end_time_s = s.t;
+    sum.message = what + " at t = " + std::to_string(at_s) + " s";
+    sum.end_time_s = at_s;
     return sum;
   };
+
+  // Loop invariants in locals: the observer's stores could otherwise alias them.
+  const NewmarkStep full_step(dt, o);
+  const std::int64_t progress_mask = o.progress_interval_steps - 1;
+  const int max_transitions = o.max_transitions_per_step;
 
   auto grid = sys.drive_grid(t0, dt);
   State trial;
@@ -236,79 +311,44 @@ IntegrationSummary integrate_newmark(const S& sys, State initial, double t1, dou
     const typename S::Drive d_end = grid.next();
     int transitions = 0;
     for (;;) {
-      const double h = t_end - s.t;
-      if (!newmark_substep(sys, s, h, d_end, o, trial))
-        return fail(Termination::kNewtonFailed, "Newton-Raphson did not converge in " +
-                                                    std::to_string(o.newton_max_iterations) +
-                                                    " iterations at t = " + std::to_string(s.t) +
-                                                    " s");
+      // A whole grid step uses the precomputed coefficients; the rest of a split step its own.
+      const bool whole = transitions == 0;
+      const double h = whole ? dt : t_end - s.t;
+      if (!newmark_substep(sys, m, s, whole ? full_step : NewmarkStep(h, o), d_end, o, trial))
+        return fail(Termination::kNewtonFailed, s.t,
+                    "Newton-Raphson did not converge in " +
+                        std::to_string(o.newton_max_iterations) + " iterations");
       trial.t = t_end;
       const Guards g = sys.guards(d_end, trial.q, trial.v, s.region);
-      int crossed = -1;
-      for (int i = 0; i < g.count; ++i)
-        if (g.items[i].value < 0) crossed = i;
-      if (crossed < 0 || transitions >= o.max_transitions_per_step) {
-        if (crossed >= 0) ++sum.unsplit_steps;
+      bool crossed = false;
+      for (int i = 0; i < g.count; ++i) crossed |= g.items[i].value < 0;
+      if (!crossed) break;
+      if (transitions >= max_transitions) {
+        ++sum.unsplit_steps;
         break;
       }
-      // Locate the earliest crossing among the guards that turned negative.
-      double h_cross = h;
-      int target = g.items[crossed].target;
-      State at_cross = trial;
-      for (int i = 0; i < g.count; ++i) {
-        if (!(g.items[i].value < 0)) continue;
-        State sub;
-        auto guard_after = [&](double hh) {
-          const typename S::Drive dd = sys.drive(s.t + hh);
-          newmark_substep(sys, s, hh, dd, o, sub);
-          return sys.guards(dd, sub.q, sub.v, s.region).items[i].value;
-        };
-        const double g0 = sys.guards(sys.drive(s.t), s.q, s.v, s.region).items[i].value;
-        double hi = h;
-        if (g0 > 0) {
-          std::uintmax_t iters = kTransitionMaxIterations;
-          const auto bracket = boost::math::tools::toms748_solve(
-              guard_after, 0.0, h, g0, g.items[i].value,
-              boost::math::tools::eps_tolerance<double>(kTransitionBits), iters);
-          hi = bracket.second;  // the side on which the guard has turned negative
-        } else {
-          hi = 0.0;  // already on the surface at the start of the step
-        }
-        if (hi <= h_cross) {
-          h_cross = hi;
-          target = g.items[i].target;
-          const typename S::Drive dd = sys.drive(s.t + hi);
-          if (hi > 0) {
-            newmark_substep(sys, s, hi, dd, o, at_cross);
-          } else {
-            at_cross = s;
-          }
-        }
-      }
-      at_cross.t = s.t + h_cross;
-      const State before = s;
-      if (h_cross > 0) {
+      const detail::Crossing c = detail::locate_crossing(sys, m, s, h, g, o);
+      if (c.h > 0) {
         ++sum.steps;
-        emit_samples(before, at_cross);
-        obs.on_step(at_cross, sys.drive(at_cross.t));
+        emit_samples(s, c.at);
+        obs.on_step(c.at, sys.drive(c.at.t));
       }
-      const int from = at_cross.region;
-      s = at_cross;
-      s.region = target;
+      const int from = s.region;
+      s = c.at;
+      s.region = c.target;
       s.a = sys.force(sys.drive(s.t), s.q, s.v, s.region).value / m;
       ++sum.transitions;
       ++transitions;
       obs.on_transition(s, from);
     }
     if (!std::isfinite(trial.q) || !std::isfinite(trial.v))
-      return fail(Termination::kDiverged,
-                  "the solution became non-finite at t = " + std::to_string(trial.t) + " s");
+      return fail(Termination::kDiverged, trial.t, "the solution became non-finite");
     ++sum.steps;
     emit_samples(s, trial);
     s = trial;
     obs.on_step(s, d_end);
-    if ((n & (o.progress_interval_steps - 1)) == 0 && !obs.on_progress(s.t))
-      return fail(Termination::kCancelled, "cancelled at t = " + std::to_string(s.t) + " s");
+    if ((n & progress_mask) == 0 && !obs.on_progress(s.t))
+      return fail(Termination::kCancelled, s.t, "cancelled");
   }
   sum.end_time_s = s.t;
   return sum;
