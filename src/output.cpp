@@ -54,6 +54,15 @@ std::string summary_json(const RunResult& r, int indent) {
   j["duration_s"] = r.input.solver.duration_s;
   j["wall_time_s"] = r.wall_time_s;
   j["warnings"] = r.geometry.warnings;
+  auto peaks = [](const std::vector<SpectralPeak>& p) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const SpectralPeak& x : p)
+      a.push_back({{"frequency_hz", x.frequency_hz}, {"amplitude", x.amplitude}});
+    return a;
+  };
+  j["spectrum"] = {{"steady_start_s", r.steady_start_s},
+                   {"force_bar", peaks(r.force_peaks)},
+                   {"delta_bar", peaks(r.delta_peaks)}};
   j["derived"] = {
       {"m_eq_kg", d.m_eq_kg},
       {"natural_frequency_hz", d.natural_frequency_hz},
@@ -79,6 +88,16 @@ std::string timeseries_csv(const Timeseries& s) {
     fmt::format_to(std::back_inserter(out), "{:.10g},{:.10g},{:.10g},{:.10g},{}\n", s.t_s[i],
                    s.delta_bar[i], s.velocity_m_s[i], s.force_bar[i], s.contact[i]);
   }
+  return out;
+}
+
+std::string spectrum_csv(const RunResult& r) {
+  std::string out = "frequency_hz,force_bar_amplitude,delta_bar_amplitude\n";
+  const Spectrum& f = r.force_spectrum;
+  const Spectrum& d = r.delta_spectrum;
+  for (std::size_t k = 0; k < f.frequency_hz.size() && k < d.amplitude.size(); ++k)
+    fmt::format_to(std::back_inserter(out), "{:.10g},{:.6e},{:.6e}\n", f.frequency_hz[k],
+                   f.amplitude[k], d.amplitude[k]);
   return out;
 }
 

@@ -58,8 +58,11 @@ RunResult run(const Case& c, const RunOptions& options) {
   d.fastest_period_s = fastest_period_s(p);
 
   const double t0 = 0.0, t1 = c.solver.duration_s;
-  d.output_interval_s =
-      c.solver.output_interval_s > 0 ? c.solver.output_interval_s : (t1 - t0) / kAutomaticSamples;
+  d.output_interval_s = c.solver.output_interval_s > 0
+                            ? c.solver.output_interval_s
+                            : std::max((t1 - t0) / kMaxAutomaticSamples,
+                                       std::min((t1 - t0) / kAutomaticSamples,
+                                                d.fastest_period_s / kSamplesPerFastestPeriod));
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, d.output_interval_s);
 
   ode::State initial{t0, 0.0, 0.0, 0.0, kSeparated};
@@ -87,6 +90,17 @@ RunResult run(const Case& c, const RunOptions& options) {
   result.reading = reader.reading();
   result.events = reader.events();
   result.samples = std::move(reader.samples());
+  result.steady_start_s = t1 - kSteadyFraction * (t1 - t0);
+  const Timeseries& ts = result.samples;
+  std::size_t first = 0;
+  while (first < ts.size() && ts.t_s[first] < result.steady_start_s) ++first;
+  const auto tail = [&](const std::vector<double>& x) {
+    return std::vector<double>(x.begin() + static_cast<std::ptrdiff_t>(first), x.end());
+  };
+  result.force_spectrum = amplitude_spectrum(tail(ts.force_bar), d.output_interval_s);
+  result.delta_spectrum = amplitude_spectrum(tail(ts.delta_bar), d.output_interval_s);
+  result.force_peaks = dominant_peaks(result.force_spectrum, kReportedPeaks);
+  result.delta_peaks = dominant_peaks(result.delta_spectrum, kReportedPeaks);
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

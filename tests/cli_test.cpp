@@ -132,6 +132,35 @@ TEST(Cli, GeometryWarnsOnDisagreeingData) {
   EXPECT_NE(o.err.find("warning: gear.center_distance_mm = 151"), std::string::npos) << o.err;
 }
 
+TEST(Cli, RunPlotDrawsTheFigures) {
+  const fs::path d = fresh("plot");
+  const Outcome o = cli("run --set solver.duration_s=0.01 --plot --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  for (const char* f : {"run_time.png", "run_time.svg", "run_spectrum.png", "run_phase.png"})
+    EXPECT_GT(fs::file_size(d / f), 100u) << f;
+}
+
+TEST(Cli, PlotNeedsAnOutputDirectory) {
+  const Outcome o = cli("run --plot");
+  EXPECT_EQ(o.code, 2);
+  EXPECT_NE(o.err.find("--plot: needs --out DIR"), std::string::npos) << o.err;
+}
+
+TEST(Cli, ReproducePark2010) {
+  const fs::path d = fresh("reproduce");
+  const Outcome o = cli("reproduce park2010 --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("cases as the paper found"), std::string::npos) << o.out;
+  EXPECT_TRUE(fs::exists(d / "report.html"));
+  EXPECT_TRUE(fs::exists(d / "fig4.png"));
+}
+
+TEST(Cli, ReproduceRejectsAnUnknownStudy) {
+  const Outcome o = cli("reproduce kahraman1990");
+  EXPECT_EQ(o.code, 2);
+  EXPECT_NE(o.err.find("unknown study"), std::string::npos) << o.err;
+}
+
 TEST(Cli, LongRunShowsProgress) {
   // 1.5e8 steps: well over the one second after which progress is shown.
   const Outcome o = cli("run --set solver.time_step_s=1e-9 --set solver.duration_s=0.15");

@@ -1,7 +1,8 @@
 // geardyn command-line tool: parses arguments, calls the library, prints and writes. No
 // numerics here.
 //
-// Exit codes: 0 success, 1 numerical failure (reported with its reason), 2 bad input.
+// Exit codes: 0 success, 1 numerical failure (reported with its reason), 2 bad input,
+// 3 a figure could not be drawn (gnuplot missing or failing; the data files are written).
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -14,14 +15,17 @@
 #include <optional>
 
 #include "geardyn/case.hpp"
+#include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/output.hpp"
+#include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 
 namespace {
 
 constexpr int kExitNumerical = 1;
 constexpr int kExitInput = 2;
+constexpr int kExitFigure = 3;
 
 // Shows a progress bar on stderr once the work has taken more than a second.
 class ProgressBar {
@@ -114,7 +118,9 @@ void print_run_summary(const geardyn::RunResult& r) {
 }
 
 int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
-            const std::string& out_dir) {
+            const std::string& out_dir, bool plot) {
+  if (plot && out_dir.empty())
+    throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
   geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
@@ -132,6 +138,11 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
     geardyn::write_run(out_dir, r);
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, events.csv, case.toml)\n",
                out_dir);
+    if (plot) {
+      geardyn::write_run_figures(out_dir, r);
+      fmt::print("  figures           {}/run_time, run_spectrum, run_phase (.png, .svg, .gp)\n",
+                 out_dir);
+    }
   }
   return 0;
 }
@@ -195,6 +206,41 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
   return 0;
 }
 
+int cmd_reproduce(const std::string& study_name, const std::string& case_file,
+                  const std::vector<std::string>& sets, const std::string& out_dir,
+                  unsigned threads, bool figures) {
+  if (study_name != "park2010")
+    throw geardyn::InputError(
+        fmt::format("reproduce {}: unknown study; available: park2010", study_name));
+  const geardyn::Case base = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  const geardyn::Study study = geardyn::park2010_study(base);
+  fmt::print("geardyn reproduce {}: {} cases\n", study.name, study.cases.size());
+  const bool tty = isatty(2) != 0;
+  const geardyn::StudyResult r =
+      geardyn::run_study(study, threads, [tty](std::size_t done, std::size_t total) {
+        constexpr int kWidth = 30;
+        const int filled = static_cast<int>(kWidth * done / total);
+        fmt::print(stderr, "{}cases [{:<{}}] {}/{}{}", tty ? "\r" : "", std::string(filled, '#'),
+                   kWidth, done, total, (!tty || done == total) ? "\n" : "");
+      });
+  geardyn::write_study(out_dir, r, figures);
+  for (const geardyn::CaseOutcome& o : r.outcomes) {
+    fmt::print("  {:6} {:<16} {:<10} impacts {:4}  last separation {:>9}  {}\n", o.spec.id,
+               o.spec.label, geardyn::to_string(o.run.reading.regime), o.run.reading.impacts,
+               o.run.reading.last_separation_s
+                   ? fmt::format("{:.2f} ms", *o.run.reading.last_separation_s * 1e3)
+                   : "none",
+               o.holds ? "as the paper" : "differs: " + o.difference);
+  }
+  std::size_t holding = 0;
+  for (const auto& o : r.outcomes) holding += o.holds;
+  fmt::print("{} of {} cases as the paper found; {:.2f} s on {} threads\n", holding,
+             r.outcomes.size(), r.wall_time_s, r.threads);
+  fmt::print("report: {}/report.html and report.md{}\n", out_dir,
+             figures ? ", figures fig4, fig5, fig6 (.png, .svg)" : "");
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -214,10 +260,25 @@ int main(int argc, char** argv) {
   CLI::App* run = app.add_subcommand("run", "integrate one case and read the run");
   add_case(run);
   run->add_option("--out", out_dir, "directory for summary.json, timeseries.csv, events.csv");
+  bool plot = false;
+  run->add_flag("--plot", plot, "also draw the run's figures (PNG and SVG) into --out DIR");
 
   CLI::App* geometry = app.add_subcommand("geometry", "print the derived gear geometry");
   add_case(geometry);
   geometry->add_flag("--json", json, "print JSON");
+
+  CLI::App* reproduce =
+      app.add_subcommand("reproduce", "run a paper's study and write its report and figures");
+  std::string study_name;
+  std::string reproduce_out = "results/park2010";
+  unsigned threads = 0;
+  bool no_figures = false;
+  reproduce->add_option("study", study_name, "the study: park2010")->required();
+  reproduce->add_option("--case", case_file, "base case file (default: Table 1 of the paper)");
+  reproduce->add_option("--set", sets, "override a key of the base case: --set key=value");
+  reproduce->add_option("--out", reproduce_out, "output directory (default results/park2010)");
+  reproduce->add_option("--threads", threads, "worker threads (default: all cores)");
+  reproduce->add_flag("--no-figures", no_figures, "write the report and data without figures");
 
   try {
     app.parse(argc, argv);
@@ -227,14 +288,20 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (run->parsed()) return cmd_run(case_file, sets, out_dir);
+    if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
+    if (reproduce->parsed())
+      return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);
   } catch (const geardyn::InputError& e) {
     fmt::print(stderr, "geardyn: error: {}\n", e.what());
     return kExitInput;
+  } catch (const geardyn::FigureError& e) {
+    fmt::print(stderr, "geardyn: figure error: {}\n", e.what());
+    return kExitFigure;
   } catch (const std::exception& e) {
+    // Numerical failures inside a study and I/O failures.
     fmt::print(stderr, "geardyn: error: {}\n", e.what());
-    return kExitInput;
+    return kExitNumerical;
   }
   return 0;
 }

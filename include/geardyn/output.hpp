@@ -19,6 +19,9 @@ std::string summary_json(const RunResult& r, int indent = 2);
 // timeseries.csv: header t_s,delta_bar,velocity_m_s,force_bar,contact.
 std::string timeseries_csv(const Timeseries& s);
 
+// spectrum.csv: header frequency_hz,force_bar_amplitude,delta_bar_amplitude (steady part).
+std::string spectrum_csv(const RunResult& r);
+
 // events.csv: header t_s,kind,velocity_m_s.
 std::string events_csv(const std::vector<ContactEvent>& events);
 

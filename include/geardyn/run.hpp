@@ -12,14 +12,23 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/integrator.hpp"
 #include "geardyn/model.hpp"
+#include "geardyn/spectrum.hpp"
 
 namespace geardyn {
 
 // Points per period of the fastest time scale of a case for the automatic Newmark step. The
 // convergence study in docs/numerics.md shows the readings converged to ~1e-4 at this value.
 constexpr double kStepsPerFastestPeriod = 200.0;
-// Automatic output interval: this many samples over the window.
+// Automatic output interval: this many samples over the window, or more where needed to put
+// the fastest period's frequency below the Nyquist frequency (kSamplesPerFastestPeriod), but
+// never more than kMaxAutomaticSamples.
 constexpr double kAutomaticSamples = 5000.0;
+constexpr double kSamplesPerFastestPeriod = 4.0;
+constexpr double kMaxAutomaticSamples = 200000.0;
+// The steady part of a run, for its spectra: the final half of the window.
+constexpr double kSteadyFraction = 0.5;
+// Dominant frequencies reported per signal.
+constexpr std::size_t kReportedPeaks = 5;
 // dopri5 never steps over more than this fraction of the fastest period, so that a contact
 // entered and left inside one step cannot go unseen.
 constexpr double kDopri5MaxStepFraction = 0.05;
@@ -56,6 +65,10 @@ struct RunResult {
   RunReading reading;
   std::vector<ContactEvent> events;
   Timeseries samples;
+  // Spectra of F_bar and delta_bar over the steady part (t >= steady_start_s) of the samples.
+  double steady_start_s = 0;
+  Spectrum force_spectrum, delta_spectrum;
+  std::vector<SpectralPeak> force_peaks, delta_peaks;
   double wall_time_s = 0;
 };
 

@@ -1,0 +1,51 @@
+// geardyn: figures, the last pipeline stage (analysis -> figures).
+//
+// Figures are drawn by gnuplot (Debian's gnuplot-nox) from data files and scripts written beside
+// them, so that a user can restyle a figure by editing its `*_body.gp` and running
+// `gnuplot NAME.gp` in the directory. Each figure is written as NAME.png and NAME.svg.
+#pragma once
+
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "geardyn/run.hpp"
+
+namespace geardyn {
+
+// gnuplot is missing or failed; the message says which and what it printed.
+class FigureError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Separation and back-side contact intervals of a run, from its located events:
+// intervals.csv with header t_start_s,t_end_s,contact (0 separated, -1 back side).
+std::string contact_intervals_csv(const RunResult& r);
+
+// One panel row of a time-history figure: delta_bar and F_bar of one run.
+struct TimeHistoryPanel {
+  std::string title;     // e.g. "(a) f_1 = 10 Hz"
+  std::string data_dir;  // relative to the figure's directory ("" for the same)
+  double window_s = 0;   // x range [0, window]
+};
+
+// The gnuplot body of a time-history figure: each panel's delta_bar and F_bar, with the
+// separation (and back-side) intervals shaded and the backlash band |delta_bar| < 1 marked.
+// `stacked`: delta_bar above F_bar (one run); otherwise side by side, one row per panel.
+std::string time_history_body(const std::vector<TimeHistoryPanel>& panels, bool stacked,
+                              const std::string& title);
+
+// Writes NAME.gp (PNG and SVG terminals around `load 'NAME_body.gp'`) and NAME_body.gp into
+// dir, and runs gnuplot there. Throws FigureError.
+void render_figure(const std::filesystem::path& dir, const std::string& name,
+                   const std::string& body, int width_px, int height_px);
+
+// The figures of one run, into a directory that already holds its timeseries.csv:
+// run_time (delta_bar and F_bar over time), run_spectrum (spectrum of F_bar over the steady part
+// with the mesh and torque harmonics marked), run_phase (phase portrait), with intervals.csv and
+// spectrum.csv beside them.
+void write_run_figures(const std::filesystem::path& dir, const RunResult& r);
+
+}  // namespace geardyn

@@ -1,0 +1,72 @@
+// geardyn: reproducing a paper's study, `geardyn reproduce park2010`.
+//
+// A study is a list of cases, each with the paper's finding for it. Running it runs every case
+// (in parallel), reads each run, and compares the reading with the finding; the report's table is
+// computed from the runs, never written by hand.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "geardyn/run.hpp"
+
+namespace geardyn {
+
+struct StudyCase {
+  std::string id;      // "fig4a": also the case's output directory
+  std::string figure;  // "Fig. 4": cases of one figure are drawn together
+  std::string panel;   // "(a)"
+  std::string label;   // what varies, e.g. "f_1 = 10 Hz"
+  Case input;
+  // The paper's finding: the regime over the window shown, and whether back-side contact occurs.
+  Regime paper_regime = Regime::kTransient;
+  bool paper_double_sided = false;
+  std::string paper_finding;  // the paper's words, in English
+};
+
+struct Study {
+  std::string name;
+  std::string title;
+  double window_s = 0;       // the window of every case (the paper gives none)
+  double long_window_s = 0;  // a longer window, run beside it, to tell a long transient
+  std::string window_reason;
+  std::vector<std::string> assumptions;
+  std::vector<StudyCase> cases;
+};
+
+// The paper's 11 cases (Figs. 4-6 of Park 2010) on top of `base` (default: Table 1).
+Study park2010_study(const Case& base = Case{});
+
+struct CaseOutcome {
+  StudyCase spec;
+  RunResult run;           // over study.window_s
+  RunReading long_window;  // the same case over study.long_window_s
+  bool holds = false;      // the reading agrees with the paper's finding
+  std::string difference;  // what differs, where it does not hold
+};
+
+struct StudyResult {
+  Study study;
+  std::vector<CaseOutcome> outcomes;  // in the order of study.cases
+  double wall_time_s = 0;
+  unsigned threads = 0;
+};
+
+// Runs every case on `threads` threads (0: all cores). `progress(done, total)` is called after
+// each case, from the worker threads one at a time. Throws InputError on a bad case and
+// std::runtime_error naming the case on a numerical failure.
+StudyResult run_study(const Study& study, unsigned threads = 0,
+                      const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+// The report, from the outcomes: Markdown and HTML (the HTML embeds the figures by file name).
+std::string report_markdown(const StudyResult& r);
+std::string report_html(const StudyResult& r);
+
+// Writes DIR/report.md, DIR/report.html, DIR/study.json, DIR/cases/<id>/ (each run's files),
+// and, with `figures`, one figure per paper figure (DIR/fig4.png, .svg, .gp ...), the panels as
+// in the paper. Throws FigureError if gnuplot fails.
+void write_study(const std::filesystem::path& dir, const StudyResult& r, bool figures = true);
+
+}  // namespace geardyn

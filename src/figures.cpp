@@ -1,0 +1,200 @@
+#include "geardyn/figures.hpp"
+
+#include <fmt/format.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "geardyn/output.hpp"
+#include "geardyn/stiffness.hpp"
+
+namespace geardyn {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Colours shared by every figure.
+constexpr const char* kSeparatedColour = "#f4a6a6";
+constexpr const char* kBackColour = "#9cc3f0";
+constexpr const char* kBandColour = "#eef1f7";
+constexpr const char* kLineColour = "#1f3b73";
+constexpr const char* kSecondColour = "#b5532b";
+
+std::string shell_quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += (c == '\'') ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string panel_plot(const TimeHistoryPanel& p, int column, const char* ylabel,
+                       bool show_xlabel) {
+  const std::string dir = p.data_dir.empty() ? "" : p.data_dir + "/";
+  const std::string ts = dir + "timeseries.csv", iv = dir + "intervals.csv";
+  std::string s;
+  fmt::format_to(std::back_inserter(s), "set title \"{}\"\n", p.title);
+  fmt::format_to(std::back_inserter(s), "set xrange [0:{}]\n", p.window_s * 1e3);
+  fmt::format_to(std::back_inserter(s), "set xlabel \"{}\"\n", show_xlabel ? "t (ms)" : "");
+  fmt::format_to(std::back_inserter(s), "set ylabel \"{}\"\n", ylabel);
+  fmt::format_to(std::back_inserter(s),
+                 "set autoscale y\n"
+                 "stats '{0}' every ::1 using {1} name 'S' nooutput\n"
+                 "pad = 0.08 * (S_max - S_min) + 1e-9\n"
+                 "ylo = S_min - pad; yhi = S_max + pad\n"
+                 "set yrange [ylo:yhi]\n",
+                 ts, column);
+  if (column == 2) {
+    // The backlash band |delta / b| < 1 (its edges, the contact surfaces, are plotted below).
+    fmt::format_to(std::back_inserter(s),
+                   "set object 1 rect from graph 0, first -1 to graph 1, first 1 back "
+                   "fc rgb '{}' fs solid 1.0 noborder\n",
+                   kBandColour);
+  }
+  fmt::format_to(
+      std::back_inserter(s),
+      "plot '{0}' every ::1 using (($1+$2)*500):(0):($1*1e3):($2*1e3):(($3==0)?ylo:NaN):"
+      "(($3==0)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{2}' title 'separated', \\\n"
+      "     '{0}' every ::1 using (($1+$2)*500):(0):($1*1e3):($2*1e3):(($3==-1)?ylo:NaN):"
+      "(($3==-1)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{3}' title 'back side', "
+      "\\\n"
+      "     '{1}' every ::1 using ($1*1e3):{4} with lines lw 1.1 lc rgb '{5}' notitle{6}\n",
+      iv, ts, kSeparatedColour, kBackColour, column, kLineColour,
+      column == 2 ? ", \\\n     1 with lines dt 2 lc rgb 'gray30' notitle, -1 with lines dt 2 "
+                    "lc rgb 'gray30' notitle"
+                  : "");
+  if (column == 2) s += "unset object 1\n";
+  return s;
+}
+
+void write_text(const fs::path& p, const std::string& text) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out << text;
+  if (!out) throw FigureError(fmt::format("{}: cannot write", p.string()));
+}
+
+}  // namespace
+
+std::string contact_intervals_csv(const RunResult& r) {
+  std::string out = "t_start_s,t_end_s,contact\n";
+  if (r.samples.size() == 0) return out;
+  int state = r.samples.contact.front();
+  double start = r.samples.t_s.front();
+  const double end = r.input.solver.duration_s;
+  auto close = [&](double t) {
+    if (state != 1 && t > start)
+      fmt::format_to(std::back_inserter(out), "{:.15g},{:.15g},{}\n", start, t, state);
+  };
+  for (const ContactEvent& e : r.events) {
+    close(e.t_s);
+    start = e.t_s;
+    state = e.kind == EventKind::kImpact ? 1 : e.kind == EventKind::kBacksideImpact ? -1 : 0;
+  }
+  close(end);
+  return out;
+}
+
+std::string time_history_body(const std::vector<TimeHistoryPanel>& panels, bool stacked,
+                              const std::string& title) {
+  std::string s =
+      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top right opaque font ',8'\nset tics font ',8'\n";
+  const std::size_t rows = stacked ? 2 * panels.size() : panels.size();
+  fmt::format_to(std::back_inserter(s), "set multiplot layout {},{} title \"{}\"\n", rows,
+                 stacked ? 1 : 2, title);
+  for (std::size_t i = 0; i < panels.size(); ++i) {
+    const bool last = i + 1 == panels.size();
+    TimeHistoryPanel p = panels[i];
+    s += panel_plot(p, 2, "delta / b", stacked ? false : last);
+    p.title = "";  // the title goes over the panel's first plot only
+    s += panel_plot(p, 4, "F / (b k_m)", last);
+  }
+  s += "unset multiplot\n";
+  return s;
+}
+
+void render_figure(const fs::path& dir, const std::string& name, const std::string& body,
+                   int width_px, int height_px) {
+  write_text(dir / (name + "_body.gp"), body);
+  write_text(dir / (name + ".gp"),
+             fmt::format("# Draws {0}.png and {0}.svg; the figure itself is in {0}_body.gp.\n"
+                         "set terminal pngcairo size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
+                         "set output '{0}.png'\nload '{0}_body.gp'\nset output\n"
+                         "set terminal svg size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
+                         "set output '{0}.svg'\nload '{0}_body.gp'\nset output\n",
+                         name, width_px, height_px));
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0)
+    throw FigureError(
+        "gnuplot is not installed: the figures need Debian's gnuplot-nox (scripts/setup.sh "
+        "installs it)");
+  const std::string cmd =
+      fmt::format("cd {} && gnuplot {} 2>&1", shell_quote(dir.string()), shell_quote(name + ".gp"));
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) throw FigureError("cannot start gnuplot");
+  std::string output;
+  char buffer[512];
+  while (std::fgets(buffer, sizeof buffer, pipe)) output += buffer;
+  const int status = pclose(pipe);
+  if (status != 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw FigureError(
+        fmt::format("gnuplot failed on {}: {}", (dir / (name + ".gp")).string(), output));
+}
+
+void write_run_figures(const fs::path& dir, const RunResult& r) {
+  const Case& c = r.input;
+  write_files_atomically(
+      dir, {{"intervals.csv", contact_intervals_csv(r)}, {"spectrum.csv", spectrum_csv(r)}});
+  const std::string title =
+      fmt::format("{}: f_1 = {} Hz, b = {} um, xi = {}, F_a/F_m = {} ({})", c.name,
+                  c.speed.shaft_frequency_hz, c.mesh.backlash_um, c.mesh.damping_ratio,
+                  c.load.fluctuation_ratio, to_string(r.reading.regime));
+  render_figure(dir, "run_time",
+                time_history_body({{"", "", c.solver.duration_s}}, /*stacked=*/true, title), 1000,
+                700);
+
+  // Spectrum of the steady part, with the mesh and torque harmonics marked.
+  const double f_mesh = mesh_frequency_hz(c);
+  const double f_torque = c.load.fluctuation_order * c.speed.shaft_frequency_hz;
+  const double nyquist = 0.5 / r.derived.output_interval_s;
+  const double x_max = std::min(nyquist, std::max(3.5 * f_mesh, 12.0 * f_torque));
+  std::string s = "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\nset logscale y\n";
+  fmt::format_to(std::back_inserter(s),
+                 "set title \"{} - spectrum over the steady part, t >= {:.4g} ms\"\n"
+                 "set xlabel 'frequency (kHz)'\nset ylabel 'amplitude'\nset xrange [0:{}]\n",
+                 c.name, r.steady_start_s * 1e3, x_max / 1e3);
+  for (int i = 1; i * f_mesh <= x_max; ++i)
+    fmt::format_to(std::back_inserter(s),
+                   "set arrow from {0}, graph 0 to {0}, graph 1 nohead dt 2 lc rgb 'gray40'\n"
+                   "set label '{1} f_z' at {0}, graph 0.97 left offset 0.3,0 font ',8'\n",
+                   i * f_mesh / 1e3, i);
+  for (int j = 1; j * f_torque <= x_max && j <= 20; ++j)
+    fmt::format_to(std::back_inserter(s),
+                   "set arrow from {0}, graph 0 to {0}, graph 1 nohead dt 3 lc rgb '#d08020'\n",
+                   j * f_torque / 1e3);
+  fmt::format_to(std::back_inserter(s),
+                 "plot 'spectrum.csv' every ::1 using ($1/1e3):(($2>0)?$2:NaN) with lines lw 1.2 "
+                 "lc rgb '{}' title 'F/(b k_m)', \\\n"
+                 "     'spectrum.csv' every ::1 using ($1/1e3):(($3>0)?$3:NaN) with lines lw 1 "
+                 "lc rgb '{}' title 'delta/b', \\\n"
+                 "     NaN with lines dt 2 lc rgb 'gray40' title 'mesh harmonics i z_1 f_1', \\\n"
+                 "     NaN with lines dt 3 lc rgb '#d08020' title 'torque harmonics'\n",
+                 kLineColour, kSecondColour);
+  render_figure(dir, "run_spectrum", s, 1000, 500);
+
+  // Phase portrait, the steady part drawn over the whole run.
+  std::size_t steady_row = 0;
+  while (steady_row < r.samples.size() && r.samples.t_s[steady_row] < r.steady_start_s)
+    ++steady_row;
+  std::string p = "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n";
+  fmt::format_to(std::back_inserter(p),
+                 "set title \"{} - phase portrait\"\nset xlabel 'delta / b'\n"
+                 "set ylabel 'velocity (m/s)'\n"
+                 "set arrow from 1, graph 0 to 1, graph 1 nohead dt 2 lc rgb 'gray40'\n"
+                 "set arrow from -1, graph 0 to -1, graph 1 nohead dt 2 lc rgb 'gray40'\n"
+                 "plot 'timeseries.csv' every ::1 using 2:3 with lines lc rgb '#c8c8c8' title "
+                 "'whole run', \\\n     'timeseries.csv' every ::{} using 2:3 with lines lw 1.2 "
+                 "lc rgb '{}' title 'steady part'\n",
+                 c.name, steady_row + 1, kLineColour);
+  render_figure(dir, "run_phase", p, 800, 650);
+}
+
+}  // namespace geardyn

@@ -1,0 +1,449 @@
+#include "geardyn/reproduce.hpp"
+
+#include <fmt/format.h>
+
+#include <atomic>
+#include <chrono>
+#include <future>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <thread>
+
+#include "geardyn/figures.hpp"
+#include "geardyn/output.hpp"
+
+namespace geardyn {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The paper gives no time axis. The contact transient decays with the time constant
+// 1 / (xi omega_n) = 3.1 ms at xi = 0.02; 20 ms holds 6.5 of them and 52 contact periods.
+constexpr double kWindowS = 0.02;
+// Five times longer, to tell a long transient from a steady rattle.
+constexpr double kLongWindowS = 0.1;
+
+std::string ms(const std::optional<double>& t_s) {
+  return t_s ? fmt::format("{:.2f}", *t_s * 1e3) : std::string("none");
+}
+
+std::string regime_words(Regime r) {
+  switch (r) {
+    case Regime::kNone:
+      return "no separation";
+    case Regime::kTransient:
+      return "separation at first only";
+    case Regime::kSustained:
+      return "separation over the whole window";
+  }
+  return "?";
+}
+
+}  // namespace
+
+Study park2010_study(const Case& base) {
+  Study s;
+  s.name = "park2010";
+  s.title = "Park (2010), Figs. 4-6: helical gears with backlash under torque fluctuation";
+  s.window_s = kWindowS;
+  s.long_window_s = kLongWindowS;
+  s.window_reason =
+      "The paper's time axis is not in its text. Its findings separate rattle that stops "
+      "'at first' from rattle 'over the whole time shown'; the contact transient decays with the "
+      "time constant 1/(xi omega_n) = 3.1 ms at xi = 0.02, so a 20 ms window (6.5 time constants, "
+      "52 contact periods) is where that difference shows. Every case is also run over 0.1 s, to "
+      "tell a long transient from a steady rattle; that column is reported beside the paper's.";
+  s.assumptions = {
+      "Gear data: Table 1 (m_n = 2.5 mm, alpha_n = 20 deg, beta = 20 deg, a = 150 mm, z = 56/56, "
+      "b_w = 20 mm, x = 0.2075/0.2075, T1 = 49.5 N m, k_m = 2.34e8 N/m).",
+      "Inertias (not in Table 1): solid steel cylinders of the reference diameter and the face "
+      "width, density 7850 kg/m^3.",
+      "Damping: c = 2 xi sqrt(m_eq k_m) / cos(beta_b), acting in contact only (eqs. 3a-3c); "
+      "F_G may pull in contact (tension allowed), as the paper writes it.",
+      "Torque fluctuation at the shaft frequency (order 1), phase 0; matched load (eq. 7).",
+      "Initial conditions (eq. 15): delta = 0, delta' = 0, the middle of the backlash.",
+      "Regime: 'sustained' when the teeth are separated at some time in the final 10 % of the "
+      "window, 'transient' when they separate only before it.",
+  };
+  if (base.mesh.stiffness_harmonics.empty()) {
+    s.assumptions.push_back(
+        "Mesh stiffness: constant k_m. The paper kept the mean and two harmonics of its computed "
+        "stiffness (Fig. 3) but does not print k_a1, k_a2, phi_1, phi_2.");
+  } else {
+    std::string h;
+    for (const StiffnessHarmonic& x : base.mesh.stiffness_harmonics)
+      h += fmt::format("{}[{}, {} deg]", h.empty() ? "" : ", ", x.ratio, x.phase_deg);
+    s.assumptions.push_back("Mesh stiffness harmonics k_ai/k_m, phi_i: " + h + ".");
+  }
+
+  auto add = [&](std::string id, std::string figure, std::string panel, std::string label, Case c,
+                 Regime paper, std::string finding) {
+    c.name = id;
+    c.solver.duration_s = kWindowS;
+    s.cases.push_back({std::move(id), std::move(figure), std::move(panel), std::move(label),
+                       std::move(c), paper, false, std::move(finding)});
+  };
+  Case fig4 = base;
+  fig4.mesh.backlash_um = 100;
+  fig4.mesh.damping_ratio = 0.02;
+  fig4.load.fluctuation_ratio = 0.25;
+  const struct {
+    const char* panel;
+    double f1;
+    Regime paper;
+    const char* finding;
+  } f4[] = {
+      {"a", 10, Regime::kTransient, "separation at first, then steady contact"},
+      {"b", 100, Regime::kTransient, "separation at first, then steady contact"},
+      {"c", 1000, Regime::kSustained, "separation over the whole time, the vibration grows"},
+      {"d", 10000, Regime::kTransient, "separation at first only, then small vibration in mesh"},
+  };
+  for (const auto& p : f4) {
+    Case c = fig4;
+    c.speed.shaft_frequency_hz = p.f1;
+    add(fmt::format("fig4{}", p.panel), "Fig. 4", fmt::format("({})", p.panel),
+        fmt::format("f_1 = {} Hz", p.f1), c, p.paper, p.finding);
+  }
+  const struct {
+    const char* panel;
+    double ratio;
+    Regime paper;
+  } f5[] = {{"a", 0.1, Regime::kTransient},
+            {"b", 0.25, Regime::kTransient},
+            {"c", 0.4, Regime::kSustained},
+            {"d", 0.55, Regime::kSustained}};
+  for (const auto& p : f5) {
+    Case c = fig4;
+    c.speed.shaft_frequency_hz = 1000;
+    c.mesh.damping_ratio = 0.07;
+    c.load.fluctuation_ratio = p.ratio;
+    add(fmt::format("fig5{}", p.panel), "Fig. 5", fmt::format("({})", p.panel),
+        fmt::format("F_a/F_m = {}", p.ratio), c, p.paper,
+        p.paper == Regime::kTransient ? "with xi = 0.07, separation at first only"
+                                      : "separation over the whole time despite xi = 0.07");
+  }
+  const struct {
+    const char* panel;
+    double b_um;
+    Regime paper;
+  } f6[] = {{"a", 50, Regime::kTransient},
+            {"b", 150, Regime::kSustained},
+            {"c", 200, Regime::kSustained}};
+  for (const auto& p : f6) {
+    Case c = fig4;
+    c.speed.shaft_frequency_hz = 100;
+    c.mesh.backlash_um = p.b_um;
+    add(fmt::format("fig6{}", p.panel), "Fig. 6", fmt::format("({})", p.panel),
+        fmt::format("b = {} um", p.b_um), c, p.paper,
+        p.paper == Regime::kTransient ? "separation at first only"
+                                      : "separation over the whole time, smaller forces");
+  }
+  return s;
+}
+
+StudyResult run_study(const Study& study, unsigned threads,
+                      const std::function<void(std::size_t, std::size_t)>& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  StudyResult out;
+  out.study = study;
+  out.outcomes.resize(study.cases.size());
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  threads = std::min<unsigned>(threads, std::max<std::size_t>(1, study.cases.size()));
+  out.threads = threads;
+
+  std::atomic<std::size_t> next{0}, done{0};
+  std::mutex progress_mutex;
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  auto worker = [&] {
+    for (std::size_t i = next++; i < study.cases.size(); i = next++) {
+      try {
+        const StudyCase& spec = study.cases[i];
+        CaseOutcome& o = out.outcomes[i];
+        o.spec = spec;
+        o.run = run(spec.input);
+        if (!o.run.integration.ok())
+          throw std::runtime_error(fmt::format("case {}: numerical failure ({}): {}", spec.id,
+                                               ode::to_string(o.run.integration.termination),
+                                               o.run.integration.message));
+        Case longer = spec.input;
+        longer.solver.duration_s = study.long_window_s;
+        RunOptions quiet;
+        quiet.keep_samples = false;
+        quiet.keep_events = false;
+        const RunResult lr = run(longer, quiet);
+        if (!lr.integration.ok())
+          throw std::runtime_error(fmt::format("case {} over {} s: numerical failure: {}", spec.id,
+                                               study.long_window_s, lr.integration.message));
+        o.long_window = lr.reading;
+        const RunReading& x = o.run.reading;
+        std::vector<std::string> diffs;
+        if (x.regime != spec.paper_regime)
+          diffs.push_back(fmt::format("{} (the paper: {})", regime_words(x.regime),
+                                      regime_words(spec.paper_regime)));
+        if (x.double_sided != spec.paper_double_sided)
+          diffs.push_back(x.double_sided ? "back-side contact occurs (the paper: none)"
+                                         : "no back-side contact (the paper: some)");
+        o.holds = diffs.empty();
+        for (const std::string& d : diffs) o.difference += (o.difference.empty() ? "" : "; ") + d;
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(failure_mutex);
+        if (!failure) failure = std::current_exception();
+      }
+      const std::size_t n = ++done;
+      if (progress) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        progress(n, study.cases.size());
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
+  for (std::thread& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+  out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+namespace {
+
+struct Row {
+  std::string id, conditions, regime, impacts, backside, last_sep, separated, peak_force, paper,
+      holds, long_window;
+};
+
+std::vector<Row> table_rows(const StudyResult& r) {
+  std::vector<Row> rows;
+  for (const CaseOutcome& o : r.outcomes) {
+    const Case& c = o.spec.input;
+    const RunReading& x = o.run.reading;
+    Row row;
+    row.id = fmt::format("{} {}", o.spec.figure, o.spec.panel);
+    row.conditions =
+        fmt::format("f_1 = {} Hz, b = {} um, xi = {}, F_a/F_m = {}", c.speed.shaft_frequency_hz,
+                    c.mesh.backlash_um, c.mesh.damping_ratio, c.load.fluctuation_ratio);
+    row.regime = to_string(x.regime);
+    row.impacts = std::to_string(x.impacts);
+    row.backside = std::to_string(x.backside_impacts);
+    row.last_sep = ms(x.last_separation_s);
+    row.separated = fmt::format("{:.1f} %", 100 * x.separated_fraction);
+    row.peak_force = fmt::format("{:.3f}", x.max_force_bar);
+    row.paper = fmt::format("{}; no back-side contact", o.spec.paper_finding);
+    row.holds = o.holds ? "yes" : "no: " + o.difference;
+    row.long_window = fmt::format("{}, last separation {} ms", to_string(o.long_window.regime),
+                                  ms(o.long_window.last_separation_s));
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+std::map<std::string, std::vector<const CaseOutcome*>> by_figure(const StudyResult& r) {
+  std::map<std::string, std::vector<const CaseOutcome*>> m;
+  for (const CaseOutcome& o : r.outcomes) m[o.spec.figure].push_back(&o);
+  return m;
+}
+
+std::string figure_file(const std::string& figure) {
+  std::string f;
+  for (char ch : figure)
+    if (std::isalnum(static_cast<unsigned char>(ch))) f += static_cast<char>(std::tolower(ch));
+  return f;  // "Fig. 4" -> "fig4"
+}
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+// Sentences on the cases whose regime differs between the window and the long window.
+std::vector<std::string> window_notes(const StudyResult& r) {
+  std::vector<std::string> notes;
+  for (const CaseOutcome& o : r.outcomes) {
+    const Regime a = o.run.reading.regime, b = o.long_window.regime;
+    if (a == b) continue;
+    if (a == Regime::kSustained && b == Regime::kTransient) {
+      notes.push_back(fmt::format(
+          "{} {} ({}): the teeth still separate in the final part of the {} ms window but settle "
+          "within {} ms (last separation at {} ms): under these assumptions its rattle is a long "
+          "transient.",
+          o.spec.figure, o.spec.panel, o.spec.label, r.study.window_s * 1e3,
+          r.study.long_window_s * 1e3, ms(o.long_window.last_separation_s)));
+    } else {
+      notes.push_back(fmt::format("{} {} ({}): {} over {} ms, {} over {} ms.", o.spec.figure,
+                                  o.spec.panel, o.spec.label, to_string(a), r.study.window_s * 1e3,
+                                  to_string(b), r.study.long_window_s * 1e3));
+    }
+  }
+  return notes;
+}
+
+std::size_t holding(const StudyResult& r) {
+  std::size_t n = 0;
+  for (const CaseOutcome& o : r.outcomes) n += o.holds;
+  return n;
+}
+
+}  // namespace
+
+std::string report_markdown(const StudyResult& r) {
+  const Study& s = r.study;
+  std::string md;
+  fmt::format_to(std::back_inserter(md), "# {}\n\n", s.title);
+  fmt::format_to(std::back_inserter(md),
+                 "Computed by `geardyn reproduce {}`: {} cases, {} of them as the paper found, "
+                 "in {:.2f} s on {} threads.\n\n",
+                 s.name, r.outcomes.size(), holding(r), r.wall_time_s, r.threads);
+  md += "## Assumptions\n\n";
+  for (const std::string& a : s.assumptions) md += "- " + a + "\n";
+  fmt::format_to(std::back_inserter(md), "- Window: {} ms. {}\n\n", s.window_s * 1e3,
+                 s.window_reason);
+  md += "## Results\n\n";
+  fmt::format_to(std::back_inserter(md),
+                 "| case | conditions | regime | impacts | back-side impacts | last separation "
+                 "(ms) | separated | max F/(b k_m) | the paper | holds | over {} ms |\n"
+                 "|---|---|---|---|---|---|---|---|---|---|---|\n",
+                 s.long_window_s * 1e3);
+  for (const Row& x : table_rows(r))
+    fmt::format_to(std::back_inserter(md),
+                   "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", x.id, x.conditions,
+                   x.regime, x.impacts, x.backside, x.last_sep, x.separated, x.peak_force, x.paper,
+                   x.holds, x.long_window);
+  const std::vector<std::string> notes = window_notes(r);
+  if (!notes.empty()) {
+    md += "\nWhere the two windows disagree:\n\n";
+    for (const std::string& n : notes) md += "- " + n + "\n";
+  }
+  md +=
+      "\n## Figures\n\nEach panel: delta/b (left) and F/(b k_m) (right) over the window; "
+      "separation shaded red, back-side contact blue, the backlash band |delta/b| < 1 grey "
+      "between dashed contact surfaces.\n\n";
+  for (const auto& [figure, cases] : by_figure(r))
+    fmt::format_to(std::back_inserter(md), "### {}\n\n![{}]({}.png)\n\n", figure, figure,
+                   figure_file(figure));
+  return md;
+}
+
+std::string report_html(const StudyResult& r) {
+  const Study& s = r.study;
+  std::string h =
+      "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>" +
+      html_escape(s.title) +
+      "</title>\n<style>body{font-family:sans-serif;max-width:1250px;margin:2em auto;color:#222}"
+      "table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #bbb;padding:4px 6px;"
+      "vertical-align:top}th{background:#eef1f7}.no{background:#fbe3e3}.yes{background:#e6f4e6}"
+      "img{max-width:100%}</style></head><body>\n";
+  fmt::format_to(std::back_inserter(h), "<h1>{}</h1>\n", html_escape(s.title));
+  fmt::format_to(std::back_inserter(h),
+                 "<p>Computed by <code>geardyn reproduce {}</code>: {} cases, {} of them as the "
+                 "paper found, in {:.2f} s on {} threads.</p>\n",
+                 s.name, r.outcomes.size(), holding(r), r.wall_time_s, r.threads);
+  h += "<h2>Assumptions</h2>\n<ul>\n";
+  for (const std::string& a : s.assumptions) h += "<li>" + html_escape(a) + "</li>\n";
+  fmt::format_to(std::back_inserter(h), "<li>Window: {} ms. {}</li>\n</ul>\n", s.window_s * 1e3,
+                 html_escape(s.window_reason));
+  fmt::format_to(std::back_inserter(h),
+                 "<h2>Results</h2>\n<table>\n<tr><th>case</th><th>conditions</th><th>regime</th>"
+                 "<th>impacts</th><th>back-side impacts</th><th>last separation (ms)</th>"
+                 "<th>separated</th><th>max F/(b k<sub>m</sub>)</th><th>the paper</th>"
+                 "<th>holds</th><th>over {} ms</th></tr>\n",
+                 s.long_window_s * 1e3);
+  for (const Row& x : table_rows(r)) {
+    const bool ok = x.holds == "yes";
+    fmt::format_to(std::back_inserter(h),
+                   "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+                   "<td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td></tr>\n",
+                   html_escape(x.id), html_escape(x.conditions), x.regime, x.impacts, x.backside,
+                   x.last_sep, html_escape(x.separated), x.peak_force, html_escape(x.paper),
+                   ok ? "yes" : "no", html_escape(x.holds), html_escape(x.long_window));
+  }
+  h += "</table>\n";
+  const std::vector<std::string> notes = window_notes(r);
+  if (!notes.empty()) {
+    h += "<p>Where the two windows disagree:</p>\n<ul>\n";
+    for (const std::string& n : notes) h += "<li>" + html_escape(n) + "</li>\n";
+    h += "</ul>\n";
+  }
+  h += "<h2>Figures</h2>\n<p>Each panel: &delta;/b (left) and F/(b k<sub>m</sub>) "
+       "(right); separation shaded red, back-side contact blue, the backlash band grey.</p>\n";
+  for (const auto& [figure, cases] : by_figure(r))
+    fmt::format_to(std::back_inserter(h), "<h3>{0}</h3>\n<img src=\"{1}.png\" alt=\"{0}\">\n",
+                   html_escape(figure), figure_file(figure));
+  h += "</body></html>\n";
+  return h;
+}
+
+void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
+  for (const CaseOutcome& o : r.outcomes) {
+    const fs::path case_dir = dir / "cases" / o.spec.id;
+    write_run(case_dir, o.run);
+    write_files_atomically(case_dir, {{"intervals.csv", contact_intervals_csv(o.run)}});
+  }
+  nlohmann::json j;
+  j["study"] = r.study.name;
+  j["window_s"] = r.study.window_s;
+  j["long_window_s"] = r.study.long_window_s;
+  j["wall_time_s"] = r.wall_time_s;
+  j["threads"] = r.threads;
+  for (const CaseOutcome& o : r.outcomes) {
+    const RunReading& x = o.run.reading;
+    j["cases"].push_back({
+        {"id", o.spec.id},
+        {"label", o.spec.label},
+        {"regime", to_string(x.regime)},
+        {"double_sided", x.double_sided},
+        {"impacts", x.impacts},
+        {"backside_impacts", x.backside_impacts},
+        {"last_separation_s", x.last_separation_s ? nlohmann::json(*x.last_separation_s) : nullptr},
+        {"separated_fraction", x.separated_fraction},
+        {"max_force_bar", x.max_force_bar},
+        {"paper_regime", to_string(o.spec.paper_regime)},
+        {"paper_finding", o.spec.paper_finding},
+        {"holds", o.holds},
+        {"difference", o.difference},
+        {"long_window_regime", to_string(o.long_window.regime)},
+        {"long_window_last_separation_s", o.long_window.last_separation_s
+                                              ? nlohmann::json(*o.long_window.last_separation_s)
+                                              : nullptr},
+    });
+  }
+  write_files_atomically(dir, {{"report.md", report_markdown(r)},
+                               {"report.html", report_html(r)},
+                               {"study.json", j.dump(2) + "\n"}});
+  if (!figures) return;
+  std::vector<std::future<void>> jobs;
+  for (const auto& [figure, cases] : by_figure(r)) {
+    std::vector<TimeHistoryPanel> panels;
+    for (const CaseOutcome* o : cases)
+      panels.push_back({fmt::format("{} {}", o->spec.panel, o->spec.label), "cases/" + o->spec.id,
+                        r.study.window_s});
+    const std::string title = fmt::format("{} ({})", figure, r.study.name);
+    const int height = 70 + 230 * static_cast<int>(panels.size());
+    jobs.push_back(std::async(std::launch::async, [=] {
+      render_figure(dir, figure_file(figure), time_history_body(panels, false, title), 1200,
+                    height);
+    }));
+  }
+  for (auto& job : jobs) job.get();
+}
+
+}  // namespace geardyn
