@@ -66,6 +66,8 @@ Study park2010_study(const Case& base) {
       "Initial conditions (eq. 15): delta = 0, delta' = 0, the middle of the backlash.",
       "Regime: 'sustained' when the teeth are separated at some time in the final 10 % of the "
       "window, 'transient' when they separate only before it.",
+      "A finding holds when the regime and the absence of back-side contact agree with the "
+      "paper; its remarks on amplitudes are quoted beside them but not tested.",
   };
   if (base.mesh.stiffness_harmonics.empty()) {
     s.assumptions.push_back(
