@@ -28,8 +28,9 @@ int main() {
   const Named cases[] = {{"Fig. 4(a), 10 Hz, 0.1 s", make(10, 0.1)},
                          {"Fig. 4(c), 1 kHz, 0.05 s", make(1000, 0.05)},
                          {"Fig. 4(d), 10 kHz, 0.02 s", make(10000, 0.02)}};
-  std::printf("| case | points per period | dt (s) | impacts | last separation rel. error | "
-              "max F_bar rel. error |\n|---|---|---|---|---|---|\n");
+  std::printf(
+      "| case | points per period | dt (s) | impacts | last separation rel. error | "
+      "max F_bar rel. error |\n|---|---|---|---|---|---|\n");
   for (const Named& n : cases) {
     geardyn::Case ref = n.c;
     ref.solver.method = geardyn::Method::kDopri5;

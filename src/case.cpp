@@ -83,6 +83,21 @@ MaybeViolation check_ranges(const Case& c) {
     if (!(g.bore_diameter_mm[i] >= 0))
       return bad(fmt::format("gear.bore_diameter_mm[{}]", i), g.bore_diameter_mm[i],
                  "a diameter >= 0 mm (0 is a solid blank)");
+    if (!(g.youngs_modulus_gpa[i] > 0 && g.youngs_modulus_gpa[i] < 2000))
+      return bad(fmt::format("gear.youngs_modulus_gpa[{}]", i), g.youngs_modulus_gpa[i],
+                 "a Young's modulus in (0, 2000) GPa");
+    if (!(g.poisson_ratio[i] >= 0 && g.poisson_ratio[i] < 0.5))
+      return bad(fmt::format("gear.poisson_ratio[{}]", i), g.poisson_ratio[i],
+                 "a Poisson's ratio in [0, 0.5)");
+    if (!(g.basic_rack_dedendum[i] >= 1.0 && g.basic_rack_dedendum[i] <= 1.6))
+      return bad(fmt::format("gear.basic_rack_dedendum[{}]", i), g.basic_rack_dedendum[i],
+                 "a basic rack dedendum h_fP/m_n in [1, 1.6] (ISO 53: 1.25 to 1.4)");
+    if (!(g.rim_thickness_mm[i] >= 0))
+      return bad(fmt::format("gear.rim_thickness_mm[{}]", i), g.rim_thickness_mm[i],
+                 "a thickness >= 0 mm (0: solid blank)");
+    if (!(g.web_thickness_mm[i] >= 0))
+      return bad(fmt::format("gear.web_thickness_mm[{}]", i), g.web_thickness_mm[i],
+                 "a thickness >= 0 mm (0: solid blank)");
     if (g.inertia_kg_m2 && !((*g.inertia_kg_m2)[i] > 0 && std::isfinite((*g.inertia_kg_m2)[i])))
       return bad(fmt::format("gear.inertia_kg_m2[{}]", i), (*g.inertia_kg_m2)[i],
                  "a finite moment of inertia > 0 kg m^2");
@@ -94,9 +109,36 @@ MaybeViolation check_ranges(const Case& c) {
   if (!(m.backlash_um > 0 && std::isfinite(m.backlash_um)))
     return bad("mesh.backlash_um", m.backlash_um,
                "a finite half backlash b > 0 um (the total normal backlash is 2b)");
-  if (!(m.mean_stiffness_n_per_m > 0 && std::isfinite(m.mean_stiffness_n_per_m)))
+  if (m.stiffness_source == StiffnessSource::kHarmonics) {
+    if (!(m.mean_stiffness_n_per_m > 0 && std::isfinite(m.mean_stiffness_n_per_m)))
+      return bad("mesh.mean_stiffness_n_per_m", m.mean_stiffness_n_per_m,
+                 "a finite stiffness > 0 N/m with mesh.stiffness_source = \"harmonics\"");
+  } else if (!(m.mean_stiffness_n_per_m >= 0 && std::isfinite(m.mean_stiffness_n_per_m))) {
     return bad("mesh.mean_stiffness_n_per_m", m.mean_stiffness_n_per_m,
-               "a finite stiffness > 0 N/m");
+               "a finite stiffness > 0 N/m to scale the computed curve to, or 0 to keep its mean");
+  }
+  if (!(m.harmonics_kept >= 0 && m.harmonics_kept <= HarmonicSeries::kMaxTerms))
+    return bad("mesh.harmonics_kept", m.harmonics_kept,
+               fmt::format("a whole number from 0 to {}", HarmonicSeries::kMaxTerms));
+  if (!(m.stiffness_positions >= 16 && m.stiffness_positions <= 65536))
+    return bad("mesh.stiffness_positions", m.stiffness_positions,
+               "a whole number of mesh positions from 16 to 65536");
+  if (m.harmonics_kept >= m.stiffness_positions / 2)
+    return bad("mesh.harmonics_kept", m.harmonics_kept,
+               "fewer than half of mesh.stiffness_positions");
+  if (!(m.stiffness_slices >= 1 && m.stiffness_slices <= 4096))
+    return bad("mesh.stiffness_slices", m.stiffness_slices,
+               "a whole number of face-width slices from 1 to 4096");
+  if (!(m.application_factor >= 1 && m.application_factor <= 5))
+    return bad("mesh.application_factor", m.application_factor,
+               "an application factor K_A in [1, 5]");
+  if (m.stiffness_source != StiffnessSource::kHarmonics && !m.stiffness_harmonics.empty())
+    return MaybeViolation(Violation{
+        "mesh.stiffness_harmonics", fmt::format("{} harmonics", m.stiffness_harmonics.size()),
+        "empty unless mesh.stiffness_source = \"harmonics\" (the other sources compute them)"});
+  if (m.stiffness_source == StiffnessSource::kTable && m.stiffness_table.empty())
+    return MaybeViolation(Violation{"mesh.stiffness_table", "\"\"",
+                                    "a CSV file when mesh.stiffness_source = \"table\""});
   if (m.stiffness_harmonics.size() > static_cast<std::size_t>(HarmonicSeries::kMaxTerms))
     return bad("mesh.stiffness_harmonics", static_cast<double>(m.stiffness_harmonics.size()),
                fmt::format("at most {} harmonics", HarmonicSeries::kMaxTerms));
@@ -111,7 +153,7 @@ MaybeViolation check_ranges(const Case& c) {
                  "a finite phase in degrees");
     ratio_sum += h.ratio;
   }
-  if (!(ratio_sum < 1))
+  if (!(ratio_sum < 1) && m.stiffness_source == StiffnessSource::kHarmonics)
     return bad("mesh.stiffness_harmonics", ratio_sum,
                "harmonic ratios whose sum is < 1, so that k(t) stays positive");
   if (!(m.damping_ratio >= 0 && m.damping_ratio < 1))
@@ -172,6 +214,27 @@ class Reader {
   void optional_number_pair(std::string_view section, std::string_view key,
                             std::optional<std::array<double, 2>>& out) {
     if (const toml::node* n = find(section, key)) out = as_pair(*n, section, key);
+  }
+
+  void integer(std::string_view section, std::string_view key, int& out) {
+    const toml::node* n = find(section, key);
+    if (!n) return;
+    const auto* v = n->as_integer();
+    if (!v || v->get() < -1000000000 || v->get() > 1000000000)
+      fail(*n, section, key, "a whole number");
+    out = static_cast<int>(v->get());
+  }
+
+  void text(std::string_view section, std::string_view key, std::string& out) {
+    const toml::node* n = find(section, key);
+    if (!n) return;
+    if (!n->is_string()) fail(*n, section, key, "a string");
+    out = *n->value<std::string>();
+  }
+
+  bool has(std::string_view section, std::string_view key) const {
+    const toml::table* t = root_[section].as_table();
+    return t && t->get(key) != nullptr;
   }
 
   void integer_pair(std::string_view section, std::string_view key, std::array<int, 2>& out) {
@@ -376,11 +439,28 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
   r.number("gear", "density_kg_m3", g.density_kg_m3);
   r.number_pair("gear", "bore_diameter_mm", g.bore_diameter_mm);
   r.optional_number_pair("gear", "inertia_kg_m2", g.inertia_kg_m2);
+  r.number_pair("gear", "youngs_modulus_gpa", g.youngs_modulus_gpa);
+  r.number_pair("gear", "poisson_ratio", g.poisson_ratio);
+  r.number_pair("gear", "basic_rack_dedendum", g.basic_rack_dedendum);
+  r.number_pair("gear", "rim_thickness_mm", g.rim_thickness_mm);
+  r.number_pair("gear", "web_thickness_mm", g.web_thickness_mm);
 
   MeshData& m = c.mesh;
   r.number("mesh", "backlash_um", m.backlash_um);
   r.number("mesh", "mean_stiffness_n_per_m", m.mean_stiffness_n_per_m);
   r.harmonics("mesh", "stiffness_harmonics", m.stiffness_harmonics);
+  // Harmonics given without a source mean that those harmonics are wanted.
+  if (r.has("mesh", "stiffness_harmonics") && !r.has("mesh", "stiffness_source"))
+    m.stiffness_source = StiffnessSource::kHarmonics;
+  r.choice("mesh", "stiffness_source", m.stiffness_source,
+           {{"energy", StiffnessSource::kEnergy},
+            {"harmonics", StiffnessSource::kHarmonics},
+            {"table", StiffnessSource::kTable}});
+  r.text("mesh", "stiffness_table", m.stiffness_table);
+  r.integer("mesh", "harmonics_kept", m.harmonics_kept);
+  r.integer("mesh", "stiffness_positions", m.stiffness_positions);
+  r.integer("mesh", "stiffness_slices", m.stiffness_slices);
+  r.number("mesh", "application_factor", m.application_factor);
   r.number("mesh", "damping_ratio", m.damping_ratio);
   r.choice("mesh", "damping", m.damping,
            {{"contact", DampingForm::kContact}, {"always", DampingForm::kAlways}});
@@ -412,10 +492,12 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
       {"gear",
        {"normal_module_mm", "normal_pressure_angle_deg", "helix_angle_deg", "center_distance_mm",
         "teeth", "face_width_mm", "outside_diameter_mm", "profile_shift", "density_kg_m3",
-        "bore_diameter_mm", "inertia_kg_m2"}},
+        "bore_diameter_mm", "inertia_kg_m2", "youngs_modulus_gpa", "poisson_ratio",
+        "basic_rack_dedendum", "rim_thickness_mm", "web_thickness_mm"}},
       {"mesh",
-       {"backlash_um", "mean_stiffness_n_per_m", "stiffness_harmonics", "damping_ratio", "damping",
-        "tension"}},
+       {"backlash_um", "stiffness_source", "mean_stiffness_n_per_m", "stiffness_harmonics",
+        "stiffness_table", "harmonics_kept", "stiffness_positions", "stiffness_slices",
+        "application_factor", "damping_ratio", "damping", "tension"}},
       {"load",
        {"torque_nm", "fluctuation_ratio", "fluctuation_order", "fluctuation_phase_deg",
         "load_torque_nm"}},
@@ -476,13 +558,16 @@ Case load_case(const std::optional<std::filesystem::path>& path,
     throw InputError(fmt::format("{}: error while reading the case file", path->string()));
   Case c = parse_case(text.str(), path->string(), overrides);
   c.name = path->stem().string();
+  c.directory = path->parent_path();
   return c;
 }
 
 void set_case_value(Case& c, const Override& o) {
   const std::string name = c.name;
+  const std::filesystem::path directory = c.directory;
   c = parse_case(to_toml(c), "(case)", {o});
   c.name = name;
+  c.directory = directory;
 }
 
 std::string validate(const Case& c) {
@@ -504,15 +589,29 @@ std::string to_toml(const Case& c) {
       {"profile_shift", pair(c.gear.profile_shift)},
       {"density_kg_m3", c.gear.density_kg_m3},
       {"bore_diameter_mm", pair(c.gear.bore_diameter_mm)},
+      {"youngs_modulus_gpa", pair(c.gear.youngs_modulus_gpa)},
+      {"poisson_ratio", pair(c.gear.poisson_ratio)},
+      {"basic_rack_dedendum", pair(c.gear.basic_rack_dedendum)},
+      {"rim_thickness_mm", pair(c.gear.rim_thickness_mm)},
+      {"web_thickness_mm", pair(c.gear.web_thickness_mm)},
   };
   if (c.gear.inertia_kg_m2) gear.insert("inertia_kg_m2", pair(*c.gear.inertia_kg_m2));
   toml::array harmonics;
   for (const StiffnessHarmonic& h : c.mesh.stiffness_harmonics)
     harmonics.push_back(toml::array{h.ratio, h.phase_deg});
+  const char* source = c.mesh.stiffness_source == StiffnessSource::kEnergy      ? "energy"
+                       : c.mesh.stiffness_source == StiffnessSource::kHarmonics ? "harmonics"
+                                                                                : "table";
   toml::table mesh{
       {"backlash_um", c.mesh.backlash_um},
+      {"stiffness_source", source},
       {"mean_stiffness_n_per_m", c.mesh.mean_stiffness_n_per_m},
       {"stiffness_harmonics", harmonics},
+      {"stiffness_table", c.mesh.stiffness_table},
+      {"harmonics_kept", c.mesh.harmonics_kept},
+      {"stiffness_positions", c.mesh.stiffness_positions},
+      {"stiffness_slices", c.mesh.stiffness_slices},
+      {"application_factor", c.mesh.application_factor},
       {"damping_ratio", c.mesh.damping_ratio},
       {"damping", c.mesh.damping == DampingForm::kContact ? "contact" : "always"},
       {"tension", c.mesh.tension == TensionRule::kAllow ? "allow" : "clip"},

@@ -55,7 +55,8 @@ Geometry compute_geometry(const GearData& g) {
     out.reference_diameter_m[i] = g.teeth[i] * out.transverse_module_m;
     out.base_radius_m[i] = 0.5 * out.reference_diameter_m[i] * std::cos(at);
     out.tip_radius_m[i] = 0.5 * g.outside_diameter_mm[i] * kMmToM;
-    out.root_diameter_m[i] = out.reference_diameter_m[i] - 2.0 * mn * (1.25 - g.profile_shift[i]);
+    out.root_diameter_m[i] =
+        out.reference_diameter_m[i] - 2.0 * mn * (g.basic_rack_dedendum[i] - g.profile_shift[i]);
   }
   out.reference_center_distance_m =
       0.5 * (out.reference_diameter_m[0] + out.reference_diameter_m[1]);

@@ -16,6 +16,24 @@ std::mutex& planner_mutex() {
 }
 }  // namespace
 
+std::vector<std::complex<double>> real_dft(const std::vector<double>& x) {
+  const int n = static_cast<int>(x.size());
+  std::vector<double> in(x);
+  std::vector<std::complex<double>> out(n / 2 + 1);
+  fftw_plan plan;
+  {
+    std::lock_guard<std::mutex> lock(planner_mutex());
+    plan = fftw_plan_dft_r2c_1d(n, in.data(), reinterpret_cast<fftw_complex*>(out.data()),
+                                FFTW_ESTIMATE);
+  }
+  fftw_execute(plan);
+  {
+    std::lock_guard<std::mutex> lock(planner_mutex());
+    fftw_destroy_plan(plan);
+  }
+  return out;
+}
+
 Spectrum amplitude_spectrum(const std::vector<double>& samples, double dt_s) {
   Spectrum out;
   const std::size_t n = samples.size();
@@ -32,27 +50,15 @@ Spectrum amplitude_spectrum(const std::vector<double>& samples, double dt_s) {
     in[i] = (samples[i] - mean) * w;
     gain += w;
   }
-  const std::size_t bins = n / 2 + 1;
-  fftw_complex* spectrum = fftw_alloc_complex(bins);
-  fftw_plan plan;
-  {
-    std::lock_guard<std::mutex> lock(planner_mutex());
-    plan = fftw_plan_dft_r2c_1d(static_cast<int>(n), in.data(), spectrum, FFTW_ESTIMATE);
-  }
-  fftw_execute(plan);
+  const std::vector<std::complex<double>> spectrum = real_dft(in);
+  const std::size_t bins = spectrum.size();
   out.frequency_hz.resize(bins);
   out.amplitude.resize(bins);
   const double df = 1.0 / (static_cast<double>(n) * dt_s);
   for (std::size_t k = 0; k < bins; ++k) {
-    const double mag = std::hypot(spectrum[k][0], spectrum[k][1]);
     out.frequency_hz[k] = static_cast<double>(k) * df;
-    out.amplitude[k] = (k == 0 ? 1.0 : 2.0) * mag / gain;
+    out.amplitude[k] = (k == 0 ? 1.0 : 2.0) * std::abs(spectrum[k]) / gain;
   }
-  {
-    std::lock_guard<std::mutex> lock(planner_mutex());
-    fftw_destroy_plan(plan);
-  }
-  fftw_free(spectrum);
   return out;
 }
 

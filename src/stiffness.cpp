@@ -1,21 +1,349 @@
 #include "geardyn/stiffness.hpp"
 
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <boost/math/interpolators/cardinal_cubic_b_spline.hpp>
+#include <boost/math/quadrature/gauss.hpp>
+#include <cmath>
+#include <fstream>
 #include <numbers>
+#include <sstream>
+
+#include "geardyn/spectrum.hpp"
 
 namespace geardyn {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+// ISO 6336-1 steel, E_st.
+constexpr double kIsoSteelModulusGpa = 206.0;
+// ISO 6336-1 Method B: q' = C1 + C2/z_n1 + C3/z_n2 + C4 x1 + C5 x1/z_n1 + C6 x2 + C7 x2/z_n2
+// + C8 x1^2 + C9 x2^2, mm um / N.
+constexpr std::array<double, 9> kIsoQ = {0.04723,  0.15551,  0.25791, -0.00635, -0.11654,
+                                         -0.00193, -0.24188, 0.00529, 0.00182};
+// Below this line load (N/mm) ISO 6336-1 reduces c' by (F_t K_A / b / 100)^0.25.
+constexpr double kIsoLineLoadNPerMm = 100.0;
+// Sainsot et al. (2004) fillet-foundation fit, rows L*, M*, P*, Q*, columns A..F of
+// X* = A / theta_f^2 + B h_fi^2 + C h_fi / theta_f + D / theta_f + E h_fi + F.
+constexpr double kSainsot[4][6] = {
+    {-5.574e-5, -1.9986e-3, -2.3015e-4, 4.7702e-3, 0.0271, 6.8045},
+    {60.111e-5, 28.100e-3, -83.431e-4, -9.9256e-3, 0.1624, 0.9086},
+    {-50.952e-5, 185.50e-3, 0.0538e-4, 53.300e-3, 0.2895, 0.9236},
+    {-6.2042e-5, 9.0889e-3, -4.0964e-4, 7.8297e-3, -0.1472, 0.6904},
+};
+// A solid blank has no bore for h_fi = r_f / r_int: it is taken as a hub of r_f / 3, inside the
+// range of geometries Sainsot et al. fitted (h_fi from about 1.4 to 6.8).
+constexpr double kSolidBlankHubRatio = 3.0;
+// Timoshenko's shear coefficient of a rectangular section.
+constexpr double kShearCoefficient = 1.2;
+
+double involute_fn(double a) { return std::tan(a) - a; }
+
+// One tooth, for its compliance along the path of contact (per unit face width).
+struct Tooth {
+  double rb, rf, psi_b, e, g;
+  double theta_f, sf, h_fi;
+
+  // Half tooth angle at radius r: involute above the base circle, radial flank below it.
+  double psi(double r) const { return r > rb ? psi_b - involute_fn(std::acos(rb / r)) : psi_b; }
+
+  // Bending, shear, axial and fillet-foundation compliance for a unit normal force at radius rc.
+  double compliance(double rc, int intervals) const {
+    const double psi_c = psi(rc);
+    const double alpha1 = std::acos(std::min(1.0, rb / rc)) - psi_c;
+    const double ca = std::cos(alpha1), sa = std::sin(alpha1);
+    const double yc = rc * std::cos(psi_c), hc = rc * std::sin(psi_c);
+    auto integrand = [&](double r) {
+      const double p = psi(r);
+      const double h = r * std::sin(p), y = r * std::cos(p);
+      const double dy_dr =
+          r > rb ? std::cos(p) + std::sin(p) * std::tan(std::acos(rb / r)) : std::cos(p);
+      const double arm = (yc - y) * ca - hc * sa;
+      const double bending = arm * arm / (e * (2.0 / 3.0) * h * h * h);
+      const double shear = kShearCoefficient * ca * ca / (g * 2.0 * h);
+      const double axial = sa * sa / (e * 2.0 * h);
+      return (bending + shear + axial) * dy_dr;
+    };
+    double beam = 0;
+    auto integrate = [&](double a, double b) {
+      if (!(b > a)) return;
+      const double step = (b - a) / intervals;
+      for (int k = 0; k < intervals; ++k)
+        beam += boost::math::quadrature::gauss<double, 10>::integrate(integrand, a + k * step,
+                                                                      a + (k + 1) * step);
+    };
+    if (rf < rb && rc > rb) {
+      integrate(rf, rb);  // the kink of the flank at the base circle is a node
+      integrate(rb, rc);
+    } else {
+      integrate(rf, rc);
+    }
+    // Fillet foundation (Sainsot et al. 2004).
+    const double uf = yc - hc * std::tan(alpha1) - rf;
+    double x[4];
+    for (int i = 0; i < 4; ++i) {
+      const double* k = kSainsot[i];
+      x[i] = k[0] / (theta_f * theta_f) + k[1] * h_fi * h_fi + k[2] * h_fi / theta_f +
+             k[3] / theta_f + k[4] * h_fi + k[5];
+    }
+    const double u = uf / sf;
+    const double foundation =
+        ca * ca / e *
+        (x[0] * u * u + x[1] * u + x[2] * (1 + x[3] * std::tan(alpha1) * std::tan(alpha1)));
+    return beam + foundation;
+  }
+};
+
+Tooth make_tooth(const Case& c, const Geometry& g, int i) {
+  Tooth t;
+  const GearData& gd = c.gear;
+  t.rb = g.base_radius_m[i];
+  t.rf = 0.5 * g.root_diameter_m[i];
+  t.psi_b =
+      (kPi / 2 + 2 * gd.profile_shift[i] * std::tan(g.normal_pressure_angle_rad)) / gd.teeth[i] +
+      involute_fn(g.transverse_pressure_angle_rad);
+  t.e = gd.youngs_modulus_gpa[i] * 1e9;
+  t.g = t.e / (2 * (1 + gd.poisson_ratio[i]));
+  t.theta_f = t.psi(t.rf);
+  t.sf = 2 * t.rf * t.theta_f;
+  const double r_int =
+      gd.bore_diameter_mm[i] > 0 ? 0.5e-3 * gd.bore_diameter_mm[i] : t.rf / kSolidBlankHubRatio;
+  t.h_fi = t.rf / r_int;
+  return t;
+}
+
+}  // namespace
+
+double StiffnessCycle::mean_n_per_m() const {
+  double s = 0;
+  for (double k : total_n_per_m) s += k;
+  return total_n_per_m.empty() ? 0 : s / static_cast<double>(total_n_per_m.size());
+}
+double StiffnessCycle::min_n_per_m() const {
+  return total_n_per_m.empty() ? 0 : *std::min_element(total_n_per_m.begin(), total_n_per_m.end());
+}
+double StiffnessCycle::max_n_per_m() const {
+  return total_n_per_m.empty() ? 0 : *std::max_element(total_n_per_m.begin(), total_n_per_m.end());
+}
+double StiffnessCycle::mean_pairs_in_contact() const {
+  double s = 0;
+  for (int n : pairs_in_contact) s += n;
+  return pairs_in_contact.empty() ? 0 : s / static_cast<double>(pairs_in_contact.size());
+}
+
+Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g) {
+  Iso6336Stiffness s;
+  const GearData& gd = c.gear;
+  const double cos_beta = std::cos(g.helix_angle_rad);
+  const double cos_bb = std::cos(g.base_helix_angle_rad);
+  for (int i = 0; i < 2; ++i) s.virtual_teeth[i] = gd.teeth[i] / (cos_bb * cos_bb * cos_beta);
+  const double zn1 = s.virtual_teeth[0], zn2 = s.virtual_teeth[1];
+  const double x1 = gd.profile_shift[0], x2 = gd.profile_shift[1];
+  s.q_prime = kIsoQ[0] + kIsoQ[1] / zn1 + kIsoQ[2] / zn2 + kIsoQ[3] * x1 + kIsoQ[4] * x1 / zn1 +
+              kIsoQ[5] * x2 + kIsoQ[6] * x2 / zn2 + kIsoQ[7] * x1 * x1 + kIsoQ[8] * x2 * x2;
+  s.c_prime_th = 1.0 / s.q_prime;
+  double cr = 0, cb = 0;
+  for (int i = 0; i < 2; ++i) {
+    // Gear blank factor: 1 for a solid blank, else 1 + ln(b_s/b) / (5 exp(s_R / (5 m_n))) with
+    // b_s/b in [0.2, 1.2] and s_R/m_n >= 1, as the standard bounds them.
+    double cri = 1.0;
+    if (gd.web_thickness_mm[i] > 0 && gd.rim_thickness_mm[i] > 0) {
+      const double bs_b = std::clamp(gd.web_thickness_mm[i] / gd.face_width_mm, 0.2, 1.2);
+      const double sr_mn = std::max(1.0, gd.rim_thickness_mm[i] / gd.normal_module_mm);
+      cri = 1.0 + std::log(bs_b) / (5.0 * std::exp(sr_mn / 5.0));
+    }
+    cr += 0.5 * cri;
+    cb += 0.5 * (1.0 + 0.5 * (1.2 - gd.basic_rack_dedendum[i])) *
+          (1.0 - 0.02 * (20.0 - gd.normal_pressure_angle_deg));
+  }
+  s.c_r = cr;
+  s.c_b = cb;
+  const double e1 = gd.youngs_modulus_gpa[0], e2 = gd.youngs_modulus_gpa[1];
+  s.material_factor = (2 * e1 * e2 / (e1 + e2)) / kIsoSteelModulusGpa;
+  const double ft_n = 2.0 * std::abs(c.load.torque_nm) / g.reference_diameter_m[0];
+  const double line_load = ft_n * c.mesh.application_factor / gd.face_width_mm;
+  s.load_factor =
+      line_load < kIsoLineLoadNPerMm ? std::pow(line_load / kIsoLineLoadNPerMm, 0.25) : 1.0;
+  s.c_prime = s.c_prime_th * s.c_m * s.c_r * s.c_b * cos_beta * s.material_factor * s.load_factor;
+  s.c_gamma_alpha = s.c_prime * (0.75 * g.transverse_contact_ratio + 0.25);
+  s.c_gamma_beta = 0.85 * s.c_gamma_alpha;
+  s.mesh_stiffness_n_per_m = s.c_gamma_alpha * gd.face_width_mm * 1e6;
+  return s;
+}
+
+StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const EnergyMethodOptions& o) {
+  const Tooth t1 = make_tooth(c, g, 0), t2 = make_tooth(c, g, 1);
+  const double rb1 = g.base_radius_m[0], rb2 = g.base_radius_m[1];
+  const double ra1 = g.tip_radius_m[0], ra2 = g.tip_radius_m[1];
+  // Path of contact on the line of action, measured from the pinion's base tangent point T1.
+  const double t1t2 = g.center_distance_m * std::sin(g.working_pressure_angle_rad);
+  const double s_a = t1t2 - std::sqrt(ra2 * ra2 - rb2 * rb2);
+  const double s_e = std::sqrt(ra1 * ra1 - rb1 * rb1);
+  const double pbt = g.transverse_base_pitch_m;
+
+  // Hertzian contact (Yang and Lin 1987): 1/k_h = 2 / (pi E*) per unit width.
+  const GearData& gd = c.gear;
+  const double e_star =
+      1.0 / ((1 - gd.poisson_ratio[0] * gd.poisson_ratio[0]) / (gd.youngs_modulus_gpa[0] * 1e9) +
+             (1 - gd.poisson_ratio[1] * gd.poisson_ratio[1]) / (gd.youngs_modulus_gpa[1] * 1e9));
+  const double hertz = 2.0 / (kPi * e_star);
+
+  // A tooth pair's stiffness per unit face width along the path, on a uniform grid.
+  const int np = o.path_points;
+  const double ds = (s_e - s_a) / (np - 1);
+  std::vector<double> k_unit(np);
+  for (int i = 0; i < np; ++i) {
+    const double s = s_a + i * ds;
+    const double rc1 = std::hypot(rb1, s), rc2 = std::hypot(rb2, t1t2 - s);
+    k_unit[i] = 1.0 / (hertz + t1.compliance(rc1, o.quadrature_intervals) +
+                       t2.compliance(rc2, o.quadrature_intervals));
+  }
+  const boost::math::interpolators::cardinal_cubic_b_spline<double> spline(k_unit.begin(),
+                                                                           k_unit.end(), s_a, ds);
+
+  const int n_pos = c.mesh.stiffness_positions, n_sl = c.mesh.stiffness_slices;
+  const double b = g.face_width_m, dw = b / n_sl;
+  const double tan_bb = std::tan(g.base_helix_angle_rad), cos_bb = std::cos(g.base_helix_angle_rad);
+  const double to_normal = 1.0 / (cos_bb * cos_bb);
+  const int n_pairs = static_cast<int>(std::ceil((s_e - s_a + b * tan_bb) / pbt)) + 1;
+
+  StiffnessCycle out;
+  out.position.resize(n_pos);
+  out.total_n_per_m.assign(n_pos, 0.0);
+  out.pair_n_per_m.assign(n_pairs, std::vector<double>(n_pos, 0.0));
+  out.pairs_in_contact.assign(n_pos, 0);
+  out.contact_length_m.assign(n_pos, 0.0);
+  for (int n = 0; n < n_pos; ++n) {
+    const double phi = static_cast<double>(n) / n_pos;
+    out.position[n] = phi;
+    for (int j = 0; j < n_pairs; ++j) {
+      const double lead = s_a + (phi + j) * pbt;  // the pair's contact on the front face
+      // In contact somewhere on the face when [lead - b tan(beta_b), lead] meets [s_a, s_e].
+      if (lead >= s_a && lead - b * tan_bb <= s_e) ++out.pairs_in_contact[n];
+      double k = 0;
+      for (int sl = 0; sl < n_sl; ++sl) {
+        const double s = lead - (sl + 0.5) * dw * tan_bb;
+        if (s < s_a || s > s_e) continue;
+        k += spline(s) * dw;
+        out.contact_length_m[n] += dw / cos_bb;
+      }
+      out.pair_n_per_m[j][n] = k * to_normal;
+      out.total_n_per_m[n] += k * to_normal;
+    }
+  }
+  return out;
+}
+
+StiffnessCycle table_cycle(const Case& c) {
+  std::filesystem::path path = c.mesh.stiffness_table;
+  if (path.is_relative()) path = c.directory / path;
+  const std::string key = fmt::format("mesh.stiffness_table = \"{}\"", c.mesh.stiffness_table);
+  std::ifstream in(path);
+  if (!in) throw InputError(fmt::format("{}: cannot read {}", key, path.string()));
+  std::string line;
+  std::getline(in, line);
+  if (line.rfind("position,stiffness_n_per_m", 0) != 0)
+    throw InputError(
+        fmt::format("{}: {}:1: the header must be position,stiffness_n_per_m", key, path.string()));
+  std::vector<double> pos, k;
+  int number = 1;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty()) continue;
+    double p, v;
+    char comma;
+    std::istringstream row(line);
+    if (!(row >> p >> comma >> v) || comma != ',' || !(p >= 0 && p < 1) || !(v > 0) ||
+        !std::isfinite(v) || (!pos.empty() && !(p > pos.back())))
+      throw InputError(
+          fmt::format("{}: {}:{}: '{}': must be a position in [0, 1) above the previous one and a "
+                      "stiffness > 0 N/m",
+                      key, path.string(), number, line));
+    pos.push_back(p);
+    k.push_back(v);
+  }
+  if (pos.size() < 4)
+    throw InputError(fmt::format("{}: {}: needs at least 4 rows", key, path.string()));
+  StiffnessCycle out;
+  const int n_pos = c.mesh.stiffness_positions;
+  for (int n = 0; n < n_pos; ++n) {
+    const double p = static_cast<double>(n) / n_pos;
+    // Periodic linear interpolation between the table's rows.
+    std::size_t hi = std::upper_bound(pos.begin(), pos.end(), p) - pos.begin();
+    const double p_hi = hi < pos.size() ? pos[hi] : pos[0] + 1.0;
+    const double k_hi = hi < pos.size() ? k[hi] : k[0];
+    const double p_lo = hi > 0 ? pos[hi - 1] : pos.back() - 1.0;
+    const double k_lo = hi > 0 ? k[hi - 1] : k.back();
+    out.position.push_back(p);
+    out.total_n_per_m.push_back(k_lo + (k_hi - k_lo) * (p - p_lo) / (p_hi - p_lo));
+  }
+  return out;
+}
+
+StiffnessFourier fourier_harmonics(const StiffnessCycle& cycle, int kept) {
+  StiffnessFourier f;
+  const int n = static_cast<int>(cycle.total_n_per_m.size());
+  const std::vector<std::complex<double>> x = real_dft(cycle.total_n_per_m);
+  f.mean_n_per_m = x[0].real() / n;
+  for (int i = 1; i <= kept && i <= n / 2; ++i) {
+    const double amplitude = 2.0 * std::abs(x[i]) / n;
+    const double phase = std::arg(x[i]);
+    f.harmonics.push_back({amplitude / f.mean_n_per_m, phase * 180.0 / kPi});
+  }
+  return f;
+}
+
+double truncation_error(const StiffnessCycle& cycle, const StiffnessFourier& f) {
+  double worst = 0;
+  for (std::size_t n = 0; n < cycle.position.size(); ++n) {
+    double k = f.mean_n_per_m;
+    for (std::size_t i = 0; i < f.harmonics.size(); ++i)
+      k += f.harmonics[i].ratio * f.mean_n_per_m *
+           std::cos(2 * kPi * (i + 1) * cycle.position[n] + f.harmonics[i].phase_deg * kPi / 180);
+    worst = std::max(worst, std::abs(k - cycle.total_n_per_m[n]));
+  }
+  return worst / f.mean_n_per_m;
+}
+
+MeshStiffness mesh_stiffness(const Case& c, const Geometry& g) {
+  MeshStiffness m;
+  switch (c.mesh.stiffness_source) {
+    case StiffnessSource::kHarmonics:
+      m.fourier.mean_n_per_m = c.mesh.mean_stiffness_n_per_m;
+      m.fourier.harmonics = c.mesh.stiffness_harmonics;
+      return m;
+    case StiffnessSource::kEnergy:
+      m.cycle = energy_method_cycle(c, g);
+      break;
+    case StiffnessSource::kTable:
+      m.cycle = table_cycle(c);
+      break;
+  }
+  m.fourier = fourier_harmonics(*m.cycle, c.mesh.harmonics_kept);
+  if (c.mesh.mean_stiffness_n_per_m > 0) {
+    m.scale = c.mesh.mean_stiffness_n_per_m / m.fourier.mean_n_per_m;
+    m.fourier.mean_n_per_m = c.mesh.mean_stiffness_n_per_m;
+  }
+  return m;
+}
 
 double mesh_frequency_hz(const Case& c) { return c.gear.teeth[0] * c.speed.shaft_frequency_hz; }
 
-HarmonicSeries mesh_stiffness_series(const Case& c, const Geometry& /*g*/) {
+HarmonicSeries mesh_stiffness_series(const Case& c, const MeshStiffness& m) {
   HarmonicSeries k;
-  k.offset = c.mesh.mean_stiffness_n_per_m;
-  const double w_mesh = 2.0 * std::numbers::pi * mesh_frequency_hz(c);
-  for (std::size_t i = 0; i < c.mesh.stiffness_harmonics.size(); ++i) {
-    const StiffnessHarmonic& h = c.mesh.stiffness_harmonics[i];
-    k.terms.push_back({h.ratio * k.offset, static_cast<double>(i + 1) * w_mesh,
-                       h.phase_deg * std::numbers::pi / 180.0});
+  k.offset = m.fourier.mean_n_per_m;
+  const double w_mesh = 2.0 * kPi * mesh_frequency_hz(c);
+  for (std::size_t i = 0; i < m.fourier.harmonics.size(); ++i) {
+    const StiffnessHarmonic& h = m.fourier.harmonics[i];
+    k.terms.push_back(
+        {h.ratio * k.offset, static_cast<double>(i + 1) * w_mesh, h.phase_deg * kPi / 180.0});
   }
   return k;
+}
+
+HarmonicSeries mesh_stiffness_series(const Case& c, const Geometry& g) {
+  return mesh_stiffness_series(c, mesh_stiffness(c, g));
 }
 
 }  // namespace geardyn

@@ -36,6 +36,19 @@ TEST(Case, DefaultsAreTable1AndFig4c) {
   EXPECT_EQ(c.load.fluctuation_ratio, 0.25);
   EXPECT_EQ(c.speed.shaft_frequency_hz, 1000.0);
   EXPECT_TRUE(c.mesh.stiffness_harmonics.empty());
+  EXPECT_EQ(c.mesh.stiffness_source, StiffnessSource::kEnergy);
+  EXPECT_EQ(c.mesh.harmonics_kept, 2);
+}
+
+TEST(Case, HarmonicsGivenWithoutASourceSelectTheHarmonicsSource) {
+  const Case c = parse_case("[mesh]\nstiffness_harmonics = [[0.05, 0]]\n", "h.toml");
+  EXPECT_EQ(c.mesh.stiffness_source, StiffnessSource::kHarmonics);
+  const std::string msg = error_of([] {
+    parse_case("[mesh]\nstiffness_source = \"energy\"\nstiffness_harmonics = [[0.05, 0]]\n",
+               "h.toml");
+  });
+  EXPECT_NE(msg.find("h.toml:3"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("unless mesh.stiffness_source = \"harmonics\""), std::string::npos) << msg;
 }
 
 TEST(Case, ShippedPark2010FileEqualsTheDefaults) {
@@ -47,6 +60,7 @@ TEST(Case, ShippedPark2010FileEqualsTheDefaults) {
 
 TEST(Case, RoundTripsThroughToml) {
   Case c;
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
   c.mesh.stiffness_harmonics = {{0.05, 10}, {0.02, -30}};
   c.mesh.tension = TensionRule::kClip;
   c.load.load_torque_nm = 40.0;

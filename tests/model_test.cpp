@@ -109,6 +109,7 @@ TEST(GearPairModel, GuardsChangeSignOnTheContactSurfaces) {
 
 TEST(GearPairModel, StiffnessHarmonicsAreAtMultiplesOfTheMeshFrequency) {
   Case c;
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
   c.mesh.stiffness_harmonics = {{0.05, 30}, {0.02, 0}};
   Geometry g = compute_geometry(c.gear);
   const HarmonicSeries k = mesh_stiffness_series(c, g);

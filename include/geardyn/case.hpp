@@ -43,6 +43,12 @@ struct GearData {
   // Polar moments of inertia; when absent they follow from density, face width, reference
   // diameter and bore (MODEL.md section 1).
   std::optional<std::array<double, 2>> inertia_kg_m2;
+  // Material and blank, for the mesh stiffness (ISO 6336-1 and the energy method).
+  std::array<double, 2> youngs_modulus_gpa = {206.0, 206.0};  // ISO 6336's steel, E_st
+  std::array<double, 2> poisson_ratio = {0.3, 0.3};
+  std::array<double, 2> basic_rack_dedendum = {1.25, 1.25};  // h_fP / m_n (ISO 53 profile A)
+  std::array<double, 2> rim_thickness_mm = {0.0, 0.0};       // s_R; 0: solid blank
+  std::array<double, 2> web_thickness_mm = {0.0, 0.0};       // b_s; 0: no web (solid blank)
 };
 
 enum class DampingForm {
@@ -60,11 +66,25 @@ struct StiffnessHarmonic {
   double phase_deg = 0.0;  // phi_i
 };
 
+enum class StiffnessSource {
+  kEnergy,     // the potential-energy slice method from the gear data (stiffness.hpp)
+  kHarmonics,  // mean_stiffness_n_per_m and stiffness_harmonics as given
+  kTable,      // a CSV of k over one mesh cycle (stiffness_table)
+};
+
 // [mesh]
 struct MeshData {
   double backlash_um = 100.0;  // b, the half of the total normal backlash 2b
+  StiffnessSource stiffness_source = StiffnessSource::kEnergy;
+  // The mean k_m; with "energy" or "table" the curve is scaled to it (0: the computed mean).
   double mean_stiffness_n_per_m = 2.34e8;
-  std::vector<StiffnessHarmonic> stiffness_harmonics;  // empty: constant k_m
+  std::vector<StiffnessHarmonic> stiffness_harmonics;  // with "harmonics"; empty: constant k_m
+  std::string stiffness_table;      // with "table": CSV `position,stiffness_n_per_m`, position in
+                                    // [0, 1) of a mesh cycle; relative to the case file
+  int harmonics_kept = 2;           // with "energy" or "table": harmonics kept (the paper: 2)
+  int stiffness_positions = 256;    // mesh positions per cycle of the energy method
+  int stiffness_slices = 64;        // face-width slices of the energy method
+  double application_factor = 1.0;  // K_A, for ISO 6336-1's load correction of c'
   double damping_ratio = 0.02;
   DampingForm damping = DampingForm::kContact;
   TensionRule tension = TensionRule::kAllow;
@@ -109,8 +129,9 @@ struct Case {
   LoadData load;
   SpeedData speed;
   SolverData solver;
-  std::string name = "default";  // the case file's stem, or "default"
-  std::string description;       // free text from the case file's top-level `description`
+  std::string name = "default";     // the case file's stem, or "default"
+  std::filesystem::path directory;  // the case file's directory: relative paths start there
+  std::string description;          // free text from the case file's top-level `description`
 };
 
 // One `--set key=value` override: key is dotted (`speed.shaft_frequency_hz`), value is in TOML

@@ -24,7 +24,7 @@ struct Geometry {
   std::array<double, 2> reference_diameter_m{};  // d = z m_n / cos beta
   std::array<double, 2> base_radius_m{};         // R_b = d cos alpha_t / 2
   std::array<double, 2> tip_radius_m{};          // the given outside diameters / 2
-  std::array<double, 2> root_diameter_m{};       // d - 2 m_n (1.25 - x), basic rack ISO 53 A
+  std::array<double, 2> root_diameter_m{};       // d - 2 m_n (h_fP/m_n - x)
   // Outside diameter the standard basic rack gives with the profile shifts and the tip
   // shortening needed at the given centre distance: d + 2 m_n (1 + x - k).
   std::array<double, 2> expected_outside_diameter_m{};

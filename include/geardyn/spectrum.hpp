@@ -1,10 +1,15 @@
 // geardyn: amplitude spectra of sampled signals (FFTW3), for the figures and the summary.
 #pragma once
 
+#include <complex>
 #include <cstddef>
 #include <vector>
 
 namespace geardyn {
+
+// The DFT X_k = sum_n x_n exp(-2 pi i k n / N) of real samples, k = 0 .. N/2 (FFTW).
+// Thread-safe (FFTW planning is serialised).
+std::vector<std::complex<double>> real_dft(const std::vector<double>& x);
 
 // Single-sided amplitude spectrum: amplitude_k is the amplitude of a sinusoid at frequency_hz_k
 // (a Hann window is applied and its coherent gain undone; the mean is removed first).

@@ -1,10 +1,24 @@
 // geardyn: mesh stiffness, pipeline stage 3 (geometry -> mesh stiffness).
 //
-// The mesh stiffness in the normal direction as the series of eq. 11,
-// k(t) = k_m + sum_i k_ai cos(i z1 omega_1 t + phi_i). For now it comes from the case's
-// [mesh] mean_stiffness_n_per_m and stiffness_harmonics; computing it from the gear data
-// (ISO 6336-1, the potential-energy slice method) is the next stage of this module.
+// Three ways to the mesh stiffness, which check each other (docs/stiffness.md):
+//  - ISO 6336-1 Method B: the single stiffness c' and the mesh stiffness c_gamma_alpha,
+//    c_gamma_beta, constants per unit face width;
+//  - the potential-energy method: per tooth pair the bending, shear and axial-compression
+//    compliances of both teeth, the Hertzian contact and the fillet-foundation compliance
+//    (Sainsot et al. 2004), the pairs in contact summed; a helical pair is cut into face-width
+//    slices, each shifted along the line of action by its helix position;
+//  - a table of k over one mesh cycle from another program.
+// The energy method and the table give k over one mesh cycle; its DFT gives the mean and the
+// harmonics of eq. 11, k(t) = k_m + sum_i k_ai cos(i z1 omega_1 t + phi_i). Stiffnesses are in
+// the normal direction (transverse stiffness / cos^2 beta_b), N/m, SI inside.
+//
+// Reference mesh position: position 0 (t = 0) is the instant a tooth pair enters contact at the
+// start of the active profile (point A of the path of contact) on the front face of the pinion;
+// positions are fractions of the mesh cycle, the time of one transverse base pitch.
 #pragma once
+
+#include <array>
+#include <vector>
 
 #include "geardyn/case.hpp"
 #include "geardyn/geometry.hpp"
@@ -12,8 +26,77 @@
 
 namespace geardyn {
 
-// k(t) in N/m as a series in time for the case's shaft speed: the i-th listed harmonic is at
-// i times the mesh frequency z1 f_1.
+// ISO 6336-1:2006 Method B. Per unit face width, N/(mm um).
+struct Iso6336Stiffness {
+  std::array<double, 2> virtual_teeth{};  // z_n = z / (cos^2 beta_b cos beta)
+  double q_prime = 0;                     // minimum flexibility of a tooth pair, mm um / N
+  double c_prime_th = 0;                  // 1 / q'
+  double c_m = 0.8;                       // theoretical-to-measured correction
+  double c_r = 1;                         // gear blank factor (rim and web)
+  double c_b = 1;                         // basic rack factor
+  double material_factor = 1;             // E / E_st, E = 2 E1 E2 / (E1 + E2)
+  double load_factor = 1;                 // (F_t K_A / b / 100)^0.25 below 100 N/mm, else 1
+  double c_prime = 0;                     // c'_th C_M C_R C_B cos(beta) (material, load factors)
+  double c_gamma_alpha = 0;               // c' (0.75 eps_alpha + 0.25)
+  double c_gamma_beta = 0;                // 0.85 c_gamma_alpha
+  // c_gamma_alpha over the whole face width, converted to N/m.
+  double mesh_stiffness_n_per_m = 0;
+};
+
+Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g);
+
+// Numerical settings of the energy method beyond the case's positions and slices.
+struct EnergyMethodOptions {
+  // Points along the path of contact at which a tooth pair's compliance is integrated (it is
+  // interpolated between them by a cubic B-spline).
+  int path_points = 257;
+  // Composite 10-point Gauss-Legendre intervals over each tooth's height.
+  int quadrature_intervals = 8;
+};
+
+// k over one mesh cycle at uniform positions.
+struct StiffnessCycle {
+  std::vector<double> position;       // fraction of the mesh cycle, [0, 1)
+  std::vector<double> total_n_per_m;  // mesh stiffness, normal direction
+  // Contribution of tooth pair j (the pair that entered at position -j) at each position.
+  std::vector<std::vector<double>> pair_n_per_m;
+  std::vector<int> pairs_in_contact;     // tooth pairs in contact anywhere on the face
+  std::vector<double> contact_length_m;  // total length of the contact lines
+  double mean_n_per_m() const;
+  double min_n_per_m() const;
+  double max_n_per_m() const;
+  double mean_pairs_in_contact() const;
+};
+
+StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g,
+                                   const EnergyMethodOptions& o = {});
+
+// The cycle of a table (the case's mesh.stiffness_table, resampled periodically and linearly to
+// mesh.stiffness_positions). Throws InputError naming the key, the file and the line.
+StiffnessCycle table_cycle(const Case& c);
+
+// Mean and harmonics (ratio k_ai / k_m and phase) of a cycle by its DFT (FFTW), in the form of
+// eq. 11 with position 0 at t = 0.
+struct StiffnessFourier {
+  double mean_n_per_m = 0;
+  std::vector<StiffnessHarmonic> harmonics;
+};
+StiffnessFourier fourier_harmonics(const StiffnessCycle& cycle, int kept);
+
+// Largest |k - series| over the cycle's positions, relative to the mean.
+double truncation_error(const StiffnessCycle& cycle, const StiffnessFourier& f);
+
+// The mesh stiffness a case runs with: its source, kept harmonics and scaling.
+struct MeshStiffness {
+  StiffnessFourier fourier;             // what the model uses (scaled, truncated)
+  std::optional<StiffnessCycle> cycle;  // the computed or tabulated curve, unscaled
+  double scale = 1;                     // applied to the cycle to reach mean_stiffness_n_per_m
+};
+MeshStiffness mesh_stiffness(const Case& c, const Geometry& g);
+
+// k(t) in N/m as a series in time for the case's shaft speed: the i-th harmonic is at i times
+// the mesh frequency z1 f_1.
+HarmonicSeries mesh_stiffness_series(const Case& c, const MeshStiffness& k);
 HarmonicSeries mesh_stiffness_series(const Case& c, const Geometry& g);
 
 // Mesh frequency z1 f_1 in Hz.
