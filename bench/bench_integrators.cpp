@@ -1,10 +1,12 @@
 // Integration speed on the paper's default case (Table 1, Fig. 4(c)): steps per second for
-// Newmark (the automatic step and a fine step, decimated output) and dopri5.
+// Newmark (the automatic step and a fine step, decimated output) and dopri5; and the time of the
+// energy-method stiffness over one mesh cycle.
 //
 //   ./build/release/bench/bench_integrators
 #include <benchmark/benchmark.h>
 
 #include "geardyn/run.hpp"
+#include "geardyn/stiffness.hpp"
 
 namespace {
 
@@ -46,6 +48,18 @@ void BM_Dopri5DefaultCase(benchmark::State& state) {
   run_case(state, c);
 }
 BENCHMARK(BM_Dopri5DefaultCase)->Unit(benchmark::kMillisecond);
+
+// The energy method over one mesh cycle: 256 positions by 64 slices (the default), and by 256.
+void BM_EnergyMethodCycle(benchmark::State& state) {
+  geardyn::Case c;
+  c.mesh.stiffness_slices = static_cast<int>(state.range(0));
+  const geardyn::Geometry g = geardyn::compute_geometry(c.gear);
+  for (auto _ : state) {
+    const geardyn::StiffnessCycle k = geardyn::energy_method_cycle(c, g);
+    benchmark::DoNotOptimize(k.total_n_per_m.data());
+  }
+}
+BENCHMARK(BM_EnergyMethodCycle)->Arg(64)->Arg(256)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

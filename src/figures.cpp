@@ -139,6 +139,43 @@ void render_figure(const fs::path& dir, const std::string& name, const std::stri
         fmt::format("gnuplot failed on {}: {}", (dir / (name + ".gp")).string(), output));
 }
 
+void write_stiffness_figure(const fs::path& dir, const std::string& name,
+                            const StiffnessCycle& cycle, const StiffnessFourier& spectrum,
+                            int kept) {
+  std::string h = "harmonic,ratio,phase_deg\n";
+  for (std::size_t i = 0; i < spectrum.harmonics.size(); ++i)
+    fmt::format_to(std::back_inserter(h), "{},{:.8e},{:.6f}\n", i + 1, spectrum.harmonics[i].ratio,
+                   spectrum.harmonics[i].phase_deg);
+  write_files_atomically(dir, {{"harmonics.csv", h}});
+  std::string s =
+      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key outside right top font ',8'\n";
+  fmt::format_to(std::back_inserter(s), "set multiplot layout 3,1 title \"{}\"\n", name);
+  s += "set title '(a) mesh stiffness over one mesh cycle'\n"
+       "set xlabel 'position in the mesh cycle'\nset ylabel 'k (N/m)'\nset xrange [0:1]\n"
+       "plot";
+  for (std::size_t j = 0; j < cycle.pair_n_per_m.size(); ++j)
+    fmt::format_to(std::back_inserter(s),
+                   " 'stiffness.csv' every ::1 using 1:(${0}>0?${0}:NaN) with lines dt 3 lc rgb "
+                   "'gray50' {1},",
+                   7 + j, j == 0 ? "title 'each tooth pair'" : "notitle");
+  fmt::format_to(std::back_inserter(s),
+                 " 'stiffness.csv' every ::1 using 1:3 with lines lw 1.5 lc rgb '{}' title "
+                 "'energy method', 'stiffness.csv' every ::1 using 1:4 with lines lw 1.2 dt 2 lc "
+                 "rgb '{}' title 'mean + {} harmonics'\n",
+                 kLineColour, kSecondColour, kept);
+  fmt::format_to(std::back_inserter(s), "set xrange [0.5:{}.5]\n", spectrum.harmonics.size());
+  s += "set title '(b) DFT: k_ai / k_m'\nset xlabel 'harmonic of the mesh frequency'\n"
+       "set ylabel 'k_ai / k_m'\nset logscale y\nset boxwidth 0.6\n"
+       "set style fill solid 0.7 noborder\n"
+       "plot 'harmonics.csv' every ::1 using 1:2 with boxes lc rgb '#1f3b73' notitle\n"
+       "unset logscale y\n"
+       "set title '(c) DFT: phases'\nset ylabel 'phase (deg)'\nset yrange [-180:180]\n"
+       "plot 'harmonics.csv' every ::1 using 1:3 with points pt 7 lc rgb '#b5532b' notitle\n"
+       "unset multiplot\n";
+  render_figure(dir, "stiffness", s, 1000, 950);
+}
+
 void write_run_figures(const fs::path& dir, const RunResult& r) {
   const Case& c = r.input;
   write_files_atomically(

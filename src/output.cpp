@@ -109,6 +109,66 @@ std::string events_csv(const std::vector<ContactEvent>& events) {
   return out;
 }
 
+std::string stiffness_json(const Case& c, const Geometry& g, const Iso6336Stiffness& iso,
+                           const StiffnessCycle& cycle, const StiffnessFourier& fourier) {
+  nlohmann::json harmonics = nlohmann::json::array();
+  for (const StiffnessHarmonic& h : fourier.harmonics) harmonics.push_back({h.ratio, h.phase_deg});
+  nlohmann::json j;
+  j["iso6336"] = {{"q_prime", iso.q_prime},
+                  {"c_prime_th", iso.c_prime_th},
+                  {"c_prime", iso.c_prime},
+                  {"c_gamma_alpha", iso.c_gamma_alpha},
+                  {"c_gamma_beta", iso.c_gamma_beta},
+                  {"unit", "N/(mm um)"},
+                  {"virtual_teeth", iso.virtual_teeth},
+                  {"c_m", iso.c_m},
+                  {"c_r", iso.c_r},
+                  {"c_b", iso.c_b},
+                  {"material_factor", iso.material_factor},
+                  {"load_factor", iso.load_factor},
+                  {"mesh_stiffness_n_per_m", iso.mesh_stiffness_n_per_m}};
+  j["energy"] = {{"mean_n_per_m", cycle.mean_n_per_m()},
+                 {"min_n_per_m", cycle.min_n_per_m()},
+                 {"max_n_per_m", cycle.max_n_per_m()},
+                 {"harmonics", harmonics},
+                 {"harmonics_kept", fourier.harmonics.size()},
+                 {"truncation_error", truncation_error(cycle, fourier)},
+                 {"mean_pairs_in_contact", cycle.mean_pairs_in_contact()},
+                 {"positions", cycle.position.size()},
+                 {"slices", c.mesh.stiffness_slices}};
+  j["geometry"] = {{"transverse_contact_ratio", g.transverse_contact_ratio},
+                   {"overlap_ratio", g.overlap_ratio},
+                   {"base_helix_angle_deg", g.base_helix_angle_rad * 180.0 / 3.14159265358979}};
+  j["case_mean_stiffness_n_per_m"] = c.mesh.mean_stiffness_n_per_m;
+  return j.dump(2);
+}
+
+std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
+                          const StiffnessFourier& fourier) {
+  std::string out =
+      "position,position_mm,total_n_per_m,series_n_per_m,pairs_in_contact,"
+      "contact_length_mm";
+  for (std::size_t j = 0; j < cycle.pair_n_per_m.size(); ++j)
+    fmt::format_to(std::back_inserter(out), ",pair_{}_n_per_m", j);
+  out += "\n";
+  for (std::size_t n = 0; n < cycle.position.size(); ++n) {
+    double series = fourier.mean_n_per_m;
+    for (std::size_t i = 0; i < fourier.harmonics.size(); ++i)
+      series += fourier.harmonics[i].ratio * fourier.mean_n_per_m *
+                std::cos(2 * 3.14159265358979323846 * (i + 1) * cycle.position[n] +
+                         fourier.harmonics[i].phase_deg * 3.14159265358979323846 / 180);
+    fmt::format_to(std::back_inserter(out), "{:.6f},{:.6f},{:.8e},{:.8e},{},{:.6f}",
+                   cycle.position[n], cycle.position[n] * g.transverse_base_pitch_m * 1e3,
+                   cycle.total_n_per_m[n], series,
+                   n < cycle.pairs_in_contact.size() ? cycle.pairs_in_contact[n] : 0,
+                   n < cycle.contact_length_m.size() ? cycle.contact_length_m[n] * 1e3 : 0.0);
+    for (const auto& pair : cycle.pair_n_per_m)
+      fmt::format_to(std::back_inserter(out), ",{:.8e}", pair[n]);
+    out += "\n";
+  }
+  return out;
+}
+
 void write_files_atomically(const std::filesystem::path& dir,
                             const std::vector<std::pair<std::string, std::string>>& files) {
   namespace fs = std::filesystem;

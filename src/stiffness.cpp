@@ -215,9 +215,11 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const Energ
   out.pairs_in_contact.assign(n_pos, 0);
   out.contact_length_m.assign(n_pos, 0.0);
   for (int n = 0; n < n_pos; ++n) {
-    const double phi = static_cast<double>(n) / n_pos;
+    const double phi = o.first_position + static_cast<double>(n) / n_pos;
     out.position[n] = phi;
-    for (int j = 0; j < n_pairs; ++j) {
+    // Pair j entered at position -j; those that can touch the face at phi, whatever phi is.
+    const int j_first = static_cast<int>(std::floor(-phi));
+    for (int j = j_first; j < j_first + n_pairs + 1; ++j) {
       const double lead = s_a + (phi + j) * pbt;  // the pair's contact on the front face
       // In contact somewhere on the face when [lead - b tan(beta_b), lead] meets [s_a, s_e].
       if (lead >= s_a && lead - b * tan_bb <= s_e) ++out.pairs_in_contact[n];
@@ -228,7 +230,8 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const Energ
         k += spline(s) * dw;
         out.contact_length_m[n] += dw / cos_bb;
       }
-      out.pair_n_per_m[j][n] = k * to_normal;
+      const int slot = j - j_first;  // the pair that entered last is slot 0
+      if (slot < n_pairs) out.pair_n_per_m[slot][n] += k * to_normal;
       out.total_n_per_m[n] += k * to_normal;
     }
   }

@@ -161,6 +161,25 @@ TEST(Cli, ReproduceRejectsAnUnknownStudy) {
   EXPECT_NE(o.err.find("unknown study"), std::string::npos) << o.err;
 }
 
+TEST(Cli, StiffnessJsonAndFiles) {
+  const fs::path d = fresh("stiffness");
+  const Outcome o = cli("stiffness --json --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(o.out);
+  for (const char* k : {"q_prime", "c_prime_th", "c_prime", "c_gamma_alpha", "c_gamma_beta"})
+    EXPECT_TRUE(j["iso6336"].contains(k)) << k;
+  for (const char* k :
+       {"mean_n_per_m", "min_n_per_m", "max_n_per_m", "harmonics", "mean_pairs_in_contact"})
+    EXPECT_TRUE(j["energy"].contains(k)) << k;
+  EXPECT_EQ(j["energy"]["harmonics"].size(), 2u);
+  EXPECT_TRUE(j["geometry"].contains("transverse_contact_ratio"));
+  EXPECT_TRUE(j["geometry"].contains("overlap_ratio"));
+  for (const char* f : {"stiffness.csv", "harmonics.json", "stiffness.png", "stiffness.svg"})
+    EXPECT_GT(fs::file_size(d / f), 100u) << f;
+  const std::string csv = slurp(d / "stiffness.csv");
+  EXPECT_EQ(csv.substr(0, csv.find(',')), "position");
+}
+
 TEST(Cli, LongRunShowsProgress) {
   // 1.5e8 steps: well over the one second after which progress is shown.
   const Outcome o = cli("run --set solver.time_step_s=1e-9 --set solver.duration_s=0.15");

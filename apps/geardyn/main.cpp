@@ -20,6 +20,7 @@
 #include "geardyn/output.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/stiffness.hpp"
 
 namespace {
 
@@ -206,6 +207,59 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
   return 0;
 }
 
+// Harmonics shown in the stiffness figure's DFT panels.
+constexpr int kFigureHarmonics = 10;
+
+int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& sets,
+                  const std::string& out_dir, bool json) {
+  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  const geardyn::Geometry g = geardyn::compute_geometry(c.gear);
+  const geardyn::Iso6336Stiffness iso = geardyn::iso6336_stiffness(c, g);
+  const geardyn::StiffnessCycle cycle = geardyn::energy_method_cycle(c, g);
+  const geardyn::StiffnessFourier kept = geardyn::fourier_harmonics(cycle, c.mesh.harmonics_kept);
+  const std::string report = geardyn::stiffness_json(c, g, iso, cycle, kept);
+  if (!out_dir.empty()) {
+    geardyn::write_files_atomically(out_dir,
+                                    {{"stiffness.csv", geardyn::stiffness_csv(g, cycle, kept)},
+                                     {"harmonics.json", report + "\n"}});
+    geardyn::write_stiffness_figure(out_dir, c.name + ": mesh stiffness (energy method)", cycle,
+                                    geardyn::fourier_harmonics(cycle, kFigureHarmonics),
+                                    c.mesh.harmonics_kept);
+  }
+  if (json) {
+    fmt::print("{}\n", report);
+    return 0;
+  }
+  print_warnings(g.warnings);
+  fmt::print("mesh stiffness of {} (normal direction)\n", c.name);
+  fmt::print(
+      "  ISO 6336-1 Method B   c'_th {:.4f}, c' {:.4f}, c_gamma_alpha {:.4f}, "
+      "c_gamma_beta {:.4f} N/(mm um)\n",
+      iso.c_prime_th, iso.c_prime, iso.c_gamma_alpha, iso.c_gamma_beta);
+  fmt::print("                        c_gamma_alpha b = {:.4g} N/m (load factor {:.3f})\n",
+             iso.mesh_stiffness_n_per_m, iso.load_factor);
+  fmt::print(
+      "  energy method         mean {:.4g} N/m, min {:.4g}, max {:.4g} "
+      "({} positions x {} slices)\n",
+      cycle.mean_n_per_m(), cycle.min_n_per_m(), cycle.max_n_per_m(), cycle.position.size(),
+      c.mesh.stiffness_slices);
+  fmt::print(
+      "                        pairs in contact {:.4f} on average "
+      "(eps_alpha + eps_beta = {:.4f})\n",
+      cycle.mean_pairs_in_contact(), g.total_contact_ratio());
+  for (std::size_t i = 0; i < kept.harmonics.size(); ++i)
+    fmt::print("                        k_a{}/k_m = {:.5f}, phi_{} = {:.2f} deg\n", i + 1,
+               kept.harmonics[i].ratio, i + 1, kept.harmonics[i].phase_deg);
+  fmt::print("                        series of {} harmonics within {:.2f} % of the curve\n",
+             kept.harmonics.size(), 100 * geardyn::truncation_error(cycle, kept));
+  fmt::print("  the case's k_m        {:.4g} N/m{}\n", c.mesh.mean_stiffness_n_per_m,
+             c.mesh.mean_stiffness_n_per_m == 2.34e8 ? " (Table 1 of Park 2010)" : "");
+  if (!out_dir.empty())
+    fmt::print("  written to            {}/ (stiffness.csv, harmonics.json, stiffness.png, .svg)\n",
+               out_dir);
+  return 0;
+}
+
 int cmd_reproduce(const std::string& study_name, const std::string& case_file,
                   const std::vector<std::string>& sets, const std::string& out_dir,
                   unsigned threads, bool figures) {
@@ -267,6 +321,12 @@ int main(int argc, char** argv) {
   add_case(geometry);
   geometry->add_flag("--json", json, "print JSON");
 
+  CLI::App* stiffness = app.add_subcommand(
+      "stiffness", "mesh stiffness from the gear data: ISO 6336-1 and the energy method");
+  add_case(stiffness);
+  stiffness->add_option("--out", out_dir, "directory for stiffness.csv, harmonics.json, figure");
+  stiffness->add_flag("--json", json, "print JSON");
+
   CLI::App* reproduce =
       app.add_subcommand("reproduce", "run a paper's study and write its report and figures");
   std::string study_name;
@@ -290,6 +350,7 @@ int main(int argc, char** argv) {
   try {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
+    if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
     if (reproduce->parsed())
       return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);
   } catch (const geardyn::InputError& e) {

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "geardyn/run.hpp"
+#include "geardyn/stiffness.hpp"
 
 namespace geardyn {
 
@@ -41,6 +42,13 @@ std::string time_history_body(const std::vector<TimeHistoryPanel>& panels, bool 
 // dir, and runs gnuplot there. Throws FigureError.
 void render_figure(const std::filesystem::path& dir, const std::string& name,
                    const std::string& body, int width_px, int height_px);
+
+// The mesh stiffness figure, like the paper's Fig. 3: (a) k over one mesh cycle with its
+// truncated series and each tooth pair's contribution, (b) the DFT: harmonic ratios k_ai/k_m
+// and phases. Needs stiffness.csv and harmonics.csv (written here) in dir.
+void write_stiffness_figure(const std::filesystem::path& dir, const std::string& name,
+                            const StiffnessCycle& cycle, const StiffnessFourier& spectrum,
+                            int kept);
 
 // The figures of one run, into a directory that already holds its timeseries.csv:
 // run_time (delta_bar and F_bar over time), run_spectrum (spectrum of F_bar over the steady part

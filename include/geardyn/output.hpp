@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "geardyn/run.hpp"
+#include "geardyn/stiffness.hpp"
 
 namespace geardyn {
 
@@ -24,6 +25,20 @@ std::string spectrum_csv(const RunResult& r);
 
 // events.csv: header t_s,kind,velocity_m_s.
 std::string events_csv(const std::vector<ContactEvent>& events);
+
+// The mesh stiffness of a case from its gear data, as `geardyn stiffness --json` prints it:
+// {"iso6336": {q_prime, c_prime_th, c_prime, c_gamma_alpha, c_gamma_beta (N/(mm um)), ...},
+//  "energy": {mean_n_per_m, min_n_per_m, max_n_per_m, harmonics: [[ratio, phase_deg]...],
+//             mean_pairs_in_contact, truncation_error, ...}, "geometry": {...}}.
+// `fourier` holds the kept harmonics of `cycle`.
+std::string stiffness_json(const Case& c, const Geometry& g, const Iso6336Stiffness& iso,
+                           const StiffnessCycle& cycle, const StiffnessFourier& fourier);
+
+// stiffness.csv: position (fraction of the mesh cycle), position_mm (along the line of action),
+// total_n_per_m, series_n_per_m (the kept harmonics), pairs_in_contact, contact_length_mm and
+// pair_<j>_n_per_m for each tooth pair.
+std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
+                          const StiffnessFourier& fourier);
 
 // Writes the named files into `dir` (created if missing) all or nothing.
 // Throws std::runtime_error naming the path on an I/O failure.

@@ -52,6 +52,8 @@ struct EnergyMethodOptions {
   int path_points = 257;
   // Composite 10-point Gauss-Legendre intervals over each tooth's height.
   int quadrature_intervals = 8;
+  // Position of the first sample, in mesh cycles (the cycle is periodic: 1 gives position 0).
+  double first_position = 0.0;
 };
 
 // k over one mesh cycle at uniform positions.
