@@ -13,6 +13,7 @@
 
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
+#include "geardyn/stiffness.hpp"
 
 namespace geardyn {
 namespace {
@@ -69,16 +70,23 @@ Study park2010_study(const Case& base) {
       "A finding holds when the regime and the absence of back-side contact agree with the "
       "paper; its remarks on amplitudes are quoted beside them but not tested.",
   };
-  if (base.mesh.stiffness_harmonics.empty()) {
-    s.assumptions.push_back(
-        "Mesh stiffness: constant k_m. The paper kept the mean and two harmonics of its computed "
-        "stiffness (Fig. 3) but does not print k_a1, k_a2, phi_1, phi_2.");
-  } else {
-    std::string h;
-    for (const StiffnessHarmonic& x : base.mesh.stiffness_harmonics)
-      h += fmt::format("{}[{}, {} deg]", h.empty() ? "" : ", ", x.ratio, x.phase_deg);
-    s.assumptions.push_back("Mesh stiffness harmonics k_ai/k_m, phi_i: " + h + ".");
-  }
+  // The stiffness the runs use, in words, from the same computation the runs make.
+  const MeshStiffness k = mesh_stiffness(base, compute_geometry(base.gear));
+  std::string h;
+  for (std::size_t i = 0; i < k.fourier.harmonics.size(); ++i)
+    h += fmt::format("{}k_a{}/k_m = {:.4f}, phi_{} = {:.1f} deg", h.empty() ? "" : "; ", i + 1,
+                     k.fourier.harmonics[i].ratio, i + 1, k.fourier.harmonics[i].phase_deg);
+  if (h.empty()) h = "no harmonics (constant k_m)";
+  const char* source = base.mesh.stiffness_source == StiffnessSource::kEnergy
+                           ? "computed from the gear data by the potential-energy slice method, "
+                             "its mean scaled to k_m as the paper did"
+                       : base.mesh.stiffness_source == StiffnessSource::kTable
+                           ? "from the table mesh.stiffness_table, its mean scaled to k_m"
+                           : "as given in the case";
+  s.assumptions.push_back(fmt::format(
+      "Mesh stiffness: k_m = {:.4g} N/m with {}; {}. The paper kept the mean and two harmonics "
+      "of its own program's curve (Fig. 3) but does not print them.",
+      k.fourier.mean_n_per_m, h, source));
 
   auto add = [&](std::string id, std::string figure, std::string panel, std::string label, Case c,
                  Regime paper, std::string finding) {
