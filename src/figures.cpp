@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 
@@ -30,7 +31,7 @@ std::string shell_quote(const std::string& s) {
 std::string panel_plot(const TimeHistoryPanel& p, int column, const char* ylabel,
                        bool show_xlabel) {
   const std::string dir = p.data_dir.empty() ? "" : p.data_dir + "/";
-  const std::string ts = dir + "timeseries.csv", iv = dir + "intervals.csv";
+  const std::string ts = dir + "plot.csv", iv = dir + "intervals.csv";
   std::string s;
   fmt::format_to(std::back_inserter(s), "set title \"{}\"\n", p.title);
   fmt::format_to(std::back_inserter(s), "set xrange [0:{}]\n", p.window_s * 1e3);
@@ -74,6 +75,29 @@ void write_text(const fs::path& p, const std::string& text) {
 
 }  // namespace
 
+std::string plot_csv(const Timeseries& s) {
+  std::string out = "t_s,delta_bar,force_bar\n";
+  const std::size_t n = s.size();
+  if (n <= kMaxPlotPoints) {
+    for (std::size_t i = 0; i < n; ++i)
+      fmt::format_to(std::back_inserter(out), "{:.10g},{:.8g},{:.8g}\n", s.t_s[i], s.delta_bar[i],
+                     s.force_bar[i]);
+    return out;
+  }
+  const std::size_t buckets = kMaxPlotPoints / 2;
+  for (std::size_t b = 0; b < buckets; ++b) {
+    const std::size_t lo = b * n / buckets, hi = (b + 1) * n / buckets;
+    const auto [dmin, dmax] =
+        std::minmax_element(s.delta_bar.begin() + lo, s.delta_bar.begin() + hi);
+    const auto [fmin, fmax] =
+        std::minmax_element(s.force_bar.begin() + lo, s.force_bar.begin() + hi);
+    const double t_mid = s.t_s[(lo + hi) / 2];
+    fmt::format_to(std::back_inserter(out), "{:.10g},{:.8g},{:.8g}\n{:.10g},{:.8g},{:.8g}\n",
+                   s.t_s[lo], *dmin, *fmin, t_mid, *dmax, *fmax);
+  }
+  return out;
+}
+
 std::string contact_intervals_csv(const RunResult& r) {
   std::string out = "t_start_s,t_end_s,contact\n";
   if (r.samples.size() == 0) return out;
@@ -106,7 +130,7 @@ std::string time_history_body(const std::vector<TimeHistoryPanel>& panels, bool 
     TimeHistoryPanel p = panels[i];
     s += panel_plot(p, 2, "delta / b", stacked ? false : last);
     p.title = "";  // the title goes over the panel's first plot only
-    s += panel_plot(p, 4, "F / (b k_m)", last);
+    s += panel_plot(p, 3, "F / (b k_m)", last);
   }
   s += "unset multiplot\n";
   return s;
@@ -178,8 +202,9 @@ void write_stiffness_figure(const fs::path& dir, const std::string& name,
 
 void write_run_figures(const fs::path& dir, const RunResult& r) {
   const Case& c = r.input;
-  write_files_atomically(
-      dir, {{"intervals.csv", contact_intervals_csv(r)}, {"spectrum.csv", spectrum_csv(r)}});
+  write_files_atomically(dir, {{"intervals.csv", contact_intervals_csv(r)},
+                               {"plot.csv", plot_csv(r.samples)},
+                               {"spectrum.csv", spectrum_csv(r)}});
   const std::string title =
       fmt::format("{}: f_1 = {} Hz, b = {} um, xi = {}, F_a/F_m = {} ({})", c.name,
                   c.speed.shaft_frequency_hz, c.mesh.backlash_um, c.mesh.damping_ratio,

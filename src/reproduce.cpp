@@ -406,7 +406,8 @@ void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
   for (const CaseOutcome& o : r.outcomes) {
     const fs::path case_dir = dir / "cases" / o.spec.id;
     write_run(case_dir, o.run);
-    write_files_atomically(case_dir, {{"intervals.csv", contact_intervals_csv(o.run)}});
+    write_files_atomically(case_dir, {{"intervals.csv", contact_intervals_csv(o.run)},
+                                      {"plot.csv", plot_csv(o.run.samples)}});
   }
   nlohmann::json j;
   j["study"] = r.study.name;

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -59,6 +61,7 @@ TEST(RunFigures, AreWrittenWithTheirDataAndScripts) {
   fs::remove_all(d);
   Case c;
   c.solver.duration_s = 0.01;
+  c.solver.output_interval_s = 1e-5;  // 1001 samples: drawn as they are
   const RunResult r = run(c);
   write_run(d, r);
   write_run_figures(d, r);
@@ -68,11 +71,46 @@ TEST(RunFigures, AreWrittenWithTheirDataAndScripts) {
   }
   EXPECT_EQ(png_size(d / "run_time.png"), std::make_pair(1000, 700));
   EXPECT_EQ(png_size(d / "run_spectrum.png"), std::make_pair(1000, 500));
-  // The figure plots the run's own samples.
-  EXPECT_EQ(slurp(d / "timeseries.csv"), timeseries_csv(r.samples));
-  EXPECT_NE(slurp(d / "run_time_body.gp").find("'timeseries.csv'"), std::string::npos);
+  // The figure plots the run's own samples (few enough here to be drawn as they are).
+  ASSERT_LE(r.samples.size(), kMaxPlotPoints);
+  EXPECT_EQ(slurp(d / "plot.csv"), plot_csv(r.samples));
+  EXPECT_NE(slurp(d / "run_time_body.gp").find("'plot.csv'"), std::string::npos);
+  std::istringstream rows(slurp(d / "plot.csv"));
+  std::string row;
+  std::getline(rows, row);
+  for (std::size_t i = 0; std::getline(rows, row); ++i) {
+    double t, db, fb;
+    ASSERT_EQ(std::sscanf(row.c_str(), "%lf,%lf,%lf", &t, &db, &fb), 3);
+    EXPECT_NEAR(db, r.samples.delta_bar[i], 1e-7 * std::abs(r.samples.delta_bar[i]) + 1e-12);
+  }
   EXPECT_EQ(slurp(d / "spectrum.csv"), spectrum_csv(r));
   EXPECT_NE(slurp(d / "run_time.svg").find("<svg"), std::string::npos);
+}
+
+TEST(PlotCsv, DecimatesToTheEnvelope) {
+  Timeseries s;
+  for (int i = 0; i < 100000; ++i) {
+    s.t_s.push_back(i * 1e-6);
+    s.delta_bar.push_back(std::sin(i * 0.37));
+    s.force_bar.push_back(i == 54321 ? 9.0 : std::cos(i * 0.11));
+    s.velocity_m_s.push_back(0);
+    s.contact.push_back(0);
+  }
+  std::istringstream rows(plot_csv(s));
+  std::string row;
+  std::getline(rows, row);
+  std::size_t count = 0;
+  double fmax = -1e300, dmin = 1e300;
+  while (std::getline(rows, row)) {
+    double t, db, fb;
+    ASSERT_EQ(std::sscanf(row.c_str(), "%lf,%lf,%lf", &t, &db, &fb), 3);
+    fmax = std::max(fmax, fb);
+    dmin = std::min(dmin, db);
+    ++count;
+  }
+  EXPECT_LE(count, kMaxPlotPoints);
+  EXPECT_EQ(fmax, 9.0);  // a one-sample spike survives
+  EXPECT_NEAR(dmin, *std::min_element(s.delta_bar.begin(), s.delta_bar.end()), 1e-7);
 }
 
 TEST(RenderFigure, ReportsAGnuplotFailure) {

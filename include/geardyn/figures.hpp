@@ -25,6 +25,14 @@ class FigureError : public std::runtime_error {
 // intervals.csv with header t_start_s,t_end_s,contact (0 separated, -1 back side).
 std::string contact_intervals_csv(const RunResult& r);
 
+// Points of a time-history plot at most: far more than a panel has pixel columns.
+constexpr std::size_t kMaxPlotPoints = 4000;
+
+// plot.csv, the samples a time-history figure draws: t_s,delta_bar,force_bar. Up to
+// kMaxPlotPoints samples as they are; beyond, min/max decimation: each bucket of consecutive
+// samples gives its minimum and its maximum (of each signal), so the drawn envelope is exact.
+std::string plot_csv(const Timeseries& s);
+
 // One panel row of a time-history figure: delta_bar and F_bar of one run.
 struct TimeHistoryPanel {
   std::string title;     // e.g. "(a) f_1 = 10 Hz"
