@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,16 +13,7 @@ namespace {
 
 const std::filesystem::path kCases = std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases";
 
-// The message of the InputError that `f` throws ("" if it does not throw).
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using geardyn::testing::error_of;
 
 TEST(Case, DefaultsAreTable1AndFig4c) {
   const Case c = load_case(std::nullopt);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include <cmath>
 #include <numbers>
 
@@ -94,15 +96,7 @@ TEST(Geometry, WarnsWhenTheDataDisagreeAndNamesBothValues) {
   EXPECT_NE(g2.warnings[0].find("154.97"), std::string::npos) << g2.warnings[0];
 }
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using geardyn::testing::error_of;
 
 TEST(Geometry, ErrorsWhereNoGearPairExists) {
   GearData close;
