@@ -56,6 +56,28 @@ MaybeViolation check_ranges(const Case& c) {
   auto bad = [](std::string key, double v, std::string allowed) {
     return MaybeViolation(Violation{std::move(key), format_number(v), std::move(allowed)});
   };
+  const ModelData& md = c.model;
+  if (!(md.zeta >= 0 && md.zeta < 1))
+    return bad("model.zeta", md.zeta, "a damping ratio in [0, 1)");
+  if (!std::isfinite(md.force_mean))
+    return bad("model.force_mean", md.force_mean, "a finite force");
+  if (!(md.force_alternating >= 0 && std::isfinite(md.force_alternating)))
+    return bad("model.force_alternating", md.force_alternating, "a finite amplitude >= 0");
+  if (!(md.omega > 0 && std::isfinite(md.omega)))
+    return bad("model.omega", md.omega, "a finite frequency ratio > 0");
+  double kappa_sum = 0;
+  for (std::size_t i = 0; i < md.stiffness_harmonics.size(); ++i) {
+    if (!(md.stiffness_harmonics[i].ratio >= 0 && md.stiffness_harmonics[i].ratio < 1))
+      return bad(fmt::format("model.stiffness_harmonics[{}][0]", i),
+                 md.stiffness_harmonics[i].ratio, "a ratio in [0, 1)");
+    kappa_sum += md.stiffness_harmonics[i].ratio;
+  }
+  if (!(kappa_sum < 1))
+    return bad("model.stiffness_harmonics", kappa_sum, "ratios whose sum is < 1 (k stays > 0)");
+  if (md.stiffness_harmonics.size() > static_cast<std::size_t>(HarmonicSeries::kMaxTerms))
+    return bad("model.stiffness_harmonics", static_cast<double>(md.stiffness_harmonics.size()),
+               fmt::format("at most {} harmonics", HarmonicSeries::kMaxTerms));
+
   const GearData& g = c.gear;
   if (!(g.normal_module_mm > 0 && g.normal_module_mm <= 100))
     return bad("gear.normal_module_mm", g.normal_module_mm, "a module in (0, 100] mm");
@@ -427,6 +449,15 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
   c.name = std::move(name);
   Reader r(root, source, overrides);
   r.string("description", c.description);
+  ModelData& md = c.model;
+  r.choice("model", "form", md.form,
+           {{"gear_pair", ModelForm::kGearPair}, {"nondimensional", ModelForm::kNondimensional}});
+  r.number("model", "zeta", md.zeta);
+  r.number("model", "force_mean", md.force_mean);
+  r.number("model", "force_alternating", md.force_alternating);
+  r.number("model", "omega", md.omega);
+  r.harmonics("model", "stiffness_harmonics", md.stiffness_harmonics);
+
   GearData& g = c.gear;
   r.number("gear", "normal_module_mm", g.normal_module_mm);
   r.number("gear", "normal_pressure_angle_deg", g.normal_pressure_angle_deg);
@@ -489,6 +520,8 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
 
   static const std::map<std::string, std::vector<std::string>> kSchema = {
       {"description", {}},
+      {"model",
+       {"form", "zeta", "force_mean", "force_alternating", "omega", "stiffness_harmonics"}},
       {"gear",
        {"normal_module_mm", "normal_pressure_angle_deg", "helix_angle_deg", "center_distance_mm",
         "teeth", "face_width_mm", "outside_diameter_mm", "profile_shift", "density_kg_m3",
@@ -632,8 +665,20 @@ std::string to_toml(const Case& c) {
       {"final_fraction", c.solver.final_fraction},
       {"initial", c.solver.initial == InitialCondition::kCenter ? "center" : "static"},
   };
+  toml::array model_harmonics;
+  for (const StiffnessHarmonic& h : c.model.stiffness_harmonics)
+    model_harmonics.push_back(toml::array{h.ratio, h.phase_deg});
+  toml::table model{
+      {"form", c.model.form == ModelForm::kGearPair ? "gear_pair" : "nondimensional"},
+      {"zeta", c.model.zeta},
+      {"force_mean", c.model.force_mean},
+      {"force_alternating", c.model.force_alternating},
+      {"omega", c.model.omega},
+      {"stiffness_harmonics", model_harmonics},
+  };
   toml::table root{
       {"description", c.description},
+      {"model", model},
       {"gear", gear},
       {"mesh", mesh},
       {"load", load},

@@ -51,6 +51,24 @@ GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
   return p;
 }
 
+GearPairParameters nondimensional_parameters(const ModelData& m) {
+  GearPairParameters p;
+  p.equivalent_mass_kg = 1.0;
+  p.cos_base_helix = 1.0;
+  p.backlash_m = 1.0;
+  p.stiffness_n_per_m.offset = 1.0;
+  for (std::size_t i = 0; i < m.stiffness_harmonics.size(); ++i)
+    p.stiffness_n_per_m.terms.push_back(
+        {m.stiffness_harmonics[i].ratio, static_cast<double>(i + 1) * m.omega,
+         m.stiffness_harmonics[i].phase_deg * std::numbers::pi / 180});
+  p.damping_n_s_per_m = 2.0 * m.zeta;
+  p.damping = DampingForm::kAlways;
+  p.tension = TensionRule::kAllow;
+  p.force_n.offset = m.force_mean;
+  if (m.force_alternating != 0) p.force_n.terms.push_back({m.force_alternating, m.omega, 0.0});
+  return p;
+}
+
 GearPairModel::GearPairModel(GearPairParameters p)
     : p_(std::move(p)),
       b_(p_.backlash_m),

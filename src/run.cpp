@@ -26,10 +26,19 @@ double automatic_time_step_s(const GearPairParameters& p) {
   return fastest_period_s(p) / kStepsPerFastestPeriod;
 }
 
-GearPairModel build_model(const Case& c, Geometry* geometry_out) {
+double fundamental_period_s(const Case& c) {
+  if (c.model.form == ModelForm::kNondimensional) return kTwoPi / c.model.omega;
+  if (c.load.fluctuation_ratio > 0)
+    return 1.0 / (c.load.fluctuation_order * c.speed.shaft_frequency_hz);
+  return 1.0 / mesh_frequency_hz(c);
+}
+
+GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiffness* stiffness) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
+  if (c.model.form == ModelForm::kNondimensional)
+    return GearPairModel(nondimensional_parameters(c.model));
   Geometry g = compute_geometry(c.gear);
-  HarmonicSeries k = mesh_stiffness_series(c, g);
+  HarmonicSeries k = stiffness ? mesh_stiffness_series(c, *stiffness) : mesh_stiffness_series(c, g);
   GearPairModel model(gear_pair_parameters(c, g, k));
   if (geometry_out) *geometry_out = std::move(g);
   return model;
@@ -50,7 +59,8 @@ RunResult run(const Case& c, const RunOptions& options) {
   d.mean_force_n = p.mean_force_n();
   const double cb2 = p.cos_base_helix * p.cos_base_helix;
   d.static_delta_bar = 1.0 + p.mean_force_n() / (p.backlash_m * p.mean_stiffness_n_per_m() * cb2);
-  d.mesh_frequency_hz = mesh_frequency_hz(c);
+  d.mesh_frequency_hz =
+      c.model.form == ModelForm::kNondimensional ? c.model.omega / kTwoPi : mesh_frequency_hz(c);
   d.base_helix_angle_deg = g.base_helix_angle_rad * 180.0 / std::numbers::pi;
   d.working_pressure_angle_deg = g.working_pressure_angle_rad * 180.0 / std::numbers::pi;
   d.transverse_contact_ratio = g.transverse_contact_ratio;

@@ -7,7 +7,9 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -21,12 +23,18 @@
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
+#include "geardyn/sweep.hpp"
 
 namespace {
 
 constexpr int kExitNumerical = 1;
 constexpr int kExitInput = 2;
 constexpr int kExitFigure = 3;
+constexpr int kExitInterrupted = 130;  // 128 + SIGINT, as shells report it
+
+// Set by Ctrl-C during a sweep: the sweep stops after the points under way.
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_interrupt(int) { g_interrupted = true; }
 
 // Shows a progress bar on stderr once the work has taken more than a second.
 class ProgressBar {
@@ -207,6 +215,58 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
   return 0;
 }
 
+int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets,
+              geardyn::SweepOptions o, const std::string& out_dir, bool figures) {
+  const geardyn::Case base = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
+  const bool tty = isatty(2) != 0;
+  const auto start = std::chrono::steady_clock::now();
+  int last_percent = -10;
+  o.progress = [&](std::size_t done, std::size_t total) {
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const int percent = static_cast<int>(100 * done / total);
+    if (tty || percent >= last_percent + 10 || done == total) {
+      last_percent = percent;
+      constexpr int kWidth = 30;
+      const int filled = static_cast<int>(kWidth * done / total);
+      const double left = elapsed * (total - done) / std::max<std::size_t>(done, 1);
+      fmt::print(stderr, "{}sweep [{:<{}}] {}/{} points, {:.1f} s left{}", tty ? "\r" : "",
+                 std::string(filled, '#'), kWidth, done, total, left,
+                 (!tty || done == total) ? "\n" : "");
+    }
+    return !g_interrupted.load();
+  };
+  std::signal(SIGINT, on_interrupt);
+  const geardyn::SweepResult r = geardyn::sweep(base, o);
+  std::signal(SIGINT, SIG_DFL);
+  if (r.cancelled)
+    fmt::print(stderr, "\ninterrupted: writing the {} completed points\n", r.points.size());
+  geardyn::write_sweep(out_dir, r, figures && !r.cancelled);
+  fmt::print("geardyn sweep: {} from {} to {}, {} points{}, {} ({} threads, {:.2f} s)\n",
+             o.axis.key, o.axis.from, o.axis.to, o.axis.points,
+             o.axis2 ? fmt::format(" x {} from {} to {}, {} points", o.axis2->key, o.axis2->from,
+                                   o.axis2->to, o.axis2->points)
+                     : "",
+             geardyn::to_string(o.direction), r.threads, r.wall_time_s);
+  fmt::print(
+      "  fundamental period {:.6g} s at the first point; {} points computed, {} not "
+      "settled\n",
+      r.period_s, r.points.size(), r.unsettled);
+  for (const geardyn::Hysteresis& h : r.hysteresis)
+    fmt::print("  up and down differ from {} = {:.6g} to {:.6g}\n", o.axis.key, h.from_value,
+               h.to_value);
+  for (const geardyn::Jump& j : r.jumps)
+    fmt::print(
+        "  {} sweep jumps between {:.6g} and {:.6g}: peak-to-peak delta/b {:.4g} -> {:.4g}\n",
+        geardyn::to_string(j.direction), j.from_value, j.to_value, j.before, j.after);
+  fmt::print("  written to {}/ (sweep.csv, strobe.csv, summary.json{})\n", out_dir,
+             figures && !r.cancelled
+                 ? ", frequency_response, bifurcation" + std::string(o.axis2 ? ", regime_map" : "")
+                 : "");
+  return r.cancelled ? kExitInterrupted : 0;
+}
+
 // Harmonics shown in the stiffness figure's DFT panels.
 constexpr int kFigureHarmonics = 10;
 
@@ -327,6 +387,35 @@ int main(int argc, char** argv) {
   stiffness->add_option("--out", out_dir, "directory for stiffness.csv, harmonics.json, figure");
   stiffness->add_flag("--json", json, "print JSON");
 
+  CLI::App* sweep_cmd =
+      app.add_subcommand("sweep", "sweep a case key (a map: two): frequency response, jumps");
+  add_case(sweep_cmd);
+  geardyn::SweepOptions so;
+  geardyn::SweepAxis axis2;
+  std::string direction = "both";
+  std::string sweep_out = "out/sweep";
+  bool sweep_no_figures = false;
+  sweep_cmd->add_option("--param", so.axis.key, "the case key swept, e.g. speed.shaft_frequency_hz")
+      ->required();
+  sweep_cmd->add_option("--from", so.axis.from, "first value")->required();
+  sweep_cmd->add_option("--to", so.axis.to, "last value")->required();
+  sweep_cmd->add_option("--points", so.axis.points, "number of values")->required();
+  sweep_cmd->add_flag("--log", so.axis.log, "geometric spacing");
+  sweep_cmd->add_option("--direction", direction, "up, down or both (default both)")
+      ->check(CLI::IsMember({"up", "down", "both"}));
+  sweep_cmd->add_option("--param2", axis2.key, "a second key: a 2-D map");
+  sweep_cmd->add_option("--from2", axis2.from, "first value of --param2");
+  sweep_cmd->add_option("--to2", axis2.to, "last value of --param2");
+  sweep_cmd->add_option("--points2", axis2.points, "number of values of --param2");
+  sweep_cmd->add_flag("--log2", axis2.log, "geometric spacing of --param2");
+  sweep_cmd->add_option("--settle-periods", so.settle_periods, "periods before measuring (20)");
+  sweep_cmd->add_option("--measure-periods", so.measure_periods, "periods per measurement (10)");
+  sweep_cmd->add_option("--max-settle-periods", so.max_settle_periods,
+                        "periods before a point is flagged not settled (200)");
+  sweep_cmd->add_option("--threads", so.threads, "worker threads (default: all cores)");
+  sweep_cmd->add_option("--out", sweep_out, "output directory (default out/sweep)");
+  sweep_cmd->add_flag("--no-figures", sweep_no_figures, "write the data without figures");
+
   CLI::App* reproduce =
       app.add_subcommand("reproduce", "run a paper's study and write its report and figures");
   std::string study_name;
@@ -351,6 +440,13 @@ int main(int argc, char** argv) {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
     if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
+    if (sweep_cmd->parsed()) {
+      so.direction = direction == "up"     ? geardyn::SweepDirection::kUp
+                     : direction == "down" ? geardyn::SweepDirection::kDown
+                                           : geardyn::SweepDirection::kBoth;
+      if (!axis2.key.empty()) so.axis2 = axis2;
+      return cmd_sweep(case_file, sets, so, sweep_out, !sweep_no_figures);
+    }
     if (reproduce->parsed())
       return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);
   } catch (const geardyn::InputError& e) {

@@ -123,7 +123,26 @@ struct SolverData {
   InitialCondition initial = InitialCondition::kCenter;
 };
 
+enum class ModelForm {
+  kGearPair,        // the gear pair of [gear], [mesh], [load], [speed] (MODEL.md)
+  kNondimensional,  // x'' + 2 zeta x' + k(tau) f(x) = F_m + F_a cos(Omega tau), b = 1
+};
+
+// [model]: the form of the equation. The non-dimensional form of the literature (Kahraman and
+// Singh 1990) has b = 1, damping acting at all times, and
+// k(tau) = 1 + sum_i kappa_i cos(i Omega tau + phi_i); [gear], [mesh], [load] and [speed] are
+// then not used, and times (solver.duration_s, ...) are in units of tau.
+struct ModelData {
+  ModelForm form = ModelForm::kGearPair;
+  double zeta = 0.05;              // damping ratio
+  double force_mean = 0.1;         // F_m
+  double force_alternating = 0.1;  // F_a
+  double omega = 1.0;              // Omega, excitation frequency over the natural one
+  std::vector<StiffnessHarmonic> stiffness_harmonics;  // kappa_i, phi_i at i Omega
+};
+
 struct Case {
+  ModelData model;
   GearData gear;
   MeshData mesh;
   LoadData load;

@@ -99,6 +99,7 @@ struct IntegrationSummary {
   // step is taken without splitting (only a chattering contact does this).
   std::int64_t unsplit_steps = 0;
   double end_time_s = 0;
+  State end_state{};  // the state where the integration stopped (to continue from it)
   bool ok() const { return termination == Termination::kCompleted; }
 };
 
@@ -292,10 +293,12 @@ IntegrationSummary integrate_newmark(const S& sys, State initial, double t1, dou
   };
   emit_samples(s, s);
 
-  auto fail = [&sum](Termination t, double at_s, const std::string& what) {
+  // The state is passed by value: a reference capture would keep the loop's state in memory.
+  auto fail = [&sum](Termination t, State at, const std::string& what) {
     sum.termination = t;
-    sum.message = what + " at t = " + std::to_string(at_s) + " s";
-    sum.end_time_s = at_s;
+    sum.message = what + " at t = " + std::to_string(at.t) + " s";
+    sum.end_time_s = at.t;
+    sum.end_state = at;
     return sum;
   };
 
@@ -315,7 +318,7 @@ IntegrationSummary integrate_newmark(const S& sys, State initial, double t1, dou
       const bool whole = transitions == 0;
       const double h = whole ? dt : t_end - s.t;
       if (!newmark_substep(sys, m, s, whole ? full_step : NewmarkStep(h, o), d_end, o, trial))
-        return fail(Termination::kNewtonFailed, s.t,
+        return fail(Termination::kNewtonFailed, s,
                     "Newton-Raphson did not converge in " +
                         std::to_string(o.newton_max_iterations) + " iterations");
       trial.t = t_end;
@@ -342,15 +345,16 @@ IntegrationSummary integrate_newmark(const S& sys, State initial, double t1, dou
       obs.on_transition(s, from);
     }
     if (!std::isfinite(trial.q) || !std::isfinite(trial.v))
-      return fail(Termination::kDiverged, trial.t, "the solution became non-finite");
+      return fail(Termination::kDiverged, trial, "the solution became non-finite");
     ++sum.steps;
     emit_samples(s, trial);
     s = trial;
     obs.on_step(s, d_end);
     if ((n & progress_mask) == 0 && !obs.on_progress(s.t))
-      return fail(Termination::kCancelled, s.t, "cancelled");
+      return fail(Termination::kCancelled, s, "cancelled");
   }
   sum.end_time_s = s.t;
+  sum.end_state = s;
   return sum;
 }
 
@@ -485,6 +489,7 @@ IntegrationSummary integrate_dopri5(const S& sys, State initial, double t1,
     }
   }
   sum.end_time_s = t;
+  sum.end_state = state_at(x, t);
   return sum;
 }
 

@@ -60,6 +60,11 @@ struct GearPairParameters {
 GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
                                         const HarmonicSeries& stiffness_n_per_m);
 
+// The non-dimensional form ([model] form = "nondimensional"): m = 1, b = 1, cos(beta_b) = 1,
+// k(tau) = 1 + sum_i kappa_i cos(i Omega tau + phi_i), c = 2 zeta acting at all times,
+// F(tau) = F_m + F_a cos(Omega tau).
+GearPairParameters nondimensional_parameters(const ModelData& m);
+
 class GearPairModel {
  public:
   // The time-dependent inputs at one instant.

@@ -13,6 +13,7 @@
 #include "geardyn/integrator.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/spectrum.hpp"
+#include "geardyn/stiffness.hpp"
 
 namespace geardyn {
 
@@ -79,8 +80,14 @@ double fastest_period_s(const GearPairParameters& p);
 // The automatic Newmark step: fastest_period_s / kStepsPerFastestPeriod.
 double automatic_time_step_s(const GearPairParameters& p);
 
-// The model of a case (geometry and stiffness included). Throws InputError.
-GearPairModel build_model(const Case& c, Geometry* geometry_out = nullptr);
+// The model of a case (geometry and stiffness included). `stiffness`, when given, is used in
+// place of computing the case's mesh stiffness (a sweep computes it once). Throws InputError.
+GearPairModel build_model(const Case& c, Geometry* geometry_out = nullptr,
+                          const MeshStiffness* stiffness = nullptr);
+
+// The period of the case's fundamental excitation: the torque period 1/(order f_1) when the
+// torque fluctuates, else the mesh period 1/(z1 f_1); 2 pi / Omega in the non-dimensional form.
+double fundamental_period_s(const Case& c);
 
 // Runs a case. Throws InputError on bad input; a numerical failure is reported in
 // result.integration (termination and message), never thrown.

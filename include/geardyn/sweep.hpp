@@ -1,0 +1,114 @@
+// geardyn: sweeps and maps, `geardyn sweep`.
+//
+// A sweep runs a case at many values of one case key (a map: of two). Each point settles, then
+// measures, in whole periods of the case's fundamental (fundamental_period_s), and is read by
+// its statistics, regime and stroboscopic samples. In an up or down sweep the state at the end of
+// one point starts the next, as in an experiment, so jumps and hysteresis show. Independent
+// sequences (the up and the down sweep, the rows of a map) run in parallel; the results do not
+// depend on the number of threads.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geardyn/analysis.hpp"
+#include "geardyn/case.hpp"
+
+namespace geardyn {
+
+// One swept case key and its values: `points` values from `from` to `to`, evenly or (log)
+// geometrically spaced.
+struct SweepAxis {
+  std::string key;
+  double from = 0, to = 0;
+  int points = 0;
+  bool log = false;
+  std::vector<double> values() const;
+};
+
+enum class SweepDirection { kUp, kDown, kBoth };
+const char* to_string(SweepDirection d);
+
+struct SweepOptions {
+  SweepAxis axis;
+  std::optional<SweepAxis> axis2;  // a 2-D map: each value of axis2 is a row swept along axis
+  SweepDirection direction = SweepDirection::kBoth;
+  int settle_periods = 20;   // fundamental periods before the first measurement
+  int measure_periods = 10;  // periods per measurement block
+  // A point is steady when two successive blocks agree; it settles for at most this many
+  // periods before it is flagged as not settled.
+  int max_settle_periods = 200;
+  // Two blocks agree when each statistic changes by less than this fraction of its size
+  // (and the separated fraction by less than this much): well above the step's error.
+  double steady_tolerance = 1e-3;
+  int samples_per_period = 64;  // for the statistics; the strobe takes one per period
+  unsigned threads = 0;         // 0: all cores
+  // Called after each point with (done, total); returning false stops the sweep after the
+  // points under way (the completed ones are kept).
+  std::function<bool(std::size_t, std::size_t)> progress;
+
+  // The bounds of every option, as Ceres does: "" when valid, else what is wrong.
+  std::string validate() const;
+};
+
+struct SweepPoint {
+  SweepDirection direction = SweepDirection::kUp;  // kUp or kDown
+  double value = 0;
+  double value2 = 0;  // 0 for a 1-D sweep
+  bool settled = false;
+  int settle_periods = 0;  // periods run before the measurement that was kept
+  double mean_delta_bar = 0, rms_delta_bar = 0, pp_delta_bar = 0, min_delta_bar = 0;
+  double mean_force_bar = 0, rms_force_bar = 0, pp_force_bar = 0, max_force_bar = 0;
+  std::optional<double> dynamic_factor;
+  double separated_fraction = 0;
+  double impacts_per_period = 0;
+  Regime regime = Regime::kNone;  // over the measurement: separated in its last period or not
+  bool double_sided = false;
+  // Once per fundamental period over the measurement.
+  std::vector<double> strobe_delta_bar, strobe_velocity_m_s, strobe_force_bar;
+};
+
+// Where the up and the down sweep part: the parameter interval over which their responses
+// differ (hysteresis), and the jumps that bound it.
+struct Hysteresis {
+  double from_value = 0, to_value = 0;
+};
+struct Jump {
+  SweepDirection direction = SweepDirection::kUp;
+  double from_value = 0, to_value = 0;  // the two consecutive points between which it jumps
+  double before = 0, after = 0;         // pp_delta_bar on either side
+};
+
+struct SweepResult {
+  SweepOptions options;
+  double period_s = 0;             // the fundamental period at the first point
+  std::vector<SweepPoint> points;  // in sweep order: up (each row), then down
+  std::vector<Hysteresis> hysteresis;
+  std::vector<Jump> jumps;
+  std::size_t unsettled = 0;
+  bool cancelled = false;
+  double wall_time_s = 0;
+  unsigned threads = 0;
+};
+
+// Thresholds of the jump reading, on the peak-to-peak delta_bar (it changes most at a jump): up
+// and down differ where theirs differ by more than kHysteresisFraction of the larger; a sweep
+// jumps where consecutive points differ by more than kJumpFraction of the larger, far above
+// what a resolved smooth response changes by between neighbouring points.
+constexpr double kHysteresisFraction = 0.05;
+constexpr double kJumpFraction = 0.3;
+
+// Runs the sweep. Throws InputError for a bad key, value or option (naming it), and
+// std::runtime_error naming the point on a numerical failure.
+SweepResult sweep(const Case& base, const SweepOptions& o);
+
+// sweep.csv (one row per point and direction), strobe.csv, summary.json, and with `figures` the
+// frequency-response curve, the bifurcation diagram and (2-D) the regime map, PNG and SVG.
+void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool figures = true);
+
+std::string sweep_csv(const SweepResult& r);
+
+}  // namespace geardyn

@@ -1,0 +1,489 @@
+#include "geardyn/sweep.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <thread>
+
+#include "geardyn/figures.hpp"
+#include "geardyn/output.hpp"
+#include "geardyn/run.hpp"
+#include "geardyn/stiffness.hpp"
+
+namespace geardyn {
+namespace {
+
+// Keys whose change changes the mesh stiffness curve: with any other swept key the energy method
+// runs once for the whole sweep.
+bool changes_stiffness(const std::string& key) {
+  return key.rfind("gear.", 0) == 0 || key.rfind("mesh.stiffness", 0) == 0 ||
+         key == "mesh.mean_stiffness_n_per_m" || key == "mesh.harmonics_kept" ||
+         key == "mesh.application_factor";
+}
+
+std::string number_text(double x) { return fmt::format("{:.17g}", x); }
+
+// An observer that only lets the integration run (settling).
+struct Settle {
+  void on_step(const ode::State&, const GearPairModel::Drive&) {}
+  void on_transition(const ode::State&, int) {}
+  void on_sample(const ode::State&) {}
+  bool on_progress(double) { return true; }
+};
+
+// The statistics two blocks are compared by.
+std::array<double, 7> block_statistics(const SweepPoint& p) {
+  return {p.mean_delta_bar, p.rms_delta_bar, p.pp_delta_bar,      p.mean_force_bar,
+          p.rms_force_bar,  p.pp_force_bar,  p.separated_fraction};
+}
+
+bool agree(const SweepPoint& a, const SweepPoint& b, double tol) {
+  const auto x = block_statistics(a), y = block_statistics(b);
+  for (std::size_t i = 0; i + 1 < x.size(); ++i)
+    if (std::abs(x[i] - y[i]) > tol * std::max({std::abs(x[i]), std::abs(y[i]), 1e-12}))
+      return false;
+  return std::abs(x.back() - y.back()) <= tol;
+}
+
+struct PointJob {
+  std::size_t slot;  // index into the result's points
+  double value, value2;
+  SweepDirection direction;
+};
+
+class PointRunner {
+ public:
+  PointRunner(const Case& base, const SweepOptions& o) : base_(base), o_(o) {
+    if (base.model.form == ModelForm::kGearPair && !changes_stiffness(o.axis.key) &&
+        !(o.axis2 && changes_stiffness(o.axis2->key)))
+      stiffness_ = mesh_stiffness(base, compute_geometry(base.gear));
+  }
+
+  Case case_at(double value, double value2) const {
+    Case c = base_;
+    set(c, o_.axis.key, value);
+    if (o_.axis2) set(c, o_.axis2->key, value2);
+    return c;
+  }
+
+  // Runs one point from `carry` (the previous point's end state) or from the case's initial
+  // condition, and leaves its end state in `carry`.
+  SweepPoint run(const PointJob& job, std::optional<ode::State>& carry) const {
+    const Case c = case_at(job.value, job.value2);
+    const GearPairModel model = build_model(c, nullptr, stiffness_ ? &*stiffness_ : nullptr);
+    const GearPairParameters& p = model.parameters();
+    const double period = fundamental_period_s(c);
+    const double dt_wanted =
+        c.solver.time_step_s > 0 ? c.solver.time_step_s : automatic_time_step_s(p);
+    // A whole number of steps per period: block ends fall on period ends.
+    const double steps = std::max(1.0, std::ceil(period / dt_wanted - 1e-9));
+    const double dt = period / steps;
+
+    ode::State s{0, 0, 0, 0, kSeparated};
+    if (carry) {
+      // A block ends after whole periods, where every excitation is back at phase 0.
+      s = *carry;
+      s.t = 0;
+    } else {
+      const double cb2 = p.cos_base_helix * p.cos_base_helix;
+      if (c.solver.initial == InitialCondition::kStatic) {
+        const double sign = p.mean_force_n() >= 0 ? 1.0 : -1.0;
+        s.q = sign * p.backlash_m + p.mean_force_n() / (cb2 * p.mean_stiffness_n_per_m());
+      }
+      s.region = model.classify(model.drive(0), s.q, s.v);
+    }
+    auto fail = [&](const ode::IntegrationSummary& sum) {
+      throw std::runtime_error(
+          fmt::format("sweep point {} = {}{}: numerical failure ({}): {}", o_.axis.key, job.value,
+                      o_.axis2 ? fmt::format(", {} = {}", o_.axis2->key, job.value2) : "",
+                      ode::to_string(sum.termination), sum.message));
+    };
+    Settle settle;
+    if (o_.settle_periods > 0) {
+      const auto sum = ode::integrate_newmark(model, s, s.t + o_.settle_periods * period, dt,
+                                              ode::OutputGrid{}, settle);
+      if (!sum.ok()) fail(sum);
+      s = sum.end_state;
+    }
+    int periods_run = o_.settle_periods;
+    std::optional<SweepPoint> previous;
+    const int m = o_.measure_periods, spp = o_.samples_per_period;
+    for (;;) {
+      const double t0 = s.t, t1 = t0 + m * period;
+      RunReader reader(model, t0, t1, 1.0 / m, /*keep_events=*/false, /*keep_samples=*/true);
+      const ode::OutputGrid grid{t0, period / spp, static_cast<std::int64_t>(m) * spp};
+      const auto sum = ode::integrate_newmark(model, s, t1, dt, grid, reader);
+      if (!sum.ok()) fail(sum);
+      s = sum.end_state;
+      SweepPoint pt = read_block(reader, job, m, spp);
+      pt.settle_periods = periods_run;
+      periods_run += m;
+      if (previous && agree(*previous, pt, o_.steady_tolerance)) {
+        pt.settled = true;
+        carry = s;
+        return pt;
+      }
+      if (periods_run >= o_.max_settle_periods + m) {
+        carry = s;
+        return pt;  // never settled
+      }
+      previous = std::move(pt);
+    }
+  }
+
+ private:
+  void set(Case& c, const std::string& key, double value) const {
+    try {
+      set_case_value(c, {key, number_text(value)});
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("--param {} at {}: {}", key, value, e.what()));
+    }
+  }
+
+  static SweepPoint read_block(RunReader& reader, const PointJob& job, int m, int spp) {
+    const RunReading x = reader.reading();
+    SweepPoint pt;
+    pt.direction = job.direction;
+    pt.value = job.value;
+    pt.value2 = job.value2;
+    pt.mean_delta_bar = x.mean_delta_bar;
+    pt.rms_delta_bar = x.rms_delta_bar;
+    pt.pp_delta_bar = x.max_delta_bar - x.min_delta_bar;
+    pt.min_delta_bar = x.min_delta_bar;
+    pt.mean_force_bar = x.mean_force_bar;
+    pt.rms_force_bar = x.rms_force_bar;
+    pt.pp_force_bar = x.max_force_bar - x.min_force_bar;
+    pt.max_force_bar = x.max_force_bar;
+    pt.dynamic_factor = x.dynamic_factor;
+    pt.separated_fraction = x.separated_fraction;
+    pt.impacts_per_period = static_cast<double>(x.impacts) / m;
+    pt.regime = x.regime;
+    pt.double_sided = x.double_sided;
+    const Timeseries& ts = reader.samples();
+    for (std::size_t k = 0; k < ts.size(); k += static_cast<std::size_t>(spp)) {
+      pt.strobe_delta_bar.push_back(ts.delta_bar[k]);
+      pt.strobe_velocity_m_s.push_back(ts.velocity_m_s[k]);
+      pt.strobe_force_bar.push_back(ts.force_bar[k]);
+    }
+    return pt;
+  }
+
+  const Case& base_;
+  const SweepOptions& o_;
+  std::optional<MeshStiffness> stiffness_;
+};
+
+void read_jumps(SweepResult& r) {
+  // Jumps inside each 1-D sequence, in run order.
+  if (r.options.axis2) return;
+  for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
+    const SweepPoint* prev = nullptr;
+    for (const SweepPoint& p : r.points) {
+      if (p.direction != d) continue;
+      if (prev) {
+        const double a = prev->pp_delta_bar, b = p.pp_delta_bar;
+        if (std::abs(a - b) > kJumpFraction * std::max(std::abs(a), std::abs(b)))
+          r.jumps.push_back({d, prev->value, p.value, a, b});
+      }
+      prev = &p;
+    }
+  }
+  // Hysteresis: where the up and the down sweep differ at the same value.
+  std::map<double, std::pair<const SweepPoint*, const SweepPoint*>> by_value;
+  for (const SweepPoint& p : r.points)
+    (p.direction == SweepDirection::kUp ? by_value[p.value].first : by_value[p.value].second) = &p;
+  std::optional<Hysteresis> open;
+  for (const auto& [value, pair] : by_value) {
+    const auto [up, down] = pair;
+    const bool differ = up && down &&
+                        std::abs(up->pp_delta_bar - down->pp_delta_bar) >
+                            kHysteresisFraction *
+                                std::max(std::abs(up->pp_delta_bar), std::abs(down->pp_delta_bar));
+    if (differ) {
+      if (!open) open = Hysteresis{value, value};
+      open->to_value = value;
+    } else if (open) {
+      r.hysteresis.push_back(*open);
+      open.reset();
+    }
+  }
+  if (open) r.hysteresis.push_back(*open);
+}
+
+}  // namespace
+
+std::vector<double> SweepAxis::values() const {
+  std::vector<double> v;
+  for (int i = 0; i < points; ++i) {
+    const double f = points == 1 ? 0.0 : static_cast<double>(i) / (points - 1);
+    v.push_back(log ? from * std::pow(to / from, f) : from + (to - from) * f);
+  }
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+const char* to_string(SweepDirection d) {
+  switch (d) {
+    case SweepDirection::kUp:
+      return "up";
+    case SweepDirection::kDown:
+      return "down";
+    case SweepDirection::kBoth:
+      return "both";
+  }
+  return "?";
+}
+
+std::string SweepOptions::validate() const {
+  auto axis_error = [](const SweepAxis& a, const char* suffix) -> std::string {
+    if (a.key.empty()) return fmt::format("--param{}: a case key is needed", suffix);
+    if (!(a.points >= 1 && a.points <= 100000))
+      return fmt::format("--points{} = {}: must be a whole number from 1 to 100000", suffix,
+                         a.points);
+    if (!std::isfinite(a.from) || !std::isfinite(a.to))
+      return fmt::format("--from{} = {}, --to{} = {}: must be finite", suffix, a.from, suffix,
+                         a.to);
+    if (a.log && !(a.from > 0 && a.to > 0))
+      return fmt::format("--log with --from{} = {} and --to{} = {}: both must be > 0", suffix,
+                         a.from, suffix, a.to);
+    return "";
+  };
+  if (std::string e = axis_error(axis, ""); !e.empty()) return e;
+  if (axis2) {
+    if (std::string e = axis_error(*axis2, "2"); !e.empty()) return e;
+    if (axis2->key == axis.key)
+      return fmt::format("--param2 {}: must differ from --param", axis2->key);
+  }
+  if (!(settle_periods >= 0 && settle_periods <= 1000000))
+    return fmt::format("--settle-periods = {}: must be from 0 to 1000000", settle_periods);
+  if (!(measure_periods >= 1 && measure_periods <= 100000))
+    return fmt::format("--measure-periods = {}: must be from 1 to 100000", measure_periods);
+  if (!(max_settle_periods >= settle_periods))
+    return fmt::format("--max-settle-periods = {}: must be at least --settle-periods = {}",
+                       max_settle_periods, settle_periods);
+  if (!(steady_tolerance > 0 && steady_tolerance < 1))
+    return fmt::format("steady tolerance = {}: must be in (0, 1)", steady_tolerance);
+  if (!(samples_per_period >= 4 && samples_per_period <= 100000))
+    return fmt::format("samples per period = {}: must be from 4 to 100000", samples_per_period);
+  return "";
+}
+
+SweepResult sweep(const Case& base, const SweepOptions& o) {
+  if (const std::string e = o.validate(); !e.empty()) throw InputError(e);
+  const auto start = std::chrono::steady_clock::now();
+  SweepResult r;
+  r.options = o;
+  const PointRunner runner(base, o);
+  r.period_s = fundamental_period_s(
+      runner.case_at(o.axis.values().front(), o.axis2 ? o.axis2->values().front() : 0.0));
+
+  // The sequences: for each row, the up sweep and/or the down sweep.
+  std::vector<std::vector<PointJob>> sequences;
+  const std::vector<double> xs = o.axis.values();
+  const std::vector<double> rows = o.axis2 ? o.axis2->values() : std::vector<double>{0.0};
+  std::size_t slot = 0;
+  for (double y : rows) {
+    if (o.direction != SweepDirection::kDown) {
+      std::vector<PointJob> seq;
+      for (double x : xs) seq.push_back({slot++, x, y, SweepDirection::kUp});
+      sequences.push_back(std::move(seq));
+    }
+    if (o.direction != SweepDirection::kUp) {
+      std::vector<PointJob> seq;
+      for (auto it = xs.rbegin(); it != xs.rend(); ++it)
+        seq.push_back({slot++, *it, y, SweepDirection::kDown});
+      sequences.push_back(std::move(seq));
+    }
+  }
+  const std::size_t total = slot;
+  std::vector<std::optional<SweepPoint>> done_points(total);
+
+  unsigned threads = o.threads ? o.threads : std::max(1u, std::thread::hardware_concurrency());
+  threads = std::min<unsigned>(threads, static_cast<unsigned>(sequences.size()));
+  r.threads = threads;
+  std::atomic<std::size_t> next{0}, done{0};
+  std::atomic<bool> stop{false};
+  std::mutex progress_mutex, failure_mutex;
+  std::exception_ptr failure;
+  auto worker = [&] {
+    for (std::size_t i = next++; i < sequences.size(); i = next++) {
+      std::optional<ode::State> carry;
+      for (const PointJob& job : sequences[i]) {
+        if (stop) return;
+        try {
+          done_points[job.slot] = runner.run(job, carry);
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(failure_mutex);
+          if (!failure) failure = std::current_exception();
+          stop = true;
+          return;
+        }
+        const std::size_t n = ++done;
+        if (o.progress) {
+          std::lock_guard<std::mutex> lock(progress_mutex);
+          if (!o.progress(n, total)) stop = true;
+        }
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
+  for (std::thread& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+  r.cancelled = stop.load();
+  for (auto& p : done_points)
+    if (p) {
+      r.unsettled += !p->settled;
+      r.points.push_back(std::move(*p));
+    }
+  read_jumps(r);
+  r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+std::string sweep_csv(const SweepResult& r) {
+  const SweepOptions& o = r.options;
+  std::string out =
+      "direction,param,value,param2,value2,settled,settle_periods,mean_delta_bar,rms_delta_bar,"
+      "pp_delta_bar,min_delta_bar,mean_force_bar,rms_force_bar,pp_force_bar,max_force_bar,"
+      "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided\n";
+  for (const SweepPoint& p : r.points) {
+    fmt::format_to(
+        std::back_inserter(out),
+        "{},{},{:.10g},{},{:.10g},{},{},{:.8g},{:.8g},{:.8g},{:.8g},{:.8g},{:.8g},"
+        "{:.8g},{:.8g},{},{:.6g},{:.6g},{},{}\n",
+        to_string(p.direction), o.axis.key, p.value, o.axis2 ? o.axis2->key : "", p.value2,
+        p.settled ? 1 : 0, p.settle_periods, p.mean_delta_bar, p.rms_delta_bar, p.pp_delta_bar,
+        p.min_delta_bar, p.mean_force_bar, p.rms_force_bar, p.pp_force_bar, p.max_force_bar,
+        p.dynamic_factor ? fmt::format("{:.8g}", *p.dynamic_factor) : "", p.separated_fraction,
+        p.impacts_per_period, to_string(p.regime), p.double_sided ? 1 : 0);
+  }
+  return out;
+}
+
+namespace {
+
+std::string strobe_csv(const SweepResult& r) {
+  std::string out = "direction,value,value2,period,delta_bar,velocity_m_s,force_bar\n";
+  for (const SweepPoint& p : r.points)
+    for (std::size_t k = 0; k < p.strobe_delta_bar.size(); ++k)
+      fmt::format_to(std::back_inserter(out), "{},{:.10g},{:.10g},{},{:.8g},{:.8g},{:.8g}\n",
+                     to_string(p.direction), p.value, p.value2, k, p.strobe_delta_bar[k],
+                     p.strobe_velocity_m_s[k], p.strobe_force_bar[k]);
+  return out;
+}
+
+std::string summary(const SweepResult& r) {
+  const SweepOptions& o = r.options;
+  nlohmann::json j;
+  j["param"] = o.axis.key;
+  j["from"] = o.axis.from;
+  j["to"] = o.axis.to;
+  j["points"] = o.axis.points;
+  j["log"] = o.axis.log;
+  if (o.axis2) {
+    j["param2"] = o.axis2->key;
+    j["from2"] = o.axis2->from;
+    j["to2"] = o.axis2->to;
+    j["points2"] = o.axis2->points;
+  }
+  j["direction"] = to_string(o.direction);
+  j["settle_periods"] = o.settle_periods;
+  j["measure_periods"] = o.measure_periods;
+  j["max_settle_periods"] = o.max_settle_periods;
+  j["steady_tolerance"] = o.steady_tolerance;
+  j["period_s"] = r.period_s;
+  j["points_computed"] = r.points.size();
+  j["unsettled"] = r.unsettled;
+  j["cancelled"] = r.cancelled;
+  j["wall_time_s"] = r.wall_time_s;
+  j["threads"] = r.threads;
+  j["hysteresis"] = nlohmann::json::array();
+  for (const Hysteresis& h : r.hysteresis)
+    j["hysteresis"].push_back({{"from_value", h.from_value}, {"to_value", h.to_value}});
+  j["jumps"] = nlohmann::json::array();
+  for (const Jump& x : r.jumps)
+    j["jumps"].push_back({{"direction", to_string(x.direction)},
+                          {"from_value", x.from_value},
+                          {"to_value", x.to_value},
+                          {"pp_delta_bar_before", x.before},
+                          {"pp_delta_bar_after", x.after}});
+  return j.dump(2) + "\n";
+}
+
+}  // namespace
+
+void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool figures) {
+  write_files_atomically(
+      dir,
+      {{"sweep.csv", sweep_csv(r)}, {"strobe.csv", strobe_csv(r)}, {"summary.json", summary(r)}});
+  if (!figures || r.points.empty()) return;
+  const SweepOptions& o = r.options;
+  const std::string xlog = o.axis.log ? "set logscale x\n" : "";
+  // Frequency response: rms and peak F_bar, peak-to-peak delta_bar; up and down overlaid.
+  std::string fr =
+      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top left font ',9'\n" +
+      xlog;
+  fmt::format_to(std::back_inserter(fr), "set multiplot layout 2,1 title \"sweep of {}\"\n",
+                 o.axis.key);
+  auto curves = [&](int column, const char* label) {
+    return fmt::format(
+        "plot 'sweep.csv' every ::1 using 3:(strcol(1) eq 'up' ? ${0} : NaN) with linespoints "
+        "pt 7 ps 0.4 lc rgb '#1f3b73' title 'up: {1}', \\\n"
+        "     'sweep.csv' every ::1 using 3:(strcol(1) eq 'down' ? ${0} : NaN) with linespoints "
+        "pt 6 ps 0.5 lc rgb '#b5532b' title 'down: {1}', \\\n"
+        "     'sweep.csv' every ::1 using 3:($6 == 0 ? ${0} : NaN) with points pt 2 ps 1.2 lc "
+        "rgb 'black' title 'not settled'\n",
+        column, label);
+  };
+  if (o.axis2) {
+    fr += "set key top left font ',8'\n";  // rows overlaid
+  }
+  fmt::format_to(std::back_inserter(fr), "set xlabel ''\nset ylabel 'F / (b k_m)'\n{}",
+                 curves(13, "rms F/(b k_m)"));
+  fmt::format_to(std::back_inserter(fr), "set xlabel '{}'\nset ylabel 'delta / b'\n{}", o.axis.key,
+                 curves(10, "peak-to-peak delta/b"));
+  fr += "unset multiplot\n";
+  render_figure(dir, "frequency_response", fr, 1000, 750);
+
+  // Bifurcation diagram: the stroboscopic delta_bar at every point.
+  std::string bi =
+      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top left font ',9'\n" +
+      xlog;
+  fmt::format_to(std::back_inserter(bi),
+                 "set title 'bifurcation diagram: delta/b once per period'\nset xlabel '{}'\n"
+                 "set ylabel 'delta / b'\n"
+                 "plot 'strobe.csv' every ::1 using 2:(strcol(1) eq 'up' ? $5 : NaN) with points "
+                 "pt 7 ps 0.3 lc rgb '#1f3b73' title 'up', \\\n"
+                 "     'strobe.csv' every ::1 using 2:(strcol(1) eq 'down' ? $5 : NaN) with "
+                 "points pt 7 ps 0.3 lc rgb '#b5532b' title 'down'\n",
+                 o.axis.key);
+  render_figure(dir, "bifurcation", bi, 1000, 600);
+
+  if (o.axis2) {
+    std::string map = "reset\nset datafile separator ','\n" + xlog;
+    if (o.axis2->log) map += "set logscale y\n";
+    fmt::format_to(
+        std::back_inserter(map),
+        "set title 'regime map (up sweeps)'\nset xlabel '{}'\nset ylabel '{}'\n"
+        "set cbrange [-0.5:3.5]\nset cbtics ('none' 0, 'transient' 1, 'sustained' 2, "
+        "'double-sided' 3)\nset palette defined (0 '#e6f4e6', 1 '#f7e3a1', 2 '#f4a6a6', 3 "
+        "'#7b3294')\n"
+        "regime(s, d) = d ? 3 : (s eq 'none' ? 0 : (s eq 'transient' ? 1 : 2))\n"
+        "plot 'sweep.csv' every ::1 using 3:(strcol(1) eq 'up' ? $5 : NaN):(regime(strcol(19), "
+        "$20)) with points pt 5 ps 2 lc palette notitle\n",
+        o.axis.key, o.axis2->key);
+    render_figure(dir, "regime_map", map, 900, 700);
+  }
+}
+
+}  // namespace geardyn
