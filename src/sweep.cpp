@@ -184,15 +184,18 @@ void read_jumps(SweepResult& r) {
   // Jumps inside each 1-D sequence, in run order.
   if (r.options.axis2) return;
   for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
-    const SweepPoint* prev = nullptr;
-    for (const SweepPoint& p : r.points) {
-      if (p.direction != d) continue;
-      if (prev) {
-        const double a = prev->pp_delta_bar, b = p.pp_delta_bar;
-        if (std::abs(a - b) > kJumpFraction * std::max(std::abs(a), std::abs(b)))
-          r.jumps.push_back({d, prev->value, p.value, a, b});
-      }
-      prev = &p;
+    std::vector<const SweepPoint*> seq;
+    for (const SweepPoint& p : r.points)
+      if (p.direction == d) seq.push_back(&p);
+    auto change = [&](std::size_t i) {  // between seq[i] and seq[i + 1]; 0 outside
+      return i + 1 < seq.size() ? std::abs(seq[i + 1]->pp_delta_bar - seq[i]->pp_delta_bar) : 0.0;
+    };
+    for (std::size_t i = 0; i + 1 < seq.size(); ++i) {
+      const double a = seq[i]->pp_delta_bar, b = seq[i + 1]->pp_delta_bar;
+      const double neighbours = std::max(i > 0 ? change(i - 1) : 0.0, change(i + 1));
+      if (change(i) > kJumpFraction * std::max(std::abs(a), std::abs(b)) &&
+          change(i) > kJumpContrast * neighbours)
+        r.jumps.push_back({d, seq[i]->value, seq[i + 1]->value, a, b});
     }
   }
   // Hysteresis: where the up and the down sweep differ at the same value.
@@ -478,7 +481,7 @@ void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool fi
         "set cbrange [-0.5:3.5]\nset cbtics ('none' 0, 'transient' 1, 'sustained' 2, "
         "'double-sided' 3)\nset palette defined (0 '#e6f4e6', 1 '#f7e3a1', 2 '#f4a6a6', 3 "
         "'#7b3294')\n"
-        "regime(s, d) = d ? 3 : (s eq 'none' ? 0 : (s eq 'transient' ? 1 : 2))\n"
+        "regime(s, d) = (d > 0.5) ? 3 : (s eq 'none' ? 0 : (s eq 'transient' ? 1 : 2))\n"
         "plot 'sweep.csv' every ::1 using 3:(strcol(1) eq 'up' ? $5 : NaN):(regime(strcol(19), "
         "$20)) with points pt 5 ps 2 lc palette notitle\n",
         o.axis.key, o.axis2->key);

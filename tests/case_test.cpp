@@ -2,11 +2,11 @@
 
 #include <gtest/gtest.h>
 
-#include "test_support.hpp"
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+
+#include "test_support.hpp"
 
 namespace geardyn {
 namespace {

@@ -28,8 +28,9 @@ std::string slurp(const fs::path& p) {
 Outcome cli(const std::string& args) {
   const fs::path tmp = fs::temp_directory_path() / ("geardyn_cli_test_" + std::to_string(getpid()));
   fs::create_directories(tmp);
-  const std::string cmd = std::string(GEARDYN_CLI) + " " + args + " >" + (tmp / "out").string() +
-                          " 2>" + (tmp / "err").string() + " </dev/null";
+  // Grouped, so that the streams of every command in `args` (a background one too) are caught.
+  const std::string cmd = "{ " + std::string(GEARDYN_CLI) + " " + args + "; } >" +
+                          (tmp / "out").string() + " 2>" + (tmp / "err").string() + " </dev/null";
   const int status = std::system(cmd.c_str());
   return {WEXITSTATUS(status), slurp(tmp / "out"), slurp(tmp / "err")};
 }
@@ -178,6 +179,41 @@ TEST(Cli, StiffnessJsonAndFiles) {
     EXPECT_GT(fs::file_size(d / f), 100u) << f;
   const std::string csv = slurp(d / "stiffness.csv");
   EXPECT_EQ(csv.substr(0, csv.find(',')), "position");
+}
+
+TEST(Cli, SweepWritesItsResults) {
+  const fs::path d = fresh("sweep");
+  const Outcome o =
+      cli("sweep --set model.form='\"nondimensional\"' --set solver.initial='\"static\"' "
+          "--param model.omega --from 0.3 --to 1.5 --points 31 --out " +
+          d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("up sweep jumps"), std::string::npos) << o.out;
+  const std::string csv = slurp(d / "sweep.csv");
+  EXPECT_EQ(csv.substr(0, csv.find('\n')).substr(0, 26), "direction,param,value,para");
+  EXPECT_GT(fs::file_size(d / "frequency_response.png"), 100u);
+  EXPECT_GT(fs::file_size(d / "bifurcation.svg"), 100u);
+}
+
+TEST(Cli, InterruptedSweepKeepsTheCompletedPoints) {
+  const fs::path d = fresh("sweep_int");
+  // SIGINT after half a second, into a sweep that takes far longer.
+  const Outcome o =
+      cli("sweep --set solver.initial='\"static\"' --param speed.shaft_frequency_hz "
+          "--from 1000 --to 4000 --points 400 --out " +
+          d.string() + " & pid=$!; sleep 1; kill -INT $pid; wait $pid");
+  EXPECT_EQ(o.code, 130) << o.err;
+  EXPECT_NE(o.err.find("interrupted"), std::string::npos) << o.err;
+  const std::string csv = slurp(d / "sweep.csv");
+  EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 1);  // header and some points
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  EXPECT_TRUE(j["cancelled"].get<bool>());
+}
+
+TEST(Cli, SweepRejectsABadKey) {
+  const Outcome o = cli("sweep --param speed.rpm --from 1 --to 2 --points 3");
+  EXPECT_EQ(o.code, 2);
+  EXPECT_NE(o.err.find("--param speed.rpm"), std::string::npos) << o.err;
 }
 
 TEST(Cli, LongRunShowsProgress) {

@@ -2,10 +2,10 @@
 
 #include <gtest/gtest.h>
 
-#include "test_support.hpp"
-
 #include <cmath>
 #include <numbers>
+
+#include "test_support.hpp"
 
 namespace geardyn {
 namespace {

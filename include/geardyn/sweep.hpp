@@ -96,10 +96,12 @@ struct SweepResult {
 
 // Thresholds of the jump reading, on the peak-to-peak delta_bar (it changes most at a jump): up
 // and down differ where theirs differ by more than kHysteresisFraction of the larger; a sweep
-// jumps where consecutive points differ by more than kJumpFraction of the larger, far above
-// what a resolved smooth response changes by between neighbouring points.
+// jumps where consecutive points differ by more than kJumpFraction of the larger and by more
+// than kJumpContrast times the change on either side: a discontinuity, not a steep but smooth
+// resonance flank sampled coarsely.
 constexpr double kHysteresisFraction = 0.05;
 constexpr double kJumpFraction = 0.3;
+constexpr double kJumpContrast = 3.0;
 
 // Runs the sweep. Throws InputError for a bad key, value or option (naming it), and
 // std::runtime_error naming the point on a numerical failure.

@@ -1,0 +1,149 @@
+#include "geardyn/sweep.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "test_support.hpp"
+
+namespace geardyn {
+namespace {
+
+// x'' + 2 zeta x' + k f(x) = F_m + F_a cos(Omega tau), b = 1 (Kahraman and Singh 1990).
+Case nondimensional(double zeta, double fm, double fa) {
+  Case c;
+  c.model.form = ModelForm::kNondimensional;
+  c.model.zeta = zeta;
+  c.model.force_mean = fm;
+  c.model.force_alternating = fa;
+  c.solver.initial = InitialCondition::kStatic;
+  return c;
+}
+
+SweepOptions omega_sweep(double from, double to, int points, SweepDirection d) {
+  SweepOptions o;
+  o.axis = {"model.omega", from, to, points, false};
+  o.direction = d;
+  return o;
+}
+
+TEST(Sweep, LinearCaseFollowsTheClosedFormFrequencyResponse) {
+  // F_m = 1 keeps the teeth in contact (x >= 1.5 > b): x - 2 is a linear oscillator whose
+  // amplitude is F_a / sqrt((1 - Omega^2)^2 + (2 zeta Omega)^2).
+  const double zeta = 0.1, fa = 0.1;
+  const SweepResult r =
+      sweep(nondimensional(zeta, 1.0, fa), omega_sweep(0.5, 1.5, 11, SweepDirection::kUp));
+  ASSERT_EQ(r.points.size(), 11u);
+  for (const SweepPoint& p : r.points) {
+    const double w = p.value;
+    const double amplitude = fa / std::hypot(1 - w * w, 2 * zeta * w);
+    EXPECT_TRUE(p.settled) << w;
+    EXPECT_EQ(p.regime, Regime::kNone) << w;
+    // Error budget: Newmark's (omega dt)^2 ~ 1e-4 and the sampled peak (64 per period) ~ 1e-3.
+    EXPECT_NEAR(p.pp_delta_bar, 2 * amplitude, 3e-3 * 2 * amplitude) << "Omega " << w;
+    EXPECT_NEAR(p.mean_delta_bar, 2.0, 1e-6) << w;
+    ASSERT_EQ(p.strobe_delta_bar.size(), 10u);  // one per measured period
+  }
+  EXPECT_TRUE(r.jumps.empty());
+}
+
+TEST(Sweep, BacklashGivesAJumpAndHysteresis) {
+  const SweepResult r =
+      sweep(nondimensional(0.05, 0.1, 0.1), omega_sweep(0.3, 1.5, 61, SweepDirection::kBoth));
+  ASSERT_EQ(r.points.size(), 122u);
+  ASSERT_FALSE(r.hysteresis.empty());
+  const Jump* up = nullptr;
+  const Jump* down = nullptr;
+  for (const Jump& j : r.jumps) {
+    if (j.direction == SweepDirection::kUp && j.after > j.before && !up) up = &j;
+    if (j.direction == SweepDirection::kDown && j.after < j.before) down = &j;
+  }
+  ASSERT_NE(up, nullptr);
+  ASSERT_NE(down, nullptr);
+  // Softening: the up sweep jumps onto the large response later than the down sweep leaves it.
+  EXPECT_GT(up->from_value, down->to_value);
+  EXPECT_GE(r.hysteresis.front().to_value, down->from_value);
+}
+
+TEST(Sweep, ResultsDoNotDependOnTheThreadCount) {
+  SweepOptions o = omega_sweep(0.3, 1.5, 25, SweepDirection::kBoth);
+  o.threads = 1;
+  const std::string one = sweep_csv(sweep(nondimensional(0.05, 0.1, 0.1), o));
+  o.threads = 2;
+  const std::string two = sweep_csv(sweep(nondimensional(0.05, 0.1, 0.1), o));
+  o.threads = 8;
+  const std::string eight = sweep_csv(sweep(nondimensional(0.05, 0.1, 0.1), o));
+  EXPECT_EQ(one, two);
+  EXPECT_EQ(one, eight);
+}
+
+TEST(Sweep, FlagsPointsThatNeverSettle) {
+  SweepOptions o = omega_sweep(0.8, 1.2, 3, SweepDirection::kUp);
+  o.steady_tolerance = 1e-15;  // unreachable
+  o.settle_periods = 0;
+  o.max_settle_periods = 30;
+  const SweepResult r = sweep(nondimensional(0.05, 1.0, 0.1), o);
+  EXPECT_EQ(r.unsettled, 3u);
+  for (const SweepPoint& p : r.points) {
+    EXPECT_FALSE(p.settled);
+    EXPECT_GE(p.settle_periods, 30);
+  }
+}
+
+TEST(Sweep, StopsWhenTheProgressCallbackSaysSo) {
+  SweepOptions o = omega_sweep(0.3, 1.5, 40, SweepDirection::kUp);
+  o.progress = [](std::size_t done, std::size_t) { return done < 3; };
+  const SweepResult r = sweep(nondimensional(0.05, 0.1, 0.1), o);
+  EXPECT_TRUE(r.cancelled);
+  EXPECT_EQ(r.points.size(), 3u);
+}
+
+TEST(Sweep, BadOptionsAndKeysAreInputErrors) {
+  SweepOptions o = omega_sweep(-1, 1, 5, SweepDirection::kUp);
+  o.axis.log = true;
+  EXPECT_NE(testing::error_of([&] { sweep(Case{}, o); }).find("--log"), std::string::npos);
+  o = omega_sweep(1, 2, 2, SweepDirection::kUp);
+  o.axis.key = "speed.rpm";
+  const std::string msg = testing::error_of([&] { sweep(Case{}, o); });
+  EXPECT_NE(msg.find("--param speed.rpm"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("unknown key"), std::string::npos) << msg;
+}
+
+TEST(Sweep, MapWritesItsFilesAndFigures) {
+  SweepOptions o = omega_sweep(0.6, 1.4, 4, SweepDirection::kUp);
+  o.axis2 = SweepAxis{"model.force_alternating", 0.05, 0.15, 3, false};
+  const SweepResult r = sweep(nondimensional(0.05, 0.1, 0.1), o);
+  ASSERT_EQ(r.points.size(), 12u);
+  const auto d =
+      std::filesystem::temp_directory_path() / ("geardyn_sweep_" + std::to_string(getpid()));
+  std::filesystem::remove_all(d);
+  write_sweep(d, r);
+  for (const char* f : {"sweep.csv", "strobe.csv", "summary.json", "frequency_response.png",
+                        "bifurcation.png", "regime_map.png", "regime_map.svg"})
+    EXPECT_GT(std::filesystem::file_size(d / f), 100u) << f;
+  std::ifstream in(d / "summary.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["param2"], "model.force_alternating");
+  EXPECT_EQ(j["points_computed"], 12);
+}
+
+TEST(Sweep, GearCaseKeepsTheStiffnessAcrossFrequencyPoints) {
+  // A frequency sweep of the Table 1 case: two points, the up sweep carrying the state across.
+  Case c;
+  c.solver.initial = InitialCondition::kStatic;
+  SweepOptions o;
+  o.axis = {"speed.shaft_frequency_hz", 1500, 1600, 2, false};
+  o.direction = SweepDirection::kUp;
+  o.settle_periods = 10;
+  const SweepResult r = sweep(c, o);
+  ASSERT_EQ(r.points.size(), 2u);
+  EXPECT_NEAR(r.period_s, 1.0 / 1500, 1e-15);
+  EXPECT_GT(r.points[0].rms_force_bar, 0.0);
+}
+
+}  // namespace
+}  // namespace geardyn
