@@ -9,6 +9,7 @@ packages=(
   libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libfftw3-dev gnuplot-nox
+  python3-dev pybind11-dev python3-numpy python3-matplotlib python3-pytest
 )
 missing=()
 for p in "${packages[@]}"; do

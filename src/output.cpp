@@ -23,6 +23,36 @@ nlohmann::json finite_or_null(double x) {
 
 }  // namespace
 
+std::string geometry_json(const Geometry& g) {
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  constexpr double kMm = 1e3;
+  auto pair_mm = [](const std::array<double, 2>& x, double f) {
+    return nlohmann::json::array({x[0] * f, x[1] * f});
+  };
+  const nlohmann::json j = {
+      {"transverse_module_mm", g.transverse_module_m * kMm},
+      {"transverse_pressure_angle_deg", g.transverse_pressure_angle_rad * kDeg},
+      {"base_helix_angle_deg", g.base_helix_angle_rad * kDeg},
+      {"reference_diameter_mm", pair_mm(g.reference_diameter_m, kMm)},
+      {"base_diameter_mm", pair_mm(g.base_radius_m, 2 * kMm)},
+      {"root_diameter_mm", pair_mm(g.root_diameter_m, kMm)},
+      {"expected_outside_diameter_mm", pair_mm(g.expected_outside_diameter_m, kMm)},
+      {"reference_center_distance_mm", g.reference_center_distance_m * kMm},
+      {"center_distance_mm", g.center_distance_m * kMm},
+      {"shift_center_distance_mm", g.shift_center_distance_m * kMm},
+      {"working_pressure_angle_deg", g.working_pressure_angle_rad * kDeg},
+      {"shift_working_pressure_angle_deg", g.shift_working_pressure_angle_rad * kDeg},
+      {"transverse_base_pitch_mm", g.transverse_base_pitch_m * kMm},
+      {"transverse_contact_ratio", g.transverse_contact_ratio},
+      {"overlap_ratio", g.overlap_ratio},
+      {"total_contact_ratio", g.total_contact_ratio()},
+      {"inertia_kg_m2", pair_mm(g.inertia_kg_m2, 1.0)},
+      {"m_eq_kg", g.equivalent_mass_kg},
+      {"warnings", g.warnings},
+  };
+  return j.dump(2);
+}
+
 std::string summary_json(const RunResult& r, int indent) {
   const RunReading& x = r.reading;
   const Derived& d = r.derived;

@@ -223,7 +223,11 @@ void read_jumps(SweepResult& r) {
 }  // namespace
 
 std::vector<double> SweepAxis::values() const {
-  std::vector<double> v;
+  std::vector<double> v = explicit_values;
+  if (!v.empty()) {
+    std::sort(v.begin(), v.end());
+    return v;
+  }
   for (int i = 0; i < points; ++i) {
     const double f = points == 1 ? 0.0 : static_cast<double>(i) / (points - 1);
     v.push_back(log ? from * std::pow(to / from, f) : from + (to - from) * f);
@@ -247,6 +251,11 @@ const char* to_string(SweepDirection d) {
 std::string SweepOptions::validate() const {
   auto axis_error = [](const SweepAxis& a, const char* suffix) -> std::string {
     if (a.key.empty()) return fmt::format("--param{}: a case key is needed", suffix);
+    if (!a.explicit_values.empty()) {
+      for (double x : a.explicit_values)
+        if (!std::isfinite(x)) return fmt::format("values of {}: {} is not finite", a.key, x);
+      return "";
+    }
     if (!(a.points >= 1 && a.points <= 100000))
       return fmt::format("--points{} = {}: must be a whole number from 1 to 100000", suffix,
                          a.points);

@@ -162,30 +162,7 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   constexpr double kMm = 1e3;
   if (json) {
-    nlohmann::json j = {
-        {"transverse_module_mm", g.transverse_module_m * kMm},
-        {"transverse_pressure_angle_deg", g.transverse_pressure_angle_rad * kDeg},
-        {"base_helix_angle_deg", g.base_helix_angle_rad * kDeg},
-        {"reference_diameter_mm",
-         {g.reference_diameter_m[0] * kMm, g.reference_diameter_m[1] * kMm}},
-        {"base_diameter_mm", {2 * g.base_radius_m[0] * kMm, 2 * g.base_radius_m[1] * kMm}},
-        {"root_diameter_mm", {g.root_diameter_m[0] * kMm, g.root_diameter_m[1] * kMm}},
-        {"expected_outside_diameter_mm",
-         {g.expected_outside_diameter_m[0] * kMm, g.expected_outside_diameter_m[1] * kMm}},
-        {"reference_center_distance_mm", g.reference_center_distance_m * kMm},
-        {"center_distance_mm", g.center_distance_m * kMm},
-        {"shift_center_distance_mm", g.shift_center_distance_m * kMm},
-        {"working_pressure_angle_deg", g.working_pressure_angle_rad * kDeg},
-        {"shift_working_pressure_angle_deg", g.shift_working_pressure_angle_rad * kDeg},
-        {"transverse_base_pitch_mm", g.transverse_base_pitch_m * kMm},
-        {"transverse_contact_ratio", g.transverse_contact_ratio},
-        {"overlap_ratio", g.overlap_ratio},
-        {"total_contact_ratio", g.total_contact_ratio()},
-        {"inertia_kg_m2", {g.inertia_kg_m2[0], g.inertia_kg_m2[1]}},
-        {"m_eq_kg", g.equivalent_mass_kg},
-        {"warnings", g.warnings},
-    };
-    fmt::print("{}\n", j.dump(2));
+    fmt::print("{}\n", geardyn::geometry_json(g));
     return 0;
   }
   print_warnings(g.warnings);

@@ -14,6 +14,9 @@
 
 namespace geardyn {
 
+// The derived geometry in case-file units (mm, deg), as `geardyn geometry --json` prints it.
+std::string geometry_json(const Geometry& g);
+
 // summary.json of a run, as text (every key of docs/outputs.md).
 std::string summary_json(const RunResult& r, int indent = 2);
 

@@ -26,6 +26,8 @@ struct SweepAxis {
   double from = 0, to = 0;
   int points = 0;
   bool log = false;
+  // Given values, in place of from, to, points and log (they are swept in ascending order).
+  std::vector<double> explicit_values;
   std::vector<double> values() const;
 };
 

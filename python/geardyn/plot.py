@@ -1,0 +1,60 @@
+"""Figures for notebooks, with matplotlib: a run and a frequency response."""
+import numpy as np
+
+
+def run(r, ax=None, title=None):
+    """delta/b and F/(b k_m) over time, stacked as in the paper's Figs. 4-6, separation shaded.
+    Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9, 6))
+    else:
+        fig = ax[0].figure
+    t_ms = r.t * 1e3
+    separated = r.contact == 0
+    back = r.contact == -1
+    for a, y, label in ((ax[0], r.delta_bar, "delta / b"), (ax[1], r.force_bar, "F / (b k_m)")):
+        a.fill_between(t_ms, 0, 1, where=separated, transform=a.get_xaxis_transform(),
+                       color="#f4a6a6", alpha=0.6, linewidth=0, label="separated")
+        if back.any():
+            a.fill_between(t_ms, 0, 1, where=back, transform=a.get_xaxis_transform(),
+                           color="#9cc3f0", alpha=0.6, linewidth=0, label="back side")
+        a.plot(t_ms, y, color="#1f3b73", linewidth=0.9)
+        a.set_ylabel(label)
+        a.grid(color="#dddddd")
+    ax[0].axhspan(-1, 1, color="#eef1f7", zorder=0)
+    for edge in (-1, 1):
+        ax[0].axhline(edge, color="gray", linestyle="--", linewidth=0.8)
+    # The limits follow the data, not the shading and the band.
+    for a, y in ((ax[0], r.delta_bar), (ax[1], r.force_bar)):
+        pad = 0.08 * (y.max() - y.min()) + 1e-12
+        a.set_ylim(y.min() - pad, y.max() + pad)
+    ax[1].set_xlabel("t (ms)")
+    ax[0].legend(loc="upper right", fontsize=8)
+    if title:
+        ax[0].set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def frequency_response(s, param="parameter", ax=None, column="rms_force_bar"):
+    """A sweep's response against the parameter, up and down overlaid. Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(9, 4.5))
+    else:
+        fig = ax.figure
+    direction = np.asarray(s["direction"])
+    for d, style in (("up", dict(color="#1f3b73", marker=".", label="up")),
+                     ("down", dict(color="#b5532b", marker="o", fillstyle="none", label="down"))):
+        mask = direction == d
+        if mask.any():
+            ax.plot(s["value"][mask], s[column][mask], linewidth=1, markersize=4, **style)
+    ax.set_xlabel(param)
+    ax.set_ylabel(column)
+    ax.grid(color="#dddddd")
+    ax.legend()
+    fig.tight_layout()
+    return fig

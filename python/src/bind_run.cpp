@@ -1,0 +1,59 @@
+#include <pybind11/numpy.h>
+
+#include "bindings.hpp"
+#include "geardyn/output.hpp"
+#include "geardyn/run.hpp"
+
+namespace py = pybind11;
+
+namespace geardyn::python {
+namespace {
+
+// A column of the result as a NumPy array that points into the result (no copy); the array
+// keeps the result alive.
+template <class T>
+py::array column(const py::object& owner, const std::vector<T>& v) {
+  return py::array_t<T>({v.size()}, {sizeof(T)}, v.data(), owner);
+}
+
+}  // namespace
+
+void bind_run(py::module_& m) {
+  py::class_<RunResult>(m, "RunResult", "One run: its samples and its reading.")
+      .def_property_readonly(
+          "t",
+          [](py::object self) { return column(self, self.cast<const RunResult&>().samples.t_s); })
+      .def_property_readonly("delta_bar",
+                             [](py::object self) {
+                               return column(self, self.cast<const RunResult&>().samples.delta_bar);
+                             })
+      .def_property_readonly("force_bar",
+                             [](py::object self) {
+                               return column(self, self.cast<const RunResult&>().samples.force_bar);
+                             })
+      .def_property_readonly("velocity",
+                             [](py::object self) {
+                               return column(self,
+                                             self.cast<const RunResult&>().samples.velocity_m_s);
+                             })
+      .def_property_readonly("contact",
+                             [](py::object self) {
+                               return column(self, self.cast<const RunResult&>().samples.contact);
+                             })
+      .def_property_readonly("_summary_json", [](const RunResult& r) { return summary_json(r); })
+      .def_property_readonly("ok", [](const RunResult& r) { return r.integration.ok(); })
+      .def_property_readonly("_failure",
+                             [](const RunResult& r) {
+                               return std::string(ode::to_string(r.integration.termination)) +
+                                      ": " + r.integration.message;
+                             })
+      .def(
+          "write", [](const RunResult& r, const std::string& dir) { write_run(dir, r); },
+          py::arg("directory"), "Writes summary.json, timeseries.csv, events.csv, case.toml.");
+  // The integration runs without the GIL: other Python threads go on meanwhile.
+  m.def(
+      "_run", [](const Case& c) { return run(c); }, py::arg("case"),
+      py::call_guard<py::gil_scoped_release>());
+}
+
+}  // namespace geardyn::python

@@ -1,0 +1,81 @@
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include "bindings.hpp"
+#include "geardyn/sweep.hpp"
+
+namespace py = pybind11;
+
+namespace geardyn::python {
+
+void bind_sweep(py::module_& m) {
+  m.def(
+      "_sweep",
+      [](const Case& c, const std::string& param, std::vector<double> values,
+         const std::string& direction, int settle_periods, int measure_periods,
+         int max_settle_periods, unsigned threads) {
+        SweepOptions o;
+        o.axis.key = param;
+        o.axis.explicit_values = std::move(values);
+        o.axis.points = static_cast<int>(o.axis.explicit_values.size());
+        if (direction == "up") {
+          o.direction = SweepDirection::kUp;
+        } else if (direction == "down") {
+          o.direction = SweepDirection::kDown;
+        } else if (direction == "both") {
+          o.direction = SweepDirection::kBoth;
+        } else {
+          throw InputError("direction = \"" + direction +
+                           "\": must be \"up\", \"down\" or \"both\"");
+        }
+        o.settle_periods = settle_periods;
+        o.measure_periods = measure_periods;
+        o.max_settle_periods = max_settle_periods;
+        o.threads = threads;
+        SweepResult r;
+        {
+          py::gil_scoped_release release;  // the sweep runs without the GIL
+          r = sweep(c, o);
+        }
+        const std::size_t n = r.points.size();
+        auto col = [&](auto get) {
+          py::array_t<double> a(n);
+          auto w = a.mutable_unchecked<1>();
+          for (std::size_t i = 0; i < n; ++i) w(i) = get(r.points[i]);
+          return a;
+        };
+        py::dict out;
+        py::list dirs, regimes;
+        for (const SweepPoint& p : r.points) {
+          dirs.append(to_string(p.direction));
+          regimes.append(to_string(p.regime));
+        }
+        out["direction"] = dirs;
+        out["regime"] = regimes;
+        out["value"] = col([](const SweepPoint& p) { return p.value; });
+        out["settled"] = col([](const SweepPoint& p) { return p.settled ? 1.0 : 0.0; });
+        out["mean_delta_bar"] = col([](const SweepPoint& p) { return p.mean_delta_bar; });
+        out["rms_delta_bar"] = col([](const SweepPoint& p) { return p.rms_delta_bar; });
+        out["pp_delta_bar"] = col([](const SweepPoint& p) { return p.pp_delta_bar; });
+        out["min_delta_bar"] = col([](const SweepPoint& p) { return p.min_delta_bar; });
+        out["mean_force_bar"] = col([](const SweepPoint& p) { return p.mean_force_bar; });
+        out["rms_force_bar"] = col([](const SweepPoint& p) { return p.rms_force_bar; });
+        out["pp_force_bar"] = col([](const SweepPoint& p) { return p.pp_force_bar; });
+        out["max_force_bar"] = col([](const SweepPoint& p) { return p.max_force_bar; });
+        out["separated_fraction"] = col([](const SweepPoint& p) { return p.separated_fraction; });
+        out["impacts_per_period"] = col([](const SweepPoint& p) { return p.impacts_per_period; });
+        out["double_sided"] = col([](const SweepPoint& p) { return p.double_sided ? 1.0 : 0.0; });
+        py::list jumps;
+        for (const Jump& j : r.jumps)
+          jumps.append(py::dict(py::arg("direction") = to_string(j.direction),
+                                py::arg("from_value") = j.from_value,
+                                py::arg("to_value") = j.to_value));
+        out["jumps"] = jumps;
+        return out;
+      },
+      py::arg("case"), py::arg("param"), py::arg("values"), py::arg("direction") = "both",
+      py::arg("settle_periods") = 20, py::arg("measure_periods") = 10,
+      py::arg("max_settle_periods") = 200, py::arg("threads") = 0);
+}
+
+}  // namespace geardyn::python

@@ -1,0 +1,124 @@
+"""geardyn from Python: the same results as the command line, zero-copy arrays, errors as
+exceptions, the GIL released, and the example."""
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import geardyn
+
+CLI = os.environ["GEARDYN_CLI"]
+SOURCE = pathlib.Path(os.environ["GEARDYN_SOURCE_DIR"])
+
+
+def cli(*args, check=True):
+    return subprocess.run([CLI, *args], capture_output=True, text=True, check=check)
+
+
+def test_run_gives_the_command_lines_results(tmp_path):
+    cli("run", str(SOURCE / "cases/park2010.toml"), "--set", "speed.shaft_frequency_hz=100",
+        "--set", "solver.duration_s=0.02", "--out", str(tmp_path / "cli"))
+    case = geardyn.Case.from_toml(SOURCE / "cases/park2010.toml")
+    case.set("speed.shaft_frequency_hz", 100).set("solver.duration_s", 0.02)
+    r = geardyn.run(case)
+    r.write(str(tmp_path / "py"))
+    for name in ("timeseries.csv", "events.csv", "case.toml"):
+        assert (tmp_path / "py" / name).read_text() == (tmp_path / "cli" / name).read_text(), name
+    from_cli = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    for key, value in from_cli.items():
+        if key != "wall_time_s":
+            assert r.summary[key] == value, key
+    assert r.summary["regime"] == "transient"
+
+
+def test_arrays_point_into_the_result_without_copies():
+    case = geardyn.Case.default().set("solver.duration_s", 0.005)
+    r = geardyn.run(case)
+    for name in ("t", "delta_bar", "force_bar", "velocity", "contact"):
+        a = getattr(r, name)
+        assert not a.flags.owndata, name
+        assert np.shares_memory(a, getattr(r, name)), name  # the same buffer every time
+        assert len(a) == len(r.t)
+    assert r.contact.dtype == np.int32
+    delta = r.delta_bar
+    del r  # the array keeps the result alive
+    assert np.isfinite(delta).all()
+
+
+def test_errors_are_exceptions_with_the_command_lines_message(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[mesh]\nbacklash_um = -5\n")
+    with pytest.raises(geardyn.InputError) as e:
+        geardyn.Case.from_toml(bad)
+    out = cli("run", str(bad), check=False)
+    assert out.returncode == 2
+    assert out.stderr.strip() == "geardyn: error: " + str(e.value)
+    with pytest.raises(ValueError, match="unknown key 'speed.rpm'"):
+        geardyn.Case.default().set("speed.rpm", 3)
+    with pytest.raises(geardyn.InputError, match="direction"):
+        geardyn.sweep(geardyn.Case.default(), "model.omega", [1.0], direction="sideways")
+
+
+def test_numerical_failure_is_an_exception():
+    case = geardyn.Case.default().set("load.torque_nm", 1e307).set("load.fluctuation_ratio", 1e300)
+    with pytest.raises(geardyn.NumericalError, match="non-finite"):
+        geardyn.run(case)
+
+
+def test_geometry_and_stiffness_match_the_command_line():
+    case = geardyn.Case.default()
+    assert geardyn.geometry(case) == json.loads(cli("geometry", "--json").stdout)
+    s = geardyn.stiffness(case)
+    assert {k: v for k, v in s.items() if k != "cycle"} == json.loads(
+        cli("stiffness", "--json").stdout)
+    assert len(s["cycle"]["position"]) == 256
+    assert s["cycle"]["total_n_per_m"].mean() == pytest.approx(s["energy"]["mean_n_per_m"])
+
+
+def test_sweep_returns_columns_and_finds_the_jump():
+    case = geardyn.Case.default().set("model.form", "nondimensional")
+    case.set("model.zeta", 0.05).set("model.force_mean", 0.1).set("model.force_alternating", 0.1)
+    case.set("solver.initial", "static")
+    s = geardyn.sweep(case, param="model.omega", values=np.linspace(0.3, 1.5, 61))
+    assert isinstance(s["rms_force_bar"], np.ndarray)
+    assert len(s["value"]) == 122 and s["direction"].count("up") == 61
+    assert any(j["direction"] == "up" for j in s["jumps"])
+
+
+def test_the_gil_is_released_during_a_run():
+    case = geardyn.Case.default().set("solver.time_step_s", 1e-9).set("solver.duration_s", 0.01)
+    done = threading.Event()
+    worker = threading.Thread(target=lambda: (geardyn.run(case), done.set()))
+    ticks = 0
+    worker.start()
+    while not done.is_set():
+        ticks += 1  # the main thread runs Python while the run integrates
+        time.sleep(0.001)
+    worker.join()
+    assert ticks > 20
+
+
+def test_plots(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    r = geardyn.run(geardyn.Case.default().set("solver.duration_s", 0.005))
+    geardyn.plot.run(r).savefig(tmp_path / "run.png")
+    s = geardyn.sweep(geardyn.Case.default().set("model.form", "nondimensional"), "model.omega",
+                      [0.8, 1.0, 1.2])
+    geardyn.plot.frequency_response(s, "Omega").savefig(tmp_path / "fr.png")
+    assert (tmp_path / "run.png").stat().st_size > 1000
+    assert (tmp_path / "fr.png").stat().st_size > 1000
+
+
+def test_the_example_reproduces_fig4c(tmp_path):
+    out = subprocess.run([sys.executable, str(SOURCE / "examples/reproduce_fig4c.py"), "--out",
+                          str(tmp_path / "fig4c.png")], capture_output=True, text=True,
+                         check=True)
+    assert "regime sustained" in out.stdout
+    assert (tmp_path / "fig4c.png").stat().st_size > 10000
