@@ -97,15 +97,20 @@ void print_run_summary(const geardyn::RunResult& r) {
   const auto& d = r.derived;
   const auto& c = r.input;
   fmt::print("geardyn run: {}{}\n", c.name, c.description.empty() ? "" : " - " + c.description);
-  fmt::print("  f1 = {} Hz (mesh {:.6g} Hz), b = {} um, xi = {}, F_a/F_m = {}, {} over {} s\n",
-             c.speed.shaft_frequency_hz, d.mesh_frequency_hz, c.mesh.backlash_um,
-             c.mesh.damping_ratio, c.load.fluctuation_ratio,
-             c.solver.method == geardyn::Method::kNewmark ? "newmark" : "dopri5",
-             c.solver.duration_s);
-  fmt::print(
-      "  m_eq = {:.6g} kg, contact natural frequency {:.6g} Hz, F_m = {:.6g} N, static "
-      "delta_bar = {:.6g}\n",
-      d.m_eq_kg, d.natural_frequency_hz, d.mean_force_n, d.static_delta_bar);
+  const char* method = c.solver.method == geardyn::Method::kNewmark ? "newmark" : "dopri5";
+  if (c.model.form == geardyn::ModelForm::kNondimensional) {
+    fmt::print("  non-dimensional: Omega = {}, zeta = {}, F_m = {}, F_a = {}, {} over tau = {}\n",
+               c.model.omega, c.model.zeta, c.model.force_mean, c.model.force_alternating, method,
+               c.solver.duration_s);
+  } else {
+    fmt::print("  f1 = {} Hz (mesh {:.6g} Hz), b = {} um, xi = {}, F_a/F_m = {}, {} over {} s\n",
+               c.speed.shaft_frequency_hz, d.mesh_frequency_hz, c.mesh.backlash_um,
+               c.mesh.damping_ratio, c.load.fluctuation_ratio, method, c.solver.duration_s);
+    fmt::print(
+        "  m_eq = {:.6g} kg, contact natural frequency {:.6g} Hz, F_m = {:.6g} N, static "
+        "delta_bar = {:.6g}\n",
+        d.m_eq_kg, d.natural_frequency_hz, d.mean_force_n, d.static_delta_bar);
+  }
   fmt::print("  regime            {}{}\n", geardyn::to_string(x.regime),
              x.double_sided ? " (double-sided)" : "");
   fmt::print("  impacts           {} ({} back side), max velocity {:.4g} m/s\n", x.impacts,
