@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -254,7 +255,7 @@ class Reader {
     out = *n->value<std::string>();
   }
 
-  bool has(std::string_view section, std::string_view key) const {
+  bool has(std::string_view section, std::string_view key) const {  // does not mark it known
     const toml::table* t = root_[section].as_table();
     return t && t->get(key) != nullptr;
   }
@@ -314,6 +315,7 @@ class Reader {
   }
 
   void string(std::string_view key, std::string& out) {
+    known_.try_emplace(std::string(key));
     const toml::node* n = root_.get(key);
     if (!n) return;
     used_.insert(std::string(key));
@@ -321,8 +323,10 @@ class Reader {
     out = *n->value<std::string>();
   }
 
-  // Throws on the first key of the document that no reader call asked for.
-  void reject_unknown(const std::map<std::string, std::vector<std::string>>& schema) const {
+  // Throws on the first key of the document that no reader call asked for. The reader calls
+  // are the schema: every key asked for, present or not, is a known key.
+  void reject_unknown() const {
+    const std::map<std::string, std::vector<std::string>>& schema = known_;
     for (auto&& [k, node] : root_) {
       const std::string section(k.str());
       if (used_.count(section)) continue;
@@ -376,6 +380,7 @@ class Reader {
   }
 
   const toml::node* find(std::string_view section, std::string_view key) {
+    known_[std::string(section)].emplace_back(key);
     const toml::table* t = root_[section].as_table();
     if (!t) return nullptr;
     const toml::node* n = t->get(key);
@@ -410,6 +415,7 @@ class Reader {
   std::string source_;
   const std::vector<Override>& overrides_;
   std::set<std::string> used_;
+  std::map<std::string, std::vector<std::string>> known_;  // section -> keys, in reading order
 };
 
 // Copies every leaf of `from` into `into`, creating tables on the way (overrides).
@@ -518,28 +524,7 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
   r.choice("solver", "initial", s.initial,
            {{"center", InitialCondition::kCenter}, {"static", InitialCondition::kStatic}});
 
-  static const std::map<std::string, std::vector<std::string>> kSchema = {
-      {"description", {}},
-      {"model",
-       {"form", "zeta", "force_mean", "force_alternating", "omega", "stiffness_harmonics"}},
-      {"gear",
-       {"normal_module_mm", "normal_pressure_angle_deg", "helix_angle_deg", "center_distance_mm",
-        "teeth", "face_width_mm", "outside_diameter_mm", "profile_shift", "density_kg_m3",
-        "bore_diameter_mm", "inertia_kg_m2", "youngs_modulus_gpa", "poisson_ratio",
-        "basic_rack_dedendum", "rim_thickness_mm", "web_thickness_mm"}},
-      {"mesh",
-       {"backlash_um", "stiffness_source", "mean_stiffness_n_per_m", "stiffness_harmonics",
-        "stiffness_table", "harmonics_kept", "stiffness_positions", "stiffness_slices",
-        "application_factor", "damping_ratio", "damping", "tension"}},
-      {"load",
-       {"torque_nm", "fluctuation_ratio", "fluctuation_order", "fluctuation_phase_deg",
-        "load_torque_nm"}},
-      {"speed", {"shaft_frequency_hz"}},
-      {"solver",
-       {"method", "duration_s", "time_step_s", "tolerance", "output_interval_s", "final_fraction",
-        "initial"}},
-  };
-  r.reject_unknown(kSchema);
+  r.reject_unknown();
 
   if (MaybeViolation v = check_ranges(c)) {
     throw InputError(
