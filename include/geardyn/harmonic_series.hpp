@@ -47,8 +47,9 @@ struct HarmonicSeries {
 class HarmonicGrid {
  public:
   // Phasor rotation drifts by about one rounding error per step; resynchronising every 1024
-  // steps keeps the value within ~1e-13 of the direct evaluation.
+  // steps keeps the value within ~1e-13 of the direct evaluation. A power of two: a mask.
   static constexpr std::int64_t kResyncSteps = 1024;
+  static_assert((kResyncSteps & (kResyncSteps - 1)) == 0);
 
   HarmonicGrid() = default;
   HarmonicGrid(const HarmonicSeries& s, double t0_s, double dt_s)
@@ -66,8 +67,9 @@ class HarmonicGrid {
 
   // The value at t0 + (n+1) dt, where n is the number of earlier calls.
   double next() {
+    if (count_ == 0) return offset_;  // a constant: nothing to rotate
     ++n_;
-    if (n_ % kResyncSteps == 0) {
+    if ((n_ & (kResyncSteps - 1)) == 0) {
       resync(n_);
     } else {
       for (int j = 0; j < count_; ++j) {
