@@ -489,10 +489,10 @@ void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool fi
         "set title 'regime map (up sweeps)'\nset xlabel '{}'\nset ylabel '{}'\n"
         "set cbrange [-0.5:3.5]\nset cbtics ('none' 0, 'transient' 1, 'sustained' 2, "
         "'double-sided' 3)\nset palette defined (0 '#e6f4e6', 1 '#f7e3a1', 2 '#f4a6a6', 3 "
-        "'#7b3294')\n"
+        "'#7b3294')\nset palette maxcolors 4\nset rmargin 16\n"
         "regime(s, d) = (d > 0.5) ? 3 : (s eq 'none' ? 0 : (s eq 'transient' ? 1 : 2))\n"
         "plot 'sweep.csv' every ::1 using 3:(strcol(1) eq 'up' ? $5 : NaN):(regime(strcol(19), "
-        "$20)) with points pt 5 ps 2 lc palette notitle\n",
+        "$20)) with points pt 5 ps 2.6 lc palette notitle\n",
         o.axis.key, o.axis2->key);
     render_figure(dir, "regime_map", map, 900, 700);
   }
