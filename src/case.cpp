@@ -429,7 +429,8 @@ void merge(toml::table& into, const toml::table& from) {
       }
       merge(*target, *sub);
     } else {
-      node.visit([&](auto&& leaf) { into.insert_or_assign(k, leaf); });
+      const toml::key& key = k;  // a structured binding cannot be captured portably
+      node.visit([&](auto&& leaf) { into.insert_or_assign(key, leaf); });
     }
   }
 }
@@ -540,7 +541,7 @@ Override parse_override(const std::string& assignment) {
   if (eq == std::string::npos || eq == 0 || eq + 1 == assignment.size())
     throw InputError(fmt::format(
         "--set {}: must be key=value, e.g. --set speed.shaft_frequency_hz=100", assignment));
-  auto trim = [](std::string s) {
+  auto trim = [](const std::string& s) {
     const auto b = s.find_first_not_of(" \t");
     const auto e = s.find_last_not_of(" \t");
     return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);

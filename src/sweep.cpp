@@ -304,6 +304,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   for (double y : rows) {
     if (o.direction != SweepDirection::kDown) {
       std::vector<PointJob> seq;
+      seq.reserve(xs.size());
       for (double x : xs) seq.push_back({slot++, x, y, SweepDirection::kUp});
       sequences.push_back(std::move(seq));
     }

@@ -74,6 +74,7 @@ class ProgressBar {
 
 std::vector<geardyn::Override> parse_overrides(const std::vector<std::string>& sets) {
   std::vector<geardyn::Override> out;
+  out.reserve(sets.size());
   for (const std::string& s : sets) out.push_back(geardyn::parse_override(s));
   return out;
 }
