@@ -91,67 +91,108 @@ Study park2010_study(const Case& base) {
       "of its own program's curve (Fig. 3) but does not print them.",
       k.fourier.mean_n_per_m, h, source));
 
-  auto add = [&](std::string id, std::string figure, std::string panel, std::string label, Case c,
-                 Regime paper, std::string finding) {
-    c.name = id;
-    c.solver.duration_s = kWindowS;
-    s.cases.push_back({std::move(id), std::move(figure), std::move(panel), std::move(label),
-                       std::move(c), paper, false, std::move(finding)});
-  };
-  Case fig4 = base;
-  fig4.mesh.backlash_um = 100;
-  fig4.mesh.damping_ratio = 0.02;
-  fig4.load.fluctuation_ratio = 0.25;
-  const struct {
-    const char* panel;
-    double f1;
+  // The paper's conditions: b = 100 um, xi = 0.02, F_a/F_m = 0.25 unless a panel sets otherwise.
+  Case paper_base = base;
+  paper_base.mesh.backlash_um = 100;
+  paper_base.mesh.damping_ratio = 0.02;
+  paper_base.load.fluctuation_ratio = 0.25;
+  constexpr auto kTransient = Regime::kTransient;
+  constexpr auto kSustained = Regime::kSustained;
+  // One row per panel: figure, panel, what varies, the settings that make it, the finding.
+  struct Panel {
+    int figure;
+    char panel;
+    const char* label;
+    std::vector<Override> settings;
     Regime paper;
     const char* finding;
-  } f4[] = {
-      {"a", 10, Regime::kTransient, "separation at first, then steady contact"},
-      {"b", 100, Regime::kTransient, "separation at first, then steady contact"},
-      {"c", 1000, Regime::kSustained, "separation over the whole time, the vibration grows"},
-      {"d", 10000, Regime::kTransient, "separation at first only, then small vibration in mesh"},
   };
-  for (const auto& p : f4) {
-    Case c = fig4;
-    c.speed.shaft_frequency_hz = p.f1;
-    add(fmt::format("fig4{}", p.panel), "Fig. 4", fmt::format("({})", p.panel),
-        fmt::format("f_1 = {} Hz", p.f1), c, p.paper, p.finding);
-  }
-  const struct {
-    const char* panel;
-    double ratio;
-    Regime paper;
-  } f5[] = {{"a", 0.1, Regime::kTransient},
-            {"b", 0.25, Regime::kTransient},
-            {"c", 0.4, Regime::kSustained},
-            {"d", 0.55, Regime::kSustained}};
-  for (const auto& p : f5) {
-    Case c = fig4;
-    c.speed.shaft_frequency_hz = 1000;
-    c.mesh.damping_ratio = 0.07;
-    c.load.fluctuation_ratio = p.ratio;
-    add(fmt::format("fig5{}", p.panel), "Fig. 5", fmt::format("({})", p.panel),
-        fmt::format("F_a/F_m = {}", p.ratio), c, p.paper,
-        p.paper == Regime::kTransient ? "with xi = 0.07, separation at first only"
-                                      : "separation over the whole time despite xi = 0.07");
-  }
-  const struct {
-    const char* panel;
-    double b_um;
-    Regime paper;
-  } f6[] = {{"a", 50, Regime::kTransient},
-            {"b", 150, Regime::kSustained},
-            {"c", 200, Regime::kSustained}};
-  for (const auto& p : f6) {
-    Case c = fig4;
-    c.speed.shaft_frequency_hz = 100;
-    c.mesh.backlash_um = p.b_um;
-    add(fmt::format("fig6{}", p.panel), "Fig. 6", fmt::format("({})", p.panel),
-        fmt::format("b = {} um", p.b_um), c, p.paper,
-        p.paper == Regime::kTransient ? "separation at first only"
-                                      : "separation over the whole time, smaller forces");
+  const char* kSettleF5 = "with xi = 0.07, separation at first only";
+  const char* kGoOnF5 = "separation over the whole time despite xi = 0.07";
+  const Panel panels[] = {
+      {4,
+       'a',
+       "f_1 = 10 Hz",
+       {{"speed.shaft_frequency_hz", "10"}},
+       kTransient,
+       "separation at first, then steady contact"},
+      {4,
+       'b',
+       "f_1 = 100 Hz",
+       {{"speed.shaft_frequency_hz", "100"}},
+       kTransient,
+       "separation at first, then steady contact"},
+      {4,
+       'c',
+       "f_1 = 1000 Hz",
+       {{"speed.shaft_frequency_hz", "1000"}},
+       kSustained,
+       "separation over the whole time, the vibration grows"},
+      {4,
+       'd',
+       "f_1 = 10000 Hz",
+       {{"speed.shaft_frequency_hz", "10000"}},
+       kTransient,
+       "separation at first only, then small vibration in mesh"},
+      {5,
+       'a',
+       "F_a/F_m = 0.1",
+       {{"speed.shaft_frequency_hz", "1000"},
+        {"mesh.damping_ratio", "0.07"},
+        {"load.fluctuation_ratio", "0.1"}},
+       kTransient,
+       kSettleF5},
+      {5,
+       'b',
+       "F_a/F_m = 0.25",
+       {{"speed.shaft_frequency_hz", "1000"},
+        {"mesh.damping_ratio", "0.07"},
+        {"load.fluctuation_ratio", "0.25"}},
+       kTransient,
+       kSettleF5},
+      {5,
+       'c',
+       "F_a/F_m = 0.4",
+       {{"speed.shaft_frequency_hz", "1000"},
+        {"mesh.damping_ratio", "0.07"},
+        {"load.fluctuation_ratio", "0.4"}},
+       kSustained,
+       kGoOnF5},
+      {5,
+       'd',
+       "F_a/F_m = 0.55",
+       {{"speed.shaft_frequency_hz", "1000"},
+        {"mesh.damping_ratio", "0.07"},
+        {"load.fluctuation_ratio", "0.55"}},
+       kSustained,
+       kGoOnF5},
+      {6,
+       'a',
+       "b = 50 um",
+       {{"speed.shaft_frequency_hz", "100"}, {"mesh.backlash_um", "50"}},
+       kTransient,
+       "separation at first only"},
+      {6,
+       'b',
+       "b = 150 um",
+       {{"speed.shaft_frequency_hz", "100"}, {"mesh.backlash_um", "150"}},
+       kSustained,
+       "separation over the whole time, smaller forces"},
+      {6,
+       'c',
+       "b = 200 um",
+       {{"speed.shaft_frequency_hz", "100"}, {"mesh.backlash_um", "200"}},
+       kSustained,
+       "separation over the whole time, smaller forces"},
+  };
+  for (const Panel& p : panels) {
+    Case c = paper_base;
+    for (const Override& o : p.settings) set_case_value(c, o);
+    const std::string id = fmt::format("fig{}{}", p.figure, p.panel);
+    c.name = id;
+    c.solver.duration_s = kWindowS;
+    s.cases.push_back({id, fmt::format("Fig. {}", p.figure), fmt::format("({})", p.panel), p.label,
+                       std::move(c), p.paper, false, p.finding});
   }
   return s;
 }
