@@ -8,7 +8,7 @@ packages=(
   build-essential cmake pkg-config clang-format clang-tidy
   libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libfftw3-dev gnuplot-nox
+  libfftw3-dev libeigen3-dev gnuplot-nox
   python3-dev pybind11-dev python3-numpy python3-matplotlib python3-pytest
 )
 missing=()

@@ -1,5 +1,7 @@
 #include "geardyn/analysis.hpp"
 
+#include <algorithm>
+#include <boost/math/tools/minima.hpp>
 #include <cmath>
 #include <limits>
 
@@ -124,6 +126,84 @@ RunReading RunReader::reading() const {
   const double static_force = model_.parameters().static_mesh_force_n();
   if (static_force > 0) r.dynamic_factor = max_force_ / static_force;
   return r;
+}
+
+}  // namespace geardyn
+
+namespace geardyn {
+namespace {
+// Samples of a cell searched for an extreme before the best one is polished by Brent's method,
+// and the bits of time to which it is polished (the extreme's value is then exact to ~1e-15).
+constexpr int kExtremeSamples = 8;
+constexpr int kExtremeBits = 26;
+}  // namespace
+
+RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader)
+    : model_(model), reader_(reader) {
+  const HarmonicSeries& k = model.parameters().stiffness_n_per_m;
+  double swing = 0;
+  for (const Harmonic& h : k.terms) swing += std::abs(h.amplitude);
+  k_min_ = k.offset - swing;
+  k_max_ = k.offset + swing;
+}
+
+void RunFlowObserver::on_cell(const ode::CellView& cell) {
+  if (!(cell.t_end_s > cell.t_begin_s)) return;
+  const int region = cell.region + GearPairModel::kFirstRegion;
+  const double dlo = (*cell.lower)[0], dhi = (*cell.upper)[0];
+  const double vlo = (*cell.lower)[1], vhi = (*cell.upper)[1];
+  // Bounds of F_G over the cell from those of the state.
+  const GearPairParameters& p = model_.parameters();
+  const double b = p.backlash_m;
+  double flo = 0, fhi = 0;
+  if (region == kDriveContact || region == kBackContact) {
+    const double edge = region == kDriveContact ? b : -b;
+    const double c = p.damping_n_s_per_m;
+    const double e[4] = {k_min_ * (dlo - edge), k_min_ * (dhi - edge), k_max_ * (dlo - edge),
+                         k_max_ * (dhi - edge)};
+    flo = *std::min_element(e, e + 4) + std::min(c * vlo, c * vhi);
+    fhi = *std::max_element(e, e + 4) + std::max(c * vlo, c * vhi);
+  } else if (region == kSeparated && p.damping == DampingForm::kAlways) {
+    const double c = p.damping_n_s_per_m;
+    flo = std::min(c * vlo, c * vhi);
+    fhi = std::max(c * vlo, c * vhi);
+  }
+  const bool want[4] = {dhi > reader_.max_delta_m(),
+                        dlo<reader_.min_delta_m(), fhi> reader_.max_force_n(),
+                        flo < reader_.min_force_n()};
+  if (!(want[0] || want[1] || want[2] || want[3])) return;
+  // value(q, t): the quantity to minimise, negated for a maximum.
+  ode::Vector y(2);
+  auto point = [&](double t) {
+    cell.state_at(t, y);
+    return ode::State{t, y[0], y[1], 0.0, region};
+  };
+  auto value = [&](int q, double t) {
+    const ode::State s = point(t);
+    const double x = q < 2 ? s.q : model_.mesh_force(model_.drive(t), s.q, s.v, region);
+    return (q % 2 == 0) ? -x : x;
+  };
+  const double t0 = cell.t_begin_s, t1 = cell.t_end_s;
+  const double dt = (t1 - t0) / kExtremeSamples;
+  for (int q = 0; q < 4; ++q) {
+    if (!want[q]) continue;
+    int best = 0;
+    double best_v = value(q, t0);
+    for (int i = 1; i <= kExtremeSamples; ++i) {
+      const double v = value(q, t0 + i * dt);
+      if (v < best_v) {
+        best_v = v;
+        best = i;
+      }
+    }
+    const double a = t0 + std::max(0, best - 1) * dt,
+                 c = t0 + std::min(kExtremeSamples, best + 1) * dt;
+    std::uintmax_t it = 60;
+    const auto r = boost::math::tools::brent_find_minima([&](double t) { return value(q, t); }, a,
+                                                         c, kExtremeBits, it);
+    const double t = r.second < best_v ? r.first : t0 + best * dt;
+    reader_.on_point(point(t), model_.drive(t));
+  }
 }
 
 }  // namespace geardyn

@@ -516,7 +516,7 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
 
   SolverData& s = c.solver;
   r.choice("solver", "method", s.method,
-           {{"newmark", Method::kNewmark}, {"dopri5", Method::kDopri5}});
+           {{"exact", Method::kExact}, {"newmark", Method::kNewmark}, {"dopri5", Method::kDopri5}});
   r.number("solver", "duration_s", s.duration_s);
   r.number("solver", "time_step_s", s.time_step_s);
   r.number("solver", "tolerance", s.tolerance);
@@ -589,6 +589,18 @@ void set_case_value(Case& c, const Override& o) {
   c.directory = directory;
 }
 
+const char* to_string(Method m) {
+  switch (m) {
+    case Method::kExact:
+      return "exact";
+    case Method::kNewmark:
+      return "newmark";
+    case Method::kDopri5:
+      return "dopri5";
+  }
+  return "?";
+}
+
 std::string validate(const Case& c) {
   if (MaybeViolation v = check_ranges(c))
     return fmt::format("{} = {}: must be {}", v->key, v->value, v->allowed);
@@ -643,7 +655,7 @@ std::string to_toml(const Case& c) {
   };
   if (c.load.load_torque_nm) load.insert("load_torque_nm", *c.load.load_torque_nm);
   toml::table solver{
-      {"method", c.solver.method == Method::kNewmark ? "newmark" : "dopri5"},
+      {"method", to_string(c.solver.method)},
       {"duration_s", c.solver.duration_s},
       {"time_step_s", c.solver.time_step_s},
       {"tolerance", c.solver.tolerance},

@@ -14,6 +14,8 @@ const char* to_string(Termination t) {
       return "step_underflow";
     case Termination::kCancelled:
       return "cancelled";
+    case Termination::kNoProgress:
+      return "no_progress";
   }
   return "?";
 }

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <numbers>
+#include <type_traits>
+#include <vector>
 
 namespace geardyn {
 
@@ -87,6 +89,178 @@ int GearPairModel::classify(const Drive& d, double delta_m, double velocity_m_s)
     return (clip_ && fg > 0) ? kBackClipped : kBackContact;
   }
   return kSeparated;
+}
+
+}  // namespace geardyn
+
+namespace geardyn {
+namespace {
+
+// Adds the terms of `s` (times `scale`) to a Fourier series over the frequency table `w`,
+// writing them as cos and sin parts: A cos(wt + phi) = A cos(phi) cos(wt) - A sin(phi) sin(wt).
+int frequency_index(std::vector<double>& w, double omega) {
+  for (std::size_t f = 0; f < w.size(); ++f)
+    if (std::abs(w[f] - omega) <= 1e-12 * omega) return static_cast<int>(f);
+  w.push_back(omega);
+  return static_cast<int>(w.size()) - 1;
+}
+
+template <class T>
+bool is_zero(const T& x) {
+  if constexpr (std::is_arithmetic_v<T>) {
+    return x == 0;
+  } else {
+    return !x.any();
+  }
+}
+
+template <class T>
+void drop_if_constant(ode::FourierTerms<T>& x) {
+  bool varies = false;
+  for (std::size_t f = 0; f < x.cos.size(); ++f) varies |= !is_zero(x.cos[f]) || !is_zero(x.sin[f]);
+  if (!varies) {
+    x.cos.clear();
+    x.sin.clear();
+  }
+}
+
+}  // namespace
+
+ode::LinearSwitchedSystem GearPairModel::linear_system() const {
+  using ode::Matrix;
+  using ode::RowVector;
+  using ode::Vector;
+  ode::LinearSwitchedSystem sys;
+  sys.dimension = 2;
+  const double m = p_.equivalent_mass_kg;
+  const HarmonicSeries& k = p_.stiffness_n_per_m;
+  const HarmonicSeries& F = p_.force_n;
+  // The frequency table: the stiffness harmonics first (they set the coefficient period).
+  std::vector<int> k_index, f_index;
+  double k_lowest = 0;
+  for (const Harmonic& h : k.terms) {
+    if (h.amplitude == 0) {
+      k_index.push_back(-1);
+      continue;
+    }
+    k_index.push_back(frequency_index(sys.frequencies_rad_s, h.angular_frequency_rad_s));
+    if (k_lowest == 0 || h.angular_frequency_rad_s < k_lowest) k_lowest = h.angular_frequency_rad_s;
+  }
+  for (const Harmonic& h : F.terms)
+    f_index.push_back(
+        h.amplitude == 0 ? -1 : frequency_index(sys.frequencies_rad_s, h.angular_frequency_rad_s));
+  sys.coefficient_period_s = k_lowest > 0 ? 2.0 * std::numbers::pi / k_lowest : 0.0;
+  const std::size_t nf = sys.frequencies_rad_s.size();
+
+  // A series x(t) = scale * (offset + terms of s) into FourierTerms of T, placing each value
+  // with `put(T&, double)`.
+  auto add_series = [&](auto& terms, const HarmonicSeries& s, const std::vector<int>& index,
+                        double scale, bool with_offset, auto put) {
+    if (with_offset) put(terms.constant, scale * s.offset);
+    for (std::size_t j = 0; j < s.terms.size(); ++j) {
+      if (index[j] < 0) continue;
+      const Harmonic& h = s.terms[j];
+      put(terms.cos[index[j]], scale * h.amplitude * std::cos(h.phase_rad));
+      put(terms.sin[index[j]], -scale * h.amplitude * std::sin(h.phase_rad));
+    }
+  };
+  auto zero_matrix_terms = [&] {
+    ode::FourierTerms<Matrix> a;
+    a.constant = Matrix::Zero(2, 2);
+    a.constant(0, 1) = 1.0;
+    a.cos.assign(nf, Matrix::Zero(2, 2));
+    a.sin.assign(nf, Matrix::Zero(2, 2));
+    return a;
+  };
+  auto zero_vector_terms = [&] {
+    ode::FourierTerms<Vector> u;
+    u.constant = Vector::Zero(2);
+    u.cos.assign(nf, Vector::Zero(2));
+    u.sin.assign(nf, Vector::Zero(2));
+    return u;
+  };
+  auto put_a10 = [](Matrix& a, double v) { a(1, 0) += v; };
+  auto put_a11 = [](Matrix& a, double v) { a(1, 1) += v; };
+  auto put_u1 = [](Vector& u, double v) { u(1) += v; };
+  auto put_row0 = [](RowVector& g, double v) { g(0) += v; };
+  auto put_scalar = [](double& g, double v) { g += v; };
+
+  // A guard on delta alone: sign (delta - edge) >= 0 inside.
+  auto delta_guard = [&](double sign, double edge, int target) {
+    ode::LinearGuard g;
+    g.row.constant = RowVector::Zero(2);
+    g.row.constant(0) = sign;
+    g.offset.constant = -sign * edge;
+    g.target = target - kFirstRegion;
+    g.scale = b_;
+    return g;
+  };
+  // A guard on the contact force: sign (k(t)(delta - edge) + c delta') >= 0 inside.
+  auto force_guard = [&](double sign, double edge, int target) {
+    ode::LinearGuard g;
+    g.row.constant = RowVector::Zero(2);
+    g.row.cos.assign(nf, RowVector::Zero(2));
+    g.row.sin.assign(nf, RowVector::Zero(2));
+    g.offset.cos.assign(nf, 0.0);
+    g.offset.sin.assign(nf, 0.0);
+    add_series(g.row, k, k_index, sign, true, put_row0);
+    g.row.constant(1) = sign * c_;
+    add_series(g.offset, k, k_index, -sign * edge, true, put_scalar);
+    g.target = target - kFirstRegion;
+    g.scale = b_ * p_.mean_stiffness_n_per_m();
+    return g;
+  };
+
+  sys.regions.resize(kRegionCount);
+  for (int region = kBackClipped; region <= kDriveClipped; ++region) {
+    ode::LinearRegion& r = sys.regions[region - kFirstRegion];
+    r.a = zero_matrix_terms();
+    r.u = zero_vector_terms();
+    add_series(r.u, F, f_index, 1.0 / m, true, put_u1);  // F(t) / m
+    const bool contact = region == kDriveContact || region == kBackContact;
+    if (contact) {
+      // m delta'' = F - cb2 (k(t) (delta -+ b) + c delta').
+      const double edge = region == kDriveContact ? b_ : -b_;
+      add_series(r.a, k, k_index, -cb2_ / m, true, put_a10);
+      r.a.constant(1, 1) = -cb2_ * c_ / m;
+      add_series(r.u, k, k_index, cb2_ * edge / m, true, put_u1);
+    } else if (region == kSeparated) {
+      r.a.constant(1, 1) = -cb2_ * c_free_ / m;
+    }
+    switch (region) {
+      case kSeparated:
+        r.guards.push_back(delta_guard(-1, b_, kDriveContact));
+        r.guards.push_back(delta_guard(1, -b_, kBackContact));
+        break;
+      case kDriveContact:
+        r.guards.push_back(delta_guard(1, b_, kSeparated));
+        if (clip_) r.guards.push_back(force_guard(1, b_, kDriveClipped));
+        break;
+      case kDriveClipped:
+        r.guards.push_back(delta_guard(1, b_, kSeparated));
+        r.guards.push_back(force_guard(-1, b_, kDriveContact));
+        break;
+      case kBackContact:
+        r.guards.push_back(delta_guard(-1, -b_, kSeparated));
+        if (clip_) r.guards.push_back(force_guard(-1, -b_, kBackClipped));
+        break;
+      case kBackClipped:
+        r.guards.push_back(delta_guard(-1, -b_, kSeparated));
+        r.guards.push_back(force_guard(1, -b_, kBackContact));
+        break;
+      default:
+        break;
+    }
+    // Terms that are zero at every frequency are dropped: constant coefficients let the
+    // engine take any cell grid.
+    drop_if_constant(r.a);
+    drop_if_constant(r.u);
+    for (ode::LinearGuard& g : r.guards) {
+      drop_if_constant(g.row);
+      drop_if_constant(g.offset);
+    }
+  }
+  return sys;
 }
 
 }  // namespace geardyn

@@ -80,7 +80,7 @@ std::string summary_json(const RunResult& r, int indent) {
   j["steps"] = r.integration.steps;
   j["transitions"] = r.integration.transitions;
   j["unsplit_steps"] = r.integration.unsplit_steps;
-  j["method"] = r.input.solver.method == Method::kNewmark ? "newmark" : "dopri5";
+  j["method"] = to_string(r.input.solver.method);
   j["duration_s"] = r.input.solver.duration_s;
   j["wall_time_s"] = r.wall_time_s;
   j["warnings"] = r.geometry.warnings;

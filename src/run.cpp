@@ -44,6 +44,68 @@ GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiff
   return model;
 }
 
+Solver::Solver(const GearPairModel& model, const SolverData& s, double period_s)
+    : model_(model), s_(s) {
+  const GearPairParameters& p = model.parameters();
+  switch (s.method) {
+    case Method::kNewmark: {
+      const double wanted = s.time_step_s > 0 ? s.time_step_s : automatic_time_step_s(p);
+      // An integer number of steps fits the period (or the window).
+      dt_ = period_s > 0 ? period_s / std::max(1.0, std::ceil(period_s / wanted - 1e-9)) : wanted;
+      break;
+    }
+    case Method::kExact: {
+      ode::EngineOptions o;
+      o.tolerance = std::max(ode::kRoundingLimit, s.tolerance * kExactToleranceFraction);
+      try {
+        engine_ = std::make_unique<ode::ExactEngine>(model.linear_system(), o);
+      } catch (const std::invalid_argument& e) {
+        throw InputError(std::string("solver.method = \"exact\": ") + e.what());
+      }
+      break;
+    }
+    case Method::kDopri5:
+      break;
+  }
+}
+
+Solver::~Solver() = default;
+
+ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
+                                    const ode::OutputGrid& grid, RunReader& reader) const {
+  const GearPairParameters& p = model_.parameters();
+  switch (s_.method) {
+    case Method::kNewmark:
+      return ode::integrate_newmark(model_, initial, t1, dt_, grid, reader);
+    case Method::kDopri5: {
+      ode::Dopri5Options o;
+      o.relative_tolerance = s_.tolerance;
+      o.absolute_tolerance = s_.tolerance * p.backlash_m;
+      o.initial_step_s = fastest_period_s(p) * 1e-4;
+      return ode::integrate_dopri5(model_, initial, t1, grid, reader, o);
+    }
+    case Method::kExact:
+      break;
+  }
+  RunFlowObserver observer(model_, reader);
+  ode::Vector y0(2);
+  y0 << initial.q, initial.v;
+  const ode::FlowResult f = engine_->flow(
+      initial.t, y0, initial.region - GearPairModel::kFirstRegion, t1, grid, observer);
+  ode::IntegrationSummary sum;
+  sum.termination = f.termination;
+  sum.message = f.message;
+  sum.steps = f.cells;
+  sum.transitions = f.events;
+  sum.end_time_s = f.end_time_s;
+  const int region = f.region + GearPairModel::kFirstRegion;
+  const double q = f.state[0], v = f.state[1];
+  sum.end_state = {
+      f.end_time_s, q, v,
+      model_.force(model_.drive(f.end_time_s), q, v, region).value / p.equivalent_mass_kg, region};
+  return sum;
+}
+
 RunResult run(const Case& c, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   RunResult result;
@@ -84,19 +146,9 @@ RunResult run(const Case& c, const RunOptions& options) {
 
   RunReader reader(model, t0, t1, c.solver.final_fraction, options.keep_events,
                    options.keep_samples, options.progress);
-  if (c.solver.method == Method::kNewmark) {
-    d.time_step_s = c.solver.time_step_s > 0 ? c.solver.time_step_s : automatic_time_step_s(p);
-    result.integration = ode::integrate_newmark(model, initial, t1, d.time_step_s, grid, reader);
-    // Report the step actually taken: an integer number of steps fits the window.
-    d.time_step_s = (t1 - t0) / std::ceil((t1 - t0) / d.time_step_s - 1e-9);
-  } else {
-    ode::Dopri5Options o;
-    o.relative_tolerance = c.solver.tolerance;
-    o.absolute_tolerance = c.solver.tolerance * p.backlash_m;
-    o.max_step_s = kDopri5MaxStepFraction * d.fastest_period_s;
-    o.initial_step_s = o.max_step_s * 1e-3;
-    result.integration = ode::integrate_dopri5(model, initial, t1, grid, reader, o);
-  }
+  const Solver solver(model, c.solver, t1 - t0);
+  result.integration = solver.run(initial, t1, grid, reader);
+  d.time_step_s = solver.time_step_s();
   result.reading = reader.reading();
   result.events = reader.events();
   result.samples = std::move(reader.samples());

@@ -98,7 +98,7 @@ void print_run_summary(const geardyn::RunResult& r) {
   const auto& d = r.derived;
   const auto& c = r.input;
   fmt::print("geardyn run: {}{}\n", c.name, c.description.empty() ? "" : " - " + c.description);
-  const char* method = c.solver.method == geardyn::Method::kNewmark ? "newmark" : "dopri5";
+  const char* method = geardyn::to_string(c.solver.method);
   if (c.model.form == geardyn::ModelForm::kNondimensional) {
     fmt::print("  non-dimensional: Omega = {}, zeta = {}, F_m = {}, F_a = {}, {} over tau = {}\n",
                c.model.omega, c.model.zeta, c.model.force_mean, c.model.force_alternating, method,

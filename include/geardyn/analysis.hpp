@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/engine.hpp"
 #include "geardyn/integrator.hpp"
 #include "geardyn/model.hpp"
 
@@ -77,12 +78,19 @@ class RunReader {
 
   // Observer interface (integrator.hpp).
   void on_step(const ode::State& s, const GearPairModel::Drive& d) {
-    const int cs = contact_state(s.region);
-    if (cs == 0) {
-      separated_time_ += s.t - last_t_;
-      if (s.t > final_start_) separated_in_final_ = true;
+    on_time(s.t, s.region);
+    on_point(s, d);
+  }
+  // The time accounting of a step alone: it ended at t_s in `region`.
+  void on_time(double t_s, int region) {
+    if (contact_state(region) == 0) {
+      separated_time_ += t_s - last_t_;
+      if (t_s > final_start_) separated_in_final_ = true;
     }
-    last_t_ = s.t;
+    last_t_ = t_s;
+  }
+  // A point inside a step: only the extremes look at it.
+  void on_point(const ode::State& s, const GearPairModel::Drive& d) {
     const double f = model_.mesh_force(d, s.q, s.v, s.region);
     max_force_ = std::max(max_force_, f);
     min_force_ = std::min(min_force_, f);
@@ -94,6 +102,11 @@ class RunReader {
   bool on_progress(double t_s) { return !progress_ || progress_((t_s - t0_) / (t1_ - t0_)); }
 
   RunReading reading() const;
+  // The extremes so far, SI (N, m).
+  double max_force_n() const { return max_force_; }
+  double min_force_n() const { return min_force_; }
+  double max_delta_m() const { return max_delta_; }
+  double min_delta_m() const { return min_delta_; }
   const std::vector<ContactEvent>& events() const { return events_; }
   Timeseries& samples() { return samples_; }
 
@@ -115,6 +128,35 @@ class RunReader {
   double max_impact_velocity_ = 0;
   std::vector<ContactEvent> events_;
   Timeseries samples_;
+};
+
+// The exact engine's observer for a run of the gear model: passes its steps, events and samples
+// to a RunReader, and finds the extremes of delta and F_G inside a cell where the cell's bounds
+// say that one may lie beyond those seen so far (a search on the cell's polynomial), so that
+// the readings do not depend on the engine's cell length.
+class RunFlowObserver final : public ode::FlowObserver {
+ public:
+  RunFlowObserver(const GearPairModel& model, RunReader& reader);
+  void on_cell(const ode::CellView& cell) override;
+  // The extremes at a step's end were looked at by on_cell.
+  void on_step(double t_s, const ode::Vector& /*y*/, int region) override {
+    reader_.on_time(t_s, region + GearPairModel::kFirstRegion);
+  }
+  void on_event(double t_s, const ode::Vector& y, int from, int to) override {
+    reader_.on_transition(state(t_s, y, to), from + GearPairModel::kFirstRegion);
+  }
+  void on_sample(double t_s, const ode::Vector& y, int region) override {
+    reader_.on_sample(state(t_s, y, region));
+  }
+  bool on_progress(double t_s) override { return reader_.on_progress(t_s); }
+
+ private:
+  static ode::State state(double t_s, const ode::Vector& y, int region) {
+    return {t_s, y[0], y[1], 0.0, region + GearPairModel::kFirstRegion};
+  }
+  const GearPairModel& model_;
+  RunReader& reader_;
+  double k_min_, k_max_;  // bounds of k(t)
 };
 
 }  // namespace geardyn

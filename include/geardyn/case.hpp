@@ -105,7 +105,12 @@ struct SpeedData {
   double shaft_frequency_hz = 1000.0;  // f_1, rotation frequency of the driving gear
 };
 
-enum class Method { kNewmark, kDopri5 };
+enum class Method {
+  kExact,    // the exact engine: closed-form cells and located events (engine.hpp)
+  kNewmark,  // Newmark-beta with located transitions (the paper's method)
+  kDopri5,   // Dormand-Prince 5(4) with events (the independent check)
+};
+const char* to_string(Method m);
 
 enum class InitialCondition {
   kCenter,  // delta = 0, delta' = 0: the middle of the backlash (eq. 15, the paper)
@@ -114,10 +119,11 @@ enum class InitialCondition {
 
 // [solver]
 struct SolverData {
-  Method method = Method::kNewmark;
+  Method method = Method::kExact;
   double duration_s = 0.05;
   double time_step_s = 0.0;        // 0: automatic (docs/numerics.md)
-  double tolerance = 1e-10;        // relative and absolute tolerance of dopri5
+  double tolerance = 1e-10;        // accuracy: dopri5's relative and absolute tolerance; the exact
+                                   // engine's truncation of its series
   double output_interval_s = 0.0;  // 0: automatic, duration / 5000
   double final_fraction = 0.1;     // final part of the window in which separation is "sustained"
   InitialCondition initial = InitialCondition::kCenter;

@@ -85,6 +85,7 @@ enum class Termination {
   kNewtonFailed,   // Newton-Raphson did not converge within its iteration limit
   kStepUnderflow,  // the adaptive step fell below what the end time can resolve
   kCancelled,      // the observer asked to stop
+  kNoProgress,     // region changes kept coming without time advancing (a chattering contact)
 };
 
 const char* to_string(Termination t);
@@ -362,16 +363,24 @@ struct Dopri5Options {
   double relative_tolerance = 1e-10;
   double absolute_tolerance = 1e-10;  // in the units of q and q' scaled by the caller
   double initial_step_s = 1e-7;
-  double max_step_s = std::numeric_limits<double>::infinity();  // caps the step so that a
-                                                                // double crossing is not missed
+  double max_step_s = std::numeric_limits<double>::infinity();
   std::int64_t max_steps = std::int64_t{1} << 34;
   std::int64_t progress_interval_steps = std::int64_t{1} << 16;
+  // Points inside every step at which the guards are checked on the dense output besides its
+  // end, so that a contact entered and left within one step is seen (no step cap needed).
+  int in_step_checks = 4;
+  // Region changes in a row that each advance time by less than min_progress_s before the
+  // run ends with kNoProgress (a chattering contact).
+  int max_stalled_transitions = 64;
+  double min_progress_s = 0;  // 0: 1e-12 of the window
 };
 
 // Integrates with the Dormand-Prince 5(4) pair and its dense output (Boost.Odeint). Inside a
-// region the right-hand side is smooth; after every step the guards are checked at its end and
-// a crossing is located on the dense output by TOMS 748 (Boost.Math); the stepper restarts
-// there in the new region. The system's kPiecewiseLinear and drive_grid are not used.
+// region the right-hand side is smooth; after every step the guards are checked at points
+// inside it and at its end (Dopri5Options::in_step_checks), a crossing is located on the dense
+// output by TOMS 748 (Boost.Math), and the stepper restarts there in the new region. The
+// step is not capped. A run whose region changes stop advancing time ends with kNoProgress.
+// The system's kPiecewiseLinear and drive_grid are not used.
 template <SwitchedSystem S, class Observer>
 IntegrationSummary integrate_dopri5(const S& sys, State initial, double t1,
                                     const OutputGrid& output, Observer& obs,
@@ -413,6 +422,8 @@ IntegrationSummary integrate_dopri5(const S& sys, State initial, double t1,
     ++next_sample;
   }
 
+  const double min_progress = o.min_progress_s > 0 ? o.min_progress_s : 1e-12 * (t1 - t);
+  int stalled = 0;
   while (t < t1) {
     if (sum.steps >= o.max_steps) {
       sum.termination = Termination::kStepUnderflow;
@@ -438,31 +449,43 @@ IntegrationSummary integrate_dopri5(const S& sys, State initial, double t1,
       sum.message = "the solution became non-finite at t = " + std::to_string(te) + " s";
       break;
     }
-    const Guards g = sys.guards(sys.drive(te), xe[0], xe[1], region);
+    // The guards at in_step_checks points inside the step and at its end: the first
+    // sub-interval at whose end one is negative holds the crossing.
     double t_cross = te;
     int target = region;
-    for (int i = 0; i < g.count; ++i) {
-      if (!(g.items[i].value < 0)) continue;
-      auto guard_at = [&](double tt) {
-        X xx;
-        stepper.calc_state(tt, xx);
-        return sys.guards(sys.drive(tt), xx[0], xx[1], region).items[i].value;
-      };
-      X xa;
-      stepper.calc_state(ta, xa);
-      const double ga = sys.guards(sys.drive(ta), xa[0], xa[1], region).items[i].value;
-      double hi = ta;
-      if (ga > 0) {
-        std::uintmax_t iters = kTransitionMaxIterations;
-        hi = boost::math::tools::toms748_solve(
-                 guard_at, ta, te, ga, g.items[i].value,
-                 boost::math::tools::eps_tolerance<double>(kTransitionBits), iters)
-                 .second;
+    const int checks = std::max(0, o.in_step_checks) + 1;
+    double tb_prev = ta;
+    for (int j = 1; j <= checks && target == region; ++j) {
+      const double tj = j == checks ? te : ta + (te - ta) * j / checks;
+      X xj;
+      if (j == checks) {
+        xj = xe;
+      } else {
+        stepper.calc_state(tj, xj);
       }
-      if (hi <= t_cross) {
-        t_cross = hi;
-        target = g.items[i].target;
+      const Guards g = sys.guards(sys.drive(tj), xj[0], xj[1], region);
+      for (int i = 0; i < g.count; ++i) {
+        if (!(g.items[i].value < 0)) continue;
+        auto guard_at = [&](double tt) {
+          X xx;
+          stepper.calc_state(tt, xx);
+          return sys.guards(sys.drive(tt), xx[0], xx[1], region).items[i].value;
+        };
+        const double ga = guard_at(tb_prev);
+        double hi = tb_prev;
+        if (ga > 0) {
+          std::uintmax_t iters = kTransitionMaxIterations;
+          hi = boost::math::tools::toms748_solve(
+                   guard_at, tb_prev, tj, ga, g.items[i].value,
+                   boost::math::tools::eps_tolerance<double>(kTransitionBits), iters)
+                   .second;
+        }
+        if (hi <= t_cross) {
+          t_cross = hi;
+          target = g.items[i].target;
+        }
       }
+      tb_prev = tj;
     }
     if (target != region) {
       X xc;
@@ -471,9 +494,17 @@ IntegrationSummary integrate_dopri5(const S& sys, State initial, double t1,
       obs.on_step(state_at(xc, t_cross), sys.drive(t_cross));
       const int from = region;
       region = target;
+      stalled = (t_cross - t <= min_progress) ? stalled + 1 : 0;
       x = xc;
       t = t_cross;
       ++sum.transitions;
+      if (stalled > o.max_stalled_transitions) {
+        sum.termination = Termination::kNoProgress;
+        sum.message = std::to_string(stalled) +
+                      " region changes without time advancing at t = " + std::to_string(t) +
+                      " s (a chattering contact)";
+        break;
+      }
       obs.on_transition(state_at(x, t), from);
       stepper.initialize(x, t, std::min(stepper.current_time_step(), o.max_step_s));
       continue;

@@ -21,6 +21,7 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/harmonic_series.hpp"
 #include "geardyn/integrator.hpp"
+#include "geardyn/linear_system.hpp"
 
 namespace geardyn {
 
@@ -150,6 +151,13 @@ class GearPairModel {
 
   // The region a state belongs to with no history (used for initial conditions).
   int classify(const Drive& d, double delta_m, double velocity_m_s) const;
+
+  // The model as a piecewise-linear system with periodic coefficients (linear_system.hpp), for
+  // the exact engine: the state is (delta, delta') in m and m/s, the engine's region index is
+  // region - kFirstRegion; the coefficient period is the mesh period (0 for constant k).
+  static constexpr int kFirstRegion = kBackClipped;
+  static constexpr int kRegionCount = kDriveClipped - kBackClipped + 1;
+  ode::LinearSwitchedSystem linear_system() const;
 
  private:
   GearPairParameters p_;

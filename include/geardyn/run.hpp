@@ -4,11 +4,13 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "geardyn/analysis.hpp"
 #include "geardyn/case.hpp"
+#include "geardyn/engine.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/integrator.hpp"
 #include "geardyn/model.hpp"
@@ -30,9 +32,6 @@ constexpr double kMaxAutomaticSamples = 200000.0;
 constexpr double kSteadyFraction = 0.5;
 // Dominant frequencies reported per signal.
 constexpr std::size_t kReportedPeaks = 5;
-// dopri5 never steps over more than this fraction of the fastest period, so that a contact
-// entered and left inside one step cannot go unseen.
-constexpr double kDopri5MaxStepFraction = 0.05;
 
 // Quantities derived from the case that a reader of the run wants beside it (summary.json).
 struct Derived {
@@ -47,7 +46,7 @@ struct Derived {
   double transverse_contact_ratio = 0;
   double overlap_ratio = 0;
   double fastest_period_s = 0;  // the shortest time scale of the case
-  double time_step_s = 0;       // the Newmark step used (0 for dopri5)
+  double time_step_s = 0;       // the Newmark step used (0 for the other methods)
   double output_interval_s = 0;
 };
 
@@ -71,6 +70,34 @@ struct RunResult {
   Spectrum force_spectrum, delta_spectrum;
   std::vector<SpectralPeak> force_peaks, delta_peaks;
   double wall_time_s = 0;
+};
+
+// The engine's series truncation for solver.tolerance: this fraction of it (the engine's error
+// grows with the number of cells and events; the default 1e-10 then holds delta/b to ~1e-12).
+constexpr double kExactToleranceFraction = 1e-4;
+
+// Integrates a gear model with a case's [solver] (method, tolerance, time step), the one
+// place that chooses an integrator: runs and sweep points call it. The exact engine's cells
+// are computed once, at construction.
+class Solver {
+ public:
+  // `period_s`, when > 0, makes the Newmark step divide it (a sweep's blocks end on period
+  // ends). Throws InputError if the model cannot be put in the exact engine's form.
+  Solver(const GearPairModel& model, const SolverData& s, double period_s = 0);
+  ~Solver();
+
+  // From `initial` to t1, samples on `grid`, read by `reader`.
+  ode::IntegrationSummary run(const ode::State& initial, double t1, const ode::OutputGrid& grid,
+                              RunReader& reader) const;
+  // The Newmark step actually taken (0 for the other methods).
+  double time_step_s() const { return dt_; }
+  const ode::ExactEngine* engine() const { return engine_.get(); }
+
+ private:
+  const GearPairModel& model_;
+  SolverData s_;
+  double dt_ = 0;
+  std::unique_ptr<ode::ExactEngine> engine_;
 };
 
 // The shortest time scale of a model: the linearised contact period at the largest stiffness,

@@ -12,6 +12,7 @@ TEST(NewmarkConvergence, SecondOrderAtAFixedEndTimeThroughImpacts) {
   // The paper's gear at 1 kHz: in 3 ms the teeth leave the backlash centre, strike, separate,
   // strike again... (six located transitions). Error of delta at t1 against dopri5 at 1e-13.
   Case c;
+  c.solver.method = Method::kNewmark;
   c.solver.duration_s = 3e-3;
   c.solver.output_interval_s = 3e-3;
   Case ref = c;
@@ -37,6 +38,7 @@ TEST(NewmarkConvergence, SecondOrderAtAFixedEndTimeThroughImpacts) {
 
 Case fig4a() {
   Case c;
+  c.solver.method = Method::kNewmark;
   c.speed.shaft_frequency_hz = 10.0;
   c.solver.duration_s = 0.1;
   return c;

@@ -1,0 +1,140 @@
+// geardyn: the exact engine for piecewise-linear systems with periodic coefficients, pipeline
+// stage 5 beside the steppers of integrator.hpp. Nothing here knows of gears.
+//
+// Between two events the system of linear_system.hpp is linear, so its flow is known: for each
+// region the engine cuts time into cells of length h on a fixed grid (t = m h; h divides the
+// coefficient period into K cells), and computes once, per cell of the period, the Taylor
+// series in s = t - t_m of
+//
+//     Phi(s)        the state transition matrix of the cell, Phi(0) = I,
+//     R0(s)         the response to the constant forcing u0 from rest,
+//     Rc_f, Rs_f    the responses to the forcing at frequency w_f with cell-start phase 0 and
+//                   pi/2 (the response to any phase is cos(w_f t_m) Rc_f + sin(w_f t_m) Rs_f),
+//
+// to a truncation below the tolerance (the order is raised, or h halved, until the last terms
+// are negligible entry by entry). A whole cell then costs one n x n product and the phasors of
+// the forcing; the state anywhere inside it is a polynomial, exact to the same truncation.
+//
+// Events: over each cell the engine bounds how far every component of the state can move
+// (|y(s) - y(t_m)| <= alpha |y(t_m) - y_ref| + beta, alpha and beta precomputed from the series,
+// y_ref the region's static state), so a guard that stays above that bound cannot cross in the
+// cell. Otherwise the guard's polynomial over the cell is searched by Bernstein subdivision,
+// which cannot miss a sign change (the hull of the Bernstein coefficients encloses the
+// polynomial), and the earliest crossing is located by TOMS 748 on the polynomial.
+//
+// Sensitivities: on request the engine carries J = dy(t)/dy(t0), the product of the cells'
+// Phi and, at every event, the saltation matrix S = I + (f+ - f-) G / (dg/dt), f+- = y' on each
+// side of the event and dg/dt the guard's rate along the arriving flow.
+//
+// Progress: every cell ends the loop or advances time by a cell; events inside one cell are
+// bounded by EngineOptions::max_events_per_cell (a chattering contact ends the flow with
+// Termination::kNoProgress and a message, never a hang); the observer may cancel.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geardyn/integrator.hpp"
+#include "geardyn/linear_system.hpp"
+
+namespace geardyn::ode {
+
+// The finest relative truncation a cell series can be summed to in doubles.
+constexpr double kRoundingLimit = 1e-16;
+
+struct EngineOptions {
+  // Relative truncation of the cell series, entry by entry (the engine's accuracy). Values
+  // below kRoundingLimit are raised to it: the series cannot be summed more finely in doubles.
+  double tolerance = 1e-14;
+  // h times the fastest rate of a region (its largest eigenvalue modulus or frequency): the
+  // cell length. Near 1 the series need ~25 terms; larger cells need more terms and give
+  // looser bounds.
+  double cell_rate_product = 1.0;
+  int max_order = 48;                           // terms of a cell series at most
+  int max_events_per_cell = 64;                 // region changes inside one cell before kNoProgress
+  std::int64_t progress_interval_cells = 4096;  // cells between calls of on_progress
+  // Empty when valid; otherwise the offending member, its value and the allowed range.
+  std::string validate() const;
+};
+
+// Bounds of the state over a stretch of one cell, and its value anywhere inside (valid until
+// the observer call returns).
+class CellView {
+ public:
+  double t_begin_s = 0, t_end_s = 0;
+  int region = 0;
+  const Vector* lower = nullptr;  // componentwise bounds of y over [t_begin, t_end]
+  const Vector* upper = nullptr;
+  // y(t) for t in [t_begin, t_end].
+  virtual void state_at(double t_s, Vector& y) const = 0;
+
+ protected:
+  ~CellView() = default;
+};
+
+// What looks at a flow (Boost.Odeint's observer): every call is in time order.
+class FlowObserver {
+ public:
+  virtual ~FlowObserver() = default;
+  // A stretch [t_begin, t_end] inside one region and one cell, before on_step at its end.
+  virtual void on_cell(const CellView& /*cell*/) {}
+  // At the end of every cell and at every event (still in the old region).
+  virtual void on_step(double /*t_s*/, const Vector& /*y*/, int /*region*/) {}
+  // A located region change; y is the state at the event.
+  virtual void on_event(double /*t_s*/, const Vector& /*y*/, int /*from*/, int /*to*/) {}
+  // At the output grid's times.
+  virtual void on_sample(double /*t_s*/, const Vector& /*y*/, int /*region*/) {}
+  // Now and then; false cancels the flow.
+  virtual bool on_progress(double /*t_s*/) { return true; }
+};
+
+struct FlowEvent {
+  double t_s;
+  int from, to;
+};
+
+struct FlowResult {
+  Termination termination = Termination::kCompleted;
+  std::string message;
+  double end_time_s = 0;
+  Vector state;                    // y at end_time_s
+  int region = 0;                  // the region there
+  std::int64_t cells = 0;          // whole and partial cells stepped
+  std::int64_t events = 0;         // region changes
+  std::optional<Matrix> jacobian;  // dy(t1)/dy(t0), when asked for
+  bool ok() const { return termination == Termination::kCompleted; }
+};
+
+class ExactEngine {
+ public:
+  // Precomputes the cells of every region. Throws std::invalid_argument when the system or
+  // the options are not valid (their validate() message).
+  ExactEngine(LinearSwitchedSystem system, const EngineOptions& options = {});
+  ~ExactEngine();
+  ExactEngine(ExactEngine&&) noexcept;
+  ExactEngine& operator=(ExactEngine&&) noexcept;
+
+  const LinearSwitchedSystem& system() const;
+  // Cell length and cells per coefficient period of region r, and the series order.
+  double cell_length_s(int region) const;
+  int cells_per_period(int region) const;
+  int order(int region) const;
+
+  // Flows from (t0, y0) in `region` to t1 (> t0). Samples at `output`'s times in [t0, t1].
+  // A numerical failure or cancellation is reported in the result, never thrown.
+  FlowResult flow(double t0_s, const Vector& y0, int region, double t1_s, const OutputGrid& output,
+                  FlowObserver& observer, bool jacobian = false) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The slack below zero at which a guard counts as crossed, relative to its scale: far below
+// any physical tolerance, far above the rounding of the state it is evaluated at.
+constexpr double kGuardSlack = 1e-13;
+
+}  // namespace geardyn::ode

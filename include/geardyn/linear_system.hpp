@@ -1,0 +1,74 @@
+// geardyn: a piecewise-linear system with periodic coefficients, the input of the exact engine
+// (engine.hpp). Nothing here knows of gears: a model (model.hpp) describes itself in this form.
+//
+//     y' = A_r(t) y + u_r(t),     y in R^n (n = 2N: the coordinates, then their rates),
+//
+// r the region (the contact state of every nonlinearity). Every time-dependent term is a
+// finite Fourier series over one table of angular frequencies w_f shared by the system:
+//
+//     A_r(t) = A0 + sum_f (Ac_f cos(w_f t) + As_f sin(w_f t))
+//     u_r(t) = u0 + sum_f (uc_f cos(w_f t) + us_f sin(w_f t))
+//
+// The coefficients A_r(t) are periodic with `coefficient_period_s` (every frequency with a
+// non-zero matrix term is a whole multiple of 2 pi / T; 0 when every A_r is constant); the
+// forcing u_r(t) may hold any frequency. A region is left when one of its guards, an affine
+// function of the state
+//
+//     g(t, y) = (G0 + sum_f (Gc_f cos + Gs_f sin)) . y + (g0 + sum_f (gc_f cos + gs_f sin)),
+//
+// turns negative; the state is continuous across the switch.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace geardyn::ode {
+
+using Vector = Eigen::VectorXd;
+using RowVector = Eigen::RowVectorXd;
+using Matrix = Eigen::MatrixXd;
+
+// A Fourier series over the system's frequency table: constant + per-frequency cos and sin
+// terms. `cos` and `sin` are either empty (no time dependence) or hold one entry per frequency.
+template <class T>
+struct FourierTerms {
+  T constant;
+  std::vector<T> cos, sin;
+  bool varies() const { return !cos.empty(); }
+};
+
+struct LinearGuard {
+  FourierTerms<RowVector> row;  // G(t), 1 x n
+  FourierTerms<double> offset;  // g0(t)
+  int target = 0;               // the region entered when g turns negative
+  // The magnitude of g that counts as "large" (its units): a crossing is declared when g falls
+  // below -kGuardSlack * scale, so that the state handed to the next region lies inside it.
+  double scale = 1.0;
+};
+
+struct LinearRegion {
+  FourierTerms<Matrix> a;  // A_r(t), n x n
+  FourierTerms<Vector> u;  // u_r(t), n
+  std::vector<LinearGuard> guards;
+};
+
+struct LinearSwitchedSystem {
+  int dimension = 0;                      // n
+  std::vector<double> frequencies_rad_s;  // w_f, each > 0
+  double coefficient_period_s = 0;        // T of every A_r(t) and G(t); 0: all constant
+  std::vector<LinearRegion> regions;      // region r is regions[r]
+
+  // Empty when the description is consistent; otherwise what is wrong (sizes, frequencies,
+  // targets, a period that the coefficient frequencies do not fit).
+  std::string validate() const;
+};
+
+// y' in region r at (t, y).
+Vector derivative(const LinearSwitchedSystem& s, int region, double t_s, const Vector& y);
+// g(t, y) of guard i of region r, and the row G(t).
+double guard_value(const LinearSwitchedSystem& s, int region, int guard, double t_s,
+                   const Vector& y);
+RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double t_s);
+
+}  // namespace geardyn::ode

@@ -1,0 +1,917 @@
+#include "geardyn/engine.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <array>
+#include <boost/math/tools/toms748_solve.hpp>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+namespace geardyn::ode {
+
+// ---------------------------------------------------------------------------------------------
+// The system description.
+
+namespace {
+
+// cos(x + m pi / 2) and sin(x + m pi / 2) from c = cos x, s = sin x.
+double cos_quarter(double c, double s, int m) {
+  switch (m & 3) {
+    case 0:
+      return c;
+    case 1:
+      return -s;
+    case 2:
+      return -c;
+    default:
+      return s;
+  }
+}
+double sin_quarter(double c, double s, int m) { return cos_quarter(s, -c, m); }
+
+template <class T>
+T evaluate(const FourierTerms<T>& x, const std::vector<double>& w, double t) {
+  T v = x.constant;
+  for (std::size_t f = 0; f < x.cos.size(); ++f) {
+    v += x.cos[f] * std::cos(w[f] * t);
+    v += x.sin[f] * std::sin(w[f] * t);
+  }
+  return v;
+}
+
+}  // namespace
+
+std::string LinearSwitchedSystem::validate() const {
+  const int n = dimension;
+  const auto F = frequencies_rad_s.size();
+  if (n <= 0) return fmt::format("dimension = {}: must be >= 1", n);
+  if (regions.empty()) return "no regions";
+  for (double w : frequencies_rad_s)
+    if (!(w > 0) || !std::isfinite(w))
+      return fmt::format("frequency {} rad/s: must be finite and > 0", w);
+  auto terms_ok = [&](const auto& x, auto rows, auto cols) {
+    auto fits = [&](const auto& m) { return m.rows() == rows && m.cols() == cols; };
+    if (!fits(x.constant)) return false;
+    if (!x.cos.empty() && (x.cos.size() != F || x.sin.size() != F)) return false;
+    for (const auto& m : x.cos)
+      if (!fits(m)) return false;
+    for (const auto& m : x.sin)
+      if (!fits(m)) return false;
+    return true;
+  };
+  const int R = static_cast<int>(regions.size());
+  for (int r = 0; r < R; ++r) {
+    const LinearRegion& g = regions[r];
+    if (!terms_ok(g.a, n, n)) return fmt::format("region {}: A is not {} x {} per term", r, n, n);
+    if (!terms_ok(g.u, n, 1)) return fmt::format("region {}: u is not of size {} per term", r, n);
+    if (g.a.varies() && !(coefficient_period_s > 0))
+      return fmt::format("region {}: A varies but coefficient_period_s = {}", r,
+                         coefficient_period_s);
+    for (std::size_t i = 0; i < g.guards.size(); ++i) {
+      const LinearGuard& q = g.guards[i];
+      if (!terms_ok(q.row, 1, n))
+        return fmt::format("region {} guard {}: row is not 1 x {}", r, i, n);
+      if (!q.offset.cos.empty() && (q.offset.cos.size() != F || q.offset.sin.size() != F))
+        return fmt::format("region {} guard {}: offset terms do not match the frequencies", r, i);
+      if (q.row.varies() && !(coefficient_period_s > 0))
+        return fmt::format("region {} guard {}: row varies but coefficient_period_s = {}", r, i,
+                           coefficient_period_s);
+      if (q.target < 0 || q.target >= R || q.target == r)
+        return fmt::format("region {} guard {}: target {} is not another region in [0, {})", r, i,
+                           q.target, R);
+      if (!(q.scale > 0))
+        return fmt::format("region {} guard {}: scale {} must be > 0", r, i, q.scale);
+    }
+  }
+  // Every frequency that enters a coefficient must fit the coefficient period.
+  if (coefficient_period_s > 0) {
+    for (std::size_t f = 0; f < F; ++f) {
+      bool used = false;
+      for (const LinearRegion& g : regions) {
+        if (g.a.varies() && (g.a.cos[f].any() || g.a.sin[f].any())) used = true;
+        for (const LinearGuard& q : g.guards)
+          if (q.row.varies() && (q.row.cos[f].any() || q.row.sin[f].any())) used = true;
+      }
+      if (!used) continue;
+      const double cycles = frequencies_rad_s[f] * coefficient_period_s / (2 * std::numbers::pi);
+      if (std::abs(cycles - std::round(cycles)) > 1e-9 * std::max(1.0, cycles))
+        return fmt::format("frequency {} rad/s is not a multiple of 2 pi / {} s",
+                           frequencies_rad_s[f], coefficient_period_s);
+    }
+  }
+  return {};
+}
+
+Vector derivative(const LinearSwitchedSystem& s, int region, double t_s, const Vector& y) {
+  const LinearRegion& g = s.regions[region];
+  return evaluate(g.a, s.frequencies_rad_s, t_s) * y + evaluate(g.u, s.frequencies_rad_s, t_s);
+}
+
+RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double t_s) {
+  return evaluate(s.regions[region].guards[guard].row, s.frequencies_rad_s, t_s);
+}
+
+double guard_value(const LinearSwitchedSystem& s, int region, int guard, double t_s,
+                   const Vector& y) {
+  const LinearGuard& q = s.regions[region].guards[guard];
+  return guard_row(s, region, guard, t_s).dot(y) + evaluate(q.offset, s.frequencies_rad_s, t_s);
+}
+
+std::string EngineOptions::validate() const {
+  if (!(tolerance > 0) || !(tolerance < 1e-3))
+    return fmt::format("tolerance = {}: must be in (0, 1e-3)", tolerance);
+  if (!(cell_rate_product >= 0.05 && cell_rate_product <= 4))
+    return fmt::format("cell_rate_product = {}: must be in [0.05, 4]", cell_rate_product);
+  if (max_order < 8 || max_order > 96)
+    return fmt::format("max_order = {}: must be in [8, 96]", max_order);
+  if (max_events_per_cell < 2)
+    return fmt::format("max_events_per_cell = {}: must be >= 2", max_events_per_cell);
+  if (progress_interval_cells < 1)
+    return fmt::format("progress_interval_cells = {}: must be >= 1", progress_interval_cells);
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cells.
+
+namespace {
+
+// Cells per period at most, and halvings of a cell whose series will not converge: far beyond
+// any physical case (a 12-DOF gear at 1e4 cells per mesh period), a guard against bad input.
+constexpr int kMaxCellsPerPeriod = 1 << 16;
+constexpr int kMaxHalvings = 24;
+// Bernstein subdivisions before a sign change is taken as a tangency: 2^-48 of a cell is
+// below the resolution of time.
+constexpr int kMaxSubdivisions = 48;
+// Intervals one search may look at: a polynomial whose hull does not separate from zero after
+// this many is tangent to it to within rounding (a bound on the work, not on the accuracy).
+constexpr int kMaxSearchNodes = 2048;
+// Bits to which a crossing is located (TOMS 748), of a cell's length.
+constexpr int kEventBits = 52;
+constexpr std::uintmax_t kEventMaxIterations = 200;
+// Cells between exact resynchronisations of the forcing phasors.
+constexpr std::int64_t kPhasorResyncCells = 256;
+
+// The Taylor series of one cell, in the scaled variable x = s / h in [0, 1]: a term k is the
+// k-th coefficient times h^k.
+template <int D>
+struct Cell {
+  using M = Eigen::Matrix<double, D, D>;
+  using V = Eigen::Matrix<double, D, 1>;
+  double t_offset_s = 0;               // the cell's start within the coefficient period
+  int order = 0;                       // highest term kept
+  std::vector<M> phi;                  // Phi_k
+  std::vector<V> r0;                   // response to u0
+  std::vector<std::vector<V>> rc, rs;  // [forced frequency][k]
+  M phi_end;                           // Phi(1)
+  V r0_end;
+  std::vector<V> rc_end, rs_end;
+  M alpha;  // sum_{k>=1} |Phi_k|
+  V beta;   // sum_{k>=1} |Phi_k y_ref + r0_k| + sum_f (|rc_fk| + |rs_fk|)
+};
+
+template <int D>
+struct RegionCells {
+  using M = Eigen::Matrix<double, D, D>;
+  using V = Eigen::Matrix<double, D, 1>;
+  using R = Eigen::Matrix<double, 1, D>;
+  double h = 0;             // cell length, s
+  int K = 1;                // cells per coefficient period (1 for constant coefficients)
+  V y_ref;                  // the static state of the region (0 when A0 is singular)
+  std::vector<int> forced;  // frequencies with a forcing term
+  std::vector<double> rot_cos, rot_sin;  // cos, sin of w_f h for the forced frequencies
+  std::vector<Cell<D>> cells;
+  std::vector<bool> guard_varies;          // the guard's row depends on t
+  std::vector<double> guard_offset_swing;  // bound of the offset's change over a cell
+  std::vector<R> guard_abs_row;            // |G0|
+};
+
+// Scaled Taylor coefficients (w h)^m / m! cos(w t0 + m pi/2), ... for m = 0 .. p.
+void trig_taylor(double w, double t0, double h, int p, std::vector<double>& c,
+                 std::vector<double>& s) {
+  c.resize(p + 1);
+  s.resize(p + 1);
+  const double c0 = std::cos(w * t0), s0 = std::sin(w * t0);
+  double f = 1;
+  for (int m = 0; m <= p; ++m) {
+    if (m > 0) f *= w * h / m;
+    c[m] = f * cos_quarter(c0, s0, m);
+    s[m] = f * sin_quarter(c0, s0, m);
+  }
+}
+
+// True when every entry of the last two terms is below tol times the entry's sum of
+// magnitudes (entries that are exactly zero throughout pass).
+template <class M>
+bool converged(const std::vector<M>& terms, double tol) {
+  const int k = static_cast<int>(terms.size()) - 1;
+  if (k < 4) return false;
+  M sum = terms[0].cwiseAbs();
+  for (int i = 1; i <= k; ++i) sum += terms[i].cwiseAbs();
+  const auto last = (terms[k].cwiseAbs() + terms[k - 1].cwiseAbs()).eval();
+  for (Eigen::Index i = 0; i < last.size(); ++i)
+    if (last.data()[i] > tol * sum.data()[i]) return false;
+  return true;
+}
+
+// Expands one cell starting at coefficient phase t0 (absolute time modulo the period), of
+// length h; returns false when the series do not converge within max_order terms.
+template <int D>
+bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const RegionCells<D>& rc,
+                 double t0, double h, double tol, int max_order, Cell<D>& cell) {
+  using M = Eigen::Matrix<double, D, D>;
+  using V = Eigen::Matrix<double, D, 1>;
+  const int n = sys.dimension;
+  const int p_max = max_order;
+  const auto& w = sys.frequencies_rad_s;
+  // A(t0 + x h) = sum_m Ahat_m x^m.
+  std::vector<M> A(p_max + 1, M::Zero(n, n));
+  A[0] = reg.a.constant;
+  std::vector<double> tc, ts;
+  if (reg.a.varies()) {
+    for (std::size_t f = 0; f < w.size(); ++f) {
+      if (!reg.a.cos[f].any() && !reg.a.sin[f].any()) continue;
+      trig_taylor(w[f], t0, h, p_max, tc, ts);
+      for (int m = 0; m <= p_max; ++m) A[m] += tc[m] * reg.a.cos[f] + ts[m] * reg.a.sin[f];
+    }
+  }
+  int a_terms = 0;  // A[m] == 0 for m > a_terms
+  for (int m = 0; m <= p_max; ++m)
+    if (A[m].any()) a_terms = m;
+
+  // Forcing series, per basis: u0; per forced frequency the cos-phase and the sin-phase parts.
+  const int nf = static_cast<int>(rc.forced.size());
+  auto forcing = [&](int basis, int k) -> V {
+    if (basis == 0) return k == 0 ? V(reg.u.constant) : V::Zero(n);
+    const int f = rc.forced[(basis - 1) / 2];
+    const bool sin_phase = ((basis - 1) % 2) == 1;
+    double fk = 1;
+    for (int i = 1; i <= k; ++i) fk *= w[f] * h / i;
+    const double ck = cos_quarter(1, 0, k), sk = sin_quarter(1, 0, k);
+    const V& uc = reg.u.cos[f];
+    const V& us = reg.u.sin[f];
+    // cos basis: uc cos(w s) + us sin(w s); sin basis: -uc sin(w s) + us cos(w s).
+    return sin_phase ? V(fk * (-uc * sk + us * ck)) : V(fk * (uc * ck + us * sk));
+  };
+  const int bases = 1 + 2 * nf;
+  std::vector<std::vector<V>> resp(bases);
+  cell.phi.assign(1, M::Identity(n, n));
+  for (int b = 0; b < bases; ++b) resp[b].assign(1, V::Zero(n));
+
+  bool done = false;
+  for (int k = 0; k < p_max && !done; ++k) {
+    const double scale = h / (k + 1);
+    M next = M::Zero(n, n);
+    for (int m = 0; m <= std::min(k, a_terms); ++m) next.noalias() += A[m] * cell.phi[k - m];
+    cell.phi.push_back(scale * next);
+    for (int b = 0; b < bases; ++b) {
+      V v = forcing(b, k);
+      for (int m = 0; m <= std::min(k, a_terms); ++m) v.noalias() += A[m] * resp[b][k - m];
+      resp[b].push_back(scale * v);
+    }
+    done = converged(cell.phi, tol);
+    for (int b = 0; b < bases && done; ++b) done = converged(resp[b], tol);
+  }
+  if (!done) return false;
+  cell.order = static_cast<int>(cell.phi.size()) - 1;
+  cell.t_offset_s = t0;
+  cell.r0 = std::move(resp[0]);
+  cell.rc.resize(nf);
+  cell.rs.resize(nf);
+  for (int j = 0; j < nf; ++j) {
+    cell.rc[j] = std::move(resp[1 + 2 * j]);
+    cell.rs[j] = std::move(resp[2 + 2 * j]);
+  }
+  auto sum = [](const auto& terms) {
+    auto s = terms[0];
+    for (std::size_t i = 1; i < terms.size(); ++i) s += terms[i];
+    return s;
+  };
+  cell.phi_end = sum(cell.phi);
+  cell.r0_end = sum(cell.r0);
+  cell.rc_end.resize(nf);
+  cell.rs_end.resize(nf);
+  for (int j = 0; j < nf; ++j) {
+    cell.rc_end[j] = sum(cell.rc[j]);
+    cell.rs_end[j] = sum(cell.rs[j]);
+  }
+  cell.alpha = M::Zero(n, n);
+  cell.beta = V::Zero(n);
+  for (int k = 1; k <= cell.order; ++k) {
+    cell.alpha += cell.phi[k].cwiseAbs();
+    cell.beta += (cell.phi[k] * rc.y_ref + cell.r0[k]).cwiseAbs();
+    for (int j = 0; j < nf; ++j) cell.beta += cell.rc[j][k].cwiseAbs() + cell.rs[j][k].cwiseAbs();
+  }
+  return true;
+}
+
+// The fastest rate of a region: the largest eigenvalue modulus of A(t) over the period, and
+// every frequency its terms hold.
+double region_rate(const LinearSwitchedSystem& sys, const LinearRegion& reg) {
+  constexpr int kSamples = 16;
+  double rho = 0;
+  const int samples = reg.a.varies() ? kSamples : 1;
+  for (int i = 0; i < samples; ++i) {
+    const double t = sys.coefficient_period_s * i / samples;
+    const Matrix A = evaluate(reg.a, sys.frequencies_rad_s, t);
+    const Eigen::VectorXcd ev = Eigen::EigenSolver<Matrix>(A, false).eigenvalues();
+    for (Eigen::Index j = 0; j < ev.size(); ++j) rho = std::max(rho, std::abs(ev[j]));
+  }
+  const auto& w = sys.frequencies_rad_s;
+  for (std::size_t f = 0; f < w.size(); ++f) {
+    bool used = reg.a.varies() && (reg.a.cos[f].any() || reg.a.sin[f].any());
+    used |= reg.u.varies() && (reg.u.cos[f].any() || reg.u.sin[f].any());
+    for (const LinearGuard& q : reg.guards) {
+      used |= q.row.varies() && (q.row.cos[f].any() || q.row.sin[f].any());
+      used |= !q.offset.cos.empty() && (q.offset.cos[f] != 0 || q.offset.sin[f] != 0);
+    }
+    if (used) rho = std::max(rho, w[f]);
+  }
+  return rho;
+}
+
+// Coefficients c_0..c_p of a polynomial in x on [0, 1]; Horner.
+double horner(const double* c, int p, double x) {
+  double v = c[p];
+  for (int k = p - 1; k >= 0; --k) v = v * x + c[k];
+  return v;
+}
+
+// Binomial coefficients up to the largest order.
+struct Binomials {
+  std::vector<std::vector<double>> c;
+  explicit Binomials(int n) : c(n + 1) {
+    for (int i = 0; i <= n; ++i) {
+      c[i].assign(i + 1, 1.0);
+      for (int j = 1; j < i; ++j) c[i][j] = c[i - 1][j - 1] + c[i - 1][j];
+    }
+  }
+};
+
+// Finds the first x in [a, b] at which the polynomial P (coefficients c on [0, 1]) turns
+// negative, given P(a) > 0; nullopt when it stays >= 0. Bernstein subdivision: on an interval
+// whose Bernstein coefficients are all positive P has no root; with one sign change it has
+// exactly one, located by TOMS 748; otherwise the interval is halved (left first).
+class RootFinder {
+ public:
+  explicit RootFinder(int max_order) : binom_(max_order) {}
+
+  std::optional<double> first_crossing(const std::vector<double>& c, double a, double b) {
+    p_ = static_cast<int>(c.size()) - 1;
+    coef_ = c;
+    // Q(u) = P(a + (b - a) u): Taylor shift by a, then scale.
+    std::vector<double> q = c;
+    for (int i = 0; i < p_; ++i)
+      for (int j = p_ - 1; j >= i; --j) q[j] += a * q[j + 1];
+    double scale = 1;
+    for (int k = 0; k <= p_; ++k) {
+      q[k] *= scale;
+      scale *= (b - a);
+    }
+    std::vector<double> bern(p_ + 1);
+    for (int i = 0; i <= p_; ++i) {
+      double s = 0;
+      for (int k = 0; k <= i; ++k) s += binom_.c[i][k] / binom_.c[p_][k] * q[k];
+      bern[i] = s;
+    }
+    a_ = a;
+    w_ = b - a;
+    nodes_ = 0;
+    return search(bern, 0.0, 1.0, 0);
+  }
+
+ private:
+  std::optional<double> search(const std::vector<double>& bern, double u0, double u1, int depth) {
+    if (*std::min_element(bern.begin(), bern.end()) > 0) return std::nullopt;
+    if (bern[0] <= 0) return x_of(u0);
+    int changes = 0;
+    for (int i = 1; i <= p_; ++i) changes += (bern[i] <= 0) != (bern[i - 1] <= 0);
+    if (changes == 1 && bern[p_] <= 0) return locate(x_of(u0), x_of(u1));
+    if (depth >= kMaxSubdivisions || ++nodes_ > kMaxSearchNodes) {
+      // A tangency to within the resolution of time: a crossing only if it reaches below 0.
+      const double xm = x_of(0.5 * (u0 + u1));
+      if (horner(coef_.data(), p_, xm) < 0) return xm;
+      return std::nullopt;
+    }
+    // de Casteljau at u = 1/2.
+    std::vector<double> left(p_ + 1), right(p_ + 1), work = bern;
+    left[0] = work[0];
+    right[p_] = work[p_];
+    for (int r = 1; r <= p_; ++r) {
+      for (int i = 0; i <= p_ - r; ++i) work[i] = 0.5 * (work[i] + work[i + 1]);
+      left[r] = work[0];
+      right[p_ - r] = work[p_ - r];
+    }
+    const double um = 0.5 * (u0 + u1);
+    if (auto x = search(left, u0, um, depth + 1)) return x;
+    return search(right, um, u1, depth + 1);
+  }
+
+  double x_of(double u) const { return a_ + w_ * u; }
+
+  // The root of P in [x0, x1], P(x0) > 0 >= P(x1): the side where P <= 0.
+  double locate(double x0, double x1) const {
+    const double p0 = horner(coef_.data(), p_, x0), p1 = horner(coef_.data(), p_, x1);
+    if (!(p0 > 0)) return x0;
+    if (!(p1 <= 0)) return x1;  // rounding of the hull: the crossing is at the end
+    std::uintmax_t it = kEventMaxIterations;
+    auto f = [this](double x) { return horner(coef_.data(), p_, x); };
+    return boost::math::tools::toms748_solve(
+               f, x0, x1, p0, p1, boost::math::tools::eps_tolerance<double>(kEventBits), it)
+        .second;
+  }
+
+  Binomials binom_;
+  int p_ = 0;
+  int nodes_ = 0;
+  std::vector<double> coef_;
+  double a_ = 0, w_ = 1;
+};
+
+// The cells of every region, in state dimension D (2: the fast path of one degree of freedom).
+template <int D>
+std::vector<RegionCells<D>> build_regions(const LinearSwitchedSystem& sys,
+                                          const EngineOptions& options) {
+  using M = Eigen::Matrix<double, D, D>;
+  using V = Eigen::Matrix<double, D, 1>;
+  const double tol = std::max(options.tolerance, kRoundingLimit);
+  const int n = sys.dimension;
+  const auto& w = sys.frequencies_rad_s;
+  std::vector<double> rates;
+  double fastest = 0;
+  for (const LinearRegion& reg : sys.regions) {
+    rates.push_back(region_rate(sys, reg));
+    fastest = std::max(fastest, rates.back());
+  }
+  std::vector<RegionCells<D>> out;
+  for (std::size_t r = 0; r < sys.regions.size(); ++r) {
+    const LinearRegion& reg = sys.regions[r];
+    RegionCells<D> rc;
+    // A region with no rate of its own (free flight with constant forcing) takes the system's.
+    double rho = rates[r] > 0 ? rates[r] : fastest;
+    if (!(rho > 0)) rho = 1.0 / std::max(sys.coefficient_period_s, 1.0);
+    const bool periodic =
+        reg.a.varies() || std::any_of(reg.guards.begin(), reg.guards.end(),
+                                      [](const LinearGuard& q) { return q.row.varies(); });
+    for (std::size_t f = 0; f < w.size(); ++f)
+      if (reg.u.varies() && (reg.u.cos[f].any() || reg.u.sin[f].any()))
+        rc.forced.push_back(static_cast<int>(f));
+    // The static state: A0 y + u0 = 0 where A0 is invertible.
+    rc.y_ref = V::Zero(n);
+    Eigen::FullPivLU<Matrix> lu(reg.a.constant);
+    if (lu.isInvertible()) {
+      const Vector y = lu.solve(-reg.u.constant);
+      if (y.allFinite()) rc.y_ref = y;
+    }
+    if (periodic) {
+      const double T = sys.coefficient_period_s;
+      rc.K = static_cast<int>(std::min<double>(
+          kMaxCellsPerPeriod, std::max(1.0, std::ceil(T * rho / options.cell_rate_product))));
+      rc.h = T / rc.K;
+    } else {
+      rc.K = 1;
+      rc.h = options.cell_rate_product / rho;
+    }
+    for (int halving = 0;; ++halving) {
+      rc.cells.assign(rc.K, Cell<D>{});
+      bool ok = true;
+      for (int k = 0; k < rc.K && ok; ++k)
+        ok = expand_cell<D>(sys, reg, rc, k * rc.h, rc.h, tol, options.max_order, rc.cells[k]);
+      if (ok) break;
+      if (halving >= kMaxHalvings || rc.K * 2 > kMaxCellsPerPeriod)
+        throw std::invalid_argument(fmt::format(
+            "linear system: region {}: the cell series do not converge (rate {} 1/s)", r, rho));
+      rc.K *= 2;
+      rc.h /= 2;
+    }
+    for (int f : rc.forced) {
+      rc.rot_cos.push_back(std::cos(w[f] * rc.h));
+      rc.rot_sin.push_back(std::sin(w[f] * rc.h));
+    }
+    for (const LinearGuard& q : reg.guards) {
+      rc.guard_varies.push_back(q.row.varies());
+      rc.guard_abs_row.push_back(q.row.constant.cwiseAbs());
+      double swing = 0;
+      for (std::size_t f = 0; f < q.offset.cos.size(); ++f)
+        swing +=
+            (std::abs(q.offset.cos[f]) + std::abs(q.offset.sin[f])) * std::min(2.0, w[f] * rc.h);
+      rc.guard_offset_swing.push_back(swing);
+    }
+    out.push_back(std::move(rc));
+    (void)sizeof(M);
+  }
+  return out;
+}
+
+}  // namespace
+
+struct ExactEngine::Impl {
+  LinearSwitchedSystem sys;
+  EngineOptions opt;
+  std::vector<RegionCells<2>> fixed;  // dimension 2
+  std::vector<RegionCells<Eigen::Dynamic>> general;
+  int max_order = 0;
+
+  template <class F>
+  decltype(auto) visit(int region, F&& f) const {
+    return fixed.empty() ? f(general.at(region)) : f(fixed.at(region));
+  }
+};
+
+ExactEngine::ExactEngine(LinearSwitchedSystem system, const EngineOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  if (std::string e = system.validate(); !e.empty())
+    throw std::invalid_argument("linear system: " + e);
+  if (std::string e = options.validate(); !e.empty())
+    throw std::invalid_argument("engine options: " + e);
+  Impl& I = *impl_;
+  I.sys = std::move(system);
+  I.opt = options;
+  auto orders = [&I](const auto& regions) {
+    for (const auto& rc : regions)
+      for (const auto& c : rc.cells) I.max_order = std::max(I.max_order, c.order);
+  };
+  if (I.sys.dimension == 2) {
+    I.fixed = build_regions<2>(I.sys, options);
+    orders(I.fixed);
+  } else {
+    I.general = build_regions<Eigen::Dynamic>(I.sys, options);
+    orders(I.general);
+  }
+}
+
+ExactEngine::~ExactEngine() = default;
+ExactEngine::ExactEngine(ExactEngine&&) noexcept = default;
+ExactEngine& ExactEngine::operator=(ExactEngine&&) noexcept = default;
+
+const LinearSwitchedSystem& ExactEngine::system() const { return impl_->sys; }
+double ExactEngine::cell_length_s(int region) const {
+  return impl_->visit(region, [](const auto& rc) { return rc.h; });
+}
+int ExactEngine::cells_per_period(int region) const {
+  return impl_->visit(region, [](const auto& rc) { return rc.K; });
+}
+int ExactEngine::order(int region) const {
+  return impl_->visit(region, [](const auto& rc) {
+    int p = 0;
+    for (const auto& c : rc.cells) p = std::max(p, c.order);
+    return p;
+  });
+}
+
+// ---------------------------------------------------------------------------------------------
+// The flow.
+
+namespace {
+
+// Where the flow is: region, cell, the cell's (virtual) start state and forcing phases.
+template <int D>
+struct Cursor {
+  using V = Eigen::Matrix<double, D, 1>;
+  int region = 0;
+  std::int64_t m = 0;  // cell index on the region's grid, t_m = m h
+  int k = 0;           // m modulo K
+  double tm = 0;
+  V z;                       // the state the cell's series start from at t_m
+  std::vector<double> C, S;  // cos, sin of w_f t_m for the region's forced frequencies
+  std::int64_t since_resync = 0;
+};
+
+template <int D>
+class Flow final : public CellView {
+  using M = Eigen::Matrix<double, D, D>;
+  using V = Eigen::Matrix<double, D, 1>;
+  using R = Eigen::Matrix<double, 1, D>;
+
+ public:
+  Flow(const LinearSwitchedSystem& sys, const std::vector<RegionCells<D>>& regions,
+       const EngineOptions& opt, int max_order)
+      : sys_(sys), regions_(regions), opt_(opt), roots_(max_order), n_(sys.dimension) {}
+
+  FlowResult run(double t0, const V& y0, int region, double t1, const OutputGrid& out,
+                 FlowObserver& obs, bool want_jacobian) {
+    FlowResult res;
+    obs_ = &obs;
+    jac_ = want_jacobian;
+    double t = t0;
+    V y = y0;
+    if (jac_) J_ = M::Identity(n_, n_);
+    enter(region, t, y);
+    std::int64_t next_sample = 0;
+    auto emit_samples = [&](double upto, bool inclusive) {
+      while (next_sample < out.count &&
+             (out.time(next_sample) < upto || (inclusive && out.time(next_sample) <= upto))) {
+        const double ts = std::max(out.time(next_sample), t);
+        state_at(ts, out_);
+        obs.on_sample(ts, out_, cur_.region);
+        ++next_sample;
+      }
+    };
+    int events_in_cell = 0;
+    std::int64_t since_progress = 0;
+    auto finish = [&](Termination term, std::string msg) {
+      res.termination = term;
+      res.message = std::move(msg);
+      res.end_time_s = t;
+      res.state = y;
+      res.region = cur_.region;
+      if (jac_) res.jacobian = J_;
+      return res;
+    };
+
+    for (;;) {
+      const RegionCells<D>& rc = regions_[cur_.region];
+      const Cell<D>& cell = rc.cells[cur_.k];
+      coeffs_ready_ = false;
+      const double x_start = std::clamp((t - cur_.tm) / rc.h, 0.0, 1.0);
+      const double x_stop = std::min(1.0, (t1 - cur_.tm) / rc.h);
+      // Bounds of the state over the cell.
+      dev_ = (cur_.z - rc.y_ref).cwiseAbs();
+      delta_.noalias() = cell.alpha * dev_;
+      delta_ += cell.beta;
+      // The earliest guard crossing in [x_start, x_stop].
+      double x_end = x_stop;
+      int crossed = -1;
+      const LinearRegion& reg = sys_.regions[cur_.region];
+      for (int i = 0; i < static_cast<int>(reg.guards.size()); ++i) {
+        const LinearGuard& q = reg.guards[i];
+        const double slack = kGuardSlack * q.scale;
+        if (!rc.guard_varies[i]) {
+          double g0 = q.row.constant.dot(cur_.z) + q.offset.constant;
+          for (std::size_t f = 0; f < q.offset.cos.size(); ++f)
+            g0 += q.offset.cos[f] * std::cos(sys_.frequencies_rad_s[f] * cur_.tm) +
+                  q.offset.sin[f] * std::sin(sys_.frequencies_rad_s[f] * cur_.tm);
+          if (g0 + slack - rc.guard_abs_row[i].dot(delta_) - rc.guard_offset_swing[i] > 0)
+            continue;  // cannot cross in this cell
+        }
+        guard_series(i, slack);
+        if (!std::all_of(gc_.begin(), gc_.end(), [](double c) { return std::isfinite(c); }))
+          return finish(Termination::kDiverged,
+                        fmt::format("the state became non-finite at t = {:.9g} s", t));
+        if (horner(gc_.data(), static_cast<int>(gc_.size()) - 1, x_start) <= 0) {
+          x_end = x_start;  // already across: leaves at once
+          crossed = i;
+          break;
+        }
+        if (auto x = roots_.first_crossing(gc_, x_start, x_end)) {
+          if (*x < x_end || crossed < 0) {
+            x_end = *x;
+            crossed = i;
+          }
+        }
+      }
+      const double t_end = (crossed < 0 && x_end == 1.0)      ? cur_.tm + rc.h
+                           : (crossed < 0 && x_end == x_stop) ? t1
+                                                              : cur_.tm + x_end * rc.h;
+      t_begin_s = t;
+      t_end_s = std::max(t, t_end);
+      this->region = cur_.region;
+      lower_ = cur_.z - delta_;
+      upper_ = cur_.z + delta_;
+      lower = &lower_;
+      upper = &upper_;
+      obs.on_cell(*this);
+      emit_samples(t_end_s, crossed < 0 && x_end == x_stop && x_stop < 1.0);
+      ++res.cells;
+      if (crossed >= 0) {
+        // An event: the state on the crossed side, the saltation, the new region.
+        ensure_coefficients();
+        const V ye = poly(x_end);
+        if (!ye.allFinite())
+          return finish(Termination::kDiverged,
+                        fmt::format("the state became non-finite at t = {:.9g} s", t_end_s));
+        const int from = cur_.region, to = reg.guards[crossed].target;
+        out_ = ye;
+        obs.on_step(t_end_s, out_, from);
+        if (jac_) {
+          const M Jy = phi_at(x_end) * J_;
+          guard_series(crossed, 0.0);
+          const double dgdt = horner_derivative(gc_, x_end) / rc.h;
+          const V f_minus = poly_derivative(x_end) / rc.h;
+          const V f_plus = derivative(sys_, to, t_end_s, ye);
+          const R G = guard_row(sys_, from, crossed, t_end_s);
+          J_ = Jy + (f_plus - f_minus) * (G * Jy) / dgdt;
+        }
+        obs.on_event(t_end_s, out_, from, to);
+        ++res.events;
+        t = t_end_s;
+        y = ye;
+        if (++events_in_cell > opt_.max_events_per_cell)
+          return finish(Termination::kNoProgress,
+                        fmt::format("{} region changes within one cell of {:.3g} s at t = {:.9g} s "
+                                    "(a chattering contact)",
+                                    events_in_cell, rc.h, t));
+        enter(to, t, y);
+        continue;
+      }
+      events_in_cell = 0;
+      if (x_end == 1.0) {
+        // A whole cell: the precomputed end maps.
+        znext_.noalias() = cell.phi_end * cur_.z;
+        znext_ += cell.r0_end;
+        for (std::size_t j = 0; j < rc.forced.size(); ++j)
+          znext_ += cur_.C[j] * cell.rc_end[j] + cur_.S[j] * cell.rs_end[j];
+        if (jac_) J_ = cell.phi_end * J_;
+        if (!znext_.allFinite())
+          return finish(Termination::kDiverged,
+                        fmt::format("the state became non-finite at t = {:.9g} s", cur_.tm + rc.h));
+        advance_cell();
+        t = cur_.tm;
+        y = cur_.z;
+        out_ = y;
+        obs.on_step(t, out_, cur_.region);
+        if (t >= t1) break;
+        if (++since_progress >= opt_.progress_interval_cells) {
+          since_progress = 0;
+          if (!obs.on_progress(t))
+            return finish(Termination::kCancelled, fmt::format("cancelled at t = {:.9g} s", t));
+        }
+        continue;
+      }
+      // The end of the window inside the cell.
+      ensure_coefficients();
+      y = poly(x_stop);
+      if (jac_) J_ = phi_at(x_stop) * J_;
+      t = t1;
+      out_ = y;
+      obs.on_step(t, out_, cur_.region);
+      break;
+    }
+    emit_samples(t1, true);
+    return finish(Termination::kCompleted, "");
+  }
+
+  void state_at(double t_s, Vector& y) const override {
+    const RegionCells<D>& rc = regions_[cur_.region];
+    ensure_coefficients();
+    y = poly(std::clamp((t_s - cur_.tm) / rc.h, 0.0, 1.0));
+  }
+
+ private:
+  // Places the cursor in region r at time t with state y; J_ then maps y0 to z.
+  void enter(int r, double t, const V& y) {
+    const RegionCells<D>& rc = regions_[r];
+    cur_.region = r;
+    cur_.m = static_cast<std::int64_t>(std::floor(t / rc.h));
+    if (static_cast<double>(cur_.m + 1) * rc.h <= t) ++cur_.m;
+    if (static_cast<double>(cur_.m) * rc.h > t) --cur_.m;
+    cur_.tm = static_cast<double>(cur_.m) * rc.h;
+    cur_.k = static_cast<int>(((cur_.m % rc.K) + rc.K) % rc.K);
+    coeffs_ready_ = false;
+    resync();
+    const double x = (t - cur_.tm) / rc.h;
+    if (x <= 0) {
+      cur_.z = y;
+      return;
+    }
+    // The virtual start: the state at t_m from which the cell's series pass through y at t.
+    const M P = phi_at(x);
+    cur_.z = V::Zero(n_);
+    coeffs_ready_ = false;
+    ensure_coefficients();  // with z = 0: the forced response alone
+    const Eigen::PartialPivLU<M> lu(P);
+    cur_.z = lu.solve(y - poly(x));
+    coeffs_ready_ = false;
+    if (jac_) J_ = lu.solve(J_);
+  }
+
+  void resync() {
+    const RegionCells<D>& rc = regions_[cur_.region];
+    const auto& w = sys_.frequencies_rad_s;
+    cur_.C.resize(rc.forced.size());
+    cur_.S.resize(rc.forced.size());
+    for (std::size_t j = 0; j < rc.forced.size(); ++j) {
+      cur_.C[j] = std::cos(w[rc.forced[j]] * cur_.tm);
+      cur_.S[j] = std::sin(w[rc.forced[j]] * cur_.tm);
+    }
+    cur_.since_resync = 0;
+  }
+
+  // Moves the cursor to the next cell, whose start state is znext_.
+  void advance_cell() {
+    const RegionCells<D>& rc = regions_[cur_.region];
+    ++cur_.m;
+    cur_.k = (cur_.k + 1 == rc.K) ? 0 : cur_.k + 1;
+    cur_.tm = static_cast<double>(cur_.m) * rc.h;
+    cur_.z.swap(znext_);
+    coeffs_ready_ = false;
+    if (++cur_.since_resync >= kPhasorResyncCells) {
+      resync();
+      return;
+    }
+    for (std::size_t j = 0; j < rc.forced.size(); ++j) {
+      const double c = cur_.C[j] * rc.rot_cos[j] - cur_.S[j] * rc.rot_sin[j];
+      const double s = cur_.S[j] * rc.rot_cos[j] + cur_.C[j] * rc.rot_sin[j];
+      cur_.C[j] = c;
+      cur_.S[j] = s;
+    }
+  }
+
+  // The state's series over the current cell: y_k = Phi_k z + r0_k + sum (C rc + S rs).
+  void ensure_coefficients() const {
+    if (coeffs_ready_) return;
+    const RegionCells<D>& rc = regions_[cur_.region];
+    const Cell<D>& cell = rc.cells[cur_.k];
+    yk_.resize(cell.order + 1);
+    for (int k = 0; k <= cell.order; ++k) {
+      V v = cell.phi[k] * cur_.z + cell.r0[k];
+      for (std::size_t j = 0; j < rc.forced.size(); ++j)
+        v += cur_.C[j] * cell.rc[j][k] + cur_.S[j] * cell.rs[j][k];
+      yk_[k] = std::move(v);
+    }
+    coeffs_ready_ = true;
+  }
+
+  V poly(double x) const {
+    const int p = static_cast<int>(yk_.size()) - 1;
+    V v = yk_[p];
+    for (int k = p - 1; k >= 0; --k) v = v * x + yk_[k];
+    return v;
+  }
+  V poly_derivative(double x) const {
+    const int p = static_cast<int>(yk_.size()) - 1;
+    V v = p * yk_[p];
+    for (int k = p - 1; k >= 1; --k) v = v * x + k * yk_[k];
+    return v;
+  }
+  M phi_at(double x) const {
+    const Cell<D>& cell = regions_[cur_.region].cells[cur_.k];
+    M P = cell.phi[cell.order];
+    for (int k = cell.order - 1; k >= 0; --k) P = P * x + cell.phi[k];
+    return P;
+  }
+  static double horner_derivative(const std::vector<double>& c, double x) {
+    const int p = static_cast<int>(c.size()) - 1;
+    double v = p * c[p];
+    for (int k = p - 1; k >= 1; --k) v = v * x + k * c[k];
+    return v;
+  }
+
+  // The series of guard i over the current cell, plus `slack`, into gc_.
+  void guard_series(int i, double slack) {
+    ensure_coefficients();
+    const RegionCells<D>& rc = regions_[cur_.region];
+    const LinearGuard& q = sys_.regions[cur_.region].guards[i];
+    const auto& w = sys_.frequencies_rad_s;
+    const int p = static_cast<int>(yk_.size()) - 1;
+    gc_.assign(p + 1, 0.0);
+    if (!q.row.varies()) {
+      for (int k = 0; k <= p; ++k) gc_[k] = q.row.constant.dot(yk_[k]);
+    } else {
+      std::vector<R> G(p + 1, R::Zero(n_));
+      G[0] = q.row.constant;
+      for (std::size_t f = 0; f < w.size(); ++f) {
+        trig_taylor(w[f], cur_.tm, rc.h, p, tc_, ts_);
+        for (int m = 0; m <= p; ++m) G[m] += tc_[m] * q.row.cos[f] + ts_[m] * q.row.sin[f];
+      }
+      for (int k = 0; k <= p; ++k)
+        for (int m = 0; m <= k; ++m) gc_[k] += G[m].dot(yk_[k - m]);
+    }
+    gc_[0] += q.offset.constant + slack;
+    for (std::size_t f = 0; f < q.offset.cos.size(); ++f) {
+      if (q.offset.cos[f] == 0 && q.offset.sin[f] == 0) continue;
+      trig_taylor(w[f], cur_.tm, rc.h, p, tc_, ts_);
+      for (int m = 0; m <= p; ++m) gc_[m] += q.offset.cos[f] * tc_[m] + q.offset.sin[f] * ts_[m];
+    }
+  }
+
+  const LinearSwitchedSystem& sys_;
+  const std::vector<RegionCells<D>>& regions_;
+  const EngineOptions& opt_;
+  RootFinder roots_;
+  int n_;
+  FlowObserver* obs_ = nullptr;
+  bool jac_ = false;
+  M J_;
+  Cursor<D> cur_;
+  mutable std::vector<V> yk_;
+  mutable bool coeffs_ready_ = false;
+  std::vector<double> gc_, tc_, ts_;
+  V dev_, delta_, znext_;
+  Vector lower_, upper_, out_;  // at the observer's interface
+};
+
+}  // namespace
+
+FlowResult ExactEngine::flow(double t0_s, const Vector& y0, int region, double t1_s,
+                             const OutputGrid& output, FlowObserver& observer,
+                             bool jacobian) const {
+  const Impl& I = *impl_;
+  assert(region >= 0 && region < static_cast<int>(I.sys.regions.size()));
+  assert(y0.size() == I.sys.dimension);
+  assert(t1_s >= t0_s);
+  if (!I.fixed.empty()) {
+    Flow<2> f(I.sys, I.fixed, I.opt, I.max_order);
+    return f.run(t0_s, y0, region, t1_s, output, observer, jacobian);
+  }
+  Flow<Eigen::Dynamic> f(I.sys, I.general, I.opt, I.max_order);
+  return f.run(t0_s, y0, region, t1_s, output, observer, jacobian);
+}
+
+}  // namespace geardyn::ode
