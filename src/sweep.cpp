@@ -31,13 +31,6 @@ bool changes_stiffness(const std::string& key) {
 std::string number_text(double x) { return fmt::format("{:.17g}", x); }
 
 // An observer that only lets the integration run (settling).
-struct Settle {
-  void on_step(const ode::State&, const GearPairModel::Drive&) {}
-  void on_transition(const ode::State&, int) {}
-  void on_sample(const ode::State&) {}
-  bool on_progress(double) { return true; }
-};
-
 // The statistics two blocks are compared by.
 std::array<double, 7> block_statistics(const SweepPoint& p) {
   return {p.mean_delta_bar, p.rms_delta_bar, p.pp_delta_bar,      p.mean_force_bar,
@@ -80,11 +73,8 @@ class PointRunner {
     const GearPairModel model = build_model(c, nullptr, stiffness_ ? &*stiffness_ : nullptr);
     const GearPairParameters& p = model.parameters();
     const double period = fundamental_period_s(c);
-    const double dt_wanted =
-        c.solver.time_step_s > 0 ? c.solver.time_step_s : automatic_time_step_s(p);
-    // A whole number of steps per period: block ends fall on period ends.
-    const double steps = std::max(1.0, std::ceil(period / dt_wanted - 1e-9));
-    const double dt = period / steps;
+    // With Newmark, a whole number of steps per period: block ends fall on period ends.
+    const Solver solver(model, c.solver, period);
 
     ode::State s{0, 0, 0, 0, kSeparated};
     if (carry) {
@@ -105,10 +95,9 @@ class PointRunner {
                       o_.axis2 ? fmt::format(", {} = {}", o_.axis2->key, job.value2) : "",
                       ode::to_string(sum.termination), sum.message));
     };
-    Settle settle;
     if (o_.settle_periods > 0) {
-      const auto sum = ode::integrate_newmark(model, s, s.t + o_.settle_periods * period, dt,
-                                              ode::OutputGrid{}, settle);
+      RunReader settle(model, s.t, s.t + o_.settle_periods * period, 0.1, false, false);
+      const auto sum = solver.run(s, s.t + o_.settle_periods * period, ode::OutputGrid{}, settle);
       if (!sum.ok()) fail(sum);
       s = sum.end_state;
     }
@@ -119,7 +108,7 @@ class PointRunner {
       const double t0 = s.t, t1 = t0 + m * period;
       RunReader reader(model, t0, t1, 1.0 / m, /*keep_events=*/false, /*keep_samples=*/true);
       const ode::OutputGrid grid{t0, period / spp, static_cast<std::int64_t>(m) * spp};
-      const auto sum = ode::integrate_newmark(model, s, t1, dt, grid, reader);
+      const auto sum = solver.run(s, t1, grid, reader);
       if (!sum.ok()) fail(sum);
       s = sum.end_state;
       SweepPoint pt = read_block(reader, job, m, spp);

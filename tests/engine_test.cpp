@@ -1,0 +1,363 @@
+// The exact engine (engine.hpp): closed forms, the period map against dopri5, sensitivities
+// against finite differences through impacts, the saltation matrix, and the no-progress check.
+#include "geardyn/engine.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <numbers>
+
+#include "geardyn/reproduce.hpp"
+#include "geardyn/run.hpp"
+
+namespace {
+
+using geardyn::ode::EngineOptions;
+using geardyn::ode::ExactEngine;
+using geardyn::ode::FlowObserver;
+using geardyn::ode::FlowResult;
+using geardyn::ode::LinearGuard;
+using geardyn::ode::LinearRegion;
+using geardyn::ode::LinearSwitchedSystem;
+using geardyn::ode::Matrix;
+using geardyn::ode::OutputGrid;
+using geardyn::ode::RowVector;
+using geardyn::ode::Termination;
+using geardyn::ode::Vector;
+
+// Closed forms are met to this relative error: a few hundred roundings of the state.
+constexpr double kClosedFormTolerance = 1e-13;
+
+struct Recorder : FlowObserver {
+  std::vector<double> t;
+  std::vector<Vector> y;
+  std::vector<double> event_t;
+  void on_sample(double t_s, const Vector& v, int) override {
+    t.push_back(t_s);
+    y.push_back(v);
+  }
+  void on_event(double t_s, const Vector&, int, int) override { event_t.push_back(t_s); }
+};
+
+// One region, x'' + c x' + k x = F0 + Fa cos(w t), no guards that can fire.
+LinearSwitchedSystem oscillator(double k, double c, double F0, double Fa, double w) {
+  LinearSwitchedSystem s;
+  s.dimension = 2;
+  s.frequencies_rad_s = {w};
+  LinearRegion r;
+  r.a.constant = Matrix::Zero(2, 2);
+  r.a.constant << 0, 1, -k, -c;
+  r.u.constant = Vector::Zero(2);
+  r.u.constant(1) = F0;
+  r.u.cos = {Vector::Zero(2)};
+  r.u.sin = {Vector::Zero(2)};
+  r.u.cos[0](1) = Fa;
+  s.regions = {r, r};  // a second region that is never entered
+  LinearGuard g;
+  g.row.constant = RowVector::Zero(2);
+  g.offset.constant = 1.0;  // always positive
+  g.target = 1;
+  s.regions[0].guards = {g};
+  g.target = 0;
+  s.regions[1].guards = {g};
+  return s;
+}
+
+TEST(ExactEngine, FreeFlightMatchesItsClosedForm) {
+  // x'' = F0 + Fa cos(w t): x = x0 + v0 t + F0 t^2 / 2 + Fa (1 - cos w t) / w^2.
+  const double F0 = 3.0, Fa = 2.0, w = 7.0, x0 = 0.3, v0 = -1.1;
+  const ExactEngine e(oscillator(0, 0, F0, Fa, w));
+  Recorder rec;
+  Vector y0(2);
+  y0 << x0, v0;
+  const FlowResult r = e.flow(0, y0, 0, 20.0, OutputGrid{0, 0.37, 55}, rec);
+  ASSERT_TRUE(r.ok()) << r.message;
+  for (std::size_t i = 0; i < rec.t.size(); ++i) {
+    const double t = rec.t[i];
+    const double x = x0 + v0 * t + F0 * t * t / 2 + Fa * (1 - std::cos(w * t)) / (w * w);
+    const double v = v0 + F0 * t + Fa * std::sin(w * t) / w;
+    EXPECT_NEAR(rec.y[i][0], x, kClosedFormTolerance * (1 + std::abs(x))) << "t = " << t;
+    EXPECT_NEAR(rec.y[i][1], v, kClosedFormTolerance * (1 + std::abs(v))) << "t = " << t;
+  }
+}
+
+TEST(ExactEngine, DampedForcedOscillatorMatchesItsClosedForm) {
+  // x'' + 2 zeta wn x' + wn^2 x = F cos(W t) from rest at x0: the steady response plus the
+  // damped free vibration, in complex form.
+  const double wn = 50.0, zeta = 0.03, F = 4.0, W = 37.0, x0 = 0.02;
+  const ExactEngine e(oscillator(wn * wn, 2 * zeta * wn, 0, F, W));
+  Recorder rec;
+  Vector y0(2);
+  y0 << x0, 0;
+  const FlowResult r = e.flow(0, y0, 0, 3.0, OutputGrid{0, 0.0123, 244}, rec);
+  ASSERT_TRUE(r.ok()) << r.message;
+  const std::complex<double> H = F / std::complex<double>(wn * wn - W * W, 2 * zeta * wn * W);
+  const double wd = wn * std::sqrt(1 - zeta * zeta);
+  // x = Re(H e^{iWt}) + e^{-zeta wn t} (A cos wd t + B sin wd t).
+  const double A = x0 - H.real();
+  const double B = (0 - (-W * H.imag()) + zeta * wn * A) / wd;
+  double amplitude = 0;
+  for (std::size_t i = 0; i < rec.t.size(); ++i) {
+    const double t = rec.t[i];
+    const std::complex<double> p = H * std::exp(std::complex<double>(0, W * t));
+    const double x =
+        p.real() + std::exp(-zeta * wn * t) * (A * std::cos(wd * t) + B * std::sin(wd * t));
+    amplitude = std::max(amplitude, std::abs(x));
+    EXPECT_NEAR(rec.y[i][0], x, kClosedFormTolerance * (x0 + std::abs(H))) << "t = " << t;
+  }
+  EXPECT_GT(amplitude, 0.01);
+}
+
+TEST(ExactEngine, PeriodMapAgreesWithDopri5OverManyMeshPeriods) {
+  // The paper's gear at 10 kHz from static contact: it stays in contact, so the run is the
+  // linear periodic system of the mesh, 2000 mesh periods; dopri5 at 1e-13 beside it.
+  geardyn::Case c;
+  c.speed.shaft_frequency_hz = 10000;
+  c.mesh.stiffness_source = geardyn::StiffnessSource::kHarmonics;
+  c.mesh.stiffness_harmonics = {{0.08, 30}, {0.03, -40}};
+  c.load.fluctuation_ratio = 0.1;
+  c.solver.initial = geardyn::InitialCondition::kStatic;
+  c.solver.duration_s = 2000 / (56 * 1e4);
+  c.solver.output_interval_s = c.solver.duration_s / 400;
+  geardyn::Case d = c;
+  d.solver.method = geardyn::Method::kDopri5;
+  d.solver.tolerance = 1e-13;
+  const geardyn::RunResult re = geardyn::run(c), rd = geardyn::run(d);
+  ASSERT_TRUE(re.integration.ok() && rd.integration.ok());
+  EXPECT_EQ(re.reading.separations, 0);
+  ASSERT_EQ(re.samples.size(), rd.samples.size());
+  double err = 0;
+  for (std::size_t i = 0; i < re.samples.size(); ++i)
+    err = std::max(err, std::abs(re.samples.delta_bar[i] - rd.samples.delta_bar[i]));
+  EXPECT_LT(err, 1e-10);
+}
+
+TEST(ExactEngine, MeetsTheDefaultAccuracyOnEveryPaperCase) {
+  // The default tolerance against dopri5 at 1e-13, the 11 cases over 20 ms: max |delta/b|
+  // difference <= 1e-8 (the promise of docs/numerics.md).
+  const geardyn::Study study = geardyn::park2010_study();
+  for (const geardyn::StudyCase& sc : study.cases) {
+    geardyn::Case c = sc.input;
+    c.solver.duration_s = 0.02;
+    c.solver.output_interval_s = 1e-5;
+    geardyn::Case d = c;
+    d.solver.method = geardyn::Method::kDopri5;
+    d.solver.tolerance = 1e-13;
+    const geardyn::RunResult re = geardyn::run(c), rd = geardyn::run(d);
+    ASSERT_TRUE(re.integration.ok() && rd.integration.ok()) << sc.id;
+    ASSERT_EQ(re.samples.size(), rd.samples.size()) << sc.id;
+    double err = 0;
+    for (std::size_t i = 0; i < re.samples.size(); ++i)
+      err = std::max(err, std::abs(re.samples.delta_bar[i] - rd.samples.delta_bar[i]));
+    EXPECT_LT(err, 1e-8) << sc.id;
+    EXPECT_EQ(re.reading.impacts, rd.reading.impacts) << sc.id;
+    // dopri5 reads the force at its step ends, below the true peak; the exact engine finds the
+    // peak inside its cells: never below dopri5's, and within dopri5's sampling error of it.
+    EXPECT_GE(re.reading.max_force_bar, rd.reading.max_force_bar * (1 - 1e-12)) << sc.id;
+    EXPECT_NEAR(re.reading.max_force_bar, rd.reading.max_force_bar, 1e-4 * rd.reading.max_force_bar)
+        << sc.id;
+  }
+}
+
+// The flow map y(t1) of a system and its Jacobian against central differences.
+void expect_jacobian_matches_differences(const ExactEngine& e, const Vector& y0, int region,
+                                         double t1, const Vector& step, int min_events) {
+  Recorder rec;
+  const FlowResult r = e.flow(0, y0, region, t1, OutputGrid{}, rec, true);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_GE(r.events, min_events);
+  ASSERT_TRUE(r.jacobian);
+  const int n = static_cast<int>(y0.size());
+  for (int j = 0; j < n; ++j) {
+    Vector yp = y0, ym = y0;
+    yp[j] += step[j];
+    ym[j] -= step[j];
+    Recorder a, b;
+    const FlowResult rp = e.flow(0, yp, region, t1, OutputGrid{}, a);
+    const FlowResult rm = e.flow(0, ym, region, t1, OutputGrid{}, b);
+    ASSERT_EQ(rp.events, r.events) << "a difference step changed the event sequence";
+    ASSERT_EQ(rm.events, r.events);
+    const Vector column = (rp.state - rm.state) / (2 * step[j]);
+    for (int i = 0; i < n; ++i) {
+      const double scale = column.cwiseAbs().maxCoeff() + std::abs((*r.jacobian)(i, j));
+      EXPECT_NEAR((*r.jacobian)(i, j), column[i], 1e-6 * scale) << "d y" << i << " / d y0_" << j;
+    }
+  }
+}
+
+TEST(ExactEngine, JacobianMatchesFiniteDifferencesThroughImpacts) {
+  // The non-dimensional gear (Kahraman-Singh) rattling between both flanks, with a stiffness
+  // harmonic: several impacts, each with its saltation.
+  geardyn::Case c;
+  c.model.form = geardyn::ModelForm::kNondimensional;
+  c.model.zeta = 0.02;
+  c.model.force_mean = 0.05;
+  c.model.force_alternating = 0.6;
+  c.model.omega = 1.3;
+  c.model.stiffness_harmonics = {{0.2, 10}};
+  const geardyn::GearPairModel model = geardyn::build_model(c);
+  const ExactEngine e(model.linear_system());
+  Vector y0(2), step(2);
+  y0 << 0.2, 0.1;
+  step << 1e-6, 1e-6;
+  expect_jacobian_matches_differences(
+      e, y0, geardyn::kSeparated - geardyn::GearPairModel::kFirstRegion, 25.0, step, 6);
+}
+
+// Two masses on springs to ground with a gap between them: x2 - x1 <= gap, else a contact
+// spring kc pushes them apart. State (x1, x2, v1, v2); region 0 open, 1 in contact.
+LinearSwitchedSystem two_masses() {
+  const double k1 = 1.0, k2 = 1.7, kc = 40.0, c = 0.01, gap = 0.5, m2 = 1.3;
+  LinearSwitchedSystem s;
+  s.dimension = 4;
+  s.frequencies_rad_s = {0.9};
+  s.regions.resize(2);
+  for (int r = 0; r < 2; ++r) {
+    LinearRegion& g = s.regions[r];
+    Matrix A = Matrix::Zero(4, 4);
+    A(0, 2) = A(1, 3) = 1;
+    A(2, 0) = -k1;
+    A(2, 2) = -c;
+    A(3, 1) = -k2 / m2;
+    A(3, 3) = -c / m2;
+    Vector u = Vector::Zero(4);
+    if (r == 1) {  // contact force kc (x2 - x1 - gap) on mass 1, the opposite on mass 2
+      A(2, 0) -= kc;
+      A(2, 1) += kc;
+      A(3, 0) += kc / m2;
+      A(3, 1) -= kc / m2;
+      u(2) = -kc * gap;
+      u(3) = kc * gap / m2;
+    }
+    g.a.constant = A;
+    g.u.constant = u;
+    g.u.cos = {Vector::Zero(4)};
+    g.u.sin = {Vector::Zero(4)};
+    g.u.cos[0](2) = 0.8;  // a force on mass 1
+    LinearGuard q;
+    q.row.constant = RowVector::Zero(4);
+    q.row.constant(0) = r == 0 ? 1 : -1;
+    q.row.constant(1) = r == 0 ? -1 : 1;
+    q.offset.constant = r == 0 ? gap : -gap;
+    q.target = 1 - r;
+    q.scale = gap;
+    g.guards = {q};
+  }
+  return s;
+}
+
+TEST(ExactEngine, JacobianMatchesFiniteDifferencesForTwoDegreesOfFreedom) {
+  const ExactEngine e(two_masses());
+  Vector y0(4), step(4);
+  y0 << 0.0, 0.0, 0.9, -0.4;
+  step << 1e-6, 1e-6, 1e-6, 1e-6;
+  expect_jacobian_matches_differences(e, y0, 0, 12.0, step, 4);
+}
+
+TEST(ExactEngine, SaltationAtAnImpactIsTheAnalyticMatrix) {
+  // Free flight x'' = F into a contact x >= b with x'' = F - k (x - b): at the impact
+  // (velocity v) S = [[1, 0], [(a+ - a-) / v, 1]] with a+ - a- = -k (x - b) = 0, plus the
+  // flow over the tiny intervals on either side; so over [t_e - h, t_e + h] the Jacobian
+  // tends to S = I for this continuous force. With a force jump (contact preload P) the
+  // acceleration jumps by -P: S(1, 0) = -P / v.
+  const double F = 2.0, k = 100.0, P = 5.0, b = 1.0, v0 = 0.7;
+  LinearSwitchedSystem s;
+  s.dimension = 2;
+  s.regions.resize(2);
+  for (int r = 0; r < 2; ++r) {
+    LinearRegion& g = s.regions[r];
+    g.a.constant = Matrix::Zero(2, 2);
+    g.a.constant(0, 1) = 1;
+    g.u.constant = Vector::Zero(2);
+    g.u.constant(1) = F;
+    if (r == 1) {
+      g.a.constant(1, 0) = -k;
+      g.u.constant(1) = F + k * b - P;
+    }
+    LinearGuard q;
+    q.row.constant = RowVector::Zero(2);
+    q.row.constant(0) = r == 0 ? -1 : 1;
+    q.offset.constant = r == 0 ? b : -b;
+    q.target = 1 - r;
+    q.scale = b;
+    g.guards = {q};
+  }
+  const ExactEngine e(s);
+  // Start just before the impact so that the flow on either side is nearly the identity.
+  const double eps = 1e-9;
+  Vector y0(2);
+  y0 << b - v0 * eps, v0;
+  Recorder rec;
+  const FlowResult r = e.flow(0, y0, 0, 2 * eps, OutputGrid{}, rec, true);
+  ASSERT_TRUE(r.ok());
+  ASSERT_EQ(r.events, 1);
+  const Matrix& J = *r.jacobian;
+  EXPECT_NEAR(J(0, 0), 1.0, 1e-6);
+  EXPECT_NEAR(J(0, 1), 2 * eps, 1e-6);
+  EXPECT_NEAR(J(1, 0), -P / v0, 1e-6 * P / v0);
+  EXPECT_NEAR(J(1, 1), 1.0, 1e-6);
+}
+
+TEST(ExactEngine, ChatteringEndsWithNoProgressAtOnce) {
+  // x' = -1 above 0 and x' = +1 below: every crossing sends the state straight back.
+  LinearSwitchedSystem s;
+  s.dimension = 1;
+  s.regions.resize(2);
+  for (int r = 0; r < 2; ++r) {
+    LinearRegion& g = s.regions[r];
+    g.a.constant = Matrix::Zero(1, 1);
+    g.u.constant = Vector::Constant(1, r == 0 ? -1.0 : 1.0);
+    LinearGuard q;
+    q.row.constant = RowVector::Constant(1, r == 0 ? 1.0 : -1.0);
+    q.offset.constant = 0;
+    q.target = 1 - r;
+    g.guards = {q};
+  }
+  const ExactEngine e(s);
+  Recorder rec;
+  const auto start = std::chrono::steady_clock::now();
+  const FlowResult r = e.flow(0, Vector::Constant(1, 0.5), 0, 1e6, OutputGrid{}, rec);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(r.termination, Termination::kNoProgress);
+  EXPECT_NE(r.message.find("chattering"), std::string::npos) << r.message;
+  EXPECT_NEAR(r.end_time_s, 0.5, 1e-6);
+  EXPECT_LT(seconds, 1.0);
+}
+
+TEST(ExactEngine, InvalidSystemsAndOptionsAreRejectedWithTheirReason) {
+  LinearSwitchedSystem s = oscillator(1, 0, 0, 0, 1);
+  s.regions[0].guards[0].target = 0;
+  try {
+    ExactEngine e(s);
+    FAIL() << "accepted a guard whose target is its own region";
+  } catch (const std::invalid_argument& ex) {
+    EXPECT_NE(std::string(ex.what()).find("target 0"), std::string::npos) << ex.what();
+  }
+  EngineOptions o;
+  o.tolerance = 0.5;
+  EXPECT_NE(o.validate().find("tolerance = 0.5"), std::string::npos);
+}
+
+TEST(Dopri5, TheNondimensionalCaseThatLoopedForeverEndsAtOnce) {
+  // It used to switch forever at one instant until memory ran out.
+  geardyn::Case c;
+  c.model.form = geardyn::ModelForm::kNondimensional;
+  c.model.force_alternating = 0.0755;
+  c.model.omega = 0.5;
+  c.solver.initial = geardyn::InitialCondition::kStatic;
+  c.solver.duration_s = 30;
+  for (geardyn::Method m : {geardyn::Method::kDopri5, geardyn::Method::kExact}) {
+    c.solver.method = m;
+    const auto start = std::chrono::steady_clock::now();
+    const geardyn::RunResult r = geardyn::run(c);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_TRUE(r.integration.ok()) << r.integration.message;
+    EXPECT_LT(seconds, 1.0);
+  }
+}
+
+}  // namespace
