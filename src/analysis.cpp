@@ -1,7 +1,7 @@
 #include "geardyn/analysis.hpp"
 
 #include <algorithm>
-#include <boost/math/tools/minima.hpp>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -71,8 +71,7 @@ void RunReader::on_transition(const ode::State& s, int from_region) {
   if (keep_events_) events_.push_back({s.t, kind, s.v});
 }
 
-void RunReader::on_sample(const ode::State& s) {
-  const GearPairModel::Drive d = model_.drive(s.t);
+void RunReader::on_sample(const ode::State& s, const GearPairModel::Drive& d) {
   const double f = model_.mesh_force(d, s.q, s.v, s.region);
   const double fb = f / force_scale_;
   const double db = s.q / b_;
@@ -131,15 +130,11 @@ RunReading RunReader::reading() const {
 }  // namespace geardyn
 
 namespace geardyn {
-namespace {
-// Samples of a cell searched for an extreme before the best one is polished by Brent's method,
-// and the bits of time to which it is polished (the extreme's value is then exact to ~1e-15).
-constexpr int kExtremeSamples = 8;
-constexpr int kExtremeBits = 26;
-}  // namespace
-
-RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader)
-    : model_(model), reader_(reader) {
+RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader,
+                                 const ode::OutputGrid& grid)
+    : model_(model),
+      reader_(reader),
+      sample_drive_(model.drive_grid(grid.t0_s - grid.interval_s, grid.interval_s)) {
   const HarmonicSeries& k = model.parameters().stiffness_n_per_m;
   double swing = 0;
   for (const Harmonic& h : k.terms) swing += std::abs(h.amplitude);
@@ -147,62 +142,55 @@ RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader)
   k_max_ = k.offset + swing;
 }
 
-void RunFlowObserver::on_cell(const ode::CellView& cell) {
-  if (!(cell.t_end_s > cell.t_begin_s)) return;
-  const int region = cell.region + GearPairModel::kFirstRegion;
-  const double dlo = (*cell.lower)[0], dhi = (*cell.upper)[0];
-  const double vlo = (*cell.lower)[1], vhi = (*cell.upper)[1];
-  // Bounds of F_G over the cell from those of the state.
+bool RunFlowObserver::room_for_extremes(int engine_region, double dlo, double dhi, double vlo,
+                                        double vhi, std::array<bool, 4>& want) const {
+  const int region = engine_region + GearPairModel::kFirstRegion;
   const GearPairParameters& p = model_.parameters();
-  const double b = p.backlash_m;
+  const double b = p.backlash_m, c = p.damping_n_s_per_m;
   double flo = 0, fhi = 0;
   if (region == kDriveContact || region == kBackContact) {
+    // delta - edge keeps the sign of the contact in its region.
     const double edge = region == kDriveContact ? b : -b;
-    const double c = p.damping_n_s_per_m;
-    const double e[4] = {k_min_ * (dlo - edge), k_min_ * (dhi - edge), k_max_ * (dlo - edge),
-                         k_max_ * (dhi - edge)};
-    flo = *std::min_element(e, e + 4) + std::min(c * vlo, c * vhi);
-    fhi = *std::max_element(e, e + 4) + std::max(c * vlo, c * vhi);
+    const double lo = region == kDriveContact ? std::max(0.0, dlo - edge) : dlo - edge;
+    const double hi = region == kDriveContact ? dhi - edge : std::min(0.0, dhi - edge);
+    const std::array<double, 4> e{k_min_ * lo, k_min_ * hi, k_max_ * lo, k_max_ * hi};
+    flo = *std::min_element(e.begin(), e.end()) + std::min(c * vlo, c * vhi);
+    fhi = *std::max_element(e.begin(), e.end()) + std::max(c * vlo, c * vhi);
   } else if (region == kSeparated && p.damping == DampingForm::kAlways) {
-    const double c = p.damping_n_s_per_m;
     flo = std::min(c * vlo, c * vhi);
     fhi = std::max(c * vlo, c * vhi);
   }
-  const bool want[4] = {dhi > reader_.max_delta_m(),
-                        dlo<reader_.min_delta_m(), fhi> reader_.max_force_n(),
-                        flo < reader_.min_force_n()};
-  if (!(want[0] || want[1] || want[2] || want[3])) return;
-  // value(q, t): the quantity to minimise, negated for a maximum.
+  want = {dhi > reader_.max_delta_m(), dlo<reader_.min_delta_m(), fhi> reader_.max_force_n(),
+          flo < reader_.min_force_n()};
+  return want[0] || want[1] || want[2] || want[3];
+}
+
+bool RunFlowObserver::needs_detail(const ode::CellView& span) {
+  std::array<bool, 4> want{};
+  return room_for_extremes(span.region, (*span.lower)[0], (*span.upper)[0], (*span.lower)[1],
+                           (*span.upper)[1], want);
+}
+
+void RunFlowObserver::on_cell(const ode::CellView& cell) {
+  if (!(cell.t_end_s > cell.t_begin_s)) return;
+  // Which extremes (max delta, min delta, max F, min F) the cell's bounds leave room for; those
+  // the engine then finds exactly on the stretch's polynomial.
+  std::array<bool, 4> want{};
+  if (!room_for_extremes(cell.region, (*cell.lower)[0], (*cell.upper)[0], (*cell.lower)[1],
+                         (*cell.upper)[1], want))
+    return;
+  const int region = cell.region + GearPairModel::kFirstRegion;
+  const std::array<double, 4> seen{reader_.max_delta_m(), reader_.min_delta_m(),
+                                   reader_.max_force_n(), reader_.min_force_n()};
   ode::Vector y(2);
-  auto point = [&](double t) {
-    cell.state_at(t, y);
-    return ode::State{t, y[0], y[1], 0.0, region};
-  };
-  auto value = [&](int q, double t) {
-    const ode::State s = point(t);
-    const double x = q < 2 ? s.q : model_.mesh_force(model_.drive(t), s.q, s.v, region);
-    return (q % 2 == 0) ? -x : x;
-  };
-  const double t0 = cell.t_begin_s, t1 = cell.t_end_s;
-  const double dt = (t1 - t0) / kExtremeSamples;
   for (int q = 0; q < 4; ++q) {
     if (!want[q]) continue;
-    int best = 0;
-    double best_v = value(q, t0);
-    for (int i = 1; i <= kExtremeSamples; ++i) {
-      const double v = value(q, t0 + i * dt);
-      if (v < best_v) {
-        best_v = v;
-        best = i;
-      }
-    }
-    const double a = t0 + std::max(0, best - 1) * dt,
-                 c = t0 + std::min(kExtremeSamples, best + 1) * dt;
-    std::uintmax_t it = 60;
-    const auto r = boost::math::tools::brent_find_minima([&](double t) { return value(q, t); }, a,
-                                                         c, kExtremeBits, it);
-    const double t = r.second < best_v ? r.first : t0 + best * dt;
-    reader_.on_point(point(t), model_.drive(t));
+    const int observable =
+        q < 2 ? GearPairModel::kObservableDelta : GearPairModel::kObservableForce;
+    double value = 0, t = 0;
+    if (!cell.extreme(observable, q % 2 == 0, seen[q], value, t)) continue;
+    cell.state_at(t, y);
+    reader_.on_point({t, y[0], y[1], 0.0, region}, model_.drive(t));
   }
 }
 

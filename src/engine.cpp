@@ -10,6 +10,8 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <numbers>
 #include <stdexcept>
 
@@ -73,6 +75,18 @@ std::string LinearSwitchedSystem::validate() const {
     if (g.a.varies() && !(coefficient_period_s > 0))
       return fmt::format("region {}: A varies but coefficient_period_s = {}", r,
                          coefficient_period_s);
+    if (g.observables.size() != regions[0].observables.size())
+      return fmt::format("region {}: {} observables, region 0 has {}", r, g.observables.size(),
+                         regions[0].observables.size());
+    for (std::size_t i = 0; i < g.observables.size(); ++i) {
+      const LinearGuard& q = g.observables[i];
+      if (!terms_ok(q.row, 1, n) ||
+          (!q.offset.cos.empty() && (q.offset.cos.size() != F || q.offset.sin.size() != F)))
+        return fmt::format("region {} observable {}: terms do not fit 1 x {}", r, i, n);
+      if (q.row.varies() && !(coefficient_period_s > 0))
+        return fmt::format("region {} observable {}: row varies but coefficient_period_s = {}", r,
+                           i, coefficient_period_s);
+    }
     for (std::size_t i = 0; i < g.guards.size(); ++i) {
       const LinearGuard& q = g.guards[i];
       if (!terms_ok(q.row, 1, n))
@@ -152,9 +166,17 @@ constexpr int kMaxSubdivisions = 48;
 // Intervals one search may look at: a polynomial whose hull does not separate from zero after
 // this many is tangent to it to within rounding (a bound on the work, not on the accuracy).
 constexpr int kMaxSearchNodes = 2048;
+// Local maxima of one stretch looked at: a stretch is shorter than the fastest period of its
+// region, so a polynomial of it has one or two.
+constexpr int kMaxLocalExtremes = 16;
 // Bits to which a crossing is located (TOMS 748), of a cell's length.
 constexpr int kEventBits = 52;
 constexpr std::uintmax_t kEventMaxIterations = 200;
+// The rounding level of a guard's polynomial, as a multiple of eps times the sum of its
+// coefficients' magnitudes: the Horner error bound for the orders used, with a margin.
+constexpr double kGuardRounding = 64 * std::numeric_limits<double>::epsilon();
+// Steps of iterative refinement of a cell's virtual start state at a region entry.
+constexpr int kEntryRefinements = 2;
 // Cells between exact resynchronisations of the forcing phasors.
 constexpr std::int64_t kPhasorResyncCells = 256;
 
@@ -172,6 +194,10 @@ struct Cell {
   M phi_end;                           // Phi(1)
   V r0_end;
   std::vector<V> rc_end, rs_end;
+  // The series of every guard's and observable's time-varying parts over this cell (guards
+  // first), cached where the region's cells have fixed phases (a periodic region).
+  std::vector<std::vector<Eigen::Matrix<double, 1, D>>> fn_rows;
+  std::vector<std::vector<double>> fn_offsets;
   M alpha;  // sum_{k>=1} |Phi_k|
   V beta;   // sum_{k>=1} |Phi_k y_ref + r0_k| + sum_f (|rc_fk| + |rs_fk|)
 };
@@ -190,7 +216,65 @@ struct RegionCells {
   std::vector<bool> guard_varies;          // the guard's row depends on t
   std::vector<double> guard_offset_swing;  // bound of the offset's change over a cell
   std::vector<R> guard_abs_row;            // |G0|
+
+  // The whole coefficient period (K >= 2 and every guard row constant): its map, its forced
+  // responses for period-start phase 0 and pi/2, and a bound of the state's excursion over it,
+  // |y(s) - y(0)| <= alpha_T |y(0) - y_ref| + beta_T, so that a period can be jumped.
+  bool period_jumps = false;
+  M phi_T;
+  V r0_T;
+  std::vector<V> rc_T, rs_T;
+  M alpha_T;
+  V beta_T;
+  std::vector<double> rot_cos_T, rot_sin_T;  // cos, sin of w_f K h
+  std::vector<double> guard_offset_swing_T;  // bound of the offsets' change over a period
 };
+
+// The period quantities of RegionCells from its cells (see there).
+template <int D>
+void build_period(const LinearSwitchedSystem& sys, RegionCells<D>& rc) {
+  using M = Eigen::Matrix<double, D, D>;
+  using V = Eigen::Matrix<double, D, 1>;
+  const int n = sys.dimension;
+  const std::size_t nf = rc.forced.size();
+  const auto& w = sys.frequencies_rad_s;
+  M phi = M::Identity(n, n);  // Phi from the period start to cell k's start
+  V p0 = V::Zero(n);          // forced response there, for phases (1, 0) ... split by basis
+  std::vector<V> pc(nf, V::Zero(n)), ps(nf, V::Zero(n));
+  rc.alpha_T = M::Zero(n, n);
+  rc.beta_T = V::Zero(n);
+  const M I = M::Identity(n, n);
+  for (int k = 0; k < rc.K; ++k) {
+    const Cell<D>& cell = rc.cells[k];
+    // Excursion bound inside cell k, from the period start.
+    V q = ((phi - I) * rc.y_ref + p0).cwiseAbs();
+    for (std::size_t j = 0; j < nf; ++j) q += pc[j].cwiseAbs() + ps[j].cwiseAbs();
+    const M u = (phi - I).cwiseAbs() + cell.alpha * phi.cwiseAbs();
+    const V v = q + cell.alpha * q + cell.beta;
+    rc.alpha_T = rc.alpha_T.cwiseMax(u);
+    rc.beta_T = rc.beta_T.cwiseMax(v);
+    // Advance to the next cell's start: the cell's end maps, with phases rotated by w k h.
+    p0 = cell.phi_end * p0 + cell.r0_end;
+    for (std::size_t j = 0; j < nf; ++j) {
+      const double th = w[rc.forced[j]] * k * rc.h, c = std::cos(th), s = std::sin(th);
+      pc[j] = cell.phi_end * pc[j] + c * cell.rc_end[j] + s * cell.rs_end[j];
+      ps[j] = cell.phi_end * ps[j] - s * cell.rc_end[j] + c * cell.rs_end[j];
+    }
+    phi = cell.phi_end * phi;
+  }
+  rc.phi_T = phi;
+  rc.r0_T = p0;
+  rc.rc_T = pc;
+  rc.rs_T = ps;
+  const double T = rc.K * rc.h;
+  for (int f : rc.forced) {
+    rc.rot_cos_T.push_back(std::cos(w[f] * T));
+    rc.rot_sin_T.push_back(std::sin(w[f] * T));
+  }
+  rc.guard_offset_swing_T.clear();
+  for (std::size_t i = 0; i < rc.guard_varies.size(); ++i) rc.guard_offset_swing_T.push_back(0);
+  rc.period_jumps = rc.alpha_T.allFinite() && rc.beta_T.allFinite();
+}
 
 // Scaled Taylor coefficients (w h)^m / m! cos(w t0 + m pi/2), ... for m = 0 .. p.
 void trig_taylor(double w, double t0, double h, int p, std::vector<double>& c,
@@ -203,6 +287,32 @@ void trig_taylor(double w, double t0, double h, int p, std::vector<double>& c,
     if (m > 0) f *= w * h / m;
     c[m] = f * cos_quarter(c0, s0, m);
     s[m] = f * sin_quarter(c0, s0, m);
+  }
+}
+
+// The series over a cell starting at t0 (length h, p + 1 terms) of an affine functional's
+// time-varying parts: its row G(t0 + x h) (empty when constant) and its offset (g0 included).
+template <class R>
+void functional_terms(const LinearSwitchedSystem& sys, const LinearGuard& q, double t0, double h,
+                      int p, std::vector<R>& G, std::vector<double>& off) {
+  const auto& w = sys.frequencies_rad_s;
+  std::vector<double> tc, ts;
+  G.clear();
+  if (q.row.varies()) {
+    G.assign(p + 1, R::Zero(sys.dimension));
+    G[0] = q.row.constant;
+    for (std::size_t f = 0; f < w.size(); ++f) {
+      if (!q.row.cos[f].any() && !q.row.sin[f].any()) continue;
+      trig_taylor(w[f], t0, h, p, tc, ts);
+      for (int m = 0; m <= p; ++m) G[m] += tc[m] * q.row.cos[f] + ts[m] * q.row.sin[f];
+    }
+  }
+  off.assign(p + 1, 0.0);
+  off[0] = q.offset.constant;
+  for (std::size_t f = 0; f < q.offset.cos.size(); ++f) {
+    if (q.offset.cos[f] == 0 && q.offset.sin[f] == 0) continue;
+    trig_taylor(w[f], t0, h, p, tc, ts);
+    for (int m = 0; m <= p; ++m) off[m] += q.offset.cos[f] * tc[m] + q.offset.sin[f] * ts[m];
   }
 }
 
@@ -365,25 +475,71 @@ class RootFinder {
   std::optional<double> first_crossing(const std::vector<double>& c, double a, double b) {
     p_ = static_cast<int>(c.size()) - 1;
     coef_ = c;
-    // Q(u) = P(a + (b - a) u): Taylor shift by a, then scale.
-    std::vector<double> q = c;
-    for (int i = 0; i < p_; ++i)
-      for (int j = p_ - 1; j >= i; --j) q[j] += a * q[j + 1];
-    double scale = 1;
-    for (int k = 0; k <= p_; ++k) {
-      q[k] *= scale;
-      scale *= (b - a);
-    }
-    std::vector<double> bern(p_ + 1);
-    for (int i = 0; i <= p_; ++i) {
-      double s = 0;
-      for (int k = 0; k <= i; ++k) s += binom_.c[i][k] / binom_.c[p_][k] * q[k];
-      bern[i] = s;
-    }
+    bernstein(c, a, b, bern_);
     a_ = a;
     w_ = b - a;
     nodes_ = 0;
-    return search(bern, 0.0, 1.0, 0);
+    return search(bern_, 0.0, 1.0, 0);
+  }
+
+  // The largest value of P over [a, b], and where (x_at): the hull of P on [a, b] first (no
+  // search when it cannot exceed `floor`; the result is then <= floor), then the endpoints and
+  // every root of P' at which it turns from positive to negative (a local maximum).
+  double maximum(const std::vector<double>& c, double a, double b, double floor, double& x_at) {
+    const int p = static_cast<int>(c.size()) - 1;
+    // Bounds from the signs of the coefficients (0 <= a <= x <= b <= 1): an upper bound, and
+    // monotony when every coefficient but c_0 has one sign.
+    double upper = c[0], ak = 1, bk = 1;
+    bool rising = true, falling = true;
+    for (int k = 1; k <= p; ++k) {
+      ak *= a;
+      bk *= b;
+      upper += c[k] > 0 ? c[k] * bk : c[k] * ak;
+      rising &= c[k] >= 0;
+      falling &= c[k] <= 0;
+    }
+    if (upper <= floor) {
+      x_at = a;
+      return floor;
+    }
+    if (rising || falling) {
+      x_at = rising ? b : a;
+      return std::max(floor, horner(c.data(), p, x_at));
+    }
+    bernstein(c, a, b, hull_);
+    if (*std::max_element(hull_.begin(), hull_.end()) <= floor) {
+      x_at = a;
+      return floor;
+    }
+    double best = horner(c.data(), p, a);
+    x_at = a;
+    if (const double vb = horner(c.data(), p, b); vb > best) {
+      best = vb;
+      x_at = b;
+    }
+    if (p < 2) return best;
+    std::vector<double> d(p), minus(p);
+    for (int k = 1; k <= p; ++k) {
+      d[k - 1] = k * c[k];
+      minus[k - 1] = -d[k - 1];
+    }
+    double x = a;
+    for (int i = 0; i < kMaxLocalExtremes && x < b; ++i) {
+      if (!(horner(d.data(), p - 1, x) > 0)) {
+        // Falling (or flat): on to where P' turns positive.
+        const auto up = first_crossing(minus, x, b);
+        if (!up || !(*up > x)) break;
+        x = *up;
+      }
+      const auto down = first_crossing(d, x, b);  // P' turns negative: a local maximum
+      if (!down || !(*down > x)) break;
+      x = *down;
+      if (const double v = horner(c.data(), p, x); v > best) {
+        best = v;
+        x_at = x;
+      }
+    }
+    return best;
   }
 
  private:
@@ -415,6 +571,26 @@ class RootFinder {
 
   double x_of(double u) const { return a_ + w_ * u; }
 
+  // The Bernstein coefficients on [a, b] of P (coefficients c on [0, 1]).
+  void bernstein(const std::vector<double>& c, double a, double b, std::vector<double>& bern) {
+    const int p = static_cast<int>(c.size()) - 1;
+    // Q(u) = P(a + (b - a) u): Taylor shift by a, then scale.
+    q_ = c;
+    for (int i = 0; i < p; ++i)
+      for (int j = p - 1; j >= i; --j) q_[j] += a * q_[j + 1];
+    double scale = 1;
+    for (int k = 0; k <= p; ++k) {
+      q_[k] *= scale;
+      scale *= (b - a);
+    }
+    bern.resize(p + 1);
+    for (int i = 0; i <= p; ++i) {
+      double s = 0;
+      for (int k = 0; k <= i; ++k) s += binom_.c[i][k] / binom_.c[p][k] * q_[k];
+      bern[i] = s;
+    }
+  }
+
   // The root of P in [x0, x1], P(x0) > 0 >= P(x1): the side where P <= 0.
   double locate(double x0, double x1) const {
     const double p0 = horner(coef_.data(), p_, x0), p1 = horner(coef_.data(), p_, x1);
@@ -430,32 +606,22 @@ class RootFinder {
   Binomials binom_;
   int p_ = 0;
   int nodes_ = 0;
-  std::vector<double> coef_;
+  std::vector<double> coef_, bern_, hull_, q_;
   double a_ = 0, w_ = 1;
 };
 
-// The cells of every region, in state dimension D (2: the fast path of one degree of freedom).
+// The cells of region r in state dimension D (2: the fast path of one degree of freedom), for
+// the rate rho. Throws std::invalid_argument when the series do not converge.
 template <int D>
-std::vector<RegionCells<D>> build_regions(const LinearSwitchedSystem& sys,
-                                          const EngineOptions& options) {
-  using M = Eigen::Matrix<double, D, D>;
+RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, double rho,
+                            const EngineOptions& options) {
   using V = Eigen::Matrix<double, D, 1>;
   const double tol = std::max(options.tolerance, kRoundingLimit);
   const int n = sys.dimension;
   const auto& w = sys.frequencies_rad_s;
-  std::vector<double> rates;
-  double fastest = 0;
-  for (const LinearRegion& reg : sys.regions) {
-    rates.push_back(region_rate(sys, reg));
-    fastest = std::max(fastest, rates.back());
-  }
-  std::vector<RegionCells<D>> out;
-  for (std::size_t r = 0; r < sys.regions.size(); ++r) {
+  {
     const LinearRegion& reg = sys.regions[r];
     RegionCells<D> rc;
-    // A region with no rate of its own (free flight with constant forcing) takes the system's.
-    double rho = rates[r] > 0 ? rates[r] : fastest;
-    if (!(rho > 0)) rho = 1.0 / std::max(sys.coefficient_period_s, 1.0);
     const bool periodic =
         reg.a.varies() || std::any_of(reg.guards.begin(), reg.guards.end(),
                                       [](const LinearGuard& q) { return q.row.varies(); });
@@ -503,24 +669,98 @@ std::vector<RegionCells<D>> build_regions(const LinearSwitchedSystem& sys,
             (std::abs(q.offset.cos[f]) + std::abs(q.offset.sin[f])) * std::min(2.0, w[f] * rc.h);
       rc.guard_offset_swing.push_back(swing);
     }
-    out.push_back(std::move(rc));
-    (void)sizeof(M);
+    // Cache the functionals' series where every cell has a fixed phase: the coefficient
+    // period's frequencies, which the validation holds rows to; offsets only if theirs fit.
+    if (periodic) {
+      const double T = sys.coefficient_period_s;
+      bool offsets_fit = true;
+      for (const auto* list : {&reg.guards, &reg.observables})
+        for (const LinearGuard& q : *list)
+          for (std::size_t f = 0; f < q.offset.cos.size(); ++f) {
+            if (q.offset.cos[f] == 0 && q.offset.sin[f] == 0) continue;
+            const double cycles = w[f] * T / (2 * std::numbers::pi);
+            offsets_fit &= std::abs(cycles - std::round(cycles)) <= 1e-9 * std::max(1.0, cycles);
+          }
+      for (int k = 0; k < rc.K && offsets_fit; ++k) {
+        Cell<D>& cell = rc.cells[k];
+        for (const auto* list : {&reg.guards, &reg.observables})
+          for (const LinearGuard& q : *list) {
+            cell.fn_rows.emplace_back();
+            cell.fn_offsets.emplace_back();
+            functional_terms(sys, q, k * rc.h, rc.h, cell.order, cell.fn_rows.back(),
+                             cell.fn_offsets.back());
+          }
+      }
+    }
+    const bool rows_constant =
+        std::none_of(rc.guard_varies.begin(), rc.guard_varies.end(), [](bool v) { return v; });
+    if (rc.K >= 2 && rows_constant) {
+      build_period(sys, rc);
+      for (std::size_t i = 0; i < reg.guards.size(); ++i) {
+        const LinearGuard& q = reg.guards[i];
+        double swing = 0;
+        for (std::size_t f = 0; f < q.offset.cos.size(); ++f)
+          swing += (std::abs(q.offset.cos[f]) + std::abs(q.offset.sin[f])) *
+                   std::min(2.0, w[f] * rc.K * rc.h);
+        rc.guard_offset_swing_T[i] = swing;
+      }
+    }
+    return rc;
   }
-  return out;
 }
+
+// The regions' cells, each built when a flow first enters it (most flows of a gear never
+// reach the clipped or the back-side regions). Safe to share between threads.
+template <int D>
+class LazyRegions {
+ public:
+  LazyRegions(const LinearSwitchedSystem& sys, const EngineOptions& opt)
+      : sys_(&sys),
+        opt_(opt),
+        cells_(sys.regions.size()),
+        once_(std::make_unique<std::once_flag[]>(sys.regions.size())) {
+    double fastest = 0;
+    for (const LinearRegion& reg : sys.regions) {
+      rates_.push_back(region_rate(sys, reg));
+      fastest = std::max(fastest, rates_.back());
+    }
+    // A region with no rate of its own (free flight with constant forcing) takes the system's.
+    for (double& rho : rates_) {
+      if (!(rho > 0)) rho = fastest;
+      if (!(rho > 0)) rho = 1.0 / std::max(sys.coefficient_period_s, 1.0);
+    }
+  }
+  // Throws std::invalid_argument when the region's series do not converge.
+  const RegionCells<D>& get(int r) const {
+    std::call_once(once_[r], [&] { cells_[r] = build_region<D>(*sys_, r, rates_[r], opt_); });
+    return cells_[r];
+  }
+  int max_order() const {
+    int p = 0;
+    for (int r = 0; r < static_cast<int>(cells_.size()); ++r)
+      for (const Cell<D>& c : get(r).cells) p = std::max(p, c.order);
+    return p;
+  }
+
+ private:
+  const LinearSwitchedSystem* sys_;
+  EngineOptions opt_;
+  std::vector<double> rates_;
+  mutable std::vector<RegionCells<D>> cells_;
+  std::unique_ptr<std::once_flag[]> once_;
+};
 
 }  // namespace
 
 struct ExactEngine::Impl {
   LinearSwitchedSystem sys;
   EngineOptions opt;
-  std::vector<RegionCells<2>> fixed;  // dimension 2
-  std::vector<RegionCells<Eigen::Dynamic>> general;
-  int max_order = 0;
+  std::unique_ptr<LazyRegions<2>> fixed;  // dimension 2
+  std::unique_ptr<LazyRegions<Eigen::Dynamic>> general;
 
   template <class F>
   decltype(auto) visit(int region, F&& f) const {
-    return fixed.empty() ? f(general.at(region)) : f(fixed.at(region));
+    return fixed ? f(fixed->get(region)) : f(general->get(region));
   }
 };
 
@@ -533,16 +773,10 @@ ExactEngine::ExactEngine(LinearSwitchedSystem system, const EngineOptions& optio
   Impl& I = *impl_;
   I.sys = std::move(system);
   I.opt = options;
-  auto orders = [&I](const auto& regions) {
-    for (const auto& rc : regions)
-      for (const auto& c : rc.cells) I.max_order = std::max(I.max_order, c.order);
-  };
   if (I.sys.dimension == 2) {
-    I.fixed = build_regions<2>(I.sys, options);
-    orders(I.fixed);
+    I.fixed = std::make_unique<LazyRegions<2>>(I.sys, options);
   } else {
-    I.general = build_regions<Eigen::Dynamic>(I.sys, options);
-    orders(I.general);
+    I.general = std::make_unique<LazyRegions<Eigen::Dynamic>>(I.sys, options);
   }
 }
 
@@ -590,12 +824,29 @@ class Flow final : public CellView {
   using R = Eigen::Matrix<double, 1, D>;
 
  public:
-  Flow(const LinearSwitchedSystem& sys, const std::vector<RegionCells<D>>& regions,
-       const EngineOptions& opt, int max_order)
-      : sys_(sys), regions_(regions), opt_(opt), roots_(max_order), n_(sys.dimension) {}
+  Flow(const LinearSwitchedSystem& sys, const LazyRegions<D>& regions, const EngineOptions& opt)
+      : sys_(sys), regions_(regions), opt_(opt), roots_(opt.max_order), n_(sys.dimension) {}
 
+  // A region's cells are built on first entry; if its series do not converge the flow ends
+  // there with the reason.
   FlowResult run(double t0, const V& y0, int region, double t1, const OutputGrid& out,
                  FlowObserver& obs, bool want_jacobian) {
+    try {
+      return run_unchecked(t0, y0, region, t1, out, obs, want_jacobian);
+    } catch (const std::invalid_argument& e) {
+      FlowResult res;
+      res.termination = Termination::kDiverged;
+      res.message = e.what();
+      res.end_time_s = last_t_;
+      res.region = cur_.region;
+      res.state = last_y_;
+      return res;
+    }
+  }
+
+ private:
+  FlowResult run_unchecked(double t0, const V& y0, int region, double t1, const OutputGrid& out,
+                           FlowObserver& obs, bool want_jacobian) {
     FlowResult res;
     obs_ = &obs;
     jac_ = want_jacobian;
@@ -626,7 +877,28 @@ class Flow final : public CellView {
     };
 
     for (;;) {
-      const RegionCells<D>& rc = regions_[cur_.region];
+      const RegionCells<D>& rc = *rc_;
+      // A whole coefficient period at once where no guard can cross, no sample falls and the
+      // observer needs no detail.
+      if (rc.period_jumps && cur_.k == 0 && t == cur_.tm) {
+        const double t_end = cur_.tm + rc.K * rc.h;
+        const bool sample_inside = next_sample < out.count && out.time(next_sample) < t_end;
+        if (t_end < t1 && !sample_inside && jump_period(t_end, obs)) {
+          t = cur_.tm;
+          y = cur_.z;
+          out_ = y;
+          obs.on_step(t, out_, cur_.region);
+          ++res.periods;
+          res.cells += rc.K;
+          since_progress += rc.K;
+          if (since_progress >= opt_.progress_interval_cells) {
+            since_progress = 0;
+            if (!obs.on_progress(t))
+              return finish(Termination::kCancelled, fmt::format("cancelled at t = {:.9g} s", t));
+          }
+          continue;
+        }
+      }
       const Cell<D>& cell = rc.cells[cur_.k];
       coeffs_ready_ = false;
       const double x_start = std::clamp((t - cur_.tm) / rc.h, 0.0, 1.0);
@@ -654,6 +926,11 @@ class Flow final : public CellView {
         if (!std::all_of(gc_.begin(), gc_.end(), [](double c) { return std::isfinite(c); }))
           return finish(Termination::kDiverged,
                         fmt::format("the state became non-finite at t = {:.9g} s", t));
+        // The slack is at least the rounding of the guard's polynomial in this cell, so that
+        // a state handed over at the edge of the region is not taken as across it.
+        double magnitude = 0;
+        for (double c : gc_) magnitude += std::abs(c);
+        gc_[0] += std::max(0.0, kGuardRounding * magnitude - slack);
         if (horner(gc_.data(), static_cast<int>(gc_.size()) - 1, x_start) <= 0) {
           x_end = x_start;  // already across: leaves at once
           crossed = i;
@@ -747,16 +1024,35 @@ class Flow final : public CellView {
     return finish(Termination::kCompleted, "");
   }
 
+  bool extreme(int observable, bool maximum, double beyond, double& value,
+               double& t_s) const override {
+    const RegionCells<D>& rc = *rc_;
+    functional_series(static_cast<int>(sys_.regions[cur_.region].guards.size()) + observable, 0.0,
+                      oc_);
+    if (!maximum)
+      for (double& c : oc_) c = -c;
+    double x = 0;
+    const double target = maximum ? beyond : -beyond;
+    const double v = roots_.maximum(oc_, std::clamp((t_begin_s - cur_.tm) / rc.h, 0.0, 1.0),
+                                    std::clamp((t_end_s - cur_.tm) / rc.h, 0.0, 1.0), target, x);
+    if (!(v > target)) return false;
+    value = maximum ? v : -v;
+    t_s = std::clamp(cur_.tm + x * rc.h, t_begin_s, t_end_s);
+    return true;
+  }
+
   void state_at(double t_s, Vector& y) const override {
-    const RegionCells<D>& rc = regions_[cur_.region];
+    const RegionCells<D>& rc = *rc_;
     ensure_coefficients();
     y = poly(std::clamp((t_s - cur_.tm) / rc.h, 0.0, 1.0));
   }
 
- private:
   // Places the cursor in region r at time t with state y; J_ then maps y0 to z.
   void enter(int r, double t, const V& y) {
-    const RegionCells<D>& rc = regions_[r];
+    last_t_ = t;
+    last_y_ = y;
+    rc_ = &regions_.get(r);
+    const RegionCells<D>& rc = *rc_;
     cur_.region = r;
     cur_.m = static_cast<std::int64_t>(std::floor(t / rc.h));
     if (static_cast<double>(cur_.m + 1) * rc.h <= t) ++cur_.m;
@@ -777,12 +1073,19 @@ class Flow final : public CellView {
     ensure_coefficients();  // with z = 0: the forced response alone
     const Eigen::PartialPivLU<M> lu(P);
     cur_.z = lu.solve(y - poly(x));
+    // Phi is badly scaled in physical units (q and q' differ by the rates): refine the solve
+    // until the cell's series pass through y to rounding, so that the guard slack holds.
+    for (int i = 0; i < kEntryRefinements; ++i) {
+      coeffs_ready_ = false;
+      ensure_coefficients();
+      cur_.z += lu.solve(y - poly(x));
+    }
     coeffs_ready_ = false;
     if (jac_) J_ = lu.solve(J_);
   }
 
   void resync() {
-    const RegionCells<D>& rc = regions_[cur_.region];
+    const RegionCells<D>& rc = *rc_;
     const auto& w = sys_.frequencies_rad_s;
     cur_.C.resize(rc.forced.size());
     cur_.S.resize(rc.forced.size());
@@ -793,9 +1096,60 @@ class Flow final : public CellView {
     cur_.since_resync = 0;
   }
 
+  // Jumps from the start of a period to its end (t_end) if no guard can cross inside it and
+  // the observer needs no detail; false, and nothing changed, otherwise.
+  bool jump_period(double t_end, FlowObserver& obs) {
+    const RegionCells<D>& rc = *rc_;
+    dev_ = (cur_.z - rc.y_ref).cwiseAbs();
+    delta_.noalias() = rc.alpha_T * dev_;
+    delta_ += rc.beta_T;
+    const LinearRegion& reg = sys_.regions[cur_.region];
+    for (int i = 0; i < static_cast<int>(reg.guards.size()); ++i) {
+      const LinearGuard& q = reg.guards[i];
+      double g0 = q.row.constant.dot(cur_.z) + q.offset.constant;
+      for (std::size_t f = 0; f < q.offset.cos.size(); ++f)
+        g0 += q.offset.cos[f] * std::cos(sys_.frequencies_rad_s[f] * cur_.tm) +
+              q.offset.sin[f] * std::sin(sys_.frequencies_rad_s[f] * cur_.tm);
+      if (!(g0 + kGuardSlack * q.scale - rc.guard_abs_row[i].dot(delta_) -
+                rc.guard_offset_swing_T[i] >
+            0))
+        return false;
+    }
+    t_begin_s = cur_.tm;
+    t_end_s = t_end;
+    this->region = cur_.region;
+    lower_ = cur_.z - delta_;
+    upper_ = cur_.z + delta_;
+    lower = &lower_;
+    upper = &upper_;
+    if (obs.needs_detail(*this)) return false;
+    znext_.noalias() = rc.phi_T * cur_.z;
+    znext_ += rc.r0_T;
+    for (std::size_t j = 0; j < rc.forced.size(); ++j)
+      znext_ += cur_.C[j] * rc.rc_T[j] + cur_.S[j] * rc.rs_T[j];
+    if (!znext_.allFinite()) return false;  // the cells then report the divergence
+    if (jac_) J_ = rc.phi_T * J_;
+    cur_.m += rc.K;
+    cur_.tm = static_cast<double>(cur_.m) * rc.h;
+    cur_.z.swap(znext_);
+    coeffs_ready_ = false;
+    cur_.since_resync += rc.K;
+    if (cur_.since_resync >= kPhasorResyncCells) {
+      resync();
+    } else {
+      for (std::size_t j = 0; j < rc.forced.size(); ++j) {
+        const double c = cur_.C[j] * rc.rot_cos_T[j] - cur_.S[j] * rc.rot_sin_T[j];
+        const double s = cur_.S[j] * rc.rot_cos_T[j] + cur_.C[j] * rc.rot_sin_T[j];
+        cur_.C[j] = c;
+        cur_.S[j] = s;
+      }
+    }
+    return true;
+  }
+
   // Moves the cursor to the next cell, whose start state is znext_.
   void advance_cell() {
-    const RegionCells<D>& rc = regions_[cur_.region];
+    const RegionCells<D>& rc = *rc_;
     ++cur_.m;
     cur_.k = (cur_.k + 1 == rc.K) ? 0 : cur_.k + 1;
     cur_.tm = static_cast<double>(cur_.m) * rc.h;
@@ -816,7 +1170,7 @@ class Flow final : public CellView {
   // The state's series over the current cell: y_k = Phi_k z + r0_k + sum (C rc + S rs).
   void ensure_coefficients() const {
     if (coeffs_ready_) return;
-    const RegionCells<D>& rc = regions_[cur_.region];
+    const RegionCells<D>& rc = *rc_;
     const Cell<D>& cell = rc.cells[cur_.k];
     yk_.resize(cell.order + 1);
     for (int k = 0; k <= cell.order; ++k) {
@@ -841,7 +1195,7 @@ class Flow final : public CellView {
     return v;
   }
   M phi_at(double x) const {
-    const Cell<D>& cell = regions_[cur_.region].cells[cur_.k];
+    const Cell<D>& cell = rc_->cells[cur_.k];
     M P = cell.phi[cell.order];
     for (int k = cell.order - 1; k >= 0; --k) P = P * x + cell.phi[k];
     return P;
@@ -854,37 +1208,41 @@ class Flow final : public CellView {
   }
 
   // The series of guard i over the current cell, plus `slack`, into gc_.
-  void guard_series(int i, double slack) {
+  void guard_series(int i, double slack) { functional_series(i, slack, gc_); }
+
+  // The series over the current cell of functional `id` (guard id, or observable id - guards)
+  // plus `slack`, into gc.
+  void functional_series(int id, double slack, std::vector<double>& gc) const {
     ensure_coefficients();
-    const RegionCells<D>& rc = regions_[cur_.region];
-    const LinearGuard& q = sys_.regions[cur_.region].guards[i];
-    const auto& w = sys_.frequencies_rad_s;
+    const RegionCells<D>& rc = *rc_;
+    const Cell<D>& cell = rc.cells[cur_.k];
+    const LinearRegion& reg = sys_.regions[cur_.region];
+    const int guards = static_cast<int>(reg.guards.size());
+    const LinearGuard& q = id < guards ? reg.guards[id] : reg.observables[id - guards];
     const int p = static_cast<int>(yk_.size()) - 1;
-    gc_.assign(p + 1, 0.0);
-    if (!q.row.varies()) {
-      for (int k = 0; k <= p; ++k) gc_[k] = q.row.constant.dot(yk_[k]);
+    const bool cached = !cell.fn_offsets.empty();
+    if (!cached) functional_terms(sys_, q, cur_.tm, rc.h, p, rows_, offs_);
+    const std::vector<R>& G = cached ? cell.fn_rows[id] : rows_;
+    const std::vector<double>& off = cached ? cell.fn_offsets[id] : offs_;
+    gc.assign(p + 1, 0.0);
+    if (G.empty()) {
+      for (int k = 0; k <= p; ++k) gc[k] = q.row.constant.dot(yk_[k]);
     } else {
-      std::vector<R> G(p + 1, R::Zero(n_));
-      G[0] = q.row.constant;
-      for (std::size_t f = 0; f < w.size(); ++f) {
-        trig_taylor(w[f], cur_.tm, rc.h, p, tc_, ts_);
-        for (int m = 0; m <= p; ++m) G[m] += tc_[m] * q.row.cos[f] + ts_[m] * q.row.sin[f];
-      }
       for (int k = 0; k <= p; ++k)
-        for (int m = 0; m <= k; ++m) gc_[k] += G[m].dot(yk_[k - m]);
+        for (int m = 0; m <= k; ++m) gc[k] += G[m].dot(yk_[k - m]);
     }
-    gc_[0] += q.offset.constant + slack;
-    for (std::size_t f = 0; f < q.offset.cos.size(); ++f) {
-      if (q.offset.cos[f] == 0 && q.offset.sin[f] == 0) continue;
-      trig_taylor(w[f], cur_.tm, rc.h, p, tc_, ts_);
-      for (int m = 0; m <= p; ++m) gc_[m] += q.offset.cos[f] * tc_[m] + q.offset.sin[f] * ts_[m];
-    }
+    for (int k = 0; k <= p; ++k) gc[k] += off[k];
+    gc[0] += slack;
   }
 
   const LinearSwitchedSystem& sys_;
-  const std::vector<RegionCells<D>>& regions_;
+  const LazyRegions<D>& regions_;
+  const RegionCells<D>* rc_ = nullptr;  // the current region's cells
+  double last_t_ = 0;                   // the last region entry, for a failure's report
+  Vector last_y_;
   const EngineOptions& opt_;
-  RootFinder roots_;
+  mutable RootFinder roots_;
+  mutable std::vector<double> oc_;
   int n_;
   FlowObserver* obs_ = nullptr;
   bool jac_ = false;
@@ -892,7 +1250,9 @@ class Flow final : public CellView {
   Cursor<D> cur_;
   mutable std::vector<V> yk_;
   mutable bool coeffs_ready_ = false;
-  std::vector<double> gc_, tc_, ts_;
+  std::vector<double> gc_;
+  mutable std::vector<R> rows_;
+  mutable std::vector<double> offs_;
   V dev_, delta_, znext_;
   Vector lower_, upper_, out_;  // at the observer's interface
 };
@@ -906,11 +1266,11 @@ FlowResult ExactEngine::flow(double t0_s, const Vector& y0, int region, double t
   assert(region >= 0 && region < static_cast<int>(I.sys.regions.size()));
   assert(y0.size() == I.sys.dimension);
   assert(t1_s >= t0_s);
-  if (!I.fixed.empty()) {
-    Flow<2> f(I.sys, I.fixed, I.opt, I.max_order);
+  if (I.fixed) {
+    Flow<2> f(I.sys, *I.fixed, I.opt);
     return f.run(t0_s, y0, region, t1_s, output, observer, jacobian);
   }
-  Flow<Eigen::Dynamic> f(I.sys, I.general, I.opt, I.max_order);
+  Flow<Eigen::Dynamic> f(I.sys, *I.general, I.opt);
   return f.run(t0_s, y0, region, t1_s, output, observer, jacobian);
 }
 

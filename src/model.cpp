@@ -180,7 +180,6 @@ ode::LinearSwitchedSystem GearPairModel::linear_system() const {
     return u;
   };
   auto put_a10 = [](Matrix& a, double v) { a(1, 0) += v; };
-  auto put_a11 = [](Matrix& a, double v) { a(1, 1) += v; };
   auto put_u1 = [](Vector& u, double v) { u(1) += v; };
   auto put_row0 = [](RowVector& g, double v) { g(0) += v; };
   auto put_scalar = [](double& g, double v) { g += v; };
@@ -251,13 +250,25 @@ ode::LinearSwitchedSystem GearPairModel::linear_system() const {
       default:
         break;
     }
+    // The observables: delta, and F_G (eqs. 3a-3c with the options).
+    ode::LinearGuard delta = delta_guard(1, 0, kSeparated);
+    ode::LinearGuard force;
+    if (contact) {
+      force = force_guard(1, region == kDriveContact ? b_ : -b_, kSeparated);
+    } else {
+      force.row.constant = RowVector::Zero(2);
+      if (region == kSeparated) force.row.constant(1) = c_free_;
+    }
+    r.observables = {delta, force};
     // Terms that are zero at every frequency are dropped: constant coefficients let the
     // engine take any cell grid.
     drop_if_constant(r.a);
     drop_if_constant(r.u);
-    for (ode::LinearGuard& g : r.guards) {
-      drop_if_constant(g.row);
-      drop_if_constant(g.offset);
+    for (auto* list : {&r.guards, &r.observables}) {
+      for (ode::LinearGuard& g : *list) {
+        drop_if_constant(g.row);
+        drop_if_constant(g.offset);
+      }
     }
   }
   return sys;

@@ -87,7 +87,7 @@ ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
     case Method::kExact:
       break;
   }
-  RunFlowObserver observer(model_, reader);
+  RunFlowObserver observer(model_, reader, grid);
   ode::Vector y0(2);
   y0 << initial.q, initial.v;
   const ode::FlowResult f = engine_->flow(

@@ -161,6 +161,43 @@ TEST(ExactEngine, MeetsTheDefaultAccuracyOnEveryPaperCase) {
   }
 }
 
+TEST(ExactEngine, ResultsDoNotDependOnTheCellLength) {
+  // The cell length is a cost setting: events and samples must not move with it (a state handed
+  // over at a region's edge once read as across it when cells were long).
+  const geardyn::Study study = geardyn::park2010_study();
+  for (const char* id : {"fig4a", "fig4c", "fig6c"}) {
+    geardyn::Case c;
+    for (const geardyn::StudyCase& sc : study.cases)
+      if (sc.id == id) c = sc.input;
+    const geardyn::GearPairModel model = geardyn::build_model(c);
+    const double t1 = 0.02;
+    const OutputGrid grid{0, t1 / 500, 501};
+    std::vector<std::vector<double>> samples;
+    std::vector<std::vector<double>> events;
+    for (double rate : {0.5, 1.5, 3.0}) {
+      EngineOptions o;
+      o.cell_rate_product = rate;
+      const ExactEngine e(model.linear_system(), o);
+      Recorder rec;
+      Vector y0 = Vector::Zero(2);
+      const FlowResult r =
+          e.flow(0, y0, geardyn::kSeparated - geardyn::GearPairModel::kFirstRegion, t1, grid, rec);
+      ASSERT_TRUE(r.ok()) << id << ": " << r.message;
+      std::vector<double> d;
+      for (const Vector& y : rec.y) d.push_back(y[0] / model.parameters().backlash_m);
+      samples.push_back(d);
+      events.push_back(rec.event_t);
+    }
+    for (std::size_t j = 1; j < samples.size(); ++j) {
+      ASSERT_EQ(events[j].size(), events[0].size()) << id;
+      for (std::size_t i = 0; i < events[0].size(); ++i)
+        EXPECT_NEAR(events[j][i], events[0][i], 1e-10) << id;
+      for (std::size_t i = 0; i < samples[0].size(); ++i)
+        EXPECT_NEAR(samples[j][i], samples[0][i], 1e-8) << id;  // the default accuracy
+    }
+  }
+}
+
 // The flow map y(t1) of a system and its Jacobian against central differences.
 void expect_jacobian_matches_differences(const ExactEngine& e, const Vector& y0, int region,
                                          double t1, const Vector& step, int min_events) {

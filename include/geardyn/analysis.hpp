@@ -7,6 +7,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -98,7 +99,9 @@ class RunReader {
     min_delta_ = std::min(min_delta_, s.q);
   }
   void on_transition(const ode::State& s, int from_region);
-  void on_sample(const ode::State& s);
+  void on_sample(const ode::State& s) { on_sample(s, model_.drive(s.t)); }
+  // The same with the inputs at s.t given (a caller that has them on a grid).
+  void on_sample(const ode::State& s, const GearPairModel::Drive& d);
   bool on_progress(double t_s) { return !progress_ || progress_((t_s - t0_) / (t1_ - t0_)); }
 
   RunReading reading() const;
@@ -136,8 +139,11 @@ class RunReader {
 // the readings do not depend on the engine's cell length.
 class RunFlowObserver final : public ode::FlowObserver {
  public:
-  RunFlowObserver(const GearPairModel& model, RunReader& reader);
+  // `grid` is the output grid of the flow: the inputs at its times are rotated, not evaluated.
+  RunFlowObserver(const GearPairModel& model, RunReader& reader, const ode::OutputGrid& grid);
   void on_cell(const ode::CellView& cell) override;
+  // A span needs detail when its bounds leave room for a new extreme.
+  bool needs_detail(const ode::CellView& span) override;
   // The extremes at a step's end were looked at by on_cell.
   void on_step(double t_s, const ode::Vector& /*y*/, int region) override {
     reader_.on_time(t_s, region + GearPairModel::kFirstRegion);
@@ -146,17 +152,22 @@ class RunFlowObserver final : public ode::FlowObserver {
     reader_.on_transition(state(t_s, y, to), from + GearPairModel::kFirstRegion);
   }
   void on_sample(double t_s, const ode::Vector& y, int region) override {
-    reader_.on_sample(state(t_s, y, region));
+    reader_.on_sample(state(t_s, y, region), sample_drive_.next());
   }
   bool on_progress(double t_s) override { return reader_.on_progress(t_s); }
 
  private:
+  // Whether bounds of delta and delta' over a stretch leave room for an extreme beyond those
+  // seen; `want` says which.
+  bool room_for_extremes(int engine_region, double dlo, double dhi, double vlo, double vhi,
+                         std::array<bool, 4>& want) const;
   static ode::State state(double t_s, const ode::Vector& y, int region) {
     return {t_s, y[0], y[1], 0.0, region + GearPairModel::kFirstRegion};
   }
   const GearPairModel& model_;
   RunReader& reader_;
   double k_min_, k_max_;  // bounds of k(t)
+  GearPairModel::DriveGrid sample_drive_;
 };
 
 }  // namespace geardyn

@@ -52,7 +52,7 @@ struct EngineOptions {
   // h times the fastest rate of a region (its largest eigenvalue modulus or frequency): the
   // cell length. Near 1 the series need ~25 terms; larger cells need more terms and give
   // looser bounds.
-  double cell_rate_product = 1.0;
+  double cell_rate_product = 1.5;
   int max_order = 48;                           // terms of a cell series at most
   int max_events_per_cell = 64;                 // region changes inside one cell before kNoProgress
   std::int64_t progress_interval_cells = 4096;  // cells between calls of on_progress
@@ -70,6 +70,10 @@ class CellView {
   const Vector* upper = nullptr;
   // y(t) for t in [t_begin, t_end].
   virtual void state_at(double t_s, Vector& y) const = 0;
+  // Whether the region's observable i goes beyond `beyond` (above it for a maximum, below for a
+  // minimum) over [t_begin, t_end]; if so its extreme there (value, time), exact to rounding.
+  virtual bool extreme(int observable, bool maximum, double beyond, double& value,
+                       double& t_s) const = 0;
 
  protected:
   ~CellView() = default;
@@ -81,6 +85,10 @@ class FlowObserver {
   virtual ~FlowObserver() = default;
   // A stretch [t_begin, t_end] inside one region and one cell, before on_step at its end.
   virtual void on_cell(const CellView& /*cell*/) {}
+  // Asked before the engine jumps a whole coefficient period in one step (with no on_cell
+  // for it): true makes it step the period's cells instead. Only the span's times, region and
+  // bounds (lower, upper) are valid here, not state_at or range.
+  virtual bool needs_detail(const CellView& /*span*/) { return false; }
   // At the end of every cell and at every event (still in the old region).
   virtual void on_step(double /*t_s*/, const Vector& /*y*/, int /*region*/) {}
   // A located region change; y is the state at the event.
@@ -102,7 +110,8 @@ struct FlowResult {
   double end_time_s = 0;
   Vector state;                    // y at end_time_s
   int region = 0;                  // the region there
-  std::int64_t cells = 0;          // whole and partial cells stepped
+  std::int64_t cells = 0;          // whole and partial cells stepped (a jumped period counts K)
+  std::int64_t periods = 0;        // coefficient periods jumped whole
   std::int64_t events = 0;         // region changes
   std::optional<Matrix> jacobian;  // dy(t1)/dy(t0), when asked for
   bool ok() const { return termination == Termination::kCompleted; }

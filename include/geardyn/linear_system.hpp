@@ -51,6 +51,9 @@ struct LinearRegion {
   FourierTerms<Matrix> a;  // A_r(t), n x n
   FourierTerms<Vector> u;  // u_r(t), n
   std::vector<LinearGuard> guards;
+  // Affine functionals of the state (as guards; target and scale unused) whose extremes an
+  // observer may ask a cell for, the same number in every region (engine.hpp, CellView).
+  std::vector<LinearGuard> observables;
 };
 
 struct LinearSwitchedSystem {

@@ -154,9 +154,12 @@ class GearPairModel {
 
   // The model as a piecewise-linear system with periodic coefficients (linear_system.hpp), for
   // the exact engine: the state is (delta, delta') in m and m/s, the engine's region index is
-  // region - kFirstRegion; the coefficient period is the mesh period (0 for constant k).
+  // region - kFirstRegion; the coefficient period is the mesh period (0 for constant k). The
+  // observables are kObservableDelta (m) and kObservableForce (F_G, N).
   static constexpr int kFirstRegion = kBackClipped;
   static constexpr int kRegionCount = kDriveClipped - kBackClipped + 1;
+  static constexpr int kObservableDelta = 0;
+  static constexpr int kObservableForce = 1;
   ode::LinearSwitchedSystem linear_system() const;
 
  private:
