@@ -95,6 +95,15 @@ void RunReader::on_sample(const ode::State& s, const GearPairModel::Drive& d) {
   }
 }
 
+void RunReader::reserve_samples(std::size_t n) {
+  if (!keep_samples_) return;
+  samples_.t_s.reserve(n);
+  samples_.delta_bar.reserve(n);
+  samples_.velocity_m_s.reserve(n);
+  samples_.force_bar.reserve(n);
+  samples_.contact.reserve(n);
+}
+
 RunReading RunReader::reading() const {
   RunReading r;
   r.impacts = impacts_;
@@ -135,6 +144,7 @@ RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader,
     : model_(model),
       reader_(reader),
       sample_drive_(model.drive_grid(grid.t0_s - grid.interval_s, grid.interval_s)) {
+  reader.reserve_samples(static_cast<std::size_t>(std::max<std::int64_t>(0, grid.count)));
   const HarmonicSeries& k = model.parameters().stiffness_n_per_m;
   double swing = 0;
   for (const Harmonic& h : k.terms) swing += std::abs(h.amplitude);
@@ -182,7 +192,7 @@ void RunFlowObserver::on_cell(const ode::CellView& cell) {
   const int region = cell.region + GearPairModel::kFirstRegion;
   const std::array<double, 4> seen{reader_.max_delta_m(), reader_.min_delta_m(),
                                    reader_.max_force_n(), reader_.min_force_n()};
-  ode::Vector y(2);
+  ode::Vector& y = point_;
   for (int q = 0; q < 4; ++q) {
     if (!want[q]) continue;
     const int observable =

@@ -175,6 +175,8 @@ constexpr std::uintmax_t kEventMaxIterations = 200;
 // The rounding level of a guard's polynomial, as a multiple of eps times the sum of its
 // coefficients' magnitudes: the Horner error bound for the orders used, with a margin.
 constexpr double kGuardRounding = 64 * std::numeric_limits<double>::epsilon();
+// The largest forced excursion of a cell along a guard, in units of the guard's scale.
+constexpr double kMaxCellExcursion = 1.0;
 // Steps of iterative refinement of a cell's virtual start state at a region entry.
 constexpr int kEntryRefinements = 2;
 // Cells between exact resynchronisations of the forcing phasors.
@@ -194,10 +196,16 @@ struct Cell {
   M phi_end;                           // Phi(1)
   V r0_end;
   std::vector<V> rc_end, rs_end;
-  // The series of every guard's and observable's time-varying parts over this cell (guards
-  // first), cached where the region's cells have fixed phases (a periodic region).
-  std::vector<std::vector<Eigen::Matrix<double, 1, D>>> fn_rows;
-  std::vector<std::vector<double>> fn_offsets;
+  // Every guard's and observable's series over this cell (guards first) as linear forms of
+  // the cell's start state and forcing phases: g_k = phi_k . z + r0_k + sum_j (C_j rc_jk +
+  // S_j rs_jk) (offsets in r0). Cached where every cell has a fixed phase (periodic regions,
+  // or constant functionals); empty otherwise.
+  struct Functional {
+    std::vector<Eigen::Matrix<double, 1, D>> phi;
+    std::vector<double> r0;
+    std::vector<std::vector<double>> rc, rs;
+  };
+  std::vector<Functional> fn;
   M alpha;  // sum_{k>=1} |Phi_k|
   V beta;   // sum_{k>=1} |Phi_k y_ref + r0_k| + sum_f (|rc_fk| + |rs_fk|)
 };
@@ -314,6 +322,39 @@ void functional_terms(const LinearSwitchedSystem& sys, const LinearGuard& q, dou
     trig_taylor(w[f], t0, h, p, tc, ts);
     for (int m = 0; m <= p; ++m) off[m] += q.offset.cos[f] * tc[m] + q.offset.sin[f] * ts[m];
   }
+}
+
+// The functionals' series of a cell starting at phase t0 (Cell::fn).
+template <int D>
+void cache_functionals(const LinearSwitchedSystem& sys, const LinearRegion& reg, double t0,
+                       double h, Cell<D>& cell) {
+  using R = Eigen::Matrix<double, 1, D>;
+  const int p = cell.order;
+  const std::size_t nf = cell.rc.size();
+  std::vector<R> G;
+  std::vector<double> off;
+  cell.fn.clear();
+  for (const auto* list : {&reg.guards, &reg.observables})
+    for (const LinearGuard& q : *list) {
+      functional_terms(sys, q, t0, h, p, G, off);
+      if (G.empty()) G.assign(1, q.row.constant);  // constant: one term
+      typename Cell<D>::Functional f;
+      f.phi.assign(p + 1, R::Zero(sys.dimension));
+      f.r0 = off;
+      f.rc.assign(nf, std::vector<double>(p + 1, 0.0));
+      f.rs.assign(nf, std::vector<double>(p + 1, 0.0));
+      const int g_terms = static_cast<int>(G.size());
+      for (int k = 0; k <= p; ++k)
+        for (int m = 0; m <= std::min(k, g_terms - 1); ++m) {
+          f.phi[k] += G[m] * cell.phi[k - m];
+          f.r0[k] += G[m].dot(cell.r0[k - m]);
+          for (std::size_t j = 0; j < nf; ++j) {
+            f.rc[j][k] += G[m].dot(cell.rc[j][k - m]);
+            f.rs[j][k] += G[m].dot(cell.rs[j][k - m]);
+          }
+        }
+      cell.fn.push_back(std::move(f));
+    }
 }
 
 // True when every entry of the last two terms is below tol times the entry's sum of
@@ -470,7 +511,8 @@ struct Binomials {
 // exactly one, located by TOMS 748; otherwise the interval is halved (left first).
 class RootFinder {
  public:
-  explicit RootFinder(int max_order) : binom_(max_order) {}
+  // The subdivision buffers are sized once: the recursion holds references into them.
+  explicit RootFinder(int max_order) : binom_(max_order), scratch_(kMaxSubdivisions + 1) {}
 
   std::optional<double> first_crossing(const std::vector<double>& c, double a, double b) {
     p_ = static_cast<int>(c.size()) - 1;
@@ -518,7 +560,10 @@ class RootFinder {
       x_at = b;
     }
     if (p < 2) return best;
-    std::vector<double> d(p), minus(p);
+    std::vector<double>& d = d_;
+    std::vector<double>& minus = minus_;
+    d.resize(p);
+    minus.resize(p);
     for (int k = 1; k <= p; ++k) {
       d[k - 1] = k * c[k];
       minus[k - 1] = -d[k - 1];
@@ -555,8 +600,14 @@ class RootFinder {
       if (horner(coef_.data(), p_, xm) < 0) return xm;
       return std::nullopt;
     }
-    // de Casteljau at u = 1/2.
-    std::vector<double> left(p_ + 1), right(p_ + 1), work = bern;
+    // de Casteljau at u = 1/2, into this depth's buffers.
+    std::array<std::vector<double>, 3>& buffers = scratch_[depth];
+    std::vector<double>& left = buffers[0];
+    std::vector<double>& right = buffers[1];
+    std::vector<double>& work = buffers[2];
+    left.resize(p_ + 1);
+    right.resize(p_ + 1);
+    work = bern;
     left[0] = work[0];
     right[p_] = work[p_];
     for (int r = 1; r <= p_; ++r) {
@@ -606,7 +657,8 @@ class RootFinder {
   Binomials binom_;
   int p_ = 0;
   int nodes_ = 0;
-  std::vector<double> coef_, bern_, hull_, q_;
+  std::vector<double> coef_, bern_, hull_, q_, d_, minus_;
+  std::vector<std::array<std::vector<double>, 3>> scratch_;  // per subdivision depth
   double a_ = 0, w_ = 1;
 };
 
@@ -649,11 +701,17 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
       bool ok = true;
       for (int k = 0; k < rc.K && ok; ++k)
         ok = expand_cell<D>(sys, reg, rc, k * rc.h, rc.h, tol, options.max_order, rc.cells[k]);
+      // A cell whose forced excursion along a guard exceeds the guard's scale sums large
+      // terms to a small state (free flight under a large force): shorter cells keep the
+      // digits.
+      for (const LinearGuard& q : reg.guards)
+        for (const Cell<D>& cell : rc.cells)
+          if (ok) ok = q.row.constant.cwiseAbs().dot(cell.beta) <= kMaxCellExcursion * q.scale;
       if (ok) break;
       if (halving >= kMaxHalvings || rc.K * 2 > kMaxCellsPerPeriod)
         throw std::invalid_argument(fmt::format(
             "linear system: region {}: the cell series do not converge (rate {} 1/s)", r, rho));
-      rc.K *= 2;
+      if (periodic) rc.K *= 2;
       rc.h /= 2;
     }
     for (int f : rc.forced) {
@@ -681,16 +739,13 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
             const double cycles = w[f] * T / (2 * std::numbers::pi);
             offsets_fit &= std::abs(cycles - std::round(cycles)) <= 1e-9 * std::max(1.0, cycles);
           }
-      for (int k = 0; k < rc.K && offsets_fit; ++k) {
-        Cell<D>& cell = rc.cells[k];
-        for (const auto* list : {&reg.guards, &reg.observables})
-          for (const LinearGuard& q : *list) {
-            cell.fn_rows.emplace_back();
-            cell.fn_offsets.emplace_back();
-            functional_terms(sys, q, k * rc.h, rc.h, cell.order, cell.fn_rows.back(),
-                             cell.fn_offsets.back());
-          }
-      }
+      for (int k = 0; k < rc.K && offsets_fit; ++k)
+        cache_functionals(sys, reg, k * rc.h, rc.h, rc.cells[k]);
+    } else {
+      bool constant = true;
+      for (const auto* list : {&reg.guards, &reg.observables})
+        for (const LinearGuard& q : *list) constant &= !q.row.varies() && q.offset.cos.empty();
+      if (constant) cache_functionals(sys, reg, 0.0, rc.h, rc.cells[0]);
     }
     const bool rows_constant =
         std::none_of(rc.guard_varies.begin(), rc.guard_varies.end(), [](bool v) { return v; });
@@ -718,21 +773,10 @@ class LazyRegions {
       : sys_(&sys),
         opt_(opt),
         cells_(sys.regions.size()),
-        once_(std::make_unique<std::once_flag[]>(sys.regions.size())) {
-    double fastest = 0;
-    for (const LinearRegion& reg : sys.regions) {
-      rates_.push_back(region_rate(sys, reg));
-      fastest = std::max(fastest, rates_.back());
-    }
-    // A region with no rate of its own (free flight with constant forcing) takes the system's.
-    for (double& rho : rates_) {
-      if (!(rho > 0)) rho = fastest;
-      if (!(rho > 0)) rho = 1.0 / std::max(sys.coefficient_period_s, 1.0);
-    }
-  }
+        once_(std::make_unique<std::once_flag[]>(sys.regions.size())) {}
   // Throws std::invalid_argument when the region's series do not converge.
   const RegionCells<D>& get(int r) const {
-    std::call_once(once_[r], [&] { cells_[r] = build_region<D>(*sys_, r, rates_[r], opt_); });
+    std::call_once(once_[r], [&] { cells_[r] = build_region<D>(*sys_, r, rate(r), opt_); });
     return cells_[r];
   }
   int max_order() const {
@@ -743,9 +787,17 @@ class LazyRegions {
   }
 
  private:
+  // A region with no rate of its own (free flight with constant forcing) takes the system's.
+  double rate(int r) const {
+    double rho = region_rate(*sys_, sys_->regions[r]);
+    for (const LinearRegion& reg : sys_->regions)
+      if (!(rho > 0)) rho = std::max(rho, region_rate(*sys_, reg));
+    if (!(rho > 0)) rho = 1.0 / std::max(sys_->coefficient_period_s, 1.0);
+    return rho;
+  }
+
   const LinearSwitchedSystem* sys_;
   EngineOptions opt_;
-  std::vector<double> rates_;
   mutable std::vector<RegionCells<D>> cells_;
   std::unique_ptr<std::once_flag[]> once_;
 };
@@ -856,6 +908,8 @@ class Flow final : public CellView {
     enter(region, t, y);
     std::int64_t next_sample = 0;
     auto emit_samples = [&](double upto, bool inclusive) {
+      // Two samples or more in the stretch: the cell's coefficients serve them all.
+      if (next_sample + 1 < out.count && out.time(next_sample + 1) < upto) ensure_coefficients();
       while (next_sample < out.count &&
              (out.time(next_sample) < upto || (inclusive && out.time(next_sample) <= upto))) {
         const double ts = std::max(out.time(next_sample), t);
@@ -1042,9 +1096,29 @@ class Flow final : public CellView {
   }
 
   void state_at(double t_s, Vector& y) const override {
-    const RegionCells<D>& rc = *rc_;
-    ensure_coefficients();
-    y = poly(std::clamp((t_s - cur_.tm) / rc.h, 0.0, 1.0));
+    const double x = std::clamp((t_s - cur_.tm) / rc_->h, 0.0, 1.0);
+    if (coeffs_ready_) {
+      y = poly(x);
+      return;
+    }
+    // Phi(x) z + R(x) term by term: cheaper than the cell's coefficients for one point.
+    const Cell<D>& cell = rc_->cells[cur_.k];
+    M P = cell.phi[cell.order];
+    V r = cell.r0[cell.order];
+    for (int k = cell.order - 1; k >= 0; --k) {
+      P = P * x + cell.phi[k];
+      r = r * x + cell.r0[k];
+    }
+    V v = P * cur_.z + r;
+    for (std::size_t j = 0; j < rc_->forced.size(); ++j) {
+      V c = cell.rc[j][cell.order], s = cell.rs[j][cell.order];
+      for (int k = cell.order - 1; k >= 0; --k) {
+        c = c * x + cell.rc[j][k];
+        s = s * x + cell.rs[j][k];
+      }
+      v += cur_.C[j] * c + cur_.S[j] * s;
+    }
+    y = v;
   }
 
   // Places the cursor in region r at time t with state y; J_ then maps y0 to z.
@@ -1182,11 +1256,16 @@ class Flow final : public CellView {
     coeffs_ready_ = true;
   }
 
+  // Horner in x^2 over the even and the odd terms: two independent chains.
   V poly(double x) const {
     const int p = static_cast<int>(yk_.size()) - 1;
-    V v = yk_[p];
-    for (int k = p - 1; k >= 0; --k) v = v * x + yk_[k];
-    return v;
+    const double x2 = x * x;
+    const int top_even = p - (p % 2), top_odd = p - 1 + (p % 2);
+    V even = yk_[top_even];
+    V odd = top_odd >= 1 ? yk_[top_odd] : V::Zero(n_);
+    for (int k = top_even - 2; k >= 0; k -= 2) even = even * x2 + yk_[k];
+    for (int k = top_odd - 2; k >= 1; k -= 2) odd = odd * x2 + yk_[k];
+    return even + x * odd;
   }
   V poly_derivative(double x) const {
     const int p = static_cast<int>(yk_.size()) - 1;
@@ -1211,27 +1290,35 @@ class Flow final : public CellView {
   void guard_series(int i, double slack) { functional_series(i, slack, gc_); }
 
   // The series over the current cell of functional `id` (guard id, or observable id - guards)
-  // plus `slack`, into gc.
+  // plus `slack`, into gc: from the cell's cached forms, else from the state's coefficients.
   void functional_series(int id, double slack, std::vector<double>& gc) const {
-    ensure_coefficients();
     const RegionCells<D>& rc = *rc_;
     const Cell<D>& cell = rc.cells[cur_.k];
+    const int p = cell.order;
+    gc.assign(p + 1, 0.0);
+    if (!cell.fn.empty()) {
+      const typename Cell<D>::Functional& f = cell.fn[id];
+      for (int k = 0; k <= p; ++k) {
+        double v = f.phi[k].dot(cur_.z) + f.r0[k];
+        for (std::size_t j = 0; j < rc.forced.size(); ++j)
+          v += cur_.C[j] * f.rc[j][k] + cur_.S[j] * f.rs[j][k];
+        gc[k] = v;
+      }
+      gc[0] += slack;
+      return;
+    }
+    ensure_coefficients();
     const LinearRegion& reg = sys_.regions[cur_.region];
     const int guards = static_cast<int>(reg.guards.size());
     const LinearGuard& q = id < guards ? reg.guards[id] : reg.observables[id - guards];
-    const int p = static_cast<int>(yk_.size()) - 1;
-    const bool cached = !cell.fn_offsets.empty();
-    if (!cached) functional_terms(sys_, q, cur_.tm, rc.h, p, rows_, offs_);
-    const std::vector<R>& G = cached ? cell.fn_rows[id] : rows_;
-    const std::vector<double>& off = cached ? cell.fn_offsets[id] : offs_;
-    gc.assign(p + 1, 0.0);
-    if (G.empty()) {
+    functional_terms(sys_, q, cur_.tm, rc.h, p, rows_, offs_);
+    if (rows_.empty()) {
       for (int k = 0; k <= p; ++k) gc[k] = q.row.constant.dot(yk_[k]);
     } else {
       for (int k = 0; k <= p; ++k)
-        for (int m = 0; m <= k; ++m) gc[k] += G[m].dot(yk_[k - m]);
+        for (int m = 0; m <= k; ++m) gc[k] += rows_[m].dot(yk_[k - m]);
     }
-    for (int k = 0; k <= p; ++k) gc[k] += off[k];
+    for (int k = 0; k <= p; ++k) gc[k] += offs_[k];
     gc[0] += slack;
   }
 

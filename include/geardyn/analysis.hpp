@@ -112,6 +112,8 @@ class RunReader {
   double min_delta_m() const { return min_delta_; }
   const std::vector<ContactEvent>& events() const { return events_; }
   Timeseries& samples() { return samples_; }
+  // Room for n samples, so that keeping them does not reallocate.
+  void reserve_samples(std::size_t n);
 
  private:
   const GearPairModel& model_;
@@ -168,6 +170,7 @@ class RunFlowObserver final : public ode::FlowObserver {
   RunReader& reader_;
   double k_min_, k_max_;  // bounds of k(t)
   GearPairModel::DriveGrid sample_drive_;
+  ode::Vector point_ = ode::Vector::Zero(2);  // a state inside a cell
 };
 
 }  // namespace geardyn
