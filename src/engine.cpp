@@ -175,8 +175,11 @@ constexpr std::uintmax_t kEventMaxIterations = 200;
 // The rounding level of a guard's polynomial, as a multiple of eps times the sum of its
 // coefficients' magnitudes: the Horner error bound for the orders used, with a margin.
 constexpr double kGuardRounding = 64 * std::numeric_limits<double>::epsilon();
-// The largest forced excursion of a cell along a guard, in units of the guard's scale.
+// The largest forced excursion of a cell along a guard, in units of the guard's scale, and
+// the halvings of a cell spent on it at most (2^-16 of the rate's cell: beyond any physical
+// force on a backlash).
 constexpr double kMaxCellExcursion = 1.0;
+constexpr int kMaxExcursionHalvings = 16;
 // Steps of iterative refinement of a cell's virtual start state at a region entry.
 constexpr int kEntryRefinements = 2;
 // Cells between exact resynchronisations of the forcing phasors.
@@ -704,9 +707,13 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
       // A cell whose forced excursion along a guard exceeds the guard's scale sums large
       // terms to a small state (free flight under a large force): shorter cells keep the
       // digits.
+      bool short_enough = true;
       for (const LinearGuard& q : reg.guards)
         for (const Cell<D>& cell : rc.cells)
-          if (ok) ok = q.row.constant.cwiseAbs().dot(cell.beta) <= kMaxCellExcursion * q.scale;
+          short_enough &= q.row.constant.cwiseAbs().dot(cell.beta) <= kMaxCellExcursion * q.scale;
+      // A force that moves the state across many scales in any cell (or a non-finite one) is
+      // left to the flow, which reports it.
+      if (ok && !short_enough && halving < kMaxExcursionHalvings) ok = false;
       if (ok) break;
       if (halving >= kMaxHalvings || rc.K * 2 > kMaxCellsPerPeriod)
         throw std::invalid_argument(fmt::format(
