@@ -1,9 +1,7 @@
 // Work-precision comparison on the paper's 11 cases (20 ms windows): CPU time to reach
 // max |delta/b - reference| <= 1e-6 and <= 1e-9 at 2000 output times, for
 //
-//   - a plain Boost.Odeint program, written as a user would write it: dopri5 with dense output,
-//     the guards checked at every step end, a crossing located by TOMS 748 on the dense output
-//     and the stepper restarted there; k(t) and F(t) evaluated with std::cos;
+//   - a plain Boost.Odeint program, written as a user would write it (user_odeint.hpp);
 //   - geardyn's exact engine (solver.method = "exact"), its Newmark and its dopri5,
 //
 // each over a ladder of tolerances (or steps); the cheapest setting that meets the accuracy
@@ -13,7 +11,12 @@
 // `--repeat` runs (default 3) of the integration alone: the model (geometry and stiffness) is
 // built once, outside the clock, for every method; the exact engine's cell setup is inside.
 //
-//   ./build/release/bench/work_precision [--repeat N] [--window S]
+// With --windows: the cost against the window length instead, fig4c and fig4d over 0.02, 0.2
+// and 2 s, the exact engine at tolerance 1e-3 and the Odeint program at 1e-9 (their settings
+// for 1e-6 on the 20 ms windows), each with its error against the exact engine at 1e-14, and
+// the cost per simulated second.
+//
+//   ./build/release/bench/work_precision [--repeat N] [--window S] [--windows]
 #include <array>
 #include <boost/math/tools/toms748_solve.hpp>
 #include <boost/numeric/odeint.hpp>
@@ -27,106 +30,14 @@
 
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
+#include "user_odeint.hpp"
 
 namespace {
 
+using bench::user_model;
+using bench::user_odeint;
+using bench::UserModel;
 using Clock = std::chrono::steady_clock;
-
-// ---- The user's program: the model written out by hand, Odeint's dopri5, events by TOMS 748.
-struct UserModel {
-  double m, cb2, b, c, c_free;
-  double k_m;
-  std::vector<std::array<double, 3>> k_terms;  // amplitude, omega, phase
-  double F_m;
-  std::vector<std::array<double, 3>> F_terms;
-};
-
-UserModel user_model(const geardyn::GearPairParameters& p) {
-  UserModel u;
-  u.m = p.equivalent_mass_kg;
-  u.cb2 = p.cos_base_helix * p.cos_base_helix;
-  u.b = p.backlash_m;
-  u.c = p.damping_n_s_per_m;
-  u.c_free = p.damping == geardyn::DampingForm::kAlways ? u.c : 0.0;
-  u.k_m = p.stiffness_n_per_m.offset;
-  for (const auto& h : p.stiffness_n_per_m.terms)
-    u.k_terms.push_back({h.amplitude, h.angular_frequency_rad_s, h.phase_rad});
-  u.F_m = p.force_n.offset;
-  for (const auto& h : p.force_n.terms)
-    u.F_terms.push_back({h.amplitude, h.angular_frequency_rad_s, h.phase_rad});
-  return u;
-}
-
-// Returns delta/b at the output times.
-std::vector<double> user_odeint(const UserModel& u, double t1, const std::vector<double>& times,
-                                double tol) {
-  namespace odeint = boost::numeric::odeint;
-  using X = std::array<double, 2>;  // delta / b, delta' / b
-  int side = 0;                     // 1 drive contact, 0 separated, -1 back contact
-  auto rhs = [&](const X& x, X& dx, double t) {
-    double k = u.k_m, F = u.F_m;
-    for (const auto& h : u.k_terms) k += h[0] * std::cos(h[1] * t + h[2]);
-    for (const auto& h : u.F_terms) F += h[0] * std::cos(h[1] * t + h[2]);
-    double fg = u.c_free * x[1];  // per unit b
-    if (side == 1) fg = k * (x[0] - 1) + u.c * x[1];
-    if (side == -1) fg = k * (x[0] + 1) + u.c * x[1];
-    dx[0] = x[1];
-    dx[1] = (F / u.b - u.cb2 * fg) / u.m;
-  };
-  auto guard = [&](const X& x) {  // >= 0 while in `side`
-    if (side == 1) return x[0] - 1;
-    if (side == -1) return -1 - x[0];
-    return std::min(1 - x[0], x[0] + 1);
-  };
-  auto stepper = odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<X>());
-  X x{0, 0};
-  double t = 0;
-  stepper.initialize(x, t, 1e-8);
-  std::vector<double> out;
-  std::size_t next = 0;
-  while (next < times.size() && times[next] <= t) {
-    out.push_back(x[0]);
-    ++next;
-  }
-  while (t < t1) {
-    stepper.do_step(rhs);
-    double te = stepper.current_time();
-    X xe = stepper.current_state();
-    if (guard(xe) < 0) {  // locate the crossing on the dense output
-      auto g = [&](double tt) {
-        X xx;
-        stepper.calc_state(tt, xx);
-        return guard(xx);
-      };
-      std::uintmax_t it = 100;
-      const double ta = stepper.previous_time();
-      te = boost::math::tools::toms748_solve(g, ta, te,
-                                             boost::math::tools::eps_tolerance<double>(50), it)
-               .second;
-      stepper.calc_state(te, xe);
-      while (next < times.size() && times[next] <= te) {
-        X xs;
-        stepper.calc_state(times[next], xs);
-        out.push_back(xs[0]);
-        ++next;
-      }
-      side = side != 0 ? 0 : (xe[0] > 0 ? 1 : -1);
-      x = xe;
-      t = te;
-      stepper.initialize(x, t, stepper.current_time_step());
-      continue;
-    }
-    while (next < times.size() && times[next] <= te) {
-      X xs;
-      stepper.calc_state(times[next], xs);
-      out.push_back(xs[0]);
-      ++next;
-    }
-    x = xe;
-    t = te;
-  }
-  return out;
-}
 
 // ---- geardyn, through its Solver (the one the runs use).
 std::vector<double> geardyn_run(const geardyn::GearPairModel& model, geardyn::SolverData s,
@@ -157,16 +68,46 @@ double best_time(int repeat, F&& f) {
   return best;
 }
 
+int windows(const geardyn::Study& study, int repeat) {
+  std::printf("%-7s %8s %12s %10s %12s %10s %14s %14s\n", "case", "window_s", "exact_s",
+              "exact_err", "odeint_s", "odeint_err", "exact_s_per_s", "odeint_s_per_s");
+  for (const geardyn::StudyCase& sc : study.cases) {
+    if (sc.id != "fig4c" && sc.id != "fig4d") continue;
+    const geardyn::GearPairModel model = geardyn::build_model(sc.input);
+    const UserModel um = user_model(model.parameters());
+    for (double window : {0.02, 0.2, 2.0}) {
+      const geardyn::ode::OutputGrid grid{0, window / 2000, 2001};
+      std::vector<double> times;
+      for (std::int64_t k = 0; k < grid.count; ++k) times.push_back(grid.time(k));
+      geardyn::SolverData s = sc.input.solver;
+      s.method = geardyn::Method::kExact;
+      s.tolerance = 1e-14;
+      const std::vector<double> ref = geardyn_run(model, s, window, grid);
+      s.tolerance = 1e-3;
+      std::vector<double> a, b;
+      const double te = best_time(repeat, [&] { a = geardyn_run(model, s, window, grid); });
+      const double to = best_time(repeat, [&] { b = user_odeint(um, window, times, 1e-9); });
+      std::printf("%-7s %8.2f %12.3e %10.1e %12.3e %10.1e %14.3e %14.3e\n", sc.id.c_str(), window,
+                  te, max_error(a, ref), to, max_error(b, ref), te / window, to / window);
+    }
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int repeat = 3;
   double window = 0.02;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  bool by_window = false;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--windows")) by_window = true;
+    if (i + 1 >= argc) continue;
     if (!std::strcmp(argv[i], "--repeat")) repeat = std::atoi(argv[i + 1]);
     if (!std::strcmp(argv[i], "--window")) window = std::atof(argv[i + 1]);
   }
   const geardyn::Study study = geardyn::park2010_study();
+  if (by_window) return windows(study, repeat);
   const std::vector<double> targets = {1e-6, 1e-9};
   const std::vector<double> tols = {1e-3, 1e-4,  1e-5,  1e-6,  1e-7, 1e-8,
                                     1e-9, 1e-10, 1e-11, 1e-12, 1e-13};
