@@ -69,10 +69,13 @@ std::vector<double> sweep_geardyn(bool up, geardyn::ode::State& carry, double to
     const double t1 = kPeriods * T;
     const geardyn::ode::OutputGrid grid{(kPeriods - kMeasuredPeriods) * T, T / kSamplesPerPeriod,
                                         kMeasuredPeriods * kSamplesPerPeriod + 1};
-    geardyn::RunReader reader(model, 0, t1, 0.1, false, true);
+    // Settle unread, then read the last periods (as geardyn sweep does).
     geardyn::ode::State start = carry;
     start.t = 0;
-    const auto sum = solver.run(start, t1, grid, reader);
+    const double t_read = (kPeriods - kMeasuredPeriods) * T;
+    const auto settled = solver.advance(start, t_read);
+    geardyn::RunReader reader(model, t_read, t1, 0.1, false, true);
+    const auto sum = settled.ok() ? solver.run(settled.end_state, t1, grid, reader) : settled;
     if (!sum.ok())
       std::fprintf(stderr, "geardyn failed at Omega = %g: %s\n", w, sum.message.c_str());
     carry = sum.end_state;

@@ -142,8 +142,8 @@ std::string EngineOptions::validate() const {
     return fmt::format("tolerance = {}: must be in (0, 1e-3)", tolerance);
   if (!(cell_rate_product >= 0.05 && cell_rate_product <= 4))
     return fmt::format("cell_rate_product = {}: must be in [0.05, 4]", cell_rate_product);
-  if (max_order < 8 || max_order > 96)
-    return fmt::format("max_order = {}: must be in [8, 96]", max_order);
+  if (max_order < 8 || max_order > kMaxOrderAllowed)
+    return fmt::format("max_order = {}: must be in [8, {}]", max_order, kMaxOrderAllowed);
   if (max_events_per_cell < 2)
     return fmt::format("max_events_per_cell = {}: must be >= 2", max_events_per_cell);
   if (progress_interval_cells < 1)
@@ -497,13 +497,22 @@ double horner(const double* c, int p, double x) {
   return v;
 }
 
-// Binomial coefficients up to the largest order.
+// Binomial coefficients up to the largest order, and the ratios C(i, k) / C(p, k) that turn
+// power coefficients of degree p into Bernstein ones (no division in the conversion).
 struct Binomials {
   std::vector<std::vector<double>> c;
-  explicit Binomials(int n) : c(n + 1) {
+  std::vector<std::vector<std::vector<double>>> ratio;  // [p][i][k], k <= i <= p
+  explicit Binomials(int n) : c(n + 1), ratio(n + 1) {
     for (int i = 0; i <= n; ++i) {
       c[i].assign(i + 1, 1.0);
       for (int j = 1; j < i; ++j) c[i][j] = c[i - 1][j - 1] + c[i - 1][j];
+    }
+    for (int p = 0; p <= n; ++p) {
+      ratio[p].resize(p + 1);
+      for (int i = 0; i <= p; ++i) {
+        ratio[p][i].resize(i + 1);
+        for (int k = 0; k <= i; ++k) ratio[p][i][k] = c[i][k] / c[p][k];
+      }
     }
   }
 };
@@ -515,9 +524,21 @@ struct Binomials {
 class RootFinder {
  public:
   // The subdivision buffers are sized once: the recursion holds references into them.
-  explicit RootFinder(int max_order) : binom_(max_order), scratch_(kMaxSubdivisions + 1) {}
+  RootFinder() : binom_(shared_binomials()), scratch_(kMaxSubdivisions + 1) {}
 
   std::optional<double> first_crossing(const std::vector<double>& c, double a, double b) {
+    // A lower bound from the coefficients' signs (0 <= a <= x <= b <= 1, so x^k lies between
+    // a^k and b^k): positive, no crossing, and no search.
+    {
+      const int p = static_cast<int>(c.size()) - 1;
+      double lower = c[0], ak = 1, bk = 1;
+      for (int k = 1; k <= p; ++k) {
+        ak *= a;
+        bk *= b;
+        lower += c[k] >= 0 ? c[k] * ak : c[k] * bk;
+      }
+      if (lower > 0) return std::nullopt;
+    }
     p_ = static_cast<int>(c.size()) - 1;
     coef_ = c;
     bernstein(c, a, b, bern_);
@@ -527,9 +548,10 @@ class RootFinder {
     return search(bern_, 0.0, 1.0, 0);
   }
 
-  // The largest value of P over [a, b], and where (x_at): the hull of P on [a, b] first (no
-  // search when it cannot exceed `floor`; the result is then <= floor), then the endpoints and
-  // every root of P' at which it turns from positive to negative (a local maximum).
+  // The largest value of P over [a, b], and where (x_at): a bound from the coefficients' signs
+  // first (no search when it cannot exceed `floor`; the result is then <= floor), then the
+  // endpoints and every root of P' at which it turns from positive to negative (a local
+  // maximum), found by the Bernstein search.
   double maximum(const std::vector<double>& c, double a, double b, double floor, double& x_at) {
     const int p = static_cast<int>(c.size()) - 1;
     // Bounds from the signs of the coefficients (0 <= a <= x <= b <= 1): an upper bound, and
@@ -550,11 +572,6 @@ class RootFinder {
     if (rising || falling) {
       x_at = rising ? b : a;
       return std::max(floor, horner(c.data(), p, x_at));
-    }
-    bernstein(c, a, b, hull_);
-    if (*std::max_element(hull_.begin(), hull_.end()) <= floor) {
-      x_at = a;
-      return floor;
     }
     double best = horner(c.data(), p, a);
     x_at = a;
@@ -638,29 +655,53 @@ class RootFinder {
       scale *= (b - a);
     }
     bern.resize(p + 1);
+    const std::vector<std::vector<double>>& ratio = binom_.ratio[p];
     for (int i = 0; i <= p; ++i) {
       double s = 0;
-      for (int k = 0; k <= i; ++k) s += binom_.c[i][k] / binom_.c[p][k] * q_[k];
+      for (int k = 0; k <= i; ++k) s += ratio[i][k] * q_[k];
       bern[i] = s;
     }
   }
 
-  // The root of P in [x0, x1], P(x0) > 0 >= P(x1): the side where P <= 0.
+  // The root of P in [x0, x1], P(x0) > 0 >= P(x1), the only sign change there: the side where
+  // P <= 0. Newton's method on the polynomial, kept inside the bracket (a bisection where a
+  // step would leave it); the bracket closes to kEventBits.
   double locate(double x0, double x1) const {
-    const double p0 = horner(coef_.data(), p_, x0), p1 = horner(coef_.data(), p_, x1);
-    if (!(p0 > 0)) return x0;
-    if (!(p1 <= 0)) return x1;  // rounding of the hull: the crossing is at the end
-    std::uintmax_t it = kEventMaxIterations;
-    auto f = [this](double x) { return horner(coef_.data(), p_, x); };
-    return boost::math::tools::toms748_solve(
-               f, x0, x1, p0, p1, boost::math::tools::eps_tolerance<double>(kEventBits), it)
-        .second;
+    double lo = x0, hi = x1;
+    const double p0 = horner(coef_.data(), p_, lo), p1 = horner(coef_.data(), p_, hi);
+    if (!(p0 > 0)) return lo;
+    if (!(p1 <= 0)) return hi;  // rounding of the hull: the crossing is at the end
+    const double resolution = std::ldexp(1.0, -kEventBits);
+    double x = lo + (hi - lo) * p0 / (p0 - p1);  // a secant start
+    for (std::uintmax_t it = 0; it < kEventMaxIterations && hi - lo > resolution * (1 + hi); ++it) {
+      double v = coef_[p_], dv = 0;
+      for (int k = p_ - 1; k >= 0; --k) {
+        dv = dv * x + v;
+        v = v * x + coef_[k];
+      }
+      if (v > 0) {
+        lo = x;
+      } else {
+        hi = x;
+      }
+      double next = dv != 0 ? x - v / dv : 0.5 * (lo + hi);
+      // Newton from one side never closes the bracket: step just past the estimate.
+      next += (v > 0 ? 1 : -1) * resolution * (1 + std::abs(next));
+      x = (next > lo && next < hi) ? next : 0.5 * (lo + hi);
+    }
+    return hi;
   }
 
-  Binomials binom_;
+  // The tables for every order the options allow, built once for all flows.
+  static const Binomials& shared_binomials() {
+    static const Binomials table(kMaxOrderAllowed);
+    return table;
+  }
+
+  const Binomials& binom_;
   int p_ = 0;
   int nodes_ = 0;
-  std::vector<double> coef_, bern_, hull_, q_, d_, minus_;
+  std::vector<double> coef_, bern_, q_, d_, minus_;
   std::vector<std::array<std::vector<double>, 3>> scratch_;  // per subdivision depth
   double a_ = 0, w_ = 1;
 };
@@ -677,12 +718,13 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
   {
     const LinearRegion& reg = sys.regions[r];
     RegionCells<D> rc;
-    const bool periodic =
-        reg.a.varies() || std::any_of(reg.guards.begin(), reg.guards.end(),
-                                      [](const LinearGuard& q) { return q.row.varies(); });
     for (std::size_t f = 0; f < w.size(); ++f)
       if (reg.u.varies() && (reg.u.cos[f].any() || reg.u.sin[f].any()))
         rc.forced.push_back(static_cast<int>(f));
+    const double T = sys.coefficient_period_s;
+    const bool periodic =
+        reg.a.varies() || std::any_of(reg.guards.begin(), reg.guards.end(),
+                                      [](const LinearGuard& q) { return q.row.varies(); });
     // The static state: A0 y + u0 = 0 where A0 is invertible.
     rc.y_ref = V::Zero(n);
     Eigen::FullPivLU<Matrix> lu(reg.a.constant);
@@ -691,7 +733,6 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
       if (y.allFinite()) rc.y_ref = y;
     }
     if (periodic) {
-      const double T = sys.coefficient_period_s;
       rc.K = static_cast<int>(std::min<double>(
           kMaxCellsPerPeriod, std::max(1.0, std::ceil(T * rho / options.cell_rate_product))));
       rc.h = T / rc.K;
@@ -737,7 +778,6 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
     // Cache the functionals' series where every cell has a fixed phase: the coefficient
     // period's frequencies, which the validation holds rows to; offsets only if theirs fit.
     if (periodic) {
-      const double T = sys.coefficient_period_s;
       bool offsets_fit = true;
       for (const auto* list : {&reg.guards, &reg.observables})
         for (const LinearGuard& q : *list)
@@ -884,7 +924,7 @@ class Flow final : public CellView {
 
  public:
   Flow(const LinearSwitchedSystem& sys, const LazyRegions<D>& regions, const EngineOptions& opt)
-      : sys_(sys), regions_(regions), opt_(opt), roots_(opt.max_order), n_(sys.dimension) {}
+      : sys_(sys), regions_(regions), opt_(opt), n_(sys.dimension) {}
 
   // A region's cells are built on first entry; if its series do not converge the flow ends
   // there with the reason.

@@ -88,10 +88,18 @@ ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
       break;
   }
   RunFlowObserver observer(model_, reader, grid);
-  ode::Vector y0(2);
-  y0 << initial.q, initial.v;
-  const ode::FlowResult f = engine_->flow(
-      initial.t, y0, initial.region - GearPairModel::kFirstRegion, t1, grid, observer);
+  return summary(engine_->flow(initial.t, to_vector(initial),
+                               initial.region - GearPairModel::kFirstRegion, t1, grid, observer));
+}
+
+ode::Vector Solver::to_vector(const ode::State& s) {
+  ode::Vector y(2);
+  y << s.q, s.v;
+  return y;
+}
+
+ode::IntegrationSummary Solver::summary(const ode::FlowResult& f) const {
+  const GearPairParameters& p = model_.parameters();
   ode::IntegrationSummary sum;
   sum.termination = f.termination;
   sum.message = f.message;
@@ -104,6 +112,38 @@ ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
       f.end_time_s, q, v,
       model_.force(model_.drive(f.end_time_s), q, v, region).value / p.equivalent_mass_kg, region};
   return sum;
+}
+
+namespace {
+// An observer of the steppers that looks at nothing.
+struct Unread {
+  void on_step(const ode::State&, const GearPairModel::Drive&) {}
+  void on_transition(const ode::State&, int) {}
+  void on_sample(const ode::State&) {}
+  bool on_progress(double) { return true; }
+};
+}  // namespace
+
+ode::IntegrationSummary Solver::advance(const ode::State& initial, double t1) const {
+  const GearPairParameters& p = model_.parameters();
+  Unread unread;
+  switch (s_.method) {
+    case Method::kNewmark:
+      return ode::integrate_newmark(model_, initial, t1, dt_, ode::OutputGrid{}, unread);
+    case Method::kDopri5: {
+      ode::Dopri5Options o;
+      o.relative_tolerance = s_.tolerance;
+      o.absolute_tolerance = s_.tolerance * p.backlash_m;
+      o.initial_step_s = fastest_period_s(p) * 1e-4;
+      return ode::integrate_dopri5(model_, initial, t1, ode::OutputGrid{}, unread, o);
+    }
+    case Method::kExact:
+      break;
+  }
+  ode::FlowObserver nothing;
+  return summary(engine_->flow(initial.t, to_vector(initial),
+                               initial.region - GearPairModel::kFirstRegion, t1, ode::OutputGrid{},
+                               nothing));
 }
 
 RunResult run(const Case& c, const RunOptions& options) {

@@ -96,8 +96,7 @@ class PointRunner {
                       ode::to_string(sum.termination), sum.message));
     };
     if (o_.settle_periods > 0) {
-      RunReader settle(model, s.t, s.t + o_.settle_periods * period, 0.1, false, false);
-      const auto sum = solver.run(s, s.t + o_.settle_periods * period, ode::OutputGrid{}, settle);
+      const auto sum = solver.advance(s, s.t + o_.settle_periods * period);
       if (!sum.ok()) fail(sum);
       s = sum.end_state;
     }

@@ -197,9 +197,10 @@ TEST(Cli, SweepWritesItsResults) {
 
 TEST(Cli, InterruptedSweepKeepsTheCompletedPoints) {
   const fs::path d = fresh("sweep_int");
-  // SIGINT after half a second, into a sweep that takes far longer.
+  // SIGINT after a second, into a sweep that takes far longer (Newmark at a fine step).
   const Outcome o =
-      cli("sweep --set solver.initial='\"static\"' --param speed.shaft_frequency_hz "
+      cli("sweep --set solver.initial='\"static\"' --set solver.method='\"newmark\"' "
+          "--set solver.time_step_s=1e-8 --param speed.shaft_frequency_hz "
           "--from 1000 --to 4000 --points 400 --out " +
           d.string() + " & pid=$!; sleep 1; kill -INT $pid; wait $pid");
   EXPECT_EQ(o.code, 130) << o.err;

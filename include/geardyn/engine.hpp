@@ -45,6 +45,9 @@ namespace geardyn::ode {
 // The finest relative truncation a cell series can be summed to in doubles.
 constexpr double kRoundingLimit = 1e-16;
 
+// The highest series order EngineOptions::max_order may ask for.
+constexpr int kMaxOrderAllowed = 96;
+
 struct EngineOptions {
   // Relative truncation of the cell series, entry by entry (the engine's accuracy). Values
   // below kRoundingLimit are raised to it: the series cannot be summed more finely in doubles.

@@ -89,11 +89,16 @@ class Solver {
   // From `initial` to t1, samples on `grid`, read by `reader`.
   ode::IntegrationSummary run(const ode::State& initial, double t1, const ode::OutputGrid& grid,
                               RunReader& reader) const;
+  // From `initial` to t1 with nothing read (a settling phase): the end state and the outcome.
+  ode::IntegrationSummary advance(const ode::State& initial, double t1) const;
   // The Newmark step actually taken (0 for the other methods).
   double time_step_s() const { return dt_; }
   const ode::ExactEngine* engine() const { return engine_.get(); }
 
  private:
+  static ode::Vector to_vector(const ode::State& s);
+  ode::IntegrationSummary summary(const ode::FlowResult& f) const;
+
   const GearPairModel& model_;
   SolverData s_;
   double dt_ = 0;
