@@ -6,7 +6,6 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <array>
-#include <boost/math/tools/toms748_solve.hpp>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -169,7 +168,8 @@ constexpr int kMaxSearchNodes = 2048;
 // Local maxima of one stretch looked at: a stretch is shorter than the fastest period of its
 // region, so a polynomial of it has one or two.
 constexpr int kMaxLocalExtremes = 16;
-// Bits to which a crossing is located (TOMS 748), of a cell's length.
+// Bits to which a crossing is located (safeguarded Newton on the polynomial), of a cell's
+// length, and the iterations that may take.
 constexpr int kEventBits = 52;
 constexpr std::uintmax_t kEventMaxIterations = 200;
 // The rounding level of a guard's polynomial, as a multiple of eps times the sum of its

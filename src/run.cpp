@@ -73,16 +73,11 @@ Solver::~Solver() = default;
 
 ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
                                     const ode::OutputGrid& grid, RunReader& reader) const {
-  const GearPairParameters& p = model_.parameters();
   switch (s_.method) {
     case Method::kNewmark:
       return ode::integrate_newmark(model_, initial, t1, dt_, grid, reader);
     case Method::kDopri5: {
-      ode::Dopri5Options o;
-      o.relative_tolerance = s_.tolerance;
-      o.absolute_tolerance = s_.tolerance * p.backlash_m;
-      o.initial_step_s = fastest_period_s(p) * 1e-4;
-      return ode::integrate_dopri5(model_, initial, t1, grid, reader, o);
+      return ode::integrate_dopri5(model_, initial, t1, grid, reader, dopri5_options());
     }
     case Method::kExact:
       break;
@@ -90,6 +85,15 @@ ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
   RunFlowObserver observer(model_, reader, grid);
   return summary(engine_->flow(initial.t, to_vector(initial),
                                initial.region - GearPairModel::kFirstRegion, t1, grid, observer));
+}
+
+ode::Dopri5Options Solver::dopri5_options() const {
+  const GearPairParameters& p = model_.parameters();
+  ode::Dopri5Options o;
+  o.relative_tolerance = s_.tolerance;
+  o.absolute_tolerance = s_.tolerance * p.backlash_m;
+  o.initial_step_s = fastest_period_s(p) * 1e-4;
+  return o;
 }
 
 ode::Vector Solver::to_vector(const ode::State& s) {
@@ -125,17 +129,13 @@ struct Unread {
 }  // namespace
 
 ode::IntegrationSummary Solver::advance(const ode::State& initial, double t1) const {
-  const GearPairParameters& p = model_.parameters();
   Unread unread;
   switch (s_.method) {
     case Method::kNewmark:
       return ode::integrate_newmark(model_, initial, t1, dt_, ode::OutputGrid{}, unread);
     case Method::kDopri5: {
-      ode::Dopri5Options o;
-      o.relative_tolerance = s_.tolerance;
-      o.absolute_tolerance = s_.tolerance * p.backlash_m;
-      o.initial_step_s = fastest_period_s(p) * 1e-4;
-      return ode::integrate_dopri5(model_, initial, t1, ode::OutputGrid{}, unread, o);
+      return ode::integrate_dopri5(model_, initial, t1, ode::OutputGrid{}, unread,
+                                   dopri5_options());
     }
     case Method::kExact:
       break;

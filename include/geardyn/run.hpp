@@ -96,6 +96,7 @@ class Solver {
   const ode::ExactEngine* engine() const { return engine_.get(); }
 
  private:
+  ode::Dopri5Options dopri5_options() const;
   static ode::Vector to_vector(const ode::State& s);
   ode::IntegrationSummary summary(const ode::FlowResult& f) const;
 
