@@ -8,6 +8,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <complex>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -184,6 +185,9 @@ constexpr int kMaxExcursionHalvings = 16;
 constexpr int kEntryRefinements = 2;
 // Cells between exact resynchronisations of the forcing phasors.
 constexpr std::int64_t kPhasorResyncCells = 256;
+// Cells in one steady jump of a constant-coefficient region without forcing, and at most with.
+constexpr int kSteadyBlockCells = 16;
+constexpr int kMaxSteadyBlockCells = 4096;
 
 // The Taylor series of one cell, in the scaled variable x = s / h in [0, 1]: a term k is the
 // k-th coefficient times h^k.
@@ -239,6 +243,16 @@ struct RegionCells {
   V beta_T;
   std::vector<double> rot_cos_T, rot_sin_T;  // cos, sin of w_f K h
   std::vector<double> guard_offset_swing_T;  // bound of the offsets' change over a period
+  int jump_cells = 0;                        // cells in one jump (K, or the steady block)
+
+  // Constant coefficients whose forced response has a bounded periodic part
+  // y_p(t) = y_ref + sum_j (pc_j cos w_j t + ps_j sin w_j t): blocks of jump_cells cells are
+  // jumped around it, with |y(s) - y_p(s)| <= alpha_T |y(0) - y_p(0)| over a block (phi_T is
+  // the block's map) and every guard at y_p(t) at least guard_floor.
+  bool steady_jumps = false;
+  std::vector<V> pc, ps;
+  V p_swing;                        // sum_j sqrt(pc_j^2 + ps_j^2), entrywise
+  std::vector<double> guard_floor;  // min over t of guard i at y_p(t)
 };
 
 // The period quantities of RegionCells from its cells (see there).
@@ -284,7 +298,82 @@ void build_period(const LinearSwitchedSystem& sys, RegionCells<D>& rc) {
   }
   rc.guard_offset_swing_T.clear();
   for (std::size_t i = 0; i < rc.guard_varies.size(); ++i) rc.guard_offset_swing_T.push_back(0);
+  rc.jump_cells = rc.K;
   rc.period_jumps = rc.alpha_T.allFinite() && rc.beta_T.allFinite();
+}
+
+// The steady-jump quantities of RegionCells for a region of constant coefficients (see there):
+// the periodic particular solution solves (A0 + i w I)(pc + i ps) = -(uc + i us) per forced
+// frequency; none exists when A0 is singular or a forced frequency is an eigenfrequency.
+template <int D>
+void build_steady_jumps(const LinearSwitchedSystem& sys, const LinearRegion& reg,
+                        RegionCells<D>& rc) {
+  using M = Eigen::Matrix<double, D, D>;
+  using V = Eigen::Matrix<double, D, 1>;
+  using CM = Eigen::Matrix<std::complex<double>, D, D>;
+  using CV = Eigen::Matrix<std::complex<double>, D, 1>;
+  const int n = sys.dimension;
+  const auto& w = sys.frequencies_rad_s;
+  if (!Eigen::FullPivLU<Matrix>(reg.a.constant).isInvertible()) return;
+  rc.pc.clear();
+  rc.ps.clear();
+  rc.p_swing = V::Zero(n);
+  double w_min = 0;
+  for (int f : rc.forced) {
+    CM a = reg.a.constant.template cast<std::complex<double>>();
+    a.diagonal().array() += std::complex<double>(0, w[f]);
+    Eigen::FullPivLU<CM> lu(a);
+    if (!lu.isInvertible()) return;
+    CV rhs(n);
+    for (int i = 0; i < n; ++i) rhs(i) = -std::complex<double>(reg.u.cos[f](i), reg.u.sin[f](i));
+    const CV x = lu.solve(rhs);
+    if (!x.allFinite()) return;
+    rc.pc.push_back(x.real());
+    rc.ps.push_back(x.imag());
+    rc.p_swing += x.cwiseAbs();
+    w_min = (w_min == 0) ? w[f] : std::min(w_min, w[f]);
+  }
+  // A block: one period of the slowest forcing (kSteadyBlockCells cells without forcing).
+  rc.jump_cells = (w_min > 0)
+                      ? static_cast<int>(std::clamp(std::ceil(2 * std::numbers::pi / w_min / rc.h),
+                                                    1.0, static_cast<double>(kMaxSteadyBlockCells)))
+                      : kSteadyBlockCells;
+  const Cell<D>& cell = rc.cells[0];
+  const M I = M::Identity(n, n);
+  M phi = I;
+  rc.alpha_T = M::Zero(n, n);
+  for (int k = 0; k < rc.jump_cells; ++k) {
+    rc.alpha_T = rc.alpha_T.cwiseMax((I + cell.alpha) * phi.cwiseAbs());
+    phi = cell.phi_end * phi;
+  }
+  rc.phi_T = phi;
+  // The guards along y_p: constant part minus the amplitude of each frequency's part.
+  rc.guard_floor.clear();
+  for (const LinearGuard& q : reg.guards) {
+    double floor = q.row.constant.dot(rc.y_ref) + q.offset.constant;
+    for (std::size_t f = 0; f < w.size(); ++f) {
+      double a = (f < q.offset.cos.size()) ? q.offset.cos[f] : 0.0;
+      double b = (f < q.offset.sin.size()) ? q.offset.sin[f] : 0.0;
+      for (std::size_t j = 0; j < rc.forced.size(); ++j)
+        if (rc.forced[j] == static_cast<int>(f)) {
+          a += q.row.constant.dot(rc.pc[j]);
+          b += q.row.constant.dot(rc.ps[j]);
+        }
+      floor -= std::hypot(a, b);
+    }
+    rc.guard_floor.push_back(floor);
+  }
+  const double T = rc.jump_cells * rc.h;
+  rc.rot_cos_T.clear();
+  rc.rot_sin_T.clear();
+  for (int f : rc.forced) {
+    rc.rot_cos_T.push_back(std::cos(w[f] * T));
+    rc.rot_sin_T.push_back(std::sin(w[f] * T));
+  }
+  rc.steady_jumps = rc.alpha_T.allFinite() && rc.phi_T.allFinite() && rc.p_swing.allFinite() &&
+                    std::all_of(rc.guard_floor.begin(), rc.guard_floor.end(),
+                                [](double g) { return std::isfinite(g); });
+  rc.period_jumps = rc.steady_jumps;
 }
 
 // Scaled Taylor coefficients (w h)^m / m! cos(w t0 + m pi/2), ... for m = 0 .. p.
@@ -647,8 +736,9 @@ class RootFinder {
     const int p = static_cast<int>(c.size()) - 1;
     // Q(u) = P(a + (b - a) u): Taylor shift by a, then scale.
     q_ = c;
-    for (int i = 0; i < p; ++i)
-      for (int j = p - 1; j >= i; --j) q_[j] += a * q_[j + 1];
+    if (a != 0)
+      for (int i = 0; i < p; ++i)
+        for (int j = p - 1; j >= i; --j) q_[j] += a * q_[j + 1];
     double scale = 1;
     for (int k = 0; k <= p; ++k) {
       q_[k] *= scale;
@@ -796,6 +886,7 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
     }
     const bool rows_constant =
         std::none_of(rc.guard_varies.begin(), rc.guard_varies.end(), [](bool v) { return v; });
+    if (!periodic) build_steady_jumps(sys, reg, rc);
     if (rc.K >= 2 && rows_constant) {
       build_period(sys, rc);
       for (std::size_t i = 0; i < reg.guards.size(); ++i) {
@@ -982,7 +1073,7 @@ class Flow final : public CellView {
       // A whole coefficient period at once where no guard can cross, no sample falls and the
       // observer needs no detail.
       if (rc.period_jumps && cur_.k == 0 && t == cur_.tm) {
-        const double t_end = cur_.tm + rc.K * rc.h;
+        const double t_end = cur_.tm + rc.jump_cells * rc.h;
         const bool sample_inside = next_sample < out.count && out.time(next_sample) < t_end;
         if (t_end < t1 && !sample_inside && jump_period(t_end, obs)) {
           t = cur_.tm;
@@ -990,8 +1081,8 @@ class Flow final : public CellView {
           out_ = y;
           obs.on_step(t, out_, cur_.region);
           ++res.periods;
-          res.cells += rc.K;
-          since_progress += rc.K;
+          res.cells += rc.jump_cells;
+          since_progress += rc.jump_cells;
           if (since_progress >= opt_.progress_interval_cells) {
             since_progress = 0;
             if (!obs.on_progress(t))
@@ -1188,19 +1279,17 @@ class Flow final : public CellView {
       return;
     }
     // The virtual start: the state at t_m from which the cell's series pass through y at t.
+    // The series at x are linear in z: Phi(x) z + f(x), f the forced response alone.
     const M P = phi_at(x);
     cur_.z = V::Zero(n_);
     coeffs_ready_ = false;
-    ensure_coefficients();  // with z = 0: the forced response alone
+    ensure_coefficients();
+    const V f = poly(x);
     const Eigen::PartialPivLU<M> lu(P);
-    cur_.z = lu.solve(y - poly(x));
+    cur_.z = lu.solve(y - f);
     // Phi is badly scaled in physical units (q and q' differ by the rates): refine the solve
     // until the cell's series pass through y to rounding, so that the guard slack holds.
-    for (int i = 0; i < kEntryRefinements; ++i) {
-      coeffs_ready_ = false;
-      ensure_coefficients();
-      cur_.z += lu.solve(y - poly(x));
-    }
+    for (int i = 0; i < kEntryRefinements; ++i) cur_.z += lu.solve(y - (P * cur_.z + f));
     coeffs_ready_ = false;
     if (jac_) J_ = lu.solve(J_);
   }
@@ -1221,6 +1310,7 @@ class Flow final : public CellView {
   // the observer needs no detail; false, and nothing changed, otherwise.
   bool jump_period(double t_end, FlowObserver& obs) {
     const RegionCells<D>& rc = *rc_;
+    if (rc.steady_jumps) return jump_steady(t_end, obs);
     dev_ = (cur_.z - rc.y_ref).cwiseAbs();
     delta_.noalias() = rc.alpha_T * dev_;
     delta_ += rc.beta_T;
@@ -1265,6 +1355,60 @@ class Flow final : public CellView {
         cur_.S[j] = s;
       }
     }
+    return true;
+  }
+
+  // jump_period for a constant-coefficient region, around its periodic particular solution.
+  bool jump_steady(double t_end, FlowObserver& obs) {
+    const RegionCells<D>& rc = *rc_;
+    const std::size_t nf = rc.forced.size();
+    out_ = rc.y_ref;  // y_p at the block's start
+    for (std::size_t j = 0; j < nf; ++j) out_ += cur_.C[j] * rc.pc[j] + cur_.S[j] * rc.ps[j];
+    dev_ = cur_.z - out_;
+    delta_.noalias() = rc.alpha_T * dev_.cwiseAbs();
+    const LinearRegion& reg = sys_.regions[cur_.region];
+    for (std::size_t i = 0; i < reg.guards.size(); ++i)
+      if (!(rc.guard_floor[i] + kGuardSlack * reg.guards[i].scale -
+                rc.guard_abs_row[i].dot(delta_) >
+            0))
+        return false;
+    t_begin_s = cur_.tm;
+    t_end_s = t_end;
+    this->region = cur_.region;
+    lower_ = rc.y_ref - rc.p_swing - delta_;
+    upper_ = rc.y_ref + rc.p_swing + delta_;
+    lower = &lower_;
+    upper = &upper_;
+    if (obs.needs_detail(*this)) return false;
+    // The block's end: the deviation from y_p maps by phi_T, the phasors rotate.
+    znext_.noalias() = rc.phi_T * dev_;
+    znext_ += rc.y_ref;
+    for (std::size_t j = 0; j < nf; ++j) {
+      const double c = cur_.C[j] * rc.rot_cos_T[j] - cur_.S[j] * rc.rot_sin_T[j];
+      const double s = cur_.S[j] * rc.rot_cos_T[j] + cur_.C[j] * rc.rot_sin_T[j];
+      znext_ += c * rc.pc[j] + s * rc.ps[j];
+    }
+    if (!znext_.allFinite()) return false;  // the cells then report the divergence
+    cur_.m += rc.jump_cells;
+    cur_.tm = static_cast<double>(cur_.m) * rc.h;
+    cur_.since_resync += rc.jump_cells;
+    if (cur_.since_resync >= kPhasorResyncCells) {
+      resync();
+      // y_p at the exact phase, so that the end state agrees with the resynchronised phasors.
+      znext_.noalias() = rc.phi_T * dev_;
+      znext_ += rc.y_ref;
+      for (std::size_t j = 0; j < nf; ++j) znext_ += cur_.C[j] * rc.pc[j] + cur_.S[j] * rc.ps[j];
+    } else {
+      for (std::size_t j = 0; j < nf; ++j) {
+        const double c = cur_.C[j] * rc.rot_cos_T[j] - cur_.S[j] * rc.rot_sin_T[j];
+        const double s = cur_.S[j] * rc.rot_cos_T[j] + cur_.C[j] * rc.rot_sin_T[j];
+        cur_.C[j] = c;
+        cur_.S[j] = s;
+      }
+    }
+    cur_.z.swap(znext_);
+    coeffs_ready_ = false;
+    if (jac_) J_ = rc.phi_T * J_;
     return true;
   }
 

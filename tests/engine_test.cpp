@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <complex>
@@ -108,6 +109,89 @@ TEST(ExactEngine, DampedForcedOscillatorMatchesItsClosedForm) {
     EXPECT_NEAR(rec.y[i][0], x, kClosedFormTolerance * (x0 + std::abs(H))) << "t = " << t;
   }
   EXPECT_GT(amplitude, 0.01);
+}
+
+// x'' + 2 zeta wn x' + wn^2 x = F cos(W t) from (x0, v0): the steady response Re(H e^{iWt})
+// plus the damped free vibration.
+struct ForcedOscillator {
+  double wn, zeta, F, W;
+  std::complex<double> H() const {
+    return F / std::complex<double>(wn * wn - W * W, 2 * zeta * wn * W);
+  }
+  // (x, v) at t.
+  std::array<double, 2> at(double t, double x0, double v0) const {
+    const double wd = wn * std::sqrt(1 - zeta * zeta), s = zeta * wn;
+    const std::complex<double> h = H();
+    const double A = x0 - h.real();
+    const double B = (v0 + W * h.imag() + s * A) / wd;
+    const std::complex<double> p = h * std::exp(std::complex<double>(0, W * t));
+    const std::complex<double> dp = std::complex<double>(0, W) * p;
+    const double e = std::exp(-s * t), c = std::cos(wd * t), si = std::sin(wd * t);
+    return {p.real() + e * (A * c + B * si),
+            dp.real() + e * (-s * (A * c + B * si) + wd * (-A * si + B * c))};
+  }
+};
+
+TEST(ExactEngine, SteadyJumpsOfAConstantRegionMatchTheClosedForm) {
+  // Constant coefficients under harmonic forcing: without samples the engine jumps blocks of
+  // one forcing period around the periodic response. The end state and the Jacobian (the
+  // free vibration's fundamental matrix) match the closed form.
+  const ForcedOscillator o{50.0, 0.03, 4.0, 37.0};
+  const ExactEngine e(oscillator(o.wn * o.wn, 2 * o.zeta * o.wn, 0, o.F, o.W));
+  FlowObserver none;
+  Vector y0(2);
+  y0 << 0.02, -0.3;
+  for (double t1 : {0.5, 3.0, 30.0}) {
+    const FlowResult r = e.flow(0, y0, 0, t1, OutputGrid{}, none, true);
+    ASSERT_TRUE(r.ok()) << r.message;
+    EXPECT_GT(r.periods, 0) << "t1 = " << t1;  // the blocks were jumped
+    const auto y = o.at(t1, y0[0], y0[1]);
+    const double scale = std::abs(o.H()) + std::abs(y0[0]);
+    EXPECT_NEAR(r.state[0], y[0], kClosedFormTolerance * scale) << "t1 = " << t1;
+    EXPECT_NEAR(r.state[1], y[1], kClosedFormTolerance * scale * o.wn) << "t1 = " << t1;
+    // Columns of the Jacobian: the free vibration from unit x0 and unit v0.
+    const ForcedOscillator free{o.wn, o.zeta, 0.0, o.W};
+    const auto jx = free.at(t1, 1, 0), jv = free.at(t1, 0, 1);
+    ASSERT_TRUE(r.jacobian);
+    const Matrix& J = *r.jacobian;
+    EXPECT_NEAR(J(0, 0), jx[0], kClosedFormTolerance) << "t1 = " << t1;
+    EXPECT_NEAR(J(1, 0), jx[1], kClosedFormTolerance * o.wn) << "t1 = " << t1;
+    EXPECT_NEAR(J(0, 1), jv[0], kClosedFormTolerance / o.wn) << "t1 = " << t1;
+    EXPECT_NEAR(J(1, 1), jv[1], kClosedFormTolerance) << "t1 = " << t1;
+  }
+}
+
+TEST(ExactEngine, SteadyJumpsDoNotSkipALateCrossing) {
+  // Negative damping: the state starts a hair off the periodic response and the deviation
+  // grows, so the blocks are jumped at first and a guard at x = -1.1 |H| is crossed only
+  // after many forcing periods. The event is found at the closed form's first crossing.
+  const ForcedOscillator o{50.0, -0.01, 4.0, 10.0};
+  const std::complex<double> H = o.H();
+  const double level = -1.1 * std::abs(H);
+  LinearSwitchedSystem s = oscillator(o.wn * o.wn, 2 * o.zeta * o.wn, 0, o.F, o.W);
+  s.regions[0].guards[0].row.constant << 1, 0;
+  s.regions[0].guards[0].offset.constant = -level;
+  s.regions[0].guards[0].scale = std::abs(H);
+  const ExactEngine e(s);
+  const double x0 = H.real() + 1e-6 * std::abs(H), v0 = -o.W * H.imag();
+  // The closed form's first crossing: a fine scan, then bisection.
+  const double dt = 1e-4;
+  double t = 0;
+  while (o.at(t + dt, x0, v0)[0] > level) t += dt;
+  double lo = t, hi = t + dt;
+  for (int i = 0; i < 200 && hi - lo > 1e-15; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (o.at(mid, x0, v0)[0] > level ? lo : hi) = mid;
+  }
+  ASSERT_GT(lo, 20 * 2 * std::numbers::pi / o.W);  // many periods from the start
+  Recorder rec;
+  Vector y0(2);
+  y0 << x0, v0;
+  const FlowResult r = e.flow(0, y0, 0, lo + 1.0, OutputGrid{}, rec);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_GT(r.periods, 5);
+  ASSERT_FALSE(rec.event_t.empty());
+  EXPECT_NEAR(rec.event_t.front(), lo, 1e-9);
 }
 
 TEST(ExactEngine, PeriodMapAgreesWithDopri5OverManyMeshPeriods) {

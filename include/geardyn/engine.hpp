@@ -111,10 +111,12 @@ struct FlowResult {
   Termination termination = Termination::kCompleted;
   std::string message;
   double end_time_s = 0;
-  Vector state;                    // y at end_time_s
-  int region = 0;                  // the region there
-  std::int64_t cells = 0;          // whole and partial cells stepped (a jumped period counts K)
-  std::int64_t periods = 0;        // coefficient periods jumped whole
+  Vector state;            // y at end_time_s
+  int region = 0;          // the region there
+  std::int64_t cells = 0;  // whole and partial cells stepped (a jump counts its cells)
+  // Jumps: whole coefficient periods, or, where the coefficients are constant, blocks of about
+  // one forcing period around the periodic forced response.
+  std::int64_t periods = 0;
   std::int64_t events = 0;         // region changes
   std::optional<Matrix> jacobian;  // dy(t1)/dy(t0), when asked for
   bool ok() const { return termination == Termination::kCompleted; }
