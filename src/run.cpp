@@ -146,6 +146,18 @@ ode::IntegrationSummary Solver::advance(const ode::State& initial, double t1) co
                                nothing));
 }
 
+ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s) {
+  const GearPairParameters& p = model.parameters();
+  ode::State s{t0_s, 0.0, 0.0, 0.0, kSeparated};
+  if (c.solver.initial == InitialCondition::kStatic) {
+    const double cb2 = p.cos_base_helix * p.cos_base_helix;
+    const double sign = p.mean_force_n() >= 0 ? 1.0 : -1.0;
+    s.q = sign * p.backlash_m + p.mean_force_n() / (cb2 * p.mean_stiffness_n_per_m());
+  }
+  s.region = model.classify(model.drive(t0_s), s.q, s.v);
+  return s;
+}
+
 RunResult run(const Case& c, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   RunResult result;
@@ -177,12 +189,7 @@ RunResult run(const Case& c, const RunOptions& options) {
                                                 d.fastest_period_s / kSamplesPerFastestPeriod));
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, d.output_interval_s);
 
-  ode::State initial{t0, 0.0, 0.0, 0.0, kSeparated};
-  if (c.solver.initial == InitialCondition::kStatic) {
-    const double sign = p.mean_force_n() >= 0 ? 1.0 : -1.0;
-    initial.q = sign * p.backlash_m + p.mean_force_n() / (cb2 * p.mean_stiffness_n_per_m());
-  }
-  initial.region = model.classify(model.drive(t0), initial.q, initial.v);
+  const ode::State initial = initial_state(c, model, t0);
 
   RunReader reader(model, t0, t1, c.solver.final_fraction, options.keep_events,
                    options.keep_samples, options.progress);

@@ -71,23 +71,15 @@ class PointRunner {
   SweepPoint run(const PointJob& job, std::optional<ode::State>& carry) const {
     const Case c = case_at(job.value, job.value2);
     const GearPairModel model = build_model(c, nullptr, stiffness_ ? &*stiffness_ : nullptr);
-    const GearPairParameters& p = model.parameters();
     const double period = fundamental_period_s(c);
     // With Newmark, a whole number of steps per period: block ends fall on period ends.
     const Solver solver(model, c.solver, period);
 
-    ode::State s{0, 0, 0, 0, kSeparated};
+    ode::State s = initial_state(c, model);
     if (carry) {
       // A block ends after whole periods, where every excitation is back at phase 0.
       s = *carry;
       s.t = 0;
-    } else {
-      const double cb2 = p.cos_base_helix * p.cos_base_helix;
-      if (c.solver.initial == InitialCondition::kStatic) {
-        const double sign = p.mean_force_n() >= 0 ? 1.0 : -1.0;
-        s.q = sign * p.backlash_m + p.mean_force_n() / (cb2 * p.mean_stiffness_n_per_m());
-      }
-      s.region = model.classify(model.drive(0), s.q, s.v);
     }
     auto fail = [&](const ode::IntegrationSummary& sum) {
       throw std::runtime_error(

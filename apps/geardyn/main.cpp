@@ -19,6 +19,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
+#include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
@@ -303,6 +304,96 @@ int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& 
   return 0;
 }
 
+// The region's name in an orbit's report.
+const char* contact_name(int region) {
+  switch (geardyn::contact_state(region)) {
+    case 1:
+      return "drive contact";
+    case -1:
+      return "back contact";
+    default:
+      return "separated";
+  }
+}
+
+int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets,
+              const geardyn::OrbitOptions& o, const std::vector<double>& state, bool json) {
+  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  std::optional<geardyn::ode::State> start;
+  if (!state.empty()) {
+    if (state.size() != 2)
+      throw geardyn::InputError(
+          fmt::format("--state: {} values given; it takes two, delta (m) and delta' (m/s) at t = 0",
+                      state.size()));
+    start = geardyn::ode::State{0.0, state[0], state[1], 0.0, 0};
+  }
+  const geardyn::Orbit r = geardyn::find_orbit(c, o, start);
+  const bool nd = c.model.form == geardyn::ModelForm::kNondimensional;
+  const double b = nd ? 1.0 : c.mesh.backlash_um * 1e-6;
+  if (json) {
+    nlohmann::json j;
+    j["converged"] = r.converged;
+    j["message"] = r.message;
+    j["iterations"] = r.iterations;
+    j["residual"] = r.residual;
+    j["period_s"] = r.period_s;
+    j["periods"] = r.periods;
+    j["system_period_s"] = r.system_period_s;
+    j["segments"] = r.segments;
+    j["state"] = {r.state.q, r.state.v};
+    j["state_region"] = contact_name(r.state.region);
+    nlohmann::json mu = nlohmann::json::array();
+    for (const auto& m : r.multipliers) mu.push_back({m.real(), m.imag()});
+    j["floquet_multipliers"] = mu;
+    j["max_multiplier"] = r.max_multiplier();
+    j["stable"] = r.stable;
+    j["impacts_per_period"] = r.reading.impacts;
+    j["backside_impacts_per_period"] = r.reading.backside_impacts;
+    j["min_delta_bar"] = r.reading.min_delta_bar;
+    j["max_delta_bar"] = r.reading.max_delta_bar;
+    j["min_force_bar"] = r.reading.min_force_bar;
+    j["max_force_bar"] = r.reading.max_force_bar;
+    nlohmann::json seq = nlohmann::json::array();
+    for (const auto& e : r.sequence)
+      seq.push_back({{"t_s", e.t_s},
+                     {"event", geardyn::to_string(e.kind)},
+                     {"velocity_m_s", e.velocity_m_s}});
+    j["sequence"] = seq;
+    fmt::print("{}\n", j.dump(2));
+    return r.converged ? 0 : kExitNumerical;
+  }
+  const char* t_unit = nd ? "" : " s";
+  fmt::print("geardyn orbit: {}{}\n", c.name, c.description.empty() ? "" : " - " + c.description);
+  if (!r.converged) {
+    fmt::print(stderr, "geardyn: the orbit was not found: {}\n", r.message);
+    return kExitNumerical;
+  }
+  fmt::print(
+      "  period            {:.9g}{} = {} x the system period {:.9g}{} ({} shooting segment{})\n",
+      r.period_s, t_unit, r.periods, r.system_period_s, t_unit, r.segments,
+      r.segments == 1 ? "" : "s");
+  fmt::print("  Newton            {}\n", r.message);
+  fmt::print("  section state     delta_bar {:.12g}, velocity {:.12g}{} ({})\n", r.state.q / b,
+             r.state.v, nd ? "" : " m/s", contact_name(r.state.region));
+  fmt::print("  multipliers      ");
+  for (const auto& m : r.multipliers)
+    fmt::print(" {:.9g}{:+.9g}i (|mu| {:.9g})", m.real(), m.imag(), std::abs(m));
+  fmt::print("\n  stable            {}\n", r.stable ? "yes" : "no");
+  fmt::print("  impacts/period    {} ({} back side), separations {}\n", r.reading.impacts,
+             r.reading.backside_impacts, r.reading.separations);
+  fmt::print("  delta_bar         min {:.9g}  max {:.9g}\n", r.reading.min_delta_bar,
+             r.reading.max_delta_bar);
+  fmt::print("  F_bar             min {:.9g}  max {:.9g}\n", r.reading.min_force_bar,
+             r.reading.max_force_bar);
+  if (!r.sequence.empty()) {
+    fmt::print("  contact sequence  (time from the section)\n");
+    for (const auto& e : r.sequence)
+      fmt::print("    {:.9g}{}  {}, velocity {:.6g}{}\n", e.t_s, t_unit, geardyn::to_string(e.kind),
+                 e.velocity_m_s, nd ? "" : " m/s");
+  }
+  return 0;
+}
+
 int cmd_reproduce(const std::string& study_name, const std::string& case_file,
                   const std::vector<std::string>& sets, const std::string& out_dir,
                   unsigned threads, bool figures) {
@@ -412,6 +503,23 @@ int main(int argc, char** argv) {
   reproduce->add_option("--threads", threads, "worker threads (default: all cores)");
   reproduce->add_flag("--no-figures", no_figures, "write the report and data without figures");
 
+  CLI::App* orbit = app.add_subcommand(
+      "orbit", "find a periodic motion by shooting: its state, multipliers and stability");
+  add_case(orbit);
+  geardyn::OrbitOptions oo;
+  std::vector<double> orbit_state;
+  orbit->add_option("--periods", oo.periods, "period in system periods (default 1)");
+  orbit->add_option("--segments", oo.segments, "shooting segments (default: one per period)");
+  orbit->add_option("--settle-periods", oo.settle_periods,
+                    "system periods simulated for the first guess (default 100)");
+  orbit
+      ->add_option("--state", orbit_state,
+                   "first guess on the section t = 0: delta (m) and delta' (m/s)")
+      ->expected(2);
+  orbit->add_option("--tolerance", oo.tolerance, "Newton's tolerance on the scaled residual");
+  orbit->add_option("--max-iterations", oo.max_iterations, "Newton iterations at most (40)");
+  orbit->add_flag("--json", json, "print JSON");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -430,6 +538,7 @@ int main(int argc, char** argv) {
       if (!axis2.key.empty()) so.axis2 = axis2;
       return cmd_sweep(case_file, sets, so, sweep_out, !sweep_no_figures);
     }
+    if (orbit->parsed()) return cmd_orbit(case_file, sets, oo, orbit_state, json);
     if (reproduce->parsed())
       return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);
   } catch (const geardyn::InputError& e) {

@@ -122,6 +122,10 @@ GearPairModel build_model(const Case& c, Geometry* geometry_out = nullptr,
 // torque fluctuates, else the mesh period 1/(z1 f_1); 2 pi / Omega in the non-dimensional form.
 double fundamental_period_s(const Case& c);
 
+// The state a case starts from at t0_s (solver.initial: at rest mid-backlash, or in static
+// contact), with its region.
+ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s = 0);
+
 // Runs a case. Throws InputError on bad input; a numerical failure is reported in
 // result.integration (termination and message), never thrown.
 RunResult run(const Case& c, const RunOptions& options = {});

@@ -1,0 +1,81 @@
+// geardyn: periodic orbits and their Floquet stability, pipeline stage 6 beside analysis.hpp
+// (model -> exact engine -> orbits).
+//
+// The gear model is periodic in time with the system period T0 (the common period of the mesh
+// stiffness and the torque). A periodic motion of period T = N T0 is a fixed point of the
+// stroboscopic (Poincare) map P: y(t0) -> y(t0 + T), y = (delta, delta'). find_orbit solves
+// P(y) = y by Newton's method with the exact engine's Jacobian (the product of the cells'
+// transition matrices and of a saltation matrix at every contact event), on M shooting
+// segments of length T / M (multiple shooting: unknowns y_0 .. y_{M-1}, residuals
+// y_{i+1} - phi_i(y_i)), so that an orbit whose one period holds many impacts or a strongly
+// unstable one keeps a well-conditioned Newton matrix. The monodromy matrix, the product of
+// the segments' Jacobians, has the Floquet multipliers as its eigenvalues: the orbit is stable
+// when all of them lie inside the unit circle.
+//
+// The state is scaled for the Newton residual: delta by the backlash b, delta' by b w_n
+// (w_n the linearised contact natural frequency); the tolerance is on that scaled residual.
+#pragma once
+
+#include <complex>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geardyn/analysis.hpp"
+#include "geardyn/case.hpp"
+#include "geardyn/engine.hpp"
+#include "geardyn/integrator.hpp"
+#include "geardyn/model.hpp"
+
+namespace geardyn {
+
+// The largest multiple of the slowest excitation period searched for a common period.
+constexpr int kMaxPeriodRatio = 1000;
+
+// T0, the system's period in s: the smallest common period of the stiffness harmonics and the
+// force terms (each within a relative 1e-9 of an integer multiple of 1 / T0). Throws
+// InputError when nothing varies in time (no orbit but rest) or no common period exists
+// within kMaxPeriodRatio periods of the slowest excitation.
+double system_period_s(const GearPairParameters& p);
+
+struct OrbitOptions {
+  int periods = 1;  // N: the orbit's period in system periods T0, >= 1
+  // Shooting segments; 0: one per system period (N segments).
+  int segments = 0;
+  // Without a start state: system periods simulated from the case's initial condition to get
+  // the first guess.
+  int settle_periods = 100;
+  double tolerance = 1e-10;  // on the scaled residual max |y_{i+1} - phi_i(y_i)| (see above)
+  int max_iterations = 40;   // Newton iterations at most
+  // Empty when valid; otherwise the offending option, its value and the allowed range.
+  std::string validate() const;
+};
+
+// The contact events of one period of the orbit, times from the section.
+struct Orbit {
+  bool converged = false;
+  std::string message;  // why not, when not converged; how, when converged
+  int iterations = 0;
+  double residual = 0;  // the scaled residual reached
+  double system_period_s = 0;
+  double period_s = 0;  // N T0
+  int periods = 1;
+  int segments = 1;
+  ode::State state;       // on the section t = 0 (mod T): delta (m), delta' (m/s)
+  ode::Matrix monodromy;  // dy(T)/dy(0), with saltation at every event
+  std::vector<std::complex<double>> multipliers;  // its eigenvalues, largest modulus first
+  bool stable = false;                            // every multiplier inside the unit circle
+  std::vector<ContactEvent> sequence;             // the contact events of one period, in order
+  RunReading reading;                             // impacts, extremes of delta_bar and F_bar
+  double max_multiplier() const;                  // the largest modulus (0 when none)
+};
+
+// Finds the periodic orbit of period N T0 of the case's model, from `start` (a state on the
+// section t = 0) or, without it, from the state after settle_periods of simulation. Uses the
+// exact engine at the case's solver.tolerance whatever solver.method says. Throws InputError
+// on bad input; a failure to converge is reported in the result (converged false, message).
+Orbit find_orbit(const Case& c, const OrbitOptions& options,
+                 const std::optional<ode::State>& start = std::nullopt);
+
+}  // namespace geardyn

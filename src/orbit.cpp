@@ -1,0 +1,282 @@
+#include "geardyn/orbit.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "geardyn/run.hpp"
+#include "shooting.hpp"
+
+namespace geardyn {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+// A frequency is a multiple of the fundamental when its ratio is this close to an integer.
+constexpr double kCommensurability = 1e-9;
+// Halvings of a Newton step before the iteration is declared stalled.
+constexpr int kMaxBacktracks = 12;
+// The engine's tolerance is this fraction of the orbit's, so that the Jacobian and the
+// residual are exact to well below what Newton is asked for.
+constexpr double kEngineToleranceFraction = 1e-4;
+
+SolverData exact_solver(const Case& c, double engine_tolerance) {
+  SolverData sd = c.solver;
+  sd.method = Method::kExact;
+  sd.tolerance = engine_tolerance;
+  return sd;
+}
+
+}  // namespace
+
+double system_period_s(const GearPairParameters& p) {
+  std::vector<double> w;
+  for (const Harmonic& h : p.stiffness_n_per_m.terms)
+    if (h.amplitude != 0 && h.angular_frequency_rad_s > 0) w.push_back(h.angular_frequency_rad_s);
+  for (const Harmonic& h : p.force_n.terms)
+    if (h.amplitude != 0 && h.angular_frequency_rad_s > 0) w.push_back(h.angular_frequency_rad_s);
+  if (w.empty())
+    throw InputError(
+        "orbit: nothing in the model varies in time (no stiffness harmonics, no torque "
+        "fluctuation): the motion settles to rest and has no period");
+  const double w_min = *std::min_element(w.begin(), w.end());
+  for (int m = 1; m <= kMaxPeriodRatio; ++m) {
+    const double w0 = w_min / m;
+    const bool common = std::all_of(w.begin(), w.end(), [w0](double wi) {
+      const double ratio = wi / w0;
+      return std::abs(ratio - std::round(ratio)) <= kCommensurability * ratio;
+    });
+    if (common) return kTwoPi / w0;
+  }
+  throw InputError(fmt::format(
+      "orbit: the excitation frequencies have no common period within {} periods of the "
+      "slowest ({:.9g} rad/s): the motion is quasi-periodic, not periodic",
+      kMaxPeriodRatio, w_min));
+}
+
+std::string OrbitOptions::validate() const {
+  if (periods < 1 || periods > kMaxPeriodRatio)
+    return fmt::format("--periods = {}: must be an integer in [1, {}]", periods, kMaxPeriodRatio);
+  if (segments < 0 || segments > kMaxPeriodRatio)
+    return fmt::format("--segments = {}: must be 0 (one per period) or an integer in [1, {}]",
+                       segments, kMaxPeriodRatio);
+  if (settle_periods < 0 || settle_periods > 1000000)
+    return fmt::format("--settle-periods = {}: must be an integer in [0, 1000000]", settle_periods);
+  if (!(tolerance >= 1e-14 && tolerance <= 1e-2))
+    return fmt::format("--tolerance = {}: must be in [1e-14, 1e-2]", tolerance);
+  if (max_iterations < 1 || max_iterations > 1000)
+    return fmt::format("--max-iterations = {}: must be an integer in [1, 1000]", max_iterations);
+  return {};
+}
+
+double Orbit::max_multiplier() const {
+  double m = 0;
+  for (const auto& mu : multipliers) m = std::max(m, std::abs(mu));
+  return m;
+}
+
+namespace detail {
+
+ode::Vector orbit_scale(const GearPairModel& model) {
+  const GearPairParameters& p = model.parameters();
+  ode::Vector scale(2);
+  scale << p.backlash_m, p.backlash_m * p.natural_angular_frequency_rad_s();
+  return scale;
+}
+
+Shooting::Shooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                   double engine_tolerance)
+    : model_(build_model(c)),
+      solver_(model_, exact_solver(c, engine_tolerance)),
+      system_period_s_(geardyn::system_period_s(model_.parameters())),
+      period_s_(periods * system_period_s_),
+      segments_(segments),
+      scale_(scale.size() == 2 ? scale : orbit_scale(model_)) {}
+
+ode::FlowResult Shooting::flow(int i, const ode::Vector& y) const {
+  const double t0 = period_s_ * i / segments_, t1 = period_s_ * (i + 1) / segments_;
+  const int region = model_.classify(model_.drive(t0), y[0], y[1]);
+  ode::FlowObserver nothing;
+  return solver_.engine()->flow(t0, y, region - GearPairModel::kFirstRegion, t1, ode::OutputGrid{},
+                                nothing, true);
+}
+
+ode::Vector Shooting::state(const ode::Vector& x, int i) const {
+  return x.segment(Eigen::Index{2} * i, 2).cwiseProduct(scale_);
+}
+
+bool Shooting::guess(const ode::Vector& y0, ode::Vector& x, std::string& why) const {
+  x.resize(dimension());
+  ode::Vector y = y0;
+  for (int i = 0; i < segments_; ++i) {
+    x.segment(Eigen::Index{2} * i, 2) = scaled(y);
+    if (i + 1 == segments_) break;
+    const ode::FlowResult r = flow(i, y);
+    if (!r.ok()) {
+      why = fmt::format("the first guess's flow failed ({}): {}", ode::to_string(r.termination),
+                        r.message);
+      return false;
+    }
+    y = r.state;
+  }
+  return true;
+}
+
+bool Shooting::residual(const ode::Vector& x, ode::Vector& f, ode::Matrix* jacobian,
+                        std::vector<ode::Matrix>* segment_jacobians, std::string& why) const {
+  const Eigen::Index n = dimension();
+  f.resize(n);
+  if (jacobian) jacobian->setZero(n, n);
+  if (segment_jacobians) segment_jacobians->clear();
+  for (int i = 0; i < segments_; ++i) {
+    const ode::FlowResult r = flow(i, state(x, i));
+    if (!r.ok()) {
+      why = fmt::format("the flow of shooting segment {} failed ({}): {}", i,
+                        ode::to_string(r.termination), r.message);
+      return false;
+    }
+    const Eigen::Index at = Eigen::Index{2} * i;
+    const Eigen::Index next = Eigen::Index{2} * ((i + 1) % segments_);
+    f.segment(at, 2) = scaled(r.state) - x.segment(next, 2);
+    if (jacobian) {
+      // d(scaled phi_i)/dx_i = S^-1 J_i S; d/dx_next = -I.
+      jacobian->block(at, at, 2, 2) +=
+          scale_.cwiseInverse().asDiagonal() * *r.jacobian * scale_.asDiagonal();
+      jacobian->block(at, next, 2, 2) -= ode::Matrix::Identity(2, 2);
+    }
+    if (segment_jacobians) segment_jacobians->push_back(*r.jacobian);
+  }
+  return true;
+}
+
+bool Shooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
+                    Orbit& orbit, std::string& why) const {
+  orbit.system_period_s = system_period_s_;
+  orbit.period_s = period_s_;
+  orbit.segments = segments_;
+  orbit.monodromy = ode::Matrix::Identity(2, 2);
+  for (const ode::Matrix& j : segment_jacobians) orbit.monodromy = j * orbit.monodromy;
+  const Eigen::EigenSolver<ode::Matrix> eig(orbit.monodromy, false);
+  orbit.multipliers.clear();
+  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i)
+    orbit.multipliers.push_back(eig.eigenvalues()[i]);
+  std::sort(orbit.multipliers.begin(), orbit.multipliers.end(),
+            [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
+  orbit.stable = orbit.max_multiplier() < 1.0;
+
+  const ode::Vector y0 = state(x, 0);
+  const GearPairModel::Drive d0 = model_.drive(0);
+  const int region = model_.classify(d0, y0[0], y0[1]);
+  orbit.state = {0.0, y0[0], y0[1], model_.force(d0, y0[0], y0[1], region).value / model_.mass(),
+                 region};
+  RunReader reader(model_, 0.0, period_s_, 1.0, true, false);
+  const auto r = solver_.run(orbit.state, period_s_, ode::OutputGrid{}, reader);
+  if (!r.ok()) {
+    why =
+        fmt::format("reading the orbit failed ({}): {}", ode::to_string(r.termination), r.message);
+    return false;
+  }
+  orbit.sequence = reader.events();
+  orbit.reading = reader.reading();
+  return true;
+}
+
+bool solve_newton(const ode::Matrix& jacobian, const ode::Vector& f, ode::Vector& step) {
+  const Eigen::FullPivLU<ode::Matrix> lu(jacobian);
+  if (!lu.isInvertible()) return false;
+  step = lu.solve(-f);
+  return step.allFinite();
+}
+
+}  // namespace detail
+
+Orbit find_orbit(const Case& c, const OrbitOptions& options,
+                 const std::optional<ode::State>& start) {
+  if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
+  const int segments = options.segments > 0 ? options.segments : options.periods;
+  const double engine_tolerance =
+      std::min(c.solver.tolerance, options.tolerance * kEngineToleranceFraction);
+  const detail::Shooting shooting(c, options.periods, segments, ode::Vector{}, engine_tolerance);
+  Orbit orbit;
+  orbit.system_period_s = shooting.system_period_s();
+  orbit.periods = options.periods;
+  orbit.period_s = shooting.period_s();
+  orbit.segments = segments;
+
+  // The first guess: the start state, or the settled simulation's, on the section.
+  ode::State s0 = start ? *start : initial_state(c, shooting.model());
+  if (!start && options.settle_periods > 0) {
+    const auto settled =
+        shooting.solver().advance(s0, options.settle_periods * orbit.system_period_s);
+    if (!settled.ok()) {
+      orbit.message = fmt::format("the settling simulation failed ({}): {}",
+                                  ode::to_string(settled.termination), settled.message);
+      return orbit;
+    }
+    s0 = settled.end_state;
+  }
+  ode::Vector y0(2), x, f, f_try, x_try, step;
+  y0 << s0.q, s0.v;
+  ode::Matrix jac;
+  std::vector<ode::Matrix> jacobians;
+  std::string why;
+  if (!shooting.guess(y0, x, why) || !shooting.residual(x, f, &jac, &jacobians, why)) {
+    orbit.message = why;
+    return orbit;
+  }
+
+  // Newton's method with backtracking on the residual's largest entry.
+  double norm = f.lpNorm<Eigen::Infinity>();
+  for (;;) {
+    orbit.residual = norm;
+    if (norm <= options.tolerance) break;
+    if (orbit.iterations >= options.max_iterations) {
+      orbit.message =
+          fmt::format("no convergence in {} Newton iterations (residual {:.3g}, tolerance {:.3g})",
+                      orbit.iterations, norm, options.tolerance);
+      return orbit;
+    }
+    if (!detail::solve_newton(jac, f, step)) {
+      orbit.message = fmt::format(
+          "the Newton matrix is singular at residual {:.3g}: a Floquet multiplier is 1 (a "
+          "fold)",
+          norm);
+      return orbit;
+    }
+    ++orbit.iterations;
+    double lambda = 1;
+    bool accepted = false;
+    why.clear();
+    for (int b = 0; b <= kMaxBacktracks && !accepted; ++b, lambda *= 0.5) {
+      x_try = x + lambda * step;
+      if (!shooting.residual(x_try, f_try, nullptr, nullptr, why)) continue;
+      accepted = f_try.lpNorm<Eigen::Infinity>() < norm;
+    }
+    if (!accepted) {
+      orbit.message = fmt::format(
+          "Newton stalled at residual {:.3g}: no step along the Newton direction lowers it "
+          "(the start may be far from an orbit, or the orbit grazes a contact){}",
+          norm, why.empty() ? "" : "; last failure: " + why);
+      return orbit;
+    }
+    x = x_try;
+    if (!shooting.residual(x, f, &jac, &jacobians, why)) {
+      orbit.message = why;
+      return orbit;
+    }
+    norm = f.lpNorm<Eigen::Infinity>();
+  }
+  if (!shooting.read(x, jacobians, orbit, why)) {
+    orbit.message = why;
+    return orbit;
+  }
+  orbit.converged = true;
+  orbit.message = fmt::format("converged in {} Newton iterations to a residual of {:.3g}",
+                              orbit.iterations, norm);
+  return orbit;
+}
+
+}  // namespace geardyn

@@ -1,0 +1,179 @@
+// Periodic orbits (orbit.hpp): the linear oscillator's orbit and multipliers in closed form,
+// the monodromy through impacts against central differences of the stroboscopic map, an
+// orbit checked by an independent integrator, the system period, and failures reported.
+#include "geardyn/orbit.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <numbers>
+
+#include "geardyn/run.hpp"
+
+namespace {
+
+using geardyn::Case;
+using geardyn::Orbit;
+using geardyn::OrbitOptions;
+
+// Few settling periods, so that Newton's method does the work.
+OrbitOptions shooting(int periods = 1, int segments = 0) {
+  OrbitOptions o;
+  o.periods = periods;
+  o.segments = segments;
+  o.settle_periods = 3;
+  return o;
+}
+
+Case nondimensional(double zeta, double fm, double fa, double omega) {
+  Case c;
+  c.model.form = geardyn::ModelForm::kNondimensional;
+  c.model.zeta = zeta;
+  c.model.force_mean = fm;
+  c.model.force_alternating = fa;
+  c.model.omega = omega;
+  return c;
+}
+
+// The stroboscopic map over one period T from y at t = 0, by the exact engine.
+geardyn::ode::Vector period_map(const geardyn::GearPairModel& model, const geardyn::Solver& solver,
+                                double T, double q, double v) {
+  geardyn::ode::State s{0, q, v, 0, model.classify(model.drive(0), q, v)};
+  const auto r = solver.advance(s, T);
+  EXPECT_TRUE(r.ok()) << r.message;
+  geardyn::ode::Vector y(2);
+  y << r.end_state.q, r.end_state.v;
+  return y;
+}
+
+TEST(Orbit, LinearOscillatorInContactMatchesItsClosedForm) {
+  // Always in contact (F_m 1 against an oscillation of 0.13): x'' + 2 zeta x' + (x - 1) =
+  // F_m + F_a cos(Omega t). Orbit: x = 1 + F_m + Re(H e^{i Omega t}); multipliers
+  // exp(lambda T), lambda = -zeta +- i sqrt(1 - zeta^2).
+  const double zeta = 0.05, fm = 1.0, fa = 0.1, omega = 0.5;
+  const Case c = nondimensional(zeta, fm, fa, omega);
+  const Orbit o = geardyn::find_orbit(c, shooting());
+  ASSERT_TRUE(o.converged) << o.message;
+  EXPECT_GE(o.iterations, 1);
+  const double T = 2 * std::numbers::pi / omega;
+  EXPECT_NEAR(o.period_s, T, 1e-14 * T);
+  const std::complex<double> H = fa / std::complex<double>(1 - omega * omega, 2 * zeta * omega);
+  EXPECT_NEAR(o.state.q, 1 + fm + H.real(), 1e-11);
+  EXPECT_NEAR(o.state.v, -omega * H.imag(), 1e-11);
+  ASSERT_EQ(o.multipliers.size(), 2U);
+  const std::complex<double> lambda(-zeta, std::sqrt(1 - zeta * zeta));
+  const std::complex<double> mu = std::exp(lambda * T);
+  for (const auto& m : o.multipliers) {
+    EXPECT_NEAR(std::abs(m), std::abs(mu), 1e-12);
+    EXPECT_NEAR(std::abs(m.imag()), std::abs(mu.imag()), 1e-12);
+    EXPECT_NEAR(m.real(), mu.real(), 1e-12);
+  }
+  EXPECT_TRUE(o.stable);
+  EXPECT_EQ(o.reading.impacts, 0);
+  EXPECT_TRUE(o.sequence.empty());
+  EXPECT_NEAR(o.reading.max_delta_bar, 1 + fm + std::abs(H), 1e-11);
+  EXPECT_NEAR(o.reading.min_delta_bar, 1 + fm - std::abs(H), 1e-11);
+}
+
+TEST(Orbit, MonodromyThroughImpactsMatchesFiniteDifferences) {
+  // The Kahraman-Singh oscillator at Omega 0.95 rattles on one side (an impact and a
+  // separation per period). The monodromy (saltation at both events) against central
+  // differences of the stroboscopic map.
+  const Case c = nondimensional(0.05, 0.1, 0.02, 0.95);
+  const Orbit o = geardyn::find_orbit(c, shooting());
+  ASSERT_TRUE(o.converged) << o.message;
+  EXPECT_GE(o.iterations, 3);
+  EXPECT_EQ(o.reading.impacts, 1);
+  EXPECT_EQ(o.reading.separations, 1);
+  ASSERT_EQ(o.sequence.size(), 2U);
+  const geardyn::GearPairModel model = geardyn::build_model(c);
+  geardyn::SolverData sd = c.solver;
+  sd.tolerance = 1e-12;
+  const geardyn::Solver solver(model, sd);
+  const double h[2] = {1e-6, 1e-6};
+  for (int j = 0; j < 2; ++j) {
+    const double dq = j == 0 ? h[0] : 0, dv = j == 1 ? h[1] : 0;
+    const auto plus = period_map(model, solver, o.period_s, o.state.q + dq, o.state.v + dv);
+    const auto minus = period_map(model, solver, o.period_s, o.state.q - dq, o.state.v - dv);
+    const geardyn::ode::Vector column = (plus - minus) / (2 * h[j]);
+    for (int i = 0; i < 2; ++i)
+      EXPECT_NEAR(o.monodromy(i, j), column[i], 1e-6 * (1 + std::abs(column[i])))
+          << "entry (" << i << ", " << j << ")";
+  }
+  EXPECT_TRUE(o.stable);
+  EXPECT_LT(o.max_multiplier(), 1.0);
+}
+
+TEST(Orbit, ReturnsToItselfUnderAnIndependentIntegrator) {
+  // The rattling orbit, one period by dopri5 at 1e-12: back on the section state.
+  const Case c = nondimensional(0.05, 0.1, 0.02, 0.95);
+  const Orbit o = geardyn::find_orbit(c, shooting());
+  ASSERT_TRUE(o.converged) << o.message;
+  const geardyn::GearPairModel model = geardyn::build_model(c);
+  geardyn::SolverData sd = c.solver;
+  sd.method = geardyn::Method::kDopri5;
+  sd.tolerance = 1e-12;
+  const geardyn::Solver solver(model, sd);
+  const auto r = solver.advance(o.state, o.period_s);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_NEAR(r.end_state.q, o.state.q, 1e-9);
+  EXPECT_NEAR(r.end_state.v, o.state.v, 1e-9);
+  EXPECT_EQ(r.transitions, 2);
+}
+
+TEST(Orbit, MultipleShootingFindsTheSameOrbit) {
+  // Period 2 T0 on 2 segments and on 1: the period-1 orbit again, with the multipliers
+  // squared.
+  const Case c = nondimensional(0.05, 0.1, 0.02, 0.95);
+  const Orbit one = geardyn::find_orbit(c, shooting());
+  const Orbit o2 = geardyn::find_orbit(c, shooting(2));
+  const Orbit o1 = geardyn::find_orbit(c, shooting(2, 1));
+  ASSERT_TRUE(one.converged && o2.converged && o1.converged);
+  EXPECT_EQ(o2.segments, 2);
+  for (const Orbit* o : {&o2, &o1}) {
+    EXPECT_NEAR(o->state.q, one.state.q, 1e-10);
+    EXPECT_NEAR(o->state.v, one.state.v, 1e-10);
+    EXPECT_NEAR(o->max_multiplier(), one.max_multiplier() * one.max_multiplier(), 1e-9);
+    EXPECT_EQ(o->reading.impacts, 2);
+  }
+}
+
+TEST(Orbit, SystemPeriodIsTheCommonPeriodOfTheExcitations) {
+  // The Table 1 gear: mesh z1 f1 = 56 f1 and a torque of order 3: common period 1 / f1
+  // (gcd(56, 3) = 1); order 4: 1 / (4 f1); steady torque: the mesh period.
+  Case c;
+  c.speed.shaft_frequency_hz = 100;
+  c.load.fluctuation_order = 3;
+  EXPECT_NEAR(geardyn::system_period_s(geardyn::build_model(c).parameters()), 1.0 / 100, 1e-15);
+  c.load.fluctuation_order = 4;
+  EXPECT_NEAR(geardyn::system_period_s(geardyn::build_model(c).parameters()), 1.0 / 400, 1e-15);
+  c.load.fluctuation_ratio = 0;
+  EXPECT_NEAR(geardyn::system_period_s(geardyn::build_model(c).parameters()), 1.0 / 5600, 1e-16);
+  // Nothing varies: no period.
+  c.mesh.stiffness_source = geardyn::StiffnessSource::kHarmonics;
+  c.mesh.stiffness_harmonics.clear();
+  EXPECT_THROW(geardyn::system_period_s(geardyn::build_model(c).parameters()), geardyn::InputError);
+}
+
+TEST(Orbit, FailuresAreReportedWithTheirReason) {
+  const Case c = nondimensional(0.05, 0.1, 0.02, 0.95);
+  OrbitOptions o;
+  o.periods = 0;
+  try {
+    (void)geardyn::find_orbit(c, o);
+    ADD_FAILURE() << "periods = 0 accepted";
+  } catch (const geardyn::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--periods = 0"), std::string::npos) << e.what();
+  }
+  // One iteration from rest mid-backlash, unsettled: not converged, and says so.
+  o = shooting();
+  o.settle_periods = 0;
+  o.max_iterations = 1;
+  const Orbit r = geardyn::find_orbit(c, o);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("no convergence in 1 Newton iterations"), std::string::npos)
+      << r.message;
+}
+
+}  // namespace
