@@ -127,6 +127,61 @@ TEST(Cli, GeometryJson) {
   EXPECT_TRUE(j["warnings"].empty());
 }
 
+TEST(Cli, OrbitJsonReportsTheOrbitAndItsMultipliers) {
+  // The Kahraman-Singh oscillator at Omega 0.95: a stable one-sided rattle, one impact a period.
+  const Outcome o =
+      cli("orbit --set model.form='\"nondimensional\"' --set model.force_alternating=0.02 "
+          "--set model.omega=0.95 --json");
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(o.out);
+  EXPECT_TRUE(j["converged"].get<bool>());
+  EXPECT_NEAR(j["period_s"].get<double>(), 2 * 3.141592653589793 / 0.95, 1e-12);
+  EXPECT_EQ(j["state"].size(), 2U);
+  EXPECT_EQ(j["floquet_multipliers"].size(), 2U);
+  EXPECT_TRUE(j["stable"].get<bool>());
+  EXPECT_EQ(j["impacts_per_period"].get<int>(), 1);
+  EXPECT_LT(j["min_delta_bar"].get<double>(), 1.0);
+  EXPECT_GT(j["max_delta_bar"].get<double>(), 1.0);
+  EXPECT_GT(j["max_force_bar"].get<double>(), 0.0);
+}
+
+TEST(Cli, OrbitWithoutExcitationIsBadInput) {
+  const Outcome o =
+      cli("orbit --set model.form='\"nondimensional\"' --set model.force_alternating=0");
+  EXPECT_EQ(o.code, 2);
+  EXPECT_NE(o.err.find("nothing in the model varies in time"), std::string::npos) << o.err;
+}
+
+TEST(Cli, ContinueWritesTheBranchTheBifurcationsAndTheFigure) {
+  const fs::path d = fresh("continue");
+  const Outcome o =
+      cli("continue --set model.form='\"nondimensional\"' --set model.force_alternating=0.02 "
+          "--param model.omega --from 0.5 --to 1.5 --out " +
+          d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("fold"), std::string::npos) << o.out;
+  EXPECT_NE(o.out.find("grazing"), std::string::npos) << o.out;
+  const nlohmann::json b = nlohmann::json::parse(slurp(d / "bifurcations.json"));
+  ASSERT_EQ(b.size(), 4U);
+  EXPECT_EQ(b[1]["type"], "fold");
+  EXPECT_TRUE(fs::exists(d / "branch.csv"));
+  EXPECT_TRUE(fs::exists(d / "branch.png"));
+  // The figure shows what happened: an unstable part and folds and grazings, nothing else.
+  const std::string body = slurp(d / "branch_body.gp");
+  EXPECT_NE(body.find("title 'unstable'"), std::string::npos);
+  EXPECT_EQ(body.find("period_doubling"), std::string::npos);
+  EXPECT_EQ(body.find("neimark_sacker"), std::string::npos);
+  fs::remove_all(d);
+}
+
+TEST(Cli, ContinueRejectsATextKey) {
+  const fs::path d = fresh("continue_bad");
+  const Outcome o = cli("continue --param solver.method --from 0 --to 1 --out " + d.string());
+  EXPECT_EQ(o.code, 2);
+  EXPECT_NE(o.err.find("--param solver.method"), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(d));
+}
+
 TEST(Cli, GeometryWarnsOnDisagreeingData) {
   const Outcome o = cli("geometry --set gear.center_distance_mm=151");
   EXPECT_EQ(o.code, 0);

@@ -17,6 +17,7 @@
 #include <optional>
 
 #include "geardyn/case.hpp"
+#include "geardyn/continuation.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/orbit.hpp"
@@ -394,6 +395,47 @@ int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets
   return 0;
 }
 
+int cmd_continue(const std::string& case_file, const std::vector<std::string>& sets,
+                 geardyn::ContinuationOptions o, const std::string& out_dir, bool figures) {
+  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
+  const bool tty = isatty(2) != 0;
+  const auto start = std::chrono::steady_clock::now();
+  double last_shown = -1;
+  o.progress = [&](double p, std::size_t points) {
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (elapsed > 1.0 && (tty || elapsed - last_shown >= 5.0)) {
+      last_shown = elapsed;
+      fmt::print(stderr, "{}continue: {} = {:.6g}, {} points, {:.1f} s{}", tty ? "\r" : "", o.key,
+                 p, points, elapsed, tty ? "" : "\n");
+    }
+    return !g_interrupted.load();
+  };
+  std::signal(SIGINT, on_interrupt);
+  const geardyn::ContinuationResult r = geardyn::continuation(c, o);
+  std::signal(SIGINT, SIG_DFL);
+  if (tty && last_shown >= 0) fmt::print(stderr, "\n");
+  if (r.cancelled)
+    fmt::print(stderr, "interrupted: writing the {} points computed\n", r.points.size());
+  if (!r.points.empty()) geardyn::write_continuation(out_dir, r, o.key, figures && !r.cancelled);
+  fmt::print("geardyn continue: {} from {} to {}, period {} x the system period\n", o.key, o.from,
+             o.to, o.orbit.periods);
+  fmt::print("  {} points, {:.2f} s; {}\n", r.points.size(), r.wall_time_s, r.message);
+  std::size_t unstable = 0;
+  for (const auto& p : r.points) unstable += !p.orbit.stable;
+  fmt::print("  {} stable, {} unstable points\n", r.points.size() - unstable, unstable);
+  for (const geardyn::Bifurcation& b : r.bifurcations)
+    fmt::print("  {:<16} at {} = {:.12g}: {}, x_a {:.6g}\n", geardyn::to_string(b.type), o.key,
+               b.param, b.detail,
+               0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar));
+  if (!r.points.empty())
+    fmt::print("  written to {}/ (branch.csv, bifurcations.json{})\n", out_dir,
+               figures && !r.cancelled ? ", branch.png, branch.svg" : "");
+  if (r.cancelled) return kExitInterrupted;
+  return r.completed ? 0 : kExitNumerical;
+}
+
 int cmd_reproduce(const std::string& study_name, const std::string& case_file,
                   const std::vector<std::string>& sets, const std::string& out_dir,
                   unsigned threads, bool figures) {
@@ -520,6 +562,25 @@ int main(int argc, char** argv) {
   orbit->add_option("--max-iterations", oo.max_iterations, "Newton iterations at most (40)");
   orbit->add_flag("--json", json, "print JSON");
 
+  CLI::App* cont = app.add_subcommand(
+      "continue", "follow a branch of periodic orbits in a case key: stability, bifurcations");
+  add_case(cont);
+  geardyn::ContinuationOptions co;
+  std::string cont_out = "out/continue";
+  bool cont_no_figures = false;
+  cont->add_option("--param", co.key, "the numeric case key, e.g. model.omega")->required();
+  cont->add_option("--from", co.from, "where the branch starts")->required();
+  cont->add_option("--to", co.to, "where it should end")->required();
+  cont->add_option("--periods", co.orbit.periods, "orbit period in system periods (default 1)");
+  cont->add_option("--segments", co.orbit.segments, "shooting segments (default: one a period)");
+  cont->add_option("--settle-periods", co.orbit.settle_periods,
+                   "system periods simulated for the first orbit (default 100)");
+  cont->add_option("--step", co.initial_step, "first arclength step (default 0.01)");
+  cont->add_option("--max-step", co.max_step, "largest arclength step (default 0.02)");
+  cont->add_option("--max-points", co.max_points, "points at most (default 5000)");
+  cont->add_option("--out", cont_out, "output directory (default out/continue)");
+  cont->add_flag("--no-figures", cont_no_figures, "write the data without the figure");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -538,6 +599,7 @@ int main(int argc, char** argv) {
       if (!axis2.key.empty()) so.axis2 = axis2;
       return cmd_sweep(case_file, sets, so, sweep_out, !sweep_no_figures);
     }
+    if (cont->parsed()) return cmd_continue(case_file, sets, co, cont_out, !cont_no_figures);
     if (orbit->parsed()) return cmd_orbit(case_file, sets, oo, orbit_state, json);
     if (reproduce->parsed())
       return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);

@@ -1,0 +1,107 @@
+// geardyn: continuation of periodic orbits in a case key, with their bifurcations, pipeline
+// stage 6 beside orbit.hpp.
+//
+// A branch of periodic orbits is followed in a numeric case key p by pseudo-arclength
+// continuation: the unknowns Z = (x, p / p_scale) (x the scaled shooting unknowns of
+// orbit.hpp, p_scale = |to - from|) solve the shooting residual F(x, p) = 0 and
+// t . (Z - Z_pred) = 0, t the unit tangent of the branch, so that the branch is followed
+// through folds and its unstable parts appear. dF/dx is the exact engine's Jacobian;
+// dF/dp is a central difference of the exact residual (step kParamStep p_scale). The step in
+// arclength grows after easy corrections and is halved after failed ones.
+//
+// Between two points the continuation looks for:
+//   fold             det(M - I) changes sign and the branch turns back in p
+//   branch point     det(M - I) changes sign and the branch goes on (transcritical or
+//                    symmetry-breaking)
+//   period doubling  det(M + I) changes sign (a multiplier through -1)
+//   Neimark-Sacker   a complex pair of multipliers crosses the unit circle
+//   grazing          the contact sequence of one period changes (an impact or a separation
+//                    appears or vanishes)
+// M the monodromy. Each is located by bisection along the branch, re-correcting at every
+// trial point, to a width in p of kLocateWidth p_scale.
+#pragma once
+
+#include <complex>
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "geardyn/case.hpp"
+#include "geardyn/orbit.hpp"
+
+namespace geardyn {
+
+// Central-difference step of dF/dp, relative to p_scale.
+constexpr double kParamStep = 1e-7;
+// The width in p, relative to p_scale, to which a bifurcation is located.
+constexpr double kLocateWidth = 1e-10;
+
+enum class BifurcationType { kFold, kBranchPoint, kPeriodDoubling, kNeimarkSacker, kGrazing };
+const char* to_string(BifurcationType t);
+
+struct BranchPoint {
+  double param = 0;
+  Orbit orbit;  // converged: section state, multipliers, stability, reading
+  // (max - min) / 2 of delta_bar over one period.
+  double amplitude() const {
+    return 0.5 * (orbit.reading.max_delta_bar - orbit.reading.min_delta_bar);
+  }
+};
+
+struct Bifurcation {
+  BifurcationType type = BifurcationType::kFold;
+  double param = 0;
+  Orbit orbit;         // the orbit at the located point
+  std::string detail;  // e.g. "impacts per period 0 -> 1"
+};
+
+struct ContinuationOptions {
+  std::string key;  // a numeric case key, e.g. model.omega
+  double from = 0, to = 0;
+  OrbitOptions orbit;  // periods, segments, settle_periods and Newton tolerance
+  // Steps in arclength of the scaled unknowns (state over b and b w_n, p over p_scale).
+  double initial_step = 0.01;
+  double max_step = 0.02;
+  double min_step = 1e-8;
+  int max_points = 5000;
+  // Called after every point with p and the points so far; false stops the continuation
+  // (cancelled, the points kept).
+  std::function<bool(double, std::size_t)> progress;
+  // Empty when valid; otherwise the offending option, its value and the allowed range.
+  std::string validate() const;
+};
+
+struct ContinuationResult {
+  std::vector<BranchPoint> points;
+  std::vector<Bifurcation> bifurcations;
+  bool completed = false;  // the branch reached `to`
+  bool cancelled = false;
+  std::string message;  // why it stopped
+  double wall_time_s = 0;
+};
+
+// Follows the branch of the orbit found at p = from (find_orbit with options.orbit) towards
+// `to`. Throws InputError on bad input (a key that is not numeric, a bad range); a branch that
+// is lost or turns back past `from` ends the result with its reason, the points kept.
+ContinuationResult continuation(const Case& c, const ContinuationOptions& options);
+
+// branch.csv: one row per point, header
+// param,stable,x_a,min_delta_bar,max_delta_bar,max_force_bar,impacts_per_period,max_multiplier,
+// min_force_bar,backside_impacts_per_period,separations_per_period,delta_m,velocity_m_s,
+// mu1_re,mu1_im,mu2_re,mu2_im (x_a = (max - min) / 2 of delta_bar; the state on the section
+// t = 0; multipliers largest first), every number to 17 significant digits.
+std::string branch_csv(const ContinuationResult& r);
+
+// bifurcations.json: [{"type", "param", "detail", "x_a", "impacts_per_period", "state",
+// "floquet_multipliers"}, ...].
+std::string bifurcations_json(const ContinuationResult& r);
+
+// Writes branch.csv, bifurcations.json and bifurcations.csv (param,x_a,type) into dir, all or
+// nothing, and with `figures` the figure `branch` (x_a against the key: stable solid, unstable
+// dashed, bifurcations marked). Throws std::runtime_error on I/O, FigureError on gnuplot.
+void write_continuation(const std::filesystem::path& dir, const ContinuationResult& r,
+                        const std::string& key, bool figures = true);
+
+}  // namespace geardyn

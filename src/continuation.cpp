@@ -1,0 +1,446 @@
+#include "geardyn/continuation.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "geardyn/figures.hpp"
+#include "geardyn/output.hpp"
+#include "shooting.hpp"
+
+namespace geardyn {
+namespace {
+
+// Newton iterations of one correction at most; after this many or fewer the step grows.
+constexpr int kCorrectorIterations = 8;
+constexpr int kEasyCorrection = 3;
+constexpr double kStepGrowth = 1.5;
+// A new tangent more than this angle from the last one means the step was too long.
+constexpr double kMinTangentCosine = 0.9;
+// Bisections of a bracket at most when locating a bifurcation.
+constexpr int kMaxBisections = 60;
+// The engine's tolerance as a fraction of the Newton tolerance (as in find_orbit).
+constexpr double kEngineToleranceFraction = 1e-4;
+
+// The contact sequence of one period, the grazing test's signature: cyclic, so the least of
+// its rotations (an event that moves across the section time changes nothing).
+std::vector<EventKind> signature(const Orbit& o) {
+  std::vector<EventKind> s;
+  for (const ContactEvent& e : o.sequence) s.push_back(e.kind);
+  std::vector<EventKind> best = s;
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    std::rotate(s.begin(), s.begin() + 1, s.end());
+    best = std::min(best, s);
+  }
+  return best;
+}
+
+// det(M - sign I), real.
+double shifted_determinant(const Orbit& o, double sign) {
+  const auto n = o.monodromy.rows();
+  return (o.monodromy - sign * ode::Matrix::Identity(n, n)).determinant();
+}
+
+// |mu|^2 - 1 of the complex pair (Neimark-Sacker test); nullopt without one.
+std::optional<double> complex_pair_test(const Orbit& o) {
+  for (const auto& m : o.multipliers)
+    if (std::abs(m.imag()) > 1e-12 * std::max(1.0, std::abs(m))) return std::norm(m) - 1;
+  return std::nullopt;
+}
+
+// A converged point of the branch: its unknowns, tangent and orbit.
+struct Point {
+  ode::Vector z;        // (x, p / p_scale)
+  ode::Vector tangent;  // unit, pointing onward
+  Orbit orbit;
+  int iterations = 0;
+};
+
+class Continuer {
+ public:
+  Continuer(const Case& base, const ContinuationOptions& o)
+      : base_(base), o_(o), p_scale_(std::abs(o.to - o.from)) {
+    segments_ = o.orbit.segments > 0 ? o.orbit.segments : o.orbit.periods;
+    engine_tolerance_ =
+        std::min(base.solver.tolerance, o.orbit.tolerance * kEngineToleranceFraction);
+  }
+
+  double param(const ode::Vector& z) const { return z[z.size() - 1] * p_scale_; }
+
+  Case case_at(double p) const {
+    Case c = base_;
+    try {
+      set_case_value(c, {o_.key, fmt::format("{:.17g}", p)});
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("--param {} at {}: {}", o_.key, p, e.what()));
+    }
+    return c;
+  }
+
+  std::unique_ptr<detail::Shooting> shooting(double p) const {
+    return std::make_unique<detail::Shooting>(case_at(p), o_.orbit.periods, segments_, scale_,
+                                              engine_tolerance_);
+  }
+
+  // The first point: find_orbit at `from`, then one correction at fixed p.
+  bool start(Point& pt, std::string& why) {
+    const Case c0 = case_at(o_.from);
+    OrbitOptions oo = o_.orbit;
+    oo.segments = segments_;
+    const Orbit first = find_orbit(c0, oo);
+    if (!first.converged) {
+      why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
+      return false;
+    }
+    {
+      const GearPairModel m0 = build_model(c0);
+      scale_ = detail::orbit_scale(m0);
+    }
+    const auto s = shooting(o_.from);
+    ode::Vector y0(2), x;
+    y0 << first.state.q, first.state.v;
+    if (!s->guess(y0, x, why)) return false;
+    const Eigen::Index n = x.size();
+    ode::Vector z(n + 1);
+    z << x, o_.from / p_scale_;
+    ode::Vector along = ode::Vector::Zero(n + 1);
+    along[n] = o_.to > o_.from ? 1.0 : -1.0;
+    if (!correct(z, along, pt, why)) return false;
+    return tangent(pt, along, why);
+  }
+
+  // Newton on F(z) = 0, t . (z - z_pred) = 0 from z_pred. Fills pt.z, pt.orbit (read) and
+  // pt.iterations, and leaves dF/dx and dF/dp at pt.z for its tangent; false with `why`.
+  bool correct(const ode::Vector& z_pred, const ode::Vector& t, Point& pt, std::string& why) {
+    ode::Vector z = z_pred, f, step;
+    const Eigen::Index n = z.size() - 1;
+    ode::Matrix jac(n + 1, n + 1);
+    std::vector<ode::Matrix> seg;
+    for (int it = 0;; ++it) {
+      const auto s = shooting(param(z));
+      if (!s->residual(z.head(n), f, &last_jx_, &seg, why) || !param_derivative(z, why))
+        return false;
+      const double norm = f.lpNorm<Eigen::Infinity>();
+      const double plane = t.dot(z - z_pred);
+      if (norm <= o_.orbit.tolerance && std::abs(plane) <= o_.orbit.tolerance) {
+        pt.z = z;
+        pt.iterations = it;
+        return s->read(z.head(n), seg, pt.orbit, why);
+      }
+      if (it >= kCorrectorIterations) {
+        why = fmt::format("the corrector did not converge in {} iterations (residual {:.3g})",
+                          kCorrectorIterations, norm);
+        return false;
+      }
+      jac.topLeftCorner(n, n) = last_jx_;
+      jac.topRightCorner(n, 1) = last_fp_;
+      jac.bottomRows(1) = t.transpose();
+      ode::Vector g(n + 1);
+      g << f, plane;
+      if (!detail::solve_newton(jac, g, step)) {
+        why = "the continuation's Newton matrix is singular";
+        return false;
+      }
+      z += step;
+    }
+  }
+
+  // dF/d(p / p_scale) at z by central differences, into last_fp_.
+  bool param_derivative(const ode::Vector& z, std::string& why) {
+    const Eigen::Index n = z.size() - 1;
+    const double p = param(z), h = kParamStep * p_scale_;
+    ode::Vector fp, fm;
+    if (!shooting(p + h)->residual(z.head(n), fp, nullptr, nullptr, why) ||
+        !shooting(p - h)->residual(z.head(n), fm, nullptr, nullptr, why))
+      return false;
+    last_fp_ = (fp - fm) * (p_scale_ / (2 * h));
+    return true;
+  }
+
+  // The unit tangent at pt (from the last correction's Jacobians), oriented along `previous`.
+  bool tangent(Point& pt, const ode::Vector& previous, std::string& why) {
+    const Eigen::Index n = pt.z.size() - 1;
+    ode::Matrix jac(n + 1, n + 1);
+    jac.topLeftCorner(n, n) = last_jx_;
+    jac.topRightCorner(n, 1) = last_fp_;
+    jac.bottomRows(1) = previous.transpose();
+    ode::Vector rhs = ode::Vector::Zero(n + 1);
+    rhs[n] = 1;
+    ode::Vector t;
+    if (!detail::solve_newton(jac, -rhs, t)) {
+      why = "the tangent's system is singular (a branch point)";
+      return false;
+    }
+    pt.tangent = t.normalized();
+    return true;
+  }
+
+  // The point at arclength sigma from a along a's tangent (corrected); false when it fails.
+  bool point_at(const Point& a, double sigma, Point& out) {
+    std::string why;
+    return correct(a.z + sigma * a.tangent, a.tangent, out, why);
+  }
+
+  // Locates where `same_as_a` turns false between a (arclength 0) and b (arclength ds) by
+  // bisection, re-correcting at every trial, to kLocateWidth p_scale in p: the point on b's
+  // side of the change.
+  template <class Same>
+  Point locate(const Point& a, const Point& b, double ds, Same same_as_a) {
+    double lo = 0, hi = ds, p_lo = param(a.z), p_hi = param(b.z);
+    Point at_hi = b;
+    for (int i = 0; i < kMaxBisections && std::abs(p_hi - p_lo) > kLocateWidth * p_scale_; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      Point m;
+      if (!point_at(a, mid, m)) break;  // the bracket so far is the answer
+      if (same_as_a(m)) {
+        lo = mid;
+        p_lo = param(m.z);
+      } else {
+        hi = mid;
+        p_hi = param(m.z);
+        at_hi = std::move(m);
+      }
+    }
+    return at_hi;
+  }
+
+  // The bifurcations between two consecutive points a and b (arclength ds apart).
+  void detect(const Point& a, const Point& b, double ds, std::vector<Bifurcation>& out) {
+    const auto sig_a = signature(a.orbit), sig_b = signature(b.orbit);
+    if (sig_a != sig_b) {
+      const Point g = locate(a, b, ds, [&](const Point& m) { return signature(m.orbit) == sig_a; });
+      out.push_back({BifurcationType::kGrazing, param(g.z), g.orbit,
+                     fmt::format("impacts per period {} -> {}, separations {} -> {}",
+                                 a.orbit.reading.impacts, b.orbit.reading.impacts,
+                                 a.orbit.reading.separations, b.orbit.reading.separations)});
+      return;  // the multipliers jump at a grazing: their tests would read that jump
+    }
+    auto sign_test = [&](BifurcationType type, auto test, const std::string& detail) {
+      const double ta = test(a.orbit), tb = test(b.orbit);
+      if (!(ta * tb < 0)) return;
+      const Point m = locate(a, b, ds, [&](const Point& q) { return test(q.orbit) * ta > 0; });
+      out.push_back({type, param(m.z), m.orbit, detail});
+    };
+    const double turn = a.tangent[a.tangent.size() - 1] * b.tangent[b.tangent.size() - 1];
+    sign_test(
+        turn < 0 ? BifurcationType::kFold : BifurcationType::kBranchPoint,
+        [](const Orbit& o) { return shifted_determinant(o, 1.0); }, "a multiplier through +1");
+    sign_test(
+        BifurcationType::kPeriodDoubling,
+        [](const Orbit& o) { return shifted_determinant(o, -1.0); }, "a multiplier through -1");
+    const auto na = complex_pair_test(a.orbit), nb = complex_pair_test(b.orbit);
+    if (na && nb)
+      sign_test(
+          BifurcationType::kNeimarkSacker,
+          [](const Orbit& o) { return complex_pair_test(o).value_or(0.0); },
+          "a complex pair through the unit circle");
+  }
+
+  ContinuationResult run() {
+    ContinuationResult res;
+    const auto wall_start = std::chrono::steady_clock::now();
+    auto done = [&](std::string msg) {
+      res.message = std::move(msg);
+      res.wall_time_s =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+      return res;
+    };
+    Point cur;
+    std::string why;
+    if (!start(cur, why)) return done(why);
+    res.points.push_back({param(cur.z), cur.orbit});
+    const double lo = std::min(o_.from, o_.to), hi = std::max(o_.from, o_.to);
+    double ds = o_.initial_step;
+    while (static_cast<int>(res.points.size()) < o_.max_points) {
+      Point next;
+      bool ok = correct(cur.z + ds * cur.tangent, cur.tangent, next, why) &&
+                tangent(next, cur.tangent, why);
+      if (ok && next.tangent.dot(cur.tangent) < kMinTangentCosine && ds > o_.min_step) {
+        ok = false;
+        why = "the branch turns too sharply for the step";
+      }
+      if (!ok) {
+        ds *= 0.5;
+        if (ds < o_.min_step)
+          return done(fmt::format("lost the branch at {} = {:.12g}: {} (step {:.3g})", o_.key,
+                                  param(cur.z), why, ds));
+        continue;
+      }
+      detect(cur, next, ds, res.bifurcations);
+      const double p = param(next.z);
+      if (p > hi || p < lo) {
+        // Past an end: the last point on it, at p fixed.
+        const bool past_to = (o_.to > o_.from) ? p > o_.to : p < o_.to;
+        const double end = past_to ? o_.to : o_.from;
+        const double frac = (end - param(cur.z)) / (p - param(cur.z));
+        ode::Vector along = ode::Vector::Zero(next.z.size());
+        along[along.size() - 1] = 1;
+        ode::Vector z = cur.z + frac * (next.z - cur.z);
+        z[z.size() - 1] = end / p_scale_;
+        Point last;
+        if (correct(z, along, last, why)) res.points.push_back({end, last.orbit});
+        if (past_to) {
+          res.completed = true;
+          return done(fmt::format("reached {} = {:.12g}", o_.key, o_.to));
+        }
+        return done(fmt::format("the branch turned back past {} = {:.12g}", o_.key, o_.from));
+      }
+      res.points.push_back({p, next.orbit});
+      if (o_.progress && !o_.progress(p, res.points.size())) {
+        res.cancelled = true;
+        return done(fmt::format("cancelled at {} = {:.12g}", o_.key, p));
+      }
+      if (next.iterations <= kEasyCorrection) ds = std::min(o_.max_step, ds * kStepGrowth);
+      cur = std::move(next);
+    }
+    return done(fmt::format("stopped after {} points (--max-points) at {} = {:.12g}", o_.max_points,
+                            o_.key, param(cur.z)));
+  }
+
+ private:
+  const Case& base_;
+  const ContinuationOptions& o_;
+  double p_scale_;
+  int segments_ = 1;
+  double engine_tolerance_ = 1e-14;
+  ode::Vector scale_;
+  ode::Matrix last_jx_;  // dF/dx and dF/d(p / p_scale) at the last corrected point
+  ode::Vector last_fp_;
+};
+
+}  // namespace
+
+const char* to_string(BifurcationType t) {
+  switch (t) {
+    case BifurcationType::kFold:
+      return "fold";
+    case BifurcationType::kBranchPoint:
+      return "branch_point";
+    case BifurcationType::kPeriodDoubling:
+      return "period_doubling";
+    case BifurcationType::kNeimarkSacker:
+      return "neimark_sacker";
+    case BifurcationType::kGrazing:
+      return "grazing";
+  }
+  return "?";
+}
+
+std::string ContinuationOptions::validate() const {
+  if (key.empty()) return "--param: a numeric case key is required, e.g. model.omega";
+  if (!std::isfinite(from) || !std::isfinite(to) || from == to)
+    return fmt::format("--from = {}, --to = {}: must be finite and differ", from, to);
+  if (!(initial_step > 0 && initial_step <= max_step))
+    return fmt::format("--step = {}: must be in (0, max_step = {}]", initial_step, max_step);
+  if (!(min_step > 0 && min_step < initial_step))
+    return fmt::format("min_step = {}: must be in (0, the initial step {})", min_step,
+                       initial_step);
+  if (max_points < 2 || max_points > 1000000)
+    return fmt::format("--max-points = {}: must be an integer in [2, 1000000]", max_points);
+  return orbit.validate();
+}
+
+std::string branch_csv(const ContinuationResult& r) {
+  std::string s =
+      "param,stable,x_a,min_delta_bar,max_delta_bar,max_force_bar,impacts_per_period,"
+      "max_multiplier,min_force_bar,backside_impacts_per_period,separations_per_period,delta_m,"
+      "velocity_m_s,mu1_re,mu1_im,mu2_re,mu2_im\n";
+  for (const BranchPoint& p : r.points) {
+    const Orbit& o = p.orbit;
+    const RunReading& x = o.reading;
+    fmt::format_to(std::back_inserter(s), "{:.17g},{},{:.17g},{:.17g},{:.17g},{:.17g},{},{:.17g},",
+                   p.param, o.stable ? 1 : 0, p.amplitude(), x.min_delta_bar, x.max_delta_bar,
+                   x.max_force_bar, x.impacts, o.max_multiplier());
+    fmt::format_to(std::back_inserter(s), "{:.17g},{},{},{:.17g},{:.17g}", x.min_force_bar,
+                   x.backside_impacts, x.separations, o.state.q, o.state.v);
+    for (std::size_t i = 0; i < 2; ++i) {
+      const std::complex<double> m = i < o.multipliers.size() ? o.multipliers[i] : 0.0;
+      fmt::format_to(std::back_inserter(s), ",{:.17g},{:.17g}", m.real(), m.imag());
+    }
+    s += "\n";
+  }
+  return s;
+}
+
+std::string bifurcations_json(const ContinuationResult& r) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const Bifurcation& b : r.bifurcations) {
+    nlohmann::json mu = nlohmann::json::array();
+    for (const auto& m : b.orbit.multipliers) mu.push_back({m.real(), m.imag()});
+    a.push_back({{"type", to_string(b.type)},
+                 {"param", b.param},
+                 {"detail", b.detail},
+                 {"x_a", 0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar)},
+                 {"impacts_per_period", b.orbit.reading.impacts},
+                 {"state", {b.orbit.state.q, b.orbit.state.v}},
+                 {"floquet_multipliers", mu}});
+  }
+  return a.dump(2) + "\n";
+}
+
+void write_continuation(const std::filesystem::path& dir, const ContinuationResult& r,
+                        const std::string& key, bool figures) {
+  std::string marks = "param,x_a,type\n";
+  for (const Bifurcation& b : r.bifurcations)
+    fmt::format_to(std::back_inserter(marks), "{:.17g},{:.17g},{}\n", b.param,
+                   0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar),
+                   to_string(b.type));
+  write_files_atomically(dir, {{"branch.csv", branch_csv(r)},
+                               {"bifurcations.json", bifurcations_json(r)},
+                               {"bifurcations.csv", marks}});
+  if (!figures || r.points.empty()) return;
+  // Only what happened: an unstable curve if some point is unstable, a mark per type found.
+  const bool any_stable = std::any_of(r.points.begin(), r.points.end(),
+                                      [](const BranchPoint& p) { return p.orbit.stable; });
+  const bool any_unstable = std::any_of(r.points.begin(), r.points.end(),
+                                        [](const BranchPoint& p) { return !p.orbit.stable; });
+  std::vector<std::string> plots;
+  if (any_stable)
+    plots.push_back(
+        "'branch.csv' every ::1 using 1:($2 == 1 ? $3 : NaN) with lines lw 2 lc rgb '#1f3b73' "
+        "title 'stable'");
+  if (any_unstable)
+    plots.push_back(
+        "'branch.csv' every ::1 using 1:($2 == 0 ? $3 : NaN) with lines lw 2 dt 2 lc rgb "
+        "'#b5532b' title 'unstable'");
+  const std::pair<BifurcationType, const char*> styles[] = {
+      {BifurcationType::kFold, "pt 5 ps 1.3 lc rgb 'black'"},
+      {BifurcationType::kBranchPoint, "pt 4 ps 1.3 lc rgb 'black'"},
+      {BifurcationType::kPeriodDoubling, "pt 9 ps 1.5 lc rgb '#7a1f7a'"},
+      {BifurcationType::kNeimarkSacker, "pt 11 ps 1.5 lc rgb '#1f7a3b'"},
+      {BifurcationType::kGrazing, "pt 7 ps 1.1 lc rgb '#c08a00'"}};
+  for (const auto& style : styles) {
+    const BifurcationType type = style.first;
+    const bool found = std::any_of(r.bifurcations.begin(), r.bifurcations.end(),
+                                   [type](const Bifurcation& b) { return b.type == type; });
+    if (found)
+      plots.push_back(fmt::format(
+          "'bifurcations.csv' every ::1 using 1:(strcol(3) eq '{0}' ? $2 : NaN) with points {1} "
+          "title '{0}'",
+          to_string(type), style.second));
+  }
+  std::string body =
+      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top left font ',9'\n";
+  fmt::format_to(std::back_inserter(body),
+                 "set title 'periodic orbits: amplitude along {0}'\nset xlabel '{0}'\n"
+                 "set ylabel 'x_a = (max - min)/2 of delta / b'\nplot ",
+                 key);
+  for (std::size_t i = 0; i < plots.size(); ++i) body += (i ? ", \\\n     " : "") + plots[i];
+  body += "\n";
+  render_figure(dir, "branch", body, 1000, 600);
+}
+
+ContinuationResult continuation(const Case& c, const ContinuationOptions& options) {
+  if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
+  Continuer k(c, options);
+  return k.run();
+}
+
+}  // namespace geardyn

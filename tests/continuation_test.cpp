@@ -1,0 +1,196 @@
+// Continuation (continuation.hpp) on the Kahraman-Singh oscillator (zeta 0.05, F_m 0.1, F_a
+// 0.02): the branch with its two folds and two grazings (these against their closed form);
+// the folds where simulations jump; the stable points' amplitudes against long simulations;
+// the unstable part between the folds; outputs, bad input and cancelling.
+#include "geardyn/continuation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include "geardyn/run.hpp"
+
+namespace {
+
+using geardyn::BifurcationType;
+using geardyn::Case;
+using geardyn::ContinuationOptions;
+using geardyn::ContinuationResult;
+
+Case ks_case(double omega = 0.5) {
+  Case c;
+  c.model.form = geardyn::ModelForm::kNondimensional;
+  c.model.zeta = 0.05;
+  c.model.force_mean = 0.1;
+  c.model.force_alternating = 0.02;
+  c.model.omega = omega;
+  return c;
+}
+
+ContinuationOptions ks_options() {
+  ContinuationOptions o;
+  o.key = "model.omega";
+  o.from = 0.5;
+  o.to = 1.5;
+  return o;
+}
+
+const ContinuationResult& ks_branch() {
+  static const ContinuationResult r = geardyn::continuation(ks_case(), ks_options());
+  return r;
+}
+
+// (max - min) / 2 of delta_bar over the last period of a long exact simulation at omega from
+// `start` (periods of the excitation), and whether it separated in that period.
+struct Settled {
+  double amplitude;
+  std::int64_t impacts;
+};
+Settled simulate(double omega, geardyn::ode::State start, int periods) {
+  const Case c = ks_case(omega);
+  const geardyn::GearPairModel model = geardyn::build_model(c);
+  geardyn::SolverData sd = c.solver;
+  sd.tolerance = 1e-12;
+  const geardyn::Solver solver(model, sd);
+  const double T = 2 * std::numbers::pi / omega;
+  start.t = 0;
+  start.region = model.classify(model.drive(0), start.q, start.v);
+  const auto settled = solver.advance(start, (periods - 1) * T);
+  EXPECT_TRUE(settled.ok()) << settled.message;
+  geardyn::RunReader reader(model, (periods - 1) * T, periods * T, 1.0, true, false);
+  const auto r = solver.run(settled.end_state, periods * T, geardyn::ode::OutputGrid{}, reader);
+  EXPECT_TRUE(r.ok()) << r.message;
+  const auto x = reader.reading();
+  return {0.5 * (x.max_delta_bar - x.min_delta_bar), x.impacts};
+}
+
+TEST(Continuation, KahramanSinghBranchHasTwoFoldsAndTwoGrazings) {
+  const ContinuationResult& r = ks_branch();
+  ASSERT_TRUE(r.completed) << r.message;
+  ASSERT_EQ(r.bifurcations.size(), 4U);
+  // Along the branch: the contact orbit grazes, the impacting branch folds back, the unstable
+  // branch folds forward, the rattle leaves the backlash at a grazing.
+  const BifurcationType expected[] = {BifurcationType::kGrazing, BifurcationType::kFold,
+                                      BifurcationType::kFold, BifurcationType::kGrazing};
+  for (std::size_t i = 0; i < 4; ++i)
+    EXPECT_EQ(r.bifurcations[i].type, expected[i]) << "bifurcation " << i;
+  const double graze_in = r.bifurcations[0].param, fold_up = r.bifurcations[1].param;
+  const double fold_down = r.bifurcations[2].param, graze_out = r.bifurcations[3].param;
+  EXPECT_LT(graze_in, fold_up);
+  EXPECT_LT(fold_down, graze_in);
+  EXPECT_GT(graze_out, fold_up);
+  // Both grazings are of the orbit in contact, which is linear: its amplitude |H| =
+  // F_a / |1 - Omega^2 + 2 i zeta Omega| reaches F_m (delta_bar touches 1) where
+  // (1 - u)^2 + 4 zeta^2 u = (F_a / F_m)^2, u = Omega^2.
+  const double zeta = 0.05, ratio = 0.02 / 0.1;
+  const double bq = -(2 - 4 * zeta * zeta), cq = 1 - ratio * ratio;
+  const double disc = std::sqrt(bq * bq - 4 * cq);
+  EXPECT_NEAR(graze_in, std::sqrt((-bq - disc) / 2), 1e-9);
+  EXPECT_NEAR(graze_out, std::sqrt((-bq + disc) / 2), 1e-9);
+  EXPECT_NEAR(r.bifurcations[0].orbit.reading.min_delta_bar, 1.0, 1e-9);
+  EXPECT_NEAR(r.bifurcations[3].orbit.reading.min_delta_bar, 1.0, 1e-9);
+  // Unstable exactly between the folds, in the order the branch runs.
+  bool between = false;
+  int unstable = 0;
+  for (const auto& p : r.points) {
+    if (!p.orbit.stable) {
+      ++unstable;
+      EXPECT_GE(p.param, fold_down - 1e-9);
+      EXPECT_LE(p.param, fold_up + 1e-9);
+    }
+    between |= !p.orbit.stable;
+  }
+  EXPECT_GE(unstable, 5);
+  EXPECT_TRUE(between);
+}
+
+TEST(Continuation, FoldsAreWhereTheSimulationsJump) {
+  // The upper fold ends the low branch: just below it a simulation started at the fold's
+  // orbit stays low (x_a about 0.107), just above it jumps to the rattle (x_a about 0.18). The
+  // lower fold ends the rattle branch: just above it the rattle stays, just below it falls to
+  // the low branch in contact.
+  const ContinuationResult& r = ks_branch();
+  ASSERT_EQ(r.bifurcations.size(), 4U);
+  const double fold_up = r.bifurcations[1].param, fold_down = r.bifurcations[2].param;
+  const double d = 2e-4;
+  const geardyn::ode::State low_end = r.bifurcations[1].orbit.state;
+  EXPECT_LT(simulate(fold_up - d, low_end, 3000).amplitude, 0.12);
+  EXPECT_GT(simulate(fold_up + d, low_end, 3000).amplitude, 0.15);
+  const geardyn::ode::State top_end = r.bifurcations[2].orbit.state;
+  const Settled above = simulate(fold_down + d, top_end, 3000);
+  EXPECT_EQ(above.impacts, 1);
+  EXPECT_GT(above.amplitude, 0.2);
+  const Settled below = simulate(fold_down - d, top_end, 3000);
+  EXPECT_EQ(below.impacts, 0);
+  EXPECT_LT(below.amplitude, 0.1);
+}
+
+TEST(Continuation, StablePointsMatchLongSimulations) {
+  // Every 8th stable point not near a fold (multipliers below 0.9, so that 400 periods
+  // settle): a simulation from 1e-3 off the orbit settles to its amplitude.
+  const ContinuationResult& r = ks_branch();
+  int checked = 0;
+  for (std::size_t i = 0; i < r.points.size(); i += 8) {
+    const auto& p = r.points[i];
+    if (!p.orbit.stable || p.orbit.max_multiplier() > 0.9) continue;
+    geardyn::ode::State s = p.orbit.state;
+    s.q += 1e-3;
+    const Settled x = simulate(p.param, s, 400);
+    EXPECT_NEAR(x.amplitude, p.amplitude(), 1e-9) << "omega = " << p.param;
+    EXPECT_EQ(x.impacts, p.orbit.reading.impacts) << "omega = " << p.param;
+    ++checked;
+  }
+  EXPECT_GE(checked, 6);
+}
+
+TEST(Continuation, WritesTheBranchAndItsBifurcations) {
+  const ContinuationResult& r = ks_branch();
+  const auto dir = std::filesystem::temp_directory_path() / "geardyn_continuation_test";
+  std::filesystem::remove_all(dir);
+  geardyn::write_continuation(dir, r, "model.omega", false);
+  std::ifstream csv(dir / "branch.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_EQ(
+      header.rfind("param,stable,x_a,min_delta_bar,max_delta_bar,max_force_bar,impacts_per_period,"
+                   "max_multiplier",
+                   0),
+      0U);
+  std::size_t rows = 0;
+  for (std::string line; std::getline(csv, line);) ++rows;
+  EXPECT_EQ(rows, r.points.size());
+  std::stringstream json;
+  json << std::ifstream(dir / "bifurcations.json").rdbuf();
+  EXPECT_NE(json.str().find("\"type\": \"fold\""), std::string::npos);
+  EXPECT_NE(json.str().find("\"type\": \"grazing\""), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Continuation, BadInputIsRejectedWithItsReason) {
+  ContinuationOptions o = ks_options();
+  o.to = o.from;
+  EXPECT_THROW((void)geardyn::continuation(ks_case(), o), geardyn::InputError);
+  o = ks_options();
+  o.key = "solver.method";  // not numeric
+  try {
+    (void)geardyn::continuation(ks_case(), o);
+    ADD_FAILURE() << "a string key was accepted";
+  } catch (const geardyn::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--param solver.method"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Continuation, ProgressCanStopItWithThePointsKept) {
+  ContinuationOptions o = ks_options();
+  o.progress = [](double, std::size_t points) { return points < 10; };
+  const ContinuationResult r = geardyn::continuation(ks_case(), o);
+  EXPECT_TRUE(r.cancelled);
+  EXPECT_FALSE(r.completed);
+  EXPECT_EQ(r.points.size(), 10U);
+}
+
+}  // namespace
