@@ -24,6 +24,7 @@
 #include "geardyn/output.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/stability.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/sweep.hpp"
 
@@ -436,6 +437,46 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
   return r.completed ? 0 : kExitNumerical;
 }
 
+int cmd_stability(const std::string& case_file, const std::vector<std::string>& sets,
+                  geardyn::StabilityOptions o, const std::string& out_dir, bool json,
+                  bool figures) {
+  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
+  ProgressBar bar("stability");
+  o.progress = [&](std::size_t done, std::size_t total) {
+    bar(static_cast<double>(done) / static_cast<double>(total));
+    return !g_interrupted.load();
+  };
+  std::signal(SIGINT, on_interrupt);
+  const geardyn::StabilityResult r = geardyn::stability(c, o);
+  std::signal(SIGINT, SIG_DFL);
+  bar.finish();
+  if (r.cancelled)
+    fmt::print(stderr, "interrupted: writing the {} samples computed\n", r.samples.size());
+  if (!out_dir.empty() && !r.samples.empty())
+    geardyn::write_stability(out_dir, r, o, figures && !r.cancelled);
+  if (json) {
+    fmt::print("{}", geardyn::boundaries_json(r, o.axis2.has_value()));
+    return r.cancelled ? kExitInterrupted : 0;
+  }
+  std::size_t unstable = 0;
+  for (const auto& s : r.samples) unstable += !s.stable;
+  fmt::print("geardyn stability: {} from {} to {}, {} points{} (permanent contact)\n", o.axis.key,
+             o.axis.from, o.axis.to, o.axis.points,
+             o.axis2 ? fmt::format(" x {} from {} to {}, {} points", o.axis2->key, o.axis2->from,
+                                   o.axis2->to, o.axis2->points)
+                     : "");
+  fmt::print("  {} samples, {} unstable\n", r.samples.size(), unstable);
+  for (const geardyn::StabilityBoundary& b : r.boundaries)
+    fmt::print("  {:<16} at {} = {:.15g}{}\n", geardyn::to_string(b.type), o.axis.key, b.param,
+               o.axis2 ? fmt::format(" ({} = {:.6g})", o.axis2->key, b.param2) : "");
+  if (r.boundaries.empty()) fmt::print("  no boundary: the stability does not change\n");
+  if (!out_dir.empty())
+    fmt::print("  written to {}/ (stability.csv, boundaries.json{})\n", out_dir,
+               figures && !r.cancelled ? ", stability.png, stability.svg" : "");
+  return r.cancelled ? kExitInterrupted : 0;
+}
+
 int cmd_reproduce(const std::string& study_name, const std::string& case_file,
                   const std::vector<std::string>& sets, const std::string& out_dir,
                   unsigned threads, bool figures) {
@@ -581,6 +622,27 @@ int main(int argc, char** argv) {
   cont->add_option("--out", cont_out, "output directory (default out/continue)");
   cont->add_flag("--no-figures", cont_no_figures, "write the data without the figure");
 
+  CLI::App* stab = app.add_subcommand(
+      "stability", "Floquet stability in permanent contact along a key (a chart: two)");
+  add_case(stab);
+  geardyn::StabilityOptions sto;
+  geardyn::SweepAxis stab_axis2;
+  std::string stab_out;
+  bool stab_no_figures = false;
+  stab->add_option("--param", sto.axis.key, "the case key, e.g. model.omega")->required();
+  stab->add_option("--from", sto.axis.from, "first value")->required();
+  stab->add_option("--to", sto.axis.to, "last value")->required();
+  stab->add_option("--points", sto.axis.points, "number of values")->required();
+  stab->add_flag("--log", sto.axis.log, "geometric spacing");
+  stab->add_option("--param2", stab_axis2.key, "a second key: a stability chart");
+  stab->add_option("--from2", stab_axis2.from, "first value of --param2");
+  stab->add_option("--to2", stab_axis2.to, "last value of --param2");
+  stab->add_option("--points2", stab_axis2.points, "number of values of --param2");
+  stab->add_flag("--log2", stab_axis2.log, "geometric spacing of --param2");
+  stab->add_option("--out", stab_out, "directory for stability.csv, boundaries.json, figure");
+  stab->add_flag("--json", json, "print the boundaries as JSON");
+  stab->add_flag("--no-figures", stab_no_figures, "write the data without the figure");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -598,6 +660,10 @@ int main(int argc, char** argv) {
                                            : geardyn::SweepDirection::kBoth;
       if (!axis2.key.empty()) so.axis2 = axis2;
       return cmd_sweep(case_file, sets, so, sweep_out, !sweep_no_figures);
+    }
+    if (stab->parsed()) {
+      if (!stab_axis2.key.empty()) sto.axis2 = stab_axis2;
+      return cmd_stability(case_file, sets, sto, stab_out, json, !stab_no_figures);
     }
     if (cont->parsed()) return cmd_continue(case_file, sets, co, cont_out, !cont_no_figures);
     if (orbit->parsed()) return cmd_orbit(case_file, sets, oo, orbit_state, json);

@@ -1,0 +1,77 @@
+// geardyn: Floquet stability of the motion in permanent contact, pipeline stage 6 beside
+// orbit.hpp: the Mathieu-Hill problem of the mesh stiffness harmonics.
+//
+// In permanent drive-side contact the gear model is a linear system with periodic
+// coefficients, y' = A(t) y + u(t), A of period T_k (the mesh period; the system period when
+// the stiffness is constant). Its response is stable when every Floquet multiplier, an
+// eigenvalue of the monodromy Phi(T_k) (the exact engine's, the contact region's guards
+// removed), lies inside the unit circle (or on it, to within 1e-9: neutral, as the undamped
+// system's are). Along a case key the multipliers are sampled; where
+// det(Phi - I) or det(Phi + I) changes sign between two samples (a real multiplier through
+// +1 or -1) or a complex pair crosses the unit circle, the boundary is located by TOMS 748 on
+// that test function to kBoundaryWidth of the key's range.
+#pragma once
+
+#include <complex>
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geardyn/case.hpp"
+#include "geardyn/continuation.hpp"
+#include "geardyn/sweep.hpp"
+
+namespace geardyn {
+
+// A located boundary's width in the key, relative to |to - from|.
+constexpr double kBoundaryWidth = 1e-13;
+
+// The monodromy of the motion in permanent drive-side contact, over `period_s` (0: the
+// stiffness period, or the system period when the stiffness is constant), by the exact engine
+// at `tolerance`. Throws InputError when the case has no period.
+ode::Matrix contact_monodromy(const Case& c, double tolerance = 1e-12, double period_s = 0);
+
+struct StabilityOptions {
+  SweepAxis axis;                  // key, from, to, points (log allowed)
+  std::optional<SweepAxis> axis2;  // a chart: each value of axis2 is a row along axis
+  double tolerance = 1e-12;        // the engine's
+  std::function<bool(std::size_t, std::size_t)> progress;  // (done, total); false cancels
+  std::string validate() const;
+};
+
+struct StabilitySample {
+  double param = 0, param2 = 0;
+  std::vector<std::complex<double>> multipliers;  // largest modulus first
+  double max_multiplier = 0;
+  bool stable = false;
+};
+
+struct StabilityBoundary {
+  double param = 0, param2 = 0;
+  BifurcationType type = BifurcationType::kFold;  // fold (+1), period_doubling (-1),
+                                                  // neimark_sacker (a complex pair)
+};
+
+struct StabilityResult {
+  std::vector<StabilitySample> samples;  // row by row (axis2), along axis
+  std::vector<StabilityBoundary> boundaries;
+  bool cancelled = false;
+};
+
+// Samples and boundaries. Throws InputError on bad input.
+StabilityResult stability(const Case& c, const StabilityOptions& o);
+
+// stability.csv (param[,param2],stable,max_multiplier,mu1_re,mu1_im,mu2_re,mu2_im) and
+// boundaries.json ({"boundaries": [{"param", ["param2",] "type"}]}), all or nothing; with
+// `figures`, the figure `stability` (max |mu| along the key with the boundaries marked, or the
+// chart of the unstable regions over the two keys).
+void write_stability(const std::filesystem::path& dir, const StabilityResult& r,
+                     const StabilityOptions& o, bool figures = true);
+
+// boundaries.json's text.
+std::string boundaries_json(const StabilityResult& r, bool chart);
+
+}  // namespace geardyn

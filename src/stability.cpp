@@ -1,0 +1,239 @@
+#include "geardyn/stability.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <boost/math/tools/toms748_solve.hpp>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "geardyn/engine.hpp"
+#include "geardyn/figures.hpp"
+#include "geardyn/orbit.hpp"
+#include "geardyn/output.hpp"
+#include "geardyn/run.hpp"
+
+namespace geardyn {
+namespace {
+
+// TOMS 748 iterations at most when locating a boundary.
+constexpr std::uintmax_t kMaxBoundaryIterations = 200;
+// Multipliers within this of the unit circle are neutral (the undamped system's stable
+// multipliers lie on it, to rounding): counted stable, and a complex pair must leave this band
+// on both sides of a Neimark-Sacker boundary.
+constexpr double kNeutralMargin = 1e-9;
+
+Case case_at(const Case& base, const SweepAxis& axis, double value) {
+  Case c = base;
+  try {
+    set_case_value(c, {axis.key, fmt::format("{:.17g}", value)});
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("--param {} at {}: {}", axis.key, value, e.what()));
+  }
+  return c;
+}
+
+std::vector<std::complex<double>> multipliers_of(const ode::Matrix& m) {
+  const Eigen::EigenSolver<ode::Matrix> eig(m, false);
+  std::vector<std::complex<double>> mu;
+  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) mu.push_back(eig.eigenvalues()[i]);
+  std::sort(mu.begin(), mu.end(),
+            [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
+  return mu;
+}
+
+double shifted_determinant(const ode::Matrix& m, double sign) {
+  return (m - sign * ode::Matrix::Identity(m.rows(), m.cols())).determinant();
+}
+
+// |mu|^2 - 1 of the largest complex pair; nullopt without one.
+std::optional<double> complex_pair_test(const std::vector<std::complex<double>>& mu) {
+  for (const auto& m : mu)
+    if (std::abs(m.imag()) > 1e-12 * std::max(1.0, std::abs(m))) return std::norm(m) - 1;
+  return std::nullopt;
+}
+
+}  // namespace
+
+ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s) {
+  const GearPairModel model = build_model(c);
+  ode::LinearSwitchedSystem sys = model.linear_system();
+  const int contact = kDriveContact - GearPairModel::kFirstRegion;
+  sys.regions[contact].guards.clear();  // permanent contact
+  const double T = period_s > 0                   ? period_s
+                   : sys.coefficient_period_s > 0 ? sys.coefficient_period_s
+                                                  : system_period_s(model.parameters());
+  ode::EngineOptions eo;
+  eo.tolerance = std::max(ode::kRoundingLimit, tolerance);
+  const ode::ExactEngine engine(sys, eo);
+  ode::FlowObserver nothing;
+  const ode::FlowResult r = engine.flow(0.0, ode::Vector::Zero(sys.dimension), contact, T,
+                                        ode::OutputGrid{}, nothing, true);
+  if (!r.ok() || !r.jacobian)
+    throw std::runtime_error(fmt::format("the contact monodromy's flow failed ({}): {}",
+                                         ode::to_string(r.termination), r.message));
+  return *r.jacobian;
+}
+
+std::string StabilityOptions::validate() const {
+  auto check = [](const SweepAxis& a, const char* suffix) -> std::string {
+    if (a.key.empty()) return fmt::format("--param{}: a numeric case key is required", suffix);
+    if (!std::isfinite(a.from) || !std::isfinite(a.to) || a.from == a.to)
+      return fmt::format("--from{0} = {1}, --to{0} = {2}: must be finite and differ", suffix,
+                         a.from, a.to);
+    if (a.points < 2 || a.points > 100000)
+      return fmt::format("--points{} = {}: must be an integer in [2, 100000]", suffix, a.points);
+    if (a.log && !(a.from > 0 && a.to > 0))
+      return fmt::format("--log{0}: needs --from{0} and --to{0} > 0", suffix);
+    return {};
+  };
+  if (std::string e = check(axis, ""); !e.empty()) return e;
+  if (axis2) {
+    if (std::string e = check(*axis2, "2"); !e.empty()) return e;
+    if (static_cast<long long>(axis.points) * axis2->points > 1000000)
+      return fmt::format("--points x --points2 = {} x {}: at most 1000000 samples", axis.points,
+                         axis2->points);
+  }
+  if (!(tolerance >= ode::kRoundingLimit && tolerance <= 1e-3))
+    return fmt::format("tolerance = {}: must be in [1e-16, 1e-3]", tolerance);
+  return {};
+}
+
+StabilityResult stability(const Case& c, const StabilityOptions& o) {
+  if (const std::string e = o.validate(); !e.empty()) throw InputError(e);
+  StabilityResult res;
+  const std::vector<double> rows = o.axis2 ? o.axis2->values() : std::vector<double>{0.0};
+  const std::vector<double> values = o.axis.values();
+  const double width = kBoundaryWidth * std::abs(o.axis.to - o.axis.from);
+  const std::size_t total = rows.size() * values.size();
+  for (const double row : rows) {
+    const Case base = o.axis2 ? case_at(c, *o.axis2, row) : c;
+    auto monodromy = [&](double p) {
+      return contact_monodromy(case_at(base, o.axis, p), o.tolerance);
+    };
+    auto locate = [&](double a, double b, double fa, double fb, BifurcationType type,
+                      const std::function<double(const ode::Matrix&)>& test) {
+      std::uintmax_t iterations = kMaxBoundaryIterations;
+      const auto f = [&](double p) { return test(monodromy(p)); };
+      const auto bracket = boost::math::tools::toms748_solve(
+          f, a, b, fa, fb, [width](double x, double y) { return std::abs(y - x) <= width; },
+          iterations);
+      res.boundaries.push_back({0.5 * (bracket.first + bracket.second), row, type});
+    };
+    ode::Matrix prev;
+    double prev_p = 0;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const double p = values[i];
+      const ode::Matrix m = monodromy(p);
+      StabilitySample s;
+      s.param = p;
+      s.param2 = row;
+      s.multipliers = multipliers_of(m);
+      s.max_multiplier = s.multipliers.empty() ? 0.0 : std::abs(s.multipliers.front());
+      s.stable = s.max_multiplier < 1.0 + kNeutralMargin;
+      if (i > 0) {
+        for (const double sign : {1.0, -1.0}) {
+          const auto test = [sign](const ode::Matrix& x) { return shifted_determinant(x, sign); };
+          const double fa = test(prev), fb = test(m);
+          if (fa * fb < 0)
+            locate(prev_p, p, fa, fb,
+                   sign > 0 ? BifurcationType::kFold : BifurcationType::kPeriodDoubling, test);
+        }
+        const auto na = complex_pair_test(multipliers_of(prev));
+        const auto nb = complex_pair_test(s.multipliers);
+        if (na && nb && *na * *nb < 0 && std::abs(*na) > kNeutralMargin &&
+            std::abs(*nb) > kNeutralMargin)
+          locate(prev_p, p, *na, *nb, BifurcationType::kNeimarkSacker, [](const ode::Matrix& x) {
+            return complex_pair_test(multipliers_of(x)).value_or(0.0);
+          });
+      }
+      res.samples.push_back(std::move(s));
+      prev = m;
+      prev_p = p;
+      if (o.progress && !o.progress(res.samples.size(), total)) {
+        res.cancelled = true;
+        return res;
+      }
+    }
+  }
+  std::sort(res.boundaries.begin(), res.boundaries.end(),
+            [](const StabilityBoundary& a, const StabilityBoundary& b) {
+              return a.param2 != b.param2 ? a.param2 < b.param2 : a.param < b.param;
+            });
+  return res;
+}
+
+std::string boundaries_json(const StabilityResult& r, bool chart) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const StabilityBoundary& b : r.boundaries) {
+    nlohmann::json j{{"param", b.param}, {"type", to_string(b.type)}};
+    if (chart) j["param2"] = b.param2;
+    a.push_back(j);
+  }
+  return nlohmann::json{{"boundaries", a}}.dump(2) + "\n";
+}
+
+void write_stability(const std::filesystem::path& dir, const StabilityResult& r,
+                     const StabilityOptions& o, bool figures) {
+  const bool chart = o.axis2.has_value();
+  std::string csv = chart ? "param,param2," : "param,";
+  csv += "stable,max_multiplier,mu1_re,mu1_im,mu2_re,mu2_im\n";
+  for (const StabilitySample& s : r.samples) {
+    fmt::format_to(std::back_inserter(csv), "{:.17g},", s.param);
+    if (chart) fmt::format_to(std::back_inserter(csv), "{:.17g},", s.param2);
+    fmt::format_to(std::back_inserter(csv), "{},{:.17g}", s.stable ? 1 : 0, s.max_multiplier);
+    for (std::size_t i = 0; i < 2; ++i) {
+      const std::complex<double> m = i < s.multipliers.size() ? s.multipliers[i] : 0.0;
+      fmt::format_to(std::back_inserter(csv), ",{:.17g},{:.17g}", m.real(), m.imag());
+    }
+    csv += "\n";
+  }
+  std::string marks = chart ? "param,param2,type\n" : "param,type\n";
+  for (const StabilityBoundary& b : r.boundaries) {
+    if (chart)
+      fmt::format_to(std::back_inserter(marks), "{:.17g},{:.17g},{}\n", b.param, b.param2,
+                     to_string(b.type));
+    else
+      fmt::format_to(std::back_inserter(marks), "{:.17g},{}\n", b.param, to_string(b.type));
+  }
+  write_files_atomically(dir, {{"stability.csv", csv},
+                               {"boundaries.json", boundaries_json(r, chart)},
+                               {"boundaries.csv", marks}});
+  if (!figures || r.samples.empty()) return;
+  std::string body =
+      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\nset key top left font ',9'\n";
+  if (o.axis.log) body += "set logscale x\n";
+  const bool any_boundary = !r.boundaries.empty();
+  if (!chart) {
+    fmt::format_to(std::back_inserter(body),
+                   "set title 'Floquet stability in permanent contact'\nset xlabel '{}'\n"
+                   "set ylabel 'largest |multiplier|'\n"
+                   "plot 'stability.csv' every ::1 using 1:3 with lines lw 2 lc rgb '#1f3b73' "
+                   "title 'max |mu|', 1 with lines dt 2 lc rgb 'gray' notitle",
+                   o.axis.key);
+    if (any_boundary)
+      body +=
+          ", \\\n     'boundaries.csv' every ::1 using 1:(1) with points pt 7 ps 1.1 lc rgb "
+          "'#b5532b' title 'boundary'";
+    body += "\n";
+  } else {
+    if (o.axis2->log) body += "set logscale y\n";
+    fmt::format_to(std::back_inserter(body),
+                   "set title 'instability regions in permanent contact (colour: log10 max "
+                   "|mu| where above 1)'\nset xlabel '{}'\nset ylabel '{}'\n"
+                   "set palette defined (0 'white', 1 '#f2b8a0', 2 '#b5532b')\nset cbrange [0:*]\n"
+                   "plot 'stability.csv' every ::1 using 1:2:($3 == 1 ? 0 : log10($4)) with "
+                   "points pt 5 ps 0.6 lc palette notitle",
+                   o.axis.key, o.axis2->key);
+    if (any_boundary)
+      body +=
+          ", \\\n     'boundaries.csv' every ::1 using 1:2 with points pt 7 ps 0.4 lc rgb "
+          "'black' title 'boundary'";
+    body += "\n";
+  }
+  render_figure(dir, "stability", body, 1000, 600);
+}
+
+}  // namespace geardyn

@@ -1,0 +1,131 @@
+// Floquet stability in permanent contact (stability.hpp): the damped Mathieu equation
+// x'' + 2 zeta x' + (1 + eps cos(Omega t)) x = 0 (the non-dimensional form with one stiffness
+// harmonic, kappa_1 = eps). Its first (principal) tongue's boundaries against an independent
+// Hill determinant; the monodromy of constant stiffness against exp(A T); bad input.
+#include "geardyn/stability.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <boost/math/tools/toms748_solve.hpp>
+#include <cmath>
+#include <complex>
+#include <numbers>
+#include <unsupported/Eigen/MatrixFunctions>
+
+namespace {
+
+using geardyn::BifurcationType;
+using geardyn::Case;
+using geardyn::StabilityOptions;
+
+Case mathieu(double zeta, double eps) {
+  Case c;
+  c.model.form = geardyn::ModelForm::kNondimensional;
+  c.model.zeta = zeta;
+  c.model.force_mean = 1.0;
+  c.model.force_alternating = 0.0;
+  c.model.omega = 2.0;
+  if (eps > 0) c.model.stiffness_harmonics = {{eps, 0.0}};
+  return c;
+}
+
+// Hill's determinant of the solutions of period 2T (multiplier -1): x = sum over odd k of
+// a_k cos(k theta) + b_k sin(k theta), theta = Omega t / 2, truncated at kHarmonics odd
+// harmonics. Independent of geardyn: the harmonic balance of the equation, in real form.
+constexpr int kHarmonics = 40;
+double hill_determinant(double zeta, double eps, double omega) {
+  const int n = kHarmonics;
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+  const double w = omega / 2;
+  for (int i = 0; i < n; ++i) {
+    const int k = 2 * i + 1;
+    const double diag = 1 - k * k * w * w;
+    h(2 * i, 2 * i) = diag;                  // cos row, a_k
+    h(2 * i, 2 * i + 1) = 2 * zeta * k * w;  // cos row, b_k (from 2 zeta x')
+    h(2 * i + 1, 2 * i + 1) = diag;          // sin row, b_k
+    h(2 * i + 1, 2 * i) = -2 * zeta * k * w;
+    // eps cos(2 theta) couples k with k +- 2; k = 1 also with itself (cos(-theta) = cos theta,
+    // sin(-theta) = -sin theta).
+    if (i > 0) {
+      h(2 * i, 2 * (i - 1)) += eps / 2;
+      h(2 * i + 1, 2 * (i - 1) + 1) += eps / 2;
+    }
+    if (i + 1 < n) {
+      h(2 * i, 2 * (i + 1)) += eps / 2;
+      h(2 * i + 1, 2 * (i + 1) + 1) += eps / 2;
+    }
+    if (i == 0) {
+      h(0, 0) += eps / 2;
+      h(1, 1) -= eps / 2;
+    }
+  }
+  return h.determinant();
+}
+
+// The Hill determinant's root in [a, b].
+double hill_root(double zeta, double eps, double a, double b) {
+  std::uintmax_t it = 200;
+  const auto f = [&](double w) { return hill_determinant(zeta, eps, w); };
+  const auto r = boost::math::tools::toms748_solve(
+      f, a, b, [](double x, double y) { return std::abs(x - y) < 1e-14; }, it);
+  return 0.5 * (r.first + r.second);
+}
+
+TEST(Stability, MathieuPrincipalTongueMatchesTheHillDeterminant) {
+  for (const auto& [zeta, eps] :
+       {std::pair{0.0, 0.2}, std::pair{0.01, 0.2}, std::pair{0.02, 0.5}, std::pair{0.05, 0.4}}) {
+    StabilityOptions o;
+    o.axis = {"model.omega", 1.5, 2.5, 41};
+    const auto r = geardyn::stability(mathieu(zeta, eps), o);
+    std::vector<double> pd;
+    for (const auto& b : r.boundaries)
+      if (b.type == BifurcationType::kPeriodDoubling) pd.push_back(b.param);
+    ASSERT_EQ(pd.size(), 2U) << "zeta " << zeta << ", eps " << eps;
+    // Hill: the two roots around Omega = 2 (the tongue's edges, bracketed by the samples).
+    const double left = hill_root(zeta, eps, pd[0] - 0.02, pd[0] + 0.02);
+    const double right = hill_root(zeta, eps, pd[1] - 0.02, pd[1] + 0.02);
+    EXPECT_NEAR(pd[0], left, 1e-8) << "zeta " << zeta << ", eps " << eps;
+    EXPECT_NEAR(pd[1], right, 1e-8) << "zeta " << zeta << ", eps " << eps;
+    // Inside the tongue unstable, outside stable.
+    for (const auto& s : r.samples)
+      EXPECT_EQ(s.stable, s.param < pd[0] || s.param > pd[1]) << "Omega " << s.param;
+  }
+}
+
+TEST(Stability, DampingNarrowsTheTongueAndClosesIt) {
+  // With zeta large enough against eps the principal tongue vanishes: no boundary at all.
+  StabilityOptions o;
+  o.axis = {"model.omega", 1.5, 2.5, 41};
+  const auto r = geardyn::stability(mathieu(0.1, 0.2), o);
+  EXPECT_TRUE(r.boundaries.empty());
+  for (const auto& s : r.samples) EXPECT_TRUE(s.stable);
+}
+
+TEST(Stability, ConstantStiffnessMonodromyIsTheMatrixExponential) {
+  // Without stiffness harmonics: Phi(T) = exp(A T), A = [[0, 1], [-1, -2 zeta]], T = 2 pi / Omega
+  // (the period of the torque, F_a > 0).
+  Case c = mathieu(0.05, 0.0);
+  c.model.force_alternating = 0.1;
+  c.model.omega = 1.3;
+  const geardyn::ode::Matrix m = geardyn::contact_monodromy(c);
+  const double T = 2 * std::numbers::pi / 1.3;
+  Eigen::Matrix2d a;
+  a << 0, 1, -1, -0.1;
+  const Eigen::Matrix2d e = (a * T).exp();
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j) EXPECT_NEAR(m(i, j), e(i, j), 1e-13);
+}
+
+TEST(Stability, BadInputIsRejectedWithItsReason) {
+  StabilityOptions o;
+  o.axis = {"model.omega", 1.5, 2.5, 1};
+  try {
+    (void)geardyn::stability(mathieu(0.0, 0.2), o);
+    ADD_FAILURE() << "one point accepted";
+  } catch (const geardyn::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--points = 1"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
