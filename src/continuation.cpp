@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <chrono>
@@ -27,6 +28,12 @@ constexpr double kMinTangentCosine = 0.9;
 constexpr int kMaxBisections = 60;
 // The engine's tolerance as a fraction of the Newton tolerance (as in find_orbit).
 constexpr double kEngineToleranceFraction = 1e-4;
+// A branch switch at a period doubling: how far beyond it in p (relative to p_scale), the
+// displacements along the eigenvector tried (scaled units), and how far from returning
+// after one period N a period-doubled orbit must be (scaled).
+constexpr double kSwitchStep = 1e-3;
+constexpr double kSwitchDisplacements[] = {1e-2, 3e-2, 1e-1};
+constexpr double kDistinctOrbit = 1e-6;
 
 // The contact sequence of one period, the grazing test's signature: cyclic, so the least of
 // its rotations (an event that moves across the section time changes nothing).
@@ -64,8 +71,10 @@ struct Point {
 
 class Continuer {
  public:
-  Continuer(const Case& base, const ContinuationOptions& o)
-      : base_(base), o_(o), p_scale_(std::abs(o.to - o.from)) {
+  // The branch stays within [lo, hi] (from and to, or wider for a switched branch that may
+  // run back past its start to the period doubling it came from).
+  Continuer(const Case& base, const ContinuationOptions& o, double lo, double hi)
+      : base_(base), o_(o), p_scale_(hi - lo), lo_(lo), hi_(hi) {
     segments_ = o.orbit.segments > 0 ? o.orbit.segments : o.orbit.periods;
     engine_tolerance_ =
         std::min(base.solver.tolerance, o.orbit.tolerance * kEngineToleranceFraction);
@@ -93,7 +102,7 @@ class Continuer {
     const Case c0 = case_at(o_.from);
     OrbitOptions oo = o_.orbit;
     oo.segments = segments_;
-    const Orbit first = find_orbit(c0, oo);
+    const Orbit first = find_orbit(c0, oo, o_.start);
     if (!first.converged) {
       why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
       return false;
@@ -163,6 +172,14 @@ class Continuer {
     return true;
   }
 
+  // A period-doubled branch (its orbits of period 2N on an even number of segments) ends where
+  // it meets the period-N branch again: there the state after half the period is the start.
+  void mark_doubled() { doubled_ = segments_ % 2 == 0; }
+  double half_period_gap(const ode::Vector& z) const {
+    return (z.segment(0, 2) - z.segment(Eigen::Index{2} * (segments_ / 2), 2))
+        .lpNorm<Eigen::Infinity>();
+  }
+
   // The unit tangent at pt (from the last correction's Jacobians), oriented along `previous`.
   bool tangent(Point& pt, const ode::Vector& previous, std::string& why) {
     const Eigen::Index n = pt.z.size() - 1;
@@ -215,7 +232,7 @@ class Continuer {
     const auto sig_a = signature(a.orbit), sig_b = signature(b.orbit);
     if (sig_a != sig_b) {
       const Point g = locate(a, b, ds, [&](const Point& m) { return signature(m.orbit) == sig_a; });
-      out.push_back({BifurcationType::kGrazing, param(g.z), g.orbit,
+      out.push_back({BifurcationType::kGrazing, param(g.z), 0, g.orbit,
                      fmt::format("impacts per period {} -> {}, separations {} -> {}",
                                  a.orbit.reading.impacts, b.orbit.reading.impacts,
                                  a.orbit.reading.separations, b.orbit.reading.separations)});
@@ -225,7 +242,7 @@ class Continuer {
       const double ta = test(a.orbit), tb = test(b.orbit);
       if (!(ta * tb < 0)) return;
       const Point m = locate(a, b, ds, [&](const Point& q) { return test(q.orbit) * ta > 0; });
-      out.push_back({type, param(m.z), m.orbit, detail});
+      out.push_back({type, param(m.z), 0, m.orbit, detail});
     };
     const double turn = a.tangent[a.tangent.size() - 1] * b.tangent[b.tangent.size() - 1];
     sign_test(
@@ -254,8 +271,7 @@ class Continuer {
     Point cur;
     std::string why;
     if (!start(cur, why)) return done(why);
-    res.points.push_back({param(cur.z), cur.orbit});
-    const double lo = std::min(o_.from, o_.to), hi = std::max(o_.from, o_.to);
+    res.points.push_back({param(cur.z), 0, o_.orbit.periods, cur.orbit});
     double ds = o_.initial_step;
     while (static_cast<int>(res.points.size()) < o_.max_points) {
       Point next;
@@ -274,24 +290,30 @@ class Continuer {
       }
       detect(cur, next, ds, res.bifurcations);
       const double p = param(next.z);
-      if (p > hi || p < lo) {
+      if (p > hi_ || p < lo_) {
         // Past an end: the last point on it, at p fixed.
-        const bool past_to = (o_.to > o_.from) ? p > o_.to : p < o_.to;
-        const double end = past_to ? o_.to : o_.from;
+        const double end = p > hi_ ? hi_ : lo_;
+        const bool past_to = end == o_.to;
         const double frac = (end - param(cur.z)) / (p - param(cur.z));
         ode::Vector along = ode::Vector::Zero(next.z.size());
         along[along.size() - 1] = 1;
         ode::Vector z = cur.z + frac * (next.z - cur.z);
         z[z.size() - 1] = end / p_scale_;
         Point last;
-        if (correct(z, along, last, why)) res.points.push_back({end, last.orbit});
+        if (correct(z, along, last, why))
+          res.points.push_back({end, 0, o_.orbit.periods, last.orbit});
         if (past_to) {
           res.completed = true;
           return done(fmt::format("reached {} = {:.12g}", o_.key, o_.to));
         }
-        return done(fmt::format("the branch turned back past {} = {:.12g}", o_.key, o_.from));
+        return done(fmt::format("the branch turned back to {} = {:.12g}", o_.key, end));
       }
-      res.points.push_back({p, next.orbit});
+      res.points.push_back({p, 0, o_.orbit.periods, next.orbit});
+      if (doubled_ && half_period_gap(next.z) < kDistinctOrbit)
+        return done(
+            fmt::format("the period-doubled branch returned to the period doubling at "
+                        "{} = {:.12g}",
+                        o_.key, p));
       if (o_.progress && !o_.progress(p, res.points.size())) {
         res.cancelled = true;
         return done(fmt::format("cancelled at {} = {:.12g}", o_.key, p));
@@ -306,8 +328,9 @@ class Continuer {
  private:
   const Case& base_;
   const ContinuationOptions& o_;
-  double p_scale_;
+  double p_scale_, lo_, hi_;
   int segments_ = 1;
+  bool doubled_ = false;
   double engine_tolerance_ = 1e-14;
   ode::Vector scale_;
   ode::Matrix last_jx_;  // dF/dx and dF/d(p / p_scale) at the last corrected point
@@ -350,7 +373,7 @@ std::string branch_csv(const ContinuationResult& r) {
   std::string s =
       "param,stable,x_a,min_delta_bar,max_delta_bar,max_force_bar,impacts_per_period,"
       "max_multiplier,min_force_bar,backside_impacts_per_period,separations_per_period,delta_m,"
-      "velocity_m_s,mu1_re,mu1_im,mu2_re,mu2_im\n";
+      "velocity_m_s,mu1_re,mu1_im,mu2_re,mu2_im,branch,periods\n";
   for (const BranchPoint& p : r.points) {
     const Orbit& o = p.orbit;
     const RunReading& x = o.reading;
@@ -363,7 +386,7 @@ std::string branch_csv(const ContinuationResult& r) {
       const std::complex<double> m = i < o.multipliers.size() ? o.multipliers[i] : 0.0;
       fmt::format_to(std::back_inserter(s), ",{:.17g},{:.17g}", m.real(), m.imag());
     }
-    s += "\n";
+    fmt::format_to(std::back_inserter(s), ",{},{}\n", p.branch, p.periods);
   }
   return s;
 }
@@ -375,6 +398,7 @@ std::string bifurcations_json(const ContinuationResult& r) {
     for (const auto& m : b.orbit.multipliers) mu.push_back({m.real(), m.imag()});
     a.push_back({{"type", to_string(b.type)},
                  {"param", b.param},
+                 {"branch", b.branch},
                  {"detail", b.detail},
                  {"x_a", 0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar)},
                  {"impacts_per_period", b.orbit.reading.impacts},
@@ -395,20 +419,30 @@ void write_continuation(const std::filesystem::path& dir, const ContinuationResu
                                {"bifurcations.json", bifurcations_json(r)},
                                {"bifurcations.csv", marks}});
   if (!figures || r.points.empty()) return;
-  // Only what happened: an unstable curve if some point is unstable, a mark per type found.
-  const bool any_stable = std::any_of(r.points.begin(), r.points.end(),
-                                      [](const BranchPoint& p) { return p.orbit.stable; });
-  const bool any_unstable = std::any_of(r.points.begin(), r.points.end(),
-                                        [](const BranchPoint& p) { return !p.orbit.stable; });
+  // Only what happened: a curve per branch and stability found, a mark per type found.
   std::vector<std::string> plots;
-  if (any_stable)
-    plots.push_back(
-        "'branch.csv' every ::1 using 1:($2 == 1 ? $3 : NaN) with lines lw 2 lc rgb '#1f3b73' "
-        "title 'stable'");
-  if (any_unstable)
-    plots.push_back(
-        "'branch.csv' every ::1 using 1:($2 == 0 ? $3 : NaN) with lines lw 2 dt 2 lc rgb "
-        "'#b5532b' title 'unstable'");
+  int branches = 0;
+  for (const BranchPoint& p : r.points) branches = std::max(branches, p.branch + 1);
+  // One curve per branch and stability (a period-doubled branch in another colour), titled
+  // once.
+  bool titled_stable = false, titled_unstable = false;
+  for (int b = 0; b < branches; ++b) {
+    const char* colour = b == 0 ? "#1f3b73" : "#4a8f3c";
+    for (const int stable : {1, 0}) {
+      const bool present = std::any_of(r.points.begin(), r.points.end(), [&](const BranchPoint& p) {
+        return p.branch == b && p.orbit.stable == (stable == 1);
+      });
+      if (!present) continue;
+      bool& titled = stable ? titled_stable : titled_unstable;
+      const std::string title =
+          titled ? "notitle" : (stable ? "title 'stable'" : "title 'unstable'");
+      titled = true;
+      plots.push_back(fmt::format(
+          "'branch.csv' every ::1 using 1:($18 == {0} && $2 == {1} ? $3 : NaN) with lines lw 2 "
+          "{2}lc rgb '{3}' {4}",
+          b, stable, stable ? "" : "dt 2 ", colour, title));
+    }
+  }
   const std::pair<BifurcationType, const char*> styles[] = {
       {BifurcationType::kFold, "pt 5 ps 1.3 lc rgb 'black'"},
       {BifurcationType::kBranchPoint, "pt 4 ps 1.3 lc rgb 'black'"},
@@ -437,10 +471,104 @@ void write_continuation(const std::filesystem::path& dir, const ContinuationResu
   render_figure(dir, "branch", body, 1000, 600);
 }
 
+namespace {
+
+// The period-doubled orbit next to a period doubling `pd` of a branch of N-periodic orbits:
+// Newton on 2N periods, just beyond pd.param on either side, from pd's state displaced along
+// the eigenvector of the multiplier nearest -1. nullopt when no such orbit is found.
+struct Switch {
+  double param;
+  Orbit orbit;
+  double toward;  // the end of the range the new branch heads for
+};
+std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions& o,
+                                    const Bifurcation& pd) {
+  const Eigen::EigenSolver<ode::Matrix> eig(pd.orbit.monodromy);
+  Eigen::Index k = 0;
+  for (Eigen::Index i = 1; i < eig.eigenvalues().size(); ++i)
+    if (std::abs(eig.eigenvalues()[i] + 1.0) < std::abs(eig.eigenvalues()[k] + 1.0)) k = i;
+  const ode::Vector v = eig.eigenvectors().col(k).real();
+  const ode::Vector scale = detail::orbit_scale(build_model(base));
+  const ode::Vector dir = v.cwiseQuotient(scale).normalized();  // in scaled units
+  const double lo = std::min(o.from, o.to), hi = std::max(o.from, o.to);
+  const double step = kSwitchStep * (hi - lo);
+  for (const double side : {1.0, -1.0}) {
+    const double p = pd.param + side * step;
+    if (p <= lo || p >= hi) continue;
+    Case c = base;
+    set_case_value(c, {o.key, fmt::format("{:.17g}", p)});
+    OrbitOptions oo = o.orbit;
+    oo.periods = 2 * o.orbit.periods;
+    oo.segments = 2 * (o.orbit.segments > 0 ? o.orbit.segments : o.orbit.periods);
+    for (const double amount : kSwitchDisplacements)
+      for (const double sign : {1.0, -1.0}) {
+        const ode::Vector y = (ode::Vector(2) << pd.orbit.state.q, pd.orbit.state.v).finished() +
+                              sign * amount * dir.cwiseProduct(scale);
+        const Orbit orbit = find_orbit(c, oo, ode::State{0.0, y[0], y[1], 0.0, 0});
+        if (!orbit.converged) continue;
+        // A period-doubled orbit, not the period-N one again: one period N does not return.
+        const detail::Shooting single(c, o.orbit.periods, 1, scale, c.solver.tolerance);
+        ode::Vector f;
+        std::string why;
+        ode::Vector x = single.scaled((ode::Vector(2) << orbit.state.q, orbit.state.v).finished());
+        if (!single.residual(x, f, nullptr, nullptr, why)) continue;
+        if (f.lpNorm<Eigen::Infinity>() > kDistinctOrbit)
+          return Switch{p, orbit, side > 0 ? hi : lo};
+      }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 ContinuationResult continuation(const Case& c, const ContinuationOptions& options) {
   if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
-  Continuer k(c, options);
-  return k.run();
+  const double lo = std::min(options.from, options.to), hi = std::max(options.from, options.to);
+  const auto wall_start = std::chrono::steady_clock::now();
+  Continuer k(c, options, lo, hi);
+  ContinuationResult res = k.run();
+  const auto finish = [&]() -> ContinuationResult& {
+    res.wall_time_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+    return res;
+  };
+  if (!options.follow_period_doubling || res.cancelled) return finish();
+  int switches = 0;
+  const std::vector<Bifurcation> found = res.bifurcations;
+  for (const Bifurcation& b : found) {
+    if (b.type != BifurcationType::kPeriodDoubling || switches >= kMaxBranchSwitches) continue;
+    const std::optional<Switch> sw = switch_branch(c, options, b);
+    if (!sw) {
+      res.message +=
+          fmt::format("; no period-doubled orbit found next to {} = {:.12g}", options.key, b.param);
+      continue;
+    }
+    ++switches;
+    ContinuationOptions sub = options;
+    sub.follow_period_doubling = false;
+    sub.from = sw->param;
+    sub.to = sw->toward;
+    sub.orbit.periods = 2 * options.orbit.periods;
+    sub.orbit.segments =
+        2 * (options.orbit.segments > 0 ? options.orbit.segments : options.orbit.periods);
+    sub.start = sw->orbit.state;
+    Continuer ks(c, sub, lo, hi);
+    ks.mark_doubled();
+    ContinuationResult r2 = ks.run();
+    for (BranchPoint& p : r2.points) {
+      p.branch = switches;
+      res.points.push_back(std::move(p));
+    }
+    for (Bifurcation& x : r2.bifurcations) {
+      x.branch = switches;
+      res.bifurcations.push_back(std::move(x));
+    }
+    res.message += fmt::format("; period-doubled branch {} from {} = {:.12g}: {}", switches,
+                               options.key, b.param, r2.message);
+    res.cancelled = r2.cancelled;
+    if (res.cancelled) break;
+  }
+  return finish();
 }
 
 }  // namespace geardyn

@@ -147,6 +147,52 @@ TEST(Continuation, StablePointsMatchLongSimulations) {
   EXPECT_GE(checked, 6);
 }
 
+TEST(Continuation, PeriodDoublingIsLocatedAndItsBranchFollowed) {
+  // F_a 0.2 from static contact: the period-1 branch doubles its period near Omega 1.61. The
+  // located orbit has a multiplier -1; the switched branch holds orbits of period 2 T0 that
+  // an independent integrator (dopri5 at 1e-12) confirms: back after two periods, not after
+  // one.
+  Case c = ks_case();
+  c.model.force_alternating = 0.2;
+  c.solver.initial = geardyn::InitialCondition::kStatic;
+  ContinuationOptions o = ks_options();
+  o.from = 1.3;
+  o.to = 2.5;
+  o.follow_period_doubling = true;
+  o.max_points = 300;
+  const ContinuationResult r = geardyn::continuation(c, o);
+  const geardyn::Bifurcation* pd = nullptr;
+  for (const auto& b : r.bifurcations)
+    if (b.branch == 0 && b.type == BifurcationType::kPeriodDoubling) pd = &b;
+  ASSERT_NE(pd, nullptr) << r.message;
+  EXPECT_NEAR(pd->param, 1.6077, 1e-3);
+  double nearest = 1e9;
+  for (const auto& m : pd->orbit.multipliers) nearest = std::min(nearest, std::abs(m + 1.0));
+  EXPECT_LT(nearest, 1e-6);
+  std::vector<const geardyn::BranchPoint*> doubled;
+  for (const auto& p : r.points)
+    if (p.branch == 1) doubled.push_back(&p);
+  ASSERT_GE(doubled.size(), 10U) << r.message;
+  const geardyn::BranchPoint& q = *doubled[doubled.size() / 2];
+  EXPECT_EQ(q.periods, 2);
+  Case cq = c;
+  cq.model.omega = q.param;
+  const geardyn::GearPairModel model = geardyn::build_model(cq);
+  geardyn::SolverData sd = cq.solver;
+  sd.method = geardyn::Method::kDopri5;
+  sd.tolerance = 1e-12;
+  const geardyn::Solver solver(model, sd);
+  geardyn::ode::State s = q.orbit.state;
+  s.region = model.classify(model.drive(0), s.q, s.v);
+  const double T0 = 2 * std::numbers::pi / q.param;
+  const auto one = solver.advance(s, T0);
+  const auto two = solver.advance(s, 2 * T0);
+  ASSERT_TRUE(one.ok() && two.ok());
+  EXPECT_NEAR(two.end_state.q, s.q, 1e-8);
+  EXPECT_NEAR(two.end_state.v, s.v, 1e-8);
+  EXPECT_GT(std::abs(one.end_state.q - s.q) + std::abs(one.end_state.v - s.v), 1e-4);
+}
+
 TEST(Continuation, WritesTheBranchAndItsBifurcations) {
   const ContinuationResult& r = ks_branch();
   const auto dir = std::filesystem::temp_directory_path() / "geardyn_continuation_test";

@@ -427,8 +427,9 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
   for (const auto& p : r.points) unstable += !p.orbit.stable;
   fmt::print("  {} stable, {} unstable points\n", r.points.size() - unstable, unstable);
   for (const geardyn::Bifurcation& b : r.bifurcations)
-    fmt::print("  {:<16} at {} = {:.12g}: {}, x_a {:.6g}\n", geardyn::to_string(b.type), o.key,
-               b.param, b.detail,
+    fmt::print("  {}{:<16} at {} = {:.12g}: {}, x_a {:.6g}\n",
+               b.branch > 0 ? fmt::format("[branch {}] ", b.branch) : "",
+               geardyn::to_string(b.type), o.key, b.param, b.detail,
                0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar));
   if (!r.points.empty())
     fmt::print("  written to {}/ (branch.csv, bifurcations.json{})\n", out_dir,
@@ -619,6 +620,8 @@ int main(int argc, char** argv) {
   cont->add_option("--step", co.initial_step, "first arclength step (default 0.01)");
   cont->add_option("--max-step", co.max_step, "largest arclength step (default 0.02)");
   cont->add_option("--max-points", co.max_points, "points at most (default 5000)");
+  cont->add_flag("--follow-period-doubling", co.follow_period_doubling,
+                 "switch to the period-doubled branch at each period doubling and follow it");
   cont->add_option("--out", cont_out, "output directory (default out/continue)");
   cont->add_flag("--no-figures", cont_no_figures, "write the data without the figure");
 

@@ -25,6 +25,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,9 @@
 #include "geardyn/orbit.hpp"
 
 namespace geardyn {
+
+// Period doublings switched from at most (follow_period_doubling).
+constexpr int kMaxBranchSwitches = 4;
 
 // Central-difference step of dF/dp, relative to p_scale.
 constexpr double kParamStep = 1e-7;
@@ -43,7 +47,9 @@ const char* to_string(BifurcationType t);
 
 struct BranchPoint {
   double param = 0;
-  Orbit orbit;  // converged: section state, multipliers, stability, reading
+  int branch = 0;   // 0: the branch followed; 1, 2, ...: period-doubled branches switched to
+  int periods = 1;  // the orbit's period in system periods
+  Orbit orbit;      // converged: section state, multipliers, stability, reading
   // (max - min) / 2 of delta_bar over one period.
   double amplitude() const {
     return 0.5 * (orbit.reading.max_delta_bar - orbit.reading.min_delta_bar);
@@ -53,6 +59,7 @@ struct BranchPoint {
 struct Bifurcation {
   BifurcationType type = BifurcationType::kFold;
   double param = 0;
+  int branch = 0;      // the branch it was found on
   Orbit orbit;         // the orbit at the located point
   std::string detail;  // e.g. "impacts per period 0 -> 1"
 };
@@ -65,7 +72,12 @@ struct ContinuationOptions {
   double initial_step = 0.01;
   double max_step = 0.02;
   double min_step = 1e-8;
-  int max_points = 5000;
+  int max_points = 5000;  // on each branch
+  // A state on the section at `from` to start Newton from, in place of the settled simulation.
+  std::optional<ode::State> start;
+  // At each period doubling of the first branch (up to kMaxBranchSwitches), switch to the
+  // period-doubled branch and follow it to the end of the range it heads for.
+  bool follow_period_doubling = false;
   // Called after every point with p and the points so far; false stops the continuation
   // (cancelled, the points kept).
   std::function<bool(double, std::size_t)> progress;
@@ -82,20 +94,23 @@ struct ContinuationResult {
   double wall_time_s = 0;
 };
 
-// Follows the branch of the orbit found at p = from (find_orbit with options.orbit) towards
-// `to`. Throws InputError on bad input (a key that is not numeric, a bad range); a branch that
-// is lost or turns back past `from` ends the result with its reason, the points kept.
+// Follows the branch of the orbit found at p = from (find_orbit with options.orbit, from
+// options.start when given) towards `to`; with follow_period_doubling also the period-doubled
+// branches (the switch: Newton on the doubled period from the period-doubling orbit displaced
+// along the eigenvector of its multiplier -1, just beyond the located parameter). Throws InputError
+// on bad input (a key that is not numeric, a bad range); a branch that is lost or turns back past
+// `from` ends the result with its reason, the points kept.
 ContinuationResult continuation(const Case& c, const ContinuationOptions& options);
 
 // branch.csv: one row per point, header
 // param,stable,x_a,min_delta_bar,max_delta_bar,max_force_bar,impacts_per_period,max_multiplier,
 // min_force_bar,backside_impacts_per_period,separations_per_period,delta_m,velocity_m_s,
-// mu1_re,mu1_im,mu2_re,mu2_im (x_a = (max - min) / 2 of delta_bar; the state on the section
-// t = 0; multipliers largest first), every number to 17 significant digits.
+// mu1_re,mu1_im,mu2_re,mu2_im,branch,periods (x_a = (max - min) / 2 of delta_bar; the state
+// on the section t = 0; multipliers largest first), numbers to 17 significant digits.
 std::string branch_csv(const ContinuationResult& r);
 
-// bifurcations.json: [{"type", "param", "detail", "x_a", "impacts_per_period", "state",
-// "floquet_multipliers"}, ...].
+// bifurcations.json: [{"type", "param", "branch", "detail", "x_a", "impacts_per_period",
+// "state", "floquet_multipliers"}, ...].
 std::string bifurcations_json(const ContinuationResult& r);
 
 // Writes branch.csv, bifurcations.json and bifurcations.csv (param,x_a,type) into dir, all or
