@@ -6,6 +6,8 @@
     r = geardyn.run(case)                    # r.t, r.delta_bar, r.force_bar, r.velocity, r.contact
     r.summary["regime"]
     s = geardyn.sweep(case, param="speed.shaft_frequency_hz", values=range(1500, 3501, 50))
+    o = geardyn.orbit(case)                  # the periodic orbit, its Floquet multipliers
+    b = geardyn.continuation(case, "speed.shaft_frequency_hz", 1500, 3500)  # with bifurcations
 
 Errors arrive as geardyn.InputError (a ValueError) with the command line's messages, and a
 numerical failure of a run as geardyn.NumericalError.
@@ -17,7 +19,7 @@ from ._geardyn import Case, InputError, RunResult  # noqa: F401
 from . import _geardyn
 
 __all__ = ["Case", "InputError", "NumericalError", "RunResult", "geometry", "stiffness", "run",
-           "sweep", "plot"]
+           "sweep", "orbit", "continuation", "stability", "plot"]
 
 
 class NumericalError(RuntimeError):
@@ -90,6 +92,58 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
     a dict of NumPy arrays per column (direction and regime as lists), and "jumps"."""
     return _geardyn._sweep(case, param, [float(v) for v in values], direction, settle_periods,
                            measure_periods, max_settle_periods, threads)
+
+
+def _interrupted(result, what):
+    """KeyboardInterrupt with the work done so far attached as .result."""
+    e = KeyboardInterrupt(f"{what} interrupted; the work done so far is in .result")
+    e.result = result
+    return e
+
+
+def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_iterations=40,
+          state=None):
+    """The periodic orbit of period `periods` system periods, as `geardyn orbit`: Newton on
+    the stroboscopic map with the exact engine's Jacobian (multiple shooting on `segments`,
+    default one per period), from `state` = (delta in m, delta' in m/s) at t = 0 or from
+    `settle_periods` of simulation. Returns a dict: converged, message, period_s (s; tau in the
+    non-dimensional form), state, floquet_multipliers (complex array, largest first),
+    monodromy, stable, impacts_per_period, min_delta_bar, max_delta_bar, max_force_bar,
+    sequence (the contact events of one period) and more. Not converging is reported in
+    "converged" and "message", not raised."""
+    return _geardyn._orbit(case, periods, segments, settle_periods, tolerance, max_iterations,
+                           None if state is None else [float(x) for x in state])
+
+
+def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=100, step=0.01,
+                 max_step=0.02, max_points=5000, follow_period_doubling=False, progress=None):
+    """Follows the branch of periodic orbits in the numeric case key `param` from `from_` to
+    `to` by pseudo-arclength continuation, as `geardyn continue`. Returns a dict of NumPy
+    arrays, one entry per point (param, stable, x_a = (max - min)/2 of delta/b,
+    min_delta_bar, max_delta_bar, max_force_bar, impacts_per_period, max_multiplier, delta_m,
+    velocity_m_s, branch, periods, multipliers), "bifurcations" (a list of dicts: type, param,
+    branch, detail, x_a and the orbit there), completed, message. `progress(param, points)` is
+    called after each point; a false return stops. Ctrl-C stops within one point and raises
+    KeyboardInterrupt with the points so far in its .result."""
+    r = _geardyn._continuation(case, param, float(from_), float(to), periods, segments,
+                               settle_periods, step, max_step, max_points,
+                               follow_period_doubling, progress)
+    if r["interrupted"]:
+        raise _interrupted(r, "continuation")
+    return r
+
+
+def stability(case, param, values, param2=None, values2=()):
+    """The Floquet stability of the motion in permanent contact (the Mathieu-Hill problem of
+    the mesh stiffness) at each value of `param` (a chart: at each pair with `param2`), as
+    `geardyn stability`. Returns a dict of arrays (param, [param2,] stable, max_multiplier,
+    multipliers) and "boundaries": [{param, [param2,] type}] located where a multiplier
+    crosses the unit circle (type fold at +1, period_doubling at -1, neimark_sacker)."""
+    r = _geardyn._stability(case, param, [float(v) for v in values], param2 or "",
+                            [float(v) for v in values2], None)
+    if r["interrupted"]:
+        raise _interrupted(r, "stability")
+    return r
 
 
 from . import plot  # noqa: E402,F401

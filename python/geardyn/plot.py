@@ -1,4 +1,4 @@
-"""Figures for notebooks, with matplotlib: a run and a frequency response."""
+"""Figures for notebooks, with matplotlib: a run, a frequency response, a branch of orbits."""
 import numpy as np
 
 
@@ -56,5 +56,41 @@ def frequency_response(s, param="parameter", ax=None, column="rms_force_bar"):
     ax.set_ylabel(column)
     ax.grid(color="#dddddd")
     ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def branch(b, param="parameter", ax=None):
+    """A continuation's branch (geardyn.continuation): x_a against the parameter, stable parts
+    solid, unstable dashed, each period-doubled branch in its own colour, the bifurcations
+    marked. Only what occurred is in the legend. Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(9, 5))
+    else:
+        fig = ax.figure
+    p, x, stable, br = b["param"], b["x_a"], b["stable"] == 1, b["branch"].astype(int)
+    titled = set()
+    for k in np.unique(br):
+        colour = "#1f3b73" if k == 0 else "#4a8f3c"
+        for s, style, label in ((True, "-", "stable"), (False, "--", "unstable")):
+            on = (br == k) & (stable == s)
+            if not on.any():
+                continue
+            y = np.where(on, x, np.nan)
+            ax.plot(p, y, style, color=colour, linewidth=1.6,
+                    label=None if label in titled else label)
+            titled.add(label)
+    markers = {"fold": "s", "branch_point": "D", "period_doubling": "^", "neimark_sacker": "*",
+               "grazing": "o"}
+    for kind, marker in markers.items():
+        at = [(f["param"], f["x_a"]) for f in b["bifurcations"] if f["type"] == kind]
+        if at:
+            ax.plot(*zip(*at), marker, color="black", linestyle="none", label=kind)
+    ax.set_xlabel(param)
+    ax.set_ylabel("x_a = (max - min)/2 of delta / b")
+    ax.grid(color="#dddddd")
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return fig

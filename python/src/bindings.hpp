@@ -10,5 +10,6 @@ void bind_geometry(pybind11::module_& m);
 void bind_stiffness(pybind11::module_& m);
 void bind_run(pybind11::module_& m);
 void bind_sweep(pybind11::module_& m);
+void bind_orbit(pybind11::module_& m);
 
 }  // namespace geardyn::python

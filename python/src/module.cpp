@@ -19,4 +19,5 @@ PYBIND11_MODULE(_geardyn, m) {
   geardyn::python::bind_stiffness(m);
   geardyn::python::bind_run(m);
   geardyn::python::bind_sweep(m);
+  geardyn::python::bind_orbit(m);
 }

@@ -1,0 +1,277 @@
+#include <pybind11/complex.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <atomic>
+#include <memory>
+
+#include "bindings.hpp"
+#include "geardyn/continuation.hpp"
+#include "geardyn/orbit.hpp"
+#include "geardyn/stability.hpp"
+
+namespace py = pybind11;
+
+namespace geardyn::python {
+namespace {
+
+template <class T, class F>
+py::array_t<double> column(const std::vector<T>& rows, F get) {
+  py::array_t<double> a(static_cast<py::ssize_t>(rows.size()));
+  auto w = a.mutable_unchecked<1>();
+  for (std::size_t i = 0; i < rows.size(); ++i) w(static_cast<py::ssize_t>(i)) = get(rows[i]);
+  return a;
+}
+
+// The largest `k` multipliers of each row, as an (n, k) complex array (0 where fewer).
+template <class T, class F>
+py::array_t<std::complex<double>> multipliers(const std::vector<T>& rows, F get, std::size_t k) {
+  py::array_t<std::complex<double>> a(
+      {static_cast<py::ssize_t>(rows.size()), static_cast<py::ssize_t>(k)});
+  auto w = a.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto& mu = get(rows[i]);
+    for (std::size_t j = 0; j < k; ++j)
+      w(static_cast<py::ssize_t>(i), static_cast<py::ssize_t>(j)) =
+          j < mu.size() ? mu[j] : std::complex<double>{};
+  }
+  return a;
+}
+
+py::dict orbit_dict(const Orbit& o) {
+  py::dict d;
+  d["converged"] = o.converged;
+  d["message"] = o.message;
+  d["iterations"] = o.iterations;
+  d["residual"] = o.residual;
+  d["period_s"] = o.period_s;
+  d["system_period_s"] = o.system_period_s;
+  d["periods"] = o.periods;
+  d["segments"] = o.segments;
+  py::array_t<double> state(2);
+  state.mutable_at(0) = o.state.q;
+  state.mutable_at(1) = o.state.v;
+  d["state"] = state;
+  py::array_t<std::complex<double>> mu(static_cast<py::ssize_t>(o.multipliers.size()));
+  for (std::size_t i = 0; i < o.multipliers.size(); ++i)
+    mu.mutable_at(static_cast<py::ssize_t>(i)) = o.multipliers[i];
+  d["floquet_multipliers"] = mu;
+  py::array_t<double> m({o.monodromy.rows(), o.monodromy.cols()});
+  for (Eigen::Index i = 0; i < o.monodromy.rows(); ++i)
+    for (Eigen::Index j = 0; j < o.monodromy.cols(); ++j) m.mutable_at(i, j) = o.monodromy(i, j);
+  d["monodromy"] = m;
+  d["stable"] = o.stable;
+  d["max_multiplier"] = o.max_multiplier();
+  d["impacts_per_period"] = o.reading.impacts;
+  d["backside_impacts_per_period"] = o.reading.backside_impacts;
+  d["separations_per_period"] = o.reading.separations;
+  d["min_delta_bar"] = o.reading.min_delta_bar;
+  d["max_delta_bar"] = o.reading.max_delta_bar;
+  d["min_force_bar"] = o.reading.min_force_bar;
+  d["max_force_bar"] = o.reading.max_force_bar;
+  py::list seq;
+  for (const ContactEvent& e : o.sequence)
+    seq.append(py::dict(py::arg("t_s") = e.t_s, py::arg("event") = to_string(e.kind),
+                        py::arg("velocity_m_s") = e.velocity_m_s));
+  d["sequence"] = seq;
+  return d;
+}
+
+// A progress hook for long work run without the GIL: takes the GIL, calls `progress` (when
+// not None) and checks for Ctrl-C; false (stop) on KeyboardInterrupt or a falsy return.
+class Hook {
+ public:
+  explicit Hook(py::object progress) : progress_(std::move(progress)) {}
+  // Called without the GIL; the arguments become Python objects once it is held.
+  template <class A, class B>
+  bool operator()(A arg1, B arg2) {
+    const py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() != 0) {
+      PyErr_Clear();
+      interrupted_ = true;
+      return false;
+    }
+    if (!progress_.is_none()) {
+      try {
+        const py::object r = progress_(arg1, arg2);
+        if (!r.is_none() && !r.cast<bool>()) return false;
+      } catch (py::error_already_set& e) {
+        // Ctrl-C inside the callback stops like Ctrl-C elsewhere; another error stops the
+        // work and is raised once it has returned.
+        if (e.matches(PyExc_KeyboardInterrupt)) {
+          interrupted_ = true;
+        } else {
+          error_ = std::make_unique<py::error_already_set>(std::move(e));
+        }
+        return false;
+      }
+    }
+    return true;
+  }
+  bool interrupted() const { return interrupted_; }
+  // Raises the callback's error, if it failed (with the GIL held).
+  void rethrow() {
+    if (error_) throw py::error_already_set(std::move(*error_));
+  }
+
+ private:
+  py::object progress_;
+  std::atomic<bool> interrupted_{false};
+  std::unique_ptr<py::error_already_set> error_;
+};
+
+}  // namespace
+
+void bind_orbit(py::module_& m) {
+  m.def(
+      "_orbit",
+      [](const Case& c, int periods, int segments, int settle_periods, double tolerance,
+         int max_iterations, std::optional<std::vector<double>> state) {
+        OrbitOptions o;
+        o.periods = periods;
+        o.segments = segments;
+        o.settle_periods = settle_periods;
+        o.tolerance = tolerance;
+        o.max_iterations = max_iterations;
+        std::optional<ode::State> start;
+        if (state) {
+          if (state->size() != 2)
+            throw InputError("state: takes two values, delta (m) and delta' (m/s) at t = 0");
+          start = ode::State{0.0, (*state)[0], (*state)[1], 0.0, 0};
+        }
+        Orbit r;
+        {
+          const py::gil_scoped_release release;
+          r = find_orbit(c, o, start);
+        }
+        return orbit_dict(r);
+      },
+      py::arg("case"), py::arg("periods") = 1, py::arg("segments") = 0,
+      py::arg("settle_periods") = 100, py::arg("tolerance") = 1e-10, py::arg("max_iterations") = 40,
+      py::arg("state") = py::none());
+
+  m.def(
+      "_continuation",
+      [](const Case& c, const std::string& param, double from, double to, int periods, int segments,
+         int settle_periods, double step, double max_step, int max_points,
+         bool follow_period_doubling, const py::object& progress) {
+        ContinuationOptions o;
+        o.key = param;
+        o.from = from;
+        o.to = to;
+        o.orbit.periods = periods;
+        o.orbit.segments = segments;
+        o.orbit.settle_periods = settle_periods;
+        o.initial_step = step;
+        o.max_step = max_step;
+        o.max_points = max_points;
+        o.follow_period_doubling = follow_period_doubling;
+        Hook hook(progress);
+        o.progress = [&hook](double p, std::size_t n) { return hook(p, n); };
+        ContinuationResult r;
+        {
+          const py::gil_scoped_release release;
+          r = continuation(c, o);
+        }
+        hook.rethrow();
+        const auto& pts = r.points;
+        py::dict d;
+        d["param"] = column(pts, [](const BranchPoint& p) { return p.param; });
+        d["stable"] = column(pts, [](const BranchPoint& p) { return p.orbit.stable ? 1.0 : 0.0; });
+        d["x_a"] = column(pts, [](const BranchPoint& p) { return p.amplitude(); });
+        d["min_delta_bar"] =
+            column(pts, [](const BranchPoint& p) { return p.orbit.reading.min_delta_bar; });
+        d["max_delta_bar"] =
+            column(pts, [](const BranchPoint& p) { return p.orbit.reading.max_delta_bar; });
+        d["max_force_bar"] =
+            column(pts, [](const BranchPoint& p) { return p.orbit.reading.max_force_bar; });
+        d["impacts_per_period"] = column(
+            pts, [](const BranchPoint& p) { return static_cast<double>(p.orbit.reading.impacts); });
+        d["max_multiplier"] =
+            column(pts, [](const BranchPoint& p) { return p.orbit.max_multiplier(); });
+        d["delta_m"] = column(pts, [](const BranchPoint& p) { return p.orbit.state.q; });
+        d["velocity_m_s"] = column(pts, [](const BranchPoint& p) { return p.orbit.state.v; });
+        d["branch"] =
+            column(pts, [](const BranchPoint& p) { return static_cast<double>(p.branch); });
+        d["periods"] =
+            column(pts, [](const BranchPoint& p) { return static_cast<double>(p.periods); });
+        d["multipliers"] = multipliers(
+            pts, [](const BranchPoint& p) -> const auto& { return p.orbit.multipliers; }, 2);
+        py::list bif;
+        for (const Bifurcation& b : r.bifurcations) {
+          py::dict x = orbit_dict(b.orbit);
+          x["type"] = to_string(b.type);
+          x["param"] = b.param;
+          x["branch"] = b.branch;
+          x["detail"] = b.detail;
+          x["x_a"] = 0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar);
+          bif.append(x);
+        }
+        d["bifurcations"] = bif;
+        d["completed"] = r.completed;
+        d["cancelled"] = r.cancelled;
+        d["interrupted"] = hook.interrupted();
+        d["message"] = r.message;
+        d["wall_time_s"] = r.wall_time_s;
+        return d;
+      },
+      py::arg("case"), py::arg("param"), py::arg("from_"), py::arg("to"), py::arg("periods") = 1,
+      py::arg("segments") = 0, py::arg("settle_periods") = 100, py::arg("step") = 0.01,
+      py::arg("max_step") = 0.02, py::arg("max_points") = 5000,
+      py::arg("follow_period_doubling") = false, py::arg("progress") = py::none());
+
+  m.def(
+      "_stability",
+      [](const Case& c, const std::string& param, std::vector<double> values,
+         const std::string& param2, std::vector<double> values2, const py::object& progress) {
+        StabilityOptions o;
+        o.axis.key = param;
+        o.axis.explicit_values = std::move(values);
+        o.axis.points = static_cast<int>(o.axis.explicit_values.size());
+        if (!o.axis.explicit_values.empty()) {
+          o.axis.from = o.axis.explicit_values.front();
+          o.axis.to = o.axis.explicit_values.back();
+        }
+        if (!param2.empty()) {
+          SweepAxis a2;
+          a2.key = param2;
+          a2.explicit_values = std::move(values2);
+          a2.points = static_cast<int>(a2.explicit_values.size());
+          if (!a2.explicit_values.empty()) {
+            a2.from = a2.explicit_values.front();
+            a2.to = a2.explicit_values.back();
+          }
+          o.axis2 = a2;
+        }
+        Hook hook(progress);
+        o.progress = [&hook](std::size_t done, std::size_t total) { return hook(done, total); };
+        StabilityResult r;
+        {
+          const py::gil_scoped_release release;
+          r = stability(c, o);
+        }
+        hook.rethrow();
+        const auto& s = r.samples;
+        py::dict d;
+        d["param"] = column(s, [](const StabilitySample& x) { return x.param; });
+        if (o.axis2) d["param2"] = column(s, [](const StabilitySample& x) { return x.param2; });
+        d["stable"] = column(s, [](const StabilitySample& x) { return x.stable ? 1.0 : 0.0; });
+        d["max_multiplier"] = column(s, [](const StabilitySample& x) { return x.max_multiplier; });
+        d["multipliers"] = multipliers(
+            s, [](const StabilitySample& x) -> const auto& { return x.multipliers; }, 2);
+        py::list b;
+        for (const StabilityBoundary& x : r.boundaries) {
+          py::dict e(py::arg("param") = x.param, py::arg("type") = to_string(x.type));
+          if (o.axis2) e["param2"] = x.param2;
+          b.append(e);
+        }
+        d["boundaries"] = b;
+        d["cancelled"] = r.cancelled;
+        d["interrupted"] = hook.interrupted();
+        return d;
+      },
+      py::arg("case"), py::arg("param"), py::arg("values"), py::arg("param2") = "",
+      py::arg("values2") = std::vector<double>{}, py::arg("progress") = py::none());
+}
+
+}  // namespace geardyn::python

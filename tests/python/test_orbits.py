@@ -1,0 +1,103 @@
+"""Periodic orbits, continuation and stability from Python: the command line's results, the
+progress callback, Ctrl-C with the points kept, errors."""
+import json
+import os
+import signal
+import subprocess
+
+import numpy as np
+import pytest
+
+import geardyn
+
+CLI = os.environ["GEARDYN_CLI"]
+KS = [("model.form", "nondimensional"), ("model.force_alternating", 0.02)]
+KS_CLI = ["--set", 'model.form="nondimensional"', "--set", "model.force_alternating=0.02"]
+
+
+def ks(**keys):
+    c = geardyn.Case.default()
+    for k, v in KS:
+        c.set(k, v)
+    for k, v in keys.items():
+        c.set("model." + k, v)
+    return c
+
+
+def test_orbit_matches_the_command_line():
+    out = subprocess.run([CLI, "orbit", *KS_CLI, "--set", "model.omega=0.95", "--json"],
+                         capture_output=True, text=True, check=True)
+    j = json.loads(out.stdout)
+    o = geardyn.orbit(ks(omega=0.95))
+    assert o["converged"] and j["converged"]
+    assert np.array_equal(o["state"], np.array(j["state"]))
+    mu = np.array([complex(re, im) for re, im in j["floquet_multipliers"]])
+    assert np.array_equal(o["floquet_multipliers"], mu)
+    assert o["impacts_per_period"] == j["impacts_per_period"] == 1
+    assert o["stable"]
+    assert [e["event"] for e in o["sequence"]] == ["impact", "separation"]
+
+
+def test_continuation_finds_the_folds_and_grazings_of_the_command_line(tmp_path):
+    subprocess.run([CLI, "continue", *KS_CLI, "--param", "model.omega", "--from", "0.5",
+                    "--to", "1.5", "--out", str(tmp_path), "--no-figures"],
+                   capture_output=True, text=True, check=True)
+    from_cli = json.loads((tmp_path / "bifurcations.json").read_text())
+    b = geardyn.continuation(ks(), "model.omega", 0.5, 1.5)
+    assert b["completed"], b["message"]
+    assert [f["type"] for f in b["bifurcations"]] == [f["type"] for f in from_cli]
+    for f, g in zip(b["bifurcations"], from_cli):
+        assert f["param"] == g["param"]
+    assert len(b["param"]) == len(b["x_a"]) == b["multipliers"].shape[0]
+    assert (b["stable"] == 0).sum() > 0
+
+
+def test_progress_stops_and_ctrl_c_raises_with_the_points_kept():
+    seen = []
+    b = geardyn.continuation(ks(), "model.omega", 0.5, 1.5,
+                             progress=lambda p, n: seen.append(p) or n < 5)
+    assert b["cancelled"] and not b["completed"] and len(b["param"]) == 5
+    assert seen == list(b["param"][1:])
+
+    def interrupt(p, n):
+        if n == 7:
+            os.kill(os.getpid(), signal.SIGINT)
+        return True
+
+    with pytest.raises(KeyboardInterrupt) as e:
+        geardyn.continuation(ks(), "model.omega", 0.5, 1.5, progress=interrupt)
+    assert 7 <= len(e.value.result["param"]) <= 8
+
+
+def test_a_failing_callback_raises_its_error():
+    def bad(p, n):
+        raise RuntimeError("from the callback")
+
+    with pytest.raises(RuntimeError, match="from the callback"):
+        geardyn.continuation(ks(), "model.omega", 0.5, 1.5, progress=bad)
+
+
+def test_stability_boundaries_of_the_mathieu_tongue():
+    c = ks(zeta=0.0, stiffness_harmonics=[[0.2, 0]])
+    s = geardyn.stability(c, "model.omega", np.linspace(1.5, 2.5, 41))
+    types = [b["type"] for b in s["boundaries"]]
+    assert types == ["period_doubling", "period_doubling"]
+    left, right = (b["param"] for b in s["boundaries"])
+    inside = (s["param"] > left) & (s["param"] < right)
+    assert (s["stable"][inside] == 0).all() and (s["stable"][~inside] == 1).all()
+
+
+def test_bad_input_is_an_input_error():
+    with pytest.raises(geardyn.InputError, match="--periods = 0"):
+        geardyn.orbit(ks(omega=0.95), periods=0)
+    with pytest.raises(geardyn.InputError, match="--param solver.method"):
+        geardyn.continuation(ks(), "solver.method", 0, 1)
+
+
+def test_a_branch_figure_shows_what_happened():
+    import matplotlib
+    matplotlib.use("Agg")
+    b = geardyn.continuation(ks(), "model.omega", 0.5, 1.5)
+    fig = geardyn.plot.branch(b, "Omega")
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert labels == ["stable", "unstable", "fold", "grazing"]
