@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <complex>
+#include <filesystem>
 #include <numbers>
 
 #include "geardyn/run.hpp"
@@ -136,6 +137,37 @@ TEST(Orbit, MultipleShootingFindsTheSameOrbit) {
     EXPECT_NEAR(o->state.v, one.state.v, 1e-10);
     EXPECT_NEAR(o->max_multiplier(), one.max_multiplier() * one.max_multiplier(), 1e-9);
     EXPECT_EQ(o->reading.impacts, 2);
+  }
+}
+
+TEST(Orbit, PaperGearAtFig4cRattlesOnceAPeriodWithTheMonodromyOfItsMap) {
+  // The Table 1 gear at f_1 = 1 kHz (Fig. 4(c)): time-varying stiffness (56 mesh periods in
+  // the system period 1 / f_1) and a torque of order 1. A stable one-sided rattle, one impact
+  // a period; the monodromy against central differences of the period map.
+  Case c = geardyn::load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010.toml");
+  c.speed.shaft_frequency_hz = 1000;
+  const Orbit o = geardyn::find_orbit(c, shooting());
+  ASSERT_TRUE(o.converged) << o.message;
+  EXPECT_NEAR(o.period_s, 1e-3, 1e-15);
+  EXPECT_TRUE(o.stable);
+  EXPECT_EQ(o.reading.impacts, 1);
+  EXPECT_EQ(o.reading.backside_impacts, 0);
+  const geardyn::GearPairModel model = geardyn::build_model(c);
+  geardyn::SolverData sd = c.solver;
+  sd.method = geardyn::Method::kExact;
+  sd.tolerance = 1e-12;
+  const geardyn::Solver solver(model, sd);
+  const double b = c.mesh.backlash_um * 1e-6;
+  const double h[2] = {1e-6 * b, 1e-6 * b * model.parameters().natural_angular_frequency_rad_s()};
+  for (int j = 0; j < 2; ++j) {
+    const double dq = j == 0 ? h[0] : 0, dv = j == 1 ? h[1] : 0;
+    const auto plus = period_map(model, solver, o.period_s, o.state.q + dq, o.state.v + dv);
+    const auto minus = period_map(model, solver, o.period_s, o.state.q - dq, o.state.v - dv);
+    const geardyn::ode::Vector column = (plus - minus) / (2 * h[j]);
+    // Compared in the scaled state (delta / b, delta' / (b w_n)): h holds the scales.
+    for (int i = 0; i < 2; ++i)
+      EXPECT_NEAR(o.monodromy(i, j) * h[j] / h[i], column[i] * h[j] / h[i], 1e-6)
+          << "entry (" << i << ", " << j << ")";
   }
 }
 
