@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -435,10 +436,61 @@ void merge(toml::table& into, const toml::table& from) {
   }
 }
 
+// An override of one element of an array, `key[i]` or `key[i][j]`: replaces that element of
+// the array set in `root`. Throws InputError naming the override.
+void set_element(toml::table& root, const Override& o, const std::string& origin) {
+  const std::size_t open = o.key.find('[');
+  const std::string base = o.key.substr(0, open);
+  std::vector<std::size_t> index;
+  for (std::size_t pos = open; pos < o.key.size();) {
+    const std::size_t close = o.key.find(']', pos);
+    const std::string digits =
+        close == std::string::npos ? "" : o.key.substr(pos + 1, close - pos - 1);
+    if (o.key[pos] != '[' || digits.empty() || digits.size() > 6 ||
+        !std::all_of(digits.begin(), digits.end(), [](char ch) { return ch >= '0' && ch <= '9'; }))
+      throw InputError(fmt::format(
+          "{}: an element is addressed as key[i] or key[i][j], i and j integers from 0", origin));
+    index.push_back(std::stoul(digits));
+    pos = close + 1;
+  }
+  toml::node* node = root.at_path(base).node();
+  if (!node || !node->is_array())
+    throw InputError(fmt::format(
+        "{}: {} is not an array set in this case; set the whole array first (e.g. --set "
+        "'{}=[[0.05, 0]]')",
+        origin, base, base));
+  for (std::size_t k = 0; k < index.size(); ++k) {
+    toml::array* arr = node ? node->as_array() : nullptr;
+    if (!arr)
+      throw InputError(
+          fmt::format("{}: {} has no element [{}] (not an array there)", origin, base, index[k]));
+    if (index[k] >= arr->size())
+      throw InputError(fmt::format("{}: index {} is out of range: the array has {} element{}",
+                                   origin, index[k], arr->size(), arr->size() == 1 ? "" : "s"));
+    if (k + 1 < index.size()) {
+      node = arr->get(index[k]);
+      continue;
+    }
+    toml::table patch;
+    try {
+      patch = toml::parse("v = " + o.value, origin);
+    } catch (const toml::parse_error& e) {
+      throw InputError(fmt::format("{}: not a valid TOML value ({})", origin, e.description()));
+    }
+    patch["v"].node()->visit([&](auto&& leaf) {
+      arr->replace(arr->cbegin() + static_cast<std::ptrdiff_t>(index[k]), leaf);
+    });
+  }
+}
+
 Case decode(toml::table& root, const std::string& source, const std::vector<Override>& overrides,
             std::string name) {
   for (const Override& o : overrides) {
     const std::string origin = fmt::format("--set {}={}", o.key, o.value);
+    if (o.key.find('[') != std::string::npos) {
+      set_element(root, o, origin);
+      continue;
+    }
     toml::table patch;
     try {
       patch = toml::parse(o.key + " = " + o.value, origin);

@@ -203,7 +203,8 @@ void write_stability(const std::filesystem::path& dir, const StabilityResult& r,
                                {"boundaries.csv", marks}});
   if (!figures || r.samples.empty()) return;
   std::string body =
-      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\nset key top left font ',9'\n";
+      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top left font ',9' opaque box\n";
   if (o.axis.log) body += "set logscale x\n";
   const bool any_boundary = !r.boundaries.empty();
   if (!chart) {

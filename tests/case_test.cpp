@@ -160,3 +160,35 @@ TEST(Case, ValidateReportsCasesBuiltInCode) {
 
 }  // namespace
 }  // namespace geardyn
+
+namespace {
+
+TEST(Case, AnArrayElementIsSetByItsIndex) {
+  geardyn::Case c;
+  c.model.stiffness_harmonics = {{0.1, 0.0}, {0.05, 90.0}};
+  geardyn::set_case_value(c, {"model.stiffness_harmonics[1][0]", "0.07"});
+  EXPECT_EQ(c.model.stiffness_harmonics[1].ratio, 0.07);
+  EXPECT_EQ(c.model.stiffness_harmonics[1].phase_deg, 90.0);
+  EXPECT_EQ(c.model.stiffness_harmonics[0].ratio, 0.1);
+  geardyn::set_case_value(c, {"model.stiffness_harmonics[0]", "[0.3, 45]"});
+  EXPECT_EQ(c.model.stiffness_harmonics[0].ratio, 0.3);
+  EXPECT_EQ(c.model.stiffness_harmonics[0].phase_deg, 45.0);
+  // Out of range, not an array, a bad index, a value out of its range: each says so.
+  const std::pair<const char*, const char*> bad[] = {
+      {"model.stiffness_harmonics[2][0]", "index 2 is out of range: the array has 2 elements"},
+      {"model.omega[0]", "model.omega is not an array set in this case"},
+      {"model.stiffness_harmonics[x]", "an element is addressed as key[i]"},
+      {"model.stiffness_harmonics[0][0]", "model.stiffness_harmonics"}};
+  const char* values[] = {"0.1", "0.1", "0.1", "-1"};
+  for (std::size_t i = 0; i < 4; ++i) {
+    geardyn::Case d = c;
+    try {
+      geardyn::set_case_value(d, {bad[i].first, values[i]});
+      ADD_FAILURE() << bad[i].first << " accepted";
+    } catch (const geardyn::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(bad[i].second), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace

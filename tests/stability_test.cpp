@@ -10,6 +10,7 @@
 #include <boost/math/tools/toms748_solve.hpp>
 #include <cmath>
 #include <complex>
+#include <map>
 #include <numbers>
 #include <unsupported/Eigen/MatrixFunctions>
 
@@ -100,6 +101,33 @@ TEST(Stability, DampingNarrowsTheTongueAndClosesIt) {
   const auto r = geardyn::stability(mathieu(0.1, 0.2), o);
   EXPECT_TRUE(r.boundaries.empty());
   for (const auto& s : r.samples) EXPECT_TRUE(s.stable);
+}
+
+TEST(Stability, ChartOverTheHarmonicAmplitudeOpensThePrincipalTongue) {
+  // zeta 0.02: at eps 0.06 the principal tongue is closed (it opens near eps = 4 zeta), at
+  // eps 0.12 and 0.2 open and wider with eps. The second key addresses the harmonic's amplitude
+  // inside its array.
+  StabilityOptions o;
+  o.axis = {"model.omega", 1.5, 2.5, 41};
+  o.axis2 = geardyn::SweepAxis{"model.stiffness_harmonics[0][0]", 0.06, 0.2, 0};
+  o.axis2->explicit_values = {0.06, 0.12, 0.2};
+  o.axis2->points = 3;
+  const auto r = geardyn::stability(mathieu(0.02, 0.1), o);
+  ASSERT_EQ(r.samples.size(), 3U * 41U);
+  std::map<double, std::vector<double>> rows;
+  for (const auto& b : r.boundaries) rows[b.param2].push_back(b.param);
+  EXPECT_EQ(rows.count(0.06), 0U);
+  ASSERT_EQ(rows[0.12].size(), 2U);
+  ASSERT_EQ(rows[0.2].size(), 2U);
+  EXPECT_LT(rows[0.2][0], rows[0.12][0]);
+  EXPECT_GT(rows[0.2][1], rows[0.12][1]);
+  // The row at eps 0.2 is the 1-D result at eps 0.2.
+  StabilityOptions one;
+  one.axis = o.axis;
+  const auto r1 = geardyn::stability(mathieu(0.02, 0.2), one);
+  ASSERT_EQ(r1.boundaries.size(), 2U);
+  EXPECT_EQ(r1.boundaries[0].param, rows[0.2][0]);
+  EXPECT_EQ(r1.boundaries[1].param, rows[0.2][1]);
 }
 
 TEST(Stability, ConstantStiffnessMonodromyIsTheMatrixExponential) {
