@@ -10,6 +10,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
@@ -408,16 +409,54 @@ std::string bifurcations_json(const ContinuationResult& r) {
   return a.dump(2) + "\n";
 }
 
+namespace {
+
+// overlay.csv (direction,value,x_a) from a sweep.csv's direction, value and pp_delta_bar.
+std::string sweep_overlay(const std::string& sweep_csv) {
+  std::istringstream in(sweep_csv);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  {
+    std::istringstream h(line);
+    for (std::string cell; std::getline(h, cell, ',');) header.push_back(cell);
+  }
+  const auto column = [&](const char* name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    if (it == header.end())
+      throw InputError(fmt::format(
+          "--overlay-sweep: the sweep file has no column {} (is it a geardyn sweep.csv?)", name));
+    return static_cast<std::size_t>(it - header.begin());
+  };
+  const std::size_t cd = column("direction"), cv = column("value"), cp = column("pp_delta_bar");
+  std::string out = "direction,value,x_a\n";
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::istringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    if (cells.size() < header.size()) continue;
+    fmt::format_to(std::back_inserter(out), "{},{},{:.10g}\n", cells[cd], cells[cv],
+                   0.5 * std::strtod(cells[cp].c_str(), nullptr));
+  }
+  return out;
+}
+
+}  // namespace
+
 void write_continuation(const std::filesystem::path& dir, const ContinuationResult& r,
-                        const std::string& key, bool figures) {
+                        const std::string& key, bool figures, const std::string& sweep_csv) {
+  const std::string overlay = sweep_csv.empty() ? std::string{} : sweep_overlay(sweep_csv);
   std::string marks = "param,x_a,type\n";
   for (const Bifurcation& b : r.bifurcations)
     fmt::format_to(std::back_inserter(marks), "{:.17g},{:.17g},{}\n", b.param,
                    0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar),
                    to_string(b.type));
-  write_files_atomically(dir, {{"branch.csv", branch_csv(r)},
-                               {"bifurcations.json", bifurcations_json(r)},
-                               {"bifurcations.csv", marks}});
+  std::vector<std::pair<std::string, std::string>> files{
+      {"branch.csv", branch_csv(r)},
+      {"bifurcations.json", bifurcations_json(r)},
+      {"bifurcations.csv", marks}};
+  if (!overlay.empty()) files.emplace_back("overlay.csv", overlay);
+  write_files_atomically(dir, files);
   if (!figures || r.points.empty()) return;
   // Only what happened: a curve per branch and stability found, a mark per type found.
   std::vector<std::string> plots;
@@ -458,6 +497,14 @@ void write_continuation(const std::filesystem::path& dir, const ContinuationResu
           "'bifurcations.csv' every ::1 using 1:(strcol(3) eq '{0}' ? $2 : NaN) with points {1} "
           "title '{0}'",
           to_string(type), style.second));
+  }
+  for (const char* direction : {"up", "down"}) {
+    if (overlay.find(std::string("\n") + direction + ",") == std::string::npos) continue;
+    plots.push_back(fmt::format(
+        "'overlay.csv' every ::1 using 2:(strcol(1) eq '{0}' ? $3 : NaN) with points pt {1} ps "
+        "0.9 lc rgb '{2}' title 'sweep {0}'",
+        direction, std::string(direction) == "up" ? 6 : 8,
+        std::string(direction) == "up" ? "#555555" : "#b5532b"));
   }
   std::string body =
       "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"

@@ -174,6 +174,31 @@ TEST(Cli, ContinueWritesTheBranchTheBifurcationsAndTheFigure) {
   fs::remove_all(d);
 }
 
+TEST(Cli, ContinueDrawsASweepOverTheBranch) {
+  const fs::path s = fresh("overlay_sweep"), d = fresh("overlay_branch");
+  const std::string ks =
+      "--set model.form='\"nondimensional\"' --set model.force_alternating=0.02 "
+      "--param model.omega --from 0.5 --to 1.5 ";
+  ASSERT_EQ(cli("sweep " + ks + "--points 21 --no-figures --out " + s.string()).code, 0);
+  const Outcome o =
+      cli("continue " + ks + "--out " + d.string() + " --overlay-sweep " + s.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string overlay = slurp(d / "overlay.csv");
+  EXPECT_EQ(overlay.substr(0, overlay.find('\n')), "direction,value,x_a");
+  const std::string body = slurp(d / "branch_body.gp");
+  EXPECT_NE(body.find("title 'sweep up'"), std::string::npos);
+  EXPECT_NE(body.find("title 'sweep down'"), std::string::npos);
+  // A directory without sweep.csv is refused before any work, and nothing is written.
+  const fs::path e = fresh("overlay_none");
+  const Outcome bad =
+      cli("continue " + ks + "--out " + e.string() + " --overlay-sweep " + d.string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("no readable sweep.csv"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(e));
+  fs::remove_all(s);
+  fs::remove_all(d);
+}
+
 TEST(Cli, ContinueRejectsATextKey) {
   const fs::path d = fresh("continue_bad");
   const Outcome o = cli("continue --param solver.method --from 0 --to 1 --out " + d.string());

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "geardyn/run.hpp"
+#include "geardyn/sweep.hpp"
 
 namespace {
 
@@ -145,6 +146,52 @@ TEST(Continuation, StablePointsMatchLongSimulations) {
     ++checked;
   }
   EXPECT_GE(checked, 6);
+}
+
+TEST(Continuation, LargerForcingFoldIsTheSweepsJumpAndBothBranchesMatchTheSweep) {
+  // F_a 0.05: the branch from static contact grazes, then folds where the up sweep jumps; the
+  // sweep's points (settled over 300 periods) lie on the orbits to 1e-6 in amplitude, the low
+  // branch's below the jump, the rattle branch's on the way down.
+  Case c = ks_case();
+  c.model.force_alternating = 0.05;
+  c.solver.initial = geardyn::InitialCondition::kStatic;
+  geardyn::SweepOptions so;
+  so.axis = {"model.omega", 0.5, 1.5, 51};
+  so.settle_periods = 300;
+  so.max_settle_periods = 400;
+  const geardyn::SweepResult sweep = geardyn::sweep(c, so);
+  const geardyn::Jump* up = nullptr;
+  for (const auto& j : sweep.jumps)
+    if (j.direction == geardyn::SweepDirection::kUp) up = &j;
+  ASSERT_NE(up, nullptr);
+  const ContinuationResult r = geardyn::continuation(c, ks_options());
+  const geardyn::Bifurcation* fold = nullptr;
+  for (const auto& b : r.bifurcations)
+    if (b.type == BifurcationType::kFold) fold = &b;
+  ASSERT_NE(fold, nullptr) << r.message;
+  EXPECT_GT(fold->param, up->from_value);
+  EXPECT_LT(fold->param, up->to_value);
+  int low = 0, high = 0;
+  for (const auto& p : sweep.points) {
+    const bool on_low = p.direction == geardyn::SweepDirection::kUp && p.value < up->from_value;
+    const bool on_high = p.direction == geardyn::SweepDirection::kDown;
+    if (!on_low && !on_high) continue;
+    Case cp = c;
+    cp.model.omega = p.value;
+    // Newton from the sweep's last stroboscopic state (b = 1 in this form): the orbit the
+    // sweep settled on.
+    ASSERT_FALSE(p.strobe_delta_bar.empty());
+    const geardyn::ode::State start{0.0, p.strobe_delta_bar.back(), p.strobe_velocity_m_s.back(),
+                                    0.0, 0};
+    const geardyn::Orbit o = geardyn::find_orbit(cp, geardyn::OrbitOptions{}, start);
+    ASSERT_TRUE(o.converged) << o.message;
+    EXPECT_NEAR(0.5 * (o.reading.max_delta_bar - o.reading.min_delta_bar), 0.5 * p.pp_delta_bar,
+                1e-6)
+        << (on_low ? "low" : "high") << " branch, Omega = " << p.value;
+    (on_low ? low : high) += 1;
+  }
+  EXPECT_GE(low, 10);
+  EXPECT_GE(high, 40);
 }
 
 TEST(Continuation, PeriodDoublingIsLocatedAndItsBranchFollowed) {

@@ -12,9 +12,11 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 
 #include "geardyn/case.hpp"
 #include "geardyn/continuation.hpp"
@@ -397,9 +399,22 @@ int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets
 }
 
 int cmd_continue(const std::string& case_file, const std::vector<std::string>& sets,
-                 geardyn::ContinuationOptions o, const std::string& out_dir, bool figures) {
+                 geardyn::ContinuationOptions o, const std::string& out_dir, bool figures,
+                 const std::string& overlay_dir) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
+  std::string sweep_text;
+  if (!overlay_dir.empty()) {
+    const std::filesystem::path f = std::filesystem::path(overlay_dir) / "sweep.csv";
+    std::ifstream in(f);
+    if (!in)
+      throw geardyn::InputError(fmt::format(
+          "--overlay-sweep {}: no readable sweep.csv there (write one with geardyn sweep --out)",
+          overlay_dir));
+    std::ostringstream text;
+    text << in.rdbuf();
+    sweep_text = text.str();
+  }
   const bool tty = isatty(2) != 0;
   const auto start = std::chrono::steady_clock::now();
   double last_shown = -1;
@@ -419,7 +434,8 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
   if (tty && last_shown >= 0) fmt::print(stderr, "\n");
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} points computed\n", r.points.size());
-  if (!r.points.empty()) geardyn::write_continuation(out_dir, r, o.key, figures && !r.cancelled);
+  if (!r.points.empty())
+    geardyn::write_continuation(out_dir, r, o.key, figures && !r.cancelled, sweep_text);
   fmt::print("geardyn continue: {} from {} to {}, period {} x the system period\n", o.key, o.from,
              o.to, o.orbit.periods);
   fmt::print("  {} points, {:.2f} s; {}\n", r.points.size(), r.wall_time_s, r.message);
@@ -624,6 +640,10 @@ int main(int argc, char** argv) {
                  "switch to the period-doubled branch at each period doubling and follow it");
   cont->add_option("--out", cont_out, "output directory (default out/continue)");
   cont->add_flag("--no-figures", cont_no_figures, "write the data without the figure");
+  std::string overlay_dir;
+  cont->add_option("--overlay-sweep", overlay_dir,
+                   "a geardyn sweep's output directory along the same key: its points drawn "
+                   "over the branch");
 
   CLI::App* stab = app.add_subcommand(
       "stability", "Floquet stability in permanent contact along a key (a chart: two)");
@@ -668,7 +688,8 @@ int main(int argc, char** argv) {
       if (!stab_axis2.key.empty()) sto.axis2 = stab_axis2;
       return cmd_stability(case_file, sets, sto, stab_out, json, !stab_no_figures);
     }
-    if (cont->parsed()) return cmd_continue(case_file, sets, co, cont_out, !cont_no_figures);
+    if (cont->parsed())
+      return cmd_continue(case_file, sets, co, cont_out, !cont_no_figures, overlay_dir);
     if (orbit->parsed()) return cmd_orbit(case_file, sets, oo, orbit_state, json);
     if (reproduce->parsed())
       return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);

@@ -115,8 +115,12 @@ std::string bifurcations_json(const ContinuationResult& r);
 
 // Writes branch.csv, bifurcations.json and bifurcations.csv (param,x_a,type) into dir, all or
 // nothing, and with `figures` the figure `branch` (x_a against the key: stable solid, unstable
-// dashed, bifurcations marked). Throws std::runtime_error on I/O, FigureError on gnuplot.
+// dashed, bifurcations marked). `sweep_csv`, when not empty, is the text of a `geardyn sweep`
+// sweep.csv along the same key: its up and down points ((max - min)/2 of delta_bar) are
+// written to overlay.csv and drawn over the branch. Throws InputError on a sweep.csv that is
+// not one, std::runtime_error on I/O, FigureError on gnuplot.
 void write_continuation(const std::filesystem::path& dir, const ContinuationResult& r,
-                        const std::string& key, bool figures = true);
+                        const std::string& key, bool figures = true,
+                        const std::string& sweep_csv = {});
 
 }  // namespace geardyn
