@@ -123,11 +123,14 @@ std::string LinearSwitchedSystem::validate() const {
 }
 
 Vector derivative(const LinearSwitchedSystem& s, int region, double t_s, const Vector& y) {
+  assert(region >= 0 && region < static_cast<int>(s.regions.size()) && y.size() == s.dimension);
   const LinearRegion& g = s.regions[region];
   return evaluate(g.a, s.frequencies_rad_s, t_s) * y + evaluate(g.u, s.frequencies_rad_s, t_s);
 }
 
 RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double t_s) {
+  assert(region >= 0 && region < static_cast<int>(s.regions.size()) && guard >= 0 &&
+         guard < static_cast<int>(s.regions[region].guards.size()));
   return evaluate(s.regions[region].guards[guard].row, s.frequencies_rad_s, t_s);
 }
 
@@ -609,7 +612,8 @@ struct Binomials {
 // Finds the first x in [a, b] at which the polynomial P (coefficients c on [0, 1]) turns
 // negative, given P(a) > 0; nullopt when it stays >= 0. Bernstein subdivision: on an interval
 // whose Bernstein coefficients are all positive P has no root; with one sign change it has
-// exactly one, located by TOMS 748; otherwise the interval is halved (left first).
+// exactly one, located by a safeguarded Newton method; otherwise the interval is
+// halved (left first).
 class RootFinder {
  public:
   // The subdivision buffers are sized once: the recursion holds references into them.

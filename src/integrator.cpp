@@ -1,5 +1,8 @@
 #include "geardyn/integrator.hpp"
 
+#include <cassert>
+#include <cmath>
+
 namespace geardyn::ode {
 
 const char* to_string(Termination t) {
@@ -23,6 +26,7 @@ const char* to_string(Termination t) {
 OutputGrid make_output_grid(double t0_s, double t1_s, double interval_s) {
   // A sample within a rounding error of t1 still belongs to the window.
   constexpr double kEndSlack = 1e-9;
+  assert(interval_s > 0 && t1_s >= t0_s);
   OutputGrid g;
   g.t0_s = t0_s;
   g.interval_s = interval_s;

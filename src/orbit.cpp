@@ -1,12 +1,14 @@
 #include "geardyn/orbit.hpp"
 
 #include <fmt/format.h>
+#include <toml++/toml.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 #include "geardyn/run.hpp"
 #include "shooting.hpp"
@@ -192,6 +194,57 @@ bool solve_newton(const ode::Matrix& jacobian, const ode::Vector& f, ode::Vector
 }
 
 }  // namespace detail
+
+FlowSensitivity flow_sensitivity(const Case& c, const ode::State& y0, double t1_s,
+                                 const std::string& key) {
+  auto flow = [&](const Case& cc, bool jacobian) {
+    const GearPairModel model = build_model(cc);
+    const Solver solver(model, exact_solver(cc, cc.solver.tolerance));
+    ode::Vector y(2);
+    y << y0.q, y0.v;
+    ode::FlowObserver nothing;
+    const int region = model.classify(model.drive(y0.t), y0.q, y0.v);
+    ode::FlowResult r = solver.engine()->flow(y0.t, y, region - GearPairModel::kFirstRegion, t1_s,
+                                              ode::OutputGrid{}, nothing, jacobian);
+    if (!r.ok())
+      throw std::runtime_error(fmt::format("flow_sensitivity: the flow failed ({}): {}",
+                                           ode::to_string(r.termination), r.message));
+    return r;
+  };
+  const ode::FlowResult nominal = flow(c, true);
+  FlowSensitivity s;
+  s.state = nominal.state;
+  s.d_state = *nominal.jacobian;
+  s.events = nominal.events;
+  if (key.empty()) return s;
+  // The key's value: read back from the case written as TOML (in the case file's units).
+  const toml::table t = toml::parse(to_toml(c));
+  const std::optional<double> p = t.at_path(key).value<double>();
+  if (!p)
+    throw InputError(
+        fmt::format("flow_sensitivity: {} is not a numeric key of this case (a number, or an "
+                    "element of an array such as model.stiffness_harmonics[0][0])",
+                    key));
+  const double h = kKeyStep * (*p != 0 ? std::abs(*p) : 1.0);
+  ode::Vector d[2];
+  for (int k = 0; k < 2; ++k) {
+    const double step = (k + 1) * h;
+    Case plus = c, minus = c;
+    set_case_value(plus, {key, fmt::format("{:.17g}", *p + step)});
+    set_case_value(minus, {key, fmt::format("{:.17g}", *p - step)});
+    const ode::FlowResult fp = flow(plus, false), fm = flow(minus, false);
+    if (fp.events != nominal.events || fm.events != nominal.events)
+      throw std::runtime_error(fmt::format(
+          "flow_sensitivity: {} contact events at {} = {:.17g}, {} and {} at +-{:.3g}: a grazing "
+          "within the step, where the flow is not differentiable in the key",
+          nominal.events, key, *p, fp.events, fm.events, step));
+    d[k] = (fp.state - fm.state) / (2 * step);
+  }
+  s.key_step = h;
+  s.d_key = (4 * d[0] - d[1]) / 3;
+  s.d_key_error = (d[0] - d[1]).lpNorm<Eigen::Infinity>() / 3;
+  return s;
+}
 
 Orbit find_orbit(const Case& c, const OrbitOptions& options,
                  const std::optional<ode::State>& start) {

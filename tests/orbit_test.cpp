@@ -3,8 +3,10 @@
 // orbit checked by an independent integrator, the system period, and failures reported.
 #include "geardyn/orbit.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <complex>
 #include <filesystem>
@@ -169,6 +171,85 @@ TEST(Orbit, PaperGearAtFig4cRattlesOnceAPeriodWithTheMonodromyOfItsMap) {
       EXPECT_NEAR(o.monodromy(i, j) * h[j] / h[i], column[i] * h[j] / h[i], 1e-6)
           << "entry (" << i << ", " << j << ")";
   }
+}
+
+TEST(FlowSensitivity, KeyDerivativesOfTheLinearOscillatorMatchTheClosedForm) {
+  // Always in contact, x'' + 2 zeta x' + (x - 1) = F_m + F_a cos(Omega t) from (x0, v0): the
+  // response is linear in F_m and F_a, d/dF_a the response from rest to cos(Omega t), d/dF_m
+  // the step response. The state Jacobian: the free vibration's fundamental matrix.
+  const double zeta = 0.05, omega = 0.7, t1 = 23.0;
+  const Case c = nondimensional(zeta, 1.0, 0.1, omega);
+  const geardyn::ode::State y0{0.0, 2.1, -0.05, 0.0, geardyn::kDriveContact};
+  const double wd = std::sqrt(1 - zeta * zeta), e = std::exp(-zeta * t1);
+  const double cs = std::cos(wd * t1), sn = std::sin(wd * t1);
+  // d/dF_a: Re(H e^{i Omega t}) - free vibration from Re(H), Re(i Omega H), H = 1/(1 - W^2 + 2 i
+  // zeta W).
+  const std::complex<double> H = 1.0 / std::complex<double>(1 - omega * omega, 2 * zeta * omega);
+  const std::complex<double> p = H * std::exp(std::complex<double>(0, omega * t1));
+  auto free = [&](double x0, double v0) {  // (x, v) of the free vibration at t1
+    const double A = x0, B = (v0 + zeta * x0) / wd;
+    return std::array<double, 2>{e * (A * cs + B * sn),
+                                 e * (-zeta * (A * cs + B * sn) + wd * (-A * sn + B * cs))};
+  };
+  const auto fa0 = free(H.real(), -omega * H.imag());
+  const double dx_dfa = p.real() - fa0[0];
+  const double dv_dfa = (std::complex<double>(0, omega) * p).real() - fa0[1];
+  const auto step = free(1.0, 0.0);  // the step response is 1 - free(1, 0)
+  const geardyn::FlowSensitivity sa =
+      geardyn::flow_sensitivity(c, y0, t1, "model.force_alternating");
+  EXPECT_NEAR(sa.d_key[0], dx_dfa, 1e-9);
+  EXPECT_NEAR(sa.d_key[1], dv_dfa, 1e-9);
+  EXPECT_LT(sa.d_key_error, 1e-9);
+  const geardyn::FlowSensitivity sm = geardyn::flow_sensitivity(c, y0, t1, "model.force_mean");
+  EXPECT_NEAR(sm.d_key[0], 1 - step[0], 1e-9);
+  EXPECT_NEAR(sm.d_key[1], -step[1], 1e-9);
+  const auto jx = free(1, 0), jv = free(0, 1);
+  EXPECT_NEAR(sm.d_state(0, 0), jx[0], 1e-12);
+  EXPECT_NEAR(sm.d_state(1, 0), jx[1], 1e-12);
+  EXPECT_NEAR(sm.d_state(0, 1), jv[0], 1e-12);
+  EXPECT_NEAR(sm.d_state(1, 1), jv[1], 1e-12);
+}
+
+TEST(FlowSensitivity, KeyDerivativeThroughImpactsAgreesWithAnIndependentIntegrator) {
+  // The Kahraman-Singh rattle over 3 periods (6 contact events), d/dOmega and d/dzeta: the
+  // exact engine's extrapolated differences against dopri5 at 1e-13 differenced at the same
+  // steps.
+  const Case c = nondimensional(0.05, 0.1, 0.02, 0.95);
+  const Orbit o = geardyn::find_orbit(c, shooting());
+  ASSERT_TRUE(o.converged);
+  const double t1 = 3 * o.period_s;
+  for (const char* key : {"model.omega", "model.zeta"}) {
+    const geardyn::FlowSensitivity s = geardyn::flow_sensitivity(c, o.state, t1, key);
+    EXPECT_EQ(s.events, 6);
+    auto dopri = [&](double value) {
+      Case d = c;
+      geardyn::set_case_value(d, {key, fmt::format("{:.17g}", value)});
+      const geardyn::GearPairModel model = geardyn::build_model(d);
+      geardyn::SolverData sd = d.solver;
+      sd.method = geardyn::Method::kDopri5;
+      sd.tolerance = 1e-13;
+      const geardyn::Solver solver(model, sd);
+      geardyn::ode::State y = o.state;
+      y.region = model.classify(model.drive(0), y.q, y.v);
+      const auto r = solver.advance(y, t1);
+      EXPECT_TRUE(r.ok());
+      return std::array<double, 2>{r.end_state.q, r.end_state.v};
+    };
+    const double p = std::string(key) == "model.omega" ? 0.95 : 0.05, h = s.key_step;
+    const auto a = dopri(p + h), b = dopri(p - h), a2 = dopri(p + 2 * h), b2 = dopri(p - 2 * h);
+    for (int i = 0; i < 2; ++i) {
+      const double d1 = (a[i] - b[i]) / (2 * h), d2 = (a2[i] - b2[i]) / (4 * h);
+      const double ref = (4 * d1 - d2) / 3;
+      EXPECT_NEAR(s.d_key[i], ref, 1e-6 * (1 + std::abs(ref))) << key << " entry " << i;
+    }
+  }
+}
+
+TEST(FlowSensitivity, ABadKeyIsAnInputError) {
+  const Case c = nondimensional(0.05, 0.1, 0.02, 0.95);
+  const geardyn::ode::State y0{0.0, 1.0, 0.0, 0.0, 0};
+  EXPECT_THROW((void)geardyn::flow_sensitivity(c, y0, 1.0, "solver.method"), geardyn::InputError);
+  EXPECT_THROW((void)geardyn::flow_sensitivity(c, y0, 1.0, "model.nothing"), geardyn::InputError);
 }
 
 TEST(Orbit, SystemPeriodIsTheCommonPeriodOfTheExcitations) {

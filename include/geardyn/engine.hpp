@@ -20,7 +20,12 @@
 // y_ref the region's static state), so a guard that stays above that bound cannot cross in the
 // cell. Otherwise the guard's polynomial over the cell is searched by Bernstein subdivision,
 // which cannot miss a sign change (the hull of the Bernstein coefficients encloses the
-// polynomial), and the earliest crossing is located by TOMS 748 on the polynomial.
+// polynomial), and the earliest crossing is located by Newton's method on the polynomial, kept
+// inside its bracket.
+//
+// Jumps: where no guard can cross and the observer needs no detail, a whole coefficient period
+// is one product with its precomputed map; where the coefficients are constant, a block of
+// about one forcing period is jumped around the periodic forced response.
 //
 // Sensitivities: on request the engine carries J = dy(t)/dy(t0), the product of the cells'
 // Phi and, at every event, the saltation matrix S = I + (f+ - f-) G / (dg/dt), f+- = y' on each
@@ -137,8 +142,9 @@ class ExactEngine {
   int cells_per_period(int region) const;
   int order(int region) const;
 
-  // Flows from (t0, y0) in `region` to t1 (> t0). Samples at `output`'s times in [t0, t1].
-  // A numerical failure or cancellation is reported in the result, never thrown.
+  // Flows from (t0, y0) in `region` to t1. Samples at `output`'s times in [t0, t1]. Requires a
+  // region of the system, y0 of its dimension and t1 >= t0 (asserted in debug builds). A
+  // numerical failure or cancellation is reported in the result, never thrown.
   FlowResult flow(double t0_s, const Vector& y0, int region, double t1_s, const OutputGrid& output,
                   FlowObserver& observer, bool jacobian = false) const;
 

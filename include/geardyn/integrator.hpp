@@ -32,6 +32,7 @@
 #include <array>
 #include <boost/math/tools/toms748_solve.hpp>
 #include <boost/numeric/odeint.hpp>
+#include <cassert>
 #include <cmath>
 #include <concepts>
 #include <cstdint>
@@ -113,6 +114,7 @@ struct OutputGrid {
 };
 
 // Output times every `interval_s` from t0 up to t1 inclusive (to within a rounding error).
+// Requires interval_s > 0 and t1_s >= t0_s (asserted in debug builds).
 OutputGrid make_output_grid(double t0_s, double t1_s, double interval_s);
 
 struct NewmarkOptions {
@@ -272,6 +274,7 @@ template <SwitchedSystem S, class Observer>
 IntegrationSummary integrate_newmark(const S& sys, State initial, double t1, double dt_max,
                                      const OutputGrid& output, Observer& obs,
                                      const NewmarkOptions& o = {}) {
+  assert(dt_max > 0 && t1 >= initial.t && output.interval_s >= 0);
   IntegrationSummary sum;
   const double t0 = initial.t;
   const std::int64_t n_steps =
@@ -385,6 +388,7 @@ template <SwitchedSystem S, class Observer>
 IntegrationSummary integrate_dopri5(const S& sys, State initial, double t1,
                                     const OutputGrid& output, Observer& obs,
                                     const Dopri5Options& o = {}) {
+  assert(t1 >= initial.t && o.relative_tolerance > 0 && o.absolute_tolerance > 0);
   namespace odeint = boost::numeric::odeint;
   using X = std::array<double, 2>;
   IntegrationSummary sum;

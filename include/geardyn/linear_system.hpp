@@ -67,7 +67,8 @@ struct LinearSwitchedSystem {
   std::string validate() const;
 };
 
-// y' in region r at (t, y).
+// y' in region r at (t, y). Requires a region of s and y of its dimension (asserted in debug
+// builds), as do the guard functions for the guard's index.
 Vector derivative(const LinearSwitchedSystem& s, int region, double t_s, const Vector& y);
 // g(t, y) of guard i of region r, and the row G(t).
 double guard_value(const LinearSwitchedSystem& s, int region, int guard, double t_s,

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <complex>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -70,6 +71,30 @@ struct Orbit {
   RunReading reading;                             // impacts, extremes of delta_bar and F_bar
   double max_multiplier() const;                  // the largest modulus (0 when none)
 };
+
+// The flow map of a case from y0 = (delta, delta') at t0 to t1 and its sensitivities:
+// dy(t1)/dy(t0) exact (the engine's Jacobian: the cells' transition matrices and a saltation
+// matrix at every contact event), and dy(t1)/dp for a numeric case key p by central
+// differences of the exact flow with Richardson extrapolation (steps h = kKeyStep |p| and
+// 2h; the key may change the model's coefficients and frequencies alike). The flows run the
+// exact engine at solver.tolerance.
+struct FlowSensitivity {
+  ode::Vector state;        // y(t1)
+  ode::Matrix d_state;      // dy(t1)/dy(t0)
+  ode::Vector d_key;        // dy(t1)/dp (empty without a key)
+  double key_step = 0;      // h
+  double d_key_error = 0;   // |D(h) - D(2h)| / 3, largest entry: the extrapolation's error
+  std::int64_t events = 0;  // contact events of the nominal flow
+};
+
+// Relative step of the key's central differences (absolute when p = 0).
+constexpr double kKeyStep = 1e-3;
+
+// Throws InputError on a bad key; std::runtime_error when a flow fails or the events of the
+// five flows (p, p +- h, p +- 2h) differ in number (a grazing within the steps: the
+// derivative does not exist there).
+FlowSensitivity flow_sensitivity(const Case& c, const ode::State& y0, double t1_s,
+                                 const std::string& key = {});
 
 // Finds the periodic orbit of period N T0 of the case's model, from `start` (a state on the
 // section t = 0) or, without it, from the state after settle_periods of simulation. Uses the
