@@ -7,6 +7,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <stdexcept>
 
@@ -244,6 +245,45 @@ FlowSensitivity flow_sensitivity(const Case& c, const ode::State& y0, double t1_
   s.d_key = (4 * d[0] - d[1]) / 3;
   s.d_key_error = (d[0] - d[1]).lpNorm<Eigen::Infinity>() / 3;
   return s;
+}
+
+std::string orbit_json(const Orbit& o, int indent) {
+  nlohmann::json j;
+  j["converged"] = o.converged;
+  j["message"] = o.message;
+  j["iterations"] = o.iterations;
+  j["residual"] = o.residual;
+  j["period_s"] = o.period_s;
+  j["periods"] = o.periods;
+  j["system_period_s"] = o.system_period_s;
+  j["segments"] = o.segments;
+  j["state"] = {o.state.q, o.state.v};
+  const int contact = contact_state(o.state.region);
+  j["state_region"] = contact > 0 ? "drive contact" : contact < 0 ? "back contact" : "separated";
+  nlohmann::json mu = nlohmann::json::array();
+  for (const auto& m : o.multipliers) mu.push_back({m.real(), m.imag()});
+  j["floquet_multipliers"] = mu;
+  j["max_multiplier"] = o.max_multiplier();
+  j["stable"] = o.stable;
+  j["impacts_per_period"] = o.reading.impacts;
+  j["backside_impacts_per_period"] = o.reading.backside_impacts;
+  j["separations_per_period"] = o.reading.separations;
+  j["min_delta_bar"] = o.reading.min_delta_bar;
+  j["max_delta_bar"] = o.reading.max_delta_bar;
+  j["min_force_bar"] = o.reading.min_force_bar;
+  j["max_force_bar"] = o.reading.max_force_bar;
+  nlohmann::json seq = nlohmann::json::array();
+  for (const auto& e : o.sequence)
+    seq.push_back({{"t_s", e.t_s}, {"event", to_string(e.kind)}, {"velocity_m_s", e.velocity_m_s}});
+  j["sequence"] = seq;
+  nlohmann::json rows = nlohmann::json::array();
+  for (Eigen::Index r = 0; r < o.monodromy.rows(); ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (Eigen::Index k = 0; k < o.monodromy.cols(); ++k) row.push_back(o.monodromy(r, k));
+    rows.push_back(row);
+  }
+  j["monodromy"] = rows;
+  return j.dump(indent);
 }
 
 Orbit find_orbit(const Case& c, const OrbitOptions& options,

@@ -50,6 +50,26 @@ geardyn::ode::Vector period_map(const geardyn::GearPairModel& model, const geard
   return y;
 }
 
+// The orbit's monodromy against central differences of its period map (steps 1e-6 of the
+// state's scales, delta ~ q_scale, delta' ~ v_scale), compared in the scaled state to 1e-6.
+void expect_monodromy_matches_differences(const geardyn::GearPairModel& model,
+                                          const geardyn::Solver& solver, const Orbit& o,
+                                          double q_scale, double v_scale) {
+  const double scale[2] = {q_scale, v_scale};
+  for (int j = 0; j < 2; ++j) {
+    const double h = 1e-6 * scale[j];
+    const double dq = j == 0 ? h : 0, dv = j == 1 ? h : 0;
+    const auto plus = period_map(model, solver, o.period_s, o.state.q + dq, o.state.v + dv);
+    const auto minus = period_map(model, solver, o.period_s, o.state.q - dq, o.state.v - dv);
+    const geardyn::ode::Vector column = (plus - minus) / (2 * h);
+    for (int i = 0; i < 2; ++i) {
+      const double to_scaled = scale[j] / scale[i];
+      EXPECT_NEAR(o.monodromy(i, j) * to_scaled, column[i] * to_scaled, 1e-6)
+          << "entry (" << i << ", " << j << ")";
+    }
+  }
+}
+
 TEST(Orbit, LinearOscillatorInContactMatchesItsClosedForm) {
   // Always in contact (F_m 1 against an oscillation of 0.13): x'' + 2 zeta x' + (x - 1) =
   // F_m + F_a cos(Omega t). Orbit: x = 1 + F_m + Re(H e^{i Omega t}); multipliers
@@ -94,16 +114,7 @@ TEST(Orbit, MonodromyThroughImpactsMatchesFiniteDifferences) {
   geardyn::SolverData sd = c.solver;
   sd.tolerance = 1e-12;
   const geardyn::Solver solver(model, sd);
-  const double h[2] = {1e-6, 1e-6};
-  for (int j = 0; j < 2; ++j) {
-    const double dq = j == 0 ? h[0] : 0, dv = j == 1 ? h[1] : 0;
-    const auto plus = period_map(model, solver, o.period_s, o.state.q + dq, o.state.v + dv);
-    const auto minus = period_map(model, solver, o.period_s, o.state.q - dq, o.state.v - dv);
-    const geardyn::ode::Vector column = (plus - minus) / (2 * h[j]);
-    for (int i = 0; i < 2; ++i)
-      EXPECT_NEAR(o.monodromy(i, j), column[i], 1e-6 * (1 + std::abs(column[i])))
-          << "entry (" << i << ", " << j << ")";
-  }
+  expect_monodromy_matches_differences(model, solver, o, 1.0, 1.0);
   EXPECT_TRUE(o.stable);
   EXPECT_LT(o.max_multiplier(), 1.0);
 }
@@ -160,17 +171,8 @@ TEST(Orbit, PaperGearAtFig4cRattlesOnceAPeriodWithTheMonodromyOfItsMap) {
   sd.tolerance = 1e-12;
   const geardyn::Solver solver(model, sd);
   const double b = c.mesh.backlash_um * 1e-6;
-  const double h[2] = {1e-6 * b, 1e-6 * b * model.parameters().natural_angular_frequency_rad_s()};
-  for (int j = 0; j < 2; ++j) {
-    const double dq = j == 0 ? h[0] : 0, dv = j == 1 ? h[1] : 0;
-    const auto plus = period_map(model, solver, o.period_s, o.state.q + dq, o.state.v + dv);
-    const auto minus = period_map(model, solver, o.period_s, o.state.q - dq, o.state.v - dv);
-    const geardyn::ode::Vector column = (plus - minus) / (2 * h[j]);
-    // Compared in the scaled state (delta / b, delta' / (b w_n)): h holds the scales.
-    for (int i = 0; i < 2; ++i)
-      EXPECT_NEAR(o.monodromy(i, j) * h[j] / h[i], column[i] * h[j] / h[i], 1e-6)
-          << "entry (" << i << ", " << j << ")";
-  }
+  expect_monodromy_matches_differences(model, solver, o, b,
+                                       b * model.parameters().natural_angular_frequency_rad_s());
 }
 
 TEST(FlowSensitivity, KeyDerivativesOfTheLinearOscillatorMatchTheClosedForm) {

@@ -335,35 +335,7 @@ int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets
   const bool nd = c.model.form == geardyn::ModelForm::kNondimensional;
   const double b = nd ? 1.0 : c.mesh.backlash_um * 1e-6;
   if (json) {
-    nlohmann::json j;
-    j["converged"] = r.converged;
-    j["message"] = r.message;
-    j["iterations"] = r.iterations;
-    j["residual"] = r.residual;
-    j["period_s"] = r.period_s;
-    j["periods"] = r.periods;
-    j["system_period_s"] = r.system_period_s;
-    j["segments"] = r.segments;
-    j["state"] = {r.state.q, r.state.v};
-    j["state_region"] = contact_name(r.state.region);
-    nlohmann::json mu = nlohmann::json::array();
-    for (const auto& m : r.multipliers) mu.push_back({m.real(), m.imag()});
-    j["floquet_multipliers"] = mu;
-    j["max_multiplier"] = r.max_multiplier();
-    j["stable"] = r.stable;
-    j["impacts_per_period"] = r.reading.impacts;
-    j["backside_impacts_per_period"] = r.reading.backside_impacts;
-    j["min_delta_bar"] = r.reading.min_delta_bar;
-    j["max_delta_bar"] = r.reading.max_delta_bar;
-    j["min_force_bar"] = r.reading.min_force_bar;
-    j["max_force_bar"] = r.reading.max_force_bar;
-    nlohmann::json seq = nlohmann::json::array();
-    for (const auto& e : r.sequence)
-      seq.push_back({{"t_s", e.t_s},
-                     {"event", geardyn::to_string(e.kind)},
-                     {"velocity_m_s", e.velocity_m_s}});
-    j["sequence"] = seq;
-    fmt::print("{}\n", j.dump(2));
+    fmt::print("{}\n", geardyn::orbit_json(r));
     return r.converged ? 0 : kExitNumerical;
   }
   const char* t_unit = nd ? "" : " s";

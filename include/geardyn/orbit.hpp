@@ -72,6 +72,14 @@ struct Orbit {
   double max_multiplier() const;                  // the largest modulus (0 when none)
 };
 
+// The orbit as `geardyn orbit --json` prints it: converged, message, iterations, residual,
+// period_s, periods, system_period_s, segments, state [delta (m), delta' (m/s)], state_region,
+// floquet_multipliers [[re, im], ...] (largest first), max_multiplier, stable,
+// impacts_per_period, backside_impacts_per_period, separations_per_period, min_delta_bar,
+// max_delta_bar, min_force_bar, max_force_bar, sequence [{t_s, event, velocity_m_s}], and
+// monodromy [[...], ...] (row by row).
+std::string orbit_json(const Orbit& o, int indent = 2);
+
 // The flow map of a case from y0 = (delta, delta') at t0 to t1 and its sensitivities:
 // dy(t1)/dy(t0) exact (the engine's Jacobian: the cells' transition matrices and a saltation
 // matrix at every contact event), and dy(t1)/dp for a numeric case key p by central

@@ -111,8 +111,20 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
     monodromy, stable, impacts_per_period, min_delta_bar, max_delta_bar, max_force_bar,
     sequence (the contact events of one period) and more. Not converging is reported in
     "converged" and "message", not raised."""
-    return _geardyn._orbit(case, periods, segments, settle_periods, tolerance, max_iterations,
-                           None if state is None else [float(x) for x in state])
+    return _orbit_dict(_geardyn._orbit(case, periods, segments, settle_periods, tolerance,
+                                       max_iterations,
+                                       None if state is None else [float(x) for x in state]))
+
+
+def _orbit_dict(text):
+    """An orbit's JSON (the command line's) as a dict, its vectors and matrices as arrays."""
+    import numpy as np
+
+    o = _json.loads(text)
+    o["state"] = np.array(o["state"])
+    o["floquet_multipliers"] = np.array([complex(re, im) for re, im in o["floquet_multipliers"]])
+    o["monodromy"] = np.array(o["monodromy"])
+    return o
 
 
 def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=100, step=0.01,
@@ -122,12 +134,14 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     arrays, one entry per point (param, stable, x_a = (max - min)/2 of delta/b,
     min_delta_bar, max_delta_bar, max_force_bar, impacts_per_period, max_multiplier, delta_m,
     velocity_m_s, branch, periods, multipliers), "bifurcations" (a list of dicts: type, param,
-    branch, detail, x_a and the orbit there), completed, message. `progress(param, points)` is
+    branch, detail, x_a and "orbit", the orbit there as `orbit` returns it), completed, message. `progress(param, points)` is
     called after each point; a false return stops. Ctrl-C stops within one point and raises
     KeyboardInterrupt with the points so far in its .result."""
     r = _geardyn._continuation(case, param, float(from_), float(to), periods, segments,
                                settle_periods, step, max_step, max_points,
                                follow_period_doubling, progress)
+    for b in r["bifurcations"]:
+        b["orbit"] = _orbit_dict(b["orbit"])
     if r["interrupted"]:
         raise _interrupted(r, "continuation")
     return r

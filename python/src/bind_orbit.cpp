@@ -38,44 +38,8 @@ py::array_t<std::complex<double>> multipliers(const std::vector<T>& rows, F get,
   return a;
 }
 
-py::dict orbit_dict(const Orbit& o) {
-  py::dict d;
-  d["converged"] = o.converged;
-  d["message"] = o.message;
-  d["iterations"] = o.iterations;
-  d["residual"] = o.residual;
-  d["period_s"] = o.period_s;
-  d["system_period_s"] = o.system_period_s;
-  d["periods"] = o.periods;
-  d["segments"] = o.segments;
-  py::array_t<double> state(2);
-  state.mutable_at(0) = o.state.q;
-  state.mutable_at(1) = o.state.v;
-  d["state"] = state;
-  py::array_t<std::complex<double>> mu(static_cast<py::ssize_t>(o.multipliers.size()));
-  for (std::size_t i = 0; i < o.multipliers.size(); ++i)
-    mu.mutable_at(static_cast<py::ssize_t>(i)) = o.multipliers[i];
-  d["floquet_multipliers"] = mu;
-  py::array_t<double> m({o.monodromy.rows(), o.monodromy.cols()});
-  for (Eigen::Index i = 0; i < o.monodromy.rows(); ++i)
-    for (Eigen::Index j = 0; j < o.monodromy.cols(); ++j) m.mutable_at(i, j) = o.monodromy(i, j);
-  d["monodromy"] = m;
-  d["stable"] = o.stable;
-  d["max_multiplier"] = o.max_multiplier();
-  d["impacts_per_period"] = o.reading.impacts;
-  d["backside_impacts_per_period"] = o.reading.backside_impacts;
-  d["separations_per_period"] = o.reading.separations;
-  d["min_delta_bar"] = o.reading.min_delta_bar;
-  d["max_delta_bar"] = o.reading.max_delta_bar;
-  d["min_force_bar"] = o.reading.min_force_bar;
-  d["max_force_bar"] = o.reading.max_force_bar;
-  py::list seq;
-  for (const ContactEvent& e : o.sequence)
-    seq.append(py::dict(py::arg("t_s") = e.t_s, py::arg("event") = to_string(e.kind),
-                        py::arg("velocity_m_s") = e.velocity_m_s));
-  d["sequence"] = seq;
-  return d;
-}
+// The orbit as JSON text (orbit_json); the Python layer turns it into a dict with arrays.
+py::str orbit_text(const Orbit& o) { return orbit_json(o, -1); }
 
 // A progress hook for long work run without the GIL: takes the GIL, calls `progress` (when
 // not None) and checks for Ctrl-C; false (stop) on KeyboardInterrupt or a falsy return.
@@ -144,7 +108,7 @@ void bind_orbit(py::module_& m) {
           const py::gil_scoped_release release;
           r = find_orbit(c, o, start);
         }
-        return orbit_dict(r);
+        return orbit_text(r);
       },
       py::arg("case"), py::arg("periods") = 1, py::arg("segments") = 0,
       py::arg("settle_periods") = 100, py::arg("tolerance") = 1e-10, py::arg("max_iterations") = 40,
@@ -199,13 +163,11 @@ void bind_orbit(py::module_& m) {
             pts, [](const BranchPoint& p) -> const auto& { return p.orbit.multipliers; }, 2);
         py::list bif;
         for (const Bifurcation& b : r.bifurcations) {
-          py::dict x = orbit_dict(b.orbit);
-          x["type"] = to_string(b.type);
-          x["param"] = b.param;
-          x["branch"] = b.branch;
-          x["detail"] = b.detail;
-          x["x_a"] = 0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar);
-          bif.append(x);
+          bif.append(py::dict(py::arg("type") = to_string(b.type), py::arg("param") = b.param,
+                              py::arg("branch") = b.branch, py::arg("detail") = b.detail,
+                              py::arg("x_a") = 0.5 * (b.orbit.reading.max_delta_bar -
+                                                      b.orbit.reading.min_delta_bar),
+                              py::arg("orbit") = orbit_text(b.orbit)));
         }
         d["bifurcations"] = bif;
         d["completed"] = r.completed;
