@@ -289,7 +289,13 @@ class Continuer {
                                   param(cur.z), why, ds));
         continue;
       }
-      detect(cur, next, ds, res.bifurcations);
+      {
+        // Only what lies in the range: a step past an end may hold a bifurcation beyond it.
+        std::vector<Bifurcation> found;
+        detect(cur, next, ds, found);
+        for (Bifurcation& b : found)
+          if (b.param >= lo_ && b.param <= hi_) res.bifurcations.push_back(std::move(b));
+      }
       const double p = param(next.z);
       if (p > hi_ || p < lo_) {
         // Past an end: the last point on it, at p fixed.
