@@ -506,7 +506,7 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
 int main(int argc, char** argv) {
   CLI::App app{"geardyn: nonlinear dynamics of gear pairs with backlash"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "geardyn 0.1.0");
+  app.set_version_flag("--version", "geardyn " GEARDYN_VERSION);
 
   std::string case_file, out_dir;
   std::vector<std::string> sets;

@@ -15,10 +15,25 @@ numerical failure of a run as geardyn.NumericalError.
 import json as _json
 import math as _math
 
-from ._geardyn import Case, InputError, RunResult  # noqa: F401
-from . import _geardyn
+from ._version import __version__  # noqa: F401
 
-__all__ = ["Case", "InputError", "NumericalError", "RunResult", "geometry", "stiffness", "run",
+try:
+    import numpy as _numpy  # noqa: F401
+except ImportError as _e:  # pragma: no cover - depends on the interpreter
+    raise ImportError(
+        "geardyn needs NumPy, which this interpreter does not have. On Debian: "
+        "`apt-get install python3-numpy`, and in a virtual environment create it with "
+        "`python3 -m venv --system-site-packages` so that Debian's NumPy is seen") from _e
+try:
+    from ._geardyn import Case, InputError, RunResult  # noqa: F401
+    from . import _geardyn
+except ImportError as _e:  # pragma: no cover - depends on the installation
+    raise ImportError(
+        f"geardyn's compiled part does not load in this interpreter ({_e}). It is built for "
+        "the interpreter that ran `pip install --no-build-isolation .` (or for /usr/bin/python3 "
+        "in the build tree); reinstall with this one") from _e
+
+__all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry", "stiffness", "run",
            "sweep", "orbit", "continuation", "stability", "plot"]
 
 

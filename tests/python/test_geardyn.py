@@ -123,3 +123,16 @@ def test_the_example_reproduces_fig4c(tmp_path):
                          check=True)
     assert "regime sustained" in out.stdout
     assert (tmp_path / "fig4c.png").stat().st_size > 10000
+
+
+def test_version_is_the_command_lines():
+    out = cli("--version")
+    assert out.stdout.strip() == f"geardyn {geardyn.__version__}"
+
+
+def test_a_missing_numpy_gives_a_clear_import_error():
+    code = "import sys; sys.modules['numpy'] = None; import geardyn"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode != 0
+    assert "geardyn needs NumPy" in out.stderr
+    assert "--system-site-packages" in out.stderr

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# `pip install --no-build-isolation .` into a fresh virtual environment that sees Debian's
+# NumPy (--system-site-packages), from a copy of the sources, without network: then the
+# package imports from outside the source tree with its metadata, version, type stubs and the
+# `geardyn` command. Usage: install_test.sh SOURCE_DIR
+set -euo pipefail
+src="$1"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+mkdir "$work/src"
+tar -C "$src" --exclude=./build --exclude=./out --exclude=./results --exclude=./.git \
+  --exclude='*.egg-info' -cf - . | tar -C "$work/src" -xf -
+/usr/bin/python3 -m venv --system-site-packages "$work/venv"
+PIP_NO_INDEX=1 CMAKE_BUILD_PARALLEL_LEVEL=2 \
+  "$work/venv/bin/pip" install --no-build-isolation -q "$work/src"
+cd "$work"
+"$work/venv/bin/python" - "$work/venv" <<'PY'
+import importlib.metadata
+import pathlib
+import sys
+
+import geardyn
+
+pkg = pathlib.Path(geardyn.__file__).parent
+assert str(pkg).startswith(sys.argv[1]), pkg  # the installed copy, not the sources
+assert importlib.metadata.version("geardyn") == geardyn.__version__
+assert (pkg / "py.typed").is_file() and (pkg / "_geardyn.pyi").is_file()
+r = geardyn.run(geardyn.Case.default().set("solver.duration_s", 0.002))
+assert r.ok and len(r.t) > 10
+print("installed geardyn", geardyn.__version__, "at", pkg)
+PY
+version="$("$work/venv/bin/python" -c 'import geardyn; print(geardyn.__version__)')"
+test "$("$work/venv/bin/geardyn" --version)" = "geardyn $version"
+"$work/venv/bin/geardyn" run --set solver.duration_s=0.002 >/dev/null
+echo "pip install: ok"
