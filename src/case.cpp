@@ -436,6 +436,20 @@ void merge(toml::table& into, const toml::table& from) {
   }
 }
 
+// A bare word (`dopri5`, `clip`) as a TOML string; anything else as it is. TOML's own bare
+// values (true, false, inf, nan) stay values.
+std::string bare_text_quoted(const std::string& value) {
+  if (value.empty() || value == "true" || value == "false" || value == "inf" || value == "nan")
+    return value;
+  const auto word = [](char ch) {
+    return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || ch == '_' || ch == '-';
+  };
+  if (!word(value.front()) || value.front() == '-') return value;
+  for (char ch : value)
+    if (!word(ch) && !(ch >= '0' && ch <= '9')) return value;
+  return "\"" + value + "\"";
+}
+
 // An override of one element of an array, `key[i]` or `key[i][j]`: replaces that element of
 // the array set in `root`. Throws InputError naming the override.
 void set_element(toml::table& root, const Override& o, const std::string& origin) {
@@ -473,7 +487,7 @@ void set_element(toml::table& root, const Override& o, const std::string& origin
     }
     toml::table patch;
     try {
-      patch = toml::parse("v = " + o.value, origin);
+      patch = toml::parse("v = " + bare_text_quoted(o.value), origin);
     } catch (const toml::parse_error& e) {
       throw InputError(fmt::format("{}: not a valid TOML value ({})", origin, e.description()));
     }
@@ -493,12 +507,11 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
     }
     toml::table patch;
     try {
-      patch = toml::parse(o.key + " = " + o.value, origin);
+      patch = toml::parse(o.key + " = " + bare_text_quoted(o.value), origin);
     } catch (const toml::parse_error& e) {
       throw InputError(
           fmt::format("{}: not a valid key and TOML value ({}); write e.g. "
-                      "--set speed.shaft_frequency_hz=100 or "
-                      "--set mesh.tension='\"clip\"'",
+                      "--set speed.shaft_frequency_hz=100 or --set mesh.tension=clip",
                       origin, e.description()));
     }
     merge(root, patch);

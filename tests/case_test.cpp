@@ -138,8 +138,19 @@ TEST(Case, OverrideErrorsNameTheOverride) {
   EXPECT_NE(msg.find("--set speed.rpm=100"), std::string::npos) << msg;
   EXPECT_NE(msg.find("unknown key 'speed.rpm'"), std::string::npos) << msg;
 
-  msg = error_of([] { load_case(std::nullopt, {parse_override("mesh.tension=clip")}); });
+  msg = error_of([] { load_case(std::nullopt, {parse_override("mesh.tension=[clip")}); });
   EXPECT_NE(msg.find("not a valid key and TOML value"), std::string::npos) << msg;
+  // A bare word is text; a bare word that is no choice says which are.
+  EXPECT_EQ(load_case(std::nullopt, {parse_override("mesh.tension=clip")}).mesh.tension,
+            geardyn::TensionRule::kClip);
+  EXPECT_EQ(load_case(std::nullopt, {parse_override("solver.method=dopri5")}).solver.method,
+            geardyn::Method::kDopri5);
+  msg = error_of([] { load_case(std::nullopt, {parse_override("solver.method=rk4")}); });
+  EXPECT_NE(msg.find("solver.method"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("exact"), std::string::npos) << msg;
+  // true and inf stay TOML's values: a boolean is no number.
+  msg = error_of([] { load_case(std::nullopt, {parse_override("mesh.backlash_um=true")}); });
+  EXPECT_NE(msg.find("mesh.backlash_um"), std::string::npos) << msg;
 
   msg = error_of([] { parse_override("speed.shaft_frequency_hz"); });
   EXPECT_NE(msg.find("key=value"), std::string::npos) << msg;

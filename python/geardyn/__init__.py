@@ -62,13 +62,73 @@ def _toml_value(value):
     raise InputError(f"{value!r}: a case value must be a number, string, bool or list")
 
 
+def _flat(keys, prefix=""):
+    """(dotted key, value) pairs of a mapping whose values may be sections' mappings."""
+    out = []
+    for k, v in keys.items():
+        name = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out += _flat(v, name + ".")
+        else:
+            out.append((name, v))
+    return out
+
+
+def _case_overrides(keys):
+    """Case(**keys)'s (key, TOML text) pairs (called by the extension)."""
+    return [(k, _toml_value(v)) for k, v in _flat(keys)]
+
+
 def _set(self, key, value):
-    """Sets a case key, as --set key=value does: case.set("speed.shaft_frequency_hz", 100)."""
+    """Sets a case key in place, as --set key=value does, and returns the case:
+    case.set("speed.shaft_frequency_hz", 100). Prefer `with_`, which returns a copy."""
     self.set_toml(key, _toml_value(value))
     return self
 
 
+def _with(self, changes=None, **keys):
+    """A copy with keys changed: case.with_({"mesh.backlash_um": 150}) or
+    case.with_(mesh={"backlash_um": 150}); the case itself is left as it is."""
+    c = self.copy()
+    for k, v in _flat(dict(changes or {}, **keys)):
+        c.set_toml(k, _toml_value(v))
+    return c
+
+
+def _to_dict(self):
+    """Every key of the case as nested dicts, in the units of the case file."""
+    import tomllib
+
+    return tomllib.loads(self.to_toml())
+
+
+def _getitem(self, key):
+    """The value of a dotted key, e.g. case["mesh.backlash_um"] or
+    case["model.stiffness_harmonics[0][0]"]; KeyError when the case has no such key."""
+    import re
+
+    node = self.to_dict()
+    path = re.findall(r"[^.\[\]]+|\[\d+\]", key)
+    try:
+        for part in path:
+            node = node[int(part[1:-1])] if part.startswith("[") else node[part]
+    except (KeyError, IndexError, TypeError):
+        raise KeyError(f"{key}: not a key of this case (docs/case-files.md lists them)") from None
+    return node
+
+
+def _from_dict(keys):
+    """A case from a dict of keys: dotted ({"speed.shaft_frequency_hz": 100}) or nested by
+    section ({"speed": {"shaft_frequency_hz": 100}}); the rest are the defaults."""
+    return Case(**keys)
+
+
 Case.set = _set
+Case.with_ = _with
+Case.to_dict = _to_dict
+Case.__getitem__ = _getitem
+Case.from_dict = staticmethod(_from_dict)
+Case.__hash__ = None
 
 
 def geometry(case):

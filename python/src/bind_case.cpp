@@ -10,6 +10,22 @@ namespace geardyn::python {
 
 void bind_case(py::module_& m) {
   py::class_<Case>(m, "Case", "A case: everything a run needs (docs/case-files.md).")
+      .def(py::init([](const py::kwargs& keys) {
+             // The defaults, then each key (dotted, or a section's dict) converted to TOML by
+             // the Python layer.
+             Case c = load_case(std::nullopt);
+             const py::list pairs = py::module_::import("geardyn").attr("_case_overrides")(keys);
+             for (const py::handle& kv : pairs) {
+               const auto t = kv.cast<std::pair<std::string, std::string>>();
+               set_case_value(c, {t.first, t.second});
+             }
+             return c;
+           }),
+           "Case(**keys): the defaults (Table 1 at Fig. 4(c)) with keys set, e.g. "
+           "Case(speed={'shaft_frequency_hz': 100}) or Case(**{'mesh.backlash_um': 150}).")
+      .def(
+          "__eq__", [](const Case& a, const Case& b) { return to_toml(a) == to_toml(b); },
+          py::is_operator())
       .def_static(
           "from_toml", [](const std::filesystem::path& path) { return load_case(path); },
           py::arg("path"), "Reads a case file; raises InputError on bad input.")
@@ -26,7 +42,20 @@ void bind_case(py::module_& m) {
       .def("to_toml", [](const Case& c) { return to_toml(c); })
       .def_readwrite("name", &Case::name)
       .def("copy", [](const Case& c) { return Case(c); })
-      .def("__repr__", [](const Case& c) { return "<geardyn.Case " + c.name + ">"; });
+      .def("__repr__", [](const Case& c) { return "<geardyn.Case " + c.name + ">"; })
+      .def_property_readonly(
+          "directory", [](const Case& c) { return c.directory.string(); },
+          "The case file's directory: relative paths in the case start there.")
+      // Pickled as its TOML, name and directory: exact (every number to 17 digits).
+      .def(py::pickle(
+          [](const Case& c) { return py::make_tuple(to_toml(c), c.name, c.directory.string()); },
+          [](const py::tuple& t) {
+            if (t.size() != 3) throw InputError("a pickled geardyn.Case holds three items");
+            Case c = parse_case(t[0].cast<std::string>(), "(pickled case)");
+            c.name = t[1].cast<std::string>();
+            c.directory = t[2].cast<std::string>();
+            return c;
+          }));
 }
 
 }  // namespace geardyn::python

@@ -136,3 +136,37 @@ def test_a_missing_numpy_gives_a_clear_import_error():
     assert out.returncode != 0
     assert "geardyn needs NumPy" in out.stderr
     assert "--system-site-packages" in out.stderr
+
+
+def test_a_case_is_built_read_and_copied_the_python_way():
+    c = geardyn.Case(speed={"shaft_frequency_hz": 100}, **{"mesh.backlash_um": 150})
+    assert c["speed.shaft_frequency_hz"] == 100
+    assert c["mesh.backlash_um"] == 150
+    assert c == geardyn.Case.from_dict({"speed.shaft_frequency_hz": 100,
+                                        "mesh": {"backlash_um": 150}})
+    assert c != geardyn.Case()
+    d = c.with_({"solver.method": "dopri5"})  # text bare, a copy: c is left as it was
+    assert d["solver.method"] == "dopri5" and c["solver.method"] == "exact"
+    assert geardyn.Case.from_dict(c.to_dict()) == c  # the dict round trip
+    h = c.with_(mesh={"stiffness_source": "harmonics", "stiffness_harmonics": [[0.1, 30]]})
+    assert h["mesh.stiffness_harmonics[0][1]"] == 30
+    with pytest.raises(KeyError, match="speed.rpm"):
+        c["speed.rpm"]
+    with pytest.raises(geardyn.InputError, match="mesh.backlash_um"):
+        geardyn.Case(mesh={"backlash_um": -1})
+    with pytest.raises(TypeError):
+        {c}  # equal cases compare by value, so a case is not hashable
+
+
+def test_a_case_pickles_exactly():
+    import pickle
+
+    c = geardyn.Case.from_toml(SOURCE / "cases/park2010.toml").with_(
+        {"speed.shaft_frequency_hz": 1234.5678901234567})
+    back = pickle.loads(pickle.dumps(c))
+    assert back == c
+    assert back.name == c.name and back.directory == c.directory
+    assert back["speed.shaft_frequency_hz"] == 1234.5678901234567
+    r1, r2 = geardyn.run(c.with_({"solver.duration_s": 0.002})), \
+        geardyn.run(back.with_({"solver.duration_s": 0.002}))
+    assert np.array_equal(r1.delta_bar, r2.delta_bar)
