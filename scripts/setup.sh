@@ -10,7 +10,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libfftw3-dev libeigen3-dev gnuplot-nox
   python3-dev pybind11-dev python3-numpy python3-matplotlib python3-pytest
-  python3-venv python3-pip python3-setuptools
+  python3-venv python3-pip python3-setuptools python3-tqdm
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -152,21 +152,64 @@ def _summary(self):
 RunResult.summary = property(_summary, doc="The reading, with the keys of summary.json.")
 
 
-def run(case):
+def _progress(progress, total=None, unit="it"):
+    """A progress argument as a callable: None, a callable, or True for a tqdm bar (Debian's
+    python3-tqdm) over `total` (None: the callable's second argument gives it)."""
+    if progress is None or callable(progress):
+        return progress
+    if progress is not True:
+        raise InputError(f"progress = {progress!r}: must be None, True or a callable")
+    try:
+        from tqdm import tqdm
+    except ImportError as e:
+        raise ImportError("progress=True needs tqdm (Debian: apt-get install python3-tqdm)") \
+            from e
+    bar = tqdm(total=total, unit=unit)
+
+    def update(done, of=None):
+        if of is not None and bar.total != of:
+            bar.total = of
+        bar.n = done
+        bar.refresh()
+        if of is not None and done >= of:
+            bar.close()
+        return True
+
+    return update
+
+
+def run(case, progress=None):
     """Runs a case (the GIL is released meanwhile). The arrays t, delta_bar, force_bar,
-    velocity and contact point into the result without copies."""
-    r = _geardyn._run(case)
-    if not r.ok:
+    velocity and contact point into the result without copies. `progress(fraction)` is called
+    now and then (True: a tqdm bar); a false return stops the run and returns what was
+    computed (r.ok False). Ctrl-C stops it and raises KeyboardInterrupt with the partial
+    result as .result. A numerical failure raises NumericalError."""
+    if progress is True:
+        def callback(fraction, _bar=_progress(True, 100, "%")):
+            return _bar(round(100 * fraction))
+    else:
+        callback = _progress(progress)
+    r, interrupted = _geardyn._run(case, callback)
+    if interrupted:
+        raise _interrupted(r, "run")
+    if not r.ok and "cancelled" not in r._failure:
         raise NumericalError(f"numerical failure ({r._failure})")
     return r
 
 
 def sweep(case, param, values, direction="both", settle_periods=20, measure_periods=10,
-          max_settle_periods=200, threads=0):
+          max_settle_periods=200, threads=0, progress=None):
     """Sweeps `param` over `values` (ascending up, descending down), as `geardyn sweep`. Returns
-    a dict of NumPy arrays per column (direction and regime as lists), and "jumps"."""
-    return _geardyn._sweep(case, param, [float(v) for v in values], direction, settle_periods,
-                           measure_periods, max_settle_periods, threads)
+    a dict of NumPy arrays per column (direction and regime as lists), "jumps" and
+    "cancelled". `progress(done, total)` is called after each point (True: a tqdm bar); a false
+    return stops the sweep after the points under way, the completed ones kept. Ctrl-C does
+    the same and raises KeyboardInterrupt with the completed points as .result."""
+    r = _geardyn._sweep(case, param, [float(v) for v in values], direction, settle_periods,
+                        measure_periods, max_settle_periods, threads,
+                        _progress(progress, unit="point"))
+    if r["interrupted"]:
+        raise _interrupted(r, "sweep")
+    return r
 
 
 def _interrupted(result, what):
@@ -210,11 +253,17 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     min_delta_bar, max_delta_bar, max_force_bar, impacts_per_period, max_multiplier, delta_m,
     velocity_m_s, branch, periods, multipliers), "bifurcations" (a list of dicts: type, param,
     branch, detail, x_a and "orbit", the orbit there as `orbit` returns it), completed, message. `progress(param, points)` is
-    called after each point; a false return stops. Ctrl-C stops within one point and raises
+    called after each point (True: a tqdm bar over the range); a false return stops. Ctrl-C
+    stops within one point and raises
     KeyboardInterrupt with the points so far in its .result."""
+    if progress is True:
+        def callback(p, n, _bar=_progress(True, 1000, "\u2030")):
+            return _bar(round(1000 * min(1.0, abs(p - from_) / abs(to - from_))))
+    else:
+        callback = _progress(progress)
     r = _geardyn._continuation(case, param, float(from_), float(to), periods, segments,
                                settle_periods, step, max_step, max_points,
-                               follow_period_doubling, progress)
+                               follow_period_doubling, callback)
     for b in r["bifurcations"]:
         b["orbit"] = _orbit_dict(b["orbit"])
     if r["interrupted"]:

@@ -41,49 +41,6 @@ py::array_t<std::complex<double>> multipliers(const std::vector<T>& rows, F get,
 // The orbit as JSON text (orbit_json); the Python layer turns it into a dict with arrays.
 py::str orbit_text(const Orbit& o) { return orbit_json(o, -1); }
 
-// A progress hook for long work run without the GIL: takes the GIL, calls `progress` (when
-// not None) and checks for Ctrl-C; false (stop) on KeyboardInterrupt or a falsy return.
-class Hook {
- public:
-  explicit Hook(py::object progress) : progress_(std::move(progress)) {}
-  // Called without the GIL; the arguments become Python objects once it is held.
-  template <class A, class B>
-  bool operator()(A arg1, B arg2) {
-    const py::gil_scoped_acquire gil;
-    if (PyErr_CheckSignals() != 0) {
-      PyErr_Clear();
-      interrupted_ = true;
-      return false;
-    }
-    if (!progress_.is_none()) {
-      try {
-        const py::object r = progress_(arg1, arg2);
-        if (!r.is_none() && !r.cast<bool>()) return false;
-      } catch (py::error_already_set& e) {
-        // Ctrl-C inside the callback stops like Ctrl-C elsewhere; another error stops the
-        // work and is raised once it has returned.
-        if (e.matches(PyExc_KeyboardInterrupt)) {
-          interrupted_ = true;
-        } else {
-          error_ = std::make_unique<py::error_already_set>(std::move(e));
-        }
-        return false;
-      }
-    }
-    return true;
-  }
-  bool interrupted() const { return interrupted_; }
-  // Raises the callback's error, if it failed (with the GIL held).
-  void rethrow() {
-    if (error_) throw py::error_already_set(std::move(*error_));
-  }
-
- private:
-  py::object progress_;
-  std::atomic<bool> interrupted_{false};
-  std::unique_ptr<py::error_already_set> error_;
-};
-
 }  // namespace
 
 void bind_orbit(py::module_& m) {
@@ -133,11 +90,7 @@ void bind_orbit(py::module_& m) {
         Hook hook(progress);
         o.progress = [&hook](double p, std::size_t n) { return hook(p, n); };
         ContinuationResult r;
-        {
-          const py::gil_scoped_release release;
-          r = continuation(c, o);
-        }
-        hook.rethrow();
+        run_interruptible(hook, [&] { r = continuation(c, o); });
         const auto& pts = r.points;
         py::dict d;
         d["param"] = column(pts, [](const BranchPoint& p) { return p.param; });
@@ -208,11 +161,7 @@ void bind_orbit(py::module_& m) {
         Hook hook(progress);
         o.progress = [&hook](std::size_t done, std::size_t total) { return hook(done, total); };
         StabilityResult r;
-        {
-          const py::gil_scoped_release release;
-          r = stability(c, o);
-        }
-        hook.rethrow();
+        run_interruptible(hook, [&] { r = stability(c, o); });
         const auto& s = r.samples;
         py::dict d;
         d["param"] = column(s, [](const StabilitySample& x) { return x.param; });

@@ -51,9 +51,18 @@ void bind_run(py::module_& m) {
           "write", [](const RunResult& r, const std::string& dir) { write_run(dir, r); },
           py::arg("directory"), "Writes summary.json, timeseries.csv, events.csv, case.toml.");
   // The integration runs without the GIL: other Python threads go on meanwhile.
+  // Ctrl-C and `progress(fraction)` are looked at now and then (every few thousand cells).
   m.def(
-      "_run", [](const Case& c) { return run(c); }, py::arg("case"),
-      py::call_guard<py::gil_scoped_release>());
+      "_run",
+      [](const Case& c, const py::object& progress) {
+        Hook hook(progress);
+        RunOptions o;
+        o.progress = [&hook](double fraction) { return hook(fraction); };
+        RunResult r;
+        run_interruptible(hook, [&] { r = run(c, o); });
+        return py::make_tuple(std::move(r), hook.interrupted());
+      },
+      py::arg("case"), py::arg("progress") = py::none());
 }
 
 }  // namespace geardyn::python

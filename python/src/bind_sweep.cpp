@@ -13,7 +13,7 @@ void bind_sweep(py::module_& m) {
       "_sweep",
       [](const Case& c, const std::string& param, std::vector<double> values,
          const std::string& direction, int settle_periods, int measure_periods,
-         int max_settle_periods, unsigned threads) {
+         int max_settle_periods, unsigned threads, const py::object& progress) {
         SweepOptions o;
         o.axis.key = param;
         o.axis.explicit_values = std::move(values);
@@ -32,11 +32,10 @@ void bind_sweep(py::module_& m) {
         o.measure_periods = measure_periods;
         o.max_settle_periods = max_settle_periods;
         o.threads = threads;
+        Hook hook(progress);
+        o.progress = [&hook](std::size_t done, std::size_t total) { return hook(done, total); };
         SweepResult r;
-        {
-          py::gil_scoped_release release;  // the sweep runs without the GIL
-          r = sweep(c, o);
-        }
+        run_interruptible(hook, [&] { r = sweep(c, o); });
         const std::size_t n = r.points.size();
         auto col = [&](auto get) {
           py::array_t<double> a(n);
@@ -71,11 +70,14 @@ void bind_sweep(py::module_& m) {
                                 py::arg("from_value") = j.from_value,
                                 py::arg("to_value") = j.to_value));
         out["jumps"] = jumps;
+        out["cancelled"] = r.cancelled;
+        out["interrupted"] = hook.interrupted();
         return out;
       },
       py::arg("case"), py::arg("param"), py::arg("values"), py::arg("direction") = "both",
       py::arg("settle_periods") = 20, py::arg("measure_periods") = 10,
-      py::arg("max_settle_periods") = 200, py::arg("threads") = 0);
+      py::arg("max_settle_periods") = 200, py::arg("threads") = 0,
+      py::arg("progress") = py::none());
 }
 
 }  // namespace geardyn::python

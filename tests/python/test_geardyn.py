@@ -170,3 +170,58 @@ def test_a_case_pickles_exactly():
     r1, r2 = geardyn.run(c.with_({"solver.duration_s": 0.002})), \
         geardyn.run(back.with_({"solver.duration_s": 0.002}))
     assert np.array_equal(r1.delta_bar, r2.delta_bar)
+
+
+def _ks_sweep_args(points):
+    case = geardyn.Case(model={"form": "nondimensional", "force_alternating": 0.02},
+                        solver={"initial": "static"})
+    return case, "model.omega", np.linspace(0.5, 1.5, points)
+
+
+def test_a_sweep_reports_progress_and_a_false_return_stops_it():
+    case, key, values = _ks_sweep_args(41)
+    seen = []
+    s = geardyn.sweep(case, key, values, direction="up", threads=1,
+                      progress=lambda done, total: seen.append((done, total)) or done < 10)
+    assert s["cancelled"]
+    assert len(s["value"]) == 10
+    assert seen[:3] == [(1, 41), (2, 41), (3, 41)]
+    full = geardyn.sweep(case, key, values, direction="up", threads=1)
+    assert not full["cancelled"] and len(full["value"]) == 41
+    assert np.array_equal(s["pp_delta_bar"], full["pp_delta_bar"][:10])  # the same points
+
+
+def test_ctrl_c_stops_a_sweep_within_a_second_with_its_points():
+    import signal
+
+    case, key, values = _ks_sweep_args(4001)
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt) as e:
+        geardyn.sweep(case, key, values, direction="up", threads=1)
+    elapsed = time.monotonic() - start
+    timer.join()
+    assert elapsed < 1.5, elapsed  # 0.5 s until the signal, then under a second
+    done = e.value.result
+    assert 0 < len(done["value"]) < 4001
+    assert np.array_equal(done["value"], values[:len(done["value"])])
+
+
+def test_a_run_reports_progress_and_ctrl_c_keeps_the_partial_run():
+    import signal
+
+    case = geardyn.Case(solver={"duration_s": 2.0, "method": "newmark"})
+    fractions = []
+    r = geardyn.run(case.with_({"solver.duration_s": 0.05}),
+                    progress=lambda f: fractions.append(f) or True)
+    assert r.ok and fractions and all(0 <= f <= 1 for f in fractions)
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt) as e:
+        geardyn.run(case)
+    timer.join()
+    assert time.monotonic() - start < 1.5
+    partial = e.value.result
+    assert not partial.ok and 0 < partial.t[-1] < 2.0
