@@ -198,15 +198,17 @@ def run(case, progress=None):
 
 
 def sweep(case, param, values, direction="both", settle_periods=20, measure_periods=10,
-          max_settle_periods=200, threads=0, progress=None):
-    """Sweeps `param` over `values` (ascending up, descending down), as `geardyn sweep`. Returns
-    a dict of NumPy arrays per column (direction and regime as lists), "jumps" and
-    "cancelled". `progress(done, total)` is called after each point (True: a tqdm bar); a false
-    return stops the sweep after the points under way, the completed ones kept. Ctrl-C does
-    the same and raises KeyboardInterrupt with the completed points as .result."""
+          max_settle_periods=200, threads=0, progress=None, param2=None, values2=()):
+    """Sweeps `param` over `values` (ascending up, descending down), as `geardyn sweep`; with
+    `param2` and `values2` a map (a sweep along `param` at each value of `param2`, "value2"
+    giving it). Returns a dict of NumPy arrays per column (direction and regime as lists),
+    "jumps" and "cancelled". `progress(done, total)` is called after each point (True: a tqdm
+    bar); a false return stops the sweep after the points under way, the completed ones kept.
+    Ctrl-C does the same and raises KeyboardInterrupt with the completed points as .result."""
     r = _geardyn._sweep(case, param, [float(v) for v in values], direction, settle_periods,
                         measure_periods, max_settle_periods, threads,
-                        _progress(progress, unit="point"))
+                        _progress(progress, unit="point"), param2 or "",
+                        [float(v) for v in values2])
     if r["interrupted"]:
         raise _interrupted(r, "sweep")
     return r

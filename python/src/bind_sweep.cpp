@@ -13,11 +13,19 @@ void bind_sweep(py::module_& m) {
       "_sweep",
       [](const Case& c, const std::string& param, std::vector<double> values,
          const std::string& direction, int settle_periods, int measure_periods,
-         int max_settle_periods, unsigned threads, const py::object& progress) {
+         int max_settle_periods, unsigned threads, const py::object& progress,
+         const std::string& param2, std::vector<double> values2) {
         SweepOptions o;
         o.axis.key = param;
         o.axis.explicit_values = std::move(values);
         o.axis.points = static_cast<int>(o.axis.explicit_values.size());
+        if (!param2.empty()) {
+          SweepAxis a2;
+          a2.key = param2;
+          a2.explicit_values = std::move(values2);
+          a2.points = static_cast<int>(a2.explicit_values.size());
+          o.axis2 = a2;
+        }
         if (direction == "up") {
           o.direction = SweepDirection::kUp;
         } else if (direction == "down") {
@@ -52,6 +60,7 @@ void bind_sweep(py::module_& m) {
         out["direction"] = dirs;
         out["regime"] = regimes;
         out["value"] = col([](const SweepPoint& p) { return p.value; });
+        if (o.axis2) out["value2"] = col([](const SweepPoint& p) { return p.value2; });
         out["settled"] = col([](const SweepPoint& p) { return p.settled ? 1.0 : 0.0; });
         out["mean_delta_bar"] = col([](const SweepPoint& p) { return p.mean_delta_bar; });
         out["rms_delta_bar"] = col([](const SweepPoint& p) { return p.rms_delta_bar; });
@@ -76,8 +85,8 @@ void bind_sweep(py::module_& m) {
       },
       py::arg("case"), py::arg("param"), py::arg("values"), py::arg("direction") = "both",
       py::arg("settle_periods") = 20, py::arg("measure_periods") = 10,
-      py::arg("max_settle_periods") = 200, py::arg("threads") = 0,
-      py::arg("progress") = py::none());
+      py::arg("max_settle_periods") = 200, py::arg("threads") = 0, py::arg("progress") = py::none(),
+      py::arg("param2") = "", py::arg("values2") = std::vector<double>{});
 }
 
 }  // namespace geardyn::python

@@ -225,3 +225,22 @@ def test_a_run_reports_progress_and_ctrl_c_keeps_the_partial_run():
     assert time.monotonic() - start < 1.5
     partial = e.value.result
     assert not partial.ok and 0 < partial.t[-1] < 2.0
+
+
+def test_a_map_from_python_is_the_command_lines(tmp_path):
+    cli("sweep", "--set", 'model.form="nondimensional"', "--param", "model.omega", "--from",
+        "0.8", "--to", "1.2", "--points", "5", "--param2", "model.force_alternating", "--from2",
+        "0.02", "--to2", "0.05", "--points2", "2", "--direction", "up", "--no-figures",
+        "--out", str(tmp_path))
+    rows = (tmp_path / "sweep.csv").read_text().splitlines()[1:]
+    case = geardyn.Case(model={"form": "nondimensional"})
+    m = geardyn.sweep(case, "model.omega", np.linspace(0.8, 1.2, 5), direction="up",
+                      param2="model.force_alternating", values2=[0.02, 0.05])
+    assert len(m["value"]) == len(rows) == 10
+    assert sorted(set(m["value2"])) == [0.02, 0.05]
+    from_cli = sorted((float(r.split(",")[4]), float(r.split(",")[2]), float(r.split(",")[9]))
+                      for r in rows)
+    from_py = sorted(zip(m["value2"], m["value"], m["pp_delta_bar"]))
+    for a, b in zip(from_cli, from_py):
+        assert a[:2] == pytest.approx(b[:2], abs=1e-12)
+        assert a[2] == pytest.approx(b[2], rel=1e-7)  # sweep.csv has 8 digits
