@@ -34,7 +34,7 @@ except ImportError as _e:  # pragma: no cover - depends on the installation
         "in the build tree); reinstall with this one") from _e
 
 __all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry", "stiffness", "run",
-           "sweep", "orbit", "continuation", "stability", "plot"]
+           "sweep", "orbit", "continuation", "stability", "plot", "to_xarray", "save", "load"]
 
 
 class NumericalError(RuntimeError):
@@ -209,6 +209,9 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
                         measure_periods, max_settle_periods, threads,
                         _progress(progress, unit="point"), param2 or "",
                         [float(v) for v in values2])
+    r["param"] = param
+    if param2:
+        r["param2"] = param2
     if r["interrupted"]:
         raise _interrupted(r, "sweep")
     return r
@@ -287,3 +290,4 @@ def stability(case, param, values, param2=None, values2=()):
 
 
 from . import plot  # noqa: E402,F401
+from .data import load, save, to_xarray  # noqa: E402,F401

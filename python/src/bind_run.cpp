@@ -1,6 +1,7 @@
 #include <pybind11/numpy.h>
 
 #include "bindings.hpp"
+#include "geardyn/case.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/run.hpp"
 
@@ -42,6 +43,9 @@ void bind_run(py::module_& m) {
                              })
       .def_property_readonly("_summary_json", [](const RunResult& r) { return summary_json(r); })
       .def_property_readonly("ok", [](const RunResult& r) { return r.integration.ok(); })
+      .def_property_readonly(
+          "case_toml", [](const RunResult& r) { return to_toml(r.input); },
+          "The case that was run, as TOML.")
       .def_property_readonly("_failure",
                              [](const RunResult& r) {
                                return std::string(ode::to_string(r.integration.termination)) +

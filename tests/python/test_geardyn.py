@@ -244,3 +244,42 @@ def test_a_map_from_python_is_the_command_lines(tmp_path):
     for a, b in zip(from_cli, from_py):
         assert a[:2] == pytest.approx(b[:2], abs=1e-12)
         assert a[2] == pytest.approx(b[2], rel=1e-7)  # sweep.csv has 8 digits
+
+
+def test_a_sweep_and_a_run_as_datasets_save_and_load_exactly(tmp_path):
+    case, key, values = _ks_sweep_args(21)
+    s = geardyn.sweep(case, key, values)
+    ds = geardyn.to_xarray(s)
+    assert ds["pp_delta_bar"].dims == ("direction", "param")
+    assert list(ds["direction"].values) == ["up", "down"]
+    assert ds["param"].attrs["long_name"] == key
+    assert ds["pp_force_bar"].attrs["units"] == "1"
+    up = ds["pp_delta_bar"].sel(direction="up").values
+    order = np.argsort(s["value"][np.array(s["direction"]) == "up"])
+    assert np.array_equal(up, s["pp_delta_bar"][np.array(s["direction"]) == "up"][order])
+    assert json.loads(ds.attrs["jumps"]) == s["jumps"]
+    geardyn.save(s, tmp_path / "sweep.nc")
+    back = geardyn.load(tmp_path / "sweep.nc")
+    assert back.identical(ds)  # values, coordinates and attributes, exactly
+    assert len(back.to_dataframe()) == 2 * 21  # pandas
+
+    r = geardyn.run(geardyn.Case(solver={"duration_s": 0.002}))
+    rd = geardyn.to_xarray(r)
+    assert rd["velocity"].attrs["units"] == "m/s" and rd["t"].attrs["units"] == "s"
+    geardyn.save(r, tmp_path / "run.nc")
+    rb = geardyn.load(tmp_path / "run.nc")
+    assert rb.identical(rd)
+    assert np.array_equal(rb["delta_bar"].values, r.delta_bar)
+    assert json.loads(rb.attrs["summary"]) == r.summary
+    assert geardyn.Case.from_dict(__import__("tomllib").loads(rb.attrs["case"])) == \
+        geardyn.Case(solver={"duration_s": 0.002})
+
+
+def test_a_map_is_a_dataset_over_both_keys():
+    case = geardyn.Case(model={"form": "nondimensional"})
+    m = geardyn.sweep(case, "model.omega", np.linspace(0.8, 1.2, 5), direction="up",
+                      param2="model.force_alternating", values2=[0.02, 0.05])
+    ds = geardyn.to_xarray(m)
+    assert ds["pp_delta_bar"].dims == ("direction", "param2", "param")
+    assert ds["pp_delta_bar"].shape == (1, 2, 5)
+    assert not np.isnan(ds["pp_delta_bar"].values).any()

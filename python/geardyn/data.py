@@ -1,0 +1,118 @@
+"""Results as labelled tables: xarray Datasets of runs and sweeps, saved to and loaded from
+NetCDF (Debian's python3-xarray and python3-netcdf4).
+
+    ds = geardyn.to_xarray(geardyn.sweep(case, "speed.shaft_frequency_hz", values))
+    ds["pp_delta_bar"].sel(direction="up")     # dimensions: direction, (param2,) param
+    ds.to_dataframe()                           # pandas
+    geardyn.save(ds, "sweep.nc"); geardyn.load("sweep.nc")   # exact round trip
+"""
+import json
+
+import numpy as np
+
+# Units of the sweep's and run's columns (attributes "units" and "long_name").
+_COLUMNS = {
+    "settled": ("1", "1 when two measurement blocks agreed"),
+    "mean_delta_bar": ("1", "mean of delta / b"),
+    "rms_delta_bar": ("1", "RMS of delta / b"),
+    "pp_delta_bar": ("1", "peak-to-peak delta / b"),
+    "min_delta_bar": ("1", "minimum of delta / b"),
+    "mean_force_bar": ("1", "mean of F / (b k_m)"),
+    "rms_force_bar": ("1", "RMS of F / (b k_m)"),
+    "pp_force_bar": ("1", "peak-to-peak F / (b k_m)"),
+    "max_force_bar": ("1", "maximum of F / (b k_m)"),
+    "separated_fraction": ("1", "fraction of the time separated"),
+    "impacts_per_period": ("1/period", "impacts per fundamental period"),
+    "double_sided": ("1", "1 when back-side contact occurred"),
+    "delta_bar": ("1", "delta / b"),
+    "force_bar": ("1", "F / (b k_m)"),
+    "velocity": ("m/s", "delta', the velocity along the line of action"),
+    "contact": ("1", "1 drive side, 0 separated, -1 back side"),
+}
+_UNIT_SUFFIXES = {"_hz": "Hz", "_um": "um", "_mm": "mm", "_deg": "deg", "_s": "s", "_nm": "N m",
+                  "_n_per_m": "N/m", "_kg_m3": "kg/m^3", "_gpa": "GPa"}
+
+
+def _key_units(key):
+    for suffix, unit in _UNIT_SUFFIXES.items():
+        if key.endswith(suffix):
+            return unit
+    return "1"
+
+
+def _sweep_dataset(s, param, param2=None):
+    import xarray as xr
+
+    values = np.unique(s["value"])
+    directions = [d for d in ("up", "down") if d in s["direction"]]
+    dims = ["direction"] + (["param2"] if param2 else []) + ["param"]
+    values2 = np.unique(s["value2"]) if param2 else None
+    shape = [len(directions)] + ([len(values2)] if param2 else []) + [len(values)]
+    index = []
+    for i, d in enumerate(s["direction"]):
+        at = [directions.index(d)]
+        if param2:
+            at.append(int(np.searchsorted(values2, s["value2"][i])))
+        at.append(int(np.searchsorted(values, s["value"][i])))
+        index.append(tuple(at))
+    data = {}
+    for name, (units, long_name) in _COLUMNS.items():
+        if name not in s:
+            continue
+        a = np.full(shape, np.nan)
+        for i, at in enumerate(index):
+            a[at] = s[name][i]
+        data[name] = (dims, a, {"units": units, "long_name": long_name})
+    regime = np.full(shape, "", dtype=object)
+    for i, at in enumerate(index):
+        regime[at] = s["regime"][i]
+    data["regime"] = (dims, regime.astype(str), {"long_name": "none, transient or sustained"})
+    coords = {"direction": directions,
+              "param": ("param", values, {"units": _key_units(param), "long_name": param})}
+    if param2:
+        coords["param2"] = ("param2", values2, {"units": _key_units(param2), "long_name": param2})
+    attrs = {"geardyn": "sweep", "param": param, "jumps": json.dumps(s.get("jumps", [])),
+             "cancelled": int(bool(s.get("cancelled", False)))}
+    if param2:
+        attrs["param2"] = param2
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _run_dataset(r):
+    import xarray as xr
+
+    data = {}
+    for name in ("delta_bar", "force_bar", "velocity", "contact"):
+        units, long_name = _COLUMNS[name]
+        data[name] = ("t", np.array(getattr(r, name)), {"units": units, "long_name": long_name})
+    return xr.Dataset(data, coords={"t": ("t", np.array(r.t), {"units": "s", "long_name": "time"})},
+                      attrs={"geardyn": "run", "summary": r._summary_json,
+                             "case": r.case_toml})
+
+
+def to_xarray(result, param=None, param2=None):
+    """A run (geardyn.run) or a sweep or map (geardyn.sweep's dict) as an xarray.Dataset, with
+    units in the variables' attributes. A sweep's dimensions are direction (up, down), param2
+    for a map, and param (the swept values); its jumps are the JSON attribute "jumps". A run's
+    dimension is t, its summary and case the attributes "summary" (JSON) and "case" (TOML)."""
+    if isinstance(result, dict):
+        param = param or result.get("param")
+        param2 = param2 or result.get("param2")
+        if param is None:
+            raise ValueError("to_xarray: a sweep dict needs param= (the swept key)")
+        return _sweep_dataset(result, param, param2)
+    return _run_dataset(result)
+
+
+def save(result, path):
+    """Writes a run, a sweep or their Dataset to NetCDF at `path` (load gives it back exactly)."""
+    ds = result if hasattr(result, "to_netcdf") else to_xarray(result)
+    ds.to_netcdf(path)
+
+
+def load(path):
+    """The Dataset that `save` wrote."""
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        return ds.load()
