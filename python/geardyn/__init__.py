@@ -1,11 +1,12 @@
 """geardyn from Python: the same cases, runs and sweeps as the command line.
 
     import geardyn
-    case = geardyn.Case.default()            # or geardyn.Case.from_toml("cases/park2010.toml")
-    case.set("speed.shaft_frequency_hz", 100)
+    case = geardyn.Case(speed={"shaft_frequency_hz": 100})   # or Case.from_toml(path)
+    case["mesh.backlash_um"], case.with_({"mesh.backlash_um": 150})
     r = geardyn.run(case)                    # r.t, r.delta_bar, r.force_bar, r.velocity, r.contact
     r.summary["regime"]
     s = geardyn.sweep(case, param="speed.shaft_frequency_hz", values=range(1500, 3501, 50))
+    geardyn.to_xarray(s), geardyn.save(s, "sweep.nc")        # labelled, NetCDF
     o = geardyn.orbit(case)                  # the periodic orbit, its Floquet multipliers
     b = geardyn.continuation(case, "speed.shaft_frequency_hz", 1500, 3500)  # with bifurcations
 
@@ -33,8 +34,9 @@ except ImportError as _e:  # pragma: no cover - depends on the installation
         "the interpreter that ran `pip install --no-build-isolation .` (or for /usr/bin/python3 "
         "in the build tree); reinstall with this one") from _e
 
-__all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry", "stiffness", "run",
-           "sweep", "orbit", "continuation", "stability", "plot", "to_xarray", "save", "load"]
+__all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry",
+           "stiffness", "run", "sweep", "orbit", "continuation", "stability", "plot", "to_xarray",
+           "save", "load"]
 
 
 class NumericalError(RuntimeError):
@@ -57,9 +59,10 @@ def _toml_value(value):
         return _json.dumps(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if hasattr(value, "item"):  # a NumPy scalar
-        return _toml_value(value.item())
-    raise InputError(f"{value!r}: a case value must be a number, string, bool or list")
+    if hasattr(value, "tolist"):  # a NumPy scalar or array
+        return _toml_value(value.tolist())
+    raise InputError(f"{value!r}: a case value must be a number, string, bool, list or NumPy "
+                     "array")
 
 
 def _flat(keys, prefix=""):

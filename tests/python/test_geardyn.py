@@ -283,3 +283,13 @@ def test_a_map_is_a_dataset_over_both_keys():
     assert ds["pp_delta_bar"].dims == ("direction", "param2", "param")
     assert ds["pp_delta_bar"].shape == (1, 2, 5)
     assert not np.isnan(ds["pp_delta_bar"].values).any()
+
+
+def test_numpy_values_are_case_values():
+    c = geardyn.Case().with_({"mesh.stiffness_source": "harmonics",
+                              "mesh.stiffness_harmonics": np.array([[0.05, 0.0], [0.02, 90.0]]),
+                              "speed.shaft_frequency_hz": np.float64(250.0)})
+    assert c["mesh.stiffness_harmonics"] == [[0.05, 0.0], [0.02, 90.0]]
+    assert c["speed.shaft_frequency_hz"] == 250.0
+    with pytest.raises(geardyn.InputError, match="stiffness_harmonics"):
+        geardyn.Case().with_({"mesh.stiffness_harmonics": np.zeros(3)})
