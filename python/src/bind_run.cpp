@@ -44,6 +44,23 @@ void bind_run(py::module_& m) {
       .def_property_readonly("_summary_json", [](const RunResult& r) { return summary_json(r); })
       .def_property_readonly("ok", [](const RunResult& r) { return r.integration.ok(); })
       .def_property_readonly(
+          "events",
+          [](const RunResult& r) {
+            const auto n = static_cast<py::ssize_t>(r.events.size());
+            py::array_t<double> t(n), v(n);
+            py::list kind;
+            for (py::ssize_t i = 0; i < n; ++i) {
+              const ContactEvent& e = r.events[static_cast<std::size_t>(i)];
+              t.mutable_at(i) = e.t_s;
+              v.mutable_at(i) = e.velocity_m_s;
+              kind.append(to_string(e.kind));
+            }
+            return py::dict(py::arg("t_s") = t, py::arg("kind") = kind,
+                            py::arg("velocity_m_s") = v);
+          },
+          "The located contact events as arrays: t_s (s), kind (impact, backside_impact, "
+          "separation), velocity_m_s (delta' at the event, m/s).")
+      .def_property_readonly(
           "case_toml", [](const RunResult& r) { return to_toml(r.input); },
           "The case that was run, as TOML.")
       .def_property_readonly("_failure",

@@ -293,3 +293,13 @@ def test_numpy_values_are_case_values():
     assert c["speed.shaft_frequency_hz"] == 250.0
     with pytest.raises(geardyn.InputError, match="stiffness_harmonics"):
         geardyn.Case().with_({"mesh.stiffness_harmonics": np.zeros(3)})
+
+
+def test_a_runs_events_are_arrays_as_events_csv_has_them(tmp_path):
+    r = geardyn.run(geardyn.Case(solver={"duration_s": 0.01}))
+    e = r.events
+    r.write(str(tmp_path))
+    rows = (tmp_path / "events.csv").read_text().splitlines()[1:]
+    assert len(e["t_s"]) == len(e["kind"]) == len(e["velocity_m_s"]) == len(rows) > 0
+    assert [row.split(",")[1] for row in rows] == e["kind"]
+    assert np.allclose([float(row.split(",")[0]) for row in rows], e["t_s"], rtol=1e-9)
