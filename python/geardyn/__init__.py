@@ -65,6 +65,47 @@ def _toml_value(value):
                      "array")
 
 
+def _pythonic(renames=None):
+    """A decorator: an InputError raised inside speaks of the function's arguments, not of the
+    command line's options (`--settle-periods = 0` becomes `settle_periods = 0`, `--set k=v:`
+    becomes `k = v:`); `renames` maps option names that differ (points -> len(values))."""
+    import functools
+    import re
+
+    def rename(message):
+        message = re.sub(r"--set ([^=\s]+)=([^:]*):", r"\1 = \2:", message)
+        message = re.sub(r"--param(2?) (\S+) at ", r"param\1 = \2 at ", message)
+
+        def option(m):
+            name = m.group(1).replace("-", "_")
+            return (renames or {}).get(name, name)
+
+        return re.sub(r"--([a-z][a-z0-9-]*)", option, message)
+
+    def wrap(f):
+        @functools.wraps(f)
+        def inner(*args, **kwargs):
+            try:
+                return f(*args, **kwargs)
+            except InputError as e:
+                raise InputError(rename(str(e))) from None
+
+        return inner
+
+    return wrap
+
+
+def _floats(name, values):
+    """A 1-D sequence of numbers as a list of floats; InputError naming the argument otherwise."""
+    a = _numpy.asarray(values, dtype=object)
+    if a.ndim != 1:
+        raise InputError(f"{name}: must be a 1-D sequence of numbers, got shape {a.shape}")
+    try:
+        return [float(v) for v in a]
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: must be numbers, got {list(a)[:5]!r}") from None
+
+
 def _flat(keys, prefix=""):
     """(dotted key, value) pairs of a mapping whose values may be sections' mappings."""
     out = []
@@ -126,8 +167,8 @@ def _from_dict(keys):
     return Case(**keys)
 
 
-Case.set = _set
-Case.with_ = _with
+Case.set = _pythonic()(_set)
+Case.with_ = _pythonic()(_with)
 Case.to_dict = _to_dict
 Case.__getitem__ = _getitem
 Case.from_dict = staticmethod(_from_dict)
@@ -181,6 +222,7 @@ def _progress(progress, total=None, unit="it"):
     return update
 
 
+@_pythonic()
 def run(case, progress=None):
     """Runs a case (the GIL is released meanwhile). The arrays t, delta_bar, force_bar,
     velocity and contact point into the result without copies. `progress(fraction)` is called
@@ -200,6 +242,7 @@ def run(case, progress=None):
     return r
 
 
+@_pythonic({"points": "len(values)", "from": "values", "to": "values", "points2": "len(values2)", "from2": "values2", "to2": "values2"})
 def sweep(case, param, values, direction="both", settle_periods=20, measure_periods=10,
           max_settle_periods=200, threads=0, progress=None, param2=None, values2=()):
     """Sweeps `param` over `values` (ascending up, descending down), as `geardyn sweep`; with
@@ -208,10 +251,10 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
     "jumps" and "cancelled". `progress(done, total)` is called after each point (True: a tqdm
     bar); a false return stops the sweep after the points under way, the completed ones kept.
     Ctrl-C does the same and raises KeyboardInterrupt with the completed points as .result."""
-    r = _geardyn._sweep(case, param, [float(v) for v in values], direction, settle_periods,
+    r = _geardyn._sweep(case, param, _floats("values", values), direction, settle_periods,
                         measure_periods, max_settle_periods, threads,
                         _progress(progress, unit="point"), param2 or "",
-                        [float(v) for v in values2])
+                        _floats("values2", values2))
     r["param"] = param
     if param2:
         r["param2"] = param2
@@ -227,6 +270,7 @@ def _interrupted(result, what):
     return e
 
 
+@_pythonic()
 def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_iterations=40,
           state=None):
     """The periodic orbit of period `periods` system periods, as `geardyn orbit`: Newton on
@@ -253,6 +297,7 @@ def _orbit_dict(text):
     return o
 
 
+@_pythonic({"from": "from_"})
 def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=100, step=0.01,
                  max_step=0.02, max_points=5000, follow_period_doubling=False, progress=None):
     """Follows the branch of periodic orbits in the numeric case key `param` from `from_` to
@@ -279,14 +324,15 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     return r
 
 
+@_pythonic({"points": "len(values)", "from": "values", "to": "values", "points2": "len(values2)", "from2": "values2", "to2": "values2"})
 def stability(case, param, values, param2=None, values2=()):
     """The Floquet stability of the motion in permanent contact (the Mathieu-Hill problem of
     the mesh stiffness) at each value of `param` (a chart: at each pair with `param2`), as
     `geardyn stability`. Returns a dict of arrays (param, [param2,] stable, max_multiplier,
     multipliers) and "boundaries": [{param, [param2,] type}] located where a multiplier
     crosses the unit circle (type fold at +1, period_doubling at -1, neimark_sacker)."""
-    r = _geardyn._stability(case, param, [float(v) for v in values], param2 or "",
-                            [float(v) for v in values2], None)
+    r = _geardyn._stability(case, param, _floats("values", values), param2 or "",
+                            _floats("values2", values2), None)
     if r["interrupted"]:
         raise _interrupted(r, "stability")
     return r

@@ -303,3 +303,20 @@ def test_a_runs_events_are_arrays_as_events_csv_has_them(tmp_path):
     assert len(e["t_s"]) == len(e["kind"]) == len(e["velocity_m_s"]) == len(rows) > 0
     assert [row.split(",")[1] for row in rows] == e["kind"]
     assert np.allclose([float(row.split(",")[0]) for row in rows], e["t_s"], rtol=1e-9)
+
+
+def test_errors_speak_of_the_python_arguments():
+    case, key, values = _ks_sweep_args(5)
+    with pytest.raises(geardyn.InputError, match=r"^measure_periods = 0") as e:
+        geardyn.sweep(case, key, values, measure_periods=0)
+    assert "--" not in str(e.value)
+    with pytest.raises(geardyn.InputError, match="values: must be a 1-D sequence"):
+        geardyn.sweep(case, key, [[0.5, 0.6], [0.7, 0.8]])
+    with pytest.raises(geardyn.InputError, match="values: must be numbers"):
+        geardyn.sweep(case, key, ["a", "b"])
+    with pytest.raises(geardyn.InputError, match=r"^mesh.backlash_um = -1: mesh.backlash_um"):
+        geardyn.Case().with_({"mesh.backlash_um": -1})
+    with pytest.raises(geardyn.InputError, match=r"^periods = 0"):
+        geardyn.orbit(case, periods=0)
+    with pytest.raises(geardyn.InputError, match=r"from_ = 1, to = 1"):
+        geardyn.continuation(case, key, 1.0, 1.0)
