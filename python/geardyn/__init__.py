@@ -224,11 +224,32 @@ def _progress(progress, total=None, unit="it"):
 
 @_pythonic()
 def run(case, progress=None):
-    """Runs a case (the GIL is released meanwhile). The arrays t, delta_bar, force_bar,
-    velocity and contact point into the result without copies. `progress(fraction)` is called
-    now and then (True: a tqdm bar); a false return stops the run and returns what was
-    computed (r.ok False). Ctrl-C stops it and raises KeyboardInterrupt with the partial
-    result as .result. A numerical failure raises NumericalError."""
+    """Runs a case, as `geardyn run`.
+
+    Parameters
+    ----------
+    case : Case
+        The case (its [solver] sets the method, window and output interval).
+    progress : callable or True, optional
+        ``progress(fraction)``, fraction done in [0, 1], called now and then; a false return
+        stops the run and returns what was computed (``r.ok`` is False). True: a tqdm bar.
+
+    Returns
+    -------
+    RunResult
+        ``t`` (s), ``delta_bar`` (delta / b), ``force_bar`` (F / (b k_m)), ``velocity`` (m/s)
+        and ``contact`` (1 drive side, 0 separated, -1 back side) as NumPy arrays that point
+        into the result; ``summary`` (the keys of summary.json); ``events`` (arrays).
+
+    Raises
+    ------
+    InputError
+        Bad input, with the key, the value and what is allowed.
+    NumericalError
+        The run did not complete (divergence, no progress); the message says why.
+    KeyboardInterrupt
+        Ctrl-C; ``.result`` holds the run up to where it stopped.
+    """
     if progress is True:
         def callback(fraction, _bar=_progress(True, 100, "%")):
             return _bar(round(100 * fraction))
@@ -242,15 +263,54 @@ def run(case, progress=None):
     return r
 
 
-@_pythonic({"points": "len(values)", "from": "values", "to": "values", "points2": "len(values2)", "from2": "values2", "to2": "values2"})
+_SWEEP_NAMES = {"points": "len(values)", "from": "values", "to": "values",
+                "points2": "len(values2)", "from2": "values2", "to2": "values2"}
+
+
+@_pythonic(_SWEEP_NAMES)
 def sweep(case, param, values, direction="both", settle_periods=20, measure_periods=10,
           max_settle_periods=200, threads=0, progress=None, param2=None, values2=()):
-    """Sweeps `param` over `values` (ascending up, descending down), as `geardyn sweep`; with
-    `param2` and `values2` a map (a sweep along `param` at each value of `param2`, "value2"
-    giving it). Returns a dict of NumPy arrays per column (direction and regime as lists),
-    "jumps" and "cancelled". `progress(done, total)` is called after each point (True: a tqdm
-    bar); a false return stops the sweep after the points under way, the completed ones kept.
-    Ctrl-C does the same and raises KeyboardInterrupt with the completed points as .result."""
+    """Sweeps a case key up and down, as `geardyn sweep`; with `param2`, a map.
+
+    Each point continues from the previous one's end state and is measured once settled
+    (docs/sweeps.md).
+
+    Parameters
+    ----------
+    case : Case
+        The base case.
+    param : str
+        The swept key, e.g. ``"speed.shaft_frequency_hz"`` (in the key's unit).
+    values : sequence of float
+        Its values (swept ascending up, descending down).
+    direction : {"both", "up", "down"}
+    settle_periods, measure_periods, max_settle_periods : int
+        Fundamental periods before the first measurement, per measurement block, and at most
+        before a point is flagged not settled.
+    threads : int
+        Worker threads (0: all cores).
+    progress : callable or True, optional
+        ``progress(done, total)`` after each point; a false return stops the sweep after the
+        points under way, the completed ones kept. True: a tqdm bar.
+    param2 : str, optional
+        A second key: a sweep along `param` at each of its `values2` (a map).
+    values2 : sequence of float
+
+    Returns
+    -------
+    dict
+        One NumPy array per column (``value``, ``value2`` for a map, ``pp_delta_bar`` and the
+        other statistics of delta / b and F / (b k_m), ``separated_fraction``,
+        ``impacts_per_period`` per fundamental period, ``settled``), ``direction`` and
+        ``regime`` as lists, ``jumps``, ``cancelled``. `to_xarray` labels it.
+
+    Raises
+    ------
+    InputError
+        Bad input, naming the argument or key.
+    KeyboardInterrupt
+        Ctrl-C; ``.result`` holds the completed points.
+    """
     r = _geardyn._sweep(case, param, _floats("values", values), direction, settle_periods,
                         measure_periods, max_settle_periods, threads,
                         _progress(progress, unit="point"), param2 or "",
@@ -273,14 +333,35 @@ def _interrupted(result, what):
 @_pythonic()
 def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_iterations=40,
           state=None):
-    """The periodic orbit of period `periods` system periods, as `geardyn orbit`: Newton on
-    the stroboscopic map with the exact engine's Jacobian (multiple shooting on `segments`,
-    default one per period), from `state` = (delta in m, delta' in m/s) at t = 0 or from
-    `settle_periods` of simulation. Returns a dict: converged, message, period_s (s; tau in the
-    non-dimensional form), state, floquet_multipliers (complex array, largest first),
-    monodromy, stable, impacts_per_period, min_delta_bar, max_delta_bar, max_force_bar,
-    sequence (the contact events of one period) and more. Not converging is reported in
-    "converged" and "message", not raised."""
+    """The periodic orbit of a case, as `geardyn orbit` (docs/orbits.md).
+
+    Newton's method on the stroboscopic map with the exact engine's Jacobian (saltation at
+    every impact), on `segments` shooting segments.
+
+    Parameters
+    ----------
+    case : Case
+    periods : int
+        The orbit's period in system periods T0 (the common period of the excitations).
+    segments : int
+        Shooting segments (0: one per period).
+    settle_periods : int
+        System periods simulated for the first guess (when `state` is None).
+    tolerance : float
+        Newton's tolerance on the scaled residual (delta / b, delta' / (b w_n)).
+    max_iterations : int
+    state : (float, float), optional
+        First guess on the section t = 0: delta (m) and delta' (m/s).
+
+    Returns
+    -------
+    dict
+        ``converged`` and ``message`` (not converging is reported here, not raised),
+        ``period_s`` (s; tau in the non-dimensional form), ``state`` (m, m/s),
+        ``floquet_multipliers`` (complex, largest first), ``monodromy``, ``stable``,
+        ``impacts_per_period``, ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``,
+        ``sequence`` (the contact events of one period) and more.
+    """
     return _orbit_dict(_geardyn._orbit(case, periods, segments, settle_periods, tolerance,
                                        max_iterations,
                                        None if state is None else [float(x) for x in state]))
@@ -300,15 +381,46 @@ def _orbit_dict(text):
 @_pythonic({"from": "from_"})
 def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=100, step=0.01,
                  max_step=0.02, max_points=5000, follow_period_doubling=False, progress=None):
-    """Follows the branch of periodic orbits in the numeric case key `param` from `from_` to
-    `to` by pseudo-arclength continuation, as `geardyn continue`. Returns a dict of NumPy
-    arrays, one entry per point (param, stable, x_a = (max - min)/2 of delta/b,
-    min_delta_bar, max_delta_bar, max_force_bar, impacts_per_period, max_multiplier, delta_m,
-    velocity_m_s, branch, periods, multipliers), "bifurcations" (a list of dicts: type, param,
-    branch, detail, x_a and "orbit", the orbit there as `orbit` returns it), completed, message. `progress(param, points)` is
-    called after each point (True: a tqdm bar over the range); a false return stops. Ctrl-C
-    stops within one point and raises
-    KeyboardInterrupt with the points so far in its .result."""
+    """Follows a branch of periodic orbits in a case key, as `geardyn continue`.
+
+    Pseudo-arclength continuation from the orbit at `from_`; folds, period doublings,
+    Neimark-Sacker bifurcations and grazings are located along the way (docs/orbits.md).
+
+    Parameters
+    ----------
+    case : Case
+    param : str
+        A numeric case key (an array element as ``"model.stiffness_harmonics[0][0]"``).
+    from_, to : float
+        The range of the key, in its unit.
+    periods, segments, settle_periods : int
+        As for `orbit`.
+    step, max_step : float
+        First and largest arclength step (scaled state, key over its range).
+    max_points : int
+        Points at most on each branch.
+    follow_period_doubling : bool
+        Switch to the period-doubled branch at each period doubling and follow it.
+    progress : callable or True, optional
+        ``progress(param, points)`` after each point; a false return stops. True: a tqdm bar
+        over the range.
+
+    Returns
+    -------
+    dict
+        One NumPy array per point: ``param``, ``stable``, ``x_a`` ((max - min) / 2 of delta / b),
+        ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``, ``impacts_per_period``,
+        ``max_multiplier``, ``delta_m`` (m), ``velocity_m_s`` (m/s), ``branch``, ``periods``,
+        ``multipliers``; ``bifurcations`` (dicts: type, param, branch, detail, x_a and
+        ``orbit`` as `orbit` returns it); ``completed``, ``cancelled``, ``message``.
+
+    Raises
+    ------
+    InputError
+        A key that is not numeric, a bad range.
+    KeyboardInterrupt
+        Ctrl-C (looked for every 0.05 s); ``.result`` holds the points so far.
+    """
     if progress is True:
         def callback(p, n, _bar=_progress(True, 1000, "\u2030")):
             return _bar(round(1000 * min(1.0, abs(p - from_) / abs(to - from_))))
@@ -324,13 +436,31 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     return r
 
 
-@_pythonic({"points": "len(values)", "from": "values", "to": "values", "points2": "len(values2)", "from2": "values2", "to2": "values2"})
+@_pythonic(_SWEEP_NAMES)
 def stability(case, param, values, param2=None, values2=()):
-    """The Floquet stability of the motion in permanent contact (the Mathieu-Hill problem of
-    the mesh stiffness) at each value of `param` (a chart: at each pair with `param2`), as
-    `geardyn stability`. Returns a dict of arrays (param, [param2,] stable, max_multiplier,
-    multipliers) and "boundaries": [{param, [param2,] type}] located where a multiplier
-    crosses the unit circle (type fold at +1, period_doubling at -1, neimark_sacker)."""
+    """The Floquet stability of permanent contact, as `geardyn stability` (docs/orbits.md).
+
+    The Mathieu-Hill problem of the mesh stiffness: the monodromy of the contact region over
+    the stiffness period at each value, boundaries located where a multiplier crosses the unit
+    circle.
+
+    Parameters
+    ----------
+    case : Case
+    param : str
+        The case key along which to look.
+    values : sequence of float
+    param2 : str, optional
+        A second key: a chart over both.
+    values2 : sequence of float
+
+    Returns
+    -------
+    dict
+        Arrays ``param`` (and ``param2``), ``stable``, ``max_multiplier``, ``multipliers``;
+        ``boundaries``: dicts with ``param`` (``param2``) and ``type`` (fold at +1,
+        period_doubling at -1, neimark_sacker).
+    """
     r = _geardyn._stability(case, param, _floats("values", values), param2 or "",
                             _floats("values2", values2), None)
     if r["interrupted"]:
