@@ -349,13 +349,11 @@ std::string sweep_csv(const SweepResult& r) {
       "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided\n";
   for (const SweepPoint& p : r.points) {
     fmt::format_to(
-        std::back_inserter(out),
-        "{},{},{:.10g},{},{:.10g},{},{},{:.8g},{:.8g},{:.8g},{:.8g},{:.8g},{:.8g},"
-        "{:.8g},{:.8g},{},{:.6g},{:.6g},{},{}\n",
+        std::back_inserter(out), "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
         to_string(p.direction), o.axis.key, p.value, o.axis2 ? o.axis2->key : "", p.value2,
         p.settled ? 1 : 0, p.settle_periods, p.mean_delta_bar, p.rms_delta_bar, p.pp_delta_bar,
         p.min_delta_bar, p.mean_force_bar, p.rms_force_bar, p.pp_force_bar, p.max_force_bar,
-        p.dynamic_factor ? fmt::format("{:.8g}", *p.dynamic_factor) : "", p.separated_fraction,
+        p.dynamic_factor ? fmt::format("{}", *p.dynamic_factor) : "", p.separated_fraction,
         p.impacts_per_period, to_string(p.regime), p.double_sided ? 1 : 0);
   }
   return out;
@@ -367,9 +365,9 @@ std::string strobe_csv(const SweepResult& r) {
   std::string out = "direction,value,value2,period,delta_bar,velocity_m_s,force_bar\n";
   for (const SweepPoint& p : r.points)
     for (std::size_t k = 0; k < p.strobe_delta_bar.size(); ++k)
-      fmt::format_to(std::back_inserter(out), "{},{:.10g},{:.10g},{},{:.8g},{:.8g},{:.8g}\n",
-                     to_string(p.direction), p.value, p.value2, k, p.strobe_delta_bar[k],
-                     p.strobe_velocity_m_s[k], p.strobe_force_bar[k]);
+      fmt::format_to(std::back_inserter(out), "{},{},{},{},{},{},{}\n", to_string(p.direction),
+                     p.value, p.value2, k, p.strobe_delta_bar[k], p.strobe_velocity_m_s[k],
+                     p.strobe_force_bar[k]);
   return out;
 }
 

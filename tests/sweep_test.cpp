@@ -7,6 +7,9 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include "test_support.hpp"
 
@@ -89,6 +92,27 @@ TEST(Sweep, ResultsDoNotDependOnTheThreadCount) {
   const std::string eight = sweep_csv(sweep(nondimensional(0.05, 0.1, 0.1), o));
   EXPECT_EQ(one, two);
   EXPECT_EQ(one, eight);
+}
+
+TEST(Sweep, CsvNumbersReadBackExactly) {
+  // Every number of sweep.csv is written with the shortest digits that read back to the same
+  // double: a linear response can be checked to rounding from the file.
+  const SweepResult r =
+      sweep(nondimensional(0.05, 0.1, 0.02), omega_sweep(0.3, 1.5, 7, SweepDirection::kUp));
+  std::istringstream csv(sweep_csv(r));
+  std::string line;
+  std::getline(csv, line);
+  for (const SweepPoint& p : r.points) {
+    ASSERT_TRUE(std::getline(csv, line));
+    std::vector<std::string> cells;
+    std::istringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    ASSERT_GE(cells.size(), 15U);
+    EXPECT_EQ(std::stod(cells[2]), p.value);
+    EXPECT_EQ(std::stod(cells[9]), p.pp_delta_bar);
+    EXPECT_EQ(std::stod(cells[12]), p.rms_force_bar);
+    EXPECT_EQ(std::stod(cells[14]), p.max_force_bar);
+  }
 }
 
 TEST(Sweep, FlagsPointsThatNeverSettle) {
