@@ -440,7 +440,7 @@ std::string sweep_overlay(const std::string& sweep_csv) {
     std::vector<std::string> cells;
     std::istringstream row(line);
     for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
-    if (cells.size() < header.size()) continue;
+    if (cells.size() <= std::max({cd, cv, cp})) continue;
     fmt::format_to(std::back_inserter(out), "{},{},{:.10g}\n", cells[cd], cells[cv],
                    0.5 * std::strtod(cells[cp].c_str(), nullptr));
   }

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -81,15 +82,25 @@ class PointRunner {
       s = *carry;
       s.t = 0;
     }
+    // A numerical failure is the point's result: kept with its reason, the sequence goes on
+    // from the initial condition.
     auto fail = [&](const ode::IntegrationSummary& sum) {
-      throw std::runtime_error(
-          fmt::format("sweep point {} = {}{}: numerical failure ({}): {}", o_.axis.key, job.value,
-                      o_.axis2 ? fmt::format(", {} = {}", o_.axis2->key, job.value2) : "",
-                      ode::to_string(sum.termination), sum.message));
+      SweepPoint pt;
+      pt.direction = job.direction;
+      pt.value = job.value;
+      pt.value2 = job.value2;
+      constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+      pt.mean_delta_bar = pt.rms_delta_bar = pt.pp_delta_bar = pt.min_delta_bar = kNaN;
+      pt.mean_force_bar = pt.rms_force_bar = pt.pp_force_bar = pt.max_force_bar = kNaN;
+      pt.separated_fraction = pt.impacts_per_period = kNaN;
+      pt.failure =
+          fmt::format("numerical failure ({}): {}", ode::to_string(sum.termination), sum.message);
+      carry.reset();
+      return pt;
     };
     if (o_.settle_periods > 0) {
       const auto sum = solver.advance(s, s.t + o_.settle_periods * period);
-      if (!sum.ok()) fail(sum);
+      if (!sum.ok()) return fail(sum);
       s = sum.end_state;
     }
     int periods_run = o_.settle_periods;
@@ -100,7 +111,7 @@ class PointRunner {
       RunReader reader(model, t0, t1, 1.0 / m, /*keep_events=*/false, /*keep_samples=*/true);
       const ode::OutputGrid grid{t0, period / spp, static_cast<std::int64_t>(m) * spp};
       const auto sum = solver.run(s, t1, grid, reader);
-      if (!sum.ok()) fail(sum);
+      if (!sum.ok()) return fail(sum);
       s = sum.end_state;
       SweepPoint pt = read_block(reader, job, m, spp);
       pt.settle_periods = periods_run;
@@ -333,7 +344,8 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   r.cancelled = stop.load();
   for (auto& p : done_points)
     if (p) {
-      r.unsettled += !p->settled;
+      r.unsettled += !p->settled && p->failure.empty();
+      r.failed += !p->failure.empty();
       r.points.push_back(std::move(*p));
     }
   read_jumps(r);
@@ -341,20 +353,34 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   return r;
 }
 
+namespace {
+// A text cell: quoted when it holds a comma or a quote (RFC 4180).
+std::string csv_text(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char ch : s) {
+    if (ch == '"') q += '"';
+    q += ch == '\n' ? ' ' : ch;
+  }
+  return q + "\"";
+}
+}  // namespace
+
 std::string sweep_csv(const SweepResult& r) {
   const SweepOptions& o = r.options;
   std::string out =
       "direction,param,value,param2,value2,settled,settle_periods,mean_delta_bar,rms_delta_bar,"
       "pp_delta_bar,min_delta_bar,mean_force_bar,rms_force_bar,pp_force_bar,max_force_bar,"
-      "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided\n";
+      "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided,failure\n";
   for (const SweepPoint& p : r.points) {
     fmt::format_to(
-        std::back_inserter(out), "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+        std::back_inserter(out), "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
         to_string(p.direction), o.axis.key, p.value, o.axis2 ? o.axis2->key : "", p.value2,
         p.settled ? 1 : 0, p.settle_periods, p.mean_delta_bar, p.rms_delta_bar, p.pp_delta_bar,
         p.min_delta_bar, p.mean_force_bar, p.rms_force_bar, p.pp_force_bar, p.max_force_bar,
         p.dynamic_factor ? fmt::format("{}", *p.dynamic_factor) : "", p.separated_fraction,
-        p.impacts_per_period, to_string(p.regime), p.double_sided ? 1 : 0);
+        p.impacts_per_period, p.failure.empty() ? to_string(p.regime) : "failed",
+        p.double_sided ? 1 : 0, csv_text(p.failure));
   }
   return out;
 }
@@ -393,6 +419,7 @@ std::string summary(const SweepResult& r) {
   j["period_s"] = r.period_s;
   j["points_computed"] = r.points.size();
   j["unsettled"] = r.unsettled;
+  j["failed"] = r.failed;
   j["cancelled"] = r.cancelled;
   j["wall_time_s"] = r.wall_time_s;
   j["threads"] = r.threads;

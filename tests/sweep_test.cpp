@@ -115,6 +115,33 @@ TEST(Sweep, CsvNumbersReadBackExactly) {
   }
 }
 
+TEST(Sweep, AFailingPointIsKeptWithItsReasonAndTheOthersGoOn) {
+  // Down from an absurd torque, which diverges: the points after it are computed as without
+  // it, the first of them from the initial condition.
+  Case c;
+  c.solver.initial = InitialCondition::kStatic;
+  SweepOptions o;
+  o.axis.key = "load.torque_nm";
+  o.axis.explicit_values = {40.0, 60.0, 1e307};
+  o.axis.points = 3;
+  o.direction = SweepDirection::kDown;
+  const SweepResult r = sweep(c, o);
+  ASSERT_EQ(r.points.size(), 3U);
+  EXPECT_EQ(r.failed, 1U);
+  EXPECT_EQ(r.points[0].value, 1e307);
+  EXPECT_NE(r.points[0].failure.find("numerical failure"), std::string::npos);
+  EXPECT_TRUE(std::isnan(r.points[0].pp_delta_bar));
+  EXPECT_TRUE(r.points[1].failure.empty());
+  EXPECT_TRUE(r.points[2].failure.empty());
+  o.axis.explicit_values = {40.0, 60.0};
+  o.axis.points = 2;
+  const SweepResult without = sweep(c, o);
+  EXPECT_EQ(r.points[1].pp_delta_bar, without.points[0].pp_delta_bar);
+  EXPECT_EQ(r.points[2].pp_delta_bar, without.points[1].pp_delta_bar);
+  const std::string csv = sweep_csv(r);
+  EXPECT_NE(csv.find(",failed,0,numerical failure"), std::string::npos) << csv;
+}
+
 TEST(Sweep, FlagsPointsThatNeverSettle) {
   SweepOptions o = omega_sweep(0.8, 1.2, 3, SweepDirection::kUp);
   o.steady_tolerance = 1e-15;  // unreachable

@@ -241,6 +241,14 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
       "  fundamental period {:.6g} s at the first point; {} points computed, {} not "
       "settled\n",
       r.period_s, r.points.size(), r.unsettled);
+  if (r.failed > 0) {
+    const auto first = std::find_if(r.points.begin(), r.points.end(),
+                                    [](const auto& p) { return !p.failure.empty(); });
+    fmt::print(
+        "  {} point{} failed numerically (kept in sweep.csv with the reason), the first at "
+        "{} = {}: {}\n",
+        r.failed, r.failed == 1 ? "" : "s", o.axis.key, first->value, first->failure);
+  }
   for (const geardyn::Hysteresis& h : r.hysteresis)
     fmt::print("  up and down differ from {} = {:.6g} to {:.6g}\n", o.axis.key, h.from_value,
                h.to_value);
@@ -252,7 +260,8 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
              figures && !r.cancelled
                  ? ", frequency_response, bifurcation" + std::string(o.axis2 ? ", regime_map" : "")
                  : "");
-  return r.cancelled ? kExitInterrupted : 0;
+  if (r.cancelled) return kExitInterrupted;
+  return r.failed > 0 ? kExitNumerical : 0;
 }
 
 // Harmonics shown in the stiffness figure's DFT panels.

@@ -60,6 +60,9 @@ struct SweepPoint {
   SweepDirection direction = SweepDirection::kUp;  // kUp or kDown
   double value = 0;
   double value2 = 0;  // 0 for a 1-D sweep
+  // Empty, or why the point failed numerically (its statistics are then NaN, and the next
+  // point of its sequence starts from the case's initial condition).
+  std::string failure;
   bool settled = false;
   int settle_periods = 0;  // periods run before the measurement that was kept
   double mean_delta_bar = 0, rms_delta_bar = 0, pp_delta_bar = 0, min_delta_bar = 0;
@@ -91,6 +94,7 @@ struct SweepResult {
   std::vector<Hysteresis> hysteresis;
   std::vector<Jump> jumps;
   std::size_t unsettled = 0;
+  std::size_t failed = 0;  // points whose integration failed (SweepPoint::failure)
   bool cancelled = false;
   double wall_time_s = 0;
   unsigned threads = 0;

@@ -52,11 +52,13 @@ void bind_sweep(py::module_& m) {
           return a;
         };
         py::dict out;
-        py::list dirs, regimes;
+        py::list dirs, regimes, failures;
         for (const SweepPoint& p : r.points) {
           dirs.append(to_string(p.direction));
-          regimes.append(to_string(p.regime));
+          regimes.append(p.failure.empty() ? to_string(p.regime) : "failed");
+          failures.append(p.failure);
         }
+        out["failure"] = failures;
         out["direction"] = dirs;
         out["regime"] = regimes;
         out["value"] = col([](const SweepPoint& p) { return p.value; });
