@@ -27,8 +27,6 @@ constexpr double kStepGrowth = 1.5;
 constexpr double kMinTangentCosine = 0.9;
 // Bisections of a bracket at most when locating a bifurcation.
 constexpr int kMaxBisections = 60;
-// The engine's tolerance as a fraction of the Newton tolerance (as in find_orbit).
-constexpr double kEngineToleranceFraction = 1e-4;
 // A branch switch at a period doubling: how far beyond it in p (relative to p_scale), the
 // displacements along the eigenvector tried (scaled units), and how far from returning
 // after one period N a period-doubled orbit must be (scaled).
@@ -78,7 +76,7 @@ class Continuer {
       : base_(base), o_(o), p_scale_(hi - lo), lo_(lo), hi_(hi) {
     segments_ = o.orbit.segments > 0 ? o.orbit.segments : o.orbit.periods;
     engine_tolerance_ =
-        std::min(base.solver.tolerance, o.orbit.tolerance * kEngineToleranceFraction);
+        std::min(base.solver.tolerance, o.orbit.tolerance * detail::kEngineToleranceFraction);
   }
 
   double param(const ode::Vector& z) const { return z[z.size() - 1] * p_scale_; }

@@ -22,9 +22,6 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kCommensurability = 1e-9;
 // Halvings of a Newton step before the iteration is declared stalled.
 constexpr int kMaxBacktracks = 12;
-// The engine's tolerance is this fraction of the orbit's, so that the Jacobian and the
-// residual are exact to well below what Newton is asked for.
-constexpr double kEngineToleranceFraction = 1e-4;
 
 SolverData exact_solver(const Case& c, double engine_tolerance) {
   SolverData sd = c.solver;
@@ -291,7 +288,7 @@ Orbit find_orbit(const Case& c, const OrbitOptions& options,
   if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
   const int segments = options.segments > 0 ? options.segments : options.periods;
   const double engine_tolerance =
-      std::min(c.solver.tolerance, options.tolerance * kEngineToleranceFraction);
+      std::min(c.solver.tolerance, options.tolerance * detail::kEngineToleranceFraction);
   const detail::Shooting shooting(c, options.periods, segments, ode::Vector{}, engine_tolerance);
   Orbit orbit;
   orbit.system_period_s = shooting.system_period_s();

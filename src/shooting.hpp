@@ -11,6 +11,10 @@
 
 namespace geardyn::detail {
 
+// The engine's tolerance as a fraction of the orbit's Newton tolerance, so that the Jacobian
+// and the residual are exact to well below what Newton is asked for (orbits, continuation).
+constexpr double kEngineToleranceFraction = 1e-4;
+
 // The Newton iteration's unknowns are scaled: delta by b, delta' by b w_n: (b, b w_n).
 ode::Vector orbit_scale(const GearPairModel& model);
 
