@@ -124,15 +124,37 @@ def _case_overrides(keys):
 
 
 def _set(self, key, value):
-    """Sets a case key in place, as --set key=value does, and returns the case:
-    case.set("speed.shaft_frequency_hz", 100). Prefer `with_`, which returns a copy."""
+    """Sets a case key in place, as ``--set key=value`` does, and returns the case.
+
+    Parameters
+    ----------
+    key : str
+        A dotted key, e.g. ``"speed.shaft_frequency_hz"`` (docs/case-files.md, unit in the name).
+    value : number, str, bool, list or NumPy array
+
+    Returns
+    -------
+    Case
+        The case itself; `with_` returns a changed copy instead.
+    """
     self.set_toml(key, _toml_value(value))
     return self
 
 
 def _with(self, changes=None, **keys):
-    """A copy with keys changed: case.with_({"mesh.backlash_um": 150}) or
-    case.with_(mesh={"backlash_um": 150}); the case itself is left as it is."""
+    """A copy of the case with keys changed; the case itself is left as it is.
+
+    Parameters
+    ----------
+    changes : dict, optional
+        Dotted keys (``{"mesh.backlash_um": 150}``) or sections (``{"mesh": {...}}``).
+    **keys
+        Sections as keywords: ``with_(mesh={"backlash_um": 150})``.
+
+    Returns
+    -------
+    Case
+    """
     c = self.copy()
     for k, v in _flat(dict(changes or {}, **keys)):
         c.set_toml(k, _toml_value(v))
@@ -167,6 +189,9 @@ def _from_dict(keys):
     return Case(**keys)
 
 
+for _f, _name in ((_set, "set"), (_with, "with_"), (_to_dict, "to_dict"),
+                  (_getitem, "__getitem__"), (_from_dict, "from_dict")):
+    _f.__name__, _f.__qualname__ = _name, f"Case.{_name}"
 Case.set = _pythonic()(_set)
 Case.with_ = _pythonic()(_with)
 Case.to_dict = _to_dict
@@ -176,13 +201,35 @@ Case.__hash__ = None
 
 
 def geometry(case):
-    """The derived geometry, as `geardyn geometry --json`."""
+    """The derived gear geometry, as `geardyn geometry --json`.
+
+    Parameters
+    ----------
+    case : Case
+
+    Returns
+    -------
+    dict
+        Diameters and distances in mm, angles in deg, inertias in kg m^2, the equivalent mass
+        in kg, contact ratios, and ``warnings`` (docs/outputs.md).
+    """
     return _json.loads(_geardyn._geometry_json(case))
 
 
 def stiffness(case):
-    """ISO 6336-1 and the energy method, as `geardyn stiffness --json`, with the energy method's
-    curve over one mesh cycle under "cycle" (arrays "position" and "total_n_per_m")."""
+    """The mesh stiffness from the gear data, as `geardyn stiffness --json`.
+
+    Parameters
+    ----------
+    case : Case
+
+    Returns
+    -------
+    dict
+        ``iso6336`` (c' and c_gamma in N/(mm um), the mesh stiffness in N/m), ``energy``
+        (mean, min, max in N/m, the kept harmonics as [k_ai / k_m, phase in deg]) and
+        ``cycle``: arrays ``position`` (fraction of a mesh cycle) and ``total_n_per_m`` (N/m).
+    """
     text, arrays = _geardyn._stiffness(case)
     out = _json.loads(text)
     out["cycle"] = arrays

@@ -91,10 +91,23 @@ def _run_dataset(r):
 
 
 def to_xarray(result, param=None, param2=None):
-    """A run (geardyn.run) or a sweep or map (geardyn.sweep's dict) as an xarray.Dataset, with
-    units in the variables' attributes. A sweep's dimensions are direction (up, down), param2
-    for a map, and param (the swept values); its jumps are the JSON attribute "jumps". A run's
-    dimension is t, its summary and case the attributes "summary" (JSON) and "case" (TOML)."""
+    """A run or a sweep (or map) as an xarray.Dataset with units.
+
+    Parameters
+    ----------
+    result : RunResult or dict
+        What `geardyn.run` or `geardyn.sweep` returned.
+    param, param2 : str, optional
+        The swept keys (taken from the sweep's dict when not given).
+
+    Returns
+    -------
+    xarray.Dataset
+        A sweep: dimensions ``direction`` (up, down), ``param2`` for a map, ``param``; each
+        column a variable with ``units`` and ``long_name``; the jumps as the JSON attribute
+        ``jumps``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
+        and contact, attributes ``summary`` (JSON) and ``case`` (TOML).
+    """
     if isinstance(result, dict):
         param = param or result.get("param")
         param2 = param2 or result.get("param2")
@@ -105,13 +118,29 @@ def to_xarray(result, param=None, param2=None):
 
 
 def save(result, path):
-    """Writes a run, a sweep or their Dataset to NetCDF at `path` (load gives it back exactly)."""
+    """Writes a run, a sweep or their Dataset as NetCDF.
+
+    Parameters
+    ----------
+    result : RunResult, dict or xarray.Dataset
+    path : str or path-like
+        The file written; `load` reads back an identical Dataset.
+    """
     ds = result if hasattr(result, "to_netcdf") else to_xarray(result)
     ds.to_netcdf(path)
 
 
 def load(path):
-    """The Dataset that `save` wrote."""
+    """Reads what `save` wrote.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    xarray.Dataset
+    """
     import xarray as xr
 
     with xr.open_dataset(path) as ds:
