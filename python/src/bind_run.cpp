@@ -17,37 +17,30 @@ py::array column(const py::object& owner, const std::vector<T>& v) {
   return py::array_t<T>({v.size()}, {sizeof(T)}, v.data(), owner);
 }
 
+// The getter of one Timeseries column as such a view.
+template <class T>
+auto samples_view(std::vector<T> Timeseries::*member) {
+  return [member](const py::object& self) {
+    return column(self, self.cast<const RunResult&>().samples.*member);
+  };
+}
+
 }  // namespace
 
 void bind_run(py::module_& m) {
   py::class_<RunResult>(m, "RunResult", "One run: its samples and its reading.")
       .def_property_readonly(
-          "t",
-          [](py::object self) { return column(self, self.cast<const RunResult&>().samples.t_s); },
+          "t", samples_view(&Timeseries::t_s),
           "Sample times, s (tau in the non-dimensional form); a view into the result.")
+      .def_property_readonly("delta_bar", samples_view(&Timeseries::delta_bar),
+                             "delta / b at the sample times; a view into the result.")
       .def_property_readonly(
-          "delta_bar",
-          [](py::object self) {
-            return column(self, self.cast<const RunResult&>().samples.delta_bar);
-          },
-          "delta / b at the sample times; a view into the result.")
-      .def_property_readonly(
-          "force_bar",
-          [](py::object self) {
-            return column(self, self.cast<const RunResult&>().samples.force_bar);
-          },
+          "force_bar", samples_view(&Timeseries::force_bar),
           "F / (b k_m), the mesh force over backlash times mean stiffness; a view.")
+      .def_property_readonly("velocity", samples_view(&Timeseries::velocity_m_s),
+                             "delta', m/s (dimensionless in the non-dimensional form); a view.")
       .def_property_readonly(
-          "velocity",
-          [](py::object self) {
-            return column(self, self.cast<const RunResult&>().samples.velocity_m_s);
-          },
-          "delta', m/s (dimensionless in the non-dimensional form); a view.")
-      .def_property_readonly(
-          "contact",
-          [](py::object self) {
-            return column(self, self.cast<const RunResult&>().samples.contact);
-          },
+          "contact", samples_view(&Timeseries::contact),
           "1 drive-side contact, 0 separated, -1 back-side contact (int32); a view.")
       .def_property_readonly("_summary_json", [](const RunResult& r) { return summary_json(r); })
       .def_property_readonly("ok", [](const RunResult& r) { return r.integration.ok(); })
