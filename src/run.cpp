@@ -158,6 +158,19 @@ ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s)
   return s;
 }
 
+void compute_spectra(RunResult& r) {
+  const Timeseries& ts = r.samples;
+  std::size_t first = 0;
+  while (first < ts.size() && ts.t_s[first] < r.steady_start_s) ++first;
+  const auto tail = [&](const std::vector<double>& x) {
+    return std::vector<double>(x.begin() + static_cast<std::ptrdiff_t>(first), x.end());
+  };
+  r.force_spectrum = amplitude_spectrum(tail(ts.force_bar), r.derived.output_interval_s);
+  r.delta_spectrum = amplitude_spectrum(tail(ts.delta_bar), r.derived.output_interval_s);
+  r.force_peaks = dominant_peaks(r.force_spectrum, kReportedPeaks);
+  r.delta_peaks = dominant_peaks(r.delta_spectrum, kReportedPeaks);
+}
+
 RunResult run(const Case& c, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   RunResult result;
@@ -200,16 +213,7 @@ RunResult run(const Case& c, const RunOptions& options) {
   result.events = reader.events();
   result.samples = std::move(reader.samples());
   result.steady_start_s = t1 - kSteadyFraction * (t1 - t0);
-  const Timeseries& ts = result.samples;
-  std::size_t first = 0;
-  while (first < ts.size() && ts.t_s[first] < result.steady_start_s) ++first;
-  const auto tail = [&](const std::vector<double>& x) {
-    return std::vector<double>(x.begin() + static_cast<std::ptrdiff_t>(first), x.end());
-  };
-  result.force_spectrum = amplitude_spectrum(tail(ts.force_bar), d.output_interval_s);
-  result.delta_spectrum = amplitude_spectrum(tail(ts.delta_bar), d.output_interval_s);
-  result.force_peaks = dominant_peaks(result.force_spectrum, kReportedPeaks);
-  result.delta_peaks = dominant_peaks(result.delta_spectrum, kReportedPeaks);
+  compute_spectra(result);
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

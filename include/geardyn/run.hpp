@@ -126,6 +126,10 @@ double fundamental_period_s(const Case& c);
 // contact), with its region.
 ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s = 0);
 
+// Fills r's spectra and their peaks from r.samples over t >= r.steady_start_s, sampled every
+// r.derived.output_interval_s (run calls it; so does a result read back from storage).
+void compute_spectra(RunResult& r);
+
 // Runs a case. Throws InputError on bad input; a numerical failure is reported in
 // result.integration (termination and message), never thrown.
 RunResult run(const Case& c, const RunOptions& options = {});

@@ -6,7 +6,7 @@
     r = geardyn.run(case)                    # r.t, r.delta_bar, r.force_bar, r.velocity, r.contact
     r.summary["regime"]
     s = geardyn.sweep(case, param="speed.shaft_frequency_hz", values=range(1500, 3501, 50))
-    geardyn.to_xarray(s), geardyn.save(s, "sweep.nc")        # labelled, NetCDF
+    s.to_xarray(), s.to_pandas(), s.save("sweep.nc")         # labelled, NetCDF; runs too
     o = geardyn.orbit(case)                  # the periodic orbit, its Floquet multipliers
     b = geardyn.continuation(case, "speed.shaft_frequency_hz", 1500, 3500)  # with bifurcations
 
@@ -36,7 +36,7 @@ except ImportError as _e:  # pragma: no cover - depends on the installation
 
 __all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry",
            "stiffness", "run", "sweep", "orbit", "continuation", "stability", "plot", "to_xarray",
-           "save", "load"]
+           "save", "load", "SweepResult"]
 
 
 class NumericalError(RuntimeError):
@@ -345,11 +345,12 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
 
     Returns
     -------
-    dict
-        One NumPy array per column (``value``, ``value2`` for a map, ``pp_delta_bar`` and the
-        other statistics of delta / b and F / (b k_m), ``separated_fraction``,
+    SweepResult
+        A dict: one NumPy array per column (``value``, ``value2`` for a map, ``pp_delta_bar``
+        and the other statistics of delta / b and F / (b k_m), ``separated_fraction``,
         ``impacts_per_period`` per fundamental period, ``settled``), ``direction`` and
-        ``regime`` as lists, ``jumps``, ``cancelled``. `to_xarray` labels it.
+        ``regime`` as lists, ``jumps``, ``cancelled``, ``param`` (``param2``). Its
+        ``to_xarray()``, ``to_pandas()`` and ``save(path)`` label it.
 
     Raises
     ------
@@ -362,7 +363,7 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
                         measure_periods, max_settle_periods, threads,
                         _progress(progress, unit="point"), param2 or "",
                         _floats("values2", values2))
-    r["param"] = param
+    r = SweepResult(r, param=param)
     if param2:
         r["param2"] = param2
     if r["interrupted"]:
@@ -516,4 +517,9 @@ def stability(case, param, values, param2=None, values2=()):
 
 
 from . import plot  # noqa: E402,F401
-from .data import load, save, to_xarray  # noqa: E402,F401
+from .data import SweepResult, load, save, to_xarray  # noqa: E402,F401
+from .data import _run_save, _run_to_pandas, _run_to_xarray  # noqa: E402
+
+RunResult.to_xarray = _run_to_xarray
+RunResult.to_pandas = _run_to_pandas
+RunResult.save = _run_save

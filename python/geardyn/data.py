@@ -90,6 +90,41 @@ def _run_dataset(r):
                              "case": r.case_toml})
 
 
+class SweepResult(dict):
+    """What `geardyn.sweep` returns: a dict of per-point arrays (see `sweep`) that also
+    labels itself. Picklable (a plain dict underneath)."""
+
+    def to_xarray(self):
+        """The sweep as an xarray.Dataset (see `to_xarray`)."""
+        return to_xarray(self)
+
+    def to_pandas(self):
+        """The sweep as a pandas.DataFrame indexed by direction, (param2,) and param."""
+        return self.to_xarray().to_dataframe()
+
+    def save(self, path):
+        """Writes the sweep as NetCDF; `geardyn.load(path)` reads back `to_xarray()`."""
+        save(self, path)
+
+    def __reduce__(self):
+        return (SweepResult, (dict(self),))
+
+
+def _run_to_xarray(r):
+    """The run as an xarray.Dataset over t (s) (see `geardyn.to_xarray`)."""
+    return _run_dataset(r)
+
+
+def _run_to_pandas(r):
+    """The run's samples as a pandas.DataFrame indexed by t (s)."""
+    return _run_dataset(r).to_dataframe()
+
+
+def _run_save(r, path):
+    """Writes the run as NetCDF; `geardyn.load(path)` reads back `to_xarray()`."""
+    save(r, path)
+
+
 def to_xarray(result, param=None, param2=None):
     """A run or a sweep (or map) as an xarray.Dataset with units.
 

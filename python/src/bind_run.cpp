@@ -1,5 +1,11 @@
 #include <pybind11/numpy.h>
 
+#include <cstdint>
+#include <iterator>
+#include <optional>
+#include <string>
+#include <vector>
+
 #include "bindings.hpp"
 #include "geardyn/case.hpp"
 #include "geardyn/output.hpp"
@@ -23,6 +29,125 @@ auto samples_view(std::vector<T> Timeseries::*member) {
   return [member](const py::object& self) {
     return column(self, self.cast<const RunResult&>().samples.*member);
   };
+}
+
+// A column as a NumPy array that owns a copy (for a pickled state).
+template <class T>
+py::array owned(const std::vector<T>& v) {
+  return py::array_t<T>(static_cast<py::ssize_t>(v.size()), v.data());
+}
+
+template <class T>
+std::vector<T> to_vector(const py::handle& a) {
+  const auto arr = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (!arr) throw InputError("a pickled geardyn.RunResult holds a column that is not an array");
+  return {arr.data(), arr.data() + arr.size()};
+}
+
+py::object optional_float(const std::optional<double>& x) {
+  return x ? py::object(py::float_(*x)) : py::object(py::none());
+}
+
+std::optional<double> to_optional(const py::handle& x) {
+  if (x.is_none()) return std::nullopt;
+  return x.cast<double>();
+}
+
+constexpr int kPickleVersion = 1;
+
+// Every field of a result but the geometry and the spectra, which are derived again on
+// unpickling (from the case and from the samples) with the same code, hence the same digits.
+py::tuple pickled(const RunResult& r) {
+  const Derived& d = r.derived;
+  const ode::IntegrationSummary& i = r.integration;
+  const RunReading& g = r.reading;
+  std::vector<double> event_t, event_v;
+  std::vector<int> event_kind;
+  for (const ContactEvent& e : r.events) {
+    event_t.push_back(e.t_s);
+    event_kind.push_back(static_cast<int>(e.kind));
+    event_v.push_back(e.velocity_m_s);
+  }
+  const Timeseries& s = r.samples;
+  return py::make_tuple(
+      kPickleVersion, r.input,
+      py::make_tuple(d.m_eq_kg, d.natural_frequency_hz, d.damping_n_s_per_m, d.mean_force_n,
+                     d.static_delta_bar, d.mesh_frequency_hz, d.base_helix_angle_deg,
+                     d.working_pressure_angle_deg, d.transverse_contact_ratio, d.overlap_ratio,
+                     d.fastest_period_s, d.time_step_s, d.output_interval_s),
+      py::make_tuple(static_cast<int>(i.termination), i.message, i.steps, i.transitions,
+                     i.unsplit_steps, i.end_time_s, i.end_state.t, i.end_state.q, i.end_state.v,
+                     i.end_state.a, i.end_state.region),
+      py::make_tuple(static_cast<int>(g.regime), g.double_sided, g.impacts, g.backside_impacts,
+                     g.separations, optional_float(g.last_separation_s), g.separated_fraction,
+                     g.max_impact_velocity_m_s, g.max_force_bar, g.min_force_bar, g.mean_force_bar,
+                     g.rms_force_bar, g.max_delta_bar, g.min_delta_bar, g.mean_delta_bar,
+                     g.rms_delta_bar, optional_float(g.dynamic_factor)),
+      py::make_tuple(owned(event_t), owned(event_kind), owned(event_v)),
+      py::make_tuple(owned(s.t_s), owned(s.delta_bar), owned(s.velocity_m_s), owned(s.force_bar),
+                     owned(s.contact)),
+      r.steady_start_s, r.wall_time_s);
+}
+
+RunResult unpickled(const py::tuple& t) {
+  if (t.size() != 9 || t[0].cast<int>() != kPickleVersion)
+    throw InputError("a pickled geardyn.RunResult of another layout (version " +
+                     std::to_string(kPickleVersion) + " expected)");
+  RunResult r;
+  r.input = t[1].cast<Case>();
+  build_model(r.input, &r.geometry);
+  const auto d = t[2].cast<py::tuple>();
+  Derived& v = r.derived;
+  double* derived[] = {&v.m_eq_kg,
+                       &v.natural_frequency_hz,
+                       &v.damping_n_s_per_m,
+                       &v.mean_force_n,
+                       &v.static_delta_bar,
+                       &v.mesh_frequency_hz,
+                       &v.base_helix_angle_deg,
+                       &v.working_pressure_angle_deg,
+                       &v.transverse_contact_ratio,
+                       &v.overlap_ratio,
+                       &v.fastest_period_s,
+                       &v.time_step_s,
+                       &v.output_interval_s};
+  for (std::size_t k = 0; k < std::size(derived); ++k) *derived[k] = d[k].cast<double>();
+  const auto i = t[3].cast<py::tuple>();
+  ode::IntegrationSummary& s = r.integration;
+  s.termination = static_cast<ode::Termination>(i[0].cast<int>());
+  s.message = i[1].cast<std::string>();
+  s.steps = i[2].cast<std::int64_t>();
+  s.transitions = i[3].cast<std::int64_t>();
+  s.unsplit_steps = i[4].cast<std::int64_t>();
+  s.end_time_s = i[5].cast<double>();
+  s.end_state = {i[6].cast<double>(), i[7].cast<double>(), i[8].cast<double>(), i[9].cast<double>(),
+                 i[10].cast<int>()};
+  const auto g = t[4].cast<py::tuple>();
+  RunReading& a = r.reading;
+  a.regime = static_cast<Regime>(g[0].cast<int>());
+  a.double_sided = g[1].cast<bool>();
+  a.impacts = g[2].cast<std::int64_t>();
+  a.backside_impacts = g[3].cast<std::int64_t>();
+  a.separations = g[4].cast<std::int64_t>();
+  a.last_separation_s = to_optional(g[5]);
+  double* reading[] = {&a.separated_fraction, &a.max_impact_velocity_m_s, &a.max_force_bar,
+                       &a.min_force_bar,      &a.mean_force_bar,          &a.rms_force_bar,
+                       &a.max_delta_bar,      &a.min_delta_bar,           &a.mean_delta_bar,
+                       &a.rms_delta_bar};
+  for (std::size_t k = 0; k < std::size(reading); ++k) *reading[k] = g[6 + k].cast<double>();
+  a.dynamic_factor = to_optional(g[16]);
+  const auto e = t[5].cast<py::tuple>();
+  const auto et = to_vector<double>(e[0]), ev = to_vector<double>(e[2]);
+  const auto ek = to_vector<int>(e[1]);
+  for (std::size_t k = 0; k < et.size(); ++k)
+    r.events.push_back({et[k], static_cast<EventKind>(ek[k]), ev[k]});
+  const auto c = t[6].cast<py::tuple>();
+  r.samples = {to_vector<double>(c[0]), to_vector<double>(c[1]), to_vector<double>(c[2]),
+               to_vector<double>(c[3]), to_vector<int>(c[4])};
+  r.steady_start_s = t[7].cast<double>();
+  r.wall_time_s = t[8].cast<double>();
+  compute_spectra(r);
+  return r;
 }
 
 }  // namespace
@@ -69,6 +194,8 @@ void bind_run(py::module_& m) {
                                return std::string(ode::to_string(r.integration.termination)) +
                                       ": " + r.integration.message;
                              })
+      // Pickled field by field: the numbers come back to the last digit.
+      .def(py::pickle(&pickled, &unpickled))
       .def(
           "write", [](const RunResult& r, const std::string& dir) { write_run(dir, r); },
           py::arg("directory"), "Writes summary.json, timeseries.csv, events.csv, case.toml.");

@@ -172,6 +172,62 @@ def test_a_case_pickles_exactly():
     assert np.array_equal(r1.delta_bar, r2.delta_bar)
 
 
+def test_a_run_pickles_exactly_and_writes_the_same_files(tmp_path):
+    import pickle
+
+    # A run with impacts and separations (events, a last separation, a dynamic factor), one
+    # in the non-dimensional form, and one without load at rest (neither of the optional
+    # readings).
+    cases = (geardyn.Case(solver={"duration_s": 0.005}),
+             geardyn.Case(model={"form": "nondimensional"}, solver={"duration_s": 60.0}),
+             geardyn.Case(load={"torque_nm": 0.0}, solver={"duration_s": 0.002,
+                                                          "initial": "static"}))
+    readings = []
+    for case in cases:
+        r = geardyn.run(case)
+        readings.append((r.summary["impacts"] > 0, r.summary["dynamic_factor"] is None))
+        back = pickle.loads(pickle.dumps(r))
+        for name in ("t", "delta_bar", "force_bar", "velocity", "contact"):
+            assert np.array_equal(getattr(back, name), getattr(r, name)), name
+        assert back.summary == r.summary
+        for k in ("t_s", "velocity_m_s"):
+            assert np.array_equal(back.events[k], r.events[k])
+        assert back.events["kind"] == r.events["kind"]
+        assert back.case_toml == r.case_toml and back.ok == r.ok
+        r.write(str(tmp_path / "a"))
+        back.write(str(tmp_path / "b"))
+        for f in sorted((tmp_path / "a").iterdir()):
+            assert f.read_bytes() == (tmp_path / "b" / f.name).read_bytes(), f.name
+        for f in (tmp_path / "a").iterdir():
+            f.unlink()
+    assert readings == [(True, False), (True, False), (False, True)]
+
+
+def test_results_label_themselves_and_sweeps_pickle(tmp_path):
+    import pickle
+
+    case, key, values = _ks_sweep_args(5)
+    s = geardyn.sweep(case, key, values)
+    assert isinstance(s, geardyn.SweepResult) and isinstance(s, dict)
+    back = pickle.loads(pickle.dumps(s))
+    assert type(back) is geardyn.SweepResult
+    assert back.keys() == s.keys()
+    assert all(np.array_equal(back[k], s[k]) if isinstance(s[k], np.ndarray) else back[k] == s[k]
+               for k in s)
+    assert s.to_xarray().identical(geardyn.to_xarray(s))
+    df = s.to_pandas()
+    assert df.index.names == ["direction", "param"] and len(df) == 2 * 5
+    assert df.loc[("up", values[0]), "pp_delta_bar"] == s["pp_delta_bar"][0]
+    s.save(tmp_path / "s.nc")
+    assert geardyn.load(tmp_path / "s.nc").identical(s.to_xarray())
+
+    r = geardyn.run(geardyn.Case(solver={"duration_s": 0.002}))
+    rf = r.to_pandas()
+    assert np.array_equal(rf.index.values, r.t) and np.array_equal(rf["delta_bar"], r.delta_bar)
+    r.save(tmp_path / "r.nc")
+    assert geardyn.load(tmp_path / "r.nc").identical(r.to_xarray())
+
+
 def _ks_sweep_args(points):
     case = geardyn.Case(model={"form": "nondimensional", "force_alternating": 0.02},
                         solver={"initial": "static"})
