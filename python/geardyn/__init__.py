@@ -162,15 +162,37 @@ def _with(self, changes=None, **keys):
 
 
 def _to_dict(self):
-    """Every key of the case as nested dicts, in the units of the case file."""
+    """Every key of the case.
+
+    Returns
+    -------
+    dict
+        Nested by section (``d["mesh"]["backlash_um"]``), each value in the unit its name ends
+        with; ``Case.from_dict`` reads it back to an equal case.
+    """
     import tomllib
 
     return tomllib.loads(self.to_toml())
 
 
 def _getitem(self, key):
-    """The value of a dotted key, e.g. case["mesh.backlash_um"] or
-    case["model.stiffness_harmonics[0][0]"]; KeyError when the case has no such key."""
+    """The value of one key: ``case["mesh.backlash_um"]``.
+
+    Parameters
+    ----------
+    key : str
+        A dotted key; an array element as ``"model.stiffness_harmonics[0][0]"``.
+
+    Returns
+    -------
+    float, int, str, bool or list
+        In the unit the key's name ends with.
+
+    Raises
+    ------
+    KeyError
+        The case has no such key.
+    """
     import re
 
     node = self.to_dict()
@@ -184,8 +206,23 @@ def _getitem(self, key):
 
 
 def _from_dict(keys):
-    """A case from a dict of keys: dotted ({"speed.shaft_frequency_hz": 100}) or nested by
-    section ({"speed": {"shaft_frequency_hz": 100}}); the rest are the defaults."""
+    """A case from a dict of keys; the keys not given keep their defaults.
+
+    Parameters
+    ----------
+    keys : dict
+        Dotted (``{"speed.shaft_frequency_hz": 100}``) or nested by section
+        (``{"speed": {"shaft_frequency_hz": 100}}``), as `Case.to_dict` gives.
+
+    Returns
+    -------
+    Case
+
+    Raises
+    ------
+    InputError
+        A key that does not exist or a value out of range.
+    """
     return Case(**keys)
 
 
@@ -240,7 +277,8 @@ def _summary(self):
     return _json.loads(self._summary_json)
 
 
-RunResult.summary = property(_summary, doc="The reading, with the keys of summary.json.")
+RunResult.summary = property(_summary, doc="The reading as a dict with the keys of summary.json "
+                                           "(docs/outputs.md gives each one's unit).")
 
 
 def _progress(progress, total=None, unit="it"):
@@ -520,6 +558,9 @@ from . import plot  # noqa: E402,F401
 from .data import SweepResult, load, save, to_xarray  # noqa: E402,F401
 from .data import _run_save, _run_to_pandas, _run_to_xarray  # noqa: E402
 
+for _f, _name in ((_run_to_xarray, "to_xarray"), (_run_to_pandas, "to_pandas"),
+                  (_run_save, "save")):
+    _f.__name__, _f.__qualname__ = _name, f"RunResult.{_name}"
 RunResult.to_xarray = _run_to_xarray
 RunResult.to_pandas = _run_to_pandas
 RunResult.save = _run_save

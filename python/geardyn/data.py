@@ -95,15 +95,34 @@ class SweepResult(dict):
     labels itself. Picklable (a plain dict underneath)."""
 
     def to_xarray(self):
-        """The sweep as an xarray.Dataset (see `to_xarray`)."""
+        """The sweep as a labelled Dataset.
+
+        Returns
+        -------
+        xarray.Dataset
+            As `geardyn.to_xarray` gives it: dimensions direction, (param2,) param; units in
+            each variable's attributes.
+        """
         return to_xarray(self)
 
     def to_pandas(self):
-        """The sweep as a pandas.DataFrame indexed by direction, (param2,) and param."""
+        """The sweep as a table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by direction, (param2,) and param; a column per statistic.
+        """
         return self.to_xarray().to_dataframe()
 
     def save(self, path):
-        """Writes the sweep as NetCDF; `geardyn.load(path)` reads back `to_xarray()`."""
+        """Writes the sweep as NetCDF.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file; `geardyn.load(path)` reads back a Dataset identical to `to_xarray()`.
+        """
         save(self, path)
 
     def __reduce__(self):
@@ -111,17 +130,36 @@ class SweepResult(dict):
 
 
 def _run_to_xarray(r):
-    """The run as an xarray.Dataset over t (s) (see `geardyn.to_xarray`)."""
+    """The run as a labelled Dataset.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimension t (s); delta_bar, force_bar, velocity (m/s), contact with their units;
+        the summary (JSON) and the case (TOML) as attributes.
+    """
     return _run_dataset(r)
 
 
 def _run_to_pandas(r):
-    """The run's samples as a pandas.DataFrame indexed by t (s)."""
+    """The run's samples as a table.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by t (s); columns delta_bar, force_bar, velocity (m/s) and contact.
+    """
     return _run_dataset(r).to_dataframe()
 
 
 def _run_save(r, path):
-    """Writes the run as NetCDF; `geardyn.load(path)` reads back `to_xarray()`."""
+    """Writes the run as NetCDF.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file; `geardyn.load(path)` reads back a Dataset identical to `to_xarray()`.
+    """
     save(r, path)
 
 

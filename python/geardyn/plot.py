@@ -3,8 +3,22 @@ import numpy as np
 
 
 def run(r, ax=None, title=None):
-    """delta/b and F/(b k_m) over time, stacked as in the paper's Figs. 4-6, separation shaded.
-    Returns the figure."""
+    """delta / b and F / (b k_m) over time, stacked as in the paper's Figs. 4-6.
+
+    Separation and back-side contact are shaded where they occur (and in the legend only
+    then); the backlash band -1 <= delta / b <= 1 is drawn in a neutral grey.
+
+    Parameters
+    ----------
+    r : RunResult
+    ax : pair of matplotlib Axes, optional
+        Drawn into; new ones when None.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     import matplotlib.pyplot as plt
 
     if ax is None:
@@ -15,15 +29,16 @@ def run(r, ax=None, title=None):
     separated = r.contact == 0
     back = r.contact == -1
     for a, y, label in ((ax[0], r.delta_bar, "delta / b"), (ax[1], r.force_bar, "F / (b k_m)")):
-        a.fill_between(t_ms, 0, 1, where=separated, transform=a.get_xaxis_transform(),
-                       color="#f4a6a6", alpha=0.6, linewidth=0, label="separated")
+        if separated.any():
+            a.fill_between(t_ms, 0, 1, where=separated, transform=a.get_xaxis_transform(),
+                           color="#f4a6a6", alpha=0.6, linewidth=0, label="separated")
         if back.any():
             a.fill_between(t_ms, 0, 1, where=back, transform=a.get_xaxis_transform(),
                            color="#9cc3f0", alpha=0.6, linewidth=0, label="back side")
         a.plot(t_ms, y, color="#1f3b73", linewidth=0.9)
         a.set_ylabel(label)
         a.grid(color="#dddddd")
-    ax[0].axhspan(-1, 1, color="#eef1f7", zorder=0)
+    ax[0].axhspan(-1, 1, color="#f0f0f0", zorder=0)
     for edge in (-1, 1):
         ax[0].axhline(edge, color="gray", linestyle="--", linewidth=0.8)
     # The limits follow the data, not the shading and the band.
@@ -31,7 +46,8 @@ def run(r, ax=None, title=None):
         pad = 0.08 * (y.max() - y.min()) + 1e-12
         a.set_ylim(y.min() - pad, y.max() + pad)
     ax[1].set_xlabel("t (ms)")
-    ax[0].legend(loc="upper right", fontsize=8)
+    if separated.any() or back.any():
+        ax[0].legend(loc="upper right", fontsize=8)
     if title:
         ax[0].set_title(title)
     fig.tight_layout()
@@ -39,7 +55,22 @@ def run(r, ax=None, title=None):
 
 
 def frequency_response(s, param="parameter", ax=None, column="rms_force_bar"):
-    """A sweep's response against the parameter, up and down overlaid. Returns the figure."""
+    """A sweep's response against the swept key, the up and down sweeps overlaid.
+
+    Parameters
+    ----------
+    s : SweepResult
+        What `geardyn.sweep` returned.
+    param : str
+        The x-axis label (the key and its unit).
+    ax : matplotlib Axes, optional
+    column : str
+        The statistic plotted (a key of `s`, e.g. ``"pp_delta_bar"``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     import matplotlib.pyplot as plt
 
     if ax is None:
@@ -61,9 +92,23 @@ def frequency_response(s, param="parameter", ax=None, column="rms_force_bar"):
 
 
 def branch(b, param="parameter", ax=None):
-    """A continuation's branch (geardyn.continuation): x_a against the parameter, stable parts
-    solid, unstable dashed, each period-doubled branch in its own colour, the bifurcations
-    marked. Only what occurred is in the legend. Returns the figure."""
+    """A continuation's branch: x_a against the key, stable parts solid, unstable dashed.
+
+    Each period-doubled branch has its own colour and the bifurcations are marked; only what
+    occurred is in the legend.
+
+    Parameters
+    ----------
+    b : dict
+        What `geardyn.continuation` returned.
+    param : str
+        The x-axis label.
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     import matplotlib.pyplot as plt
 
     if ax is None:

@@ -21,27 +21,49 @@ void bind_case(py::module_& m) {
              }
              return c;
            }),
-           "Case(**keys): the defaults (Table 1 at Fig. 4(c)) with keys set, e.g. "
-           "Case(speed={'shaft_frequency_hz': 100}) or Case(**{'mesh.backlash_um': 150}).")
+           "A case: the defaults (the paper's Table 1 at Fig. 4(c)) with keys set.\n\n"
+           "Parameters\n----------\n"
+           "**keys\n"
+           "    Sections as dicts, ``Case(speed={'shaft_frequency_hz': 100})``, or dotted keys,\n"
+           "    ``Case(**{'mesh.backlash_um': 150})``; each in the unit its name ends with\n"
+           "    (docs/case-files.md).\n\n"
+           "Raises\n------\nInputError\n    A key that does not exist or a value out of range.")
       .def(
           "__eq__", [](const Case& a, const Case& b) { return to_toml(a) == to_toml(b); },
           py::is_operator())
       .def_static(
           "from_toml", [](const std::filesystem::path& path) { return load_case(path); },
-          py::arg("path"), "Reads a case file; raises InputError on bad input.")
+          py::arg("path"),
+          "Reads a case file.\n\n"
+          "Parameters\n----------\npath : str or path-like\n    A TOML case file; relative paths "
+          "in it start at its directory.\n\n"
+          "Returns\n-------\nCase\n\n"
+          "Raises\n------\nInputError\n    Bad input, naming file, line, key and value.")
       .def_static(
           "default", [] { return load_case(std::nullopt); },
-          "The paper's gear: Table 1 at the conditions of Fig. 4(c).")
+          "The default case: the paper's gear, Table 1 at the conditions of Fig. 4(c).\n\n"
+          "Returns\n-------\nCase")
       .def(
           "set_toml",
           [](Case& c, const std::string& key, const std::string& toml_value) {
             set_case_value(c, {key, toml_value});
           },
           py::arg("key"), py::arg("toml_value"),
-          "Sets a key from a value in TOML syntax, as --set key=value does.")
-      .def("to_toml", [](const Case& c) { return to_toml(c); })
-      .def_readwrite("name", &Case::name)
-      .def("copy", [](const Case& c) { return Case(c); })
+          "Sets a key in place from a value in TOML syntax, as ``--set key=value`` does.\n\n"
+          "Parameters\n----------\nkey : str\n    A dotted key, e.g. "
+          "``\"mesh.backlash_um\"``.\n"
+          "toml_value : str\n    The value as TOML text (``\"150\"``, ``\"[[0.1, 0]]\"``); bare "
+          "text is taken as a string.\n\n"
+          "Raises\n------\nInputError\n    A key that does not exist or a value out of range.")
+      .def(
+          "to_toml", [](const Case& c) { return to_toml(c); },
+          "Every key of the case as TOML text, numbers to 17 significant digits (a case file "
+          "that reads back equal).\n\nReturns\n-------\nstr")
+      .def_readwrite("name", &Case::name,
+                     "The case's name (the file's stem; written to summary.json).")
+      .def(
+          "copy", [](const Case& c) { return Case(c); },
+          "An independent copy.\n\nReturns\n-------\nCase")
       .def("__repr__", [](const Case& c) { return "<geardyn.Case " + c.name + ">"; })
       .def_property_readonly(
           "directory", [](const Case& c) { return c.directory.string(); },

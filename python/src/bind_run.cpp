@@ -168,7 +168,10 @@ void bind_run(py::module_& m) {
           "contact", samples_view(&Timeseries::contact),
           "1 drive-side contact, 0 separated, -1 back-side contact (int32); a view.")
       .def_property_readonly("_summary_json", [](const RunResult& r) { return summary_json(r); })
-      .def_property_readonly("ok", [](const RunResult& r) { return r.integration.ok(); })
+      .def_property_readonly(
+          "ok", [](const RunResult& r) { return r.integration.ok(); },
+          "True when the integration reached the end of the window (False when a progress "
+          "callback stopped it).")
       .def_property_readonly(
           "events",
           [](const RunResult& r) {
@@ -198,7 +201,10 @@ void bind_run(py::module_& m) {
       .def(py::pickle(&pickled, &unpickled))
       .def(
           "write", [](const RunResult& r, const std::string& dir) { write_run(dir, r); },
-          py::arg("directory"), "Writes summary.json, timeseries.csv, events.csv, case.toml.");
+          py::arg("directory"),
+          "Writes the run's files as `geardyn run --out` does (docs/outputs.md).\n\n"
+          "Parameters\n----------\ndirectory : str\n    Created if needed; summary.json, "
+          "timeseries.csv, events.csv, case.toml and the rest are written into it.");
   // The integration runs without the GIL: other Python threads go on meanwhile.
   // Ctrl-C and `progress(fraction)` are looked at now and then (every few thousand cells).
   m.def(

@@ -117,6 +117,20 @@ def test_plots(tmp_path):
     assert (tmp_path / "fr.png").stat().st_size > 1000
 
 
+def test_a_run_figure_shows_only_what_happened():
+    import matplotlib
+    matplotlib.use("Agg")
+
+    def labels(case):
+        legend = geardyn.plot.run(geardyn.run(case)).axes[0].get_legend()
+        return [] if legend is None else [t.get_text() for t in legend.get_texts()]
+
+    assert labels(geardyn.Case(solver={"duration_s": 0.005})) == ["separated"]
+    # In permanent contact from the start: nothing shaded, no legend.
+    assert labels(geardyn.Case(solver={"duration_s": 0.002, "initial": "static"},
+                               load={"fluctuation_ratio": 0.0})) == []
+
+
 def test_the_example_reproduces_fig4c(tmp_path):
     out = subprocess.run([sys.executable, str(SOURCE / "examples/reproduce_fig4c.py"), "--out",
                           str(tmp_path / "fig4c.png")], capture_output=True, text=True,
@@ -376,3 +390,33 @@ def test_errors_speak_of_the_python_arguments():
         geardyn.orbit(case, periods=0)
     with pytest.raises(geardyn.InputError, match=r"from_ = 1, to = 1"):
         geardyn.continuation(case, key, 1.0, 1.0)
+
+
+def test_every_public_function_and_attribute_is_documented():
+    import inspect
+
+    def sections(obj):
+        doc = inspect.getdoc(obj) or ""
+        return {s for s in ("Parameters", "Returns") if f"{s}\n---" in doc}
+
+    undocumented = []
+    for name in geardyn.__all__:
+        obj = getattr(geardyn, name)
+        if inspect.isfunction(obj) and not sections(obj):
+            undocumented.append(name)
+    for cls in (geardyn.Case, geardyn.RunResult, geardyn.SweepResult):
+        for name, obj in vars(cls).items():
+            if name.startswith("_") and name not in ("__init__", "__getitem__"):
+                continue
+            if cls is geardyn.RunResult and name == "__init__":
+                continue  # made by run(), not by users
+            if isinstance(obj, property):
+                if not (obj.__doc__ or "").strip():
+                    undocumented.append(f"{cls.__name__}.{name}")
+            elif callable(obj) or isinstance(obj, staticmethod):
+                if not sections(getattr(cls, name)):
+                    undocumented.append(f"{cls.__name__}.{name}")
+    for name in ("run", "frequency_response", "branch"):
+        if sections(getattr(geardyn.plot, name)) != {"Parameters", "Returns"}:
+            undocumented.append(f"plot.{name}")
+    assert undocumented == []
