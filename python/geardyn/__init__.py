@@ -386,9 +386,13 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
     SweepResult
         A dict: one NumPy array per column (``value``, ``value2`` for a map, ``pp_delta_bar``
         and the other statistics of delta / b and F / (b k_m), ``separated_fraction``,
-        ``impacts_per_period`` per fundamental period, ``settled``), ``direction`` and
-        ``regime`` as lists, ``jumps``, ``cancelled``, ``param`` (``param2``). Its
-        ``to_xarray()``, ``to_pandas()`` and ``save(path)`` label it.
+        ``impacts_per_period`` per fundamental period, ``settled``, ``settle_periods``,
+        ``dynamic_factor``), ``direction``, ``regime`` and ``failure`` (why a point failed,
+        else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
+        sample belongs to), ``delta_bar``, ``velocity_m_s`` (m/s), ``force_bar``, one sample
+        per fundamental period of the measurement; ``jumps`` and ``hysteresis`` (dicts with
+        ``from_value`` and ``to_value``), ``period_s``, ``cancelled``, ``param``
+        (``param2``). Its ``to_xarray()``, ``to_pandas()`` and ``save(path)`` label it.
 
     Raises
     ------

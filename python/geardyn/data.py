@@ -24,6 +24,8 @@ _COLUMNS = {
     "separated_fraction": ("1", "fraction of the time separated"),
     "impacts_per_period": ("1/period", "impacts per fundamental period"),
     "double_sided": ("1", "1 when back-side contact occurred"),
+    "dynamic_factor": ("1", "max F_G over the static mesh force (NaN without mean load)"),
+    "settle_periods": ("period", "fundamental periods run before the measurement kept"),
     "delta_bar": ("1", "delta / b"),
     "force_bar": ("1", "F / (b k_m)"),
     "velocity": ("m/s", "delta', the velocity along the line of action"),
@@ -67,11 +69,33 @@ def _sweep_dataset(s, param, param2=None):
     for i, at in enumerate(index):
         regime[at] = s["regime"][i]
     data["regime"] = (dims, regime.astype(str), {"long_name": "none, transient or sustained"})
+    strobe = s.get("strobe")
+    if strobe is not None and len(strobe["point"]):
+        # One sample per fundamental period of each point's measurement, NaN-padded to the
+        # longest (a failed point has none).
+        counts = np.bincount(strobe["point"], minlength=len(index))
+        width = int(counts.max())
+        rank = np.zeros(len(strobe["point"]), dtype=int)
+        seen = {}
+        for i, p in enumerate(strobe["point"]):
+            rank[i] = seen.get(p, 0)
+            seen[p] = rank[i] + 1
+        for name, units, long_name in (
+                ("delta_bar", "1", "delta / b once per fundamental period"),
+                ("velocity_m_s", "m/s", "delta' once per fundamental period"),
+                ("force_bar", "1", "F / (b k_m) once per fundamental period")):
+            a = np.full(shape + [width], np.nan)
+            for i, p in enumerate(strobe["point"]):
+                a[index[p] + (rank[i],)] = strobe[name][i]
+            data["strobe_" + name] = (dims + ["strobe"], a,
+                                      {"units": units, "long_name": long_name})
     coords = {"direction": directions,
               "param": ("param", values, {"units": _key_units(param), "long_name": param})}
     if param2:
         coords["param2"] = ("param2", values2, {"units": _key_units(param2), "long_name": param2})
     attrs = {"geardyn": "sweep", "param": param, "jumps": json.dumps(s.get("jumps", [])),
+             "hysteresis": json.dumps(s.get("hysteresis", [])),
+             "period_s": s.get("period_s", np.nan),
              "cancelled": int(bool(s.get("cancelled", False)))}
     if param2:
         attrs["param2"] = param2
@@ -111,9 +135,11 @@ class SweepResult(dict):
         Returns
         -------
         pandas.DataFrame
-            Indexed by direction, (param2,) and param; a column per statistic.
+            Indexed by direction, (param2,) and param; a column per statistic (the strobe
+            samples stay in `to_xarray()`).
         """
-        return self.to_xarray().to_dataframe()
+        ds = self.to_xarray()
+        return (ds.drop_dims("strobe") if "strobe" in ds.dims else ds).to_dataframe()
 
     def save(self, path):
         """Writes the sweep as NetCDF.
@@ -177,8 +203,11 @@ def to_xarray(result, param=None, param2=None):
     -------
     xarray.Dataset
         A sweep: dimensions ``direction`` (up, down), ``param2`` for a map, ``param``; each
-        column a variable with ``units`` and ``long_name``; the jumps as the JSON attribute
-        ``jumps``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
+        column a variable with ``units`` and ``long_name``; the strobe (one sample per
+        fundamental period of each point's measurement) as ``strobe_delta_bar``,
+        ``strobe_velocity_m_s`` and ``strobe_force_bar`` over a further dimension ``strobe``;
+        the jumps and the hysteresis intervals as the JSON attributes ``jumps`` and
+        ``hysteresis``, the fundamental period as ``period_s``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
         and contact, attributes ``summary`` (JSON) and ``case`` (TOML).
     """
     if isinstance(result, dict):

@@ -1,6 +1,10 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <cstdint>
+#include <limits>
+#include <vector>
+
 #include "bindings.hpp"
 #include "geardyn/sweep.hpp"
 
@@ -75,12 +79,42 @@ void bind_sweep(py::module_& m) {
         out["separated_fraction"] = col([](const SweepPoint& p) { return p.separated_fraction; });
         out["impacts_per_period"] = col([](const SweepPoint& p) { return p.impacts_per_period; });
         out["double_sided"] = col([](const SweepPoint& p) { return p.double_sided ? 1.0 : 0.0; });
-        py::list jumps;
+        out["dynamic_factor"] = col([](const SweepPoint& p) {
+          return p.dynamic_factor.value_or(std::numeric_limits<double>::quiet_NaN());
+        });
+        out["settle_periods"] = col([](const SweepPoint& p) { return p.settle_periods; });
+        // The strobe (one sample per fundamental period of each point's measurement), flat:
+        // sample i belongs to point strobe["point"][i].
+        std::vector<std::int64_t> owner;
+        std::vector<double> sd, sv, sf;
+        for (std::size_t i = 0; i < n; ++i) {
+          const SweepPoint& p = r.points[i];
+          owner.insert(owner.end(), p.strobe_delta_bar.size(), static_cast<std::int64_t>(i));
+          sd.insert(sd.end(), p.strobe_delta_bar.begin(), p.strobe_delta_bar.end());
+          sv.insert(sv.end(), p.strobe_velocity_m_s.begin(), p.strobe_velocity_m_s.end());
+          sf.insert(sf.end(), p.strobe_force_bar.begin(), p.strobe_force_bar.end());
+        }
+        out["strobe"] =
+            py::dict(py::arg("point") = py::array_t<std::int64_t>(
+                         static_cast<py::ssize_t>(owner.size()), owner.data()),
+                     py::arg("delta_bar") =
+                         py::array_t<double>(static_cast<py::ssize_t>(sd.size()), sd.data()),
+                     py::arg("velocity_m_s") =
+                         py::array_t<double>(static_cast<py::ssize_t>(sv.size()), sv.data()),
+                     py::arg("force_bar") =
+                         py::array_t<double>(static_cast<py::ssize_t>(sf.size()), sf.data()));
+        out["period_s"] = r.period_s;
+        py::list jumps, hysteresis;
         for (const Jump& j : r.jumps)
-          jumps.append(py::dict(py::arg("direction") = to_string(j.direction),
-                                py::arg("from_value") = j.from_value,
-                                py::arg("to_value") = j.to_value));
+          jumps.append(py::dict(
+              py::arg("direction") = to_string(j.direction), py::arg("from_value") = j.from_value,
+              py::arg("to_value") = j.to_value, py::arg("pp_delta_bar_before") = j.before,
+              py::arg("pp_delta_bar_after") = j.after));
+        for (const Hysteresis& h : r.hysteresis)
+          hysteresis.append(
+              py::dict(py::arg("from_value") = h.from_value, py::arg("to_value") = h.to_value));
         out["jumps"] = jumps;
+        out["hysteresis"] = hysteresis;
         out["cancelled"] = r.cancelled;
         out["interrupted"] = hook.interrupted();
         return out;

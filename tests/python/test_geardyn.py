@@ -226,8 +226,15 @@ def test_results_label_themselves_and_sweeps_pickle(tmp_path):
     back = pickle.loads(pickle.dumps(s))
     assert type(back) is geardyn.SweepResult
     assert back.keys() == s.keys()
-    assert all(np.array_equal(back[k], s[k]) if isinstance(s[k], np.ndarray) else back[k] == s[k]
-               for k in s)
+
+    def same(a, b):
+        if isinstance(a, dict):
+            return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
+        if isinstance(a, np.ndarray):
+            return type(b) is np.ndarray and np.array_equal(a, b, equal_nan=True)
+        return a == b
+
+    assert same(dict(back), dict(s))
     assert s.to_xarray().identical(geardyn.to_xarray(s))
     df = s.to_pandas()
     assert df.index.names == ["direction", "param"] and len(df) == 2 * 5
@@ -331,7 +338,7 @@ def test_a_sweep_and_a_run_as_datasets_save_and_load_exactly(tmp_path):
     geardyn.save(s, tmp_path / "sweep.nc")
     back = geardyn.load(tmp_path / "sweep.nc")
     assert back.identical(ds)  # values, coordinates and attributes, exactly
-    assert len(back.to_dataframe()) == 2 * 21  # pandas
+    assert len(s.to_pandas()) == 2 * 21  # pandas: a row per point
 
     r = geardyn.run(geardyn.Case(solver={"duration_s": 0.002}))
     rd = geardyn.to_xarray(r)
@@ -420,3 +427,32 @@ def test_every_public_function_and_attribute_is_documented():
         if sections(getattr(geardyn.plot, name)) != {"Parameters", "Returns"}:
             undocumented.append(f"plot.{name}")
     assert undocumented == []
+
+
+def test_a_sweeps_strobe_jumps_and_hysteresis_are_the_command_lines(tmp_path):
+    case, key, values = _ks_sweep_args(21)
+    cli("sweep", "--set", "model.form=nondimensional", "--set", "model.force_alternating=0.02",
+        "--set", "solver.initial=static", "--param", key, "--from", "0.5", "--to", "1.5",
+        "--points", "21", "--no-figures", "--out", str(tmp_path))
+    # The command line's grid (from + i step, exact in sweep.csv), so that the numbers agree.
+    grid = [float(r.split(",")[2]) for r in
+            (tmp_path / "sweep.csv").read_text().splitlines()[1:] if r.startswith("up,")]
+    assert grid == pytest.approx(list(values), abs=1e-15)
+    s = geardyn.sweep(case, key, grid)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert s["jumps"] and s["hysteresis"]  # this sweep has both
+    assert s["jumps"] == summary["jumps"] and s["hysteresis"] == summary["hysteresis"]
+    assert s["period_s"] == summary["period_s"]
+    rows = [r.split(",") for r in (tmp_path / "strobe.csv").read_text().splitlines()[1:]]
+    st = s["strobe"]
+    assert len(rows) == len(st["point"]) == 2 * 21 * 10
+    for i, r in enumerate(rows):
+        p = st["point"][i]
+        assert (r[0], float(r[1])) == (s["direction"][p], s["value"][p])
+        assert [float(x) for x in r[4:7]] == [st["delta_bar"][i], st["velocity_m_s"][i],
+                                              st["force_bar"][i]]
+    ds = s.to_xarray()
+    up = ds["strobe_delta_bar"].sel(direction="up")
+    assert up.shape == (21, 10)
+    assert np.array_equal(up.values.ravel(), st["delta_bar"][: 21 * 10])
+    assert json.loads(ds.attrs["hysteresis"]) == s["hysteresis"]
