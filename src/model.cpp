@@ -1,5 +1,8 @@
 #include "geardyn/model.hpp"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <type_traits>
@@ -13,6 +16,45 @@ double GearPairParameters::natural_angular_frequency_rad_s() const {
 
 double GearPairParameters::static_mesh_force_n() const {
   return mean_force_n() / (cos_base_helix * cos_base_helix);
+}
+
+namespace {
+// A frequency is a multiple of the fundamental when its ratio is this close to an integer.
+constexpr double kCommensurability = 1e-9;
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+// The angular frequencies that vary in time, rad/s.
+std::vector<double> excitation_frequencies(const GearPairParameters& p) {
+  std::vector<double> w;
+  for (const Harmonic& h : p.stiffness_n_per_m.terms)
+    if (h.amplitude != 0 && h.angular_frequency_rad_s > 0) w.push_back(h.angular_frequency_rad_s);
+  for (const Harmonic& h : p.force_n.terms)
+    if (h.amplitude != 0 && h.angular_frequency_rad_s > 0) w.push_back(h.angular_frequency_rad_s);
+  return w;
+}
+}  // namespace
+
+bool varies_in_time(const GearPairParameters& p) { return !excitation_frequencies(p).empty(); }
+
+double system_period_s(const GearPairParameters& p) {
+  const std::vector<double> w = excitation_frequencies(p);
+  if (w.empty())
+    throw InputError(
+        "nothing in the model varies in time (no stiffness harmonics, no torque fluctuation): "
+        "the motion settles to rest and has no period");
+  const double w_min = *std::min_element(w.begin(), w.end());
+  for (int m = 1; m <= kMaxPeriodRatio; ++m) {
+    const double w0 = w_min / m;
+    const bool common = std::all_of(w.begin(), w.end(), [w0](double wi) {
+      const double ratio = wi / w0;
+      return std::abs(ratio - std::round(ratio)) <= kCommensurability * ratio;
+    });
+    if (common) return kTwoPi / w0;
+  }
+  throw InputError(
+      fmt::format("the excitation frequencies have no common period within {} periods of the "
+                  "slowest ({:.9g} rad/s): the motion is quasi-periodic, not periodic",
+                  kMaxPeriodRatio, w_min));
 }
 
 GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,

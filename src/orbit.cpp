@@ -18,8 +18,6 @@ namespace geardyn {
 namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-// A frequency is a multiple of the fundamental when its ratio is this close to an integer.
-constexpr double kCommensurability = 1e-9;
 // Halvings of a Newton step before the iteration is declared stalled.
 constexpr int kMaxBacktracks = 12;
 
@@ -31,31 +29,6 @@ SolverData exact_solver(const Case& c, double engine_tolerance) {
 }
 
 }  // namespace
-
-double system_period_s(const GearPairParameters& p) {
-  std::vector<double> w;
-  for (const Harmonic& h : p.stiffness_n_per_m.terms)
-    if (h.amplitude != 0 && h.angular_frequency_rad_s > 0) w.push_back(h.angular_frequency_rad_s);
-  for (const Harmonic& h : p.force_n.terms)
-    if (h.amplitude != 0 && h.angular_frequency_rad_s > 0) w.push_back(h.angular_frequency_rad_s);
-  if (w.empty())
-    throw InputError(
-        "orbit: nothing in the model varies in time (no stiffness harmonics, no torque "
-        "fluctuation): the motion settles to rest and has no period");
-  const double w_min = *std::min_element(w.begin(), w.end());
-  for (int m = 1; m <= kMaxPeriodRatio; ++m) {
-    const double w0 = w_min / m;
-    const bool common = std::all_of(w.begin(), w.end(), [w0](double wi) {
-      const double ratio = wi / w0;
-      return std::abs(ratio - std::round(ratio)) <= kCommensurability * ratio;
-    });
-    if (common) return kTwoPi / w0;
-  }
-  throw InputError(fmt::format(
-      "orbit: the excitation frequencies have no common period within {} periods of the "
-      "slowest ({:.9g} rad/s): the motion is quasi-periodic, not periodic",
-      kMaxPeriodRatio, w_min));
-}
 
 std::string OrbitOptions::validate() const {
   if (periods < 1 || periods > kMaxPeriodRatio)

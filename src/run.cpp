@@ -26,13 +26,6 @@ double automatic_time_step_s(const GearPairParameters& p) {
   return fastest_period_s(p) / kStepsPerFastestPeriod;
 }
 
-double fundamental_period_s(const Case& c) {
-  if (c.model.form == ModelForm::kNondimensional) return kTwoPi / c.model.omega;
-  if (c.load.fluctuation_ratio > 0)
-    return 1.0 / (c.load.fluctuation_order * c.speed.shaft_frequency_hz);
-  return 1.0 / mesh_frequency_hz(c);
-}
-
 GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiffness* stiffness) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
   if (c.model.form == ModelForm::kNondimensional)

@@ -10,6 +10,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <stdexcept>
 #include <thread>
 
@@ -21,6 +22,8 @@
 namespace geardyn {
 namespace {
 
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
 // Keys whose change changes the mesh stiffness curve: with any other swept key the energy method
 // runs once for the whole sweep.
 bool changes_stiffness(const std::string& key) {
@@ -31,19 +34,72 @@ bool changes_stiffness(const std::string& key) {
 
 std::string number_text(double x) { return fmt::format("{:.17g}", x); }
 
-// An observer that only lets the integration run (settling).
-// The statistics two blocks are compared by.
-std::array<double, 7> block_statistics(const SweepPoint& p) {
-  return {p.mean_delta_bar, p.rms_delta_bar, p.pp_delta_bar,      p.mean_force_bar,
-          p.rms_force_bar,  p.pp_force_bar,  p.separated_fraction};
+// The section state scaled for the steadiness test: delta / b and delta' / (b w_n).
+struct SectionState {
+  double delta, velocity;
+};
+
+double norm(const SectionState& a) { return std::max(std::abs(a.delta), std::abs(a.velocity)); }
+
+SectionState minus(const SectionState& u, const SectionState& v) {
+  return {u.delta - v.delta, u.velocity - v.velocity};
 }
 
-bool agree(const SweepPoint& a, const SweepPoint& b, double tol) {
-  const auto x = block_statistics(a), y = block_statistics(b);
-  for (std::size_t i = 0; i + 1 < x.size(); ++i)
-    if (std::abs(x[i] - y[i]) > tol * std::max({std::abs(x[i]), std::abs(y[i]), 1e-12}))
-      return false;
-  return std::abs(x.back() - y.back()) <= tol;
+// The prediction is an estimate (a fitted rate): within a factor 2 of the true distance in the
+// tests (Sweep.ThePredictedDistanceBoundsTheTrueOne), so a point is steady when it is under
+// half the tolerance.
+constexpr double kPredictionSafety = 0.5;
+
+// A response settled as period q is of period d (a divisor of q) when its section states d
+// periods apart differ by at most this many tolerances (two distances to the same fixed point
+// and their error).
+constexpr double kDivisorSlack = 3.0;
+
+// The smallest residual floor: rounding of delta / b ~ 1 over a period's arithmetic.
+constexpr double kResidualFloor = 1e-12;
+
+// Residuals whose directions are this close to parallel (the sine of their angle) are one
+// real mode: the rate is then their length ratio.
+constexpr double kParallelResiduals = 1e-6;
+
+// The predicted distance of the latest section state x.back() to the period-q response.
+// Near a hyperbolic periodic response the q-period map is affine, x_(j+q) - x* = M (x_j - x*),
+// so its residuals d_j = x_j - x_(j-q) obey d_(j+q) = M d_j: M is fitted from the last three
+// residuals (two equations for its four entries each), and the distance is the rest of the
+// geometric series, x_j - x* = M (M - I)^-1 d_j. Infinite while M's spectral radius is not
+// below 1 or there is too little history; the residual itself when it is at the floor of the
+// integration's precision (`floor`), where no rate can be read.
+double predicted_error(const std::vector<SectionState>& x, int q, double floor) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const auto n = static_cast<std::ptrdiff_t>(x.size());
+  const auto p = static_cast<std::ptrdiff_t>(q);
+  if (n < 3 * p + 1) return kInf;
+  const auto at = [&](std::ptrdiff_t back) { return x[static_cast<std::size_t>(n - 1 - back)]; };
+  const SectionState dc = minus(at(0), at(p)), db = minus(at(p), at(2 * p)),
+                     da = minus(at(2 * p), at(3 * p));
+  if (norm(dc) <= floor) return norm(dc);
+  // A = [da db], B = [db dc], M = B A^-1.
+  const double det = da.delta * db.velocity - db.delta * da.velocity;
+  const double la = std::hypot(da.delta, da.velocity), lb = std::hypot(db.delta, db.velocity);
+  if (!(la > 0 && lb > 0)) return kInf;
+  if (std::abs(det) <= kParallelResiduals * la * lb) {
+    const double rho = std::max(norm(dc) / norm(db), norm(db) / norm(da));
+    return rho < 1 ? norm(dc) * rho / (1 - rho) : kInf;
+  }
+  const double m11 = (db.delta * db.velocity - dc.delta * da.velocity) / det;
+  const double m12 = (dc.delta * da.delta - db.delta * db.delta) / det;
+  const double m21 = (db.velocity * db.velocity - dc.velocity * da.velocity) / det;
+  const double m22 = (dc.velocity * da.delta - db.velocity * db.delta) / det;
+  // Spectral radius of the 2x2 M from its trace and determinant.
+  const double tr = m11 + m22, dm = m11 * m22 - m12 * m21, disc = tr * tr / 4 - dm;
+  const double rho = disc >= 0 ? std::abs(tr / 2) + std::sqrt(disc) : std::sqrt(std::max(dm, 0.0));
+  if (!(rho < 1)) return kInf;
+  // e = M (M - I)^-1 dc.
+  const double a11 = m11 - 1, a22 = m22 - 1, da_ = a11 * a22 - m12 * m21;
+  const double y1 = (a22 * dc.delta - m12 * dc.velocity) / da_;
+  const double y2 = (a11 * dc.velocity - m21 * dc.delta) / da_;
+  const SectionState e{m11 * y1 + m12 * y2, m21 * y1 + m22 * y2};
+  return std::max(norm(e), floor);
 }
 
 struct PointJob {
@@ -67,16 +123,28 @@ class PointRunner {
     return c;
   }
 
+  // The period the point's blocks and strobe are taken at: the system period T0 (the common
+  // period of every excitation), or, when nothing varies in time, the linearised contact period
+  // (any period shows rest).
+  static double period_s(const GearPairModel& model) {
+    const GearPairParameters& p = model.parameters();
+    return varies_in_time(p) ? system_period_s(p) : kTwoPi / p.natural_angular_frequency_rad_s();
+  }
+  double period_at(double value, double value2) const {
+    return period_s(
+        build_model(case_at(value, value2), nullptr, stiffness_ ? &*stiffness_ : nullptr));
+  }
+
   // Runs one point from `carry` (the previous point's end state) or from the case's initial
   // condition, and leaves its end state in `carry`.
   SweepPoint run(const PointJob& job, std::optional<ode::State>& carry) const {
     const Case c = case_at(job.value, job.value2);
     const GearPairModel model = build_model(c, nullptr, stiffness_ ? &*stiffness_ : nullptr);
-    const double period = fundamental_period_s(c);
+    const double period = period_s(model);
     // With Newmark, a whole number of steps per period: block ends fall on period ends.
     const Solver solver(model, c.solver, period);
 
-    ode::State s = initial_state(c, model);
+    ode::State s = start_state(c, model);
     if (carry) {
       // A block ends after whole periods, where every excitation is back at phase 0.
       s = *carry;
@@ -98,35 +166,64 @@ class PointRunner {
       carry.reset();
       return pt;
     };
-    if (o_.settle_periods > 0) {
-      const auto sum = solver.advance(s, s.t + o_.settle_periods * period);
+    // Settle period by period on the section, until the predicted distance to a periodic
+    // response is below the tolerance or the periods run out.
+    const GearPairParameters& p = model.parameters();
+    const double b = p.backlash_m, bw = b * p.natural_angular_frequency_rad_s();
+    std::vector<SectionState> section{{s.q / b, s.v / bw}};
+    // Residuals below this are the integration's noise (its tolerance, relative to b).
+    const double floor = std::max(kResidualFloor, c.solver.tolerance);
+    // The smallest multiple q that is steady (0: none) and the smallest predicted error.
+    const auto judge = [&] {
+      std::pair<int, double> best{0, std::numeric_limits<double>::infinity()};
+      for (int q = 1; q <= kMaxSettledMultiple; ++q) {
+        const double e = predicted_error(section, q, floor);
+        if (e <= kPredictionSafety * o_.steady_tolerance) {
+          // The q-map's fixed point may be of a shorter period d (a divisor of q) whose own
+          // rate read slower: then its section states d periods apart are as close as the
+          // error allows.
+          for (int d = 1; d < q; ++d)
+            if (q % d == 0 &&
+                norm(minus(section.back(),
+                           section[section.size() - 1 - static_cast<std::size_t>(d)])) <=
+                    kDivisorSlack * o_.steady_tolerance)
+              return std::pair<int, double>{d, e};
+          return std::pair<int, double>{q, e};
+        }
+        best.second = std::min(best.second, e);
+      }
+      return best;
+    };
+    int k = 0;
+    std::pair<int, double> verdict{0, std::numeric_limits<double>::infinity()};
+    for (;; ++k) {
+      if (k >= o_.settle_periods) {
+        verdict = judge();
+        if (verdict.first) break;
+      }
+      if (k >= o_.max_settle_periods) break;
+      const auto sum = solver.advance(s, s.t + period);
       if (!sum.ok()) return fail(sum);
       s = sum.end_state;
+      section.push_back({s.q / b, s.v / bw});
     }
-    int periods_run = o_.settle_periods;
-    std::optional<SweepPoint> previous;
-    const int m = o_.measure_periods, spp = o_.samples_per_period;
-    for (;;) {
-      const double t0 = s.t, t1 = t0 + m * period;
-      RunReader reader(model, t0, t1, 1.0 / m, /*keep_events=*/false, /*keep_samples=*/true);
-      const ode::OutputGrid grid{t0, period / spp, static_cast<std::int64_t>(m) * spp};
-      const auto sum = solver.run(s, t1, grid, reader);
-      if (!sum.ok()) return fail(sum);
-      s = sum.end_state;
-      SweepPoint pt = read_block(reader, job, m, spp);
-      pt.settle_periods = periods_run;
-      periods_run += m;
-      if (previous && agree(*previous, pt, o_.steady_tolerance)) {
-        pt.settled = true;
-        carry = s;
-        return pt;
-      }
-      if (periods_run >= o_.max_settle_periods + m) {
-        carry = s;
-        return pt;  // never settled
-      }
-      previous = std::move(pt);
-    }
+    const int q_settled = verdict.first;
+    const double error = verdict.second;
+    // Measure whole response periods: at least --measure-periods, a multiple of q.
+    const int q = std::max(q_settled, 1);
+    const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
+    const double t0 = s.t, t1 = t0 + m * period;
+    RunReader reader(model, t0, t1, 1.0 / m, /*keep_events=*/false, /*keep_samples=*/true);
+    const ode::OutputGrid grid{t0, period / spp, static_cast<std::int64_t>(m) * spp};
+    const auto sum = solver.run(s, t1, grid, reader);
+    if (!sum.ok()) return fail(sum);
+    SweepPoint pt = read_block(reader, job, m, spp);
+    pt.settle_periods = k;
+    pt.settled = q_settled > 0;
+    pt.period_multiple = q_settled;
+    pt.steady_error = error;
+    carry = sum.end_state;
+    return pt;
   }
 
  private:
@@ -136,6 +233,14 @@ class PointRunner {
     } catch (const InputError& e) {
       throw InputError(fmt::format("--param {} at {}: {}", key, value, e.what()));
     }
+  }
+
+  // The state a sequence starts from (and restarts from after a failed point).
+  ode::State start_state(const Case& c, const GearPairModel& model) const {
+    if (!o_.start_static) return initial_state(c, model);
+    Case statically = c;
+    statically.solver.initial = InitialCondition::kStatic;
+    return initial_state(statically, model);
   }
 
   static SweepPoint read_block(RunReader& reader, const PointJob& job, int m, int spp) {
@@ -271,8 +376,9 @@ std::string SweepOptions::validate() const {
   if (!(max_settle_periods >= settle_periods))
     return fmt::format("--max-settle-periods = {}: must be at least --settle-periods = {}",
                        max_settle_periods, settle_periods);
-  if (!(steady_tolerance > 0 && steady_tolerance < 1))
-    return fmt::format("steady tolerance = {}: must be in (0, 1)", steady_tolerance);
+  if (!(steady_tolerance >= 1e-12 && steady_tolerance <= 0.1))
+    return fmt::format("--steady-tolerance = {}: must be from 1e-12 to 0.1 (in units of b)",
+                       steady_tolerance);
   if (!(samples_per_period >= 4 && samples_per_period <= 100000))
     return fmt::format("samples per period = {}: must be from 4 to 100000", samples_per_period);
   return "";
@@ -284,8 +390,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   SweepResult r;
   r.options = o;
   const PointRunner runner(base, o);
-  r.period_s = fundamental_period_s(
-      runner.case_at(o.axis.values().front(), o.axis2 ? o.axis2->values().front() : 0.0));
+  r.period_s = runner.period_at(o.axis.values().front(), o.axis2 ? o.axis2->values().front() : 0.0);
 
   // The sequences: for each row, the up sweep and/or the down sweep.
   std::vector<std::vector<PointJob>> sequences;
@@ -371,16 +476,18 @@ std::string sweep_csv(const SweepResult& r) {
   std::string out =
       "direction,param,value,param2,value2,settled,settle_periods,mean_delta_bar,rms_delta_bar,"
       "pp_delta_bar,min_delta_bar,mean_force_bar,rms_force_bar,pp_force_bar,max_force_bar,"
-      "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided,failure\n";
+      "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided,period_multiple,"
+      "steady_error,failure\n";
   for (const SweepPoint& p : r.points) {
     fmt::format_to(
-        std::back_inserter(out), "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+        std::back_inserter(out),
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
         to_string(p.direction), o.axis.key, p.value, o.axis2 ? o.axis2->key : "", p.value2,
         p.settled ? 1 : 0, p.settle_periods, p.mean_delta_bar, p.rms_delta_bar, p.pp_delta_bar,
         p.min_delta_bar, p.mean_force_bar, p.rms_force_bar, p.pp_force_bar, p.max_force_bar,
         p.dynamic_factor ? fmt::format("{}", *p.dynamic_factor) : "", p.separated_fraction,
         p.impacts_per_period, p.failure.empty() ? to_string(p.regime) : "failed",
-        p.double_sided ? 1 : 0, csv_text(p.failure));
+        p.double_sided ? 1 : 0, p.period_multiple, p.steady_error, csv_text(p.failure));
   }
   return out;
 }
@@ -416,6 +523,7 @@ std::string summary(const SweepResult& r) {
   j["measure_periods"] = o.measure_periods;
   j["max_settle_periods"] = o.max_settle_periods;
   j["steady_tolerance"] = o.steady_tolerance;
+  j["start"] = o.start_static ? "static" : "case";
   j["period_s"] = r.period_s;
   j["points_computed"] = r.points.size();
   j["unsettled"] = r.unsettled;

@@ -275,6 +275,24 @@ TEST(Cli, SweepWritesItsResults) {
   EXPECT_GT(fs::file_size(d / "bifurcation.svg"), 100u);
 }
 
+TEST(Cli, ReadmeSweepShowsTheJump) {
+  // The README's sweep as written: the up sweep starts from static contact and jumps off the
+  // contact branch; started from the case's rest mid-backlash both sweeps rattle from the
+  // start, and the command says that no jump was found.
+  const fs::path d = fresh("readme_sweep");
+  const std::string cmd =
+      "sweep --param speed.shaft_frequency_hz --from 1500 --to 3500 --points 400 --no-figures "
+      "--out " +
+      d.string();
+  const Outcome o = cli(cmd);
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("up sweep jumps between 2261.9 and 2266.92"), std::string::npos) << o.out;
+  EXPECT_EQ(o.out.find("no jump found"), std::string::npos) << o.out;
+  const Outcome rest = cli(cmd + " --start case");
+  ASSERT_EQ(rest.code, 0) << rest.err;
+  EXPECT_NE(rest.out.find("no jump found"), std::string::npos) << rest.out;
+}
+
 TEST(Cli, InterruptedSweepKeepsTheCompletedPoints) {
   const fs::path d = fresh("sweep_int");
   // SIGINT after a second, into a sweep that takes far longer (Newmark at a fine step).

@@ -238,9 +238,9 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
                      : "",
              geardyn::to_string(o.direction), r.threads, r.wall_time_s);
   fmt::print(
-      "  fundamental period {:.6g} s at the first point; {} points computed, {} not "
-      "settled\n",
-      r.period_s, r.points.size(), r.unsettled);
+      "  system period {:.6g} s at the first point; {} points computed, {} not settled (steady: "
+      "predicted distance to the periodic response under {:g} b)\n",
+      r.period_s, r.points.size(), r.unsettled, o.steady_tolerance);
   if (r.failed > 0) {
     const auto first = std::find_if(r.points.begin(), r.points.end(),
                                     [](const auto& p) { return !p.failure.empty(); });
@@ -256,6 +256,11 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
     fmt::print(
         "  {} sweep jumps between {:.6g} and {:.6g}: peak-to-peak delta/b {:.4g} -> {:.4g}\n",
         geardyn::to_string(j.direction), j.from_value, j.to_value, j.before, j.after);
+  if (r.jumps.empty())
+    fmt::print("  no jump found{}\n",
+               o.direction == geardyn::SweepDirection::kBoth && r.hysteresis.empty()
+                   ? ", and up and down agree"
+                   : "");
   fmt::print("  written to {}/ (sweep.csv, strobe.csv, summary.json{})\n", out_dir,
              figures && !r.cancelled
                  ? ", frequency_response, bifurcation" + std::string(o.axis2 ? ", regime_map" : "")
@@ -563,10 +568,20 @@ int main(int argc, char** argv) {
   sweep_cmd->add_option("--to2", axis2.to, "last value of --param2");
   sweep_cmd->add_option("--points2", axis2.points, "number of values of --param2");
   sweep_cmd->add_flag("--log2", axis2.log, "geometric spacing of --param2");
-  sweep_cmd->add_option("--settle-periods", so.settle_periods, "periods before measuring (20)");
-  sweep_cmd->add_option("--measure-periods", so.measure_periods, "periods per measurement (10)");
+  sweep_cmd->add_option("--settle-periods", so.settle_periods,
+                        "periods always run before steadiness is judged (0)");
+  sweep_cmd->add_option("--measure-periods", so.measure_periods,
+                        "periods measured once steady (10; a multiple of the response's period)");
   sweep_cmd->add_option("--max-settle-periods", so.max_settle_periods,
                         "periods before a point is flagged not settled (200)");
+  sweep_cmd->add_option("--steady-tolerance", so.steady_tolerance,
+                        "predicted distance to the periodic response, in b (1e-6)");
+  std::string sweep_start = "static";
+  sweep_cmd
+      ->add_option("--start", sweep_start,
+                   "where each up and down sweep starts: static (contact, the default) or case "
+                   "(the case's solver.initial)")
+      ->check(CLI::IsMember({"static", "case"}));
   sweep_cmd->add_option("--threads", so.threads, "worker threads (default: all cores)");
   sweep_cmd->add_option("--out", sweep_out, "output directory (default out/sweep)");
   sweep_cmd->add_flag("--no-figures", sweep_no_figures, "write the data without figures");
@@ -663,6 +678,7 @@ int main(int argc, char** argv) {
                      : direction == "down" ? geardyn::SweepDirection::kDown
                                            : geardyn::SweepDirection::kBoth;
       if (!axis2.key.empty()) so.axis2 = axis2;
+      so.start_static = sweep_start == "static";
       return cmd_sweep(case_file, sets, so, sweep_out, !sweep_no_figures);
     }
     if (stab->parsed()) {

@@ -61,6 +61,20 @@ struct GearPairParameters {
 GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
                                         const HarmonicSeries& stiffness_n_per_m);
 
+// The largest multiple of the slowest excitation period searched for a common period.
+constexpr int kMaxPeriodRatio = 1000;
+
+// True when a stiffness harmonic or a force term varies in time.
+bool varies_in_time(const GearPairParameters& p);
+
+// T0, the system's period in s: the smallest common period of the stiffness harmonics and the
+// force terms (each within a relative 1e-9 of an integer multiple of 1 / T0): with torque order
+// 3 on a 56-tooth pinion, 1 / f_1, not the torque period. Stroboscopic sections, sweep blocks
+// and orbits are taken at it. Throws InputError when nothing varies in time (the motion settles
+// to rest) or no common period exists within kMaxPeriodRatio periods of the slowest
+// excitation (quasi-periodic forcing).
+double system_period_s(const GearPairParameters& p);
+
 // The non-dimensional form ([model] form = "nondimensional"): m = 1, b = 1, cos(beta_b) = 1,
 // k(tau) = 1 + sum_i kappa_i cos(i Omega tau + phi_i), c = 2 zeta acting at all times,
 // F(tau) = F_m + F_a cos(Omega tau).

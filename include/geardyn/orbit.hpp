@@ -31,15 +31,6 @@
 
 namespace geardyn {
 
-// The largest multiple of the slowest excitation period searched for a common period.
-constexpr int kMaxPeriodRatio = 1000;
-
-// T0, the system's period in s: the smallest common period of the stiffness harmonics and the
-// force terms (each within a relative 1e-9 of an integer multiple of 1 / T0). Throws
-// InputError when nothing varies in time (no orbit but rest) or no common period exists
-// within kMaxPeriodRatio periods of the slowest excitation.
-double system_period_s(const GearPairParameters& p);
-
 struct OrbitOptions {
   int periods = 1;  // N: the orbit's period in system periods T0, >= 1
   // Shooting segments; 0: one per system period (N segments).

@@ -118,10 +118,6 @@ double automatic_time_step_s(const GearPairParameters& p);
 GearPairModel build_model(const Case& c, Geometry* geometry_out = nullptr,
                           const MeshStiffness* stiffness = nullptr);
 
-// The period of the case's fundamental excitation: the torque period 1/(order f_1) when the
-// torque fluctuates, else the mesh period 1/(z1 f_1); 2 pi / Omega in the non-dimensional form.
-double fundamental_period_s(const Case& c);
-
 // The state a case starts from at t0_s (solver.initial: at rest mid-backlash, or in static
 // contact), with its region.
 ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s = 0);

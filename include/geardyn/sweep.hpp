@@ -34,18 +34,31 @@ struct SweepAxis {
 enum class SweepDirection { kUp, kDown, kBoth };
 const char* to_string(SweepDirection d);
 
+// The largest period multiple q a sweep point is tested for (period-q responses settle as such;
+// longer ones, quasi-periodic and chaotic responses are flagged not settled).
+constexpr int kMaxSettledMultiple = 8;
+
 struct SweepOptions {
   SweepAxis axis;
   std::optional<SweepAxis> axis2;  // a 2-D map: each value of axis2 is a row swept along axis
   SweepDirection direction = SweepDirection::kBoth;
-  int settle_periods = 20;   // fundamental periods before the first measurement
+  int settle_periods = 0;    // system periods always run before the steadiness is judged
   int measure_periods = 10;  // periods per measurement block
-  // A point is steady when two successive blocks agree; it settles for at most this many
-  // periods before it is flagged as not settled.
+  // A point settles period by period on the stroboscopic section t = k T0 until it is steady
+  // (below); past this many periods it is measured as it is and flagged not settled.
   int max_settle_periods = 200;
-  // Two blocks agree when each statistic changes by less than this fraction of its size
-  // (and the separated fraction by less than this much): well above the step's error.
-  double steady_tolerance = 1e-3;
+  // Steady: the distance of the section state to the periodic response (of period q T0 for the
+  // smallest q <= kMaxSettledMultiple that passes), in b for delta and b w_n for delta', is
+  // below this. The distance is predicted from the Poincare residuals x_k - x_(k-q): the rate
+  // at which they shrink (the q-period map, fitted near the response from the last three)
+  // extrapolates the rest as a geometric series; a point is steady when the prediction is
+  // under half the tolerance (the prediction is within a factor 2 of the truth in the tests).
+  double steady_tolerance = 1e-6;
+  // Where each up and down sequence starts (and restarts after a failed point): from static
+  // contact (the default: the up sweep climbs the contact branch into the resonance, the down
+  // sweep descends it, so the jumps and the hysteresis between them show) or from the case's
+  // solver.initial.
+  bool start_static = true;
   int samples_per_period = 64;  // for the statistics; the strobe takes one per period
   unsigned threads = 0;         // 0: all cores
   // Called after each point with (done, total); returning false stops the sweep after the
@@ -64,7 +77,13 @@ struct SweepPoint {
   // point of its sequence starts from the case's initial condition).
   std::string failure;
   bool settled = false;
-  int settle_periods = 0;  // periods run before the measurement that was kept
+  int settle_periods = 0;  // periods run before the measurement
+  // The response's period in system periods T0 when settled (1: period-1, 2: period-doubled,
+  // ...), 0 when not settled.
+  int period_multiple = 0;
+  // The predicted distance to the periodic response when measured (b, b w_n; see
+  // SweepOptions::steady_tolerance); infinite when no decay was seen.
+  double steady_error = 0;
   double mean_delta_bar = 0, rms_delta_bar = 0, pp_delta_bar = 0, min_delta_bar = 0;
   double mean_force_bar = 0, rms_force_bar = 0, pp_force_bar = 0, max_force_bar = 0;
   std::optional<double> dynamic_factor;
@@ -72,7 +91,7 @@ struct SweepPoint {
   double impacts_per_period = 0;
   Regime regime = Regime::kNone;  // over the measurement: separated in its last period or not
   bool double_sided = false;
-  // Once per fundamental period over the measurement.
+  // Once per system period over the measurement.
   std::vector<double> strobe_delta_bar, strobe_velocity_m_s, strobe_force_bar;
 };
 
@@ -89,7 +108,7 @@ struct Jump {
 
 struct SweepResult {
   SweepOptions options;
-  double period_s = 0;             // the fundamental period at the first point
+  double period_s = 0;             // the system period at the first point
   std::vector<SweepPoint> points;  // in sweep order: up (each row), then down
   std::vector<Hysteresis> hysteresis;
   std::vector<Jump> jumps;

@@ -353,12 +353,14 @@ _SWEEP_NAMES = {"points": "len(values)", "from": "values", "to": "values",
 
 
 @_pythonic(_SWEEP_NAMES)
-def sweep(case, param, values, direction="both", settle_periods=20, measure_periods=10,
-          max_settle_periods=200, threads=0, progress=None, param2=None, values2=()):
+def sweep(case, param, values, direction="both", settle_periods=0, measure_periods=10,
+          max_settle_periods=200, steady_tolerance=1e-6, start="static", threads=0,
+          progress=None, param2=None, values2=()):
     """Sweeps a case key up and down, as `geardyn sweep`; with `param2`, a map.
 
-    Each point continues from the previous one's end state and is measured once settled
-    (docs/sweeps.md).
+    Each point continues from the previous one's end state, settles period by period until
+    its predicted distance to the periodic response is under `steady_tolerance`, and is then
+    measured (docs/sweeps.md).
 
     Parameters
     ----------
@@ -370,8 +372,15 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
         Its values (swept ascending up, descending down).
     direction : {"both", "up", "down"}
     settle_periods, measure_periods, max_settle_periods : int
-        Fundamental periods before the first measurement, per measurement block, and at most
-        before a point is flagged not settled.
+        System periods T0 always run before steadiness is judged, measured once steady
+        (rounded up to whole response periods), and at most before a point is flagged not
+        settled.
+    steady_tolerance : float
+        The distance to the periodic response on the section t = k T0 under which a point is
+        steady, in b (delta) and b w_n (delta').
+    start : {"static", "case"}
+        Where the up and the down sweep start: static contact (jumps and hysteresis show) or
+        the case's ``solver.initial``.
     threads : int
         Worker threads (0: all cores).
     progress : callable or True, optional
@@ -386,11 +395,12 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
     SweepResult
         A dict: one NumPy array per column (``value``, ``value2`` for a map, ``pp_delta_bar``
         and the other statistics of delta / b and F / (b k_m), ``separated_fraction``,
-        ``impacts_per_period`` per fundamental period, ``settled``, ``settle_periods``,
-        ``dynamic_factor``), ``direction``, ``regime`` and ``failure`` (why a point failed,
+        ``impacts_per_period`` per system period, ``settled``, ``settle_periods``,
+        ``period_multiple`` (the response's period in T0, 0 when not settled),
+        ``steady_error`` (its predicted distance, b), ``dynamic_factor``), ``direction``, ``regime`` and ``failure`` (why a point failed,
         else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
         sample belongs to), ``delta_bar``, ``velocity_m_s`` (m/s), ``force_bar``, one sample
-        per fundamental period of the measurement; ``jumps`` and ``hysteresis`` (dicts with
+        per system period of the measurement; ``jumps`` and ``hysteresis`` (dicts with
         ``from_value`` and ``to_value``), ``period_s``, ``cancelled``, ``param``
         (``param2``). Its ``to_xarray()``, ``to_pandas()`` and ``save(path)`` label it.
 
@@ -402,7 +412,7 @@ def sweep(case, param, values, direction="both", settle_periods=20, measure_peri
         Ctrl-C; ``.result`` holds the completed points.
     """
     r = _geardyn._sweep(case, param, _floats("values", values), direction, settle_periods,
-                        measure_periods, max_settle_periods, threads,
+                        measure_periods, max_settle_periods, steady_tolerance, start, threads,
                         _progress(progress, unit="point"), param2 or "",
                         _floats("values2", values2))
     r = SweepResult(r, param=param)

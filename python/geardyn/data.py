@@ -12,7 +12,9 @@ import numpy as np
 
 # Units of the sweep's and run's columns (attributes "units" and "long_name").
 _COLUMNS = {
-    "settled": ("1", "1 when two measurement blocks agreed"),
+    "settled": ("1", "1 when the predicted distance to the periodic response met the tolerance"),
+    "period_multiple": ("1", "the response's period in system periods (0: not settled)"),
+    "steady_error": ("1", "predicted distance to the periodic response, in b and b w_n"),
     "mean_delta_bar": ("1", "mean of delta / b"),
     "rms_delta_bar": ("1", "RMS of delta / b"),
     "pp_delta_bar": ("1", "peak-to-peak delta / b"),
@@ -22,10 +24,10 @@ _COLUMNS = {
     "pp_force_bar": ("1", "peak-to-peak F / (b k_m)"),
     "max_force_bar": ("1", "maximum of F / (b k_m)"),
     "separated_fraction": ("1", "fraction of the time separated"),
-    "impacts_per_period": ("1/period", "impacts per fundamental period"),
+    "impacts_per_period": ("1/period", "impacts per system period"),
     "double_sided": ("1", "1 when back-side contact occurred"),
     "dynamic_factor": ("1", "max F_G over the static mesh force (NaN without mean load)"),
-    "settle_periods": ("period", "fundamental periods run before the measurement kept"),
+    "settle_periods": ("period", "system periods run before the measurement kept"),
     "delta_bar": ("1", "delta / b"),
     "force_bar": ("1", "F / (b k_m)"),
     "velocity": ("m/s", "delta', the velocity along the line of action"),
@@ -71,7 +73,7 @@ def _sweep_dataset(s, param, param2=None):
     data["regime"] = (dims, regime.astype(str), {"long_name": "none, transient or sustained"})
     strobe = s.get("strobe")
     if strobe is not None and len(strobe["point"]):
-        # One sample per fundamental period of each point's measurement, NaN-padded to the
+        # One sample per system period of each point's measurement, NaN-padded to the
         # longest (a failed point has none).
         counts = np.bincount(strobe["point"], minlength=len(index))
         width = int(counts.max())
@@ -81,9 +83,9 @@ def _sweep_dataset(s, param, param2=None):
             rank[i] = seen.get(p, 0)
             seen[p] = rank[i] + 1
         for name, units, long_name in (
-                ("delta_bar", "1", "delta / b once per fundamental period"),
-                ("velocity_m_s", "m/s", "delta' once per fundamental period"),
-                ("force_bar", "1", "F / (b k_m) once per fundamental period")):
+                ("delta_bar", "1", "delta / b once per system period"),
+                ("velocity_m_s", "m/s", "delta' once per system period"),
+                ("force_bar", "1", "F / (b k_m) once per system period")):
             a = np.full(shape + [width], np.nan)
             for i, p in enumerate(strobe["point"]):
                 a[index[p] + (rank[i],)] = strobe[name][i]
@@ -204,10 +206,10 @@ def to_xarray(result, param=None, param2=None):
     xarray.Dataset
         A sweep: dimensions ``direction`` (up, down), ``param2`` for a map, ``param``; each
         column a variable with ``units`` and ``long_name``; the strobe (one sample per
-        fundamental period of each point's measurement) as ``strobe_delta_bar``,
+        system period of each point's measurement) as ``strobe_delta_bar``,
         ``strobe_velocity_m_s`` and ``strobe_force_bar`` over a further dimension ``strobe``;
         the jumps and the hysteresis intervals as the JSON attributes ``jumps`` and
-        ``hysteresis``, the fundamental period as ``period_s``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
+        ``hysteresis``, the system period as ``period_s``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
         and contact, attributes ``summary`` (JSON) and ``case`` (TOML).
     """
     if isinstance(result, dict):

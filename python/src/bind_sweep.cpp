@@ -17,8 +17,9 @@ void bind_sweep(py::module_& m) {
       "_sweep",
       [](const Case& c, const std::string& param, std::vector<double> values,
          const std::string& direction, int settle_periods, int measure_periods,
-         int max_settle_periods, unsigned threads, const py::object& progress,
-         const std::string& param2, std::vector<double> values2) {
+         int max_settle_periods, double steady_tolerance, const std::string& start,
+         unsigned threads, const py::object& progress, const std::string& param2,
+         std::vector<double> values2) {
         SweepOptions o;
         o.axis.key = param;
         o.axis.explicit_values = std::move(values);
@@ -43,6 +44,10 @@ void bind_sweep(py::module_& m) {
         o.settle_periods = settle_periods;
         o.measure_periods = measure_periods;
         o.max_settle_periods = max_settle_periods;
+        o.steady_tolerance = steady_tolerance;
+        if (start != "static" && start != "case")
+          throw InputError("start = \"" + start + "\": must be \"static\" or \"case\"");
+        o.start_static = start == "static";
         o.threads = threads;
         Hook hook(progress);
         o.progress = [&hook](std::size_t done, std::size_t total) { return hook(done, total); };
@@ -83,7 +88,9 @@ void bind_sweep(py::module_& m) {
           return p.dynamic_factor.value_or(std::numeric_limits<double>::quiet_NaN());
         });
         out["settle_periods"] = col([](const SweepPoint& p) { return p.settle_periods; });
-        // The strobe (one sample per fundamental period of each point's measurement), flat:
+        out["period_multiple"] = col([](const SweepPoint& p) { return p.period_multiple; });
+        out["steady_error"] = col([](const SweepPoint& p) { return p.steady_error; });
+        // The strobe (one sample per system period of each point's measurement), flat:
         // sample i belongs to point strobe["point"][i].
         std::vector<std::int64_t> owner;
         std::vector<double> sd, sv, sf;
@@ -120,8 +127,9 @@ void bind_sweep(py::module_& m) {
         return out;
       },
       py::arg("case"), py::arg("param"), py::arg("values"), py::arg("direction") = "both",
-      py::arg("settle_periods") = 20, py::arg("measure_periods") = 10,
-      py::arg("max_settle_periods") = 200, py::arg("threads") = 0, py::arg("progress") = py::none(),
+      py::arg("settle_periods") = 0, py::arg("measure_periods") = 10,
+      py::arg("max_settle_periods") = 200, py::arg("steady_tolerance") = 1e-6,
+      py::arg("start") = "static", py::arg("threads") = 0, py::arg("progress") = py::none(),
       py::arg("param2") = "", py::arg("values2") = std::vector<double>{});
 }
 
