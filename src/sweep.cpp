@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -276,13 +277,16 @@ class PointRunner {
   std::optional<MeshStiffness> stiffness_;
 };
 
-void read_jumps(SweepResult& r) {
+// Jumps and hysteresis of one row (all points of a 1-D sweep; one value of the second key of
+// a map), appended to r.
+void read_row_jumps(SweepResult& r, double value2) {
+  const bool map = r.options.axis2.has_value();
+  const auto in_row = [&](const SweepPoint& p) { return !map || p.value2 == value2; };
   // Jumps inside each 1-D sequence, in run order.
-  if (r.options.axis2) return;
   for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
     std::vector<const SweepPoint*> seq;
     for (const SweepPoint& p : r.points)
-      if (p.direction == d) seq.push_back(&p);
+      if (p.direction == d && in_row(p)) seq.push_back(&p);
     auto change = [&](std::size_t i) {  // between seq[i] and seq[i + 1]; 0 outside
       return i + 1 < seq.size() ? std::abs(seq[i + 1]->pp_delta_bar - seq[i]->pp_delta_bar) : 0.0;
     };
@@ -291,13 +295,15 @@ void read_jumps(SweepResult& r) {
       const double neighbours = std::max(i > 0 ? change(i - 1) : 0.0, change(i + 1));
       if (change(i) > kJumpFraction * std::max(std::abs(a), std::abs(b)) &&
           change(i) > kJumpContrast * neighbours)
-        r.jumps.push_back({d, seq[i]->value, seq[i + 1]->value, a, b});
+        r.jumps.push_back({d, seq[i]->value, seq[i + 1]->value, a, b, value2});
     }
   }
   // Hysteresis: where the up and the down sweep differ at the same value.
   std::map<double, std::pair<const SweepPoint*, const SweepPoint*>> by_value;
   for (const SweepPoint& p : r.points)
-    (p.direction == SweepDirection::kUp ? by_value[p.value].first : by_value[p.value].second) = &p;
+    if (in_row(p))
+      (p.direction == SweepDirection::kUp ? by_value[p.value].first : by_value[p.value].second) =
+          &p;
   std::optional<Hysteresis> open;
   for (const auto& [value, pair] : by_value) {
     const auto [up, down] = pair;
@@ -306,7 +312,7 @@ void read_jumps(SweepResult& r) {
                             kHysteresisFraction *
                                 std::max(std::abs(up->pp_delta_bar), std::abs(down->pp_delta_bar));
     if (differ) {
-      if (!open) open = Hysteresis{value, value};
+      if (!open) open = Hysteresis{value, value, value2};
       open->to_value = value;
     } else if (open) {
       r.hysteresis.push_back(*open);
@@ -314,6 +320,12 @@ void read_jumps(SweepResult& r) {
     }
   }
   if (open) r.hysteresis.push_back(*open);
+}
+
+// Jumps and hysteresis, row by row.
+void read_jumps(SweepResult& r) {
+  if (!r.options.axis2) return read_row_jumps(r, 0.0);
+  for (double y : r.options.axis2->values()) read_row_jumps(r, y);
 }
 
 }  // namespace
@@ -532,16 +544,120 @@ std::string summary(const SweepResult& r) {
   j["wall_time_s"] = r.wall_time_s;
   j["threads"] = r.threads;
   j["hysteresis"] = nlohmann::json::array();
-  for (const Hysteresis& h : r.hysteresis)
-    j["hysteresis"].push_back({{"from_value", h.from_value}, {"to_value", h.to_value}});
+  for (const Hysteresis& h : r.hysteresis) {
+    nlohmann::json x = {{"from_value", h.from_value}, {"to_value", h.to_value}};
+    if (o.axis2) x["value2"] = h.value2;
+    j["hysteresis"].push_back(x);
+  }
   j["jumps"] = nlohmann::json::array();
-  for (const Jump& x : r.jumps)
-    j["jumps"].push_back({{"direction", to_string(x.direction)},
-                          {"from_value", x.from_value},
-                          {"to_value", x.to_value},
-                          {"pp_delta_bar_before", x.before},
-                          {"pp_delta_bar_after", x.after}});
+  for (const Jump& x : r.jumps) {
+    nlohmann::json y = {{"direction", to_string(x.direction)},
+                        {"from_value", x.from_value},
+                        {"to_value", x.to_value},
+                        {"pp_delta_bar_before", x.before},
+                        {"pp_delta_bar_after", x.after}};
+    if (o.axis2) y["value2"] = x.value2;
+    j["jumps"].push_back(y);
+  }
   return j.dump(2) + "\n";
+}
+
+// The cell edges of a grid: midway between neighbours (geometrically on a log axis), the
+// end cells as wide as their neighbours.
+std::vector<double> cell_edges(const std::vector<double>& v, bool log) {
+  std::vector<double> e(v.size() + 1);
+  const auto mid = [log](double a, double b) { return log ? std::sqrt(a * b) : 0.5 * (a + b); };
+  if (v.size() == 1) {
+    e = log ? std::vector<double>{v[0] / 1.1, v[0] * 1.1}
+            : std::vector<double>{v[0] - 0.5, v[0] + 0.5};
+    return e;
+  }
+  for (std::size_t i = 1; i < v.size(); ++i) e[i] = mid(v[i - 1], v[i]);
+  e.front() = log ? v.front() * v.front() / e[1] : 2 * v.front() - e[1];
+  e.back() = log ? v.back() * v.back() / e[v.size() - 1] : 2 * v.back() - e[v.size() - 1];
+  return e;
+}
+
+// The regime map of a 2-D sweep: one panel per direction swept, each point a filled cell
+// coloured by what happened there (only what occurred is in the legend), and the cells where
+// the up and the down sweep differ (coexisting branches) marked in both.
+std::string regime_map_body(const SweepResult& r) {
+  const SweepOptions& o = r.options;
+  const std::vector<double> xs = o.axis.values(), ys = o.axis2->values();
+  const std::vector<double> xe = cell_edges(xs, o.axis.log), ye = cell_edges(ys, o.axis2->log);
+  const auto index = [](const std::vector<double>& v, double x) {
+    return static_cast<std::size_t>(std::lower_bound(v.begin(), v.end(), x) - v.begin());
+  };
+  struct Class {
+    const char* name;
+    const char* colour;
+  };
+  static constexpr std::array<Class, 5> kClasses{{{"none", "#d9efd9"},
+                                                  {"transient", "#f7e3a1"},
+                                                  {"sustained", "#f4a6a6"},
+                                                  {"double-sided", "#7b3294"},
+                                                  {"failed", "#9a9a9a"}}};
+  const auto class_of = [](const SweepPoint& p) -> std::size_t {
+    if (!p.failure.empty()) return 4;
+    if (p.double_sided) return 3;
+    return static_cast<std::size_t>(p.regime);  // none, transient, sustained
+  };
+  // Data blocks: cells per direction and class, and the coexistence marks.
+  std::string data, body;
+  std::map<std::pair<double, double>, std::pair<const SweepPoint*, const SweepPoint*>> at;
+  for (const SweepPoint& p : r.points)
+    (p.direction == SweepDirection::kUp ? at[{p.value, p.value2}].first
+                                        : at[{p.value, p.value2}].second) = &p;
+  std::string coexist;
+  for (const auto& [xy, pair] : at) {
+    const auto [up, down] = pair;
+    if (up && down && up->failure.empty() && down->failure.empty() &&
+        std::abs(up->pp_delta_bar - down->pp_delta_bar) >
+            kHysteresisFraction *
+                std::max(std::abs(up->pp_delta_bar), std::abs(down->pp_delta_bar)))
+      fmt::format_to(std::back_inserter(coexist), "{},{}\n", xy.first, xy.second);
+  }
+  if (!coexist.empty()) data += "$coexist << EOD\n" + coexist + "EOD\n";
+  std::vector<SweepDirection> panels;
+  for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown})
+    if (std::any_of(r.points.begin(), r.points.end(),
+                    [&](const SweepPoint& p) { return p.direction == d; }))
+      panels.push_back(d);
+  for (SweepDirection d : panels) {
+    std::string plot;
+    for (std::size_t k = 0; k < kClasses.size(); ++k) {
+      std::string cells;
+      for (const SweepPoint& p : r.points) {
+        if (p.direction != d || class_of(p) != k) continue;
+        const std::size_t i = index(xs, p.value), j = index(ys, p.value2);
+        fmt::format_to(std::back_inserter(cells), "{},{},{},{},{},{}\n", p.value, p.value2, xe[i],
+                       xe[i + 1], ye[j], ye[j + 1]);
+      }
+      if (cells.empty()) continue;
+      const std::string block = fmt::format("${}_{}", to_string(d), k);
+      fmt::format_to(std::back_inserter(data), "{} << EOD\n{}EOD\n", block, cells);
+      fmt::format_to(std::back_inserter(plot),
+                     "{}{} using 1:2:3:4:5:6 with boxxyerror fs solid 1.0 noborder fc rgb '{}' "
+                     "title '{}'",
+                     plot.empty() ? "plot " : ", \\\n     ", block, kClasses[k].colour,
+                     kClasses[k].name);
+    }
+    if (!coexist.empty())
+      plot +=
+          ", \\\n     $coexist using 1:2 with points pt 6 ps 1.0 lc rgb 'black' title "
+          "'up ≠ down (branches coexist)'";
+    fmt::format_to(std::back_inserter(body), "set title '{} sweeps'\n{}\n", to_string(d), plot);
+  }
+  std::string s = "reset\nset encoding utf8\nset datafile separator ','\n" + data;
+  if (o.axis.log) s += "set logscale x\n";
+  if (o.axis2->log) s += "set logscale y\n";
+  fmt::format_to(std::back_inserter(s),
+                 "set xlabel '{}'\nset ylabel '{}'\nset xrange [{}:{}]\nset yrange [{}:{}]\n"
+                 "set key below font ',9'\nset multiplot layout 1,{} title 'regime map'\n{}"
+                 "unset multiplot\n",
+                 o.axis.key, o.axis2->key, xe.front(), xe.back(), ye.front(), ye.back(),
+                 panels.size(), body);
+  return s;
 }
 
 }  // namespace
@@ -553,63 +669,84 @@ void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool fi
   if (!figures || r.points.empty()) return;
   const SweepOptions& o = r.options;
   const std::string xlog = o.axis.log ? "set logscale x\n" : "";
-  // Frequency response: rms and peak F_bar, peak-to-peak delta_bar; up and down overlaid.
-  std::string fr =
-      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set key top left font ',9'\n" +
-      xlog;
+  const std::string preamble = "reset\nset encoding utf8\nset datafile separator ','\n";
+  // Frequency response: rms F_bar and peak-to-peak delta_bar, up and down overlaid; the
+  // unsettled points, the jumps and the hysteresis intervals marked where they occur.
+  std::string fr = preamble + "set grid lc rgb '#dddddd'\nset key top left font ',9'\n" + xlog;
   fmt::format_to(std::back_inserter(fr), "set multiplot layout 2,1 title \"sweep of {}\"\n",
                  o.axis.key);
-  auto curves = [&](int column, const char* label) {
-    return fmt::format(
-        "plot 'sweep.csv' every ::1 using 3:(strcol(1) eq 'up' ? ${0} : NaN) with linespoints "
-        "pt 7 ps 0.4 lc rgb '#1f3b73' title 'up: {1}', \\\n"
-        "     'sweep.csv' every ::1 using 3:(strcol(1) eq 'down' ? ${0} : NaN) with linespoints "
-        "pt 6 ps 0.5 lc rgb '#b5532b' title 'down: {1}', \\\n"
-        "     'sweep.csv' every ::1 using 3:($6 == 0 ? ${0} : NaN) with points pt 2 ps 1.2 lc "
-        "rgb 'black' title 'not settled'\n",
-        column, label);
-  };
-  if (o.axis2) {
-    fr += "set key top left font ',8'\n";  // rows overlaid
+  if (!o.axis2) {
+    for (const Hysteresis& h : r.hysteresis)
+      fmt::format_to(std::back_inserter(fr),
+                     "set object rect from {}, graph 0 to {}, graph 1 behind fc rgb '#ececec' "
+                     "fs solid 1.0 noborder\n",
+                     h.from_value, h.to_value);
   }
-  fmt::format_to(std::back_inserter(fr), "set xlabel ''\nset ylabel 'F / (b k_m)'\n{}",
-                 curves(13, "rms F/(b k_m)"));
-  fmt::format_to(std::back_inserter(fr), "set xlabel '{}'\nset ylabel 'delta / b'\n{}", o.axis.key,
-                 curves(10, "peak-to-peak delta/b"));
+  const auto curves = [&](int column, const char* label, bool arrows) {
+    std::string out;
+    if (arrows && !o.axis2)
+      for (const Jump& j : r.jumps)
+        fmt::format_to(std::back_inserter(out),
+                       "set arrow from {}, {} to {}, {} head filled size screen 0.012,20 lw 1.5 "
+                       "lc rgb '{}'\n",
+                       j.from_value, j.before, j.to_value, j.after,
+                       j.direction == SweepDirection::kUp ? "#1f3b73" : "#b5532b");
+    out += "plot ";
+    std::vector<std::string> parts;
+    for (const char* d : {"up", "down"}) {
+      const bool present = std::any_of(r.points.begin(), r.points.end(), [&](const SweepPoint& p) {
+        return std::string(to_string(p.direction)) == d;
+      });
+      if (!present) continue;
+      const bool up = std::string(d) == "up";
+      parts.push_back(fmt::format(
+          "'sweep.csv' every ::1 using 3:(strcol(1) eq '{0}' ? ${1} : NaN) with linespoints "
+          "pt {2} ps {3} lc rgb '{4}' title '{0}: {5}'",
+          d, column, up ? 7 : 6, up ? 0.4 : 0.5, up ? "#1f3b73" : "#b5532b", label));
+    }
+    if (r.unsettled > 0)
+      parts.push_back(fmt::format(
+          "'sweep.csv' every ::1 using 3:($6 == 0 && strcol(19) ne 'failed' ? ${} : NaN) with "
+          "points pt 2 ps 1.2 lc rgb 'black' title 'not settled'",
+          column));
+    if (arrows && !o.axis2 && !r.hysteresis.empty())
+      parts.emplace_back(
+          "NaN with boxes fs solid 1.0 fc rgb '#ececec' title 'up and down differ "
+          "(hysteresis)'");
+    if (arrows && !o.axis2 && !r.jumps.empty())
+      parts.emplace_back("NaN with vectors lc rgb 'gray30' title 'jump'");
+    for (std::size_t k = 0; k < parts.size(); ++k) out += (k ? ", \\\n     " : "") + parts[k];
+    return out + "\nunset arrow\n";
+  };
+  fmt::format_to(std::back_inserter(fr), "set xlabel ''\nset ylabel 'F / (b·k_m)'\n{}",
+                 curves(13, "rms F/(b·k_m)", false));
+  fmt::format_to(std::back_inserter(fr), "set xlabel '{}'\nset ylabel 'δ / b'\n{}", o.axis.key,
+                 curves(10, "peak-to-peak δ/b", true));
   fr += "unset multiplot\n";
   render_figure(dir, "frequency_response", fr, 1000, 750);
 
   // Bifurcation diagram: the stroboscopic delta_bar at every point.
-  std::string bi =
-      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set key top left font ',9'\n" +
-      xlog;
+  std::string bi = preamble + "set grid lc rgb '#dddddd'\nset key top left font ',9'\n" + xlog;
   fmt::format_to(std::back_inserter(bi),
-                 "set title 'bifurcation diagram: delta/b once per period'\nset xlabel '{}'\n"
-                 "set ylabel 'delta / b'\n"
-                 "plot 'strobe.csv' every ::1 using 2:(strcol(1) eq 'up' ? $5 : NaN) with points "
-                 "pt 7 ps 0.3 lc rgb '#1f3b73' title 'up', \\\n"
-                 "     'strobe.csv' every ::1 using 2:(strcol(1) eq 'down' ? $5 : NaN) with "
-                 "points pt 7 ps 0.3 lc rgb '#b5532b' title 'down'\n",
+                 "set title 'bifurcation diagram: δ/b once per system period'\nset xlabel '{}'\n"
+                 "set ylabel 'δ / b'\nplot ",
                  o.axis.key);
+  bool first = true;
+  for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
+    if (std::none_of(r.points.begin(), r.points.end(),
+                     [&](const SweepPoint& p) { return p.direction == d; }))
+      continue;
+    fmt::format_to(std::back_inserter(bi),
+                   "{}'strobe.csv' every ::1 using 2:(strcol(1) eq '{}' ? $5 : NaN) with points "
+                   "pt 7 ps 0.3 lc rgb '{}' title '{}'",
+                   first ? "" : ", \\\n     ", to_string(d),
+                   d == SweepDirection::kUp ? "#1f3b73" : "#b5532b", to_string(d));
+    first = false;
+  }
+  bi += "\n";
   render_figure(dir, "bifurcation", bi, 1000, 600);
 
-  if (o.axis2) {
-    std::string map = "reset\nset datafile separator ','\n" + xlog;
-    if (o.axis2->log) map += "set logscale y\n";
-    fmt::format_to(
-        std::back_inserter(map),
-        "set title 'regime map (up sweeps)'\nset xlabel '{}'\nset ylabel '{}'\n"
-        "set cbrange [-0.5:3.5]\nset cbtics ('none' 0, 'transient' 1, 'sustained' 2, "
-        "'double-sided' 3)\nset palette defined (0 '#e6f4e6', 1 '#f7e3a1', 2 '#f4a6a6', 3 "
-        "'#7b3294')\nset palette maxcolors 4\nset rmargin 16\n"
-        "regime(s, d) = (d > 0.5) ? 3 : (s eq 'none' ? 0 : (s eq 'transient' ? 1 : 2))\n"
-        "plot 'sweep.csv' every ::1 using 3:(strcol(1) eq 'up' ? $5 : NaN):(regime(strcol(19), "
-        "$20)) with points pt 5 ps 2.6 lc palette notitle\n",
-        o.axis.key, o.axis2->key);
-    render_figure(dir, "regime_map", map, 900, 700);
-  }
+  if (o.axis2) render_figure(dir, "regime_map", regime_map_body(r), 1000, 600);
 }
 
 }  // namespace geardyn

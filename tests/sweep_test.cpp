@@ -263,6 +263,39 @@ TEST(Sweep, BadOptionsAndKeysAreInputErrors) {
   EXPECT_NE(msg.find("unknown key"), std::string::npos) << msg;
 }
 
+TEST(Sweep, AMapReadsJumpsAndHysteresisRowByRow) {
+  // Each row of a map (both directions by default) is read as the 1-D sweep at that value of
+  // the second key would be: the same jumps and hysteresis, labelled with the row.
+  SweepOptions o = omega_sweep(0.3, 1.5, 25, SweepDirection::kBoth);
+  o.axis2 = SweepAxis{"model.force_alternating", 0.02, 0.06, 2, false};
+  const SweepResult map = sweep(nondimensional(0.05, 0.1, 0.1), o);
+  ASSERT_EQ(map.points.size(), 2U * 2U * 25U);
+  for (double fa : {0.02, 0.06}) {
+    SweepOptions row = omega_sweep(0.3, 1.5, 25, SweepDirection::kBoth);
+    const SweepResult line = sweep(nondimensional(0.05, 0.1, fa), row);
+    ASSERT_FALSE(line.jumps.empty()) << fa;
+    ASSERT_FALSE(line.hysteresis.empty()) << fa;
+    std::vector<const Jump*> in_row;
+    for (const Jump& j : map.jumps)
+      if (j.value2 == fa) in_row.push_back(&j);
+    ASSERT_EQ(in_row.size(), line.jumps.size()) << fa;
+    for (std::size_t i = 0; i < in_row.size(); ++i) {
+      EXPECT_EQ(in_row[i]->direction, line.jumps[i].direction);
+      EXPECT_EQ(in_row[i]->from_value, line.jumps[i].from_value);
+      EXPECT_EQ(in_row[i]->to_value, line.jumps[i].to_value);
+    }
+    std::size_t hysteresis = 0;
+    for (const Hysteresis& h : map.hysteresis)
+      if (h.value2 == fa) {
+        ASSERT_LT(hysteresis, line.hysteresis.size());
+        EXPECT_EQ(h.from_value, line.hysteresis[hysteresis].from_value);
+        EXPECT_EQ(h.to_value, line.hysteresis[hysteresis].to_value);
+        ++hysteresis;
+      }
+    EXPECT_EQ(hysteresis, line.hysteresis.size()) << fa;
+  }
+}
+
 TEST(Sweep, MapWritesItsFilesAndFigures) {
   SweepOptions o = omega_sweep(0.6, 1.4, 4, SweepDirection::kUp);
   o.axis2 = SweepAxis{"model.force_alternating", 0.05, 0.15, 3, false};

@@ -249,13 +249,18 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
         "{} = {}: {}\n",
         r.failed, r.failed == 1 ? "" : "s", o.axis.key, first->value, first->failure);
   }
+  // In a map, each line names its row.
+  const auto row = [&](double value2) {
+    return o.axis2 ? fmt::format("at {} = {:.6g}: ", o.axis2->key, value2) : std::string{};
+  };
   for (const geardyn::Hysteresis& h : r.hysteresis)
-    fmt::print("  up and down differ from {} = {:.6g} to {:.6g}\n", o.axis.key, h.from_value,
-               h.to_value);
+    fmt::print("  {}up and down differ from {} = {:.6g} to {:.6g}\n", row(h.value2), o.axis.key,
+               h.from_value, h.to_value);
   for (const geardyn::Jump& j : r.jumps)
     fmt::print(
-        "  {} sweep jumps between {:.6g} and {:.6g}: peak-to-peak delta/b {:.4g} -> {:.4g}\n",
-        geardyn::to_string(j.direction), j.from_value, j.to_value, j.before, j.after);
+        "  {}{} sweep jumps between {:.6g} and {:.6g}: peak-to-peak delta/b {:.4g} -> {:.4g}\n",
+        row(j.value2), geardyn::to_string(j.direction), j.from_value, j.to_value, j.before,
+        j.after);
   if (r.jumps.empty())
     fmt::print("  no jump found{}\n",
                o.direction == geardyn::SweepDirection::kBoth && r.hysteresis.empty()

@@ -97,13 +97,16 @@ struct SweepPoint {
 
 // Where the up and the down sweep part: the parameter interval over which their responses
 // differ (hysteresis), and the jumps that bound it.
+// In a map, each row (a value of the second key, value2) is read on its own.
 struct Hysteresis {
   double from_value = 0, to_value = 0;
+  double value2 = 0;  // the map's row (0 for a 1-D sweep)
 };
 struct Jump {
   SweepDirection direction = SweepDirection::kUp;
   double from_value = 0, to_value = 0;  // the two consecutive points between which it jumps
   double before = 0, after = 0;         // pp_delta_bar on either side
+  double value2 = 0;                    // the map's row (0 for a 1-D sweep)
 };
 
 struct SweepResult {

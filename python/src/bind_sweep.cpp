@@ -112,14 +112,19 @@ void bind_sweep(py::module_& m) {
                          py::array_t<double>(static_cast<py::ssize_t>(sf.size()), sf.data()));
         out["period_s"] = r.period_s;
         py::list jumps, hysteresis;
-        for (const Jump& j : r.jumps)
-          jumps.append(py::dict(
-              py::arg("direction") = to_string(j.direction), py::arg("from_value") = j.from_value,
-              py::arg("to_value") = j.to_value, py::arg("pp_delta_bar_before") = j.before,
-              py::arg("pp_delta_bar_after") = j.after));
-        for (const Hysteresis& h : r.hysteresis)
-          hysteresis.append(
-              py::dict(py::arg("from_value") = h.from_value, py::arg("to_value") = h.to_value));
+        for (const Jump& j : r.jumps) {
+          py::dict d(py::arg("direction") = to_string(j.direction),
+                     py::arg("from_value") = j.from_value, py::arg("to_value") = j.to_value,
+                     py::arg("pp_delta_bar_before") = j.before,
+                     py::arg("pp_delta_bar_after") = j.after);
+          if (o.axis2) d["value2"] = j.value2;
+          jumps.append(d);
+        }
+        for (const Hysteresis& h : r.hysteresis) {
+          py::dict d(py::arg("from_value") = h.from_value, py::arg("to_value") = h.to_value);
+          if (o.axis2) d["value2"] = h.value2;
+          hysteresis.append(d);
+        }
         out["jumps"] = jumps;
         out["hysteresis"] = hysteresis;
         out["cancelled"] = r.cancelled;
