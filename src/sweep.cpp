@@ -18,6 +18,7 @@
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/steady.hpp"
 #include "geardyn/stiffness.hpp"
 
 namespace geardyn {
@@ -34,74 +35,6 @@ bool changes_stiffness(const std::string& key) {
 }
 
 std::string number_text(double x) { return fmt::format("{:.17g}", x); }
-
-// The section state scaled for the steadiness test: delta / b and delta' / (b w_n).
-struct SectionState {
-  double delta, velocity;
-};
-
-double norm(const SectionState& a) { return std::max(std::abs(a.delta), std::abs(a.velocity)); }
-
-SectionState minus(const SectionState& u, const SectionState& v) {
-  return {u.delta - v.delta, u.velocity - v.velocity};
-}
-
-// The prediction is an estimate (a fitted rate): within a factor 2 of the true distance in the
-// tests (Sweep.ThePredictedDistanceBoundsTheTrueOne), so a point is steady when it is under
-// half the tolerance.
-constexpr double kPredictionSafety = 0.5;
-
-// A response settled as period q is of period d (a divisor of q) when its section states d
-// periods apart differ by at most this many tolerances (two distances to the same fixed point
-// and their error).
-constexpr double kDivisorSlack = 3.0;
-
-// The smallest residual floor: rounding of delta / b ~ 1 over a period's arithmetic.
-constexpr double kResidualFloor = 1e-12;
-
-// Residuals whose directions are this close to parallel (the sine of their angle) are one
-// real mode: the rate is then their length ratio.
-constexpr double kParallelResiduals = 1e-6;
-
-// The predicted distance of the latest section state x.back() to the period-q response.
-// Near a hyperbolic periodic response the q-period map is affine, x_(j+q) - x* = M (x_j - x*),
-// so its residuals d_j = x_j - x_(j-q) obey d_(j+q) = M d_j: M is fitted from the last three
-// residuals (two equations for its four entries each), and the distance is the rest of the
-// geometric series, x_j - x* = M (M - I)^-1 d_j. Infinite while M's spectral radius is not
-// below 1 or there is too little history; the residual itself when it is at the floor of the
-// integration's precision (`floor`), where no rate can be read.
-double predicted_error(const std::vector<SectionState>& x, int q, double floor) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  const auto n = static_cast<std::ptrdiff_t>(x.size());
-  const auto p = static_cast<std::ptrdiff_t>(q);
-  if (n < 3 * p + 1) return kInf;
-  const auto at = [&](std::ptrdiff_t back) { return x[static_cast<std::size_t>(n - 1 - back)]; };
-  const SectionState dc = minus(at(0), at(p)), db = minus(at(p), at(2 * p)),
-                     da = minus(at(2 * p), at(3 * p));
-  if (norm(dc) <= floor) return norm(dc);
-  // A = [da db], B = [db dc], M = B A^-1.
-  const double det = da.delta * db.velocity - db.delta * da.velocity;
-  const double la = std::hypot(da.delta, da.velocity), lb = std::hypot(db.delta, db.velocity);
-  if (!(la > 0 && lb > 0)) return kInf;
-  if (std::abs(det) <= kParallelResiduals * la * lb) {
-    const double rho = std::max(norm(dc) / norm(db), norm(db) / norm(da));
-    return rho < 1 ? norm(dc) * rho / (1 - rho) : kInf;
-  }
-  const double m11 = (db.delta * db.velocity - dc.delta * da.velocity) / det;
-  const double m12 = (dc.delta * da.delta - db.delta * db.delta) / det;
-  const double m21 = (db.velocity * db.velocity - dc.velocity * da.velocity) / det;
-  const double m22 = (dc.velocity * da.delta - db.velocity * db.delta) / det;
-  // Spectral radius of the 2x2 M from its trace and determinant.
-  const double tr = m11 + m22, dm = m11 * m22 - m12 * m21, disc = tr * tr / 4 - dm;
-  const double rho = disc >= 0 ? std::abs(tr / 2) + std::sqrt(disc) : std::sqrt(std::max(dm, 0.0));
-  if (!(rho < 1)) return kInf;
-  // e = M (M - I)^-1 dc.
-  const double a11 = m11 - 1, a22 = m22 - 1, da_ = a11 * a22 - m12 * m21;
-  const double y1 = (a22 * dc.delta - m12 * dc.velocity) / da_;
-  const double y2 = (a11 * dc.velocity - m21 * dc.delta) / da_;
-  const SectionState e{m11 * y1 + m12 * y2, m21 * y1 + m22 * y2};
-  return std::max(norm(e), floor);
-}
 
 struct PointJob {
   std::size_t slot;  // index into the result's points
@@ -170,46 +103,24 @@ class PointRunner {
     // Settle period by period on the section, until the predicted distance to a periodic
     // response is below the tolerance or the periods run out.
     const GearPairParameters& p = model.parameters();
-    const double b = p.backlash_m, bw = b * p.natural_angular_frequency_rad_s();
-    std::vector<SectionState> section{{s.q / b, s.v / bw}};
-    // Residuals below this are the integration's noise (its tolerance, relative to b).
-    const double floor = std::max(kResidualFloor, c.solver.tolerance);
-    // The smallest multiple q that is steady (0: none) and the smallest predicted error.
-    const auto judge = [&] {
-      std::pair<int, double> best{0, std::numeric_limits<double>::infinity()};
-      for (int q = 1; q <= kMaxSettledMultiple; ++q) {
-        const double e = predicted_error(section, q, floor);
-        if (e <= kPredictionSafety * o_.steady_tolerance) {
-          // The q-map's fixed point may be of a shorter period d (a divisor of q) whose own
-          // rate read slower: then its section states d periods apart are as close as the
-          // error allows.
-          for (int d = 1; d < q; ++d)
-            if (q % d == 0 &&
-                norm(minus(section.back(),
-                           section[section.size() - 1 - static_cast<std::size_t>(d)])) <=
-                    kDivisorSlack * o_.steady_tolerance)
-              return std::pair<int, double>{d, e};
-          return std::pair<int, double>{q, e};
-        }
-        best.second = std::min(best.second, e);
-      }
-      return best;
-    };
+    const double b = p.backlash_m;
+    SectionSeries section(b, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
+    section.add(s);
     int k = 0;
-    std::pair<int, double> verdict{0, std::numeric_limits<double>::infinity()};
+    SteadyVerdict verdict;
     for (;; ++k) {
       if (k >= o_.settle_periods) {
-        verdict = judge();
-        if (verdict.first) break;
+        verdict = section.judge(o_.steady_tolerance);
+        if (verdict.settled()) break;
       }
       if (k >= o_.max_settle_periods) break;
       const auto sum = solver.advance(s, s.t + period);
       if (!sum.ok()) return fail(sum);
       s = sum.end_state;
-      section.push_back({s.q / b, s.v / bw});
+      section.add(s);
     }
-    const int q_settled = verdict.first;
-    const double error = verdict.second;
+    const int q_settled = verdict.period_multiple;
+    const double error = verdict.error;
     // Measure whole response periods: at least --measure-periods, a multiple of q.
     const int q = std::max(q_settled, 1);
     const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;

@@ -16,6 +16,7 @@
 
 #include "geardyn/analysis.hpp"
 #include "geardyn/case.hpp"
+#include "geardyn/steady.hpp"
 
 namespace geardyn {
 
@@ -34,10 +35,6 @@ struct SweepAxis {
 enum class SweepDirection { kUp, kDown, kBoth };
 const char* to_string(SweepDirection d);
 
-// The largest period multiple q a sweep point is tested for (period-q responses settle as such;
-// longer ones, quasi-periodic and chaotic responses are flagged not settled).
-constexpr int kMaxSettledMultiple = 8;
-
 struct SweepOptions {
   SweepAxis axis;
   std::optional<SweepAxis> axis2;  // a 2-D map: each value of axis2 is a row swept along axis
@@ -53,7 +50,7 @@ struct SweepOptions {
   // at which they shrink (the q-period map, fitted near the response from the last three)
   // extrapolates the rest as a geometric series; a point is steady when the prediction is
   // under half the tolerance (the prediction is within a factor 2 of the truth in the tests).
-  double steady_tolerance = 1e-6;
+  double steady_tolerance = kSteadyTolerance;
   // Where each up and down sequence starts (and restarts after a failed point): from static
   // contact (the default: the up sweep climbs the contact branch into the resonance, the down
   // sweep descends it, so the jumps and the hysteresis between them show) or from the case's

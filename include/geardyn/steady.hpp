@@ -1,0 +1,67 @@
+// geardyn: when a response is steady, judged on a stroboscopic section.
+//
+// A response of the gear model settles onto a periodic response of period q T0 (T0 the system
+// period, model.hpp's system_period_s). Its state on the section t = k T0 tells how far it
+// still is: near a hyperbolic periodic response the q-period map is affine,
+// x_(j+q) - x* = M (x_j - x*), so the Poincare residuals d_j = x_j - x_(j-q) obey
+// d_(j+q) = M d_j. M is fitted from the last three residuals, its spectral radius is the rate at
+// which the transient decays, and the distance left is the rest of the geometric series,
+// x_j - x* = M (M - I)^-1 d_j. Two similar stretches of a response are no such evidence: a
+// lightly damped transient changes little from one period to the next and is still far off.
+// Sweeps settle their points with it; runs find their steady part with it.
+#pragma once
+
+#include <limits>
+#include <vector>
+
+#include "geardyn/integrator.hpp"
+
+namespace geardyn {
+
+// The largest period multiple q tested (period-q responses settle as such; longer ones,
+// quasi-periodic and chaotic responses do not).
+constexpr int kMaxSettledMultiple = 8;
+
+// The default tolerance on the distance to the periodic response, in b (delta) and b w_n
+// (delta').
+constexpr double kSteadyTolerance = 1e-6;
+
+struct SteadyVerdict {
+  int period_multiple = 0;  // q of the periodic response reached; 0: not steady
+  // The predicted distance to it (of the smallest q tried when not steady); infinite when no
+  // decay was seen.
+  double error = std::numeric_limits<double>::infinity();
+  bool settled() const { return period_multiple > 0; }
+};
+
+// The section states of one response, scaled: delta / b and delta' / (b w_n).
+class SectionSeries {
+ public:
+  // `integration_tolerance` (the case's solver.tolerance, relative to b) is the noise below
+  // which residuals count as zero (at least 1e-12).
+  SectionSeries(double backlash_m, double omega_n_rad_s, double integration_tolerance);
+
+  // The state at the next section time, k T0.
+  void add(const ode::State& s);
+  std::size_t size() const { return x_.size(); }
+
+  // Steady when the predicted distance of the latest state is under half the tolerance (the
+  // prediction is an estimate: within a factor 2 of the true distance in the tests, sweep_test
+  // ThePredictedDistanceBoundsTheTrueOne), for the smallest q in 1..kMaxSettledMultiple; a
+  // q-periodic fixed point that is of a shorter period d (a divisor of q) is reported as d.
+  SteadyVerdict judge(double tolerance) const;
+
+  // The predicted distance of the latest state to the period-q response (see the file
+  // comment): infinite while the fitted rate is not below 1 or there are fewer than 3 q + 1
+  // states; the residual itself when it is at the integration's noise.
+  double predicted_error(int q) const;
+
+ private:
+  struct Point {
+    double delta, velocity;
+  };
+  double b_, bw_, floor_;
+  std::vector<Point> x_;
+};
+
+}  // namespace geardyn

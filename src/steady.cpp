@@ -1,0 +1,93 @@
+#include "geardyn/steady.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+
+namespace geardyn {
+namespace {
+
+// The smallest residual floor: rounding of delta / b ~ 1 over a period's arithmetic.
+constexpr double kResidualFloor = 1e-12;
+
+// The prediction is an estimate (a fitted rate), so a response is steady when it is under
+// this fraction of the tolerance.
+constexpr double kPredictionSafety = 0.5;
+
+// A response steady as period q is of period d (a divisor of q) when its section states d
+// periods apart differ by at most this many tolerances (two distances to the same fixed point
+// and their error).
+constexpr double kDivisorSlack = 3.0;
+
+// Residuals whose directions are this close to parallel (the sine of their angle) are one
+// real mode: the rate is then their length ratio.
+constexpr double kParallelResiduals = 1e-6;
+
+}  // namespace
+
+SectionSeries::SectionSeries(double backlash_m, double omega_n_rad_s, double integration_tolerance)
+    : b_(backlash_m),
+      bw_(backlash_m * omega_n_rad_s),
+      floor_(std::max(kResidualFloor, integration_tolerance)) {}
+
+void SectionSeries::add(const ode::State& s) { x_.push_back({s.q / b_, s.v / bw_}); }
+
+double SectionSeries::predicted_error(int q) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const auto norm = [](const Point& a) {
+    return std::max(std::abs(a.delta), std::abs(a.velocity));
+  };
+  const auto n = static_cast<std::ptrdiff_t>(x_.size());
+  const auto p = static_cast<std::ptrdiff_t>(q);
+  if (n < 3 * p + 1) return kInf;
+  const auto residual = [&](std::ptrdiff_t back) {  // x_(n-1-back) - x_(n-1-back-q)
+    const Point& u = x_[static_cast<std::size_t>(n - 1 - back)];
+    const Point& v = x_[static_cast<std::size_t>(n - 1 - back - p)];
+    return Point{u.delta - v.delta, u.velocity - v.velocity};
+  };
+  const Point dc = residual(0), db = residual(p), da = residual(2 * p);
+  if (norm(dc) <= floor_) return norm(dc);
+  // A = [da db], B = [db dc], M = B A^-1.
+  const double det = da.delta * db.velocity - db.delta * da.velocity;
+  const double la = std::hypot(da.delta, da.velocity), lb = std::hypot(db.delta, db.velocity);
+  if (!(la > 0 && lb > 0)) return kInf;
+  if (std::abs(det) <= kParallelResiduals * la * lb) {
+    const double rho = std::max(norm(dc) / norm(db), norm(db) / norm(da));
+    return rho < 1 ? norm(dc) * rho / (1 - rho) : kInf;
+  }
+  const double m11 = (db.delta * db.velocity - dc.delta * da.velocity) / det;
+  const double m12 = (dc.delta * da.delta - db.delta * db.delta) / det;
+  const double m21 = (db.velocity * db.velocity - dc.velocity * da.velocity) / det;
+  const double m22 = (dc.velocity * da.delta - db.velocity * db.delta) / det;
+  // The spectral radius of the 2x2 M from its trace and determinant.
+  const double tr = m11 + m22, dm = m11 * m22 - m12 * m21, disc = tr * tr / 4 - dm;
+  const double rho = disc >= 0 ? std::abs(tr / 2) + std::sqrt(disc) : std::sqrt(std::max(dm, 0.0));
+  if (!(rho < 1)) return kInf;
+  // e = M (M - I)^-1 dc.
+  const double a11 = m11 - 1, a22 = m22 - 1, d = a11 * a22 - m12 * m21;
+  const double y1 = (a22 * dc.delta - m12 * dc.velocity) / d;
+  const double y2 = (a11 * dc.velocity - m21 * dc.delta) / d;
+  return std::max(norm({m11 * y1 + m12 * y2, m21 * y1 + m22 * y2}), floor_);
+}
+
+SteadyVerdict SectionSeries::judge(double tolerance) const {
+  SteadyVerdict best;
+  for (int q = 1; q <= kMaxSettledMultiple; ++q) {
+    const double e = predicted_error(q);
+    if (e <= kPredictionSafety * tolerance) {
+      const Point& last = x_.back();
+      for (int d = 1; d < q; ++d) {
+        const Point& back = x_[x_.size() - 1 - static_cast<std::size_t>(d)];
+        if (q % d == 0 &&
+            std::max(std::abs(last.delta - back.delta), std::abs(last.velocity - back.velocity)) <=
+                kDivisorSlack * tolerance)
+          return {d, e};
+      }
+      return {q, e};
+    }
+    best.error = std::min(best.error, e);
+  }
+  return best;
+}
+
+}  // namespace geardyn
