@@ -57,6 +57,10 @@ double system_period_s(const GearPairParameters& p) {
                   kMaxPeriodRatio, w_min));
 }
 
+double section_period_s(const GearPairParameters& p) {
+  return varies_in_time(p) ? system_period_s(p) : kTwoPi / p.natural_angular_frequency_rad_s();
+}
+
 GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
                                         const HarmonicSeries& stiffness_n_per_m) {
   GearPairParameters p;

@@ -21,6 +21,29 @@ nlohmann::json finite_or_null(double x) {
   return nullptr;
 }
 
+// The keys of a reading (over the whole window, or over the steady part).
+nlohmann::json reading_json(const RunReading& x) {
+  return {
+      {"regime", to_string(x.regime)},
+      {"double_sided", x.double_sided},
+      {"impacts", x.impacts},
+      {"backside_impacts", x.backside_impacts},
+      {"separations", x.separations},
+      {"last_separation_s", optional_number(x.last_separation_s)},
+      {"separated_fraction", x.separated_fraction},
+      {"max_impact_velocity_m_s", x.max_impact_velocity_m_s},
+      {"max_force_bar", finite_or_null(x.max_force_bar)},
+      {"min_force_bar", finite_or_null(x.min_force_bar)},
+      {"mean_force_bar", x.mean_force_bar},
+      {"rms_force_bar", x.rms_force_bar},
+      {"max_delta_bar", finite_or_null(x.max_delta_bar)},
+      {"min_delta_bar", finite_or_null(x.min_delta_bar)},
+      {"mean_delta_bar", x.mean_delta_bar},
+      {"rms_delta_bar", x.rms_delta_bar},
+      {"dynamic_factor", optional_number(x.dynamic_factor)},
+  };
+}
+
 }  // namespace
 
 std::string geometry_json(const Geometry& g) {
@@ -60,23 +83,16 @@ std::string summary_json(const RunResult& r, int indent) {
   j["case"] = r.input.name;
   j["termination"] = ode::to_string(r.integration.termination);
   j["message"] = r.integration.message;
-  j["regime"] = to_string(x.regime);
-  j["double_sided"] = x.double_sided;
-  j["impacts"] = x.impacts;
-  j["backside_impacts"] = x.backside_impacts;
-  j["separations"] = x.separations;
-  j["last_separation_s"] = optional_number(x.last_separation_s);
-  j["separated_fraction"] = x.separated_fraction;
-  j["max_impact_velocity_m_s"] = x.max_impact_velocity_m_s;
-  j["max_force_bar"] = finite_or_null(x.max_force_bar);
-  j["min_force_bar"] = finite_or_null(x.min_force_bar);
-  j["mean_force_bar"] = x.mean_force_bar;
-  j["rms_force_bar"] = x.rms_force_bar;
-  j["max_delta_bar"] = finite_or_null(x.max_delta_bar);
-  j["min_delta_bar"] = finite_or_null(x.min_delta_bar);
-  j["mean_delta_bar"] = x.mean_delta_bar;
-  j["rms_delta_bar"] = x.rms_delta_bar;
-  j["dynamic_factor"] = optional_number(x.dynamic_factor);
+  j.update(reading_json(x));
+  // The dynamic factor is the steady one; the whole window's, start-up included, beside it.
+  j["dynamic_factor"] = optional_number(r.steady.reading.dynamic_factor);
+  j["dynamic_factor_with_startup"] = optional_number(x.dynamic_factor);
+  nlohmann::json steady = reading_json(r.steady.reading);
+  steady["basis"] = to_string(r.steady.basis);
+  steady["from_s"] = r.steady.from_s;
+  steady["period_multiple"] = r.steady.period_multiple;
+  steady["steady_error"] = finite_or_null(r.steady.error);
+  j["steady"] = steady;
   j["steps"] = r.integration.steps;
   j["transitions"] = r.integration.transitions;
   j["unsplit_steps"] = r.integration.unsplit_steps;

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <optional>
 
 #include "geardyn/stiffness.hpp"
 
@@ -151,6 +153,74 @@ ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s)
   return s;
 }
 
+const char* to_string(SteadyBasis b) {
+  switch (b) {
+    case SteadyBasis::kSettled:
+      return "settled";
+    case SteadyBasis::kNotSettled:
+      return "not_settled";
+    case SteadyBasis::kAperiodic:
+      return "aperiodic";
+  }
+  return "?";
+}
+
+namespace {
+
+// The steady part of a run over [t0, t1] from `initial`: the response is followed on the section
+// t = k T0 until steady (steady.hpp, to kSteadyTolerance), leaving at least one period to read;
+// without a steady state, the final half. Its readings are taken by integrating the part again
+// (exact extremes, as the whole run's).
+SteadyPart read_steady_part(const Case& c, const GearPairModel& model, const ode::State& initial,
+                            double t0, double t1, double output_interval_s) {
+  SteadyPart part;
+  const GearPairParameters& p = model.parameters();
+  double period = 0;
+  try {
+    period = section_period_s(p);
+  } catch (const InputError&) {
+    part.basis = SteadyBasis::kAperiodic;
+  }
+  part.error = std::numeric_limits<double>::infinity();
+  std::optional<ode::State> from;
+  if (period > 0) {
+    const Solver solver(model, c.solver, period);
+    SectionSeries x(p.backlash_m, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
+    ode::State s = initial;
+    x.add(s);
+    for (;;) {
+      const SteadyVerdict v = x.judge(kSteadyTolerance);
+      part.error = v.error;
+      if (v.settled()) {
+        part.basis = SteadyBasis::kSettled;
+        part.period_multiple = v.period_multiple;
+        from = s;
+        break;
+      }
+      if (s.t + 2 * period > t1) break;  // a steady part holds at least one period
+      const auto sum = solver.advance(s, s.t + period);
+      if (!sum.ok()) break;  // the run itself reports the failure
+      s = sum.end_state;
+      x.add(s);
+    }
+  }
+  if (!from) {
+    const double t_half = t1 - kSteadyFraction * (t1 - t0);
+    const auto sum = Solver(model, c.solver, t_half - t0).advance(initial, t_half);
+    if (!sum.ok()) return part;
+    from = sum.end_state;
+  }
+  part.from_s = from->t;
+  RunReader reader(model, from->t, t1, /*final_fraction=*/1.0, /*keep_events=*/false,
+                   /*keep_samples=*/false);
+  const Solver solver(model, c.solver, t1 - from->t);
+  solver.run(*from, t1, ode::make_output_grid(from->t, t1, output_interval_s), reader);
+  part.reading = reader.reading();
+  return part;
+}
+
+}  // namespace
+
 void compute_spectra(RunResult& r) {
   const Timeseries& ts = r.samples;
   std::size_t first = 0;
@@ -205,7 +275,12 @@ RunResult run(const Case& c, const RunOptions& options) {
   result.reading = reader.reading();
   result.events = reader.events();
   result.samples = std::move(reader.samples());
-  result.steady_start_s = t1 - kSteadyFraction * (t1 - t0);
+  if (result.integration.ok()) {
+    result.steady = read_steady_part(c, model, initial, t0, t1, d.output_interval_s);
+    result.steady_start_s = result.steady.from_s;
+  } else {
+    result.steady_start_s = t1 - kSteadyFraction * (t1 - t0);
+  }
   compute_spectra(result);
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -11,7 +11,6 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <numbers>
 #include <stdexcept>
 #include <thread>
 
@@ -23,8 +22,6 @@
 
 namespace geardyn {
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // Keys whose change changes the mesh stiffness curve: with any other swept key the energy method
 // runs once for the whole sweep.
@@ -61,8 +58,7 @@ class PointRunner {
   // period of every excitation), or, when nothing varies in time, the linearised contact period
   // (any period shows rest).
   static double period_s(const GearPairModel& model) {
-    const GearPairParameters& p = model.parameters();
-    return varies_in_time(p) ? system_period_s(p) : kTwoPi / p.natural_angular_frequency_rad_s();
+    return section_period_s(model.parameters());
   }
   double period_at(double value, double value2) const {
     return period_s(

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "geardyn/orbit.hpp"
 #include "geardyn/run.hpp"
 
 namespace geardyn {
@@ -77,9 +80,59 @@ TEST(RunReader, NeverSeparatedIsNone) {
   EXPECT_EQ(r.regime, Regime::kNone);
   EXPECT_EQ(r.separations, 0);
   EXPECT_FALSE(r.last_separation_s.has_value());
-  // Steady mesh force over the static one is the dynamic factor.
+  // The largest mesh force met over the static one is the dynamic factor.
+  const double b = s.b;
+  const double largest =
+      std::max(s.model.mesh_force(s.model.drive(0.5), 1.01 * b, 0.0, kDriveContact),
+               s.model.mesh_force(s.model.drive(1.0), 1.01 * b, 0.0, kDriveClipped));
   ASSERT_TRUE(r.dynamic_factor.has_value());
-  EXPECT_GT(*r.dynamic_factor, 0);
+  EXPECT_DOUBLE_EQ(*r.dynamic_factor, largest / s.model.parameters().static_mesh_force_n());
+}
+
+TEST(Run, TheDynamicFactorIsTheSteadyOneWithTheStartUpBeside) {
+  // At f1 = 10 kHz the teeth rattle while the start from rest mid-backlash dies out, then stay
+  // in contact: the whole window's dynamic factor (9.1) is the start-up's; the steady part,
+  // from where the response is periodic to 1e-6 b, reads the periodic orbit's.
+  Case c;
+  c.speed.shaft_frequency_hz = 10000;
+  const RunResult r = run(c);
+  ASSERT_TRUE(r.integration.ok());
+  const SteadyPart& st = r.steady;
+  EXPECT_EQ(st.basis, SteadyBasis::kSettled);
+  EXPECT_EQ(st.period_multiple, 1);
+  EXPECT_LE(st.error, 0.5 * kSteadyTolerance);
+  EXPECT_EQ(r.reading.regime, Regime::kTransient);
+  EXPECT_GT(st.from_s, *r.reading.last_separation_s);
+  EXPECT_EQ(st.reading.regime, Regime::kNone);
+  EXPECT_EQ(st.reading.impacts, 0);
+  EXPECT_GT(*r.reading.dynamic_factor, 9.0);
+  OrbitOptions o;
+  o.settle_periods = 600;  // past the start-up (the run settles after some 480 periods)
+  const Orbit orbit = find_orbit(c, o);
+  ASSERT_TRUE(orbit.converged) << orbit.message;
+  EXPECT_NEAR(st.reading.max_force_bar, orbit.reading.max_force_bar, 1e-5);
+  EXPECT_NEAR(st.reading.min_delta_bar, orbit.reading.min_delta_bar, 1e-5);
+  EXPECT_NEAR(*st.reading.dynamic_factor,
+              *r.reading.dynamic_factor * st.reading.max_force_bar / r.reading.max_force_bar,
+              1e-12);
+  EXPECT_LT(*st.reading.dynamic_factor, 1.1);
+  EXPECT_EQ(r.steady_start_s, st.from_s);  // the spectra are of the steady part
+}
+
+TEST(Run, WithoutASteadyStateTheFinalHalfIsReadAndSaidSo) {
+  Case c;
+  c.speed.shaft_frequency_hz = 100;
+  c.mesh.backlash_um = 150;
+  const RunResult r = run(c);
+  EXPECT_EQ(r.steady.basis, SteadyBasis::kNotSettled);
+  EXPECT_DOUBLE_EQ(r.steady.from_s, 0.5 * c.solver.duration_s);
+  EXPECT_GT(r.steady.error, 0.5 * kSteadyTolerance);
+  // Torque order sqrt(2) against 56 teeth: no common period, no section.
+  c.load.fluctuation_order = std::sqrt(2.0);
+  c.speed.shaft_frequency_hz = 1000;
+  const RunResult q = run(c);
+  EXPECT_EQ(q.steady.basis, SteadyBasis::kAperiodic);
+  EXPECT_DOUBLE_EQ(q.steady.from_s, 0.5 * c.solver.duration_s);
 }
 
 TEST(RunReader, StaticStartStaysInContactWithDynamicFactorOne) {

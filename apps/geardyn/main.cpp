@@ -128,7 +128,31 @@ void print_run_summary(const geardyn::RunResult& r) {
              x.min_force_bar, x.max_force_bar, x.mean_force_bar, x.rms_force_bar);
   fmt::print("  delta_bar         min {:.5g}  max {:.5g}  mean {:.5g}\n", x.min_delta_bar,
              x.max_delta_bar, x.mean_delta_bar);
-  fmt::print("  dynamic factor    {}\n", fmt_optional(x.dynamic_factor, ""));
+  const geardyn::SteadyPart& st = r.steady;
+  const geardyn::RunReading& y = st.reading;
+  switch (st.basis) {
+    case geardyn::SteadyBasis::kSettled:
+      fmt::print("  steady part       from t = {:.6g} s: periodic (period {} x T0) to {:.2g} b\n",
+                 st.from_s, st.period_multiple, st.error);
+      break;
+    case geardyn::SteadyBasis::kNotSettled:
+      fmt::print(
+          "  steady part       not reached in the window (distance {:.2g} b): the final half, "
+          "from t = {:.6g} s\n",
+          st.error, st.from_s);
+      break;
+    case geardyn::SteadyBasis::kAperiodic:
+      fmt::print(
+          "  steady part       the excitations have no common period: the final half, from t = "
+          "{:.6g} s\n",
+          st.from_s);
+      break;
+  }
+  fmt::print("    regime          {}, {} impacts, F_bar max {:.5g}, delta_bar {:.5g} to {:.5g}\n",
+             geardyn::to_string(y.regime), y.impacts, y.max_force_bar, y.min_delta_bar,
+             y.max_delta_bar);
+  fmt::print("  dynamic factor    {} (steady part; with the start-up {})\n",
+             fmt_optional(y.dynamic_factor, ""), fmt_optional(x.dynamic_factor, ""));
   fmt::print("  steps             {} ({} transitions located){}, {:.3g} s wall\n",
              r.integration.steps, r.integration.transitions,
              d.time_step_s > 0 ? fmt::format(", dt = {:.4g} s", d.time_step_s) : "", r.wall_time_s);

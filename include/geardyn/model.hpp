@@ -75,6 +75,11 @@ bool varies_in_time(const GearPairParameters& p);
 // excitation (quasi-periodic forcing).
 double system_period_s(const GearPairParameters& p);
 
+// The period stroboscopic sections are taken at: system_period_s, or, when nothing varies in
+// time, the linearised contact period 2 pi / w_n (any period shows rest). Throws InputError for
+// quasi-periodic forcing.
+double section_period_s(const GearPairParameters& p);
+
 // The non-dimensional form ([model] form = "nondimensional"): m = 1, b = 1, cos(beta_b) = 1,
 // k(tau) = 1 + sum_i kappa_i cos(i Omega tau + phi_i), c = 2 zeta acting at all times,
 // F(tau) = F_m + F_a cos(Omega tau).

@@ -15,6 +15,7 @@
 #include "geardyn/integrator.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/spectrum.hpp"
+#include "geardyn/steady.hpp"
 #include "geardyn/stiffness.hpp"
 
 namespace geardyn {
@@ -57,6 +58,26 @@ struct RunOptions {
   std::function<bool(double)> progress;
 };
 
+// Where a run's steady part starts, and why.
+enum class SteadyBasis {
+  kSettled,     // the response reached its periodic response (steady.hpp) at from_s
+  kNotSettled,  // no steady state within the window: the final half is read
+  kAperiodic,   // the excitations have no common period: the final half is read
+};
+const char* to_string(SteadyBasis b);
+
+// The readings over the steady part of a run, [from_s, t1]: the start-up transient (from rest
+// mid-backlash, or from static contact) left out.
+struct SteadyPart {
+  SteadyBasis basis = SteadyBasis::kNotSettled;
+  double from_s = 0;
+  int period_multiple = 0;  // of the periodic response, in system periods (kSettled)
+  // The predicted distance to the periodic response at from_s (b, b w_n; steady.hpp);
+  // infinite when no decay was seen.
+  double error = 0;
+  RunReading reading;  // its regime: separated anywhere in the part or not
+};
+
 struct RunResult {
   Case input;
   Geometry geometry;
@@ -65,7 +86,9 @@ struct RunResult {
   RunReading reading;
   std::vector<ContactEvent> events;
   Timeseries samples;
-  // Spectra of F_bar and delta_bar over the steady part (t >= steady_start_s) of the samples.
+  SteadyPart steady;
+  // Spectra of F_bar and delta_bar over the steady part (t >= steady_start_s = steady.from_s)
+  // of the samples.
   double steady_start_s = 0;
   Spectrum force_spectrum, delta_spectrum;
   std::vector<SpectralPeak> force_peaks, delta_peaks;

@@ -53,14 +53,38 @@ std::optional<double> to_optional(const py::handle& x) {
   return x.cast<double>();
 }
 
-constexpr int kPickleVersion = 1;
+py::tuple reading_state(const RunReading& g) {
+  return py::make_tuple(static_cast<int>(g.regime), g.double_sided, g.impacts, g.backside_impacts,
+                        g.separations, optional_float(g.last_separation_s), g.separated_fraction,
+                        g.max_impact_velocity_m_s, g.max_force_bar, g.min_force_bar,
+                        g.mean_force_bar, g.rms_force_bar, g.max_delta_bar, g.min_delta_bar,
+                        g.mean_delta_bar, g.rms_delta_bar, optional_float(g.dynamic_factor));
+}
+
+RunReading reading_from(const py::tuple& g) {
+  RunReading a;
+  a.regime = static_cast<Regime>(g[0].cast<int>());
+  a.double_sided = g[1].cast<bool>();
+  a.impacts = g[2].cast<std::int64_t>();
+  a.backside_impacts = g[3].cast<std::int64_t>();
+  a.separations = g[4].cast<std::int64_t>();
+  a.last_separation_s = to_optional(g[5]);
+  double* reading[] = {&a.separated_fraction, &a.max_impact_velocity_m_s, &a.max_force_bar,
+                       &a.min_force_bar,      &a.mean_force_bar,          &a.rms_force_bar,
+                       &a.max_delta_bar,      &a.min_delta_bar,           &a.mean_delta_bar,
+                       &a.rms_delta_bar};
+  for (std::size_t k = 0; k < std::size(reading); ++k) *reading[k] = g[6 + k].cast<double>();
+  a.dynamic_factor = to_optional(g[16]);
+  return a;
+}
+
+constexpr int kPickleVersion = 2;
 
 // Every field of a result but the geometry and the spectra, which are derived again on
 // unpickling (from the case and from the samples) with the same code, hence the same digits.
 py::tuple pickled(const RunResult& r) {
   const Derived& d = r.derived;
   const ode::IntegrationSummary& i = r.integration;
-  const RunReading& g = r.reading;
   std::vector<double> event_t, event_v;
   std::vector<int> event_kind;
   for (const ContactEvent& e : r.events) {
@@ -78,19 +102,16 @@ py::tuple pickled(const RunResult& r) {
       py::make_tuple(static_cast<int>(i.termination), i.message, i.steps, i.transitions,
                      i.unsplit_steps, i.end_time_s, i.end_state.t, i.end_state.q, i.end_state.v,
                      i.end_state.a, i.end_state.region),
-      py::make_tuple(static_cast<int>(g.regime), g.double_sided, g.impacts, g.backside_impacts,
-                     g.separations, optional_float(g.last_separation_s), g.separated_fraction,
-                     g.max_impact_velocity_m_s, g.max_force_bar, g.min_force_bar, g.mean_force_bar,
-                     g.rms_force_bar, g.max_delta_bar, g.min_delta_bar, g.mean_delta_bar,
-                     g.rms_delta_bar, optional_float(g.dynamic_factor)),
-      py::make_tuple(owned(event_t), owned(event_kind), owned(event_v)),
+      reading_state(r.reading), py::make_tuple(owned(event_t), owned(event_kind), owned(event_v)),
       py::make_tuple(owned(s.t_s), owned(s.delta_bar), owned(s.velocity_m_s), owned(s.force_bar),
                      owned(s.contact)),
-      r.steady_start_s, r.wall_time_s);
+      r.steady_start_s, r.wall_time_s,
+      py::make_tuple(static_cast<int>(r.steady.basis), r.steady.from_s, r.steady.period_multiple,
+                     r.steady.error, reading_state(r.steady.reading)));
 }
 
 RunResult unpickled(const py::tuple& t) {
-  if (t.size() != 9 || t[0].cast<int>() != kPickleVersion)
+  if (t.size() != 10 || t[0].cast<int>() != kPickleVersion)
     throw InputError("a pickled geardyn.RunResult of another layout (version " +
                      std::to_string(kPickleVersion) + " expected)");
   RunResult r;
@@ -122,20 +143,7 @@ RunResult unpickled(const py::tuple& t) {
   s.end_time_s = i[5].cast<double>();
   s.end_state = {i[6].cast<double>(), i[7].cast<double>(), i[8].cast<double>(), i[9].cast<double>(),
                  i[10].cast<int>()};
-  const auto g = t[4].cast<py::tuple>();
-  RunReading& a = r.reading;
-  a.regime = static_cast<Regime>(g[0].cast<int>());
-  a.double_sided = g[1].cast<bool>();
-  a.impacts = g[2].cast<std::int64_t>();
-  a.backside_impacts = g[3].cast<std::int64_t>();
-  a.separations = g[4].cast<std::int64_t>();
-  a.last_separation_s = to_optional(g[5]);
-  double* reading[] = {&a.separated_fraction, &a.max_impact_velocity_m_s, &a.max_force_bar,
-                       &a.min_force_bar,      &a.mean_force_bar,          &a.rms_force_bar,
-                       &a.max_delta_bar,      &a.min_delta_bar,           &a.mean_delta_bar,
-                       &a.rms_delta_bar};
-  for (std::size_t k = 0; k < std::size(reading); ++k) *reading[k] = g[6 + k].cast<double>();
-  a.dynamic_factor = to_optional(g[16]);
+  r.reading = reading_from(t[4].cast<py::tuple>());
   const auto e = t[5].cast<py::tuple>();
   const auto et = to_vector<double>(e[0]), ev = to_vector<double>(e[2]);
   const auto ek = to_vector<int>(e[1]);
@@ -146,6 +154,12 @@ RunResult unpickled(const py::tuple& t) {
                to_vector<double>(c[3]), to_vector<int>(c[4])};
   r.steady_start_s = t[7].cast<double>();
   r.wall_time_s = t[8].cast<double>();
+  const auto st = t[9].cast<py::tuple>();
+  r.steady.basis = static_cast<SteadyBasis>(st[0].cast<int>());
+  r.steady.from_s = st[1].cast<double>();
+  r.steady.period_multiple = st[2].cast<int>();
+  r.steady.error = st[3].cast<double>();
+  r.steady.reading = reading_from(st[4].cast<py::tuple>());
   compute_spectra(r);
   return r;
 }
