@@ -2,12 +2,15 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <future>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
@@ -25,6 +28,52 @@ namespace fs = std::filesystem;
 constexpr double kWindowS = 0.02;
 // Five times longer, to tell a long transient from a steady rattle.
 constexpr double kLongWindowS = 0.1;
+// The shortest window scanned: a tenth of the long one.
+constexpr double kScanFromS = 0.01;
+
+// Sorted, merged intervals.
+WindowSet merged(WindowSet v) {
+  std::sort(v.begin(), v.end());
+  WindowSet out;
+  for (const auto& [a, b] : v) {
+    if (!(a < b)) continue;
+    if (!out.empty() && a <= out.back().second)
+      out.back().second = std::max(out.back().second, b);
+    else
+      out.emplace_back(a, b);
+  }
+  return out;
+}
+
+// [from, to) minus a set.
+WindowSet complement(const WindowSet& set, double from, double to) {
+  WindowSet out;
+  double at = from;
+  for (const auto& [a, b] : set) {
+    if (b <= at) continue;
+    if (a >= to) break;
+    if (a > at) out.emplace_back(at, a);
+    at = std::max(at, b);
+  }
+  if (at < to) out.emplace_back(at, to);
+  return out;
+}
+
+WindowSet intersection(const WindowSet& x, const WindowSet& y) {
+  WindowSet out;
+  for (const auto& [a, b] : x)
+    for (const auto& [c, d] : y)
+      if (std::max(a, c) < std::min(b, d)) out.emplace_back(std::max(a, c), std::min(b, d));
+  return merged(out);
+}
+
+std::string windows_ms(const WindowSet& set) {
+  if (set.empty()) return "no window";
+  std::string out;
+  for (const auto& [a, b] : set)
+    out += fmt::format("{}{:.2f}-{:.2f} ms", out.empty() ? "" : ", ", a * 1e3, b * 1e3);
+  return out;
+}
 
 std::string ms(const std::optional<double>& t_s) {
   return t_s ? fmt::format("{:.2f}", *t_s * 1e3) : std::string("none");
@@ -50,6 +99,7 @@ Study park2010_study(const Case& base) {
   s.title = "Park (2010), Figs. 4-6: helical gears with backlash under torque fluctuation";
   s.window_s = kWindowS;
   s.long_window_s = kLongWindowS;
+  s.scan_from_s = kScanFromS;
   s.window_reason =
       "The paper's time axis is not in its text. Its findings separate rattle that stops "
       "'at first' from rattle 'over the whole time shown'; the contact transient decays with the "
@@ -197,6 +247,50 @@ Study park2010_study(const Case& base) {
   return s;
 }
 
+WindowSet finding_windows(const StudyCase& spec, const RunResult& long_run, double from_s,
+                          double to_s) {
+  const double kept = 1.0 - spec.input.solver.final_fraction;
+  // The separated intervals [start, end) of the long run, from its start state and its events.
+  WindowSet sustained;
+  std::optional<double> open;
+  if (spec.input.solver.initial == InitialCondition::kCenter) open = 0.0;  // mid-backlash
+  std::optional<double> backside;
+  for (const ContactEvent& e : long_run.events) {
+    if (e.kind == EventKind::kSeparation) {
+      open = e.t_s;
+    } else {
+      if (e.kind == EventKind::kBacksideImpact && !backside) backside = e.t_s;
+      if (open) sustained.emplace_back(*open, e.t_s / kept);
+      open.reset();
+    }
+  }
+  if (open) sustained.emplace_back(*open, std::numeric_limits<double>::infinity());
+  sustained = merged(sustained);
+  // Regime per window: sustained on `sustained`; otherwise transient when anything separated
+  // before the window ends, none when nothing did.
+  WindowSet regime_holds;
+  if (spec.paper_regime == Regime::kSustained) {
+    regime_holds = intersection(sustained, {{from_s, to_s}});
+  } else {
+    const WindowSet not_sustained = complement(sustained, from_s, to_s);
+    const double first =
+        sustained.empty() ? std::numeric_limits<double>::infinity() : sustained.front().first;
+    // A separation starting at `first` makes a window of length > first at least transient.
+    regime_holds = spec.paper_regime == Regime::kTransient
+                       ? intersection(not_sustained, {{first, to_s}})
+                       : intersection(not_sustained, {{from_s, first}});
+  }
+  // Back-side contact from its first impact on.
+  const double b = backside ? *backside : std::numeric_limits<double>::infinity();
+  const WindowSet sides = spec.paper_double_sided ? WindowSet{{b, to_s}} : WindowSet{{from_s, b}};
+  return intersection(regime_holds, sides);
+}
+
+bool contains(const WindowSet& set, double window_s) {
+  return std::any_of(set.begin(), set.end(),
+                     [&](const auto& w) { return w.first <= window_s && window_s < w.second; });
+}
+
 StudyResult run_study(const Study& study, unsigned threads,
                       const std::function<void(std::size_t, std::size_t)>& progress) {
   const auto start = std::chrono::steady_clock::now();
@@ -226,12 +320,12 @@ StudyResult run_study(const Study& study, unsigned threads,
         longer.solver.duration_s = study.long_window_s;
         RunOptions quiet;
         quiet.keep_samples = false;
-        quiet.keep_events = false;
         const RunResult lr = run(longer, quiet);
         if (!lr.integration.ok())
           throw std::runtime_error(fmt::format("case {} over {} s: numerical failure: {}", spec.id,
                                                study.long_window_s, lr.integration.message));
         o.long_window = lr.reading;
+        o.holds_for = finding_windows(spec, lr, study.scan_from_s, study.long_window_s);
         const RunReading& x = o.run.reading;
         std::vector<std::string> diffs;
         if (x.regime != spec.paper_regime)
@@ -257,6 +351,8 @@ StudyResult run_study(const Study& study, unsigned threads,
   for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
   for (std::thread& t : pool) t.join();
   if (failure) std::rethrow_exception(failure);
+  out.all_hold = {{study.scan_from_s, study.long_window_s}};
+  for (const CaseOutcome& o : out.outcomes) out.all_hold = intersection(out.all_hold, o.holds_for);
   out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }
@@ -265,7 +361,7 @@ namespace {
 
 struct Row {
   std::string id, conditions, regime, impacts, backside, last_sep, separated, peak_force, paper,
-      holds, long_window;
+      holds, long_window, windows;
 };
 
 std::vector<Row> table_rows(const StudyResult& r) {
@@ -288,6 +384,7 @@ std::vector<Row> table_rows(const StudyResult& r) {
     row.holds = o.holds ? "yes" : "no: " + o.difference;
     row.long_window = fmt::format("{}, last separation {} ms", to_string(o.long_window.regime),
                                   ms(o.long_window.last_separation_s));
+    row.windows = windows_ms(o.holds_for);
     rows.push_back(std::move(row));
   }
   return rows;
@@ -357,16 +454,43 @@ std::size_t holding(const StudyResult& r) {
   return n;
 }
 
+// The windows at which the report says how many findings hold.
+std::vector<double> report_windows(const Study& s) {
+  std::vector<double> w;
+  for (double x : {0.01, 0.015, 0.02, 0.025, 0.03, 0.05, 0.075})
+    if (x >= s.scan_from_s && x < s.long_window_s) w.push_back(x);
+  return w;
+}
+
 }  // namespace
+
+std::size_t holding_at(const StudyResult& r, double window_s) {
+  std::size_t n = 0;
+  for (const CaseOutcome& o : r.outcomes) n += contains(o.holds_for, window_s);
+  return n;
+}
+
+std::string study_headline(const StudyResult& r) {
+  const Study& s = r.study;
+  std::string counts;
+  for (double w : report_windows(s))
+    counts += fmt::format("{}{} at {:g} ms", counts.empty() ? "" : ", ", holding_at(r, w), w * 1e3);
+  return fmt::format(
+      "{} of the {} findings hold over the {:g} ms window used. How that depends on the window "
+      "(every window from {:g} to {:g} ms scanned): all {} hold together for {}; {} of {}.",
+      holding(r), r.outcomes.size(), s.window_s * 1e3, s.scan_from_s * 1e3, s.long_window_s * 1e3,
+      r.outcomes.size(), windows_ms(r.all_hold), counts, r.outcomes.size());
+}
+
+namespace {}  // namespace
 
 std::string report_markdown(const StudyResult& r) {
   const Study& s = r.study;
   std::string md;
   fmt::format_to(std::back_inserter(md), "# {}\n\n", s.title);
   fmt::format_to(std::back_inserter(md),
-                 "Computed by `geardyn reproduce {}`: {} cases, {} of them as the paper found, "
-                 "in {:.2f} s on {} threads.\n\n",
-                 s.name, r.outcomes.size(), holding(r), r.wall_time_s, r.threads);
+                 "Computed by `geardyn reproduce {}` in {:.2f} s on {} threads. {}\n\n", s.name,
+                 r.wall_time_s, r.threads, study_headline(r));
   md += "## Assumptions\n\n";
   for (const std::string& a : s.assumptions) md += "- " + a + "\n";
   fmt::format_to(std::back_inserter(md), "- Window: {} ms. {}\n\n", s.window_s * 1e3,
@@ -374,14 +498,15 @@ std::string report_markdown(const StudyResult& r) {
   md += "## Results\n\n";
   fmt::format_to(std::back_inserter(md),
                  "| case | conditions | regime | impacts | back-side impacts | last separation "
-                 "(ms) | separated | max F/(b k_m) | the paper | holds | over {} ms |\n"
-                 "|---|---|---|---|---|---|---|---|---|---|---|\n",
+                 "(ms) | separated | max F/(b k_m) | the paper | holds | over {} ms | holds "
+                 "for windows |\n"
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                  s.long_window_s * 1e3);
   for (const Row& x : table_rows(r))
     fmt::format_to(std::back_inserter(md),
-                   "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", x.id, x.conditions,
-                   x.regime, x.impacts, x.backside, x.last_sep, x.separated, x.peak_force, x.paper,
-                   x.holds, x.long_window);
+                   "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", x.id,
+                   x.conditions, x.regime, x.impacts, x.backside, x.last_sep, x.separated,
+                   x.peak_force, x.paper, x.holds, x.long_window, x.windows);
   const std::vector<std::string> notes = window_notes(r);
   if (!notes.empty()) {
     md += "\nWhere the two windows disagree:\n\n";
@@ -408,9 +533,9 @@ std::string report_html(const StudyResult& r) {
       "img{max-width:100%}</style></head><body>\n";
   fmt::format_to(std::back_inserter(h), "<h1>{}</h1>\n", html_escape(s.title));
   fmt::format_to(std::back_inserter(h),
-                 "<p>Computed by <code>geardyn reproduce {}</code>: {} cases, {} of them as the "
-                 "paper found, in {:.2f} s on {} threads.</p>\n",
-                 s.name, r.outcomes.size(), holding(r), r.wall_time_s, r.threads);
+                 "<p>Computed by <code>geardyn reproduce {}</code> in {:.2f} s on {} threads. "
+                 "{}</p>\n",
+                 s.name, r.wall_time_s, r.threads, html_escape(study_headline(r)));
   h += "<h2>Assumptions</h2>\n<ul>\n";
   for (const std::string& a : s.assumptions) h += "<li>" + html_escape(a) + "</li>\n";
   fmt::format_to(std::back_inserter(h), "<li>Window: {} ms. {}</li>\n</ul>\n", s.window_s * 1e3,
@@ -419,16 +544,18 @@ std::string report_html(const StudyResult& r) {
                  "<h2>Results</h2>\n<table>\n<tr><th>case</th><th>conditions</th><th>regime</th>"
                  "<th>impacts</th><th>back-side impacts</th><th>last separation (ms)</th>"
                  "<th>separated</th><th>max F/(b k<sub>m</sub>)</th><th>the paper</th>"
-                 "<th>holds</th><th>over {} ms</th></tr>\n",
+                 "<th>holds</th><th>over {} ms</th><th>holds for windows</th></tr>\n",
                  s.long_window_s * 1e3);
   for (const Row& x : table_rows(r)) {
     const bool ok = x.holds == "yes";
     fmt::format_to(std::back_inserter(h),
                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
-                   "<td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td></tr>\n",
+                   "<td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td>"
+                   "<td>{}</td></tr>\n",
                    html_escape(x.id), html_escape(x.conditions), x.regime, x.impacts, x.backside,
                    x.last_sep, html_escape(x.separated), x.peak_force, html_escape(x.paper),
-                   ok ? "yes" : "no", html_escape(x.holds), html_escape(x.long_window));
+                   ok ? "yes" : "no", html_escape(x.holds), html_escape(x.long_window),
+                   html_escape(x.windows));
   }
   h += "</table>\n";
   const std::vector<std::string> notes = window_notes(r);
@@ -457,6 +584,16 @@ void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
   j["study"] = r.study.name;
   j["window_s"] = r.study.window_s;
   j["long_window_s"] = r.study.long_window_s;
+  const auto windows = [](const WindowSet& set) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& [from, to] : set) a.push_back({from, to});
+    return a;
+  };
+  j["window_scan_s"] = {r.study.scan_from_s, r.study.long_window_s};
+  j["holding"] = holding(r);
+  j["all_hold_windows_s"] = windows(r.all_hold);
+  for (double w : report_windows(r.study))
+    j["holding_at"].push_back({{"window_s", w}, {"holding", holding_at(r, w)}});
   j["wall_time_s"] = r.wall_time_s;
   j["threads"] = r.threads;
   for (const CaseOutcome& o : r.outcomes) {
@@ -475,6 +612,7 @@ void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
         {"paper_finding", o.spec.paper_finding},
         {"holds", o.holds},
         {"difference", o.difference},
+        {"holds_for_windows_s", windows(o.holds_for)},
         {"long_window_regime", to_string(o.long_window.regime)},
         {"long_window_last_separation_s", o.long_window.last_separation_s
                                               ? nlohmann::json(*o.long_window.last_separation_s)

@@ -537,8 +537,8 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
   }
   std::size_t holding = 0;
   for (const auto& o : r.outcomes) holding += o.holds;
-  fmt::print("{} of {} cases as the paper found; {:.2f} s on {} threads\n", holding,
-             r.outcomes.size(), r.wall_time_s, r.threads);
+  fmt::print("{} of {} cases as the paper found; {:.2f} s on {} threads\n{}\n", holding,
+             r.outcomes.size(), r.wall_time_s, r.threads, geardyn::study_headline(r));
   fmt::print("report: {}/report.html and report.md{}\n", out_dir,
              figures ? ", figures fig4, fig5, fig6 (.png, .svg)" : "");
   return 0;

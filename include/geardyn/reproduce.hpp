@@ -26,11 +26,17 @@ struct StudyCase {
   std::string paper_finding;  // the paper's words, in English
 };
 
+// A set of window lengths, as sorted disjoint intervals [first, second), in s.
+using WindowSet = std::vector<std::pair<double, double>>;
+
 struct Study {
   std::string name;
   std::string title;
   double window_s = 0;       // the window of every case (the paper gives none)
   double long_window_s = 0;  // a longer window, run beside it, to tell a long transient
+  // The windows scanned for how each finding depends on the window: [scan_from_s,
+  // long_window_s].
+  double scan_from_s = 0;
   std::string window_reason;
   std::vector<std::string> assumptions;
   std::vector<StudyCase> cases;
@@ -45,11 +51,16 @@ struct CaseOutcome {
   RunReading long_window;  // the same case over study.long_window_s
   bool holds = false;      // the reading agrees with the paper's finding
   std::string difference;  // what differs, where it does not hold
+  // The windows of the scan over which the finding holds: read exactly from the long run's
+  // located events (a window W is "sustained" when a separated interval reaches into its final
+  // fraction, i.e. W in [separation, re-entry / (1 - final_fraction)) for some interval).
+  WindowSet holds_for;
 };
 
 struct StudyResult {
   Study study;
   std::vector<CaseOutcome> outcomes;  // in the order of study.cases
+  WindowSet all_hold;                 // the windows over which every finding holds
   double wall_time_s = 0;
   unsigned threads = 0;
 };
@@ -59,6 +70,20 @@ struct StudyResult {
 // std::runtime_error naming the case on a numerical failure.
 StudyResult run_study(const Study& study, unsigned threads = 0,
                       const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+// The windows in [from_s, to_s) over which a case's finding holds, from a run of it over at
+// least to_s with its events kept.
+WindowSet finding_windows(const StudyCase& spec, const RunResult& long_run, double from_s,
+                          double to_s);
+
+// Whether a window lies in a set.
+bool contains(const WindowSet& set, double window_s);
+
+// What holds over which windows, in one paragraph (the report's and the command's headline).
+std::string study_headline(const StudyResult& r);
+
+// How many findings hold over a window, from the scan.
+std::size_t holding_at(const StudyResult& r, double window_s);
 
 // The report, from the outcomes: Markdown and HTML (the HTML embeds the figures by file name).
 std::string report_markdown(const StudyResult& r);
