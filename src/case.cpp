@@ -666,6 +666,10 @@ const char* to_string(Method m) {
   return "?";
 }
 
+const char* to_string(ModelForm f) {
+  return f == ModelForm::kGearPair ? "gear_pair" : "nondimensional";
+}
+
 std::string validate(const Case& c) {
   if (MaybeViolation v = check_ranges(c))
     return fmt::format("{} = {}: must be {}", v->key, v->value, v->allowed);
@@ -732,12 +736,9 @@ std::string to_toml(const Case& c) {
   for (const StiffnessHarmonic& h : c.model.stiffness_harmonics)
     model_harmonics.push_back(toml::array{h.ratio, h.phase_deg});
   toml::table model{
-      {"form", c.model.form == ModelForm::kGearPair ? "gear_pair" : "nondimensional"},
-      {"zeta", c.model.zeta},
-      {"force_mean", c.model.force_mean},
-      {"force_alternating", c.model.force_alternating},
-      {"omega", c.model.omega},
-      {"stiffness_harmonics", model_harmonics},
+      {"form", to_string(c.model.form)},  {"zeta", c.model.zeta},
+      {"force_mean", c.model.force_mean}, {"force_alternating", c.model.force_alternating},
+      {"omega", c.model.omega},           {"stiffness_harmonics", model_harmonics},
   };
   toml::table root{
       {"description", c.description},

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <stdexcept>
+#include <string_view>
 
 namespace geardyn {
 namespace {
@@ -44,7 +45,40 @@ nlohmann::json reading_json(const RunReading& x) {
   };
 }
 
+// Every key of a JSON value renamed by form_key.
+nlohmann::json in_form(const nlohmann::json& j, ModelForm form) {
+  if (j.is_object()) {
+    nlohmann::json out = nlohmann::json::object();
+    for (const auto& [key, value] : j.items()) out[form_key(key, form)] = in_form(value, form);
+    return out;
+  }
+  if (j.is_array()) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& value : j) out.push_back(in_form(value, form));
+    return out;
+  }
+  return j;
+}
+
 }  // namespace
+
+std::string form_key(const std::string& key, ModelForm form) {
+  if (form == ModelForm::kGearPair || key == "wall_time_s") return key;
+  if (key == "t_s") return "tau";
+  const auto ends = [&](std::string_view suffix) {
+    return key.size() > suffix.size() &&
+           key.compare(key.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  const auto stem = [&](std::string_view suffix) {
+    return key.substr(0, key.size() - suffix.size());
+  };
+  // Longest suffixes first: "_n_s_per_m" and "_m_s" end in "_s" too.
+  for (std::string_view dropped : {"_n_s_per_m", "_n_per_m", "_m_s", "_kg", "_n"})
+    if (ends(dropped)) return stem(dropped);
+  if (ends("_s")) return stem("_s") + "_tau";
+  if (ends("_hz")) return stem("_hz") + "_per_tau";
+  return key;
+}
 
 std::string geometry_json(const Geometry& g) {
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
@@ -124,11 +158,12 @@ std::string summary_json(const RunResult& r, int indent) {
       {"time_step_s", d.time_step_s},
       {"output_interval_s", d.output_interval_s},
   };
-  return j.dump(indent);
+  return in_form(j, r.input.model.form).dump(indent);
 }
 
-std::string timeseries_csv(const Timeseries& s) {
-  std::string out = "t_s,delta_bar,velocity_m_s,force_bar,contact\n";
+std::string timeseries_csv(const Timeseries& s, ModelForm form) {
+  std::string out = fmt::format("{},delta_bar,{},force_bar,contact\n", form_key("t_s", form),
+                                form_key("velocity_m_s", form));
   out.reserve(out.size() + s.size() * 72);
   for (std::size_t i = 0; i < s.size(); ++i) {
     fmt::format_to(std::back_inserter(out), "{:.10g},{:.10g},{:.10g},{:.10g},{}\n", s.t_s[i],
@@ -147,8 +182,9 @@ std::string spectrum_csv(const RunResult& r) {
   return out;
 }
 
-std::string events_csv(const std::vector<ContactEvent>& events) {
-  std::string out = "t_s,kind,velocity_m_s\n";
+std::string events_csv(const std::vector<ContactEvent>& events, ModelForm form) {
+  std::string out =
+      fmt::format("{},kind,{}\n", form_key("t_s", form), form_key("velocity_m_s", form));
   for (const ContactEvent& e : events)
     fmt::format_to(std::back_inserter(out), "{:.15g},{},{:.10g}\n", e.t_s, to_string(e.kind),
                    e.velocity_m_s);
@@ -216,8 +252,13 @@ std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
 }
 
 void write_files_atomically(const std::filesystem::path& dir,
-                            const std::vector<std::pair<std::string, std::string>>& files) {
+                            const std::vector<std::pair<std::string, std::string>>& files,
+                            const RenameFunction& rename) {
   namespace fs = std::filesystem;
+  const RenameFunction move = rename
+                                  ? rename
+                                  : RenameFunction([](const fs::path& a, const fs::path& b,
+                                                      std::error_code& e) { fs::rename(a, b, e); });
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
@@ -225,8 +266,9 @@ void write_files_atomically(const std::filesystem::path& dir,
         fmt::format("{}: cannot create the output directory: {}", dir.string(), ec.message()));
   const std::string tag = fmt::format(".tmp-{:08x}", std::random_device{}());
   std::vector<fs::path> written;
-  auto cleanup = [&] {
-    for (const fs::path& p : written) fs::remove(p, ec);
+  auto remove_temporaries = [&] {
+    std::error_code ignored;
+    for (const fs::path& p : written) fs::remove(p, ignored);
   };
   for (const auto& [name, text] : files) {
     const fs::path tmp = dir / (name + tag);
@@ -235,33 +277,48 @@ void write_files_atomically(const std::filesystem::path& dir,
     out << text;
     out.close();
     if (!out) {
-      cleanup();
+      remove_temporaries();
       throw std::runtime_error(fmt::format("{}: cannot write", (dir / name).string()));
     }
   }
-  // Renames within one directory fail only when a target cannot be replaced: check all first.
+  // A target that is there and not a regular file cannot be replaced: refuse before moving.
   for (const auto& [name, text] : files) {
     if (fs::exists(dir / name) && !fs::is_regular_file(dir / name)) {
-      cleanup();
+      remove_temporaries();
       throw std::runtime_error(
           fmt::format("{}: cannot write: exists and is not a regular file", (dir / name).string()));
     }
   }
+  // Into place, one by one; what is replaced is set aside until all are in.
+  std::vector<fs::path> placed, set_aside_from, set_aside_to;
+  const auto roll_back = [&](const fs::path& failed, const std::error_code& why) {
+    std::error_code ignored;
+    for (const fs::path& p : placed) fs::remove(p, ignored);
+    for (std::size_t k = 0; k < set_aside_from.size(); ++k)
+      fs::rename(set_aside_to[k], set_aside_from[k], ignored);
+    remove_temporaries();
+    throw std::runtime_error(fmt::format("{}: cannot write: {}", failed.string(), why.message()));
+  };
   for (std::size_t i = 0; i < files.size(); ++i) {
-    fs::rename(written[i], dir / files[i].first, ec);
-    if (ec) {
-      for (std::size_t j = 0; j < i; ++j) fs::remove(dir / files[j].first);
-      cleanup();
-      throw std::runtime_error(
-          fmt::format("{}: cannot write: {}", (dir / files[i].first).string(), ec.message()));
+    const fs::path target = dir / files[i].first;
+    if (fs::exists(target)) {
+      const fs::path aside = dir / (files[i].first + tag + ".old");
+      move(target, aside, ec);
+      if (ec) roll_back(target, ec);
+      set_aside_from.push_back(target);
+      set_aside_to.push_back(aside);
     }
+    move(written[i], target, ec);
+    if (ec) roll_back(target, ec);
+    placed.push_back(target);
   }
+  for (const fs::path& p : set_aside_to) fs::remove(p, ec);
 }
 
 void write_run(const std::filesystem::path& dir, const RunResult& r) {
   write_files_atomically(dir, {{"summary.json", summary_json(r) + "\n"},
-                               {"timeseries.csv", timeseries_csv(r.samples)},
-                               {"events.csv", events_csv(r.events)},
+                               {"timeseries.csv", timeseries_csv(r.samples, r.input.model.form)},
+                               {"events.csv", events_csv(r.events, r.input.model.form)},
                                {"case.toml", to_toml(r.input)}});
 }
 

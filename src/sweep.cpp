@@ -308,6 +308,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   SweepResult r;
   r.options = o;
+  r.form = base.model.form;
   const PointRunner runner(base, o);
   r.period_s = runner.period_at(o.axis.values().front(), o.axis2 ? o.axis2->values().front() : 0.0);
 
@@ -413,8 +414,9 @@ std::string sweep_csv(const SweepResult& r) {
 
 namespace {
 
-std::string strobe_csv(const SweepResult& r) {
-  std::string out = "direction,value,value2,period,delta_bar,velocity_m_s,force_bar\n";
+std::string strobe_csv(const SweepResult& r, ModelForm form) {
+  std::string out = fmt::format("direction,value,value2,period,delta_bar,{},force_bar\n",
+                                form_key("velocity_m_s", form));
   for (const SweepPoint& p : r.points)
     for (std::size_t k = 0; k < p.strobe_delta_bar.size(); ++k)
       fmt::format_to(std::back_inserter(out), "{},{},{},{},{},{},{}\n", to_string(p.direction),
@@ -443,7 +445,7 @@ std::string summary(const SweepResult& r) {
   j["max_settle_periods"] = o.max_settle_periods;
   j["steady_tolerance"] = o.steady_tolerance;
   j["start"] = o.start_static ? "static" : "case";
-  j["period_s"] = r.period_s;
+  j[form_key("period_s", r.form)] = r.period_s;
   j["points_computed"] = r.points.size();
   j["unsettled"] = r.unsettled;
   j["failed"] = r.failed;
@@ -570,9 +572,9 @@ std::string regime_map_body(const SweepResult& r) {
 }  // namespace
 
 void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool figures) {
-  write_files_atomically(
-      dir,
-      {{"sweep.csv", sweep_csv(r)}, {"strobe.csv", strobe_csv(r)}, {"summary.json", summary(r)}});
+  write_files_atomically(dir, {{"sweep.csv", sweep_csv(r)},
+                               {"strobe.csv", strobe_csv(r, r.form)},
+                               {"summary.json", summary(r)}});
   if (!figures || r.points.empty()) return;
   const SweepOptions& o = r.options;
   const std::string xlog = o.axis.log ? "set logscale x\n" : "";

@@ -6,6 +6,9 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+#include <vector>
 
 namespace geardyn {
 namespace {
@@ -33,6 +36,40 @@ TEST(Output, SummaryHasEveryDocumentedKey) {
                         "working_pressure_angle_deg", "transverse_contact_ratio", "overlap_ratio"})
     EXPECT_TRUE(j["derived"].contains(k)) << k;
   EXPECT_EQ(j["regime"], "sustained");
+}
+
+TEST(Output, SummaryKeysAndColumnsAreInTheUnitsOfTheForm) {
+  // The non-dimensional form is in tau and units of b, m and b k_m: no key or column of it
+  // names seconds or SI units (but the wall time); the gear pair's names stay SI.
+  Case c;
+  c.model.form = ModelForm::kNondimensional;
+  c.solver.duration_s = 60;
+  const RunResult r = run(c);
+  const nlohmann::json j = nlohmann::json::parse(summary_json(r));
+  for (const char* k : {"last_separation_tau", "max_impact_velocity", "duration_tau"})
+    EXPECT_TRUE(j.contains(k)) << k;
+  EXPECT_TRUE(j["steady"].contains("from_tau"));
+  EXPECT_TRUE(j["derived"].contains("mesh_frequency_per_tau"));
+  EXPECT_TRUE(j["derived"].contains("mean_force"));
+  std::vector<std::string> si;
+  const auto walk = [&](const auto& self, const nlohmann::json& x) -> void {
+    if (!x.is_object() && !x.is_array()) return;
+    for (const auto& [key, value] : x.items()) {
+      if (x.is_object() && key != "wall_time_s") {
+        for (std::string_view unit : {"_s", "_hz", "_kg", "_n", "_m_s", "_per_m"})
+          if (key.size() > unit.size() && key.ends_with(unit)) si.push_back(key);
+      }
+      self(self, value);
+    }
+  };
+  walk(walk, j);
+  EXPECT_TRUE(si.empty()) << si.front();
+  EXPECT_EQ(timeseries_csv(r.samples, c.model.form).substr(0, 41),
+            "tau,delta_bar,velocity,force_bar,contact\n");
+  EXPECT_EQ(events_csv(r.events, c.model.form).substr(0, 18), "tau,kind,velocity\n");
+  EXPECT_EQ(form_key("velocity_m_s", ModelForm::kGearPair), "velocity_m_s");
+  EXPECT_EQ(form_key("damping_n_s_per_m", ModelForm::kNondimensional), "damping");
+  EXPECT_EQ(form_key("wall_time_s", ModelForm::kNondimensional), "wall_time_s");
 }
 
 TEST(Output, LastSeparationIsNullWhenNone) {
@@ -81,6 +118,35 @@ TEST(Output, FailureLeavesNothingBehind) {
     ++count;
   }
   EXPECT_EQ(count, 1);  // only the obstacle
+}
+
+TEST(Output, AFailedMoveLeavesTheDirectoryAsItWas) {
+  // The second move into place fails (as a full disk or a vanished directory would make it):
+  // the first file, already in place, is taken back, the old version it replaced restored,
+  // and no temporary is left.
+  const fs::path d = fresh_dir("rename");
+  write_files_atomically(d, {{"a.txt", "old alpha"}});
+  int moves = 0;
+  const RenameFunction failing_second = [&](const fs::path& from, const fs::path& to,
+                                            std::error_code& ec) {
+    if (from.filename().string().starts_with("b.txt")) {
+      ec = std::make_error_code(std::errc::no_space_on_device);
+      return;
+    }
+    ++moves;
+    fs::rename(from, to, ec);
+  };
+  EXPECT_THROW(
+      write_files_atomically(d, {{"a.txt", "new alpha"}, {"b.txt", "beta"}}, failing_second),
+      std::runtime_error);
+  EXPECT_EQ(moves, 2);  // a.txt set aside, the new a.txt moved in: the rollback had work
+  std::ifstream a(d / "a.txt");
+  std::string text;
+  std::getline(a, text);
+  EXPECT_EQ(text, "old alpha");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(d)) names.push_back(e.path().filename().string());
+  EXPECT_EQ(names, std::vector<std::string>{"a.txt"});
 }
 
 }  // namespace

@@ -102,6 +102,12 @@ void print_run_summary(const geardyn::RunResult& r) {
   const auto& x = r.reading;
   const auto& d = r.derived;
   const auto& c = r.input;
+  // Units by form: tau and b omega_n (= 1) in the non-dimensional one.
+  const bool nd = c.model.form == geardyn::ModelForm::kNondimensional;
+  const char* t_unit = nd ? " (tau)" : " s";
+  const char* v_unit = nd ? "" : " m/s";
+  const char* t_name = nd ? "tau" : "t";
+  const char* t_after = nd ? "" : " s";  // after "tau = x" or "t = x"
   fmt::print("geardyn run: {}{}\n", c.name, c.description.empty() ? "" : " - " + c.description);
   const char* method = geardyn::to_string(c.solver.method);
   if (c.model.form == geardyn::ModelForm::kNondimensional) {
@@ -119,10 +125,10 @@ void print_run_summary(const geardyn::RunResult& r) {
   }
   fmt::print("  regime            {}{}\n", geardyn::to_string(x.regime),
              x.double_sided ? " (double-sided)" : "");
-  fmt::print("  impacts           {} ({} back side), max velocity {:.4g} m/s\n", x.impacts,
-             x.backside_impacts, x.max_impact_velocity_m_s);
+  fmt::print("  impacts           {} ({} back side), max velocity {:.4g}{}\n", x.impacts,
+             x.backside_impacts, x.max_impact_velocity_m_s, v_unit);
   fmt::print("  separations       {}, last at {}\n", x.separations,
-             fmt_optional(x.last_separation_s, " s"));
+             fmt_optional(x.last_separation_s, t_unit));
   fmt::print("  separated         {:.4g} % of the time\n", 100.0 * x.separated_fraction);
   fmt::print("  F_bar             min {:.5g}  max {:.5g}  mean {:.5g}  rms {:.5g}\n",
              x.min_force_bar, x.max_force_bar, x.mean_force_bar, x.rms_force_bar);
@@ -132,20 +138,20 @@ void print_run_summary(const geardyn::RunResult& r) {
   const geardyn::RunReading& y = st.reading;
   switch (st.basis) {
     case geardyn::SteadyBasis::kSettled:
-      fmt::print("  steady part       from t = {:.6g} s: periodic (period {} x T0) to {:.2g} b\n",
-                 st.from_s, st.period_multiple, st.error);
+      fmt::print("  steady part       from {} = {:.6g}{}: periodic (period {} x T0) to {:.2g} b\n",
+                 t_name, st.from_s, t_after, st.period_multiple, st.error);
       break;
     case geardyn::SteadyBasis::kNotSettled:
       fmt::print(
           "  steady part       not reached in the window (distance {:.2g} b): the final half, "
-          "from t = {:.6g} s\n",
-          st.error, st.from_s);
+          "from {} = {:.6g}{}\n",
+          st.error, t_name, st.from_s, t_after);
       break;
     case geardyn::SteadyBasis::kAperiodic:
       fmt::print(
-          "  steady part       the excitations have no common period: the final half, from t = "
-          "{:.6g} s\n",
-          st.from_s);
+          "  steady part       the excitations have no common period: the final half, from {} = "
+          "{:.6g}{}\n",
+          t_name, st.from_s, t_after);
       break;
   }
   fmt::print("    regime          {}, {} impacts, F_bar max {:.5g}, delta_bar {:.5g} to {:.5g}\n",
@@ -155,7 +161,8 @@ void print_run_summary(const geardyn::RunResult& r) {
              fmt_optional(y.dynamic_factor, ""), fmt_optional(x.dynamic_factor, ""));
   fmt::print("  steps             {} ({} transitions located){}, {:.3g} s wall\n",
              r.integration.steps, r.integration.transitions,
-             d.time_step_s > 0 ? fmt::format(", dt = {:.4g} s", d.time_step_s) : "", r.wall_time_s);
+             d.time_step_s > 0 ? fmt::format(", step {:.4g}{}", d.time_step_s, t_unit) : "",
+             r.wall_time_s);
   if (r.integration.unsplit_steps > 0)
     fmt::print("  note: {} steps met more contact changes than are located per step\n",
                r.integration.unsplit_steps);
@@ -262,9 +269,10 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
                      : "",
              geardyn::to_string(o.direction), r.threads, r.wall_time_s);
   fmt::print(
-      "  system period {:.6g} s at the first point; {} points computed, {} not settled (steady: "
-      "predicted distance to the periodic response under {:g} b)\n",
-      r.period_s, r.points.size(), r.unsettled, o.steady_tolerance);
+      "  system period {:.6g}{} at the first point; {} points computed, {} not settled "
+      "(steady: predicted distance to the periodic response under {:g} b)\n",
+      r.period_s, r.form == geardyn::ModelForm::kNondimensional ? " (tau)" : " s", r.points.size(),
+      r.unsettled, o.steady_tolerance);
   if (r.failed > 0) {
     const auto first = std::find_if(r.points.begin(), r.points.end(),
                                     [](const auto& p) { return !p.failure.empty(); });

@@ -133,6 +133,7 @@ enum class ModelForm {
   kGearPair,        // the gear pair of [gear], [mesh], [load], [speed] (MODEL.md)
   kNondimensional,  // x'' + 2 zeta x' + k(tau) f(x) = F_m + F_a cos(Omega tau), b = 1
 };
+const char* to_string(ModelForm f);  // its name in a case file
 
 // [model]: the form of the equation. The non-dimensional form of the literature (Kahraman and
 // Singh 1990) has b = 1, damping acting at all times, and

@@ -5,7 +5,9 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
+#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -17,17 +19,26 @@ namespace geardyn {
 // The derived geometry in case-file units (mm, deg), as `geardyn geometry --json` prints it.
 std::string geometry_json(const Geometry& g);
 
-// summary.json of a run, as text (every key of docs/outputs.md).
+// A key or column name in the units of a model form. As written (SI suffixes) for the gear
+// pair; in the non-dimensional form, where time is tau and lengths, masses and forces are in
+// units of b, m and b k_m: times in tau ("t_s" -> "tau", "_s" -> "_tau"), frequencies in cycles
+// per tau ("_hz" -> "_per_tau"), the suffixes of velocities, masses, forces and damping
+// dropped ("velocity_m_s" -> "velocity", "mean_force_n" -> "mean_force"). "wall_time_s" is
+// real time in either form.
+std::string form_key(const std::string& key, ModelForm form);
+
+// summary.json of a run, as text (every key of docs/outputs.md, named by form_key).
 std::string summary_json(const RunResult& r, int indent = 2);
 
-// timeseries.csv: header t_s,delta_bar,velocity_m_s,force_bar,contact.
-std::string timeseries_csv(const Timeseries& s);
+// timeseries.csv: header t_s,delta_bar,velocity_m_s,force_bar,contact (named by form_key).
+std::string timeseries_csv(const Timeseries& s, ModelForm form = ModelForm::kGearPair);
 
 // spectrum.csv: header frequency_hz,force_bar_amplitude,delta_bar_amplitude (steady part).
 std::string spectrum_csv(const RunResult& r);
 
-// events.csv: header t_s,kind,velocity_m_s.
-std::string events_csv(const std::vector<ContactEvent>& events);
+// events.csv: header t_s,kind,velocity_m_s (named by form_key).
+std::string events_csv(const std::vector<ContactEvent>& events,
+                       ModelForm form = ModelForm::kGearPair);
 
 // The mesh stiffness of a case from its gear data, as `geardyn stiffness --json` prints it:
 // {"iso6336": {q_prime, c_prime_th, c_prime, c_gamma_alpha, c_gamma_beta (N/(mm um)), ...},
@@ -43,10 +54,17 @@ std::string stiffness_json(const Case& c, const Geometry& g, const Iso6336Stiffn
 std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
                           const StiffnessFourier& fourier);
 
-// Writes the named files into `dir` (created if missing) all or nothing.
-// Throws std::runtime_error naming the path on an I/O failure.
+// How a file is moved into place (std::filesystem::rename; a test may make it fail).
+using RenameFunction = std::function<void(const std::filesystem::path& from,
+                                          const std::filesystem::path& to, std::error_code& ec)>;
+
+// Writes the named files into `dir` (created if missing) as a set: each to a temporary name
+// first, then each moved into place, a file it replaces set aside until all are in place. On
+// any failure the files already placed are removed, the ones set aside restored and the
+// temporaries deleted: the directory is as it was. Throws std::runtime_error naming the path.
 void write_files_atomically(const std::filesystem::path& dir,
-                            const std::vector<std::pair<std::string, std::string>>& files);
+                            const std::vector<std::pair<std::string, std::string>>& files,
+                            const RenameFunction& rename = {});
 
 // The run's files: summary.json, timeseries.csv, events.csv and case.toml.
 void write_run(const std::filesystem::path& dir, const RunResult& r);

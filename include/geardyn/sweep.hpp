@@ -1,7 +1,7 @@
 // geardyn: sweeps and maps, `geardyn sweep`.
 //
 // A sweep runs a case at many values of one case key (a map: of two). Each point settles, then
-// measures, in whole periods of the case's fundamental (fundamental_period_s), and is read by
+// measures, in whole system periods (model.hpp's system_period_s), and is read by
 // its statistics, regime and stroboscopic samples. In an up or down sweep the state at the end of
 // one point starts the next, as in an experiment, so jumps and hysteresis show. Independent
 // sequences (the up and the down sweep, the rows of a map) run in parallel; the results do not
@@ -108,8 +108,9 @@ struct Jump {
 
 struct SweepResult {
   SweepOptions options;
-  double period_s = 0;             // the system period at the first point
-  std::vector<SweepPoint> points;  // in sweep order: up (each row), then down
+  double period_s = 0;                    // the system period at the first point (tau: non-dim.)
+  ModelForm form = ModelForm::kGearPair;  // the units of the files (output.hpp's form_key)
+  std::vector<SweepPoint> points;         // in sweep order: up (each row), then down
   std::vector<Hysteresis> hysteresis;
   std::vector<Jump> jumps;
   std::size_t unsettled = 0;

@@ -82,9 +82,10 @@ def _sweep_dataset(s, param, param2=None):
         for i, p in enumerate(strobe["point"]):
             rank[i] = seen.get(p, 0)
             seen[p] = rank[i] + 1
+        nd = s.get("form") == "nondimensional"
         for name, units, long_name in (
                 ("delta_bar", "1", "delta / b once per system period"),
-                ("velocity_m_s", "m/s", "delta' once per system period"),
+                ("velocity_m_s", "1" if nd else "m/s", "delta' once per system period"),
                 ("force_bar", "1", "F / (b k_m) once per system period")):
             a = np.full(shape + [width], np.nan)
             for i, p in enumerate(strobe["point"]):
@@ -98,20 +99,33 @@ def _sweep_dataset(s, param, param2=None):
     attrs = {"geardyn": "sweep", "param": param, "jumps": json.dumps(s.get("jumps", [])),
              "hysteresis": json.dumps(s.get("hysteresis", [])),
              "period_s": s.get("period_s", np.nan),
+             "period_units": "tau" if s.get("form") == "nondimensional" else "s",
              "cancelled": int(bool(s.get("cancelled", False)))}
     if param2:
         attrs["param2"] = param2
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
+def _nondimensional(case_toml):
+    """True when a case (as TOML) is in the non-dimensional form: times in tau, velocities in
+    b omega_n."""
+    import tomllib
+
+    return tomllib.loads(case_toml).get("model", {}).get("form") == "nondimensional"
+
+
 def _run_dataset(r):
     import xarray as xr
 
+    nd = _nondimensional(r.case_toml)
     data = {}
     for name in ("delta_bar", "force_bar", "velocity", "contact"):
         units, long_name = _COLUMNS[name]
+        if nd and name == "velocity":
+            units, long_name = "1", "d delta_bar / d tau"
         data[name] = ("t", np.array(getattr(r, name)), {"units": units, "long_name": long_name})
-    return xr.Dataset(data, coords={"t": ("t", np.array(r.t), {"units": "s", "long_name": "time"})},
+    t_attrs = {"units": "1", "long_name": "tau"} if nd else {"units": "s", "long_name": "time"}
+    return xr.Dataset(data, coords={"t": ("t", np.array(r.t), t_attrs)},
                       attrs={"geardyn": "run", "summary": r._summary_json,
                              "case": r.case_toml})
 

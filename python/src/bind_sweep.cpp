@@ -111,6 +111,8 @@ void bind_sweep(py::module_& m) {
                      py::arg("force_bar") =
                          py::array_t<double>(static_cast<py::ssize_t>(sf.size()), sf.data()));
         out["period_s"] = r.period_s;
+        // Python keeps the SI names in either form; the form tells their units (tau, b w_n).
+        out["form"] = to_string(r.form);
         py::list jumps, hysteresis;
         for (const Jump& j : r.jumps) {
           py::dict d(py::arg("direction") = to_string(j.direction),

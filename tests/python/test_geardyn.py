@@ -442,7 +442,11 @@ def test_a_sweeps_strobe_jumps_and_hysteresis_are_the_command_lines(tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert s["jumps"] and s["hysteresis"]  # this sweep has both
     assert s["jumps"] == summary["jumps"] and s["hysteresis"] == summary["hysteresis"]
-    assert s["period_s"] == summary["period_s"]
+    # The files name the period in tau in this form; Python keeps the SI names, the units in
+    # the Dataset's attributes.
+    assert s["period_s"] == summary["period_tau"] and s["form"] == "nondimensional"
+    assert s.to_xarray().attrs["period_units"] == "tau"
+    assert s.to_xarray()["strobe_velocity_m_s"].attrs["units"] == "1"
     rows = [r.split(",") for r in (tmp_path / "strobe.csv").read_text().splitlines()[1:]]
     st = s["strobe"]
     assert len(rows) == len(st["point"]) == 2 * 21 * 10
