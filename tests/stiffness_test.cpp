@@ -1,6 +1,9 @@
 #include "geardyn/stiffness.hpp"
 
 #include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
 #include <unistd.h>
 
 #include <cmath>
@@ -259,6 +262,27 @@ TEST(MeshStiffness, DefaultIsTheEnergyMethodScaledToTable1) {
   EXPECT_NEAR(m.scale, 2.34e8 / m.cycle->mean_n_per_m(), 1e-6);
   const HarmonicSeries k = mesh_stiffness_series(c, m);
   EXPECT_NEAR(k.terms[0].amplitude, m.fourier.harmonics[0].ratio * 2.34e8, 1e-3);
+}
+
+
+TEST(EnergyMethod, TheBoreSetsTheFilletFoundationEvenWhenInertiasAreGiven) {
+  // The bore is the inner radius of the fillet foundation (Sainsot et al.: h_fi = r_f / r_int;
+  // a solid blank is taken as a hub of r_f / 3), whether or not the inertias are given: only
+  // the inertias ignore it then. The Table 1 pair with 100 mm bores against solid blanks.
+  Case solid;
+  solid.gear.inertia_kg_m2 = std::array<double, 2>{0.02, 0.02};
+  Case bored = solid;
+  bored.gear.bore_diameter_mm = {100.0, 100.0};
+  const double k_solid = energy_method_cycle(solid, compute_geometry(solid.gear)).mean_n_per_m();
+  const double k_bored = energy_method_cycle(bored, compute_geometry(bored.gear)).mean_n_per_m();
+  EXPECT_GT(std::abs(k_bored - k_solid), 0.05 * k_solid);
+  EXPECT_EQ(compute_geometry(bored.gear).inertia_kg_m2, compute_geometry(solid.gear).inertia_kg_m2);
+  // A bore of r_f / 3 (a diameter of d_f / 3) is the solid blank's hub: the same stiffness.
+  Case hub = solid;
+  const Geometry g = compute_geometry(solid.gear);
+  hub.gear.bore_diameter_mm = {g.root_diameter_m[0] * 1e3 / 3, g.root_diameter_m[1] * 1e3 / 3};
+  EXPECT_NEAR(energy_method_cycle(hub, compute_geometry(hub.gear)).mean_n_per_m(), k_solid,
+              1e-9 * k_solid);
 }
 
 }  // namespace

@@ -38,7 +38,9 @@ struct GearData {
   std::array<double, 2> outside_diameter_mm = {154.98, 154.98};
   std::array<double, 2> profile_shift = {0.2075, 0.2075};
   double density_kg_m3 = 7850.0;
-  // Bore diameter of each blank; 0 = solid. Used only when inertia_kg_m2 is not given.
+  // Bore diameter of each blank; 0 = solid. The inner radius of the energy method's fillet
+  // foundation (a solid blank: a hub of a third of the root radius) in every case, and of the
+  // blank's inertia when inertia_kg_m2 is not given.
   std::array<double, 2> bore_diameter_mm = {0.0, 0.0};
   // Polar moments of inertia; when absent they follow from density, face width, reference
   // diameter and bore (MODEL.md section 1).
