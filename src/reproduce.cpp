@@ -3,19 +3,16 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <future>
 #include <limits>
 #include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
-#include <thread>
 
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
+#include "geardyn/parallel.hpp"
 #include "geardyn/stiffness.hpp"
 
 namespace geardyn {
@@ -297,60 +294,48 @@ StudyResult run_study(const Study& study, unsigned threads,
   StudyResult out;
   out.study = study;
   out.outcomes.resize(study.cases.size());
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  threads = std::min<unsigned>(threads, std::max<std::size_t>(1, study.cases.size()));
-  out.threads = threads;
-
-  std::atomic<std::size_t> next{0}, done{0};
-  std::mutex progress_mutex;
-  std::exception_ptr failure;
-  std::mutex failure_mutex;
-  auto worker = [&] {
-    for (std::size_t i = next++; i < study.cases.size(); i = next++) {
-      try {
-        const StudyCase& spec = study.cases[i];
-        CaseOutcome& o = out.outcomes[i];
-        o.spec = spec;
-        o.run = run(spec.input);
-        if (!o.run.integration.ok())
-          throw std::runtime_error(fmt::format("case {}: numerical failure ({}): {}", spec.id,
-                                               ode::to_string(o.run.integration.termination),
-                                               o.run.integration.message));
-        Case longer = spec.input;
-        longer.solver.duration_s = study.long_window_s;
-        RunOptions quiet;
-        quiet.keep_samples = false;
-        const RunResult lr = run(longer, quiet);
-        if (!lr.integration.ok())
-          throw std::runtime_error(fmt::format("case {} over {} s: numerical failure: {}", spec.id,
-                                               study.long_window_s, lr.integration.message));
-        o.long_window = lr.reading;
-        o.holds_for = finding_windows(spec, lr, study.scan_from_s, study.long_window_s);
-        const RunReading& x = o.run.reading;
-        std::vector<std::string> diffs;
-        if (x.regime != spec.paper_regime)
-          diffs.push_back(fmt::format("{} (the paper: {})", regime_words(x.regime),
-                                      regime_words(spec.paper_regime)));
-        if (x.double_sided != spec.paper_double_sided)
-          diffs.push_back(x.double_sided ? "back-side contact occurs (the paper: none)"
-                                         : "no back-side contact (the paper: some)");
-        o.holds = diffs.empty();
-        for (const std::string& d : diffs) o.difference += (o.difference.empty() ? "" : "; ") + d;
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(failure_mutex);
-        if (!failure) failure = std::current_exception();
-      }
-      const std::size_t n = ++done;
-      if (progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        progress(n, study.cases.size());
-      }
-    }
+  const std::function<bool(std::size_t, std::size_t)> report = [&progress](std::size_t done,
+                                                                           std::size_t total) {
+    if (progress) progress(done, total);
+    return true;
   };
-  std::vector<std::thread> pool;
-  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
-  for (std::thread& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+  out.threads =
+      parallel_for(
+          study.cases.size(), threads, study.cases.size(), report,
+          [&](std::size_t i, WorkTicker& ticker) {
+            const StudyCase& spec = study.cases[i];
+            CaseOutcome& o = out.outcomes[i];
+            o.spec = spec;
+            o.run = run(spec.input);
+            if (!o.run.integration.ok())
+              throw std::runtime_error(fmt::format("case {}: numerical failure ({}): {}", spec.id,
+                                                   ode::to_string(o.run.integration.termination),
+                                                   o.run.integration.message));
+            Case longer = spec.input;
+            longer.solver.duration_s = study.long_window_s;
+            RunOptions quiet;
+            quiet.keep_samples = false;
+            const RunResult lr = run(longer, quiet);
+            if (!lr.integration.ok())
+              throw std::runtime_error(fmt::format("case {} over {} s: numerical failure: {}",
+                                                   spec.id, study.long_window_s,
+                                                   lr.integration.message));
+            o.long_window = lr.reading;
+            o.holds_for = finding_windows(spec, lr, study.scan_from_s, study.long_window_s);
+            const RunReading& x = o.run.reading;
+            std::vector<std::string> diffs;
+            if (x.regime != spec.paper_regime)
+              diffs.push_back(fmt::format("{} (the paper: {})", regime_words(x.regime),
+                                          regime_words(spec.paper_regime)));
+            if (x.double_sided != spec.paper_double_sided)
+              diffs.push_back(x.double_sided ? "back-side contact occurs (the paper: none)"
+                                             : "no back-side contact (the paper: some)");
+            o.holds = diffs.empty();
+            for (const std::string& d : diffs)
+              o.difference += (o.difference.empty() ? "" : "; ") + d;
+            ticker.tick();
+          })
+          .threads;
   out.all_hold = {{study.scan_from_s, study.long_window_s}};
   for (const CaseOutcome& o : out.outcomes) out.all_hold = intersection(out.all_hold, o.holds_for);
   out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -623,20 +608,24 @@ void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
                                {"report.html", report_html(r)},
                                {"study.json", j.dump(2) + "\n"}});
   if (!figures) return;
-  std::vector<std::future<void>> jobs;
+  // One gnuplot per paper figure, drawn concurrently.
+  struct Drawing {
+    std::string file, body;
+    int height;
+  };
+  std::vector<Drawing> drawings;
   for (const auto& [figure, cases] : by_figure(r)) {
     std::vector<TimeHistoryPanel> panels;
     for (const CaseOutcome* o : cases)
       panels.push_back({fmt::format("{} {}", o->spec.panel, o->spec.label), "cases/" + o->spec.id,
                         r.study.window_s});
     const std::string title = fmt::format("{} ({})", figure, r.study.name);
-    const std::string file = figure_file(figure);  // bindings cannot be captured portably
-    const int height = 70 + 230 * static_cast<int>(panels.size());
-    jobs.push_back(std::async(std::launch::async, [=] {
-      render_figure(dir, file, time_history_body(panels, false, title), 1200, height);
-    }));
+    drawings.push_back({figure_file(figure), time_history_body(panels, false, title),
+                        70 + 230 * static_cast<int>(panels.size())});
   }
-  for (auto& job : jobs) job.get();
+  parallel_for(drawings.size(), 0, drawings.size(), {}, [&](std::size_t i, WorkTicker&) {
+    render_figure(dir, drawings[i].file, drawings[i].body, 1200, drawings[i].height);
+  });
 }
 
 }  // namespace geardyn

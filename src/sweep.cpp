@@ -4,18 +4,16 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
-#include <thread>
 
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
+#include "geardyn/parallel.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/steady.hpp"
 #include "geardyn/stiffness.hpp"
@@ -334,39 +332,17 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   const std::size_t total = slot;
   std::vector<std::optional<SweepPoint>> done_points(total);
 
-  unsigned threads = o.threads ? o.threads : std::max(1u, std::thread::hardware_concurrency());
-  threads = std::min<unsigned>(threads, static_cast<unsigned>(sequences.size()));
-  r.threads = threads;
-  std::atomic<std::size_t> next{0}, done{0};
-  std::atomic<bool> stop{false};
-  std::mutex progress_mutex, failure_mutex;
-  std::exception_ptr failure;
-  auto worker = [&] {
-    for (std::size_t i = next++; i < sequences.size(); i = next++) {
-      std::optional<ode::State> carry;
-      for (const PointJob& job : sequences[i]) {
-        if (stop) return;
-        try {
-          done_points[job.slot] = runner.run(job, carry);
-        } catch (...) {
-          std::lock_guard<std::mutex> lock(failure_mutex);
-          if (!failure) failure = std::current_exception();
-          stop = true;
-          return;
-        }
-        const std::size_t n = ++done;
-        if (o.progress) {
-          std::lock_guard<std::mutex> lock(progress_mutex);
-          if (!o.progress(n, total)) stop = true;
-        }
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
-  for (std::thread& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
-  r.cancelled = stop.load();
+  const ParallelRun pool = parallel_for(sequences.size(), o.threads, total, o.progress,
+                                        [&](std::size_t i, WorkTicker& ticker) {
+                                          std::optional<ode::State> carry;
+                                          for (const PointJob& job : sequences[i]) {
+                                            if (ticker.stopped()) return;
+                                            done_points[job.slot] = runner.run(job, carry);
+                                            ticker.tick();
+                                          }
+                                        });
+  r.threads = pool.threads;
+  r.cancelled = pool.stopped;
   for (auto& p : done_points)
     if (p) {
       r.unsettled += !p->settled && p->failure.empty();

@@ -1,11 +1,9 @@
 #include "geardyn/stiffness.hpp"
 
 #include <gtest/gtest.h>
-
-#include <array>
-#include <cmath>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -263,7 +261,6 @@ TEST(MeshStiffness, DefaultIsTheEnergyMethodScaledToTable1) {
   const HarmonicSeries k = mesh_stiffness_series(c, m);
   EXPECT_NEAR(k.terms[0].amplitude, m.fourier.harmonics[0].ratio * 2.34e8, 1e-3);
 }
-
 
 TEST(EnergyMethod, TheBoreSetsTheFilletFoundationEvenWhenInertiasAreGiven) {
   // The bore is the inner radius of the fillet foundation (Sainsot et al.: h_fi = r_f / r_int;

@@ -41,26 +41,38 @@ constexpr int kExitInterrupted = 130;  // 128 + SIGINT, as shells report it
 std::atomic<bool> g_interrupted{false};
 extern "C" void on_interrupt(int) { g_interrupted = true; }
 
-// Shows a progress bar on stderr once the work has taken more than a second.
+// The one progress display of the command line: a bar on stderr once the work has taken more
+// than a second, redrawn in place on a terminal and a line per 10 % in a log.
 class ProgressBar {
  public:
-  explicit ProgressBar(std::string label) : label_(std::move(label)), tty_(isatty(2) != 0) {}
+  explicit ProgressBar(std::string label, std::string unit = "")
+      : label_(std::move(label)), unit_(std::move(unit)), tty_(isatty(2) != 0) {}
   ~ProgressBar() { finish(); }
 
-  bool operator()(double fraction) {
+  // `fraction` done in [0, 1], with what to show beside the bar.
+  void show(double fraction, const std::string& detail) {
     using namespace std::chrono;
     const double elapsed = duration<double>(steady_clock::now() - start_).count();
-    if (elapsed < kQuietSeconds) return true;
+    if (elapsed < kQuietSeconds) return;
     const int percent = static_cast<int>(fraction * 100.0);
-    if (!tty_ && percent < last_percent_ + 10) return true;  // logs get a line per 10 %
+    if (!tty_ && percent < last_percent_ + 10) return;
     last_percent_ = percent;
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(fraction * kWidth);
     const double left = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
-    fmt::print(stderr, "{}{} [{:<{}}] {:3d}%  {:.1f} s left{}", tty_ ? "\r" : "", label_,
-               std::string(std::max(0, filled), '#'), kWidth, percent, left, tty_ ? "" : "\n");
+    fmt::print(stderr, "{}{} [{:<{}}] {}, {:.1f} s left{}", tty_ ? "\r" : "", label_,
+               std::string(std::clamp(filled, 0, kWidth), '#'), kWidth, detail, left,
+               tty_ ? "" : "\n");
     std::fflush(stderr);
     shown_ = true;
+  }
+  bool operator()(double fraction) {
+    show(fraction, fmt::format("{:3d}%", static_cast<int>(fraction * 100.0)));
+    return true;
+  }
+  bool operator()(std::size_t done, std::size_t total) {
+    show(static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(total, 1)),
+         fmt::format("{}/{} {}", done, total, unit_));
     return true;
   }
   void finish() {
@@ -70,7 +82,7 @@ class ProgressBar {
 
  private:
   static constexpr double kQuietSeconds = 1.0;
-  std::string label_;
+  std::string label_, unit_;
   bool tty_;
   bool shown_ = false;
   int last_percent_ = -10;
@@ -238,29 +250,17 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
               geardyn::SweepOptions o, const std::string& out_dir, bool figures) {
   const geardyn::Case base = geardyn::load_case(case_path(case_file), parse_overrides(sets));
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
-  const bool tty = isatty(2) != 0;
-  const auto start = std::chrono::steady_clock::now();
-  int last_percent = -10;
+  ProgressBar bar("sweep", "points");
   o.progress = [&](std::size_t done, std::size_t total) {
-    const double elapsed =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const int percent = static_cast<int>(100 * done / total);
-    if (tty || percent >= last_percent + 10 || done == total) {
-      last_percent = percent;
-      constexpr int kWidth = 30;
-      const int filled = static_cast<int>(kWidth * done / total);
-      const double left = elapsed * (total - done) / std::max<std::size_t>(done, 1);
-      fmt::print(stderr, "{}sweep [{:<{}}] {}/{} points, {:.1f} s left{}", tty ? "\r" : "",
-                 std::string(filled, '#'), kWidth, done, total, left,
-                 (!tty || done == total) ? "\n" : "");
-    }
+    bar(done, total);
     return !g_interrupted.load();
   };
   std::signal(SIGINT, on_interrupt);
   const geardyn::SweepResult r = geardyn::sweep(base, o);
   std::signal(SIGINT, SIG_DFL);
+  bar.finish();
   if (r.cancelled)
-    fmt::print(stderr, "\ninterrupted: writing the {} completed points\n", r.points.size());
+    fmt::print(stderr, "interrupted: writing the {} completed points\n", r.points.size());
   geardyn::write_sweep(out_dir, r, figures && !r.cancelled);
   fmt::print("geardyn sweep: {} from {} to {}, {} points{}, {} ({} threads, {:.2f} s)\n",
              o.axis.key, o.axis.from, o.axis.to, o.axis.points,
@@ -438,23 +438,16 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
     text << in.rdbuf();
     sweep_text = text.str();
   }
-  const bool tty = isatty(2) != 0;
-  const auto start = std::chrono::steady_clock::now();
-  double last_shown = -1;
+  ProgressBar bar("continue");
   o.progress = [&](double p, std::size_t points) {
-    const double elapsed =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (elapsed > 1.0 && (tty || elapsed - last_shown >= 5.0)) {
-      last_shown = elapsed;
-      fmt::print(stderr, "{}continue: {} = {:.6g}, {} points, {:.1f} s{}", tty ? "\r" : "", o.key,
-                 p, points, elapsed, tty ? "" : "\n");
-    }
+    bar.show(std::abs(p - o.from) / std::max(std::abs(o.to - o.from), 1e-300),
+             fmt::format("{} = {:.6g}, {} points", o.key, p, points));
     return !g_interrupted.load();
   };
   std::signal(SIGINT, on_interrupt);
   const geardyn::ContinuationResult r = geardyn::continuation(c, o);
   std::signal(SIGINT, SIG_DFL);
-  if (tty && last_shown >= 0) fmt::print(stderr, "\n");
+  bar.finish();
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} points computed\n", r.points.size());
   if (!r.points.empty())
@@ -526,14 +519,10 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
   const geardyn::Case base = geardyn::load_case(case_path(case_file), parse_overrides(sets));
   const geardyn::Study study = geardyn::park2010_study(base);
   fmt::print("geardyn reproduce {}: {} cases\n", study.name, study.cases.size());
-  const bool tty = isatty(2) != 0;
-  const geardyn::StudyResult r =
-      geardyn::run_study(study, threads, [tty](std::size_t done, std::size_t total) {
-        constexpr int kWidth = 30;
-        const int filled = static_cast<int>(kWidth * done / total);
-        fmt::print(stderr, "{}cases [{:<{}}] {}/{}{}", tty ? "\r" : "", std::string(filled, '#'),
-                   kWidth, done, total, (!tty || done == total) ? "\n" : "");
-      });
+  ProgressBar bar("cases", "cases");
+  const geardyn::StudyResult r = geardyn::run_study(
+      study, threads, [&bar](std::size_t done, std::size_t total) { bar(done, total); });
+  bar.finish();
   geardyn::write_study(out_dir, r, figures);
   for (const geardyn::CaseOutcome& o : r.outcomes) {
     fmt::print("  {:6} {:<16} {:<10} impacts {:4}  last separation {:>9}  {}\n", o.spec.id,
