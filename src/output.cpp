@@ -234,11 +234,7 @@ std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
     fmt::format_to(std::back_inserter(out), ",pair_{}_n_per_m", j);
   out += "\n";
   for (std::size_t n = 0; n < cycle.position.size(); ++n) {
-    double series = fourier.mean_n_per_m;
-    for (std::size_t i = 0; i < fourier.harmonics.size(); ++i)
-      series += fourier.harmonics[i].ratio * fourier.mean_n_per_m *
-                std::cos(2 * 3.14159265358979323846 * (i + 1) * cycle.position[n] +
-                         fourier.harmonics[i].phase_deg * 3.14159265358979323846 / 180);
+    const double series = fourier.at(cycle.position[n]);
     fmt::format_to(std::back_inserter(out), "{:.6f},{:.6f},{:.8e},{:.8e},{},{:.6f}",
                    cycle.position[n], cycle.position[n] * g.transverse_base_pitch_m * 1e3,
                    cycle.total_n_per_m[n], series,

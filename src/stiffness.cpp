@@ -297,15 +297,19 @@ StiffnessFourier fourier_harmonics(const StiffnessCycle& cycle, int kept) {
   return f;
 }
 
+double StiffnessFourier::at(double position) const {
+  double k = mean_n_per_m;
+  for (std::size_t i = 0; i < harmonics.size(); ++i)
+    k += harmonics[i].ratio * mean_n_per_m *
+         std::cos(2 * kPi * static_cast<double>(i + 1) * position +
+                  harmonics[i].phase_deg * kPi / 180);
+  return k;
+}
+
 double truncation_error(const StiffnessCycle& cycle, const StiffnessFourier& f) {
   double worst = 0;
-  for (std::size_t n = 0; n < cycle.position.size(); ++n) {
-    double k = f.mean_n_per_m;
-    for (std::size_t i = 0; i < f.harmonics.size(); ++i)
-      k += f.harmonics[i].ratio * f.mean_n_per_m *
-           std::cos(2 * kPi * (i + 1) * cycle.position[n] + f.harmonics[i].phase_deg * kPi / 180);
-    worst = std::max(worst, std::abs(k - cycle.total_n_per_m[n]));
-  }
+  for (std::size_t n = 0; n < cycle.position.size(); ++n)
+    worst = std::max(worst, std::abs(f.at(cycle.position[n]) - cycle.total_n_per_m[n]));
   return worst / f.mean_n_per_m;
 }
 

@@ -282,5 +282,16 @@ TEST(EnergyMethod, TheBoreSetsTheFilletFoundationEvenWhenInertiasAreGiven) {
               1e-9 * k_solid);
 }
 
+
+TEST(StiffnessFourier, EvaluatesTheKeptSeriesOverTheCycle) {
+  // k = k_m (1 + 0.5 cos(2 pi x + 90 deg) + 0.1 cos(4 pi x)), k_m = 2.
+  StiffnessFourier f;
+  f.mean_n_per_m = 2.0;
+  f.harmonics = {{0.5, 90.0}, {0.1, 0.0}};
+  EXPECT_NEAR(f.at(0.0), 2.0 * (1 + 0.1), 1e-15);
+  EXPECT_NEAR(f.at(0.25), 2.0 * (1 - 0.5 - 0.1), 1e-15);
+  EXPECT_NEAR(f.at(0.5), 2.0 * (1 + 0.1), 1e-15);
+}
+
 }  // namespace
 }  // namespace geardyn

@@ -82,6 +82,9 @@ StiffnessCycle table_cycle(const Case& c);
 struct StiffnessFourier {
   double mean_n_per_m = 0;
   std::vector<StiffnessHarmonic> harmonics;
+  // k at a position in the mesh cycle (a fraction in [0, 1)), N/m: the one evaluation of the
+  // kept series over the cycle (the model's, in time, is HarmonicSeries).
+  double at(double position) const;
 };
 StiffnessFourier fourier_harmonics(const StiffnessCycle& cycle, int kept);
 
