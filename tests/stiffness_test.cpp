@@ -282,7 +282,6 @@ TEST(EnergyMethod, TheBoreSetsTheFilletFoundationEvenWhenInertiasAreGiven) {
               1e-9 * k_solid);
 }
 
-
 TEST(StiffnessFourier, EvaluatesTheKeptSeriesOverTheCycle) {
   // k = k_m (1 + 0.5 cos(2 pi x + 90 deg) + 0.1 cos(4 pi x)), k_m = 2.
   StiffnessFourier f;
