@@ -18,7 +18,8 @@ namespace fs = std::filesystem;
 // Colours shared by every figure.
 constexpr const char* kSeparatedColour = "#f4a6a6";
 constexpr const char* kBackColour = "#9cc3f0";
-constexpr const char* kBandColour = "#eef1f7";
+// Neutral: the backlash band is neither contact side.
+constexpr const char* kBandColour = "#f0f0f0";
 constexpr const char* kLineColour = "#1f3b73";
 constexpr const char* kSecondColour = "#b5532b";
 
@@ -54,15 +55,17 @@ std::string panel_plot(const TimeHistoryPanel& p, int column, const char* ylabel
   fmt::format_to(
       std::back_inserter(s),
       "plot '{0}' every ::1 using (($1+$2)*500):(0):($1*1e3):($2*1e3):(($3==0)?ylo:NaN):"
-      "(($3==0)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{2}' title 'separated', \\\n"
+      "(($3==0)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{2}' {7}, \\\n"
       "     '{0}' every ::1 using (($1+$2)*500):(0):($1*1e3):($2*1e3):(($3==-1)?ylo:NaN):"
-      "(($3==-1)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{3}' title 'back side', "
+      "(($3==-1)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{3}' {8}, "
       "\\\n"
       "     '{1}' every ::1 using ($1*1e3):{4} with lines lw 1.1 lc rgb '{5}' notitle{6}\n",
       iv, ts, kSeparatedColour, kBackColour, column, kLineColour,
       column == 2 ? ", \\\n     1 with lines dt 2 lc rgb 'gray30' notitle, -1 with lines dt 2 "
                     "lc rgb 'gray30' notitle"
-                  : "");
+                  : "",
+      p.separated ? "title 'separated'" : "notitle",
+      p.back_side ? "title 'back-side contact'" : "notitle");
   if (column == 2) s += "unset object 1\n";
   return s;
 }
@@ -117,10 +120,17 @@ std::string contact_intervals_csv(const RunResult& r) {
   return out;
 }
 
+TimeHistoryPanel run_panel(const RunResult& r, std::string title, std::string data_dir) {
+  TimeHistoryPanel p{std::move(title), std::move(data_dir), r.input.solver.duration_s};
+  p.separated = r.reading.separated_fraction > 0;
+  p.back_side = r.reading.double_sided;
+  return p;
+}
+
 std::string time_history_body(const std::vector<TimeHistoryPanel>& panels, bool stacked,
                               const std::string& title) {
   std::string s =
-      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set key top right opaque font ',8'\nset tics font ',8'\n";
   const std::size_t rows = stacked ? 2 * panels.size() : panels.size();
   fmt::format_to(std::back_inserter(s), "set multiplot layout {},{} title \"{}\"\n", rows,
@@ -128,9 +138,9 @@ std::string time_history_body(const std::vector<TimeHistoryPanel>& panels, bool 
   for (std::size_t i = 0; i < panels.size(); ++i) {
     const bool last = i + 1 == panels.size();
     TimeHistoryPanel p = panels[i];
-    s += panel_plot(p, 2, "delta / b", stacked ? false : last);
+    s += panel_plot(p, 2, "δ / b", stacked ? false : last);
     p.title = "";  // the title goes over the panel's first plot only
-    s += panel_plot(p, 3, "F / (b k_m)", last);
+    s += panel_plot(p, 3, "F / (b·k_m)", last);
   }
   s += "unset multiplot\n";
   return s;
@@ -206,40 +216,64 @@ void write_run_figures(const fs::path& dir, const RunResult& r) {
                                {"plot.csv", plot_csv(r.samples)},
                                {"spectrum.csv", spectrum_csv(r)}});
   const std::string title =
-      fmt::format("{}: f_1 = {} Hz, b = {} um, xi = {}, F_a/F_m = {} ({})", c.name,
+      fmt::format("{}: f_1 = {} Hz, b = {} μm, ξ = {}, F_a/F_m = {} ({})", c.name,
                   c.speed.shaft_frequency_hz, c.mesh.backlash_um, c.mesh.damping_ratio,
                   c.load.fluctuation_ratio, to_string(r.reading.regime));
-  render_figure(dir, "run_time",
-                time_history_body({{"", "", c.solver.duration_s}}, /*stacked=*/true, title), 1000,
-                700);
+  render_figure(dir, "run_time", time_history_body({run_panel(r, "", "")}, /*stacked=*/true, title),
+                1000, 700);
 
-  // Spectrum of the steady part, with the mesh and torque harmonics marked.
-  const double f_mesh = mesh_frequency_hz(c);
-  const double f_torque = c.load.fluctuation_order * c.speed.shaft_frequency_hz;
-  const double nyquist = 0.5 / r.derived.output_interval_s;
-  const double x_max = std::min(nyquist, std::max(3.5 * f_mesh, 12.0 * f_torque));
-  std::string s = "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\nset logscale y\n";
+  // Spectrum of the steady part on a log frequency axis, with the contact natural frequency,
+  // the mesh orders and the torque harmonics marked.
+  const Derived& d = r.derived;
+  const double f_mesh = d.mesh_frequency_hz;
+  const double f_torque =
+      c.load.fluctuation_ratio > 0 ? c.load.fluctuation_order * c.speed.shaft_frequency_hz : 0.0;
+  const double f_n = d.natural_frequency_hz;
+  const double nyquist = 0.5 / d.output_interval_s;
+  const double df = 1.0 / std::max(c.solver.duration_s - r.steady_start_s, d.output_interval_s);
+  const double x_max = std::min(nyquist, 4.0 * std::max({f_mesh, f_n, f_torque}));
+  const double x_min =
+      std::max(df, 0.25 * std::min({f_mesh, f_n, f_torque > 0 ? f_torque : f_mesh}));
+  const bool nd = c.model.form == ModelForm::kNondimensional;
+  const char* f_unit = nd ? "cycles per tau" : "Hz";
+  std::string s =
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set logscale xy\nset key bottom left font ',9' opaque\n";
   fmt::format_to(std::back_inserter(s),
-                 "set title \"{} - spectrum over the steady part, t >= {:.4g} ms\"\n"
-                 "set xlabel 'frequency (kHz)'\nset ylabel 'amplitude'\nset xrange [0:{}]\n",
-                 c.name, r.steady_start_s * 1e3, x_max / 1e3);
-  for (int i = 1; i * f_mesh <= x_max; ++i)
+                 "set title \"{} - spectrum over the steady part, t >= {:.4g}{}\"\n"
+                 "set xlabel 'frequency ({})'\nset ylabel 'amplitude'\nset xrange [{}:{}]\n",
+                 c.name, nd ? r.steady_start_s : r.steady_start_s * 1e3, nd ? " (tau)" : " ms",
+                 f_unit, x_min, x_max);
+  const auto mark = [&](double f, const char* style, const std::string& label) {
+    if (f < x_min || f > x_max) return;
     fmt::format_to(std::back_inserter(s),
-                   "set arrow from {0}, graph 0 to {0}, graph 1 nohead dt 2 lc rgb 'gray40'\n"
-                   "set label '{1} f_z' at {0}, graph 0.97 left offset 0.3,0 font ',8'\n",
-                   i * f_mesh / 1e3, i);
-  for (int j = 1; j * f_torque <= x_max && j <= 20; ++j)
-    fmt::format_to(std::back_inserter(s),
-                   "set arrow from {0}, graph 0 to {0}, graph 1 nohead dt 3 lc rgb '#d08020'\n",
-                   j * f_torque / 1e3);
+                   "set arrow from {0}, graph 0 to {0}, graph 1 nohead {1}\n"
+                   "set label '{2}' at {0}, graph 0.97 left offset 0.3,0 font ',8'\n",
+                   f, style, label);
+  };
+  mark(f_n, "lw 1.5 lc rgb '#2e8b57'", "f_n");
+  for (int i = 1; i * f_mesh <= x_max && i <= 20; ++i)
+    mark(i * f_mesh, "dt 2 lc rgb 'gray40'", i == 1 ? "f_z" : fmt::format("{} f_z", i));
+  bool torque_marked = false;
+  for (int j = 1; f_torque > 0 && j * f_torque <= x_max && j <= 20; ++j)
+    if (j * f_torque >= x_min && std::abs(j * f_torque - f_mesh) > 1e-9 * f_mesh) {
+      fmt::format_to(std::back_inserter(s),
+                     "set arrow from {0}, graph 0 to {0}, graph 1 nohead dt 3 lc rgb '#d08020'\n",
+                     j * f_torque);
+      torque_marked = true;
+    }
   fmt::format_to(std::back_inserter(s),
-                 "plot 'spectrum.csv' every ::1 using ($1/1e3):(($2>0)?$2:NaN) with lines lw 1.2 "
-                 "lc rgb '{}' title 'F/(b k_m)', \\\n"
-                 "     'spectrum.csv' every ::1 using ($1/1e3):(($3>0)?$3:NaN) with lines lw 1 "
-                 "lc rgb '{}' title 'delta/b', \\\n"
-                 "     NaN with lines dt 2 lc rgb 'gray40' title 'mesh harmonics i z_1 f_1', \\\n"
-                 "     NaN with lines dt 3 lc rgb '#d08020' title 'torque harmonics'\n",
-                 kLineColour, kSecondColour);
+                 "plot 'spectrum.csv' every ::1 using 1:(($2>0)?$2:NaN) with lines lw 1.2 "
+                 "lc rgb '{}' title 'F/(b·k_m)', \\\n"
+                 "     'spectrum.csv' every ::1 using 1:(($3>0)?$3:NaN) with lines lw 1 "
+                 "lc rgb '{}' title 'δ/b', \\\n"
+                 "     NaN with lines lw 1.5 lc rgb '#2e8b57' title 'contact natural frequency "
+                 "f_n', \\\n"
+                 "     NaN with lines dt 2 lc rgb 'gray40' title 'mesh orders i z_1 f_1'{}\n",
+                 kLineColour, kSecondColour,
+                 torque_marked ? ", \\\n     NaN with lines dt 3 lc rgb '#d08020' title 'torque "
+                                 "harmonics'"
+                               : "");
   render_figure(dir, "run_spectrum", s, 1000, 500);
 
   // Phase portrait, the steady part drawn over the whole run.

@@ -617,8 +617,8 @@ void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
   for (const auto& [figure, cases] : by_figure(r)) {
     std::vector<TimeHistoryPanel> panels;
     for (const CaseOutcome* o : cases)
-      panels.push_back({fmt::format("{} {}", o->spec.panel, o->spec.label), "cases/" + o->spec.id,
-                        r.study.window_s});
+      panels.push_back(run_panel(o->run, fmt::format("{} {}", o->spec.panel, o->spec.label),
+                                 "cases/" + o->spec.id));
     const std::string title = fmt::format("{} ({})", figure, r.study.name);
     drawings.push_back({figure_file(figure), time_history_body(panels, false, title),
                         70 + 230 * static_cast<int>(panels.size())});

@@ -87,6 +87,31 @@ TEST(RunFigures, AreWrittenWithTheirDataAndScripts) {
   EXPECT_NE(slurp(d / "run_time.svg").find("<svg"), std::string::npos);
 }
 
+TEST(RunFigures, ShowOnlyWhatHappenedAndMarkTheNaturalFrequency) {
+  // A rattling run: separation in the legend, no back-side contact there; a run in contact
+  // from the start: neither. The spectrum marks f_n on a log frequency axis.
+  const auto body = [](const Case& c, const char* name) {
+    const fs::path d = fs::temp_directory_path() /
+                       (std::string("geardyn_figures_") + name + std::to_string(getpid()));
+    fs::remove_all(d);
+    const RunResult r = run(c);
+    write_run(d, r);
+    write_run_figures(d, r);
+    return std::make_pair(slurp(d / "run_time_body.gp"), slurp(d / "run_spectrum_body.gp"));
+  };
+  Case rattle;
+  rattle.solver.duration_s = 0.01;
+  const auto [time, spectrum] = body(rattle, "rattle");
+  EXPECT_NE(time.find("title 'separated'"), std::string::npos);
+  EXPECT_EQ(time.find("title 'back-side contact'"), std::string::npos);
+  EXPECT_NE(spectrum.find("set logscale xy"), std::string::npos);
+  EXPECT_NE(spectrum.find("'f_n'"), std::string::npos);
+  Case contact = rattle;
+  contact.solver.initial = InitialCondition::kStatic;
+  contact.load.fluctuation_ratio = 0;
+  EXPECT_EQ(body(contact, "contact").first.find("title '"), std::string::npos);
+}
+
 TEST(PlotCsv, DecimatesToTheEnvelope) {
   Timeseries s;
   for (int i = 0; i < 100000; ++i) {

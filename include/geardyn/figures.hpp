@@ -38,7 +38,12 @@ struct TimeHistoryPanel {
   std::string title;     // e.g. "(a) f_1 = 10 Hz"
   std::string data_dir;  // relative to the figure's directory ("" for the same)
   double window_s = 0;   // x range [0, window]
+  // What occurred in the run, so that only that is in the legend.
+  bool separated = true, back_side = false;
 };
+
+// A panel of a run: its title, its data directory and what occurred in it.
+TimeHistoryPanel run_panel(const RunResult& r, std::string title, std::string data_dir);
 
 // The gnuplot body of a time-history figure: each panel's delta_bar and F_bar, with the
 // separation (and back-side) intervals shaded and the backlash band |delta_bar| < 1 marked.
