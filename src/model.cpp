@@ -123,7 +123,10 @@ GearPairModel::GearPairModel(GearPairParameters p)
       c_(p_.damping_n_s_per_m),
       c_free_(p_.damping == DampingForm::kAlways ? p_.damping_n_s_per_m : 0.0),
       cb2_(p_.cos_base_helix * p_.cos_base_helix),
-      clip_(p_.tension == TensionRule::kClip) {}
+      // With damping at all times the damper is a viscous element beside the teeth (Kahraman
+      // and Singh): the teeth carry k(t) f(delta) alone, which cannot pull, so there is nothing
+      // to clip, and F_G = k f(delta) + c delta' stays continuous through separation.
+      clip_(p_.tension == TensionRule::kClip && p_.damping != DampingForm::kAlways) {}
 
 int GearPairModel::classify(const Drive& d, double delta_m, double velocity_m_s) const {
   if (delta_m >= b_) {

@@ -69,6 +69,32 @@ TEST(GearPairModel, DampingAlwaysActsInSeparation) {
   EXPECT_DOUBLE_EQ(m.mesh_force(d, 0.0, 0.3, kSeparated), m.parameters().damping_n_s_per_m * 0.3);
 }
 
+TEST(GearPairModel, ClipWithDampingAlwaysLeavesTheDamperAlone) {
+  // With the paper's damping, clip keeps F_G from pulling; with damping at all times the
+  // teeth alone are clipped, which never pull, so clip changes nothing and F_G stays
+  // continuous (the damper's c delta' on both sides of each separation).
+  Case c;
+  c.solver.duration_s = 0.01;
+  Case clipped = c;
+  clipped.mesh.tension = TensionRule::kClip;
+  const RunReading paper = run(c).reading, paper_clipped = run(clipped).reading;
+  EXPECT_LT(paper.min_force_bar, -1e-3);  // the contact damper pulls (the paper's eqs.)
+  EXPECT_GE(paper_clipped.min_force_bar, -1e-12);
+  Case always = c;
+  always.mesh.damping = DampingForm::kAlways;
+  Case always_clipped = always;
+  always_clipped.mesh.tension = TensionRule::kClip;
+  const RunResult a = run(always), b = run(always_clipped);
+  EXPECT_EQ(a.reading.min_force_bar, b.reading.min_force_bar);
+  EXPECT_EQ(a.reading.impacts, b.reading.impacts);
+  EXPECT_EQ(a.samples.force_bar, b.samples.force_bar);
+  const GearPairModel m = model_of(always_clipped);
+  const GearPairModel::Drive d{2.34e8, 0};
+  const double b_m = m.parameters().backlash_m, v = -0.2;
+  EXPECT_DOUBLE_EQ(m.mesh_force(d, b_m, v, kDriveContact), m.mesh_force(d, b_m, v, kSeparated));
+  EXPECT_EQ(m.classify(d, b_m * (1 + 1e-9), v), kDriveContact);
+}
+
 TEST(GearPairModel, ForceDerivativesMatchFiniteDifferences) {
   Case c;
   c.mesh.damping = DampingForm::kAlways;
