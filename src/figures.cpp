@@ -174,16 +174,16 @@ void render_figure(const fs::path& dir, const std::string& name, const std::stri
 }
 
 void write_stiffness_figure(const fs::path& dir, const std::string& name,
-                            const StiffnessCycle& cycle, const StiffnessFourier& spectrum,
-                            int kept) {
+                            const StiffnessCycle& cycle, const StiffnessFourier& spectrum, int kept,
+                            const StiffnessFourier& used) {
   std::string h = "harmonic,ratio,phase_deg\n";
   for (std::size_t i = 0; i < spectrum.harmonics.size(); ++i)
     fmt::format_to(std::back_inserter(h), "{},{:.8e},{:.6f}\n", i + 1, spectrum.harmonics[i].ratio,
                    spectrum.harmonics[i].phase_deg);
   write_files_atomically(dir, {{"harmonics.csv", h}});
   std::string s =
-      "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set key outside right top font ',8'\n";
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key below font ',8'\n";
   fmt::format_to(std::back_inserter(s), "set multiplot layout 3,1 title \"{}\"\n", name);
   s += "set title '(a) mesh stiffness over one mesh cycle'\n"
        "set xlabel 'position in the mesh cycle'\nset ylabel 'k (N/m)'\nset xrange [0:1]\n"
@@ -192,18 +192,34 @@ void write_stiffness_figure(const fs::path& dir, const std::string& name,
     fmt::format_to(std::back_inserter(s),
                    " 'stiffness.csv' every ::1 using 1:(${0}>0?${0}:NaN) with lines dt 3 lc rgb "
                    "'gray50' {1},",
-                   7 + j, j == 0 ? "title 'each tooth pair'" : "notitle");
+                   8 + j, j == 0 ? "title 'each tooth pair'" : "notitle");
   fmt::format_to(std::back_inserter(s),
                  " 'stiffness.csv' every ::1 using 1:3 with lines lw 1.5 lc rgb '{}' title "
                  "'energy method', 'stiffness.csv' every ::1 using 1:4 with lines lw 1.2 dt 2 lc "
-                 "rgb '{}' title 'mean + {} harmonics'\n",
-                 kLineColour, kSecondColour, kept);
+                 "rgb '{}' title 'its mean + {} harmonics', 'stiffness.csv' every ::1 using 1:5 "
+                 "with lines lw 2 lc rgb '#2e8b57' title 'used by the run (mean {:.4g} N/m, {} "
+                 "harmonics)'\n",
+                 kLineColour, kSecondColour, kept, used.mean_n_per_m, used.harmonics.size());
   fmt::format_to(std::back_inserter(s), "set xrange [0.5:{}.5]\n", spectrum.harmonics.size());
-  s += "set title '(b) DFT: k_ai / k_m'\nset xlabel 'harmonic of the mesh frequency'\n"
+  s += "set title '(b) DFT of the energy method curve: k_ai / k_m'\n"
+       "set xlabel 'harmonic of the mesh frequency'\n"
        "set ylabel 'k_ai / k_m'\nset logscale y\nset boxwidth 0.6\n"
-       "set style fill solid 0.7 noborder\n"
-       "plot 'harmonics.csv' every ::1 using 1:2 with boxes lc rgb '#1f3b73' notitle\n"
-       "unset logscale y\n"
+       "set style fill solid 0.7 noborder\nset key inside top right\n";
+  // The kept harmonics and the others, each in the legend only when there are any.
+  std::vector<std::string> bars;
+  if (kept > 0)
+    bars.push_back(fmt::format(
+        "'harmonics.csv' every ::1 using 1:($1 <= {0} ? $2 : NaN) with boxes lc rgb '#1f3b73' "
+        "title 'kept ({0})'",
+        kept));
+  if (static_cast<std::size_t>(kept) < spectrum.harmonics.size())
+    bars.push_back(fmt::format(
+        "'harmonics.csv' every ::1 using 1:($1 > {} ? $2 : NaN) with boxes lc rgb '#c8c8c8' "
+        "title 'not kept'",
+        kept));
+  s += "plot ";
+  for (std::size_t k = 0; k < bars.size(); ++k) s += (k ? ", " : "") + bars[k];
+  s += "\nunset logscale y\n"
        "set title '(c) DFT: phases'\nset ylabel 'phase (deg)'\nset yrange [-180:180]\n"
        "plot 'harmonics.csv' every ::1 using 1:3 with points pt 7 lc rgb '#b5532b' notitle\n"
        "unset multiplot\n";

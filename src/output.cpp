@@ -226,18 +226,18 @@ std::string stiffness_json(const Case& c, const Geometry& g, const Iso6336Stiffn
 }
 
 std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
-                          const StiffnessFourier& fourier) {
+                          const StiffnessFourier& fourier, const StiffnessFourier& used) {
   std::string out =
-      "position,position_mm,total_n_per_m,series_n_per_m,pairs_in_contact,"
+      "position,position_mm,total_n_per_m,series_n_per_m,used_n_per_m,pairs_in_contact,"
       "contact_length_mm";
   for (std::size_t j = 0; j < cycle.pair_n_per_m.size(); ++j)
     fmt::format_to(std::back_inserter(out), ",pair_{}_n_per_m", j);
   out += "\n";
   for (std::size_t n = 0; n < cycle.position.size(); ++n) {
     const double series = fourier.at(cycle.position[n]);
-    fmt::format_to(std::back_inserter(out), "{:.6f},{:.6f},{:.8e},{:.8e},{},{:.6f}",
+    fmt::format_to(std::back_inserter(out), "{:.6f},{:.6f},{:.8e},{:.8e},{:.8e},{},{:.6f}",
                    cycle.position[n], cycle.position[n] * g.transverse_base_pitch_m * 1e3,
-                   cycle.total_n_per_m[n], series,
+                   cycle.total_n_per_m[n], series, used.at(cycle.position[n]),
                    n < cycle.pairs_in_contact.size() ? cycle.pairs_in_contact[n] : 0,
                    n < cycle.contact_length_m.size() ? cycle.contact_length_m[n] * 1e3 : 0.0);
     for (const auto& pair : cycle.pair_n_per_m)

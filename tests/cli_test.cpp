@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -259,6 +260,26 @@ TEST(Cli, StiffnessJsonAndFiles) {
     EXPECT_GT(fs::file_size(d / f), 100u) << f;
   const std::string csv = slurp(d / "stiffness.csv");
   EXPECT_EQ(csv.substr(0, csv.find(',')), "position");
+  // The curve a run uses: Table 1's k_m as its mean (the computed curve is scaled to it), and
+  // the two kept harmonics; the energy method's own mean is larger.
+  std::istringstream rows(csv);
+  std::string row;
+  std::getline(rows, row);
+  EXPECT_EQ(row.substr(0, 58), "position,position_mm,total_n_per_m,series_n_per_m,used_n_p");
+  double used = 0, total = 0;
+  int n = 0;
+  while (std::getline(rows, row)) {
+    double x[5];
+    ASSERT_EQ(std::sscanf(row.c_str(), "%lf,%lf,%lf,%lf,%lf", &x[0], &x[1], &x[2], &x[3], &x[4]),
+              5);
+    total += x[2];
+    used += x[4];
+    ++n;
+  }
+  ASSERT_GT(n, 10);
+  EXPECT_NEAR(used / n, 2.34e8, 1e-6 * 2.34e8);
+  EXPECT_GT(total / n, 1.2 * 2.34e8);
+  EXPECT_NE(slurp(d / "stiffness_body.gp").find("title 'kept (2)'"), std::string::npos);
 }
 
 TEST(Cli, SweepWritesItsResults) {

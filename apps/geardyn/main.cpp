@@ -318,12 +318,16 @@ int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& 
   const geardyn::StiffnessFourier kept = geardyn::fourier_harmonics(cycle, c.mesh.harmonics_kept);
   const std::string report = geardyn::stiffness_json(c, g, iso, cycle, kept);
   if (!out_dir.empty()) {
-    geardyn::write_files_atomically(out_dir,
-                                    {{"stiffness.csv", geardyn::stiffness_csv(g, cycle, kept)},
-                                     {"harmonics.json", report + "\n"}});
-    geardyn::write_stiffness_figure(out_dir, c.name + ": mesh stiffness (energy method)", cycle,
-                                    geardyn::fourier_harmonics(cycle, kFigureHarmonics),
-                                    c.mesh.harmonics_kept);
+    // The stiffness a run of this case uses (its source, kept harmonics and mean scaling).
+    const geardyn::MeshStiffness used = geardyn::mesh_stiffness(c, g);
+    geardyn::write_files_atomically(
+        out_dir, {{"stiffness.csv", geardyn::stiffness_csv(g, cycle, kept, used.fourier)},
+                  {"harmonics.json", report + "\n"}});
+    geardyn::write_stiffness_figure(
+        out_dir, c.name + ": mesh stiffness (energy method)", cycle,
+        geardyn::fourier_harmonics(cycle, kFigureHarmonics),
+        c.mesh.stiffness_source == geardyn::StiffnessSource::kHarmonics ? 0 : c.mesh.harmonics_kept,
+        used.fourier);
   }
   if (json) {
     fmt::print("{}\n", report);

@@ -57,11 +57,12 @@ void render_figure(const std::filesystem::path& dir, const std::string& name,
                    const std::string& body, int width_px, int height_px);
 
 // The mesh stiffness figure, like the paper's Fig. 3: (a) k over one mesh cycle with its
-// truncated series and each tooth pair's contribution, (b) the DFT: harmonic ratios k_ai/k_m
-// and phases. Needs stiffness.csv and harmonics.csv (written here) in dir.
+// truncated series, each tooth pair's contribution, and the stiffness a run uses (`used`: the
+// case's source, kept harmonics and mean scaling), (b) the DFT: harmonic ratios k_ai/k_m, the
+// `kept` ones marked, and (c) phases. Needs stiffness.csv and harmonics.csv (written here).
 void write_stiffness_figure(const std::filesystem::path& dir, const std::string& name,
-                            const StiffnessCycle& cycle, const StiffnessFourier& spectrum,
-                            int kept);
+                            const StiffnessCycle& cycle, const StiffnessFourier& spectrum, int kept,
+                            const StiffnessFourier& used);
 
 // The figures of one run, into a directory that already holds its timeseries.csv:
 // run_time (delta_bar and F_bar over time), run_spectrum (spectrum of F_bar over the steady part

@@ -49,10 +49,11 @@ std::string stiffness_json(const Case& c, const Geometry& g, const Iso6336Stiffn
                            const StiffnessCycle& cycle, const StiffnessFourier& fourier);
 
 // stiffness.csv: position (fraction of the mesh cycle), position_mm (along the line of action),
-// total_n_per_m, series_n_per_m (the kept harmonics), pairs_in_contact, contact_length_mm and
-// pair_<j>_n_per_m for each tooth pair.
+// total_n_per_m (the computed curve), series_n_per_m (its kept harmonics), used_n_per_m (the
+// stiffness a run of the case uses: its source, kept harmonics and mean scaling),
+// pairs_in_contact, contact_length_mm and pair_<j>_n_per_m for each tooth pair.
 std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
-                          const StiffnessFourier& fourier);
+                          const StiffnessFourier& fourier, const StiffnessFourier& used);
 
 // How a file is moved into place (std::filesystem::rename; a test may make it fail).
 using RenameFunction = std::function<void(const std::filesystem::path& from,
