@@ -29,8 +29,13 @@ std::string shell_quote(const std::string& s) {
   return out + "'";
 }
 
-std::string panel_plot(const TimeHistoryPanel& p, int column, const char* ylabel,
+std::string panel_plot(const TimeHistoryPanel& p, int column, const std::string& ylabel,
                        bool show_xlabel) {
+  const bool physical = p.backlash_um > 0;
+  // The column as plotted, and the contact surfaces delta = +-b in the same units.
+  const double scale = !physical ? 1.0 : column == 2 ? p.backlash_um : p.force_scale_n;
+  const double edge = physical ? p.backlash_um : 1.0;
+  const std::string y = fmt::format("(${}*{})", column, scale);
   const std::string dir = p.data_dir.empty() ? "" : p.data_dir + "/";
   const std::string ts = dir + "plot.csv", iv = dir + "intervals.csv";
   std::string s;
@@ -44,13 +49,13 @@ std::string panel_plot(const TimeHistoryPanel& p, int column, const char* ylabel
                  "pad = 0.08 * (S_max - S_min) + 1e-9\n"
                  "ylo = S_min - pad; yhi = S_max + pad\n"
                  "set yrange [ylo:yhi]\n",
-                 ts, column);
+                 ts, y);
   if (column == 2) {
     // The backlash band |delta / b| < 1 (its edges, the contact surfaces, are plotted below).
     fmt::format_to(std::back_inserter(s),
-                   "set object 1 rect from graph 0, first -1 to graph 1, first 1 back "
-                   "fc rgb '{}' fs solid 1.0 noborder\n",
-                   kBandColour);
+                   "set object 1 rect from graph 0, first {1} to graph 1, first {2} back "
+                   "fc rgb '{0}' fs solid 1.0 noborder\n",
+                   kBandColour, -edge, edge);
   }
   fmt::format_to(
       std::back_inserter(s),
@@ -60,10 +65,11 @@ std::string panel_plot(const TimeHistoryPanel& p, int column, const char* ylabel
       "(($3==-1)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{3}' {8}, "
       "\\\n"
       "     '{1}' every ::1 using ($1*1e3):{4} with lines lw 1.1 lc rgb '{5}' notitle{6}\n",
-      iv, ts, kSeparatedColour, kBackColour, column, kLineColour,
-      column == 2 ? ", \\\n     1 with lines dt 2 lc rgb 'gray30' notitle, -1 with lines dt 2 "
-                    "lc rgb 'gray30' notitle"
-                  : "",
+      iv, ts, kSeparatedColour, kBackColour, y, kLineColour,
+      column == 2 ? fmt::format(", \\\n     {0} with lines dt 2 lc rgb 'gray30' notitle, {1} "
+                                "with lines dt 2 lc rgb 'gray30' notitle",
+                                edge, -edge)
+                  : std::string(),
       p.separated ? "title 'separated'" : "notitle",
       p.back_side ? "title 'back-side contact'" : "notitle");
   if (column == 2) s += "unset object 1\n";
@@ -138,9 +144,10 @@ std::string time_history_body(const std::vector<TimeHistoryPanel>& panels, bool 
   for (std::size_t i = 0; i < panels.size(); ++i) {
     const bool last = i + 1 == panels.size();
     TimeHistoryPanel p = panels[i];
-    s += panel_plot(p, 2, "δ / b", stacked ? false : last);
+    const bool physical = p.backlash_um > 0;
+    s += panel_plot(p, 2, physical ? "δ (μm)" : "δ / b", stacked ? false : last);
     p.title = "";  // the title goes over the panel's first plot only
-    s += panel_plot(p, 3, "F / (b·k_m)", last);
+    s += panel_plot(p, 3, physical ? "F_G (N)" : "F / (b·k_m)", last);
   }
   s += "unset multiplot\n";
   return s;
@@ -226,7 +233,7 @@ void write_stiffness_figure(const fs::path& dir, const std::string& name,
   render_figure(dir, "stiffness", s, 1000, 950);
 }
 
-void write_run_figures(const fs::path& dir, const RunResult& r) {
+void write_run_figures(const fs::path& dir, const RunResult& r, bool physical) {
   const Case& c = r.input;
   write_files_atomically(dir, {{"intervals.csv", contact_intervals_csv(r)},
                                {"plot.csv", plot_csv(r.samples)},
@@ -235,8 +242,16 @@ void write_run_figures(const fs::path& dir, const RunResult& r) {
       fmt::format("{}: f_1 = {} Hz, b = {} μm, ξ = {}, F_a/F_m = {} ({})", c.name,
                   c.speed.shaft_frequency_hz, c.mesh.backlash_um, c.mesh.damping_ratio,
                   c.load.fluctuation_ratio, to_string(r.reading.regime));
-  render_figure(dir, "run_time", time_history_body({run_panel(r, "", "")}, /*stacked=*/true, title),
-                1000, 700);
+  TimeHistoryPanel time_panel = run_panel(r, "", "");
+  if (physical) {
+    if (c.model.form == ModelForm::kNondimensional)
+      throw InputError("--physical: the non-dimensional form has no physical units");
+    const GearPairParameters p = build_model(c).parameters();
+    time_panel.backlash_um = c.mesh.backlash_um;
+    time_panel.force_scale_n = p.backlash_m * p.mean_stiffness_n_per_m();
+  }
+  render_figure(dir, "run_time", time_history_body({time_panel}, /*stacked=*/true, title), 1000,
+                700);
 
   // Spectrum of the steady part on a log frequency axis, with the contact natural frequency,
   // the mesh orders and the torque harmonics marked.

@@ -1,5 +1,6 @@
 #include "geardyn/figures.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -110,6 +111,28 @@ TEST(RunFigures, ShowOnlyWhatHappenedAndMarkTheNaturalFrequency) {
   contact.solver.initial = InitialCondition::kStatic;
   contact.load.fluctuation_ratio = 0;
   EXPECT_EQ(body(contact, "contact").first.find("title '"), std::string::npos);
+}
+
+TEST(RunFigures, PhysicalUnitsScaleByTheBacklashAndTheMeshStiffness) {
+  // delta in um is delta_bar b, F_G in N is F_bar b k_m; the contact surfaces at +-b (um).
+  const fs::path d = fs::temp_directory_path() / ("geardyn_figures_si_" + std::to_string(getpid()));
+  fs::remove_all(d);
+  Case c;
+  c.solver.duration_s = 0.005;
+  const RunResult r = run(c);
+  write_run(d, r);
+  write_run_figures(d, r, /*physical=*/true);
+  const std::string body = slurp(d / "run_time_body.gp");
+  const double b_um = c.mesh.backlash_um, bk = 1e-6 * c.mesh.backlash_um * 2.34e8;
+  EXPECT_NE(body.find("δ (μm)"), std::string::npos);
+  EXPECT_NE(body.find("F_G (N)"), std::string::npos);
+  EXPECT_NE(body.find(fmt::format("($2*{})", b_um)), std::string::npos);
+  EXPECT_NE(body.find(fmt::format("($3*{})", bk)), std::string::npos) << body;
+  EXPECT_NE(body.find(fmt::format("{} with lines dt 2", b_um)), std::string::npos);
+  Case nd;
+  nd.model.form = ModelForm::kNondimensional;
+  nd.solver.duration_s = 10;
+  EXPECT_THROW(write_run_figures(d, run(nd), true), InputError);
 }
 
 TEST(PlotCsv, DecimatesToTheEnvelope) {

@@ -181,9 +181,10 @@ void print_run_summary(const geardyn::RunResult& r) {
 }
 
 int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
-            const std::string& out_dir, bool plot) {
+            const std::string& out_dir, bool plot, bool physical) {
   if (plot && out_dir.empty())
     throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
+  if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
   geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
@@ -202,7 +203,7 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, events.csv, case.toml)\n",
                out_dir);
     if (plot) {
-      geardyn::write_run_figures(out_dir, r);
+      geardyn::write_run_figures(out_dir, r, physical);
       fmt::print("  figures           {}/run_time, run_spectrum, run_phase (.png, .svg, .gp)\n",
                  out_dir);
     }
@@ -566,6 +567,9 @@ int main(int argc, char** argv) {
   run->add_option("--out", out_dir, "directory for summary.json, timeseries.csv, events.csv");
   bool plot = false;
   run->add_flag("--plot", plot, "also draw the run's figures (PNG and SVG) into --out DIR");
+  bool physical = false;
+  run->add_flag("--physical", physical,
+                "draw delta in um and F_G in N, not delta/b and F/(b k_m) (with --plot)");
 
   CLI::App* geometry = app.add_subcommand("geometry", "print the derived gear geometry");
   add_case(geometry);
@@ -700,7 +704,7 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot);
+    if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot, physical);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
     if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
     if (sweep_cmd->parsed()) {

@@ -40,6 +40,9 @@ struct TimeHistoryPanel {
   double window_s = 0;   // x range [0, window]
   // What occurred in the run, so that only that is in the legend.
   bool separated = true, back_side = false;
+  // Physical units: delta in um (delta_bar times b) and F_G in N (F_bar times b k_m); 0 for
+  // the normalised delta / b and F / (b k_m).
+  double backlash_um = 0, force_scale_n = 0;
 };
 
 // A panel of a run: its title, its data directory and what occurred in it.
@@ -68,6 +71,8 @@ void write_stiffness_figure(const std::filesystem::path& dir, const std::string&
 // run_time (delta_bar and F_bar over time), run_spectrum (spectrum of F_bar over the steady part
 // with the mesh and torque harmonics marked), run_phase (phase portrait), with intervals.csv and
 // spectrum.csv beside them.
-void write_run_figures(const std::filesystem::path& dir, const RunResult& r);
+// `physical`: delta in um and F_G in N (the gear-pair form) in place of delta / b and
+// F / (b k_m).
+void write_run_figures(const std::filesystem::path& dir, const RunResult& r, bool physical = false);
 
 }  // namespace geardyn
