@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
@@ -676,6 +677,70 @@ std::string validate(const Case& c) {
   return {};
 }
 
+namespace {
+
+// TOML text of a value. Floats with the shortest digits that read back to the same double
+// (154.98, not toml++'s 154.97999999999999), always with a point or an exponent so that they
+// stay floats; strings as basic strings with JSON's escapes, which TOML shares.
+void emit_value(std::string& out, const toml::node& v) {
+  if (const auto* f = v.as_floating_point()) {
+    const double x = f->get();
+    if (std::isnan(x)) {
+      out += "nan";
+    } else if (std::isinf(x)) {
+      out += x > 0 ? "inf" : "-inf";
+    } else {
+      std::string t = fmt::format("{}", x);
+      if (t.find_first_of(".e") == std::string::npos) t += ".0";
+      out += t;
+    }
+  } else if (const auto* i = v.as_integer()) {
+    out += fmt::format("{}", i->get());
+  } else if (const auto* b = v.as_boolean()) {
+    out += b->get() ? "true" : "false";
+  } else if (const auto* str = v.as_string()) {
+    out += nlohmann::json(str->get()).dump();
+  } else if (const auto* a = v.as_array()) {
+    out += "[";
+    for (std::size_t k = 0; k < a->size(); ++k) {
+      out += k ? ", " : " ";
+      emit_value(out, *a->get(k));
+    }
+    out += a->empty() ? "]" : " ]";
+  }
+}
+
+// A key, bare when it can be (every key of a case can).
+std::string emit_key(const std::string& key) {
+  const bool bare = !key.empty() && std::all_of(key.begin(), key.end(), [](char ch) {
+    return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-';
+  });
+  return bare ? key : nlohmann::json(key).dump();
+}
+
+// A case's table as TOML: its own values first, then each sub-table as a [section].
+std::string emit_table(const toml::table& root) {
+  std::string out;
+  for (const auto& [key, node] : root)
+    if (!node.is_table()) {
+      out += emit_key(std::string(key.str())) + " = ";
+      emit_value(out, node);
+      out += "\n";
+    }
+  for (const auto& [key, node] : root)
+    if (const auto* t = node.as_table()) {
+      out += "\n[" + emit_key(std::string(key.str())) + "]\n";
+      for (const auto& [k, v] : *t) {
+        out += emit_key(std::string(k.str())) + " = ";
+        emit_value(out, v);
+        out += "\n";
+      }
+    }
+  return out;
+}
+
+}  // namespace
+
 std::string to_toml(const Case& c) {
   auto pair = [](const auto& a) { return toml::array{a[0], a[1]}; };
   toml::table gear{
@@ -749,9 +814,7 @@ std::string to_toml(const Case& c) {
       {"speed", toml::table{{"shaft_frequency_hz", c.speed.shaft_frequency_hz}}},
       {"solver", solver},
   };
-  std::ostringstream out;
-  out << root << '\n';
-  return out.str();
+  return emit_table(root);
 }
 
 }  // namespace geardyn

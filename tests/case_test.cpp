@@ -63,6 +63,28 @@ TEST(Case, RoundTripsThroughToml) {
   EXPECT_EQ(to_toml(back), to_toml(c));
 }
 
+TEST(Case, TomlNumbersAreTheShortestThatReadBackExactly) {
+  // 154.98, not 154.97999999999999; floats keep a point (7850.0); an array element below 0.1
+  // (where toml++ 3.3's own array formatting casts out of range) is written as itself; every
+  // number reads back to the same double.
+  Case c;
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.mesh.stiffness_harmonics = {{0.05, 0.0}, {1.0 / 3.0, -1e-300}};
+  c.speed.shaft_frequency_hz = 1234.5678901234567;
+  const std::string text = to_toml(c);
+  EXPECT_NE(text.find("outside_diameter_mm = [ 154.98, 154.98 ]"), std::string::npos) << text;
+  EXPECT_NE(text.find("density_kg_m3 = 7850.0\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("[ [ 0.05, 0.0 ], [ 0.3333333333333333, -1e-300 ] ]"), std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("99999"), std::string::npos) << text;
+  const Case back = parse_case(text, "shortest");
+  EXPECT_EQ(back.speed.shaft_frequency_hz, 1234.5678901234567);
+  EXPECT_EQ(back.mesh.stiffness_harmonics[1].ratio, 1.0 / 3.0);
+  EXPECT_EQ(back.mesh.stiffness_harmonics[1].phase_deg, -1e-300);
+  c.description = "a \"quoted\" name\twith a tab, ü";
+  EXPECT_EQ(parse_case(to_toml(c), "escapes").description, c.description);
+}
+
 TEST(Case, OverridesUseTomlValueSyntax) {
   const Case c =
       load_case(std::nullopt,
