@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -16,6 +17,8 @@
 
 namespace geardyn {
 namespace {
+
+namespace fs = std::filesystem;
 
 // x'' + 2 zeta x' + k f(x) = F_m + F_a cos(Omega tau), b = 1 (Kahraman and Singh 1990).
 Case nondimensional(double zeta, double fm, double fa) {
@@ -312,6 +315,25 @@ TEST(Sweep, MapWritesItsFilesAndFigures) {
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_EQ(j["param2"], "model.force_alternating");
   EXPECT_EQ(j["points_computed"], 12);
+  // Up sweeps only: one panel, no coexistence to mark, only the regimes that occurred named.
+  const auto body = [](const fs::path& dir) {
+    std::ifstream b(dir / "regime_map_body.gp");
+    return std::string(std::istreambuf_iterator<char>(b), {});
+  };
+  const std::string up = body(d);
+  EXPECT_EQ(up.find("branches coexist"), std::string::npos);
+  EXPECT_EQ(up.find("title 'failed'"), std::string::npos);
+  EXPECT_EQ(up.find("down sweeps"), std::string::npos);
+  // Both directions through the hysteresis of F_a 0.1: two panels and the coexisting branches
+  // circled at the points where up and down differ.
+  o.direction = SweepDirection::kBoth;
+  o.axis = {"model.omega", 0.3, 0.7, 9, false};
+  const SweepResult both = sweep(nondimensional(0.05, 0.1, 0.1), o);
+  ASSERT_FALSE(both.hysteresis.empty());
+  write_sweep(d, both);
+  const std::string two = body(d);
+  EXPECT_NE(two.find("branches coexist"), std::string::npos);
+  EXPECT_NE(two.find("down sweeps"), std::string::npos);
 }
 
 TEST(Sweep, GearCaseKeepsTheStiffnessAcrossFrequencyPoints) {
