@@ -1,5 +1,7 @@
 #include "geardyn/run.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -167,6 +169,59 @@ const char* to_string(SteadyBasis b) {
 
 namespace {
 
+// The bounds of kMaxSamples and the others (run.hpp), in floating point before any count is
+// made an integer.
+void check_work(const Case& c, const Derived& d, double window_s) {
+  const double samples = window_s / d.output_interval_s + 1;
+  if (!(samples <= kMaxSamples))
+    throw InputError(fmt::format(
+        "solver.output_interval_s = {:.6g}: {:.3g} samples over solver.duration_s = {:.6g}; at "
+        "most {:.0e} (choose a larger interval, or 0 for the automatic one)",
+        d.output_interval_s, samples, window_s, kMaxSamples));
+  const double periods = window_s / d.fastest_period_s;
+  if (!(periods <= kMaxFastestPeriods))
+    throw InputError(fmt::format(
+        "solver.duration_s = {:.6g}: {:.3g} periods of the case's fastest time scale ({:.3g} "
+        "s); at most {:.0e}",
+        window_s, periods, d.fastest_period_s, kMaxFastestPeriods));
+  if (c.solver.method != Method::kNewmark) return;
+  const double largest = d.fastest_period_s / kMinStepsPerFastestPeriod;
+  if (c.solver.time_step_s > largest)
+    throw InputError(fmt::format(
+        "solver.time_step_s = {:.6g}: does not resolve the case's fastest time scale ({:.3g} "
+        "s); at most {:.3g} s ({:g} steps a period), or 0 for the automatic step",
+        c.solver.time_step_s, d.fastest_period_s, largest, kMinStepsPerFastestPeriod));
+  const double step =
+      c.solver.time_step_s > 0 ? c.solver.time_step_s : d.fastest_period_s / kStepsPerFastestPeriod;
+  if (!(window_s / step <= kMaxNewmarkSteps))
+    throw InputError(fmt::format(
+        "solver.time_step_s = {:.6g}: {:.3g} Newmark steps over solver.duration_s = {:.6g}; at "
+        "most {:.0e}",
+        step, window_s / step, window_s, kMaxNewmarkSteps));
+}
+
+// A reading that is not finite (an overflow, a denormal backlash) is a numerical failure, never
+// "completed".
+void refuse_non_finite(const RunReading& x, ode::IntegrationSummary& s) {
+  const std::pair<const char*, double> values[] = {
+      {"max_force_bar", x.max_force_bar},
+      {"min_force_bar", x.min_force_bar},
+      {"mean_force_bar", x.mean_force_bar},
+      {"rms_force_bar", x.rms_force_bar},
+      {"max_delta_bar", x.max_delta_bar},
+      {"min_delta_bar", x.min_delta_bar},
+      {"mean_delta_bar", x.mean_delta_bar},
+      {"rms_delta_bar", x.rms_delta_bar},
+      {"max_impact_velocity_m_s", x.max_impact_velocity_m_s}};
+  for (const auto& [name, value] : values)
+    if (!std::isfinite(value)) {
+      s.termination = ode::Termination::kDiverged;
+      s.message =
+          fmt::format("the reading {} is not finite ({}): non-finite readings", name, value);
+      return;
+    }
+}
+
 // The steady part of a run over [t0, t1] from `initial`: the response is followed on the section
 // t = k T0 until steady (steady.hpp, to kSteadyTolerance), leaving at least one period to read;
 // without a steady state, the final half. Its readings are taken by integrating the part again
@@ -263,6 +318,7 @@ RunResult run(const Case& c, const RunOptions& options) {
                             : std::max((t1 - t0) / kMaxAutomaticSamples,
                                        std::min((t1 - t0) / kAutomaticSamples,
                                                 d.fastest_period_s / kSamplesPerFastestPeriod));
+  check_work(c, d, t1 - t0);
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, d.output_interval_s);
 
   const ode::State initial = initial_state(c, model, t0);
@@ -273,6 +329,7 @@ RunResult run(const Case& c, const RunOptions& options) {
   result.integration = solver.run(initial, t1, grid, reader);
   d.time_step_s = solver.time_step_s();
   result.reading = reader.reading();
+  if (result.integration.ok()) refuse_non_finite(result.reading, result.integration);
   result.events = reader.events();
   result.samples = std::move(reader.samples());
   if (result.integration.ok()) {

@@ -109,6 +109,43 @@ TEST(Cli, UnknownKeyInAFileNamesFileAndLine) {
   EXPECT_NE(o.err.find("mesh.stiffnes"), std::string::npos) << o.err;
 }
 
+TEST(Cli, WorkBeyondTheBoundsIsRefusedBeforeItStarts) {
+  // Each bound of run.hpp: exit 2 before any work, the key, its value and the bound named,
+  // nothing written.
+  const struct {
+    const char* set;
+    const char* key;
+    const char* bound;
+  } cases[] = {
+      {"solver.duration_s=1e9", "solver.duration_s = 1e+09", "at most 1e+08"},
+      {"solver.output_interval_s=1e-12", "solver.output_interval_s = 1e-12", "at most 5e+06"},
+      {"solver.method=newmark --set solver.time_step_s=1e-300", "solver.time_step_s = 1e-300",
+       "at most 1e+10"},
+      {"solver.method=newmark --set solver.time_step_s=1e-3", "solver.time_step_s = 0.001",
+       "does not resolve"},
+  };
+  for (const auto& x : cases) {
+    const fs::path d = fresh("bounds");
+    const Outcome o = cli(std::string("run --set ") + x.set + " --out " + d.string());
+    EXPECT_EQ(o.code, 2) << x.set << ": " << o.err;
+    EXPECT_NE(o.err.find(x.key), std::string::npos) << o.err;
+    EXPECT_NE(o.err.find(x.bound), std::string::npos) << o.err;
+    EXPECT_FALSE(fs::exists(d)) << x.set;
+  }
+}
+
+TEST(Cli, NonFiniteReadingsAreANumericalFailure) {
+  // A denormal backlash: the integration completes but its readings overflow to inf.
+  const fs::path d = fresh("nonfinite");
+  const Outcome o =
+      cli("run --set solver.method=dopri5 --set mesh.backlash_um=1e-310 "
+          "--set solver.duration_s=0.001 --out " +
+          d.string());
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_NE(o.err.find("non-finite readings"), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(d));
+}
+
 TEST(Cli, NumericalFailureExitsWithOneAndTheReason) {
   const fs::path d = fresh("diverge");
   const Outcome o =

@@ -29,6 +29,14 @@ constexpr double kStepsPerFastestPeriod = 200.0;
 constexpr double kAutomaticSamples = 5000.0;
 constexpr double kSamplesPerFastestPeriod = 4.0;
 constexpr double kMaxAutomaticSamples = 200000.0;
+// Work bounds of a run, checked before it starts (an InputError naming the key, its value and
+// the bound): samples kept, periods of the fastest time scale in the window, Newmark steps, and
+// the Newmark step against the fastest time scale (a step that cannot resolve it reads
+// nonsense as "completed").
+constexpr double kMaxSamples = 5e6;         // about 200 MB of samples, 400 MB of CSV
+constexpr double kMaxFastestPeriods = 1e8;  // e.g. 4e4 s of the Table 1 pair
+constexpr double kMaxNewmarkSteps = 1e10;   // minutes at the Newmark rate of this machine
+constexpr double kMinStepsPerFastestPeriod = 10.0;
 // The steady part of a run, for its spectra: the final half of the window.
 constexpr double kSteadyFraction = 0.5;
 // Dominant frequencies reported per signal.
