@@ -627,21 +627,38 @@ Case parse_case(const std::string& toml_text, const std::string& source_name,
   return decode(root, source_name, overrides, "");
 }
 
+std::string read_input_file(const std::filesystem::path& path, const std::string& what) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(status))
+    throw InputError(
+        fmt::format("{}: cannot read the {} (missing or not readable)", path.string(), what));
+  if (!std::filesystem::is_regular_file(status))
+    throw InputError(
+        fmt::format("{}: the {} must be a regular file, not a {}", path.string(), what,
+                    std::filesystem::is_directory(status) ? "directory" : "device or pipe"));
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec || size > kMaxInputFileBytes)
+    throw InputError(fmt::format("{}: the {} has {} bytes; at most {} are read", path.string(),
+                                 what, ec ? 0 : size, kMaxInputFileBytes));
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw InputError(
+        fmt::format("{}: cannot read the {} (missing or not readable)", path.string(), what));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad())
+    throw InputError(fmt::format("{}: error while reading the {}", path.string(), what));
+  return text.str();
+}
+
 Case load_case(const std::optional<std::filesystem::path>& path,
                const std::vector<Override>& overrides) {
   if (!path) {
     toml::table empty;
     return decode(empty, "(defaults)", overrides, "default");
   }
-  std::ifstream in(*path, std::ios::binary);
-  if (!in)
-    throw InputError(
-        fmt::format("{}: cannot read the case file (missing or not readable)", path->string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad())
-    throw InputError(fmt::format("{}: error while reading the case file", path->string()));
-  Case c = parse_case(text.str(), path->string(), overrides);
+  Case c = parse_case(read_input_file(*path, "case file"), path->string(), overrides);
   c.name = path->stem().string();
   c.directory = path->parent_path();
   return c;

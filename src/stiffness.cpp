@@ -242,8 +242,13 @@ StiffnessCycle table_cycle(const Case& c) {
   std::filesystem::path path = c.mesh.stiffness_table;
   if (path.is_relative()) path = c.directory / path;
   const std::string key = fmt::format("mesh.stiffness_table = \"{}\"", c.mesh.stiffness_table);
-  std::ifstream in(path);
-  if (!in) throw InputError(fmt::format("{}: cannot read {}", key, path.string()));
+  std::string text;
+  try {
+    text = read_input_file(path, "stiffness table");
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", key, e.what()));
+  }
+  std::istringstream in(text);
   std::string line;
   std::getline(in, line);
   if (line.rfind("position,stiffness_n_per_m", 0) != 0)

@@ -134,6 +134,44 @@ TEST(Cli, WorkBeyondTheBoundsIsRefusedBeforeItStarts) {
   }
 }
 
+TEST(Cli, InputsAndOutputsAreCheckedBeforeAnyWork) {
+  // A directory or a device as the case file; --out that is a file: exit 2 at once.
+  const fs::path d = fresh("io");
+  fs::create_directories(d);
+  const Outcome dir = cli("run " + d.string());
+  EXPECT_EQ(dir.code, 2);
+  EXPECT_NE(dir.err.find("must be a regular file, not a directory"), std::string::npos) << dir.err;
+  const Outcome dev = cli("run /dev/zero");
+  EXPECT_EQ(dev.code, 2);
+  EXPECT_NE(dev.err.find("not a device or pipe"), std::string::npos) << dev.err;
+  { std::ofstream(d / "a_file") << "x"; }
+  const Outcome file =
+      cli("sweep --set model.form=nondimensional --param model.omega --from 1 "
+          "--to 2 --points 2 --out " +
+          (d / "a_file").string());
+  EXPECT_EQ(file.code, 2);
+  EXPECT_NE(file.err.find("exists and is not a directory"), std::string::npos) << file.err;
+  EXPECT_EQ(file.out.find("geardyn sweep:"), std::string::npos);  // no work was done
+}
+
+TEST(Cli, TheErrorPathSurvivesClosedAndFullStreams) {
+  // stderr closed: the error is not printable, the exit code still says what happened (no
+  // abort); stdout full: a failure, not success.
+  EXPECT_EQ(cli("run --set mesh.backlash_um=-1 2>&-").code, 2);
+  EXPECT_EQ(cli("run --set solver.duration_s=0.001 2>&-").code, 0);
+  const Outcome full = cli("run --set solver.duration_s=0.001 >/dev/full");
+  EXPECT_EQ(full.code, 1);
+  EXPECT_NE(full.err.find("cannot write to standard output"), std::string::npos) << full.err;
+}
+
+TEST(Cli, ALongValueIsShortenedInTheMessage) {
+  const Outcome o = cli("run --set mesh.backlash_um=-" + std::string(100000, '1'));
+  EXPECT_EQ(o.code, 2);
+  EXPECT_LT(o.err.size(), 1200U);
+  EXPECT_NE(o.err.find("characters left out"), std::string::npos) << o.err.substr(0, 300);
+  EXPECT_NE(o.err.find("mesh.backlash_um"), std::string::npos);
+}
+
 TEST(Cli, NonFiniteReadingsAreANumericalFailure) {
   // A denormal backlash: the integration completes but its readings overflow to inf.
   const fs::path d = fresh("nonfinite");

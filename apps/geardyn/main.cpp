@@ -89,6 +89,37 @@ class ProgressBar {
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
+// Prints an error on stderr and never throws (stderr may be closed). A long message keeps its
+// head and its tail (the key and what is allowed) and says how much it left out.
+void print_error(const char* kind, const std::string& message) noexcept {
+  constexpr std::size_t kKept = 400;
+  std::string shown = message;
+  try {
+    if (message.size() > 2 * kKept + 100)
+      shown = message.substr(0, kKept) +
+              fmt::format(" [... {} characters left out ...] ", message.size() - 2 * kKept) +
+              message.substr(message.size() - kKept);
+  } catch (...) {
+    shown.clear();
+  }
+  std::fprintf(stderr, "geardyn: %s: %s\n", kind, shown.c_str());
+}
+
+// An output directory must be a directory, or not exist yet with a writable directory above it:
+// found before any work, exit 2. Nothing is created here.
+void check_output_directory(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path p = fs::absolute(dir, ec);
+  if (fs::exists(p, ec) && !fs::is_directory(p, ec))
+    throw geardyn::InputError(fmt::format("--out {}: exists and is not a directory", dir));
+  while (!p.empty() && !fs::exists(p, ec)) p = p.parent_path();
+  if (!fs::is_directory(p, ec))
+    throw geardyn::InputError(fmt::format("--out {}: {} is not a directory", dir, p.string()));
+  if (access(p.c_str(), W_OK) != 0)
+    throw geardyn::InputError(fmt::format("--out {}: {} is not writable", dir, p.string()));
+}
+
 std::vector<geardyn::Override> parse_overrides(const std::vector<std::string>& sets) {
   std::vector<geardyn::Override> out;
   out.reserve(sets.size());
@@ -703,7 +734,8 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : kExitInput;
   }
 
-  try {
+  // The command the arguments chose.
+  const auto dispatch = [&]() -> int {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot, physical);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
     if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
@@ -724,16 +756,32 @@ int main(int argc, char** argv) {
     if (orbit->parsed()) return cmd_orbit(case_file, sets, oo, orbit_state, json);
     if (reproduce->parsed())
       return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);
+    return 0;
+  };
+  int code = kExitInput;
+  try {
+    // Every output directory is checked before any work (it is created only when written).
+    if ((run->parsed() || stiffness->parsed()) && !out_dir.empty()) check_output_directory(out_dir);
+    if (sweep_cmd->parsed()) check_output_directory(sweep_out);
+    if (reproduce->parsed()) check_output_directory(reproduce_out);
+    if (cont->parsed()) check_output_directory(cont_out);
+    if (stab->parsed() && !stab_out.empty()) check_output_directory(stab_out);
+    code = dispatch();
   } catch (const geardyn::InputError& e) {
-    fmt::print(stderr, "geardyn: error: {}\n", e.what());
+    print_error("error", e.what());
     return kExitInput;
   } catch (const geardyn::FigureError& e) {
-    fmt::print(stderr, "geardyn: figure error: {}\n", e.what());
+    print_error("figure error", e.what());
     return kExitFigure;
   } catch (const std::exception& e) {
-    // Numerical failures inside a study and I/O failures.
-    fmt::print(stderr, "geardyn: error: {}\n", e.what());
+    // Numerical failures inside a study and I/O failures (a failed write to stdout included).
+    print_error("error", e.what());
     return kExitNumerical;
   }
-  return 0;
+  // What was printed must have reached stdout: a full disk or a closed pipe is a failure.
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+    print_error("error", "cannot write to standard output");
+    return kExitNumerical;
+  }
+  return code;
 }

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
@@ -171,6 +172,14 @@ struct Override {
 
 // Parses "key=value" as given on the command line. Throws InputError if there is no '='.
 Override parse_override(const std::string& assignment);
+
+// The largest input file read (a case file, a stiffness table): far above any real one, far
+// below what exhausts memory.
+constexpr std::uintmax_t kMaxInputFileBytes = 16u << 20;
+
+// The text of an input file. Throws InputError naming `what` and the path unless it is a
+// regular file (not a directory, a device or a pipe) of at most kMaxInputFileBytes.
+std::string read_input_file(const std::filesystem::path& path, const std::string& what);
 
 // Reads a case file (or the defaults when `path` is empty) and applies the overrides in order.
 // Throws InputError naming file, line, key, value and what is allowed on any bad input.
