@@ -35,6 +35,8 @@ constexpr double kSainsot[4][6] = {
 // A solid blank has no bore for h_fi = r_f / r_int: it is taken as a hub of r_f / 3, inside the
 // range of geometries Sainsot et al. fitted (h_fi from about 1.4 to 6.8).
 constexpr double kSolidBlankHubRatio = 3.0;
+// Points over a mesh cycle at which the kept series is checked to stay positive.
+constexpr int kPositivitySamples = 4096;
 // Timoshenko's shear coefficient of a rectangular section.
 constexpr double kShearCoefficient = 1.2;
 
@@ -336,6 +338,25 @@ MeshStiffness mesh_stiffness(const Case& c, const Geometry& g) {
   if (c.mesh.mean_stiffness_n_per_m > 0) {
     m.scale = c.mesh.mean_stiffness_n_per_m / m.fourier.mean_n_per_m;
     m.fourier.mean_n_per_m = c.mesh.mean_stiffness_n_per_m;
+  }
+  // The stiffness the run uses must stay positive: kept harmonics of a steep table (or of a
+  // computed curve) can dip below zero where the curve itself does not.
+  double bound = 1;
+  for (const StiffnessHarmonic& h : m.fourier.harmonics) bound -= std::abs(h.ratio);
+  if (!(bound > 0)) {
+    double lowest = m.fourier.mean_n_per_m;
+    for (int n = 0; n < kPositivitySamples; ++n)
+      lowest = std::min(lowest, m.fourier.at(static_cast<double>(n) / kPositivitySamples));
+    if (!(lowest > 0)) {
+      const char* key = c.mesh.stiffness_source == StiffnessSource::kTable
+                            ? "mesh.stiffness_table"
+                            : "mesh.stiffness_source = \"energy\"";
+      throw InputError(fmt::format(
+          "{} with mesh.harmonics_kept = {}: the kept harmonics make the mesh stiffness "
+          "negative (down to {:.4g} N/m over a mesh cycle); keep fewer or more harmonics, or "
+          "give the harmonics",
+          key, c.mesh.harmonics_kept, lowest));
+    }
   }
   return m;
 }

@@ -285,6 +285,12 @@ std::string SweepOptions::validate() const {
     if (std::string e = axis_error(*axis2, "2"); !e.empty()) return e;
     if (axis2->key == axis.key)
       return fmt::format("--param2 {}: must differ from --param", axis2->key);
+    const auto count = [](const SweepAxis& a) {
+      return static_cast<double>(a.explicit_values.empty() ? a.points : a.explicit_values.size());
+    };
+    if (count(axis) * count(*axis2) > kMaxMapPoints)
+      return fmt::format("--points {} x --points2 {}: {:.3g} points in the map; at most {:.0e}",
+                         count(axis), count(*axis2), count(axis) * count(*axis2), kMaxMapPoints);
   }
   if (!(settle_periods >= 0 && settle_periods <= 1000000))
     return fmt::format("--settle-periods = {}: must be from 0 to 1000000", settle_periods);

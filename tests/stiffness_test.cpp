@@ -9,6 +9,8 @@
 #include <fstream>
 #include <numbers>
 
+#include "test_support.hpp"
+
 namespace geardyn {
 namespace {
 
@@ -290,6 +292,29 @@ TEST(StiffnessFourier, EvaluatesTheKeptSeriesOverTheCycle) {
   EXPECT_NEAR(f.at(0.0), 2.0 * (1 + 0.1), 1e-15);
   EXPECT_NEAR(f.at(0.25), 2.0 * (1 - 0.5 - 0.1), 1e-15);
   EXPECT_NEAR(f.at(0.5), 2.0 * (1 + 0.1), 1e-15);
+}
+
+TEST(MeshStiffness, KeptHarmonicsThatMakeItNegativeAreRefused) {
+  // A table that drops 1000-fold for most of the cycle: its mean and two harmonics dip below
+  // zero, which no run may use.
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("geardyn_steep_" + std::to_string(::getpid()) + ".csv");
+  {
+    std::ofstream out(path);
+    out << "position,stiffness_n_per_m\n0,1e8\n0.1,1e8\n";
+    for (int i = 2; i <= 8; ++i) out << "0." << i << ",1e5\n";
+    out << "0.9,1e8\n";
+  }
+  Case c;
+  c.mesh.stiffness_source = StiffnessSource::kTable;
+  c.mesh.stiffness_table = path.string();
+  const std::string msg = testing::error_of([&] { mesh_stiffness(c, compute_geometry(c.gear)); });
+  EXPECT_NE(msg.find("mesh.stiffness_table with mesh.harmonics_kept = 2"), std::string::npos)
+      << msg;
+  EXPECT_NE(msg.find("negative"), std::string::npos) << msg;
+  // The Table 1 pair's computed curve keeps a positive series.
+  EXPECT_NO_THROW(mesh_stiffness(Case{}, compute_geometry(Case{}.gear)));
+  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -259,6 +259,10 @@ TEST(Sweep, BadOptionsAndKeysAreInputErrors) {
   SweepOptions o = omega_sweep(-1, 1, 5, SweepDirection::kUp);
   o.axis.log = true;
   EXPECT_NE(testing::error_of([&] { sweep(Case{}, o); }).find("--log"), std::string::npos);
+  o = omega_sweep(1, 2, 100000, SweepDirection::kUp);
+  o.axis2 = SweepAxis{"model.force_alternating", 0.1, 0.2, 100000, false};
+  const std::string map = testing::error_of([&] { sweep(Case{}, o); });
+  EXPECT_NE(map.find("1e+10 points in the map; at most 1e+06"), std::string::npos) << map;
   o = omega_sweep(1, 2, 2, SweepDirection::kUp);
   o.axis.key = "speed.rpm";
   const std::string msg = testing::error_of([&] { sweep(Case{}, o); });

@@ -35,6 +35,9 @@ struct SweepAxis {
 enum class SweepDirection { kUp, kDown, kBoth };
 const char* to_string(SweepDirection d);
 
+// The most points of a map (each in both directions): a bound on the work asked for.
+constexpr double kMaxMapPoints = 1e6;
+
 struct SweepOptions {
   SweepAxis axis;
   std::optional<SweepAxis> axis2;  // a 2-D map: each value of axis2 is a row swept along axis
