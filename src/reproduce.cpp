@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <random>
 #include <stdexcept>
 
 #include "geardyn/figures.hpp"
@@ -558,7 +560,48 @@ std::string report_html(const StudyResult& r) {
   return h;
 }
 
+namespace {
+
+void write_study_files(const fs::path& dir, const StudyResult& r, bool figures);
+
+}  // namespace
+
 void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
+  // Everything goes into a sibling directory first and is moved into place as a whole: a
+  // failure part way leaves the old study (or nothing), never part of a new one. A figure that
+  // cannot be drawn still lets the data in (exit 3 says so).
+  const fs::path target = fs::absolute(dir);
+  const std::string tag = fmt::format("{:08x}", std::random_device{}());
+  const fs::path tmp = target.parent_path() / (target.filename().string() + ".tmp-" + tag);
+  const fs::path old = target.parent_path() / (target.filename().string() + ".old-" + tag);
+  std::error_code ec;
+  fs::create_directories(target.parent_path(), ec);
+  std::exception_ptr figure_failure;
+  try {
+    write_study_files(tmp, r, figures);
+  } catch (const FigureError&) {
+    figure_failure = std::current_exception();
+  } catch (...) {
+    fs::remove_all(tmp, ec);
+    throw;
+  }
+  const bool replacing = fs::exists(target, ec);
+  if (replacing) fs::rename(target, old, ec);
+  if (!ec) fs::rename(tmp, target, ec);
+  if (ec) {
+    std::error_code ignored;
+    if (replacing) fs::rename(old, target, ignored);
+    fs::remove_all(tmp, ignored);
+    throw std::runtime_error(
+        fmt::format("{}: cannot put the study in place: {}", target.string(), ec.message()));
+  }
+  if (replacing) fs::remove_all(old, ec);
+  if (figure_failure) std::rethrow_exception(figure_failure);
+}
+
+namespace {
+
+void write_study_files(const fs::path& dir, const StudyResult& r, bool figures) {
   for (const CaseOutcome& o : r.outcomes) {
     const fs::path case_dir = dir / "cases" / o.spec.id;
     write_run(case_dir, o.run);
@@ -627,5 +670,7 @@ void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
     render_figure(dir, drawings[i].file, drawings[i].body, 1200, drawings[i].height);
   });
 }
+
+}  // namespace
 
 }  // namespace geardyn

@@ -312,6 +312,21 @@ TEST(Cli, ReproducePark2010) {
   EXPECT_TRUE(fs::exists(d / "fig4.png"));
 }
 
+TEST(Cli, ReproduceSaysWhichSetItCannotUse) {
+  // The study sets the backlash per case; --set mesh.backlash_um is not used and the command
+  // says so (a --set the study leaves alone, here the damping form, is used silently).
+  const fs::path d = fresh("reproduce_set");
+  const Outcome o =
+      cli("reproduce park2010 --no-figures --set mesh.backlash_um=250 --set "
+          "mesh.damping=always --out " +
+          d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.err.find("warning: --set mesh.backlash_um=250: the study sets mesh.backlash_um"),
+            std::string::npos)
+      << o.err;
+  EXPECT_EQ(o.err.find("mesh.damping="), std::string::npos) << o.err;
+}
+
 TEST(Cli, ReproduceRejectsAnUnknownStudy) {
   const Outcome o = cli("reproduce kahraman1990");
   EXPECT_EQ(o.code, 2);

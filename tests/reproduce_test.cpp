@@ -99,6 +99,27 @@ TEST(Park2010Study, TheWindowScanAgreesWithRunsOverThoseWindows) {
   EXPECT_GE(checked, 12);
 }
 
+TEST(Park2010Study, IsWrittenAsAWholeInPlaceOfTheOldOne) {
+  // The study's directory is replaced as a whole: a file of an older study does not survive,
+  // and no temporary is left beside it.
+  const fs::path parent =
+      fs::temp_directory_path() / ("geardyn_study_set_" + std::to_string(getpid()));
+  fs::remove_all(parent);
+  const fs::path d = parent / "study";
+  fs::create_directories(d);
+  std::ofstream(d / "stale.txt") << "from an older study";
+  write_study(d, run_study(park2010_study()), /*figures=*/false);
+  EXPECT_FALSE(fs::exists(d / "stale.txt"));
+  EXPECT_TRUE(fs::exists(d / "study.json"));
+  std::size_t entries = 0;
+  for (const auto& e : fs::directory_iterator(parent)) {
+    (void)e;
+    ++entries;
+  }
+  EXPECT_EQ(entries, 1U);
+  fs::remove_all(parent);
+}
+
 TEST(Park2010Study, WritesReportDataAndOneFigurePerPaperFigure) {
   const fs::path d = fs::temp_directory_path() / ("geardyn_reproduce_" + std::to_string(getpid()));
   fs::remove_all(d);

@@ -552,8 +552,19 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
   if (study_name != "park2010")
     throw geardyn::InputError(
         fmt::format("reproduce {}: unknown study; available: park2010", study_name));
-  const geardyn::Case base = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  const std::vector<geardyn::Override> overrides = parse_overrides(sets);
+  const geardyn::Case base = geardyn::load_case(case_path(case_file), overrides);
   const geardyn::Study study = geardyn::park2010_study(base);
+  // The study sets the paper's conditions per case: a --set of the same key does not reach
+  // those cases, and the user is told so.
+  for (const geardyn::Override& o : overrides)
+    for (const char* key : {"speed.shaft_frequency_hz", "mesh.damping_ratio",
+                            "load.fluctuation_ratio", "mesh.backlash_um", "solver.duration_s"})
+      if (o.key == key)
+        fmt::print(stderr,
+                   "geardyn: warning: --set {}={}: the study sets {} for its cases (the paper's "
+                   "conditions), so this value is not used\n",
+                   o.key, o.value, key);
   fmt::print("geardyn reproduce {}: {} cases\n", study.name, study.cases.size());
   ProgressBar bar("cases", "cases");
   const geardyn::StudyResult r = geardyn::run_study(
