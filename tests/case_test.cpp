@@ -85,6 +85,29 @@ TEST(Case, TomlNumbersAreTheShortestThatReadBackExactly) {
   EXPECT_EQ(parse_case(to_toml(c), "escapes").description, c.description);
 }
 
+TEST(Case, TextTomlPlusPlusMishandlesIsRefusedFirst) {
+  // toml++ 3.3 asserts on '[' followed by NUL and reaches an unreachable branch on non-ASCII
+  // bare keys: both are invalid TOML, refused with where they are before toml++ sees them.
+  std::string msg = error_of([] { parse_case(std::string("[mesh\0]\n", 8), "nul.toml"); });
+  EXPECT_NE(msg.find("nul.toml:1:6: a NUL character"), std::string::npos) << msg;
+  msg = error_of([] { parse_case("[gear]\nmodule_\xce\xbcm = 2\n", "key.toml"); });
+  EXPECT_NE(msg.find("key.toml:2:8: a non-ASCII character outside a string"), std::string::npos)
+      << msg;
+  msg = error_of([] { load_case(std::nullopt, {parse_override("mesh.b\xc3\xbc=1")}); });
+  EXPECT_NE(msg.find("non-ASCII"), std::string::npos) << msg;
+  // In strings and comments non-ASCII text is TOML, and read as it is.
+  const Case c = parse_case(
+      "description = \"Zahnr\xc3\xa4"
+      "der\" # \xc3\xbc\n[mesh] # '''\nbacklash_um = 120\n",
+      "utf8.toml");
+  EXPECT_EQ(c.description,
+            "Zahnr\xc3\xa4"
+            "der");
+  EXPECT_EQ(c.mesh.backlash_um, 120.0);
+  EXPECT_EQ(parse_case("description = '''\n[\xc3\xbc] = '''\n", "ml.toml").description,
+            "[\xc3\xbc] = ");
+}
+
 TEST(Case, OverridesUseTomlValueSyntax) {
   const Case c =
       load_case(std::nullopt,
