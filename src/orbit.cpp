@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
-#include <numbers>
 #include <stdexcept>
 
 #include "geardyn/run.hpp"
@@ -17,7 +16,6 @@
 namespace geardyn {
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // Halvings of a Newton step before the iteration is declared stalled.
 constexpr int kMaxBacktracks = 12;
 
