@@ -40,8 +40,11 @@ std::string panel_plot(const TimeHistoryPanel& p, int column, const std::string&
   const std::string ts = dir + "plot.csv", iv = dir + "intervals.csv";
   std::string s;
   fmt::format_to(std::back_inserter(s), "set title \"{}\"\n", p.title);
-  fmt::format_to(std::back_inserter(s), "set xrange [0:{}]\n", p.window_s * 1e3);
-  fmt::format_to(std::back_inserter(s), "set xlabel \"{}\"\n", show_xlabel ? "t (ms)" : "");
+  // Times on the axis: ms, or tau as it is in the non-dimensional form.
+  const double to_axis = p.time_in_tau ? 1.0 : 1e3;
+  fmt::format_to(std::back_inserter(s), "set xrange [0:{}]\n", p.window_s * to_axis);
+  fmt::format_to(std::back_inserter(s), "set xlabel \"{}\"\n",
+                 show_xlabel ? (p.time_in_tau ? "τ" : "t (ms)") : "");
   fmt::format_to(std::back_inserter(s), "set ylabel \"{}\"\n", ylabel);
   fmt::format_to(std::back_inserter(s),
                  "set autoscale y\n"
@@ -59,19 +62,19 @@ std::string panel_plot(const TimeHistoryPanel& p, int column, const std::string&
   }
   fmt::format_to(
       std::back_inserter(s),
-      "plot '{0}' every ::1 using (($1+$2)*500):(0):($1*1e3):($2*1e3):(($3==0)?ylo:NaN):"
+      "plot '{0}' every ::1 using (($1+$2)*{9}/2):(0):($1*{9}):($2*{9}):(($3==0)?ylo:NaN):"
       "(($3==0)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{2}' {7}, \\\n"
-      "     '{0}' every ::1 using (($1+$2)*500):(0):($1*1e3):($2*1e3):(($3==-1)?ylo:NaN):"
+      "     '{0}' every ::1 using (($1+$2)*{9}/2):(0):($1*{9}):($2*{9}):(($3==-1)?ylo:NaN):"
       "(($3==-1)?yhi:NaN) with boxxyerror fs solid 0.5 noborder lc rgb '{3}' {8}, "
       "\\\n"
-      "     '{1}' every ::1 using ($1*1e3):{4} with lines lw 1.1 lc rgb '{5}' notitle{6}\n",
+      "     '{1}' every ::1 using ($1*{9}):{4} with lines lw 1.1 lc rgb '{5}' notitle{6}\n",
       iv, ts, kSeparatedColour, kBackColour, y, kLineColour,
       column == 2 ? fmt::format(", \\\n     {0} with lines dt 2 lc rgb 'gray30' notitle, {1} "
                                 "with lines dt 2 lc rgb 'gray30' notitle",
                                 edge, -edge)
                   : std::string(),
       p.separated ? "title 'separated'" : "notitle",
-      p.back_side ? "title 'back-side contact'" : "notitle");
+      p.back_side ? "title 'back-side contact'" : "notitle", to_axis);
   if (column == 2) s += "unset object 1\n";
   return s;
 }
@@ -128,6 +131,7 @@ std::string contact_intervals_csv(const RunResult& r) {
 
 TimeHistoryPanel run_panel(const RunResult& r, std::string title, std::string data_dir) {
   TimeHistoryPanel p{std::move(title), std::move(data_dir), r.input.solver.duration_s};
+  p.time_in_tau = r.input.model.form == ModelForm::kNondimensional;
   p.separated = r.reading.separated_fraction > 0;
   p.back_side = r.reading.double_sided;
   return p;
@@ -239,9 +243,13 @@ void write_run_figures(const fs::path& dir, const RunResult& r, bool physical) {
                                {"plot.csv", plot_csv(r.samples)},
                                {"spectrum.csv", spectrum_csv(r)}});
   const std::string title =
-      fmt::format("{}: f_1 = {} Hz, b = {} μm, ξ = {}, F_a/F_m = {} ({})", c.name,
-                  c.speed.shaft_frequency_hz, c.mesh.backlash_um, c.mesh.damping_ratio,
-                  c.load.fluctuation_ratio, to_string(r.reading.regime));
+      c.model.form == ModelForm::kNondimensional
+          ? fmt::format("{}: Ω = {}, ζ = {}, F_m = {}, F_a = {} ({})", c.name, c.model.omega,
+                        c.model.zeta, c.model.force_mean, c.model.force_alternating,
+                        to_string(r.reading.regime))
+          : fmt::format("{}: f_1 = {} Hz, b = {} μm, ξ = {}, F_a/F_m = {} ({})", c.name,
+                        c.speed.shaft_frequency_hz, c.mesh.backlash_um, c.mesh.damping_ratio,
+                        c.load.fluctuation_ratio, to_string(r.reading.regime));
   TimeHistoryPanel time_panel = run_panel(r, "", "");
   if (physical) {
     if (c.model.form == ModelForm::kNondimensional)
@@ -313,14 +321,15 @@ void write_run_figures(const fs::path& dir, const RunResult& r, bool physical) {
     ++steady_row;
   std::string p = "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n";
   fmt::format_to(std::back_inserter(p),
-                 "set title \"{} - phase portrait\"\nset xlabel 'delta / b'\n"
-                 "set ylabel 'velocity (m/s)'\n"
+                 "set encoding utf8\nset title \"{} - phase portrait\"\nset xlabel 'δ / b'\n"
+                 "set ylabel '{}'\n"
                  "set arrow from 1, graph 0 to 1, graph 1 nohead dt 2 lc rgb 'gray40'\n"
                  "set arrow from -1, graph 0 to -1, graph 1 nohead dt 2 lc rgb 'gray40'\n"
                  "plot 'timeseries.csv' every ::1 using 2:3 with lines lc rgb '#c8c8c8' title "
                  "'whole run', \\\n     'timeseries.csv' every ::{} using 2:3 with lines lw 1.2 "
                  "lc rgb '{}' title 'steady part'\n",
-                 c.name, steady_row + 1, kLineColour);
+                 c.name, c.model.form == ModelForm::kNondimensional ? "dδ/dτ (b ω_n)" : "dδ/dt (m/s)",
+                 steady_row + 1, kLineColour);
   render_figure(dir, "run_phase", p, 800, 650);
 }
 

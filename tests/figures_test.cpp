@@ -133,6 +133,16 @@ TEST(RunFigures, PhysicalUnitsScaleByTheBacklashAndTheMeshStiffness) {
   nd.model.form = ModelForm::kNondimensional;
   nd.solver.duration_s = 10;
   EXPECT_THROW(write_run_figures(d, run(nd), true), InputError);
+  // The non-dimensional form is drawn in its own terms: tau on the axis, its parameters above.
+  const RunResult ndr = run(nd);
+  write_run(d, ndr);
+  write_run_figures(d, ndr);
+  const std::string nd_body = slurp(d / "run_time_body.gp");
+  EXPECT_NE(nd_body.find("set xlabel \"τ\""), std::string::npos);
+  EXPECT_NE(nd_body.find("set xrange [0:10]"), std::string::npos);
+  EXPECT_NE(nd_body.find("Ω = 1, ζ = 0.05"), std::string::npos);
+  EXPECT_EQ(nd_body.find("μm"), std::string::npos);
+  EXPECT_NE(slurp(d / "run_phase_body.gp").find("dδ/dτ"), std::string::npos);
 }
 
 TEST(PlotCsv, DecimatesToTheEnvelope) {

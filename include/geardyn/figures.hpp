@@ -43,6 +43,8 @@ struct TimeHistoryPanel {
   // Physical units: delta in um (delta_bar times b) and F_G in N (F_bar times b k_m); 0 for
   // the normalised delta / b and F / (b k_m).
   double backlash_um = 0, force_scale_n = 0;
+  // The time axis: ms for the gear pair, tau for the non-dimensional form.
+  bool time_in_tau = false;
 };
 
 // A panel of a run: its title, its data directory and what occurred in it.
