@@ -328,7 +328,8 @@ void write_run_figures(const fs::path& dir, const RunResult& r, bool physical) {
                  "plot 'timeseries.csv' every ::1 using 2:3 with lines lc rgb '#c8c8c8' title "
                  "'whole run', \\\n     'timeseries.csv' every ::{} using 2:3 with lines lw 1.2 "
                  "lc rgb '{}' title 'steady part'\n",
-                 c.name, c.model.form == ModelForm::kNondimensional ? "dδ/dτ (b ω_n)" : "dδ/dt (m/s)",
+                 c.name,
+                 c.model.form == ModelForm::kNondimensional ? "dδ/dτ (b ω_n)" : "dδ/dt (m/s)",
                  steady_row + 1, kLineColour);
   render_figure(dir, "run_phase", p, 800, 650);
 }
