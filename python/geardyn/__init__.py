@@ -570,11 +570,10 @@ def stability(case, param, values, param2=None, values2=()):
 
 from . import plot  # noqa: E402,F401
 from .data import SweepResult, load, save, to_xarray  # noqa: E402,F401
-from .data import _run_save, _run_to_pandas, _run_to_xarray  # noqa: E402
+from .data import _result_save, _run_to_pandas, _run_to_xarray  # noqa: E402
 
-for _f, _name in ((_run_to_xarray, "to_xarray"), (_run_to_pandas, "to_pandas"),
-                  (_run_save, "save")):
+for _f, _name in ((_run_to_xarray, "to_xarray"), (_run_to_pandas, "to_pandas")):
     _f.__name__, _f.__qualname__ = _name, f"RunResult.{_name}"
 RunResult.to_xarray = _run_to_xarray
 RunResult.to_pandas = _run_to_pandas
-RunResult.save = _run_save
+RunResult.save = _result_save

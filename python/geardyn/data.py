@@ -157,16 +157,6 @@ class SweepResult(dict):
         ds = self.to_xarray()
         return (ds.drop_dims("strobe") if "strobe" in ds.dims else ds).to_dataframe()
 
-    def save(self, path):
-        """Writes the sweep as NetCDF.
-
-        Parameters
-        ----------
-        path : str or path-like
-            The file; `geardyn.load(path)` reads back a Dataset identical to `to_xarray()`.
-        """
-        save(self, path)
-
     def __reduce__(self):
         return (SweepResult, (dict(self),))
 
@@ -194,15 +184,19 @@ def _run_to_pandas(r):
     return _run_dataset(r).to_dataframe()
 
 
-def _run_save(r, path):
-    """Writes the run as NetCDF.
+def _result_save(result, path):
+    """Writes the result as NetCDF.
 
     Parameters
     ----------
     path : str or path-like
         The file; `geardyn.load(path)` reads back a Dataset identical to `to_xarray()`.
     """
-    save(r, path)
+    save(result, path)
+
+
+_result_save.__name__ = "save"
+SweepResult.save = _result_save
 
 
 def to_xarray(result, param=None, param2=None):
