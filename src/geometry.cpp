@@ -65,7 +65,8 @@ Geometry compute_geometry(const GearData& g) {
   const double rb_sum = out.base_radius_m[0] + out.base_radius_m[1];
   if (!(a > rb_sum)) {
     throw InputError(fmt::format(
-        "gear.center_distance_mm = {}: must exceed the sum of the base radii, {:.4f} mm, for the "
+        "gear.center_distance_mm = {:.6g}: must exceed the sum of the base radii, {:.4f} mm, for "
+        "the "
         "teeth to mesh",
         g.center_distance_mm, rb_sum / kMmToM));
   }
@@ -114,6 +115,22 @@ Geometry compute_geometry(const GearData& g) {
           "tooth has no involute flank",
           i, g.outside_diameter_mm[i], 2 * out.base_radius_m[i] / kMmToM));
     }
+    // The tooth must keep a positive thickness up to its tip: s_a = d_a (s / d + inv a_t -
+    // inv a_a), s = m_t (pi / 2 + 2 x tan a_n) at the reference circle.
+    const double alpha_a = std::acos(out.base_radius_m[i] / out.tip_radius_m[i]);
+    const double s_ref =
+        out.transverse_module_m * (kPi / 2 + 2 * g.profile_shift[i] * std::tan(an));
+    const double tip_thickness =
+        2 * out.tip_radius_m[i] *
+        (s_ref / out.reference_diameter_m[i] + involute(at) - involute(alpha_a));
+    if (!(tip_thickness > 0)) {
+      throw InputError(fmt::format(
+          "gear.outside_diameter_mm[{}] = {}: the tooth comes to a point below it (tip "
+          "thickness {:.4g} mm); with m_n = {} mm, profile shift {} and {} teeth the outside "
+          "diameter is about {:.6g} mm",
+          i, g.outside_diameter_mm[i], tip_thickness / kMmToM, g.normal_module_mm,
+          g.profile_shift[i], g.teeth[i], out.expected_outside_diameter_m[i] / kMmToM));
+    }
     if (!(g.bore_diameter_mm[i] * kMmToM < out.root_diameter_m[i])) {
       throw InputError(fmt::format(
           "gear.bore_diameter_mm[{}] = {}: must be smaller than the root diameter {:.4f} mm", i,
@@ -130,11 +147,26 @@ Geometry compute_geometry(const GearData& g) {
   out.overlap_ratio = out.face_width_m * std::sin(beta) / (kPi * mn);
   if (!(out.total_contact_ratio() >= 1.0)) {
     throw InputError(fmt::format(
-        "gear: the total contact ratio eps_alpha + eps_beta = {:.4f} + {:.4f} is below 1 (tip "
-        "diameters [{}, {}] mm at centre distance {} mm): the pair cannot transmit motion "
-        "continuously; it must be at least 1",
+        "gear: the total contact ratio eps_alpha + eps_beta = {:.4g} + {:.4g} is below 1 (tip "
+        "diameters [{:.6g}, {:.6g}] mm at centre distance {:.6g} mm): the pair cannot transmit "
+        "motion continuously; it must be at least 1",
         out.transverse_contact_ratio, out.overlap_ratio, g.outside_diameter_mm[0],
         g.outside_diameter_mm[1], g.center_distance_mm));
+  }
+  // A contact ratio far beyond any gear pair's (a module of nanometres, a face width of
+  // kilometres) would make the energy method slice the face into as many tooth pairs.
+  if (!(out.transverse_contact_ratio <= kMaxContactRatio)) {
+    throw InputError(fmt::format(
+        "gear.normal_module_mm = {:.6g}: the transverse contact ratio is {:.4g} with outside "
+        "diameters [{:.6g}, {:.6g}] mm; at most {:g} describes a gear pair",
+        g.normal_module_mm, out.transverse_contact_ratio, g.outside_diameter_mm[0],
+        g.outside_diameter_mm[1], kMaxContactRatio));
+  }
+  if (!(out.overlap_ratio <= kMaxContactRatio)) {
+    throw InputError(fmt::format(
+        "gear.face_width_mm = {:.6g}: the overlap ratio b sin(beta) / (pi m_n) is {:.4g}; at most "
+        "{:g} describes a gear pair",
+        g.face_width_mm, out.overlap_ratio, kMaxContactRatio));
   }
 
   for (int i = 0; i < 2; ++i) {

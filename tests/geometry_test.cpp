@@ -112,9 +112,26 @@ TEST(Geometry, ErrorsWhereNoGearPairExists) {
   GearData short_teeth;
   short_teeth.helix_angle_deg = 0;
   short_teeth.center_distance_mm = 149.4;
-  short_teeth.outside_diameter_mm = {151, 151};  // path of contact shorter than a base pitch
+  short_teeth.outside_diameter_mm = {146, 146};  // path of contact shorter than a base pitch
   const std::string msg = error_of([&] { compute_geometry(short_teeth); });
   EXPECT_NE(msg.find("total contact ratio"), std::string::npos) << msg;
+
+  // A tip far beyond the module: the tooth would come to a point below it.
+  GearData pointed;
+  pointed.outside_diameter_mm = {300, 154.98};
+  const std::string point = error_of([&] { compute_geometry(pointed); });
+  EXPECT_NE(point.find("gear.outside_diameter_mm[0] = 300: the tooth comes to a point"),
+            std::string::npos)
+      << point;
+  // A contact ratio no gear pair has (a face width of kilometres): refused by its key.
+  GearData wide;
+  wide.face_width_mm = 1e308;
+  EXPECT_NE(error_of([&] { compute_geometry(wide); }).find("gear.face_width_mm = 1e+308"),
+            std::string::npos);
+  GearData tiny_module;
+  tiny_module.normal_module_mm = 1e-9;
+  EXPECT_NE(error_of([&] { compute_geometry(tiny_module); }).find("comes to a point"),
+            std::string::npos);
 
   GearData bored;
   bored.bore_diameter_mm = {150, 0};

@@ -65,6 +65,7 @@ Case spur() {
   Case c;
   c.gear.helix_angle_deg = 0;
   c.gear.center_distance_mm = 141.03;
+  c.gear.outside_diameter_mm = {146.0, 146.0};  // near enough to probe the expected ones
   const Geometry probe = compute_geometry(c.gear);
   c.gear.outside_diameter_mm = {probe.expected_outside_diameter_m[0] * 1e3,
                                 probe.expected_outside_diameter_m[1] * 1e3};

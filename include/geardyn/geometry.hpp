@@ -47,6 +47,10 @@ struct Geometry {
   double total_contact_ratio() const { return transverse_contact_ratio + overlap_ratio; }
 };
 
+// The largest transverse contact ratio and overlap ratio accepted: far above real gear pairs
+// (helical pairs reach 2 and 3), far below what exhausts the energy method's slicing.
+constexpr double kMaxContactRatio = 20.0;
+
 // Derives the geometry of the pair. Throws InputError when the data cannot describe a working
 // external gear pair (centre distance not above the sum of base radii, tip circle inside the
 // base circle, total contact ratio below 1, bore not inside the root circle).
