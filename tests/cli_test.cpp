@@ -184,6 +184,98 @@ TEST(Cli, NonFiniteReadingsAreANumericalFailure) {
   EXPECT_FALSE(fs::exists(d));
 }
 
+// One row per kind of bad input (docs/case-files.md, "Bad inputs, tested"): the command, its
+// exit code (2 bad input, 1 numerical failure or a failed write) and a piece of the message.
+// Every row: no output directory written, no abort, the message on one short line.
+struct BadInput {
+  std::string args;
+  int code;
+  std::string message;
+};
+
+std::vector<BadInput> bad_inputs(const fs::path& d) {
+  const std::string nd = "--set model.form=nondimensional ";
+  const std::string out = " --out " + (d / "out").string();
+  return {
+      // Counts and work.
+      {"run --set solver.duration_s=1e9" + out, 2, "at most 1e+08"},
+      {"run --set solver.output_interval_s=1e-12" + out, 2, "at most 5e+06"},
+      {"run --set solver.method=newmark --set solver.time_step_s=1e-300" + out, 2, "at most 1e+10"},
+      {"sweep " + nd +
+           "--param model.omega --from 1 --to 2 --points 100000 --param2 "
+           "model.force_alternating --from2 0 --to2 1 --points2 100000" +
+           out,
+       2, "points in the map"},
+      {"sweep " + nd + "--param model.omega --from 1 --to 2 --points 0" + out, 2,
+       "--points = 0: must be a whole number from 1 to 100000"},
+      {"sweep " + nd + "--param model.omega --from 1 --to 2 --points 3 --settle-periods -1" + out,
+       2, "--settle-periods = -1"},
+      {"stability --param speed.shaft_frequency_hz --from 10 --to 20 --points 0" + out, 2,
+       "--points = 0"},
+      // Steps the physics cannot resolve, readings that are not finite.
+      {"run --set solver.method=newmark --set solver.time_step_s=1e-3" + out, 2,
+       "does not resolve the case's fastest time scale"},
+      {"run --set solver.time_step_s=1" + out, 2, "smaller than solver.duration_s"},
+      {"run --set solver.method=dopri5 --set mesh.backlash_um=1e-310 --set "
+       "solver.duration_s=0.001" +
+           out,
+       1, "non-finite readings"},
+      // Derived physics.
+      {"run --set gear.normal_module_mm=1e-9" + out, 2, "comes to a point"},
+      {"run --set gear.face_width_mm=1e308" + out, 2, "gear.face_width_mm = 1e+308"},
+      {"run --set gear.outside_diameter_mm=[300,300]" + out, 2,
+       "gear.outside_diameter_mm[0] = 300: the tooth comes to a point"},
+      {"run --set gear.center_distance_mm=120" + out, 2, "sum of the base radii"},
+      {"run --set gear.teeth=[3,3]" + out, 2, "gear.teeth[0] = 3"},
+      {"run --set mesh.stiffness_source=table --set mesh.stiffness_table='\"" +
+           (d / "steep.csv").string() + "\"'" + out,
+       2, "make the mesh stiffness negative"},
+      {"run --set mesh.stiffness_harmonics=[[0.6,0],[0.6,0]]" + out, 2, "sum is < 1"},
+      {"orbit --set load.fluctuation_ratio=0 --set mesh.stiffness_source=harmonics", 2,
+       "nothing in the model varies in time"},
+      // Keys and values.
+      {"run --set mesh.backlash_um=-5" + out, 2, "mesh.backlash_um = -5"},
+      {"run --set speed.rpm=3" + out, 2, "unknown key 'speed.rpm'"},
+      {"run --set mesh.tension=pull" + out, 2, "must be one of \"allow\" | \"clip\""},
+      {"continue --param solver.method --from 0 --to 1" + out, 2, "solver.method = 0"},
+      {"run --set mesh.backlash_um=-" + std::string(100000, '1') + out, 2, "characters left out"},
+      // Files and channels.
+      {"run " + d.string() + out, 2, "must be a regular file, not a directory"},
+      {"run /dev/zero" + out, 2, "not a device or pipe"},
+      {"run " + (d / "missing.toml").string() + out, 2, "cannot read the case file"},
+      {"run " + (d / "nul.toml").string() + out, 2, "a NUL character"},
+      {"run " + (d / "key.toml").string() + out, 2, "a non-ASCII character outside a string"},
+      {"run --out " + (d / "a_file").string(), 2, "exists and is not a directory"},
+      {"run --plot", 2, "--plot: needs --out DIR"},
+      {"reproduce kahraman1990" + out, 2, "unknown study"},
+      {"run --set solver.duration_s=0.001 >/dev/full", 1, "cannot write to standard output"},
+  };
+}
+
+TEST(Cli, BadInputsAreRefusedWithTheirKeyAndNothingWritten) {
+  const fs::path d = fresh("bad_inputs");
+  fs::create_directories(d);
+  {
+    std::ofstream(d / "a_file") << "x";
+    std::ofstream(d / "nul.toml", std::ios::binary) << std::string("[mesh\0]\n", 8);
+    std::ofstream(d / "key.toml") << "[gear]\nmodule_\xce\xbcm = 2\n";
+    std::ofstream steep(d / "steep.csv");
+    steep << "position,stiffness_n_per_m\n0,1e8\n0.1,1e8\n";
+    for (int i = 2; i <= 8; ++i) steep << "0." << i << ",1e5\n";
+    steep << "0.9,1e8\n";
+  }
+  const std::vector<BadInput> rows = bad_inputs(d);
+  EXPECT_GE(rows.size(), 30U);
+  for (const BadInput& x : rows) {
+    const Outcome o = cli(x.args);
+    const std::string shown = x.args.substr(0, 120);
+    EXPECT_EQ(o.code, x.code) << shown << "\n" << o.err.substr(0, 400);
+    EXPECT_NE(o.err.find(x.message), std::string::npos) << shown << "\n" << o.err.substr(0, 400);
+    EXPECT_LT(o.err.size(), 1200U) << shown;
+    EXPECT_FALSE(fs::exists(d / "out")) << shown;
+  }
+}
+
 TEST(Cli, NumericalFailureExitsWithOneAndTheReason) {
   const fs::path d = fresh("diverge");
   const Outcome o =
