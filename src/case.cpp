@@ -386,10 +386,18 @@ class Reader {
     const toml::table* t = root_[section].as_table();
     if (!t) return nullptr;
     const toml::node* n = t->get(key);
-    if (n) used_.insert(fmt::format("{}.{}", section, key));
+    if (n) {
+      const std::string full = fmt::format("{}.{}", section, key);
+      used_.insert(full);
+      origins_[full] = origin(full, n->source());
+    }
     return n;
   }
 
+ public:
+  const std::map<std::string, std::string>& origins() const { return origins_; }
+
+ private:
   [[noreturn]] void fail(const toml::node& n, std::string_view section, std::string_view key,
                          std::string_view allowed) const {
     const std::string full =
@@ -417,6 +425,7 @@ class Reader {
   std::string source_;
   const std::vector<Override>& overrides_;
   std::set<std::string> used_;
+  std::map<std::string, std::string> origins_;
   std::map<std::string, std::vector<std::string>> known_;  // section -> keys, in reading order
 };
 
@@ -675,6 +684,7 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
     throw InputError(
         fmt::format("{}: {} = {}: must be {}", r.location(v->key), v->key, v->value, v->allowed));
   }
+  c.origins = r.origins();
   return c;
 }
 
@@ -745,9 +755,22 @@ Case load_case(const std::optional<std::filesystem::path>& path,
 void set_case_value(Case& c, const Override& o) {
   const std::string name = c.name;
   const std::filesystem::path directory = c.directory;
+  std::map<std::string, std::string> origins = c.origins;
   c = parse_case(to_toml(c), "(case)", {o});
   c.name = name;
   c.directory = directory;
+  // The keys came from where they came from before; the override from itself.
+  const std::string base = o.key.substr(0, o.key.find('['));
+  origins[base] = fmt::format("--set {}={}", o.key, o.value);
+  c.origins = std::move(origins);
+}
+
+std::string with_origins(const Case& c, const std::string& message) {
+  std::string from;
+  for (const auto& [key, origin] : c.origins)
+    if (message.find(key) != std::string::npos && message.find(origin) == std::string::npos)
+      from += fmt::format("{}{} from {}", from.empty() ? "" : ", ", key, origin);
+  return from.empty() ? message : fmt::format("{} ({})", message, from);
 }
 
 const char* to_string(Method m) {

@@ -30,12 +30,25 @@ double automatic_time_step_s(const GearPairParameters& p) {
   return fastest_period_s(p) / kStepsPerFastestPeriod;
 }
 
+Geometry case_geometry(const Case& c) {
+  try {
+    return compute_geometry(c.gear);
+  } catch (const InputError& e) {
+    throw InputError(with_origins(c, e.what()));
+  }
+}
+
 GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiffness* stiffness) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
   if (c.model.form == ModelForm::kNondimensional)
     return GearPairModel(nondimensional_parameters(c.model));
-  Geometry g = compute_geometry(c.gear);
-  HarmonicSeries k = stiffness ? mesh_stiffness_series(c, *stiffness) : mesh_stiffness_series(c, g);
+  Geometry g = case_geometry(c);
+  HarmonicSeries k;
+  try {
+    k = stiffness ? mesh_stiffness_series(c, *stiffness) : mesh_stiffness_series(c, g);
+  } catch (const InputError& e) {
+    throw InputError(with_origins(c, e.what()));  // where the keys it names came from
+  }
   GearPairModel model(gear_pair_parameters(c, g, k));
   if (geometry_out) *geometry_out = std::move(g);
   return model;

@@ -42,7 +42,7 @@ class PointRunner {
   PointRunner(const Case& base, const SweepOptions& o) : base_(base), o_(o) {
     if (base.model.form == ModelForm::kGearPair && !changes_stiffness(o.axis.key) &&
         !(o.axis2 && changes_stiffness(o.axis2->key)))
-      stiffness_ = mesh_stiffness(base, compute_geometry(base.gear));
+      stiffness_ = mesh_stiffness(base, case_geometry(base));
   }
 
   Case case_at(double value, double value2) const {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "geardyn/run.hpp"
 #include "test_support.hpp"
 
 namespace geardyn {
@@ -106,6 +107,24 @@ TEST(Case, TextTomlPlusPlusMishandlesIsRefusedFirst) {
   EXPECT_EQ(c.mesh.backlash_um, 120.0);
   EXPECT_EQ(parse_case("description = '''\n[\xc3\xbc] = '''\n", "ml.toml").description,
             "[\xc3\xbc] = ");
+}
+
+TEST(Case, DerivedErrorsNameWhereTheirKeysCameFrom) {
+  // The geometry is checked after reading; its errors still say where the values were given.
+  const Case file = parse_case("[gear]\nface_width_mm = 1e308\n", "wide.toml");
+  EXPECT_EQ(file.origins.at("gear.face_width_mm"), "wide.toml:2:17");
+  std::string msg = error_of([&] { case_geometry(file); });
+  EXPECT_NE(msg.find("(gear.face_width_mm from wide.toml:2:17)"), std::string::npos) << msg;
+  Case set = load_case(std::nullopt, {parse_override("gear.outside_diameter_mm=[300,300]")});
+  msg = error_of([&] { build_model(set); });
+  EXPECT_NE(msg.find("(gear.outside_diameter_mm from --set gear.outside_diameter_mm=[300,300])"),
+            std::string::npos)
+      << msg;
+  // A later override (a sweep's) is named as such; the others keep their origin.
+  set_case_value(set, parse_override("gear.face_width_mm=1e308"));
+  EXPECT_EQ(set.origins.at("gear.face_width_mm"), "--set gear.face_width_mm=1e308");
+  EXPECT_EQ(set.origins.at("gear.outside_diameter_mm"), "--set gear.outside_diameter_mm=[300,300]");
+  EXPECT_EQ(with_origins(Case{}, "no key of it"), "no key of it");
 }
 
 TEST(Case, OverridesUseTomlValueSyntax) {

@@ -244,7 +244,7 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
 
 int cmd_geometry(const std::string& case_file, const std::vector<std::string>& sets, bool json) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
-  const geardyn::Geometry g = geardyn::compute_geometry(c.gear);
+  const geardyn::Geometry g = geardyn::case_geometry(c);
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   constexpr double kMm = 1e3;
   if (json) {
@@ -344,7 +344,7 @@ constexpr int kFigureHarmonics = 10;
 int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& sets,
                   const std::string& out_dir, bool json) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
-  const geardyn::Geometry g = geardyn::compute_geometry(c.gear);
+  const geardyn::Geometry g = geardyn::case_geometry(c);
   const geardyn::Iso6336Stiffness iso = geardyn::iso6336_stiffness(c, g);
   const geardyn::StiffnessCycle cycle = geardyn::energy_method_cycle(c, g);
   const geardyn::StiffnessFourier kept = geardyn::fourier_harmonics(cycle, c.mesh.harmonics_kept);

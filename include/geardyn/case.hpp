@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -161,7 +162,15 @@ struct Case {
   std::string name = "default";     // the case file's stem, or "default"
   std::filesystem::path directory;  // the case file's directory: relative paths start there
   std::string description;          // free text from the case file's top-level `description`
+  // Where each key that was given came from: "file:line:column" or "--set key=value" (keys
+  // left at their defaults are absent). Errors found later, in the derived geometry or
+  // stiffness, name the origins of the keys they mention (with_origins).
+  std::map<std::string, std::string> origins;
 };
+
+// `message` with the origins of the case's keys it mentions appended, e.g.
+// "...: the tooth comes to a point (gear.outside_diameter_mm from c.toml:5:1)".
+std::string with_origins(const Case& c, const std::string& message);
 
 // One `--set key=value` override: key is dotted (`speed.shaft_frequency_hz`), value is in TOML
 // value syntax (`100`, `"clip"`, `[[0.05, 0], [0.02, 0]]`).

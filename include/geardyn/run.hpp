@@ -144,6 +144,10 @@ double fastest_period_s(const GearPairParameters& p);
 // The automatic Newmark step: fastest_period_s / kStepsPerFastestPeriod.
 double automatic_time_step_s(const GearPairParameters& p);
 
+// compute_geometry of a case's gear data, its errors naming where the keys they mention came
+// from (file:line or the --set; Case::origins).
+Geometry case_geometry(const Case& c);
+
 // The model of a case (geometry and stiffness included). `stiffness`, when given, is used in
 // place of computing the case's mesh stiffness (a sweep computes it once). Throws InputError.
 GearPairModel build_model(const Case& c, Geometry* geometry_out = nullptr,
