@@ -6,6 +6,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 #include <string_view>
 
@@ -161,15 +162,22 @@ std::string summary_json(const RunResult& r, int indent) {
   return in_form(j, r.input.model.form).dump(indent);
 }
 
-std::string timeseries_csv(const Timeseries& s, ModelForm form) {
-  std::string out = fmt::format("{},delta_bar,{},force_bar,contact\n", form_key("t_s", form),
-                                form_key("velocity_m_s", form));
-  out.reserve(out.size() + s.size() * 72);
+void write_timeseries_csv(std::ostream& out, const Timeseries& s, ModelForm form) {
+  out << fmt::format("{},delta_bar,{},force_bar,contact\n", form_key("t_s", form),
+                     form_key("velocity_m_s", form));
+  fmt::memory_buffer row;
   for (std::size_t i = 0; i < s.size(); ++i) {
-    fmt::format_to(std::back_inserter(out), "{:.10g},{:.10g},{:.10g},{:.10g},{}\n", s.t_s[i],
+    row.clear();
+    fmt::format_to(std::back_inserter(row), "{:.10g},{:.10g},{:.10g},{:.10g},{}\n", s.t_s[i],
                    s.delta_bar[i], s.velocity_m_s[i], s.force_bar[i], s.contact[i]);
+    out.write(row.data(), static_cast<std::streamsize>(row.size()));
   }
-  return out;
+}
+
+std::string timeseries_csv(const Timeseries& s, ModelForm form) {
+  std::ostringstream out;
+  write_timeseries_csv(out, s, form);
+  return out.str();
 }
 
 std::string spectrum_csv(const RunResult& r) {
@@ -250,6 +258,16 @@ std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
 void write_files_atomically(const std::filesystem::path& dir,
                             const std::vector<std::pair<std::string, std::string>>& files,
                             const RenameFunction& rename) {
+  std::vector<std::pair<std::string, FileWriter>> writers;
+  writers.reserve(files.size());
+  for (const auto& [name, text] : files)
+    writers.emplace_back(name, [&text = text](std::ostream& out) { out << text; });
+  write_files_atomically(dir, writers, rename);
+}
+
+void write_files_atomically(const std::filesystem::path& dir,
+                            const std::vector<std::pair<std::string, FileWriter>>& files,
+                            const RenameFunction& rename) {
   namespace fs = std::filesystem;
   const RenameFunction move = rename
                                   ? rename
@@ -266,11 +284,11 @@ void write_files_atomically(const std::filesystem::path& dir,
     std::error_code ignored;
     for (const fs::path& p : written) fs::remove(p, ignored);
   };
-  for (const auto& [name, text] : files) {
+  for (const auto& [name, write] : files) {
     const fs::path tmp = dir / (name + tag);
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     written.push_back(tmp);
-    out << text;
+    write(out);
     out.close();
     if (!out) {
       remove_temporaries();
@@ -278,7 +296,7 @@ void write_files_atomically(const std::filesystem::path& dir,
     }
   }
   // A target that is there and not a regular file cannot be replaced: refuse before moving.
-  for (const auto& [name, text] : files) {
+  for (const auto& [name, write] : files) {
     if (fs::exists(dir / name) && !fs::is_regular_file(dir / name)) {
       remove_temporaries();
       throw std::runtime_error(
@@ -312,10 +330,18 @@ void write_files_atomically(const std::filesystem::path& dir,
 }
 
 void write_run(const std::filesystem::path& dir, const RunResult& r) {
-  write_files_atomically(dir, {{"summary.json", summary_json(r) + "\n"},
-                               {"timeseries.csv", timeseries_csv(r.samples, r.input.model.form)},
-                               {"events.csv", events_csv(r.events, r.input.model.form)},
-                               {"case.toml", to_toml(r.input)}});
+  // The samples are streamed: up to kMaxSamples rows, never a second copy in memory.
+  const std::string summary = summary_json(r) + "\n",
+                    events = events_csv(r.events, r.input.model.form), toml = to_toml(r.input);
+  const auto text = [](const std::string& t) { return [&t](std::ostream& out) { out << t; }; };
+  write_files_atomically(
+      dir,
+      std::vector<std::pair<std::string, FileWriter>>{
+          {"summary.json", text(summary)},
+          {"timeseries.csv",
+           [&r](std::ostream& out) { write_timeseries_csv(out, r.samples, r.input.model.form); }},
+          {"events.csv", text(events)},
+          {"case.toml", text(toml)}});
 }
 
 }  // namespace geardyn

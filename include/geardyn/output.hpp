@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <ostream>
 #include <string>
 #include <system_error>
 #include <utility>
@@ -66,6 +67,17 @@ using RenameFunction = std::function<void(const std::filesystem::path& from,
 void write_files_atomically(const std::filesystem::path& dir,
                             const std::vector<std::pair<std::string, std::string>>& files,
                             const RenameFunction& rename = {});
+
+// The same with each file written by a function into its stream (a large file is streamed to
+// disk, never held in memory whole).
+using FileWriter = std::function<void(std::ostream&)>;
+void write_files_atomically(const std::filesystem::path& dir,
+                            const std::vector<std::pair<std::string, FileWriter>>& files,
+                            const RenameFunction& rename = {});
+
+// timeseries.csv into a stream, row by row (timeseries_csv's text).
+void write_timeseries_csv(std::ostream& out, const Timeseries& s,
+                          ModelForm form = ModelForm::kGearPair);
 
 // The run's files: summary.json, timeseries.csv, events.csv and case.toml.
 void write_run(const std::filesystem::path& dir, const RunResult& r);
