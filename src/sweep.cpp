@@ -302,6 +302,18 @@ std::string SweepOptions::validate() const {
   if (!(steady_tolerance >= 1e-12 && steady_tolerance <= 0.1))
     return fmt::format("--steady-tolerance = {}: must be from 1e-12 to 0.1 (in units of b)",
                        steady_tolerance);
+  // The work asked for at most: every point settling as long as allowed, in both directions.
+  const auto count = [](const SweepAxis& a) {
+    return static_cast<double>(a.explicit_values.empty() ? a.points : a.explicit_values.size());
+  };
+  const double points = count(axis) * (axis2 ? count(*axis2) : 1.0) *
+                        (direction == SweepDirection::kBoth ? 2.0 : 1.0);
+  const double periods = points * (static_cast<double>(max_settle_periods) + measure_periods);
+  if (periods > kMaxSweepPeriods)
+    return fmt::format(
+        "--max-settle-periods = {} with {:.3g} points: up to {:.3g} system periods; at most "
+        "{:.0e} (fewer points or a smaller --max-settle-periods)",
+        max_settle_periods, points, periods, kMaxSweepPeriods);
   if (!(samples_per_period >= 4 && samples_per_period <= 100000))
     return fmt::format("samples per period = {}: must be from 4 to 100000", samples_per_period);
   return "";

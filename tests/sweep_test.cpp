@@ -263,6 +263,10 @@ TEST(Sweep, BadOptionsAndKeysAreInputErrors) {
   o.axis2 = SweepAxis{"model.force_alternating", 0.1, 0.2, 100000, false};
   const std::string map = testing::error_of([&] { sweep(Case{}, o); });
   EXPECT_NE(map.find("1e+10 points in the map; at most 1e+06"), std::string::npos) << map;
+  o = omega_sweep(1, 2, 100000, SweepDirection::kBoth);
+  o.max_settle_periods = 1000000;
+  const std::string periods = testing::error_of([&] { sweep(Case{}, o); });
+  EXPECT_NE(periods.find("system periods; at most 1e+09"), std::string::npos) << periods;
   o = omega_sweep(1, 2, 2, SweepDirection::kUp);
   o.axis.key = "speed.rpm";
   const std::string msg = testing::error_of([&] { sweep(Case{}, o); });

@@ -37,6 +37,9 @@ const char* to_string(SweepDirection d);
 
 // The most points of a map (each in both directions): a bound on the work asked for.
 constexpr double kMaxMapPoints = 1e6;
+// The most system periods a sweep may run: its points times (max_settle_periods +
+// measure_periods). About an hour of the Table 1 pair's periods with the exact engine.
+constexpr double kMaxSweepPeriods = 1e9;
 
 struct SweepOptions {
   SweepAxis axis;
