@@ -16,6 +16,9 @@
 namespace geardyn {
 namespace {
 
+// The smallest half backlash accepted, um.
+constexpr double kMinBacklashUm = 1e-3;
+
 // Where a node came from, for messages: "case.toml:12:5" or "--set mesh.backlash_um=-1".
 std::string where(const toml::source_region& src, const std::string& fallback) {
   if (!src.path || src.path->empty()) return fallback;
@@ -131,9 +134,12 @@ MaybeViolation check_ranges(const Case& c) {
     return bad("gear.density_kg_m3", g.density_kg_m3, "a finite density > 0 kg/m^3");
 
   const MeshData& m = c.mesh;
-  if (!(m.backlash_um > 0 && std::isfinite(m.backlash_um)))
+  // Below a nanometre the backlash is no gear's, and its products underflow (a denormal b
+  // makes the integrators' absolute tolerance tolerance x b zero).
+  if (!(m.backlash_um >= kMinBacklashUm && std::isfinite(m.backlash_um)))
     return bad("mesh.backlash_um", m.backlash_um,
-               "a finite half backlash b > 0 um (the total normal backlash is 2b)");
+               "a finite half backlash b of at least 0.001 um (1 nm; the total normal backlash "
+               "is 2b)");
   if (m.stiffness_source == StiffnessSource::kHarmonics) {
     if (!(m.mean_stiffness_n_per_m > 0 && std::isfinite(m.mean_stiffness_n_per_m)))
       return bad("mesh.mean_stiffness_n_per_m", m.mean_stiffness_n_per_m,

@@ -168,7 +168,8 @@ TEST_P(CaseErrors, NameSourceKeyValueAndWhatIsAllowed) {
 INSTANTIATE_TEST_SUITE_P(
     Case, CaseErrors,
     ::testing::Values(
-        BadInput{"[mesh]\nbacklash_um = -5\n", {"bad.toml:2", "mesh.backlash_um", "-5", "> 0"}},
+        BadInput{"[mesh]\nbacklash_um = -5\n",
+                 {"bad.toml:2", "mesh.backlash_um", "-5", "at least 0.001 um"}},
         BadInput{"[mesh]\nbacklashum = 5\n",
                  {"bad.toml:2", "unknown key", "mesh.backlashum", "backlash_um"}},
         BadInput{"[gears]\nteeth = [1, 2]\n", {"bad.toml:1", "unknown key", "gears", "gear"}},
@@ -196,7 +197,7 @@ TEST(Case, OverrideErrorsNameTheOverride) {
   std::string msg =
       error_of([] { load_case(std::nullopt, {parse_override("mesh.backlash_um=-1")}); });
   EXPECT_NE(msg.find("--set mesh.backlash_um=-1"), std::string::npos) << msg;
-  EXPECT_NE(msg.find("> 0"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("at least 0.001 um"), std::string::npos) << msg;
 
   msg = error_of([] { load_case(std::nullopt, {parse_override("speed.rpm=100")}); });
   EXPECT_NE(msg.find("--set speed.rpm=100"), std::string::npos) << msg;

@@ -88,7 +88,8 @@ TEST_P(CliBadInput, ExitsWithTwoAndWritesNothing) {
 INSTANTIATE_TEST_SUITE_P(
     Cli, CliBadInput,
     ::testing::Values(Bad{"run --set mesh.backlash_um=-1",
-                          {"--set mesh.backlash_um=-1", "mesh.backlash_um = -1", "> 0"}},
+                          {"--set mesh.backlash_um=-1", "mesh.backlash_um = -1",
+                           "at least 0.001 um"}},
                       Bad{"run --set gear.inertia_kg_m2=[0,1]", {"gear.inertia_kg_m2[0]", "> 0"}},
                       Bad{"run --set solver.time_step_s=1",
                           {"solver.time_step_s = 1", "smaller than solver.duration_s"}},
@@ -173,10 +174,10 @@ TEST(Cli, ALongValueIsShortenedInTheMessage) {
 }
 
 TEST(Cli, NonFiniteReadingsAreANumericalFailure) {
-  // A denormal backlash: the integration completes but its readings overflow to inf.
+  // A torque of 1e300 N m: the integration completes but its readings overflow to inf.
   const fs::path d = fresh("nonfinite");
   const Outcome o =
-      cli("run --set solver.method=dopri5 --set mesh.backlash_um=1e-310 "
+      cli("run --set solver.method=dopri5 --set load.torque_nm=1e300 "
           "--set solver.duration_s=0.001 --out " +
           d.string());
   EXPECT_EQ(o.code, 1) << o.err;
@@ -216,10 +217,11 @@ std::vector<BadInput> bad_inputs(const fs::path& d) {
       {"run --set solver.method=newmark --set solver.time_step_s=1e-3" + out, 2,
        "does not resolve the case's fastest time scale"},
       {"run --set solver.time_step_s=1" + out, 2, "smaller than solver.duration_s"},
-      {"run --set solver.method=dopri5 --set mesh.backlash_um=1e-310 --set "
+      {"run --set solver.method=dopri5 --set load.torque_nm=1e300 --set "
        "solver.duration_s=0.001" +
            out,
        1, "non-finite readings"},
+      {"run --set mesh.backlash_um=1e-310" + out, 2, "mesh.backlash_um = 1e-310"},
       // Derived physics.
       {"run --set gear.normal_module_mm=1e-9" + out, 2, "comes to a point"},
       {"run --set gear.face_width_mm=1e308" + out, 2, "gear.face_width_mm = 1e+308"},
