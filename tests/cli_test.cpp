@@ -110,51 +110,6 @@ TEST(Cli, UnknownKeyInAFileNamesFileAndLine) {
   EXPECT_NE(o.err.find("mesh.stiffnes"), std::string::npos) << o.err;
 }
 
-TEST(Cli, WorkBeyondTheBoundsIsRefusedBeforeItStarts) {
-  // Each bound of run.hpp: exit 2 before any work, the key, its value and the bound named,
-  // nothing written.
-  const struct {
-    const char* set;
-    const char* key;
-    const char* bound;
-  } cases[] = {
-      {"solver.duration_s=1e9", "solver.duration_s = 1e+09", "at most 1e+08"},
-      {"solver.output_interval_s=1e-12", "solver.output_interval_s = 1e-12", "at most 5e+06"},
-      {"solver.method=newmark --set solver.time_step_s=1e-300", "solver.time_step_s = 1e-300",
-       "at most 1e+10"},
-      {"solver.method=newmark --set solver.time_step_s=1e-3", "solver.time_step_s = 0.001",
-       "does not resolve"},
-  };
-  for (const auto& x : cases) {
-    const fs::path d = fresh("bounds");
-    const Outcome o = cli(std::string("run --set ") + x.set + " --out " + d.string());
-    EXPECT_EQ(o.code, 2) << x.set << ": " << o.err;
-    EXPECT_NE(o.err.find(x.key), std::string::npos) << o.err;
-    EXPECT_NE(o.err.find(x.bound), std::string::npos) << o.err;
-    EXPECT_FALSE(fs::exists(d)) << x.set;
-  }
-}
-
-TEST(Cli, InputsAndOutputsAreCheckedBeforeAnyWork) {
-  // A directory or a device as the case file; --out that is a file: exit 2 at once.
-  const fs::path d = fresh("io");
-  fs::create_directories(d);
-  const Outcome dir = cli("run " + d.string());
-  EXPECT_EQ(dir.code, 2);
-  EXPECT_NE(dir.err.find("must be a regular file, not a directory"), std::string::npos) << dir.err;
-  const Outcome dev = cli("run /dev/zero");
-  EXPECT_EQ(dev.code, 2);
-  EXPECT_NE(dev.err.find("not a device or pipe"), std::string::npos) << dev.err;
-  { std::ofstream(d / "a_file") << "x"; }
-  const Outcome file =
-      cli("sweep --set model.form=nondimensional --param model.omega --from 1 "
-          "--to 2 --points 2 --out " +
-          (d / "a_file").string());
-  EXPECT_EQ(file.code, 2);
-  EXPECT_NE(file.err.find("exists and is not a directory"), std::string::npos) << file.err;
-  EXPECT_EQ(file.out.find("geardyn sweep:"), std::string::npos);  // no work was done
-}
-
 TEST(Cli, TheErrorPathSurvivesClosedAndFullStreams) {
   // stderr closed: the error is not printable, the exit code still says what happened (no
   // abort); stdout full: a failure, not success.
@@ -165,33 +120,13 @@ TEST(Cli, TheErrorPathSurvivesClosedAndFullStreams) {
   EXPECT_NE(full.err.find("cannot write to standard output"), std::string::npos) << full.err;
 }
 
-TEST(Cli, ALongValueIsShortenedInTheMessage) {
-  const Outcome o = cli("run --set mesh.backlash_um=-" + std::string(100000, '1'));
-  EXPECT_EQ(o.code, 2);
-  EXPECT_LT(o.err.size(), 1200U);
-  EXPECT_NE(o.err.find("characters left out"), std::string::npos) << o.err.substr(0, 300);
-  EXPECT_NE(o.err.find("mesh.backlash_um"), std::string::npos);
-}
-
-TEST(Cli, NonFiniteReadingsAreANumericalFailure) {
-  // A torque of 1e300 N m: the integration completes but its readings overflow to inf.
-  const fs::path d = fresh("nonfinite");
-  const Outcome o =
-      cli("run --set solver.method=dopri5 --set load.torque_nm=1e300 "
-          "--set solver.duration_s=0.001 --out " +
-          d.string());
-  EXPECT_EQ(o.code, 1) << o.err;
-  EXPECT_NE(o.err.find("non-finite readings"), std::string::npos) << o.err;
-  EXPECT_FALSE(fs::exists(d));
-}
-
 // One row per kind of bad input (docs/case-files.md, "Bad inputs, tested"): the command, its
 // exit code (2 bad input, 1 numerical failure or a failed write) and a piece of the message.
 // Every row: no output directory written, no abort, the message on one short line.
 struct BadInput {
   std::string args;
   int code;
-  std::string message;
+  std::vector<std::string> message;  // pieces the message holds
 };
 
 std::vector<BadInput> bad_inputs(const fs::path& d) {
@@ -199,58 +134,76 @@ std::vector<BadInput> bad_inputs(const fs::path& d) {
   const std::string out = " --out " + (d / "out").string();
   return {
       // Counts and work.
-      {"run --set solver.duration_s=1e9" + out, 2, "at most 1e+08"},
-      {"run --set solver.output_interval_s=1e-12" + out, 2, "at most 5e+06"},
-      {"run --set solver.method=newmark --set solver.time_step_s=1e-300" + out, 2, "at most 1e+10"},
+      {"run --set solver.duration_s=1e9" + out, 2, {"solver.duration_s = 1e+09", "at most 1e+08"}},
+      {"run --set solver.output_interval_s=1e-12" + out,
+       2,
+       {"solver.output_interval_s = 1e-12", "at most 5e+06"}},
+      {"run --set solver.method=newmark --set solver.time_step_s=1e-300" + out,
+       2,
+       {"solver.time_step_s = 1e-300", "at most 1e+10"}},
       {"sweep " + nd +
            "--param model.omega --from 1 --to 2 --points 100000 --param2 "
            "model.force_alternating --from2 0 --to2 1 --points2 100000" +
            out,
-       2, "points in the map"},
-      {"sweep " + nd + "--param model.omega --from 1 --to 2 --points 0" + out, 2,
-       "--points = 0: must be a whole number from 1 to 100000"},
+       2,
+       {"points in the map"}},
+      {"sweep " + nd + "--param model.omega --from 1 --to 2 --points 0" + out,
+       2,
+       {"--points = 0: must be a whole number from 1 to 100000"}},
       {"sweep " + nd + "--param model.omega --from 1 --to 2 --points 3 --settle-periods -1" + out,
-       2, "--settle-periods = -1"},
-      {"stability --param speed.shaft_frequency_hz --from 10 --to 20 --points 0" + out, 2,
-       "--points = 0"},
+       2,
+       {"--settle-periods = -1"}},
+      {"stability --param speed.shaft_frequency_hz --from 10 --to 20 --points 0" + out,
+       2,
+       {"--points = 0"}},
       // Steps the physics cannot resolve, readings that are not finite.
-      {"run --set solver.method=newmark --set solver.time_step_s=1e-3" + out, 2,
-       "does not resolve the case's fastest time scale"},
-      {"run --set solver.time_step_s=1" + out, 2, "smaller than solver.duration_s"},
+      {"run --set solver.method=newmark --set solver.time_step_s=1e-3" + out,
+       2,
+       {"solver.time_step_s = 0.001", "does not resolve the case's fastest time scale"}},
+      {"run --set solver.time_step_s=1" + out, 2, {"smaller than solver.duration_s"}},
       {"run --set solver.method=dopri5 --set load.torque_nm=1e300 --set "
        "solver.duration_s=0.001" +
            out,
-       1, "non-finite readings"},
-      {"run --set mesh.backlash_um=1e-310" + out, 2, "mesh.backlash_um = 1e-310"},
+       1,
+       {"non-finite readings"}},
+      {"run --set mesh.backlash_um=1e-310" + out, 2, {"mesh.backlash_um = 1e-310"}},
       // Derived physics.
-      {"run --set gear.normal_module_mm=1e-9" + out, 2, "comes to a point"},
-      {"run --set gear.face_width_mm=1e308" + out, 2, "gear.face_width_mm = 1e+308"},
-      {"run --set gear.outside_diameter_mm=[300,300]" + out, 2,
-       "gear.outside_diameter_mm[0] = 300: the tooth comes to a point"},
-      {"run --set gear.center_distance_mm=120" + out, 2, "sum of the base radii"},
-      {"run --set gear.teeth=[3,3]" + out, 2, "gear.teeth[0] = 3"},
+      {"run --set gear.normal_module_mm=1e-9" + out, 2, {"comes to a point"}},
+      {"run --set gear.face_width_mm=1e308" + out, 2, {"gear.face_width_mm = 1e+308"}},
+      {"run --set gear.outside_diameter_mm=[300,300]" + out,
+       2,
+       {"gear.outside_diameter_mm[0] = 300: the tooth comes to a point"}},
+      {"run --set gear.center_distance_mm=120" + out, 2, {"sum of the base radii"}},
+      {"run --set gear.teeth=[3,3]" + out, 2, {"gear.teeth[0] = 3"}},
       {"run --set mesh.stiffness_source=table --set mesh.stiffness_table='\"" +
            (d / "steep.csv").string() + "\"'" + out,
-       2, "make the mesh stiffness negative"},
-      {"run --set mesh.stiffness_harmonics=[[0.6,0],[0.6,0]]" + out, 2, "sum is < 1"},
-      {"orbit --set load.fluctuation_ratio=0 --set mesh.stiffness_source=harmonics", 2,
-       "nothing in the model varies in time"},
+       2,
+       {"make the mesh stiffness negative"}},
+      {"run --set mesh.stiffness_harmonics=[[0.6,0],[0.6,0]]" + out, 2, {"sum is < 1"}},
+      {"orbit --set load.fluctuation_ratio=0 --set mesh.stiffness_source=harmonics",
+       2,
+       {"nothing in the model varies in time"}},
       // Keys and values.
-      {"run --set mesh.backlash_um=-5" + out, 2, "mesh.backlash_um = -5"},
-      {"run --set speed.rpm=3" + out, 2, "unknown key 'speed.rpm'"},
-      {"run --set mesh.tension=pull" + out, 2, "must be one of \"allow\" | \"clip\""},
-      {"continue --param solver.method --from 0 --to 1" + out, 2, "solver.method = 0"},
-      {"run --set mesh.backlash_um=-" + std::string(100000, '1') + out, 2, "characters left out"},
+      {"run --set mesh.backlash_um=-5" + out, 2, {"mesh.backlash_um = -5"}},
+      {"run --set speed.rpm=3" + out, 2, {"unknown key 'speed.rpm'"}},
+      {"run --set mesh.tension=pull" + out, 2, {"must be one of \"allow\" | \"clip\""}},
+      {"continue --param solver.method --from 0 --to 1" + out, 2, {"solver.method = 0"}},
+      {"run --set mesh.backlash_um=-" + std::string(100000, '1') + out,
+       2,
+       {"mesh.backlash_um", "characters left out"}},
       // Files and channels.
-      {"run " + d.string() + out, 2, "must be a regular file, not a directory"},
-      {"run /dev/zero" + out, 2, "not a device or pipe"},
-      {"run " + (d / "missing.toml").string() + out, 2, "cannot read the case file"},
-      {"run " + (d / "nul.toml").string() + out, 2, "a NUL character"},
-      {"run " + (d / "key.toml").string() + out, 2, "a non-ASCII character outside a string"},
-      {"run --out " + (d / "a_file").string(), 2, "exists and is not a directory"},
-      {"run --plot", 2, "--plot: needs --out DIR"},
-      {"reproduce kahraman1990" + out, 2, "unknown study"},
-      {"run --set solver.duration_s=0.001 >/dev/full", 1, "cannot write to standard output"},
+      {"run " + d.string() + out, 2, {"must be a regular file, not a directory"}},
+      {"run /dev/zero" + out, 2, {"not a device or pipe"}},
+      {"run " + (d / "missing.toml").string() + out, 2, {"cannot read the case file"}},
+      {"run " + (d / "nul.toml").string() + out, 2, {"a NUL character"}},
+      {"run " + (d / "key.toml").string() + out, 2, {"a non-ASCII character outside a string"}},
+      {"sweep " + nd + "--param model.omega --from 1 --to 2 --points 2 --out " +
+           (d / "a_file").string(),
+       2,
+       {"exists and is not a directory"}},
+      {"run --plot", 2, {"--plot: needs --out DIR"}},
+      {"reproduce kahraman1990" + out, 2, {"unknown study"}},
+      {"run --set solver.duration_s=0.001 >/dev/full", 1, {"cannot write to standard output"}},
   };
 }
 
@@ -272,9 +225,11 @@ TEST(Cli, BadInputsAreRefusedWithTheirKeyAndNothingWritten) {
     const Outcome o = cli(x.args);
     const std::string shown = x.args.substr(0, 120);
     EXPECT_EQ(o.code, x.code) << shown << "\n" << o.err.substr(0, 400);
-    EXPECT_NE(o.err.find(x.message), std::string::npos) << shown << "\n" << o.err.substr(0, 400);
+    for (const std::string& piece : x.message)
+      EXPECT_NE(o.err.find(piece), std::string::npos) << shown << "\n" << o.err.substr(0, 400);
     EXPECT_LT(o.err.size(), 1200U) << shown;
     EXPECT_FALSE(fs::exists(d / "out")) << shown;
+    EXPECT_EQ(o.out.find("written to"), std::string::npos) << shown;  // no work was done
   }
 }
 
