@@ -7,17 +7,14 @@
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/harmonic_series.hpp"
 
 namespace geardyn {
 namespace {
-
-// The smallest half backlash accepted, um.
-constexpr double kMinBacklashUm = 1e-3;
 
 // Where a node came from, for messages: "case.toml:12:5" or "--set mesh.backlash_um=-1".
 std::string where(const toml::source_region& src, const std::string& fallback) {
@@ -56,113 +53,76 @@ struct Violation {
 
 using MaybeViolation = std::optional<Violation>;
 
-// The ranges of every value, written once; used for case files and for cases built in code.
-// Conditions are written so that NaN fails them.
-MaybeViolation check_ranges(const Case& c) {
+MaybeViolation violation(std::string key, double v, std::string allowed) {
+  return Violation{std::move(key), format_number(v), std::move(allowed)};
+}
+
+// A value of key `k` outside its bounds (case_keys.hpp), by the kind of the key. Conditions are
+// written so that NaN fails them.
+class KeyCheck {
+ public:
+  KeyCheck(const CaseKey& k, const Case& c) : k_(k), c_(const_cast<Case&>(c)) {}
+
+  MaybeViolation operator()(NumberField f) const { return number(f(c_)); }
+  MaybeViolation operator()(OptionalNumberField f) const {
+    return f(c_) ? number(*f(c_)) : std::nullopt;
+  }
+  MaybeViolation operator()(IntegerField f) const { return number(f(c_)); }
+  MaybeViolation operator()(PairField f) const { return pair(f(c_)); }
+  MaybeViolation operator()(OptionalPairField f) const {
+    return f(c_) ? pair(*f(c_)) : std::nullopt;
+  }
+  MaybeViolation operator()(IntegerPairField f) const { return pair(f(c_)); }
+  MaybeViolation operator()(HarmonicsField f) const {
+    const std::vector<StiffnessHarmonic>& h = f(c_);
+    if (h.size() > static_cast<std::size_t>(HarmonicSeries::kMaxTerms))
+      return violation(std::string(k_.name), static_cast<double>(h.size()),
+                       fmt::format("at most {} harmonics", HarmonicSeries::kMaxTerms));
+    for (std::size_t i = 0; i < h.size(); ++i) {
+      if (!k_.range.contains(h[i].ratio))
+        return violation(element(i) + "[0]", h[i].ratio, k_.allowed());
+      if (!std::isfinite(h[i].phase_deg))
+        return violation(element(i) + "[1]", h[i].phase_deg, "a finite phase in degrees");
+    }
+    return std::nullopt;
+  }
+  MaybeViolation operator()(TextField) const { return std::nullopt; }
+  MaybeViolation operator()(const ChoiceField&) const { return std::nullopt; }
+
+ private:
+  std::string element(std::size_t i) const { return fmt::format("{}[{}]", k_.name, i); }
+  MaybeViolation number(double v) const {
+    if (k_.range.contains(v)) return std::nullopt;
+    return violation(std::string(k_.name), v, k_.allowed());
+  }
+  template <class T>
+  MaybeViolation pair(const std::array<T, 2>& v) const {
+    for (std::size_t i = 0; i < 2; ++i)
+      if (!k_.range.contains(v[i])) return violation(element(i), v[i], k_.allowed());
+    return std::nullopt;
+  }
+
+  const CaseKey& k_;
+  Case& c_;  // the accessors take a Case&; only read here
+};
+
+// The rules that tie keys together, beside the table's bounds of each key.
+MaybeViolation check_relations(const Case& c) {
   auto bad = [](std::string key, double v, std::string allowed) {
     return MaybeViolation(Violation{std::move(key), format_number(v), std::move(allowed)});
   };
-  const ModelData& md = c.model;
-  if (!(md.zeta >= 0 && md.zeta < 1))
-    return bad("model.zeta", md.zeta, "a damping ratio in [0, 1)");
-  if (!std::isfinite(md.force_mean))
-    return bad("model.force_mean", md.force_mean, "a finite force");
-  if (!(md.force_alternating >= 0 && std::isfinite(md.force_alternating)))
-    return bad("model.force_alternating", md.force_alternating, "a finite amplitude >= 0");
-  if (!(md.omega > 0 && std::isfinite(md.omega)))
-    return bad("model.omega", md.omega, "a finite frequency ratio > 0");
   double kappa_sum = 0;
-  for (std::size_t i = 0; i < md.stiffness_harmonics.size(); ++i) {
-    if (!(md.stiffness_harmonics[i].ratio >= 0 && md.stiffness_harmonics[i].ratio < 1))
-      return bad(fmt::format("model.stiffness_harmonics[{}][0]", i),
-                 md.stiffness_harmonics[i].ratio, "a ratio in [0, 1)");
-    kappa_sum += md.stiffness_harmonics[i].ratio;
-  }
+  for (const StiffnessHarmonic& h : c.model.stiffness_harmonics) kappa_sum += h.ratio;
   if (!(kappa_sum < 1))
     return bad("model.stiffness_harmonics", kappa_sum, "ratios whose sum is < 1 (k stays > 0)");
-  if (md.stiffness_harmonics.size() > static_cast<std::size_t>(HarmonicSeries::kMaxTerms))
-    return bad("model.stiffness_harmonics", static_cast<double>(md.stiffness_harmonics.size()),
-               fmt::format("at most {} harmonics", HarmonicSeries::kMaxTerms));
-
-  const GearData& g = c.gear;
-  if (!(g.normal_module_mm > 0 && g.normal_module_mm <= 100))
-    return bad("gear.normal_module_mm", g.normal_module_mm, "a module in (0, 100] mm");
-  if (!(g.normal_pressure_angle_deg > 0 && g.normal_pressure_angle_deg < 45))
-    return bad("gear.normal_pressure_angle_deg", g.normal_pressure_angle_deg,
-               "an angle in (0, 45) degrees");
-  if (!(g.helix_angle_deg >= 0 && g.helix_angle_deg < 60))
-    return bad("gear.helix_angle_deg", g.helix_angle_deg,
-               "an angle in [0, 60) degrees (0 is a spur gear)");
-  if (!(g.center_distance_mm > 0))
-    return bad("gear.center_distance_mm", g.center_distance_mm, "a distance > 0 mm");
-  for (int i = 0; i < 2; ++i) {
-    if (!(g.teeth[i] >= 5 && g.teeth[i] <= 10000))
-      return bad(fmt::format("gear.teeth[{}]", i), g.teeth[i],
-                 "a whole number of teeth from 5 to 10000 (external gears)");
-  }
-  if (!(g.face_width_mm > 0)) return bad("gear.face_width_mm", g.face_width_mm, "a width > 0 mm");
-  for (int i = 0; i < 2; ++i) {
-    if (!(g.outside_diameter_mm[i] > 0))
-      return bad(fmt::format("gear.outside_diameter_mm[{}]", i), g.outside_diameter_mm[i],
-                 "a diameter > 0 mm");
-    if (!(g.profile_shift[i] >= -1.5 && g.profile_shift[i] <= 1.5))
-      return bad(fmt::format("gear.profile_shift[{}]", i), g.profile_shift[i],
-                 "a profile shift coefficient in [-1.5, 1.5]");
-    if (!(g.bore_diameter_mm[i] >= 0))
-      return bad(fmt::format("gear.bore_diameter_mm[{}]", i), g.bore_diameter_mm[i],
-                 "a diameter >= 0 mm (0 is a solid blank)");
-    if (!(g.youngs_modulus_gpa[i] > 0 && g.youngs_modulus_gpa[i] < 2000))
-      return bad(fmt::format("gear.youngs_modulus_gpa[{}]", i), g.youngs_modulus_gpa[i],
-                 "a Young's modulus in (0, 2000) GPa");
-    if (!(g.poisson_ratio[i] >= 0 && g.poisson_ratio[i] < 0.5))
-      return bad(fmt::format("gear.poisson_ratio[{}]", i), g.poisson_ratio[i],
-                 "a Poisson's ratio in [0, 0.5)");
-    if (!(g.basic_rack_dedendum[i] >= 1.0 && g.basic_rack_dedendum[i] <= 1.6))
-      return bad(fmt::format("gear.basic_rack_dedendum[{}]", i), g.basic_rack_dedendum[i],
-                 "a basic rack dedendum h_fP/m_n in [1, 1.6] (ISO 53: 1.25 to 1.4)");
-    if (!(g.rim_thickness_mm[i] >= 0))
-      return bad(fmt::format("gear.rim_thickness_mm[{}]", i), g.rim_thickness_mm[i],
-                 "a thickness >= 0 mm (0: solid blank)");
-    if (!(g.web_thickness_mm[i] >= 0))
-      return bad(fmt::format("gear.web_thickness_mm[{}]", i), g.web_thickness_mm[i],
-                 "a thickness >= 0 mm (0: solid blank)");
-    if (g.inertia_kg_m2 && !((*g.inertia_kg_m2)[i] > 0 && std::isfinite((*g.inertia_kg_m2)[i])))
-      return bad(fmt::format("gear.inertia_kg_m2[{}]", i), (*g.inertia_kg_m2)[i],
-                 "a finite moment of inertia > 0 kg m^2");
-  }
-  if (!(g.density_kg_m3 > 0 && std::isfinite(g.density_kg_m3)))
-    return bad("gear.density_kg_m3", g.density_kg_m3, "a finite density > 0 kg/m^3");
 
   const MeshData& m = c.mesh;
-  // Below a nanometre the backlash is no gear's, and its products underflow (a denormal b
-  // makes the integrators' absolute tolerance tolerance x b zero).
-  if (!(m.backlash_um >= kMinBacklashUm && std::isfinite(m.backlash_um)))
-    return bad("mesh.backlash_um", m.backlash_um,
-               "a finite half backlash b of at least 0.001 um (1 nm; the total normal backlash "
-               "is 2b)");
-  if (m.stiffness_source == StiffnessSource::kHarmonics) {
-    if (!(m.mean_stiffness_n_per_m > 0 && std::isfinite(m.mean_stiffness_n_per_m)))
-      return bad("mesh.mean_stiffness_n_per_m", m.mean_stiffness_n_per_m,
-                 "a finite stiffness > 0 N/m with mesh.stiffness_source = \"harmonics\"");
-  } else if (!(m.mean_stiffness_n_per_m >= 0 && std::isfinite(m.mean_stiffness_n_per_m))) {
+  if (m.stiffness_source == StiffnessSource::kHarmonics && !(m.mean_stiffness_n_per_m > 0))
     return bad("mesh.mean_stiffness_n_per_m", m.mean_stiffness_n_per_m,
-               "a finite stiffness > 0 N/m to scale the computed curve to, or 0 to keep its mean");
-  }
-  if (!(m.harmonics_kept >= 0 && m.harmonics_kept <= HarmonicSeries::kMaxTerms))
-    return bad("mesh.harmonics_kept", m.harmonics_kept,
-               fmt::format("a whole number from 0 to {}", HarmonicSeries::kMaxTerms));
-  if (!(m.stiffness_positions >= 16 && m.stiffness_positions <= 65536))
-    return bad("mesh.stiffness_positions", m.stiffness_positions,
-               "a whole number of mesh positions from 16 to 65536");
+               "a finite stiffness > 0 N/m with mesh.stiffness_source = \"harmonics\"");
   if (m.harmonics_kept >= m.stiffness_positions / 2)
     return bad("mesh.harmonics_kept", m.harmonics_kept,
                "fewer than half of mesh.stiffness_positions");
-  if (!(m.stiffness_slices >= 1 && m.stiffness_slices <= 4096))
-    return bad("mesh.stiffness_slices", m.stiffness_slices,
-               "a whole number of face-width slices from 1 to 4096");
-  if (!(m.application_factor >= 1 && m.application_factor <= 5))
-    return bad("mesh.application_factor", m.application_factor,
-               "an application factor K_A in [1, 5]");
   if (m.stiffness_source != StiffnessSource::kHarmonics && !m.stiffness_harmonics.empty())
     return MaybeViolation(Violation{
         "mesh.stiffness_harmonics", fmt::format("{} harmonics", m.stiffness_harmonics.size()),
@@ -170,57 +130,29 @@ MaybeViolation check_ranges(const Case& c) {
   if (m.stiffness_source == StiffnessSource::kTable && m.stiffness_table.empty())
     return MaybeViolation(Violation{"mesh.stiffness_table", "\"\"",
                                     "a CSV file when mesh.stiffness_source = \"table\""});
-  if (m.stiffness_harmonics.size() > static_cast<std::size_t>(HarmonicSeries::kMaxTerms))
-    return bad("mesh.stiffness_harmonics", static_cast<double>(m.stiffness_harmonics.size()),
-               fmt::format("at most {} harmonics", HarmonicSeries::kMaxTerms));
   double ratio_sum = 0.0;
-  for (std::size_t i = 0; i < m.stiffness_harmonics.size(); ++i) {
-    const StiffnessHarmonic& h = m.stiffness_harmonics[i];
-    if (!(h.ratio >= 0 && h.ratio < 1))
-      return bad(fmt::format("mesh.stiffness_harmonics[{}][0]", i), h.ratio,
-                 "a ratio k_ai/k_m in [0, 1)");
-    if (!std::isfinite(h.phase_deg))
-      return bad(fmt::format("mesh.stiffness_harmonics[{}][1]", i), h.phase_deg,
-                 "a finite phase in degrees");
-    ratio_sum += h.ratio;
-  }
+  for (const StiffnessHarmonic& h : m.stiffness_harmonics) ratio_sum += h.ratio;
   if (!(ratio_sum < 1) && m.stiffness_source == StiffnessSource::kHarmonics)
     return bad("mesh.stiffness_harmonics", ratio_sum,
                "harmonic ratios whose sum is < 1, so that k(t) stays positive");
-  if (!(m.damping_ratio >= 0 && m.damping_ratio < 1))
-    return bad("mesh.damping_ratio", m.damping_ratio, "a damping ratio in [0, 1)");
-
-  const LoadData& l = c.load;
-  if (!std::isfinite(l.torque_nm)) return bad("load.torque_nm", l.torque_nm, "a finite torque");
-  if (!(l.fluctuation_ratio >= 0 && std::isfinite(l.fluctuation_ratio)))
-    return bad("load.fluctuation_ratio", l.fluctuation_ratio, "a finite ratio F_a/F_m >= 0");
-  if (!(l.fluctuation_order > 0 && std::isfinite(l.fluctuation_order)))
-    return bad("load.fluctuation_order", l.fluctuation_order,
-               "a finite order > 0 (torque frequency over shaft frequency)");
-  if (!std::isfinite(l.fluctuation_phase_deg))
-    return bad("load.fluctuation_phase_deg", l.fluctuation_phase_deg, "a finite phase");
-  if (l.load_torque_nm && !std::isfinite(*l.load_torque_nm))
-    return bad("load.load_torque_nm", *l.load_torque_nm, "a finite torque");
-
-  if (!(c.speed.shaft_frequency_hz > 0 && std::isfinite(c.speed.shaft_frequency_hz)))
-    return bad("speed.shaft_frequency_hz", c.speed.shaft_frequency_hz, "a finite frequency > 0 Hz");
 
   const SolverData& s = c.solver;
-  if (!(s.duration_s > 0 && std::isfinite(s.duration_s)))
-    return bad("solver.duration_s", s.duration_s, "a finite duration > 0 s");
-  if (!(s.time_step_s >= 0 && s.time_step_s < s.duration_s))
+  if (!(s.time_step_s < s.duration_s))
     return bad("solver.time_step_s", s.time_step_s,
                fmt::format("0 (automatic) or a step > 0 s and smaller than solver.duration_s = {}",
                            s.duration_s));
-  if (!(s.tolerance >= 1e-14 && s.tolerance <= 1e-3))
-    return bad("solver.tolerance", s.tolerance, "a tolerance in [1e-14, 1e-3]");
-  if (!(s.output_interval_s >= 0 && s.output_interval_s <= s.duration_s))
+  if (!(s.output_interval_s <= s.duration_s))
     return bad("solver.output_interval_s", s.output_interval_s,
                fmt::format("0 (automatic) or an interval > 0 s and at most solver.duration_s = {}",
                            s.duration_s));
-  if (!(s.final_fraction > 0 && s.final_fraction < 1))
-    return bad("solver.final_fraction", s.final_fraction, "a fraction in (0, 1)");
   return std::nullopt;
+}
+
+// Every bound of every key, then the relations; the first broken one.
+MaybeViolation check_ranges(const Case& c) {
+  for (const CaseKey& k : case_keys())
+    if (MaybeViolation v = std::visit(KeyCheck(k, c), k.field)) return v;
+  return check_relations(c);
 }
 
 // Decodes a TOML table into a Case, remembering which keys it used so that any other key can be
@@ -283,21 +215,16 @@ class Reader {
     }
   }
 
-  template <class Enum>
-  void choice(std::string_view section, std::string_view key, Enum& out,
-              std::initializer_list<std::pair<const char*, Enum>> options) {
+  void choice(std::string_view section, std::string_view key, Case& c, const ChoiceField& f) {
     const toml::node* n = find(section, key);
     if (!n) return;
     std::string allowed;
-    for (const auto& [name, value] : options) {
-      allowed += allowed.empty() ? "" : " | ";
-      allowed += fmt::format("\"{}\"", name);
-    }
-    const auto* s = n->as_string();
-    if (s) {
-      for (const auto& [name, value] : options) {
+    for (const auto& [name, value] : f.options)
+      allowed += fmt::format("{}\"{}\"", allowed.empty() ? "" : " | ", name);
+    if (const auto* s = n->as_string()) {
+      for (const auto& [name, value] : f.options) {
         if (s->get() == name) {
-          out = value;
+          f.set(c, value);
           return;
         }
       }
@@ -329,6 +256,30 @@ class Reader {
     used_.insert(std::string(key));
     if (!n->is_string()) fail(*n, "", key, "a string");
     out = *n->value<std::string>();
+  }
+
+  // Reads key `k` into `c` when the document has it, by the kind of the key.
+  void read(const CaseKey& k, Case& c) {
+    const std::string_view section = k.section(), key = k.leaf();
+    if (section.empty()) {
+      string(key, std::get<TextField>(k.field)(c));
+      return;
+    }
+    struct Read {
+      void operator()(NumberField f) const { r.number(section, key, f(c)); }
+      void operator()(OptionalNumberField f) const { r.optional_number(section, key, f(c)); }
+      void operator()(IntegerField f) const { r.integer(section, key, f(c)); }
+      void operator()(PairField f) const { r.number_pair(section, key, f(c)); }
+      void operator()(OptionalPairField f) const { r.optional_number_pair(section, key, f(c)); }
+      void operator()(IntegerPairField f) const { r.integer_pair(section, key, f(c)); }
+      void operator()(HarmonicsField f) const { r.harmonics(section, key, f(c)); }
+      void operator()(TextField f) const { r.text(section, key, f(c)); }
+      void operator()(const ChoiceField& f) const { r.choice(section, key, c, f); }
+      Reader& r;
+      Case& c;
+      std::string_view section, key;
+    };
+    std::visit(Read{*this, c, section, key}, k.field);
   }
 
   // Throws on the first key of the document that no reader call asked for. The reader calls
@@ -614,75 +565,10 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
   Case c;
   c.name = std::move(name);
   Reader r(root, source, overrides);
-  r.string("description", c.description);
-  ModelData& md = c.model;
-  r.choice("model", "form", md.form,
-           {{"gear_pair", ModelForm::kGearPair}, {"nondimensional", ModelForm::kNondimensional}});
-  r.number("model", "zeta", md.zeta);
-  r.number("model", "force_mean", md.force_mean);
-  r.number("model", "force_alternating", md.force_alternating);
-  r.number("model", "omega", md.omega);
-  r.harmonics("model", "stiffness_harmonics", md.stiffness_harmonics);
-
-  GearData& g = c.gear;
-  r.number("gear", "normal_module_mm", g.normal_module_mm);
-  r.number("gear", "normal_pressure_angle_deg", g.normal_pressure_angle_deg);
-  r.number("gear", "helix_angle_deg", g.helix_angle_deg);
-  r.number("gear", "center_distance_mm", g.center_distance_mm);
-  r.integer_pair("gear", "teeth", g.teeth);
-  r.number("gear", "face_width_mm", g.face_width_mm);
-  r.number_pair("gear", "outside_diameter_mm", g.outside_diameter_mm);
-  r.number_pair("gear", "profile_shift", g.profile_shift);
-  r.number("gear", "density_kg_m3", g.density_kg_m3);
-  r.number_pair("gear", "bore_diameter_mm", g.bore_diameter_mm);
-  r.optional_number_pair("gear", "inertia_kg_m2", g.inertia_kg_m2);
-  r.number_pair("gear", "youngs_modulus_gpa", g.youngs_modulus_gpa);
-  r.number_pair("gear", "poisson_ratio", g.poisson_ratio);
-  r.number_pair("gear", "basic_rack_dedendum", g.basic_rack_dedendum);
-  r.number_pair("gear", "rim_thickness_mm", g.rim_thickness_mm);
-  r.number_pair("gear", "web_thickness_mm", g.web_thickness_mm);
-
-  MeshData& m = c.mesh;
-  r.number("mesh", "backlash_um", m.backlash_um);
-  r.number("mesh", "mean_stiffness_n_per_m", m.mean_stiffness_n_per_m);
-  r.harmonics("mesh", "stiffness_harmonics", m.stiffness_harmonics);
+  for (const CaseKey& k : case_keys()) r.read(k, c);
   // Harmonics given without a source mean that those harmonics are wanted.
   if (r.has("mesh", "stiffness_harmonics") && !r.has("mesh", "stiffness_source"))
-    m.stiffness_source = StiffnessSource::kHarmonics;
-  r.choice("mesh", "stiffness_source", m.stiffness_source,
-           {{"energy", StiffnessSource::kEnergy},
-            {"harmonics", StiffnessSource::kHarmonics},
-            {"table", StiffnessSource::kTable}});
-  r.text("mesh", "stiffness_table", m.stiffness_table);
-  r.integer("mesh", "harmonics_kept", m.harmonics_kept);
-  r.integer("mesh", "stiffness_positions", m.stiffness_positions);
-  r.integer("mesh", "stiffness_slices", m.stiffness_slices);
-  r.number("mesh", "application_factor", m.application_factor);
-  r.number("mesh", "damping_ratio", m.damping_ratio);
-  r.choice("mesh", "damping", m.damping,
-           {{"contact", DampingForm::kContact}, {"always", DampingForm::kAlways}});
-  r.choice("mesh", "tension", m.tension,
-           {{"allow", TensionRule::kAllow}, {"clip", TensionRule::kClip}});
-
-  LoadData& l = c.load;
-  r.number("load", "torque_nm", l.torque_nm);
-  r.number("load", "fluctuation_ratio", l.fluctuation_ratio);
-  r.number("load", "fluctuation_order", l.fluctuation_order);
-  r.number("load", "fluctuation_phase_deg", l.fluctuation_phase_deg);
-  r.optional_number("load", "load_torque_nm", l.load_torque_nm);
-
-  r.number("speed", "shaft_frequency_hz", c.speed.shaft_frequency_hz);
-
-  SolverData& s = c.solver;
-  r.choice("solver", "method", s.method,
-           {{"exact", Method::kExact}, {"newmark", Method::kNewmark}, {"dopri5", Method::kDopri5}});
-  r.number("solver", "duration_s", s.duration_s);
-  r.number("solver", "time_step_s", s.time_step_s);
-  r.number("solver", "tolerance", s.tolerance);
-  r.number("solver", "output_interval_s", s.output_interval_s);
-  r.number("solver", "final_fraction", s.final_fraction);
-  r.choice("solver", "initial", s.initial,
-           {{"center", InitialCondition::kCenter}, {"static", InitialCondition::kStatic}});
+    c.mesh.stiffness_source = StiffnessSource::kHarmonics;
 
   r.reject_unknown();
 
@@ -801,144 +687,19 @@ std::string validate(const Case& c) {
   return {};
 }
 
-namespace {
-
-// TOML text of a value. Floats with the shortest digits that read back to the same double
-// (154.98, not toml++'s 154.97999999999999), always with a point or an exponent so that they
-// stay floats; strings as basic strings with JSON's escapes, which TOML shares.
-void emit_value(std::string& out, const toml::node& v) {
-  if (const auto* f = v.as_floating_point()) {
-    const double x = f->get();
-    if (std::isnan(x)) {
-      out += "nan";
-    } else if (std::isinf(x)) {
-      out += x > 0 ? "inf" : "-inf";
-    } else {
-      std::string t = fmt::format("{}", x);
-      if (t.find_first_of(".e") == std::string::npos) t += ".0";
-      out += t;
-    }
-  } else if (const auto* i = v.as_integer()) {
-    out += fmt::format("{}", i->get());
-  } else if (const auto* b = v.as_boolean()) {
-    out += b->get() ? "true" : "false";
-  } else if (const auto* str = v.as_string()) {
-    out += nlohmann::json(str->get()).dump();
-  } else if (const auto* a = v.as_array()) {
-    out += "[";
-    for (std::size_t k = 0; k < a->size(); ++k) {
-      out += k ? ", " : " ";
-      emit_value(out, *a->get(k));
-    }
-    out += a->empty() ? "]" : " ]";
-  }
-}
-
-// A key, bare when it can be (every key of a case can).
-std::string emit_key(const std::string& key) {
-  const bool bare = !key.empty() && std::all_of(key.begin(), key.end(), [](char ch) {
-    return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-';
-  });
-  return bare ? key : nlohmann::json(key).dump();
-}
-
-// A case's table as TOML: its own values first, then each sub-table as a [section].
-std::string emit_table(const toml::table& root) {
-  std::string out;
-  for (const auto& [key, node] : root)
-    if (!node.is_table()) {
-      out += emit_key(std::string(key.str())) + " = ";
-      emit_value(out, node);
-      out += "\n";
-    }
-  for (const auto& [key, node] : root)
-    if (const auto* t = node.as_table()) {
-      out += "\n[" + emit_key(std::string(key.str())) + "]\n";
-      for (const auto& [k, v] : *t) {
-        out += emit_key(std::string(k.str())) + " = ";
-        emit_value(out, v);
-        out += "\n";
-      }
-    }
-  return out;
-}
-
-}  // namespace
-
 std::string to_toml(const Case& c) {
-  auto pair = [](const auto& a) { return toml::array{a[0], a[1]}; };
-  toml::table gear{
-      {"normal_module_mm", c.gear.normal_module_mm},
-      {"normal_pressure_angle_deg", c.gear.normal_pressure_angle_deg},
-      {"helix_angle_deg", c.gear.helix_angle_deg},
-      {"center_distance_mm", c.gear.center_distance_mm},
-      {"teeth", pair(c.gear.teeth)},
-      {"face_width_mm", c.gear.face_width_mm},
-      {"outside_diameter_mm", pair(c.gear.outside_diameter_mm)},
-      {"profile_shift", pair(c.gear.profile_shift)},
-      {"density_kg_m3", c.gear.density_kg_m3},
-      {"bore_diameter_mm", pair(c.gear.bore_diameter_mm)},
-      {"youngs_modulus_gpa", pair(c.gear.youngs_modulus_gpa)},
-      {"poisson_ratio", pair(c.gear.poisson_ratio)},
-      {"basic_rack_dedendum", pair(c.gear.basic_rack_dedendum)},
-      {"rim_thickness_mm", pair(c.gear.rim_thickness_mm)},
-      {"web_thickness_mm", pair(c.gear.web_thickness_mm)},
-  };
-  if (c.gear.inertia_kg_m2) gear.insert("inertia_kg_m2", pair(*c.gear.inertia_kg_m2));
-  toml::array harmonics;
-  for (const StiffnessHarmonic& h : c.mesh.stiffness_harmonics)
-    harmonics.push_back(toml::array{h.ratio, h.phase_deg});
-  const char* source = c.mesh.stiffness_source == StiffnessSource::kEnergy      ? "energy"
-                       : c.mesh.stiffness_source == StiffnessSource::kHarmonics ? "harmonics"
-                                                                                : "table";
-  toml::table mesh{
-      {"backlash_um", c.mesh.backlash_um},
-      {"stiffness_source", source},
-      {"mean_stiffness_n_per_m", c.mesh.mean_stiffness_n_per_m},
-      {"stiffness_harmonics", harmonics},
-      {"stiffness_table", c.mesh.stiffness_table},
-      {"harmonics_kept", c.mesh.harmonics_kept},
-      {"stiffness_positions", c.mesh.stiffness_positions},
-      {"stiffness_slices", c.mesh.stiffness_slices},
-      {"application_factor", c.mesh.application_factor},
-      {"damping_ratio", c.mesh.damping_ratio},
-      {"damping", c.mesh.damping == DampingForm::kContact ? "contact" : "always"},
-      {"tension", c.mesh.tension == TensionRule::kAllow ? "allow" : "clip"},
-  };
-  toml::table load{
-      {"torque_nm", c.load.torque_nm},
-      {"fluctuation_ratio", c.load.fluctuation_ratio},
-      {"fluctuation_order", c.load.fluctuation_order},
-      {"fluctuation_phase_deg", c.load.fluctuation_phase_deg},
-  };
-  if (c.load.load_torque_nm) load.insert("load_torque_nm", *c.load.load_torque_nm);
-  toml::table solver{
-      {"method", to_string(c.solver.method)},
-      {"duration_s", c.solver.duration_s},
-      {"time_step_s", c.solver.time_step_s},
-      {"tolerance", c.solver.tolerance},
-      {"output_interval_s", c.solver.output_interval_s},
-      {"final_fraction", c.solver.final_fraction},
-      {"initial", c.solver.initial == InitialCondition::kCenter ? "center" : "static"},
-  };
-  toml::array model_harmonics;
-  for (const StiffnessHarmonic& h : c.model.stiffness_harmonics)
-    model_harmonics.push_back(toml::array{h.ratio, h.phase_deg});
-  toml::table model{
-      {"form", to_string(c.model.form)},  {"zeta", c.model.zeta},
-      {"force_mean", c.model.force_mean}, {"force_alternating", c.model.force_alternating},
-      {"omega", c.model.omega},           {"stiffness_harmonics", model_harmonics},
-  };
-  toml::table root{
-      {"description", c.description},
-      {"model", model},
-      {"gear", gear},
-      {"mesh", mesh},
-      {"load", load},
-      {"speed", toml::table{{"shaft_frequency_hz", c.speed.shaft_frequency_hz}}},
-      {"solver", solver},
-  };
-  return emit_table(root);
+  std::string top, sections;
+  std::string_view section;
+  for (const CaseKey& k : case_keys()) {
+    if (k.optional() && k.value_text(c) == "absent") continue;
+    std::string& out = k.section().empty() ? top : sections;
+    if (!k.section().empty() && k.section() != section) {
+      section = k.section();
+      out += fmt::format("\n[{}]\n", section);
+    }
+    out += fmt::format("{} = {}\n", k.leaf(), k.value_text(c));
+  }
+  return top + sections;
 }
 
 }  // namespace geardyn

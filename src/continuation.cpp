@@ -12,6 +12,7 @@
 #include <optional>
 #include <sstream>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
 #include "shooting.hpp"
@@ -362,6 +363,7 @@ const char* to_string(BifurcationType t) {
 
 std::string ContinuationOptions::validate() const {
   if (key.empty()) return "--param: a numeric case key is required, e.g. model.omega";
+  if (std::string why = check_sweepable(key); !why.empty()) return "--param " + why;
   if (!std::isfinite(from) || !std::isfinite(to) || from == to)
     return fmt::format("--from = {}, --to = {}: must be finite and differ", from, to);
   if (!(initial_step > 0 && initial_step <= max_step))

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/orbit.hpp"
@@ -80,6 +81,8 @@ ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s) 
 std::string StabilityOptions::validate() const {
   auto check = [](const SweepAxis& a, const char* suffix) -> std::string {
     if (a.key.empty()) return fmt::format("--param{}: a numeric case key is required", suffix);
+    if (std::string why = check_sweepable(a.key); !why.empty())
+      return fmt::format("--param{} {}", suffix, why);
     if (!std::isfinite(a.from) || !std::isfinite(a.to) || a.from == a.to)
       return fmt::format("--from{0} = {1}, --to{0} = {2}: must be finite and differ", suffix,
                          a.from, a.to);

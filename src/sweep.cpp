@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/parallel.hpp"
@@ -21,12 +22,11 @@
 namespace geardyn {
 namespace {
 
-// Keys whose change changes the mesh stiffness curve: with any other swept key the energy method
-// runs once for the whole sweep.
+// Whether a key's change changes the mesh stiffness curve (the table of keys): with any other
+// swept key the energy method runs once for the whole sweep.
 bool changes_stiffness(const std::string& key) {
-  return key.rfind("gear.", 0) == 0 || key.rfind("mesh.stiffness", 0) == 0 ||
-         key == "mesh.mean_stiffness_n_per_m" || key == "mesh.harmonics_kept" ||
-         key == "mesh.application_factor";
+  const CaseKey* k = find_case_key(key);
+  return k == nullptr || k->changes_stiffness;
 }
 
 std::string number_text(double x) { return fmt::format("{:.17g}", x); }
@@ -264,6 +264,8 @@ const char* to_string(SweepDirection d) {
 std::string SweepOptions::validate() const {
   auto axis_error = [](const SweepAxis& a, const char* suffix) -> std::string {
     if (a.key.empty()) return fmt::format("--param{}: a case key is needed", suffix);
+    if (std::string why = check_sweepable(a.key); !why.empty())
+      return fmt::format("--param{} {}", suffix, why);
     if (!a.explicit_values.empty()) {
       for (double x : a.explicit_values)
         if (!std::isfinite(x)) return fmt::format("values of {}: {} is not finite", a.key, x);

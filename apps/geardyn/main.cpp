@@ -19,6 +19,7 @@
 #include <sstream>
 
 #include "geardyn/case.hpp"
+#include "geardyn/case_keys.hpp"
 #include "geardyn/continuation.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
@@ -239,6 +240,34 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
                  out_dir);
     }
   }
+  return 0;
+}
+
+// Every case key with its unit, default, bounds and meaning: a listing, the tables of
+// docs/case-files.md (--markdown), or JSON.
+int cmd_keys(bool markdown, bool json) {
+  if (markdown) {
+    fmt::print("{}", geardyn::case_keys_markdown());
+    return 0;
+  }
+  const geardyn::Case defaults;
+  nlohmann::json all = nlohmann::json::array();
+  for (const geardyn::CaseKey& k : geardyn::case_keys()) {
+    if (json) {
+      all.push_back({{"key", k.name},
+                     {"unit", k.unit},
+                     {"default", k.value_text(defaults)},
+                     {"allowed", k.allowed()},
+                     {"sweepable", k.sweepable},
+                     {"changes_stiffness", k.changes_stiffness},
+                     {"meaning", k.doc}});
+    } else {
+      fmt::print("{:<34} {:<8} {}\n{:<43} default {}; must be {}\n", k.name, k.unit,
+                 k.sweepable ? "(a study may vary it)" : "", "", k.value_text(defaults),
+                 k.allowed());
+    }
+  }
+  if (json) fmt::print("{}\n", all.dump(2));
   return 0;
 }
 
@@ -617,6 +646,11 @@ int main(int argc, char** argv) {
   add_case(geometry);
   geometry->add_flag("--json", json, "print JSON");
 
+  CLI::App* keys = app.add_subcommand("keys", "list every case key: unit, default, bounds");
+  bool markdown = false;
+  keys->add_flag("--markdown", markdown, "the key tables of docs/case-files.md");
+  keys->add_flag("--json", json, "print JSON");
+
   CLI::App* stiffness = app.add_subcommand(
       "stiffness", "mesh stiffness from the gear data: ISO 6336-1 and the energy method");
   add_case(stiffness);
@@ -749,6 +783,7 @@ int main(int argc, char** argv) {
   const auto dispatch = [&]() -> int {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot, physical);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
+    if (keys->parsed()) return cmd_keys(markdown, json);
     if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
     if (sweep_cmd->parsed()) {
       so.direction = direction == "up"     ? geardyn::SweepDirection::kUp

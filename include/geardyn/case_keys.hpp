@@ -1,0 +1,97 @@
+// geardyn: the table of case keys. Every key a case file may hold is declared here once: its
+// dotted name, the member of Case it sets, its unit, its bounds, what it means, whether a study
+// may vary it and whether it changes the mesh stiffness curve. The table drives the reader and
+// its messages (case.cpp), the range checks, the TOML writer, the `--set` overrides (which go
+// through the reader), the keys a sweep, a continuation or a stability chart accepts, and the
+// key tables of docs/case-files.md (`geardyn keys --markdown`; a test keeps the two equal).
+//
+// Rules that tie two keys together (a Newmark step below the window, kept harmonics below half
+// the positions, ...) are checked beside the table, in case.cpp's check_relations; rules on
+// derived quantities (the base radii, the contact ratios) with the geometry.
+#pragma once
+
+#include <array>
+#include <limits>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "geardyn/case.hpp"
+
+namespace geardyn {
+
+// The bounds of a number, each end closed or open; an infinite end is no bound. Every number
+// must also be finite; NaN is outside every range.
+struct Range {
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  bool lo_closed = true;
+  bool hi_closed = true;
+
+  bool contains(double x) const;
+  // "in (0, 100]", "> 0", ">= 0.001", "from 5 to 10000" (integers), "" (no bound).
+  std::string text(bool integer) const;
+};
+
+// How a key reaches its member of a Case, one accessor type per kind of value.
+using NumberField = double& (*)(Case&);
+using OptionalNumberField = std::optional<double>& (*)(Case&);
+using IntegerField = int& (*)(Case&);
+using PairField = std::array<double, 2>& (*)(Case&);
+using OptionalPairField = std::optional<std::array<double, 2>>& (*)(Case&);
+using IntegerPairField = std::array<int, 2>& (*)(Case&);
+using HarmonicsField = std::vector<StiffnessHarmonic>& (*)(Case&);
+using TextField = std::string& (*)(Case&);
+// An enumeration, through its underlying int, and its names in a case file.
+struct ChoiceField {
+  int (*get)(const Case&);
+  void (*set)(Case&, int);
+  std::vector<std::pair<std::string_view, int>> options;
+};
+using Field =
+    std::variant<NumberField, OptionalNumberField, IntegerField, PairField, OptionalPairField,
+                 IntegerPairField, HarmonicsField, TextField, ChoiceField>;
+
+struct CaseKey {
+  std::string_view name;  // dotted, "gear.normal_module_mm"; top-level keys have no dot
+  Field field;
+  std::string_view unit;  // printed after a bound: "mm", "Hz"; empty for ratios and counts
+  Range range;            // numbers, integers, each element of a pair, a harmonic's ratio
+  std::string_view what;  // the noun of "must be a <what> in <range> <unit>": "module"
+  std::string_view note;  // appended to the bound in messages and docs: "(0 is a spur gear)"
+  std::string_view doc;   // the meaning, for docs/case-files.md
+  // A study (sweep, continuation, stability chart) may vary it: a real number the model reads
+  // (solver settings, counts and choices are not).
+  bool sweepable = false;
+  // Its change changes the mesh stiffness curve of the gear pair (a sweep then recomputes it).
+  bool changes_stiffness = false;
+
+  std::string_view section() const;  // "gear"; "" at the top level
+  std::string_view leaf() const;     // "normal_module_mm"
+  bool optional() const;             // may be absent: it has no default value
+  bool integer() const;              // whole numbers
+  // What a value must be: "a module in (0, 100] mm", "one of \"allow\" | \"clip\"".
+  std::string allowed() const;
+  // The value in a case as TOML text (the shortest digits that read back exactly), or "absent".
+  std::string value_text(const Case& c) const;
+};
+
+// Every key, in the order of the case file (sections as in docs/case-files.md).
+const std::vector<CaseKey>& case_keys();
+
+// The key of a dotted name, with or without an element index ("model.stiffness_harmonics[0][0]"
+// is model.stiffness_harmonics); nullptr when there is none.
+const CaseKey* find_case_key(std::string_view dotted);
+
+// Empty when `dotted` (with an optional element index) names a key a study may vary; otherwise
+// why not, naming the key and the keys that may be varied.
+std::string check_sweepable(std::string_view dotted);
+
+// The key tables of docs/case-files.md: one "## [section]" table per section, columns key, unit,
+// default, allowed, meaning.
+std::string case_keys_markdown();
+
+}  // namespace geardyn

@@ -1,0 +1,202 @@
+// The table of case keys: every bound it declares is the bound the reader applies (just inside
+// is read, just outside is refused naming the key), every key survives case.toml, and a study
+// takes exactly the keys it marks.
+#include "geardyn/case_keys.hpp"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "geardyn/run.hpp"
+#include "geardyn/stiffness.hpp"
+#include "test_support.hpp"
+
+namespace geardyn {
+namespace {
+
+using geardyn::testing::error_of;
+
+// A TOML value that puts `x` where the key's bound applies: the number, a pair of it, or one
+// harmonic with it as the ratio.
+std::string value_for(const CaseKey& k, double x) {
+  const std::string n =
+      k.integer() ? fmt::format("{}", static_cast<long long>(x)) : fmt::format("{:.17g}", x);
+  if (std::holds_alternative<PairField>(k.field) ||
+      std::holds_alternative<OptionalPairField>(k.field) ||
+      std::holds_alternative<IntegerPairField>(k.field))
+    return fmt::format("[{0}, {0}]", n);
+  if (std::holds_alternative<HarmonicsField>(k.field)) return fmt::format("[[{}, 0]]", n);
+  return n;
+}
+
+// The overrides that set key k to x (harmonics of the mesh need their source).
+std::vector<Override> set_to(const CaseKey& k, double x) {
+  std::vector<Override> o{{std::string(k.name), value_for(k, x)}};
+  if (k.name == "mesh.stiffness_harmonics") o.push_back({"mesh.stiffness_source", "harmonics"});
+  return o;
+}
+
+bool numeric(const CaseKey& k) {
+  return !std::holds_alternative<TextField>(k.field) &&
+         !std::holds_alternative<ChoiceField>(k.field);
+}
+
+TEST(CaseKeys, EveryBoundIsTheReadersOwn) {
+  int ends = 0;
+  for (const CaseKey& k : case_keys()) {
+    if (!numeric(k)) continue;
+    const Range& r = k.range;
+    for (const bool low : {true, false}) {
+      const double end = low ? r.lo : r.hi;
+      if (!std::isfinite(end)) continue;
+      ++ends;
+      const bool closed = low ? r.lo_closed : r.hi_closed;
+      // Just outside: one unit for whole numbers, a relative 1e-9 (or 1e-12 at 0) otherwise.
+      const double step = k.integer() ? 1.0 : std::max(std::abs(end) * 1e-9, 1e-12);
+      const double outside = low ? end - step : end + step;
+      const std::string msg = error_of([&] { (void)load_case(std::nullopt, set_to(k, outside)); });
+      EXPECT_NE(msg.find(std::string(k.name)), std::string::npos) << k.name << " at " << outside;
+      EXPECT_NE(msg.find("must be"), std::string::npos) << msg;
+      const std::string at_end = error_of([&] { (void)load_case(std::nullopt, set_to(k, end)); });
+      EXPECT_EQ(at_end.empty(), closed) << k.name << " at its end " << end << ": " << at_end;
+    }
+    // Not a number at all.
+    if (!std::holds_alternative<HarmonicsField>(k.field)) {
+      const std::string nan = error_of([&] { (void)load_case(std::nullopt, set_to(k, NAN)); });
+      EXPECT_FALSE(nan.empty()) << k.name << " took nan";
+    }
+  }
+  EXPECT_GE(ends, 30);
+}
+
+TEST(CaseKeys, MessagesSayTheBoundWithItsUnit) {
+  const std::string msg = error_of([] {
+    (void)load_case(std::nullopt, {{"gear.normal_module_mm", "0"}});
+  });
+  EXPECT_NE(msg.find("gear.normal_module_mm = 0: must be a module in (0, 100] mm"),
+            std::string::npos)
+      << msg;
+  const std::string b = error_of([] {
+    (void)load_case(std::nullopt, {{"mesh.backlash_um", "-5"}});
+  });
+  EXPECT_NE(b.find("must be a finite half backlash b of at least 0.001 um"), std::string::npos)
+      << b;
+  const std::string z = error_of([] {
+    (void)load_case(std::nullopt, {{"gear.teeth", "[56, 4]"}});
+  });
+  EXPECT_NE(z.find("gear.teeth[1] = 4: must be a whole number of teeth from 5 to 10000"),
+            std::string::npos)
+      << z;
+}
+
+TEST(CaseKeys, EveryKeyIsWrittenAndReadBack) {
+  Case c;
+  c.gear.inertia_kg_m2 = std::array<double, 2>{0.01, 0.02};
+  c.load.load_torque_nm = 40.0;
+  c.description = "all \"keys\"";
+  const std::string text = to_toml(c);
+  for (const CaseKey& k : case_keys()) {
+    const std::string line = fmt::format("\n{} = {}\n", k.leaf(), k.value_text(c));
+    EXPECT_NE(("\n" + text).find(line), std::string::npos) << k.name << "\n" << text;
+  }
+  EXPECT_EQ(to_toml(parse_case(text, "all")), text);
+  // An optional key left absent is not written.
+  EXPECT_EQ(to_toml(Case{}).find("inertia_kg_m2"), std::string::npos);
+}
+
+// The text of a section of a case file ("[mesh]" to the next section).
+std::string section_text(const std::string& file, std::string_view section) {
+  std::ifstream in(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / file);
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string all = text.str();
+  const std::size_t at = all.find(fmt::format("[{}]", section));
+  if (at == std::string::npos) return "";
+  return all.substr(at, all.find("\n[", at + 1) - at);
+}
+
+TEST(CaseKeys, TheShippedCasesWriteEveryKeyOut) {
+  // cases/park2010.toml is the documented example of every key of the gear pair (set, or
+  // shown in a comment where it is optional or needs another source), cases/kahraman_singh.toml
+  // of the non-dimensional form's [model].
+  for (const CaseKey& k : case_keys()) {
+    if (k.section().empty()) continue;
+    const std::string file = k.section() == "model" ? "kahraman_singh.toml" : "park2010.toml";
+    const std::string body = section_text(file, k.section());
+    const bool set = body.find(fmt::format("\n{} =", k.leaf())) != std::string::npos;
+    const bool shown = body.find(fmt::format("\n# {} =", k.leaf())) != std::string::npos;
+    EXPECT_TRUE(set || shown) << k.name << " in " << file;
+  }
+  EXPECT_EQ(load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "kahraman_singh.toml")
+                .model.form,
+            ModelForm::kNondimensional);
+}
+
+TEST(CaseKeys, AStudyTakesTheRealNumbersTheModelReads) {
+  EXPECT_EQ(check_sweepable("model.omega"), "");
+  EXPECT_EQ(check_sweepable("model.stiffness_harmonics[0][0]"), "");
+  EXPECT_EQ(check_sweepable("gear.outside_diameter_mm[1]"), "");
+  EXPECT_NE(check_sweepable("speed.rpm").find("speed.rpm: unknown key"), std::string::npos);
+  for (const char* key : {"solver.method", "solver.duration_s", "mesh.harmonics_kept", "gear.teeth",
+                          "mesh.stiffness_table", "description"})
+    EXPECT_NE(check_sweepable(key).find("not a real number the model reads"), std::string::npos)
+        << key;
+  // Every sweepable key is a number, a pair or harmonics.
+  for (const CaseKey& k : case_keys())
+    if (k.sweepable) EXPECT_TRUE(numeric(k) && !k.integer()) << k.name;
+}
+
+// The key's value in `c` moved by 10 % (a zero, or an absent value, to 1), as TOML.
+std::string moved(const CaseKey& k, Case& c) {
+  const auto move = [](double v) { return fmt::format("{:.17g}", v == 0 ? 1.0 : 1.1 * v); };
+  if (const auto* f = std::get_if<NumberField>(&k.field)) return move((*f)(c));
+  if (const auto* f = std::get_if<OptionalNumberField>(&k.field)) return move((*f)(c).value_or(0));
+  if (const auto* f = std::get_if<PairField>(&k.field))
+    return fmt::format("[{}, {}]", move((*f)(c)[0]), move((*f)(c)[1]));
+  if (const auto* f = std::get_if<OptionalPairField>(&k.field)) {
+    const std::array<double, 2> v = (*f)(c).value_or(std::array<double, 2>{0, 0});
+    return fmt::format("[{}, {}]", move(v[0]), move(v[1]));
+  }
+  ADD_FAILURE() << k.name << ": no way to move it";
+  return "";
+}
+
+TEST(CaseKeys, AKeyNotMarkedForTheStiffnessLeavesTheCurveAsItIs) {
+  // A sweep computes the curve once when its key is not marked changes_stiffness: every such key
+  // a study may vary, moved by 10 %, must leave the energy method's curve (unscaled: mean 0) and
+  // its kept harmonics exactly as they were. The marked keys that shape the teeth move it.
+  Case base;
+  base.mesh.mean_stiffness_n_per_m = 0;
+  const auto curve = [](const Case& c) { return mesh_stiffness(c, case_geometry(c)).fourier; };
+  const StiffnessFourier k0 = curve(base);
+  int unmarked = 0;
+  for (const CaseKey& k : case_keys()) {
+    if (!k.sweepable || k.changes_stiffness || k.section() == "model") continue;
+    Case c = base;
+    set_case_value(c, {std::string(k.name), moved(k, c)});
+    const StiffnessFourier k1 = curve(c);
+    EXPECT_EQ(k1.mean_n_per_m, k0.mean_n_per_m) << k.name;
+    ASSERT_EQ(k1.harmonics.size(), k0.harmonics.size());
+    for (std::size_t i = 0; i < k0.harmonics.size(); ++i)
+      EXPECT_EQ(k1.harmonics[i].ratio, k0.harmonics[i].ratio) << k.name;
+    ++unmarked;
+  }
+  EXPECT_GE(unmarked, 8);
+  for (const Override& o : std::vector<Override>{{"gear.face_width_mm", "21"},
+                                                 {"gear.helix_angle_deg", "21"},
+                                                 {"gear.youngs_modulus_gpa", "[210, 206]"},
+                                                 {"gear.bore_diameter_mm", "[60, 60]"}}) {
+    Case c = base;
+    set_case_value(c, o);
+    EXPECT_NE(curve(c).mean_n_per_m, k0.mean_n_per_m) << o.key;
+  }
+}
+
+}  // namespace
+}  // namespace geardyn
