@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <type_traits>
 
 #include "geardyn/case_keys.hpp"
 #include "geardyn/harmonic_series.hpp"
@@ -74,23 +75,30 @@ class KeyCheck {
   }
   MaybeViolation operator()(IntegerPairField f) const { return pair(f(c_)); }
   MaybeViolation operator()(HarmonicsField f) const {
-    const std::vector<StiffnessHarmonic>& h = f(c_);
-    if (h.size() > static_cast<std::size_t>(HarmonicSeries::kMaxTerms))
-      return violation(std::string(k_.name), static_cast<double>(h.size()),
-                       fmt::format("at most {} harmonics", HarmonicSeries::kMaxTerms));
-    for (std::size_t i = 0; i < h.size(); ++i) {
-      if (!k_.range.contains(h[i].ratio))
-        return violation(element(i) + "[0]", h[i].ratio, k_.allowed());
-      if (!std::isfinite(h[i].phase_deg))
-        return violation(element(i) + "[1]", h[i].phase_deg, "a finite phase in degrees");
-    }
-    return std::nullopt;
+    return terms(f(c_), HarmonicSeries::kMaxTerms);
+  }
+  MaybeViolation operator()(ErrorHarmonicsField f) const {
+    return terms(f(c_), kMaxErrorHarmonics);
   }
   MaybeViolation operator()(TextField) const { return std::nullopt; }
   MaybeViolation operator()(const ChoiceField&) const { return std::nullopt; }
 
  private:
   std::string element(std::size_t i) const { return fmt::format("{}[{}]", k_.name, i); }
+  // [value, phase_deg] pairs: at most `most` of them, each value in the key's range.
+  template <class Term>
+  MaybeViolation terms(const std::vector<Term>& h, int most) const {
+    if (h.size() > static_cast<std::size_t>(most))
+      return violation(std::string(k_.name), static_cast<double>(h.size()),
+                       fmt::format("at most {} harmonics", most));
+    for (std::size_t i = 0; i < h.size(); ++i) {
+      const auto& [value, phase_deg] = h[i];
+      if (!k_.range.contains(value)) return violation(element(i) + "[0]", value, k_.allowed());
+      if (!std::isfinite(phase_deg))
+        return violation(element(i) + "[1]", phase_deg, "a finite phase in degrees");
+    }
+    return std::nullopt;
+  }
   MaybeViolation number(double v) const {
     if (k_.range.contains(v)) return std::nullopt;
     return violation(std::string(k_.name), v, k_.allowed());
@@ -135,6 +143,11 @@ MaybeViolation check_relations(const Case& c) {
   if (!(ratio_sum < 1) && m.stiffness_source == StiffnessSource::kHarmonics)
     return bad("mesh.stiffness_harmonics", ratio_sum,
                "harmonic ratios whose sum is < 1, so that k(t) stays positive");
+
+  if (!m.transmission_error_um.empty() && !m.transmission_error_table.empty())
+    return MaybeViolation(Violation{
+        "mesh.transmission_error_table", fmt::format("\"{}\"", m.transmission_error_table),
+        "empty when mesh.transmission_error_um gives the harmonics (one or the other)"});
 
   const SolverData& s = c.solver;
   if (!(s.time_step_s < s.duration_s))
@@ -232,12 +245,14 @@ class Reader {
     fail(*n, section, key, "one of " + allowed);
   }
 
-  void harmonics(std::string_view section, std::string_view key,
-                 std::vector<StiffnessHarmonic>& out) {
+  template <class Term>
+  void harmonics(std::string_view section, std::string_view key, std::vector<Term>& out) {
     const toml::node* n = find(section, key);
     if (!n) return;
     const char* allowed =
-        "an array of [ratio k_ai/k_m, phase_deg] pairs, e.g. [[0.05, 0], [0.02, 90]]";
+        std::is_same_v<Term, StiffnessHarmonic>
+            ? "an array of [ratio k_ai/k_m, phase_deg] pairs, e.g. [[0.05, 0], [0.02, 90]]"
+            : "an array of [amplitude, phase_deg] pairs, e.g. [[0.5, 0], [0.1, 90]]";
     const toml::array* a = n->as_array();
     if (!a) fail(*n, section, key, allowed);
     out.clear();
@@ -273,6 +288,7 @@ class Reader {
       void operator()(OptionalPairField f) const { r.optional_number_pair(section, key, f(c)); }
       void operator()(IntegerPairField f) const { r.integer_pair(section, key, f(c)); }
       void operator()(HarmonicsField f) const { r.harmonics(section, key, f(c)); }
+      void operator()(ErrorHarmonicsField f) const { r.harmonics(section, key, f(c)); }
       void operator()(TextField f) const { r.text(section, key, f(c)); }
       void operator()(const ChoiceField& f) const { r.choice(section, key, c, f); }
       Reader& r;
@@ -403,17 +419,19 @@ void merge(toml::table& into, const toml::table& from) {
   }
 }
 
-// A bare word (`dopri5`, `clip`) as a TOML string; anything else as it is. TOML's own bare
-// values (true, false, inf, nan) stay values.
+// A bare word or file name (`dopri5`, `clip`, `te.csv`, `tables/k.csv`) as a TOML string;
+// anything else as it is. TOML's own bare values (true, false, inf, nan) stay values.
 std::string bare_text_quoted(const std::string& value) {
   if (value.empty() || value == "true" || value == "false" || value == "inf" || value == "nan")
     return value;
-  const auto word = [](char ch) {
-    return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || ch == '_' || ch == '-';
+  const auto letter = [](char ch) { return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z'); };
+  const auto word = [&](char ch) {
+    return letter(ch) || (ch >= '0' && ch <= '9') || ch == '_' || ch == '-' || ch == '.' ||
+           ch == '/';
   };
-  if (!word(value.front()) || value.front() == '-') return value;
+  if (!letter(value.front()) && value.front() != '_') return value;
   for (char ch : value)
-    if (!word(ch) && !(ch >= '0' && ch <= '9')) return value;
+    if (!word(ch)) return value;
   return "\"" + value + "\"";
 }
 

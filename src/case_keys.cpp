@@ -85,6 +85,11 @@ std::vector<CaseKey> make_keys() {
       {"model.stiffness_harmonics", &field<kModel, &D::stiffness_harmonics>, "", closed_open(0, 1),
        "ratio kappa_i", "(their sum below 1, so that k stays > 0)",
        "[kappa_i, phi_i_deg] pairs: k(tau) = 1 + sum kappa_i cos(i Omega tau + phi_i)", sweep},
+      {"model.transmission_error", &field<kModel, &D::transmission_error>, "", at_least(0),
+       "amplitude a_i (units of b)", "",
+       "[a_i, phi_i_deg] pairs: the static transmission error e(tau) = sum a_i cos(i Omega tau + "
+       "phi_i) in the mesh deflection (docs/model.md)",
+       sweep},
 
       {"gear.normal_module_mm", &field<kGear, &G::normal_module_mm>, "mm", open_closed(0, 100),
        "module", "", "m_n", sweep, stiff},
@@ -190,6 +195,24 @@ std::vector<CaseKey> make_keys() {
        "",
        "F_G may pull in contact (the paper), or is clipped at 0 (with damping \"always\" the "
        "teeth alone are clipped, which never pull: docs/model.md)"},
+
+      {"mesh.transmission_error_um", &field<kMesh, &M::transmission_error_um>, "um", at_least(0),
+       "amplitude a_i", "",
+       "[a_i, phi_i_deg] pairs: the static transmission error e(t) = sum a_i cos(i z1 omega_1 t "
+       "+ phi_i) in the mesh deflection, F_G = k(t) (delta - e - b) + c (delta' - e') "
+       "(docs/model.md)",
+       sweep},
+      {"mesh.transmission_error_table",
+       &field<kMesh, &M::transmission_error_table>,
+       "",
+       {},
+       "",
+       "",
+       "instead of the harmonics: a CSV `position,transmission_error_um` over one mesh cycle "
+       "(as a loaded tooth contact program writes it), relative to the case file"},
+      {"mesh.transmission_error_kept", &field<kMesh, &M::transmission_error_kept>, "",
+       closed(1, kMaxErrorHarmonics), "whole number", "",
+       "harmonics kept from the transmission error table"},
 
       {"load.torque_nm", &field<kLoad, &L::torque_nm>, "N m", finite(), "torque", "",
        "mean driving torque T1", sweep},
@@ -326,43 +349,53 @@ std::string CaseKey::allowed() const {
   return out;
 }
 
-std::string CaseKey::value_text(const Case& c) const {
-  Case& m = const_cast<Case&>(c);  // the accessors only read here
-  struct Text {
-    std::string operator()(NumberField f) const { return toml_number(f(m)); }
-    std::string operator()(OptionalNumberField f) const {
-      return f(m) ? toml_number(*f(m)) : "absent";
-    }
-    std::string operator()(IntegerField f) const { return fmt::format("{}", f(m)); }
-    std::string operator()(PairField f) const {
-      return fmt::format("[{}, {}]", toml_number(f(m)[0]), toml_number(f(m)[1]));
-    }
-    std::string operator()(OptionalPairField f) const {
-      return f(m) ? fmt::format("[{}, {}]", toml_number((*f(m))[0]), toml_number((*f(m))[1]))
-                  : "absent";
-    }
-    std::string operator()(IntegerPairField f) const {
-      return fmt::format("[{}, {}]", f(m)[0], f(m)[1]);
-    }
-    std::string operator()(HarmonicsField f) const {
-      std::string out;
-      for (const StiffnessHarmonic& h : f(m))
-        out += fmt::format("{}[{}, {}]", out.empty() ? "" : ", ", toml_number(h.ratio),
-                           toml_number(h.phase_deg));
-      return "[" + out + "]";
-    }
-    // TOML's basic strings share JSON's escapes.
-    std::string operator()(TextField f) const { return nlohmann::json(f(m)).dump(); }
-    std::string operator()(const ChoiceField& f) const {
-      const int v = f.get(m);
-      for (const auto& [n, value] : f.options)
-        if (value == v) return fmt::format("\"{}\"", n);
-      return "?";
-    }
-    Case& m;
-  };
-  return std::visit(Text{m}, field);
-}
+namespace {
+
+// A key's value in a case as TOML text, by the kind of the key.
+class ValueText {
+ public:
+  explicit ValueText(const Case& c) : m_(const_cast<Case&>(c)) {}  // the accessors only read
+
+  std::string operator()(NumberField f) const { return toml_number(f(m_)); }
+  std::string operator()(OptionalNumberField f) const {
+    return f(m_) ? toml_number(*f(m_)) : "absent";
+  }
+  std::string operator()(IntegerField f) const { return fmt::format("{}", f(m_)); }
+  std::string operator()(PairField f) const { return pair(f(m_)); }
+  std::string operator()(OptionalPairField f) const { return f(m_) ? pair(*f(m_)) : "absent"; }
+  std::string operator()(IntegerPairField f) const {
+    return fmt::format("[{}, {}]", f(m_)[0], f(m_)[1]);
+  }
+  std::string operator()(HarmonicsField f) const { return pairs(f(m_)); }
+  std::string operator()(ErrorHarmonicsField f) const { return pairs(f(m_)); }
+  // TOML's basic strings share JSON's escapes.
+  std::string operator()(TextField f) const { return nlohmann::json(f(m_)).dump(); }
+  std::string operator()(const ChoiceField& f) const {
+    const int v = f.get(m_);
+    for (const auto& [n, value] : f.options)
+      if (value == v) return fmt::format("\"{}\"", n);
+    return "?";
+  }
+
+ private:
+  static std::string pair(const std::array<double, 2>& v) {
+    return fmt::format("[{}, {}]", toml_number(v[0]), toml_number(v[1]));
+  }
+  template <class Term>
+  static std::string pairs(const std::vector<Term>& terms) {
+    std::string out;
+    for (const auto& [value, phase_deg] : terms)
+      out += fmt::format("{}[{}, {}]", out.empty() ? "" : ", ", toml_number(value),
+                         toml_number(phase_deg));
+    return "[" + out + "]";
+  }
+
+  Case& m_;
+};
+
+}  // namespace
+
+std::string CaseKey::value_text(const Case& c) const { return std::visit(ValueText(c), field); }
 
 const std::vector<CaseKey>& case_keys() {
   static const std::vector<CaseKey> keys = make_keys();
@@ -417,6 +450,9 @@ std::string case_keys_markdown() {
       if (std::holds_alternative<HarmonicsField>(k.field))
         allowed = fmt::format("pairs [ratio {}, phase_deg], at most {}", allowed,
                               HarmonicSeries::kMaxTerms);
+      if (std::holds_alternative<ErrorHarmonicsField>(k.field))
+        allowed =
+            fmt::format("pairs [amplitude {}, phase_deg], at most {}", allowed, kMaxErrorHarmonics);
       if (!k.note.empty()) allowed += fmt::format(" {}", k.note);
     }
     std::string sweep = k.sweepable ? "yes" : "";

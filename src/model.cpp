@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <numbers>
 #include <type_traits>
@@ -97,6 +98,16 @@ GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
          c.load.fluctuation_phase_deg * std::numbers::pi / 180.0});
   }
   return p;
+}
+
+void add_transmission_error(GearPairParameters& p, const HarmonicSeries& e) {
+  p.transmission_error_m = e;
+  // e = sum a cos(w t + phi): - m e'' = sum m w^2 a cos(w t + phi).
+  for (const Harmonic& h : e.terms)
+    p.force_n.terms.push_back(
+        {p.equivalent_mass_kg * h.angular_frequency_rad_s * h.angular_frequency_rad_s * h.amplitude,
+         h.angular_frequency_rad_s, h.phase_rad});
+  assert(p.force_n.terms.size() <= static_cast<std::size_t>(HarmonicSeries::kMaxTerms));
 }
 
 GearPairParameters nondimensional_parameters(const ModelData& m) {

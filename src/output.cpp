@@ -74,7 +74,7 @@ std::string form_key(const std::string& key, ModelForm form) {
     return key.substr(0, key.size() - suffix.size());
   };
   // Longest suffixes first: "_n_s_per_m" and "_m_s" end in "_s" too.
-  for (std::string_view dropped : {"_n_s_per_m", "_n_per_m", "_m_s", "_kg", "_n"})
+  for (std::string_view dropped : {"_n_s_per_m", "_n_per_m", "_m_s", "_kg", "_um", "_n"})
     if (ends(dropped)) return stem(dropped);
   if (ends("_s")) return stem("_s") + "_tau";
   if (ends("_hz")) return stem("_hz") + "_per_tau";
@@ -159,6 +159,13 @@ std::string summary_json(const RunResult& r, int indent) {
       {"time_step_s", d.time_step_s},
       {"output_interval_s", d.output_interval_s},
   };
+  nlohmann::json te = nlohmann::json::array();
+  for (std::size_t i = 0; i < d.transmission_error_um.size(); ++i)
+    te.push_back({{"order", i + 1},
+                  {"amplitude_um", d.transmission_error_um[i].amplitude},
+                  {"phase_deg", d.transmission_error_um[i].phase_deg}});
+  j["derived"]["transmission_error"] = {{"mean_um", d.transmission_error_mean_um},
+                                        {"harmonics", te}};
   return in_form(j, r.input.model.form).dump(indent);
 }
 

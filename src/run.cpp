@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "geardyn/stiffness.hpp"
+#include "geardyn/transmission_error.hpp"
 
 namespace geardyn {
 namespace {
@@ -40,8 +41,17 @@ Geometry case_geometry(const Case& c) {
 
 GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiffness* stiffness) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
-  if (c.model.form == ModelForm::kNondimensional)
-    return GearPairModel(nondimensional_parameters(c.model));
+  HarmonicSeries e;
+  try {
+    e = transmission_error_series(c);
+  } catch (const InputError& err) {
+    throw InputError(with_origins(c, err.what()));
+  }
+  if (c.model.form == ModelForm::kNondimensional) {
+    GearPairParameters p = nondimensional_parameters(c.model);
+    add_transmission_error(p, e);
+    return GearPairModel(std::move(p));
+  }
   Geometry g = case_geometry(c);
   HarmonicSeries k;
   try {
@@ -49,7 +59,9 @@ GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiff
   } catch (const InputError& e) {
     throw InputError(with_origins(c, e.what()));  // where the keys it names came from
   }
-  GearPairModel model(gear_pair_parameters(c, g, k));
+  GearPairParameters p = gear_pair_parameters(c, g, k);
+  add_transmission_error(p, e);
+  GearPairModel model(std::move(p));
   if (geometry_out) *geometry_out = std::move(g);
   return model;
 }
@@ -324,6 +336,11 @@ RunResult run(const Case& c, const RunOptions& options) {
   d.transverse_contact_ratio = g.transverse_contact_ratio;
   d.overlap_ratio = g.overlap_ratio;
   d.fastest_period_s = fastest_period_s(p);
+  const double te_unit_m = c.model.form == ModelForm::kNondimensional ? 1.0 : 1e-6;
+  d.transmission_error_mean_um = p.transmission_error_m.offset / te_unit_m;
+  for (const Harmonic& h : p.transmission_error_m.terms)
+    d.transmission_error_um.push_back(
+        {h.amplitude / te_unit_m, h.phase_rad * 180.0 / std::numbers::pi});
 
   const double t0 = 0.0, t1 = c.solver.duration_s;
   d.output_interval_s = c.solver.output_interval_s > 0

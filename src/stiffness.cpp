@@ -240,23 +240,23 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const Energ
   return out;
 }
 
-StiffnessCycle table_cycle(const Case& c) {
-  std::filesystem::path path = c.mesh.stiffness_table;
+std::vector<double> read_cycle_table(const Case& c, const CycleTableSpec& spec) {
+  std::filesystem::path path = spec.file;
   if (path.is_relative()) path = c.directory / path;
-  const std::string key = fmt::format("mesh.stiffness_table = \"{}\"", c.mesh.stiffness_table);
+  const std::string key = fmt::format("{} = \"{}\"", spec.key, spec.file);
   std::string text;
   try {
-    text = read_input_file(path, "stiffness table");
+    text = read_input_file(path, spec.what);
   } catch (const InputError& e) {
     throw InputError(fmt::format("{}: {}", key, e.what()));
   }
   std::istringstream in(text);
   std::string line;
   std::getline(in, line);
-  if (line.rfind("position,stiffness_n_per_m", 0) != 0)
-    throw InputError(
-        fmt::format("{}: {}:1: the header must be position,stiffness_n_per_m", key, path.string()));
-  std::vector<double> pos, k;
+  const std::string header = fmt::format("position,{}", spec.column);
+  if (line.rfind(header, 0) != 0)
+    throw InputError(fmt::format("{}: {}:1: the header must be {}", key, path.string(), header));
+  std::vector<double> pos, values;
   int number = 1;
   while (std::getline(in, line)) {
     ++number;
@@ -264,30 +264,37 @@ StiffnessCycle table_cycle(const Case& c) {
     double p, v;
     char comma;
     std::istringstream row(line);
-    if (!(row >> p >> comma >> v) || comma != ',' || !(p >= 0 && p < 1) || !(v > 0) ||
-        !std::isfinite(v) || (!pos.empty() && !(p > pos.back())))
+    if (!(row >> p >> comma >> v) || comma != ',' || !(p >= 0 && p < 1) || !std::isfinite(v) ||
+        (spec.positive && !(v > 0)) || (!pos.empty() && !(p > pos.back())))
       throw InputError(
-          fmt::format("{}: {}:{}: '{}': must be a position in [0, 1) above the previous one and a "
-                      "stiffness > 0 N/m",
-                      key, path.string(), number, line));
+          fmt::format("{}: {}:{}: '{}': must be a position in [0, 1) above the previous one and {}",
+                      key, path.string(), number, line, spec.value_allowed));
     pos.push_back(p);
-    k.push_back(v);
+    values.push_back(v);
   }
   if (pos.size() < 4)
     throw InputError(fmt::format("{}: {}: needs at least 4 rows", key, path.string()));
-  StiffnessCycle out;
-  const int n_pos = c.mesh.stiffness_positions;
-  for (int n = 0; n < n_pos; ++n) {
-    const double p = static_cast<double>(n) / n_pos;
+  std::vector<double> out;
+  for (int n = 0; n < spec.positions; ++n) {
+    const double p = static_cast<double>(n) / spec.positions;
     // Periodic linear interpolation between the table's rows.
     std::size_t hi = std::upper_bound(pos.begin(), pos.end(), p) - pos.begin();
     const double p_hi = hi < pos.size() ? pos[hi] : pos[0] + 1.0;
-    const double k_hi = hi < pos.size() ? k[hi] : k[0];
+    const double v_hi = hi < pos.size() ? values[hi] : values[0];
     const double p_lo = hi > 0 ? pos[hi - 1] : pos.back() - 1.0;
-    const double k_lo = hi > 0 ? k[hi - 1] : k.back();
-    out.position.push_back(p);
-    out.total_n_per_m.push_back(k_lo + (k_hi - k_lo) * (p - p_lo) / (p_hi - p_lo));
+    const double v_lo = hi > 0 ? values[hi - 1] : values.back();
+    out.push_back(v_lo + (v_hi - v_lo) * (p - p_lo) / (p_hi - p_lo));
   }
+  return out;
+}
+
+StiffnessCycle table_cycle(const Case& c) {
+  StiffnessCycle out;
+  out.total_n_per_m = read_cycle_table(
+      c, {c.mesh.stiffness_table, "mesh.stiffness_table", "stiffness table", "stiffness_n_per_m",
+          "a stiffness > 0 N/m", true, c.mesh.stiffness_positions});
+  for (int n = 0; n < c.mesh.stiffness_positions; ++n)
+    out.position.push_back(static_cast<double>(n) / c.mesh.stiffness_positions);
   return out;
 }
 

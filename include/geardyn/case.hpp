@@ -70,6 +70,14 @@ struct StiffnessHarmonic {
   double phase_deg = 0.0;  // phi_i
 };
 
+// One term a_i cos(i omega_mesh t + phi_i) of the static transmission error e(t), the i-th at i
+// times the mesh frequency: amplitude in um (the gear pair) or in units of b (the
+// non-dimensional form).
+struct ErrorHarmonic {
+  double amplitude = 0.0;  // a_i >= 0
+  double phase_deg = 0.0;  // phi_i
+};
+
 enum class StiffnessSource {
   kEnergy,     // the potential-energy slice method from the gear data (stiffness.hpp)
   kHarmonics,  // mean_stiffness_n_per_m and stiffness_harmonics as given
@@ -92,6 +100,13 @@ struct MeshData {
   double damping_ratio = 0.02;
   DampingForm damping = DampingForm::kContact;
   TensionRule tension = TensionRule::kAllow;
+  // The static transmission error e(t) in the mesh deflection, F_G = k(t) (delta - e - b) +
+  // c (delta' - e'): harmonics of the mesh frequency (um), or a CSV table over one mesh cycle
+  // (`position,transmission_error_um`, as a loaded tooth contact program writes it) of which
+  // transmission_error_kept harmonics are kept. Neither: no transmission error.
+  std::vector<ErrorHarmonic> transmission_error_um;
+  std::string transmission_error_table;
+  int transmission_error_kept = 4;
 };
 
 // [load]
@@ -150,6 +165,7 @@ struct ModelData {
   double force_alternating = 0.1;  // F_a
   double omega = 1.0;              // Omega, excitation frequency over the natural one
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // kappa_i, phi_i at i Omega
+  std::vector<ErrorHarmonic> transmission_error;       // e(tau): a_i (units of b), phi_i at i Omega
 };
 
 struct Case {

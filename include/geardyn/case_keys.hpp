@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "geardyn/case.hpp"
+#include "geardyn/harmonic_series.hpp"
 
 namespace geardyn {
 
@@ -44,6 +45,7 @@ using PairField = std::array<double, 2>& (*)(Case&);
 using OptionalPairField = std::optional<std::array<double, 2>>& (*)(Case&);
 using IntegerPairField = std::array<int, 2>& (*)(Case&);
 using HarmonicsField = std::vector<StiffnessHarmonic>& (*)(Case&);
+using ErrorHarmonicsField = std::vector<ErrorHarmonic>& (*)(Case&);
 using TextField = std::string& (*)(Case&);
 // An enumeration, through its underlying int, and its names in a case file.
 struct ChoiceField {
@@ -53,13 +55,13 @@ struct ChoiceField {
 };
 using Field =
     std::variant<NumberField, OptionalNumberField, IntegerField, PairField, OptionalPairField,
-                 IntegerPairField, HarmonicsField, TextField, ChoiceField>;
+                 IntegerPairField, HarmonicsField, ErrorHarmonicsField, TextField, ChoiceField>;
 
 struct CaseKey {
   std::string_view name;  // dotted, "gear.normal_module_mm"; top-level keys have no dot
   Field field;
   std::string_view unit;  // printed after a bound: "mm", "Hz"; empty for ratios and counts
-  Range range;            // numbers, integers, each element of a pair, a harmonic's ratio
+  Range range;  // numbers, integers, each element of a pair, a harmonic's ratio or amplitude
   std::string_view what;  // the noun of "must be a <what> in <range> <unit>": "module"
   std::string_view note;  // appended to the bound in messages and docs: "(0 is a spur gear)"
   std::string_view doc;   // the meaning, for docs/case-files.md
@@ -78,6 +80,9 @@ struct CaseKey {
   // The value in a case as TOML text (the shortest digits that read back exactly), or "absent".
   std::string value_text(const Case& c) const;
 };
+
+// The most transmission error harmonics (the force series keeps one more term for the torque).
+constexpr int kMaxErrorHarmonics = HarmonicSeries::kMaxTerms - 1;
 
 // Every key, in the order of the case file (sections as in docs/case-files.md).
 const std::vector<CaseKey>& case_keys();

@@ -11,6 +11,12 @@
 //           = 0 (or c delta' with damping "always")      |delta| < b              (eq. 3b)
 //           = k(t) (delta + b) + c delta'   back side,   delta <= -b              (eq. 3c)
 //
+// A static transmission error e(t) (transmission_error.hpp) enters the deflection,
+// F_G = k(t) (delta - e - b) + c (delta' - e'). The model then integrates the deflection relative
+// to it, x = delta - e, whose equation is the one above in x with the forcing F(t) - m_eq e''(t):
+// the teeth, the backlash band |x| < b and every reading (contact, impacts, delta_bar) are in x;
+// delta = x + e(t).
+//
 // It holds physics only; it is a SwitchedSystem for the integrators (integrator.hpp), its
 // regions being the contact states. Everything is SI.
 #pragma once
@@ -48,7 +54,9 @@ struct GearPairParameters {
   double damping_n_s_per_m = 0;      // c = 2 xi sqrt(m_eq k_m) / cos(beta_b)
   DampingForm damping = DampingForm::kContact;
   TensionRule tension = TensionRule::kAllow;
-  HarmonicSeries force_n;  // F(t) = F_m + F_a cos(omega t + phi), eq. 10 (right side of eq. 6)
+  // F(t) = F_m + F_a cos(omega t + phi), eq. 10 (right side of eq. 6), and - m_eq e''(t)
+  HarmonicSeries force_n;
+  HarmonicSeries transmission_error_m;  // e(t); no terms without a transmission error
 
   double mean_stiffness_n_per_m() const { return stiffness_n_per_m.offset; }
   double mean_force_n() const { return force_n.offset; }
@@ -60,6 +68,11 @@ struct GearPairParameters {
 
 GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
                                         const HarmonicSeries& stiffness_n_per_m);
+
+// Adds a static transmission error e(t) (in m; in units of b in the non-dimensional form) to
+// the parameters: kept as transmission_error_m, and its forcing - m_eq e''(t) added to force_n.
+// Requires at most HarmonicSeries::kMaxTerms force terms in all (the case's bounds keep it).
+void add_transmission_error(GearPairParameters& p, const HarmonicSeries& e);
 
 // The largest multiple of the slowest excitation period searched for a common period.
 constexpr int kMaxPeriodRatio = 1000;

@@ -57,6 +57,10 @@ struct Derived {
   double fastest_period_s = 0;  // the shortest time scale of the case
   double time_step_s = 0;       // the Newmark step used (0 for the other methods)
   double output_interval_s = 0;
+  // The static transmission error the run used, in um (units of b in the non-dimensional
+  // form): its mean, and harmonic i - 1 at i times the mesh frequency; empty without one.
+  double transmission_error_mean_um = 0;
+  std::vector<ErrorHarmonic> transmission_error_um;
 };
 
 struct RunOptions {

@@ -73,6 +73,22 @@ struct StiffnessCycle {
 StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g,
                                    const EnergyMethodOptions& o = {});
 
+// A table over one mesh cycle, as a CSV `position,<column>`: positions increasing in [0, 1),
+// values finite (and > 0 when `positive`).
+struct CycleTableSpec {
+  std::string file;           // relative to the case file's directory
+  std::string key;            // the case key that names it, for messages
+  std::string what;           // "stiffness table"
+  std::string column;         // "stiffness_n_per_m"
+  std::string value_allowed;  // "a stiffness > 0 N/m"
+  bool positive = false;
+  int positions = 256;  // resampled to this many equidistant positions
+};
+// The table's values at positions n / spec.positions, n = 0 .. positions - 1, periodically and
+// linearly interpolated between its rows. Throws InputError naming the key, the file and the
+// line.
+std::vector<double> read_cycle_table(const Case& c, const CycleTableSpec& spec);
+
 // The cycle of a table (the case's mesh.stiffness_table, resampled periodically and linearly to
 // mesh.stiffness_positions). Throws InputError naming the key, the file and the line.
 StiffnessCycle table_cycle(const Case& c);

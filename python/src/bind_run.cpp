@@ -1,4 +1,5 @@
 #include <pybind11/numpy.h>
+#include <pybind11/stl.h>
 
 #include <cstdint>
 #include <iterator>
@@ -78,7 +79,13 @@ RunReading reading_from(const py::tuple& g) {
   return a;
 }
 
-constexpr int kPickleVersion = 2;
+constexpr int kPickleVersion = 3;
+
+std::vector<std::pair<double, double>> error_pairs(const std::vector<ErrorHarmonic>& h) {
+  std::vector<std::pair<double, double>> out;
+  for (const ErrorHarmonic& x : h) out.emplace_back(x.amplitude, x.phase_deg);
+  return out;
+}
 
 // Every field of a result but the geometry and the spectra, which are derived again on
 // unpickling (from the case and from the samples) with the same code, hence the same digits.
@@ -98,7 +105,8 @@ py::tuple pickled(const RunResult& r) {
       py::make_tuple(d.m_eq_kg, d.natural_frequency_hz, d.damping_n_s_per_m, d.mean_force_n,
                      d.static_delta_bar, d.mesh_frequency_hz, d.base_helix_angle_deg,
                      d.working_pressure_angle_deg, d.transverse_contact_ratio, d.overlap_ratio,
-                     d.fastest_period_s, d.time_step_s, d.output_interval_s),
+                     d.fastest_period_s, d.time_step_s, d.output_interval_s,
+                     d.transmission_error_mean_um, error_pairs(d.transmission_error_um)),
       py::make_tuple(static_cast<int>(i.termination), i.message, i.steps, i.transitions,
                      i.unsplit_steps, i.end_time_s, i.end_state.t, i.end_state.q, i.end_state.v,
                      i.end_state.a, i.end_state.region),
@@ -133,6 +141,10 @@ RunResult unpickled(const py::tuple& t) {
                        &v.time_step_s,
                        &v.output_interval_s};
   for (std::size_t k = 0; k < std::size(derived); ++k) *derived[k] = d[k].cast<double>();
+  v.transmission_error_mean_um = d[std::size(derived)].cast<double>();
+  for (const auto& [amplitude, phase_deg] :
+       d[std::size(derived) + 1].cast<std::vector<std::pair<double, double>>>())
+    v.transmission_error_um.push_back({amplitude, phase_deg});
   const auto i = t[3].cast<py::tuple>();
   ode::IntegrationSummary& s = r.integration;
   s.termination = static_cast<ode::Termination>(i[0].cast<int>());

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <complex>
 #include <numbers>
 
 #include "geardyn/run.hpp"
@@ -81,6 +82,106 @@ INSTANTIATE_TEST_SUITE_P(Gear, BothIntegrators,
                          [](const auto& info) {
                            return info.param == Method::kNewmark ? "Newmark" : "Dopri5";
                          });
+
+// The forced response to a static transmission error in permanent contact with constant
+// stiffness: with e = sum a_i cos(w_i t + phi_i), m delta'' + cb2 (k (delta - e - b) + c (delta' -
+// e')) = F_m has the steady response delta = b + F_m / (cb2 k) + e_0 + sum |D_i| a_i cos(w_i t +
+// phi_i + arg D_i), D = cb2 (k + i c w) / (cb2 k - m w^2 + i cb2 c w). Checked on the final fifth
+// of a window long enough for the start to decay (e^-26), for every method and both forms.
+struct ErrorCase {
+  const char* name;
+  Case c;
+  double tolerance;  // on delta, relative to the response's dynamic amplitude
+};
+
+void PrintTo(const ErrorCase& e, std::ostream* out) { *out << e.name; }
+
+class TransmissionErrorResponse : public ::testing::TestWithParam<ErrorCase> {};
+
+TEST_P(TransmissionErrorResponse, MatchesTheClosedForm) {
+  const Case& c = GetParam().c;
+  const RunResult r = run(c);
+  ASSERT_TRUE(r.integration.ok()) << r.integration.message;
+  EXPECT_EQ(r.reading.impacts, 0);
+  EXPECT_EQ(r.reading.regime, Regime::kNone);
+  const GearPairModel model = build_model(c);
+  const auto& p = model.parameters();
+  const HarmonicSeries& e = p.transmission_error_m;
+  ASSERT_EQ(e.terms.size(), 2U);
+  const double cb2 = p.cos_base_helix * p.cos_base_helix, m = p.equivalent_mass_kg;
+  const double k = p.mean_stiffness_n_per_m(), damping = p.damping_n_s_per_m, b = p.backlash_m;
+  const double mean = b + p.mean_force_n() / (cb2 * k) + e.offset;
+  const auto closed = [&](double t) {
+    double delta = mean;
+    for (const Harmonic& h : e.terms) {
+      const double w = h.angular_frequency_rad_s;
+      const std::complex<double> d = cb2 * std::complex<double>(k, damping * w) /
+                                     std::complex<double>(cb2 * k - m * w * w, cb2 * damping * w);
+      delta += std::abs(d) * h.amplitude * std::cos(w * t + h.phase_rad + std::arg(d));
+    }
+    return delta;
+  };
+  double worst = 0, lo = 1e300, hi = -1e300;
+  const double from = 0.8 * c.solver.duration_s;
+  int compared = 0;
+  for (std::size_t i = 0; i < r.samples.size(); ++i) {
+    const double t = r.samples.t_s[i];
+    if (t < from) continue;
+    const double delta = r.samples.delta_bar[i] * b + e(t);
+    worst = std::max(worst, std::abs(delta - closed(t)));
+    lo = std::min(lo, delta);
+    hi = std::max(hi, delta);
+    ++compared;
+  }
+  EXPECT_GT(compared, 100);
+  // The response is well away from rest, and the teeth (x = delta - e) from the backlash.
+  EXPECT_GT(hi - lo, 0.01 * b);
+  EXPECT_LT(worst, GetParam().tolerance * (hi - lo)) << "amplitude " << (hi - lo);
+}
+
+// The paper's gear with constant stiffness, steady torque doubled, mesh at 0.71 of the contact
+// natural frequency, 1 um at the mesh frequency and 0.3 um at twice it (above resonance).
+Case gear_with_error(Method method) {
+  Case c;
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.load.torque_nm = 100;
+  c.load.fluctuation_ratio = 0;
+  c.speed.shaft_frequency_hz = 33;
+  c.mesh.transmission_error_um = {{1.0, 0.0}, {0.3, 40.0}};
+  c.solver.initial = InitialCondition::kStatic;
+  c.solver.method = method;
+  c.solver.duration_s = 0.08;
+  c.solver.tolerance = 1e-12;
+  c.solver.time_step_s = 1e-8;
+  c.solver.output_interval_s = 2e-5;
+  return c;
+}
+
+// The non-dimensional form: x'' + 2 zeta x' + x = F_m - e'', e = 0.2 cos(0.7 tau) +
+// 0.05 cos(1.4 tau + 45 deg).
+Case nondimensional_with_error(Method method) {
+  Case c = gear_with_error(method);
+  c.model.form = ModelForm::kNondimensional;
+  c.model.force_mean = 1.0;
+  c.model.force_alternating = 0.0;
+  c.model.omega = 0.7;
+  c.model.transmission_error = {{0.2, 0.0}, {0.05, 45.0}};
+  c.solver.duration_s = 1300;  // zeta 0.05: e^-65 of the start is left
+  c.solver.time_step_s = 1e-3;
+  c.solver.output_interval_s = 0.1;
+  return c;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Error, TransmissionErrorResponse,
+    ::testing::Values(
+        ErrorCase{"gear_exact", gear_with_error(Method::kExact), 1e-9},
+        ErrorCase{"gear_dopri5", gear_with_error(Method::kDopri5), 1e-8},
+        // Newmark's steady amplitude and phase error, (w dt)^2 / 12: ~1e-8.
+        ErrorCase{"gear_newmark", gear_with_error(Method::kNewmark), 1e-6},
+        ErrorCase{"nondimensional_exact", nondimensional_with_error(Method::kExact), 1e-9},
+        ErrorCase{"nondimensional_dopri5", nondimensional_with_error(Method::kDopri5), 1e-8}),
+    [](const auto& info) { return std::string(info.param.name); });
 
 struct Samples {
   std::vector<ode::State> s;

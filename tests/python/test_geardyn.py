@@ -189,10 +189,11 @@ def test_a_case_pickles_exactly():
 def test_a_run_pickles_exactly_and_writes_the_same_files(tmp_path):
     import pickle
 
-    # A run with impacts and separations (events, a last separation, a dynamic factor), one
-    # in the non-dimensional form, and one without load at rest (neither of the optional
-    # readings).
-    cases = (geardyn.Case(solver={"duration_s": 0.005}),
+    # A run with impacts and separations (events, a last separation, a dynamic factor) and a
+    # transmission error, one in the non-dimensional form, and one without load at rest
+    # (neither of the optional readings).
+    cases = (geardyn.Case(solver={"duration_s": 0.005},
+                          mesh={"transmission_error_um": [[0.5, 0], [0.1, 30]]}),
              geardyn.Case(model={"form": "nondimensional"}, solver={"duration_s": 60.0}),
              geardyn.Case(load={"torque_nm": 0.0}, solver={"duration_s": 0.002,
                                                           "initial": "static"}))
