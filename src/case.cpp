@@ -149,6 +149,9 @@ MaybeViolation check_relations(const Case& c) {
         "mesh.transmission_error_table", fmt::format("\"{}\"", m.transmission_error_table),
         "empty when mesh.transmission_error_um gives the harmonics (one or the other)"});
 
+  if (c.model.dof != 3 && c.model.dof != 6 && c.model.dof != 12)
+    return bad("model.dof", c.model.dof, "3, 6 or 12");
+
   const SolverData& s = c.solver;
   if (!(s.time_step_s < s.duration_s))
     return bad("solver.time_step_s", s.time_step_s,
@@ -387,7 +390,8 @@ class Reader {
 
   std::array<double, 2> as_pair(const toml::node& n, std::string_view section,
                                 std::string_view key) const {
-    const char* allowed = "an array of two numbers, [gear 1, gear 2]";
+    const char* allowed = "a number for both gears, or an array of two, [gear 1, gear 2]";
+    if (n.is_number()) return {*n.value<double>(), *n.value<double>()};
     const toml::array* a = n.as_array();
     if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number())
       fail(n, section, key, allowed);
@@ -696,7 +700,15 @@ const char* to_string(Method m) {
 }
 
 const char* to_string(ModelForm f) {
-  return f == ModelForm::kGearPair ? "gear_pair" : "nondimensional";
+  switch (f) {
+    case ModelForm::kGearPair:
+      return "gear_pair";
+    case ModelForm::kNondimensional:
+      return "nondimensional";
+    case ModelForm::kCoupled:
+      return "coupled";
+  }
+  return "?";
 }
 
 std::string validate(const Case& c) {

@@ -68,13 +68,18 @@ std::vector<CaseKey> make_keys() {
 
       {"model.form",
        choice<kModel, &D::form>({option("gear_pair", ModelForm::kGearPair),
-                                 option("nondimensional", ModelForm::kNondimensional)}),
+                                 option("nondimensional", ModelForm::kNondimensional),
+                                 option("coupled", ModelForm::kCoupled)}),
        "",
        {},
        "",
        "",
-       "the gear pair of the sections below, or x'' + 2 zeta x' + k(tau) f(x) = F_m + F_a "
-       "cos(Omega tau) with b = 1 (docs/sweeps.md)"},
+       "the gear pair of the sections below; x'' + 2 zeta x' + k(tau) f(x) = F_m + F_a "
+       "cos(Omega tau) with b = 1 (docs/sweeps.md); or the gears as rigid bodies on [bearings] "
+       "(docs/model.md)"},
+      {"model.dof", &field<kModel, &D::dof>, "", closed(3, 12), "whole number", "(3, 6 or 12)",
+       "with \"coupled\": 3 (rotations and translations along the line of action), 6 (and "
+       "axial) or 12 (all six per gear)"},
       {"model.zeta", &field<kModel, &D::zeta>, "", closed_open(0, 1), "damping ratio", "",
        "damping ratio (non-dimensional form)", sweep},
       {"model.force_mean", &field<kModel, &D::force_mean>, "", finite(), "force", "", "F_m", sweep},
@@ -227,6 +232,24 @@ std::vector<CaseKey> make_keys() {
 
       {"speed.shaft_frequency_hz", &field<&Case::speed, &SpeedData::shaft_frequency_hz>, "Hz",
        above(0), "frequency", "", "f_1, rotation frequency of the driving gear", sweep},
+
+      {"bearings.radial_stiffness_n_per_m",
+       &field<&Case::bearings, &BearingData::radial_stiffness_n_per_m>, "N/m", above(0),
+       "stiffness", "", "k_r of each gear's bearings, both radial directions", sweep},
+      {"bearings.axial_stiffness_n_per_m",
+       &field<&Case::bearings, &BearingData::axial_stiffness_n_per_m>, "N/m", above(0), "stiffness",
+       "", "k_a of each gear's bearings", sweep},
+      {"bearings.tilt_stiffness_n_m_per_rad",
+       &field<&Case::bearings, &BearingData::tilt_stiffness_n_m_per_rad>, "N m/rad", above(0),
+       "stiffness", "", "k_t of each gear's bearings, both tilts", sweep},
+      {"bearings.damping_ratio", &field<&Case::bearings, &BearingData::damping_ratio>, "",
+       closed_open(0, 1), "damping ratio", "",
+       "of every bearing direction against the gear's mass or tilt inertia", sweep},
+      {"bearings.radial_clearance_um", &field<&Case::bearings, &BearingData::radial_clearance_um>,
+       "um", at_least(0), "clearance", "(0: none)",
+       "along the line of action, a dead zone +-c with its own contact states (Kahraman and "
+       "Singh 1991)",
+       sweep},
 
       {"solver.method",
        choice<kSolver, &S::method>({option("exact", Method::kExact),

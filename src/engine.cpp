@@ -136,8 +136,13 @@ RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double
 
 double guard_value(const LinearSwitchedSystem& s, int region, int guard, double t_s,
                    const Vector& y) {
-  const LinearGuard& q = s.regions[region].guards[guard];
-  return guard_row(s, region, guard, t_s).dot(y) + evaluate(q.offset, s.frequencies_rad_s, t_s);
+  return functional_value(s, s.regions[region].guards[guard], t_s, y);
+}
+
+double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, double t_s,
+                        const Vector& y) {
+  return evaluate(g.row, s.frequencies_rad_s, t_s).dot(y) +
+         evaluate(g.offset, s.frequencies_rad_s, t_s);
 }
 
 std::string EngineOptions::validate() const {

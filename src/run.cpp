@@ -41,6 +41,10 @@ Geometry case_geometry(const Case& c) {
 
 GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiffness* stiffness) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
+  if (c.model.form == ModelForm::kCoupled)
+    throw InputError(
+        "model.form = \"coupled\": this command takes the one-degree forms (\"gear_pair\", "
+        "\"nondimensional\"); `geardyn run` and `geardyn modes` take the coupled model");
   HarmonicSeries e;
   try {
     e = transmission_error_series(c);

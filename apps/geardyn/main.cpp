@@ -21,6 +21,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/continuation.hpp"
+#include "geardyn/coupled_run.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/orbit.hpp"
@@ -212,12 +213,76 @@ void print_run_summary(const geardyn::RunResult& r) {
                r.integration.unsplit_steps);
 }
 
+// A run of the coupled model: the summary per nonlinearity, summary.json, timeseries.csv and
+// case.toml into out_dir.
+int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir) {
+  ProgressBar bar("run " + c.name);
+  geardyn::CoupledRunOptions opts;
+  opts.progress = std::ref(bar);
+  const geardyn::CoupledRunResult r = geardyn::run_coupled(c, opts);
+  bar.finish();
+  if (!r.ok()) {
+    fmt::print(stderr, "geardyn: numerical failure ({}): {}\n",
+               geardyn::ode::to_string(r.termination), r.message);
+    return kExitNumerical;
+  }
+  const geardyn::CoupledParameters& p = r.parameters;
+  fmt::print("geardyn run: {} (coupled, dof {}: {} coordinates)\n", c.name, p.dof, p.size());
+  const auto contact = [](const char* name, const geardyn::ContactReading& x) {
+    fmt::print("  {:<17} {}, {} impacts ({} back side), separated {:.2f} % of the time\n", name,
+               geardyn::to_string(x.regime), x.impacts, x.backside_impacts,
+               100 * x.separated_fraction);
+  };
+  contact("mesh", r.mesh);
+  fmt::print("  mesh force        {:.6g} to {:.6g} N (static {:.6g} N), dynamic factor {:.6g}\n",
+             r.min_force_n, r.max_force_n, p.static_mesh_force_n(), r.dynamic_mesh_factor);
+  for (int i = 0; i < 2; ++i) {
+    if (r.bearing[i].present) contact(i == 0 ? "bearing 1" : "bearing 2", r.bearing[i]);
+    fmt::print("  bearing {} force   line {:.6g} N (factor {:.4g}), axial {:.6g} N\n", i + 1,
+               r.max_bearing_force_n[i], r.bearing_factor[i], r.max_axial_force_n[i]);
+  }
+  fmt::print("  cells             {} ({} events located), {:.3g} s wall\n", r.cells, r.events,
+             r.wall_time_s);
+  if (!out_dir.empty()) {
+    geardyn::write_files_atomically(
+        out_dir,
+        {{"summary.json", [&](std::ostream& o) { o << geardyn::coupled_summary_json(r) << "\n"; }},
+         {"timeseries.csv", [&](std::ostream& o) { geardyn::write_coupled_timeseries_csv(o, r); }},
+         {"case.toml", [&](std::ostream& o) { o << geardyn::to_toml(c); }}});
+    fmt::print("  written to        {}/ (summary.json, timeseries.csv, case.toml)\n", out_dir);
+  }
+  return 0;
+}
+
+// The modes of the coupled model linearised in contact at the mean stiffness.
+int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets, bool json) {
+  geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  if (c.model.form != geardyn::ModelForm::kCoupled)
+    throw geardyn::InputError(fmt::format(
+        "model.form = \"{}\": modes are of the coupled model; set model.form = \"coupled\" "
+        "(the one-degree model has one, its contact natural frequency, printed by run)",
+        geardyn::to_string(c.model.form)));
+  const geardyn::ModeSet m = geardyn::modes(geardyn::CoupledModel(geardyn::coupled_parameters(c)));
+  if (json) {
+    fmt::print("{}\n", geardyn::modes_json(m));
+    return 0;
+  }
+  fmt::print("modes of {} (coupled, dof {}), in contact at the mean mesh stiffness\n", c.name,
+             c.model.dof);
+  fmt::print("{}", geardyn::modes_table(m));
+  return 0;
+}
+
 int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
             const std::string& out_dir, bool plot, bool physical) {
   if (plot && out_dir.empty())
     throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
   geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  if (c.model.form == geardyn::ModelForm::kCoupled) {
+    if (plot) throw geardyn::InputError("--plot: the coupled model has no run figures yet");
+    return cmd_run_coupled(c, out_dir);
+  }
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
   opts.progress = std::ref(bar);
@@ -646,6 +711,11 @@ int main(int argc, char** argv) {
   add_case(geometry);
   geometry->add_flag("--json", json, "print JSON");
 
+  CLI::App* modes = app.add_subcommand(
+      "modes", "natural frequencies, damping and strain energies of the coupled model");
+  add_case(modes);
+  modes->add_flag("--json", json, "print JSON");
+
   CLI::App* keys = app.add_subcommand("keys", "list every case key: unit, default, bounds");
   bool markdown = false;
   keys->add_flag("--markdown", markdown, "the key tables of docs/case-files.md");
@@ -784,6 +854,7 @@ int main(int argc, char** argv) {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot, physical);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
     if (keys->parsed()) return cmd_keys(markdown, json);
+    if (modes->parsed()) return cmd_modes(case_file, sets, json);
     if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
     if (sweep_cmd->parsed()) {
       so.direction = direction == "up"     ? geardyn::SweepDirection::kUp

@@ -151,6 +151,7 @@ struct SolverData {
 enum class ModelForm {
   kGearPair,        // the gear pair of [gear], [mesh], [load], [speed] (MODEL.md)
   kNondimensional,  // x'' + 2 zeta x' + k(tau) f(x) = F_m + F_a cos(Omega tau), b = 1
+  kCoupled,         // the gears as rigid bodies on [bearings] (coupled_model.hpp)
 };
 const char* to_string(ModelForm f);  // its name in a case file
 
@@ -166,6 +167,22 @@ struct ModelData {
   double omega = 1.0;              // Omega, excitation frequency over the natural one
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // kappa_i, phi_i at i Omega
   std::vector<ErrorHarmonic> transmission_error;       // e(tau): a_i (units of b), phi_i at i Omega
+  // With form "coupled": the gears' degrees of freedom kept (coupled_model.hpp): 3 (the
+  // rotations and the translations along the line of action), 6 (and the axial ones) or 12.
+  int dof = 12;
+};
+
+// [bearings]: each gear's supports in the coupled model, per gear (index 0 the pinion); the
+// stiffnesses act on the gear body's translations and tilts. The defaults are an order of
+// magnitude of rolling bearings on shafts of this size, not a particular bearing: give yours.
+struct BearingData {
+  std::array<double, 2> radial_stiffness_n_per_m = {1e9, 1e9};  // both radial directions
+  std::array<double, 2> axial_stiffness_n_per_m = {5e8, 5e8};
+  std::array<double, 2> tilt_stiffness_n_m_per_rad = {1e7, 1e7};  // both tilts
+  // Damping ratio of every bearing direction against the gear's mass or tilt inertia.
+  double damping_ratio = 0.02;
+  // Radial clearance along the line of action, a dead zone +-c (Kahraman and Singh 1991); 0: none.
+  std::array<double, 2> radial_clearance_um = {0.0, 0.0};
 };
 
 struct Case {
@@ -174,6 +191,7 @@ struct Case {
   MeshData mesh;
   LoadData load;
   SpeedData speed;
+  BearingData bearings;
   SolverData solver;
   std::string name = "default";     // the case file's stem, or "default"
   std::filesystem::path directory;  // the case file's directory: relative paths start there

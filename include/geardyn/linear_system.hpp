@@ -74,5 +74,8 @@ Vector derivative(const LinearSwitchedSystem& s, int region, double t_s, const V
 double guard_value(const LinearSwitchedSystem& s, int region, int guard, double t_s,
                    const Vector& y);
 RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double t_s);
+// The value of any affine functional of the system (a guard or an observable) at (t, y).
+double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, double t_s,
+                        const Vector& y);
 
 }  // namespace geardyn::ode

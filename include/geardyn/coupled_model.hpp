@@ -1,0 +1,157 @@
+// geardyn: the coupled gear-pair model, the gears as rigid bodies on bearings (the paper's
+// 12-degree-of-freedom outlook; [model] form = "coupled"). Pipeline stage 4 beside model.hpp:
+// it holds physics only and describes itself as a piecewise-linear system for the exact engine.
+//
+// Axes: y along the line of action in the transverse plane (positive where the pinion's
+// rotation pushes its contact point), x normal to it in that plane, z along the axes. The
+// pinion touches at its base tangent point (R_b1, 0, 0) from its centre, the wheel at
+// (-R_b2, 0, 0) from its own. The tooth normal in the plane of action is n = cos(beta_b) y +
+// sin(beta_b) z, so the normal mesh deflection of the rigid bodies is
+//
+//     d = V q = cos(beta_b) (u + y1 - y2) + sin(beta_b) (z1 - z2 - R_b1 ty1 - R_b2 ty2)
+//
+// with u = R_b1 theta_1 + R_b2 theta_2 (the rotations enter only through u, as in the one-degree
+// model whose delta is cos(beta_b) u; the pair's rigid rotation is not a coordinate) and ty_i
+// the tilt about the y axis. The mesh force along n is the one-degree model's,
+// F_n = k(t) (d - e(t) - b) + c (d' - e'(t)) on the drive side (back side, backlash, tension
+// rule and damping forms as there), and enters every coordinate through V (virtual work):
+//
+//     M q'' + C_b q' + K_b q + V^T F_n = Q(t),
+//
+// M = diag(m_eq, m_1, m_2, ...), K_b and C_b the bearings (diagonal), Q the torques on u
+// (m_eq (R_b1 T1(t) / J1 + R_b2 T2 / J2), eq. 6 over cos(beta_b)). A bearing with a radial
+// clearance c_i acts on y_i as a dead zone, k (y_i -+ c_i) beyond +-c_i and nothing inside
+// (Kahraman and Singh 1991), with its damping in contact only. x_i and the tilts about x are
+// not touched by a frictionless mesh at one point: they are kept with dof = 12, on their
+// bearings alone.
+//
+// Coordinates by dof: 3 keeps u, y1, y2 (Kahraman and Singh 1991); 6 adds z1, z2; 12 adds ty1,
+// ty2, x1, x2, tx1, tx2 (11 coordinates: the 12 of two rigid bodies less the pair's rotation).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "geardyn/case.hpp"
+#include "geardyn/geometry.hpp"
+#include "geardyn/harmonic_series.hpp"
+#include "geardyn/linear_system.hpp"
+
+namespace geardyn {
+
+enum class Coordinate {
+  kTorsion,  // u = R_b1 theta_1 + R_b2 theta_2, m
+  kLine1,    // y_1, along the line of action, m
+  kLine2,
+  kAxial1,  // z_1, m
+  kAxial2,
+  kTilt1,  // ty_1, about the y axis, rad
+  kTilt2,
+  kCross1,  // x_1, normal to the line of action in the transverse plane, m
+  kCross2,
+  kRock1,  // tx_1, about the x axis, rad
+  kRock2,
+};
+// Its name in files and tables: "u_m", "y1_m", ..., "ty1_rad".
+const char* to_string(Coordinate c);
+
+// The constants of the coupled model, SI, derived once from the case.
+struct CoupledParameters {
+  int dof = 12;
+  std::vector<Coordinate> coordinates;
+  Eigen::VectorXd mass;               // diagonal of M: m_eq for u, the gear masses, tilt inertias
+  Eigen::VectorXd bearing_stiffness;  // diagonal of K_b (N/m, N m/rad; 0 for u)
+  Eigen::VectorXd bearing_damping;    // diagonal of C_b
+  Eigen::RowVectorXd mesh_vector;     // V, d = V q (m per unit coordinate)
+  std::array<int, 2> line = {1, 2};   // the coordinate index of y_1, y_2
+  std::array<double, 2> clearance_m = {0, 0};  // bearing clearance along y_i, 0: none
+  double backlash_m = 0;
+  double cos_base_helix = 1, sin_base_helix = 0;
+  HarmonicSeries stiffness_n_per_m;     // k(t)
+  HarmonicSeries transmission_error_m;  // e(t)
+  double mesh_damping_n_s_per_m = 0;    // c, as the one-degree model's
+  DampingForm damping = DampingForm::kContact;
+  TensionRule tension = TensionRule::kAllow;
+  HarmonicSeries torsion_force_n;  // Q on u: the one-degree model's F(t) / cos(beta_b)
+  double equivalent_mass_kg = 0;   // m_eq
+
+  int size() const { return static_cast<int>(coordinates.size()); }
+  // The index of a coordinate, or -1 when the dof leaves it out.
+  int index(Coordinate c) const;
+  // The static normal mesh force F_m / cos^2(beta_b) (the one-degree model's).
+  double static_mesh_force_n() const;
+};
+
+// Throws InputError for a case that is not of the coupled form or whose geometry or stiffness
+// is bad (naming the keys and where they were given).
+CoupledParameters coupled_parameters(const Case& c);
+
+// Contact states of a region: the mesh (-2 .. 2 as model.hpp's Region) and each bearing (-1 on
+// the -c side, 0 inside the clearance or without one, 1 on the +c side).
+struct CoupledState {
+  int mesh = 0;
+  std::array<int, 2> bearing = {0, 0};
+};
+constexpr int kCoupledRegions = 5 * 3 * 3;
+constexpr int coupled_region(const CoupledState& s) {
+  return (s.mesh + 2) + 5 * (s.bearing[0] + 1) + 15 * (s.bearing[1] + 1);
+}
+constexpr CoupledState coupled_state(int region) {
+  return {region % 5 - 2, {(region / 5) % 3 - 1, region / 15 - 1}};
+}
+
+class CoupledModel {
+ public:
+  explicit CoupledModel(CoupledParameters p);
+  const CoupledParameters& parameters() const { return p_; }
+
+  // The system for the exact engine: state (q, q'), region index coupled_region(state). The
+  // observables, the same in every region: kObservableDeflection d - e (m), kObservableForce
+  // F_n (N), kObservableBearing + i the line-of-action bearing force on gear i (N, the force
+  // on the gear is minus it), kObservableAxial + i the axial one (0 without z).
+  static constexpr int kObservableDeflection = 0;
+  static constexpr int kObservableForce = 1;
+  static constexpr int kObservableBearing = 2;
+  static constexpr int kObservableAxial = 4;
+  static constexpr int kObservableCount = 6;
+  ode::LinearSwitchedSystem linear_system() const;
+
+  // The region a state at rest or in motion belongs to with no history.
+  int classify(double t_s, const Eigen::VectorXd& y) const;
+  // The static state under the mean loads, the mesh in drive contact and each bearing on the
+  // side the mesh force pushes it to (q, q' = 0). Throws std::runtime_error when no such
+  // consistent state exists (the mean load does not close the backlash).
+  Eigen::VectorXd static_state() const;
+
+  // The linearised stiffness and damping in drive contact at the mean stiffness (every bearing
+  // in contact): K_b + k_m V^T V and C_b + c V^T V.
+  Eigen::MatrixXd contact_stiffness() const;
+  Eigen::MatrixXd contact_damping() const;
+
+ private:
+  CoupledParameters p_;
+};
+
+// Natural modes of the coupled model linearised in contact at the mean stiffness.
+struct Mode {
+  double frequency_hz = 0;               // undamped, from K phi = w^2 M phi
+  double damping_ratio = 0;              // modal: phi^T C phi / (2 w phi^T M phi)
+  Eigen::VectorXd shape;                 // phi, mass-normalised, largest component positive
+  double mesh_energy = 0;                // fraction of the mode's strain energy in the mesh
+  std::array<double, 2> line_energy{};   // in each gear's line-of-action bearing
+  std::array<double, 2> axial_energy{};  // in each axial bearing
+  std::array<double, 2> tilt_energy{};   // in each gear's tilt bearings
+  std::array<double, 2> cross_energy{};  // in each gear's cross (x) bearing
+};
+struct ModeSet {
+  std::vector<Coordinate> coordinates;
+  std::vector<Mode> modes;  // ascending frequency
+  // The damped system's eigenvalues (one of each conjugate pair), as frequency |lambda| / 2 pi
+  // and damping ratio -Re lambda / |lambda|, ascending.
+  std::vector<std::array<double, 2>> damped;
+};
+ModeSet modes(const CoupledModel& m);
+
+}  // namespace geardyn

@@ -1,0 +1,84 @@
+// geardyn: a run of the coupled model (coupled_model.hpp) with the exact engine, read per
+// nonlinearity (the mesh and each bearing clearance), pipeline stages 5 and 6 beside run.hpp.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geardyn/analysis.hpp"
+#include "geardyn/case.hpp"
+#include "geardyn/coupled_model.hpp"
+#include "geardyn/integrator.hpp"
+
+namespace geardyn {
+
+// One nonlinearity read as the one-degree run is (analysis.hpp): contact entered from the
+// free state is an impact (on the back side: a backside impact), left is a separation.
+struct ContactReading {
+  bool present = false;  // false: a bearing without clearance (always in contact)
+  Regime regime = Regime::kNone;
+  bool double_sided = false;
+  std::int64_t impacts = 0, backside_impacts = 0, separations = 0;
+  std::optional<double> last_separation_s;
+  double separated_fraction = 0;  // of the window
+};
+
+struct CoupledSamples {
+  std::vector<double> t_s;
+  std::vector<Eigen::VectorXd> state;                  // (q, q'), SI
+  std::vector<double> deflection_bar;                  // (d - e) / b
+  std::vector<double> force_bar;                       // F_n / (b k_m)
+  std::vector<int> mesh_contact;                       // 1 drive side, 0 separated, -1 back side
+  std::vector<std::array<double, 2>> bearing_force_n;  // line-of-action bearing forces
+  std::vector<std::array<double, 2>> axial_force_n;    // axial bearing forces
+};
+
+struct CoupledRunResult {
+  Case input;
+  CoupledParameters parameters;
+  ode::Termination termination = ode::Termination::kCompleted;
+  std::string message;
+  std::int64_t cells = 0, events = 0;
+  ContactReading mesh;
+  std::array<ContactReading, 2> bearing;
+  // Extremes over the whole window, exact (the engine's polynomial on every cell).
+  double max_force_n = 0, min_force_n = 0;
+  double max_deflection_m = 0, min_deflection_m = 0;                 // of d - e
+  std::array<double, 2> max_bearing_force_n{}, max_axial_force_n{};  // largest |.|
+  // Dynamic factors: the largest over the static value (mesh: F_n; bearings: cos(beta_b) F_n;
+  // axial: sin(beta_b) F_n; NaN for an axial factor of a spur pair).
+  double dynamic_mesh_factor = 0;
+  std::array<double, 2> bearing_factor{}, axial_factor{};
+  CoupledSamples samples;
+  double wall_time_s = 0;
+  bool ok() const { return termination == ode::Termination::kCompleted; }
+};
+
+struct CoupledRunOptions {
+  // Called now and then with the fraction of the window done; false cancels.
+  std::function<bool(double)> progress;
+};
+
+// Runs the case's coupled model over [0, solver.duration_s] with the exact engine from
+// solver.initial ("center": at rest in the middle of the backlash and the clearances;
+// "static": the static contact state). Throws InputError for a bad case, a method other than
+// "exact", or a window past the work bounds of run.hpp; a numerical failure is reported in the
+// result.
+CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options = {});
+
+// summary.json of a coupled run (docs/outputs.md).
+std::string coupled_summary_json(const CoupledRunResult& r, int indent = 2);
+// timeseries.csv: t_s, every coordinate and its rate, (d - e)/b, F_n/(b k_m), mesh contact,
+// the bearing forces.
+void write_coupled_timeseries_csv(std::ostream& out, const CoupledRunResult& r);
+// modes as JSON (docs/outputs.md) and as a table for the terminal.
+std::string modes_json(const ModeSet& m, int indent = 2);
+std::string modes_table(const ModeSet& m);
+
+}  // namespace geardyn

@@ -1,0 +1,378 @@
+#include "geardyn/coupled_run.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <ostream>
+
+#include "geardyn/engine.hpp"
+#include "geardyn/model.hpp"
+#include "geardyn/run.hpp"
+
+namespace geardyn {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The contact history of one nonlinearity, from its state changes in time order.
+class ContactTracker {
+ public:
+  ContactTracker(double t0, double t1, double final_from, int state)
+      : t0_(t0), t1_(t1), final_from_(final_from), state_(state) {
+    if (state == 0) free_since_ = t0;
+  }
+  void change(double t, int to) {
+    if (to == state_) return;
+    if (state_ == 0 && to != 0) {  // contact entered: an impact
+      ++impacts_;
+      if (to < 0) ++backside_;
+      close_free(t);
+    } else if (state_ != 0 && to == 0) {  // contact left
+      ++separations_;
+      last_separation_ = t;
+      free_since_ = t;
+    }
+    if (to < 0) back_ = true;
+    state_ = to;
+  }
+  ContactReading reading() {
+    if (state_ == 0) close_free(t1_);
+    ContactReading r;
+    r.present = true;
+    r.impacts = impacts_;
+    r.backside_impacts = backside_;
+    r.separations = separations_;
+    r.last_separation_s = last_separation_;
+    r.double_sided = back_;
+    r.separated_fraction = free_time_ / (t1_ - t0_);
+    r.regime = free_in_final_   ? Regime::kSustained
+               : free_time_ > 0 ? Regime::kTransient
+                                : Regime::kNone;
+    return r;
+  }
+
+ private:
+  void close_free(double t) {
+    if (!free_since_) return;
+    free_time_ += t - *free_since_;
+    if (t > final_from_ && separations_ > 0) free_in_final_ = true;
+    free_since_.reset();
+  }
+  double t0_, t1_, final_from_;
+  int state_;
+  std::optional<double> free_since_;
+  std::int64_t impacts_ = 0, backside_ = 0, separations_ = 0;
+  std::optional<double> last_separation_;
+  bool back_ = false, free_in_final_ = false;
+  double free_time_ = 0;
+};
+
+// Looks at the engine's flow: samples, state changes per nonlinearity, exact extremes.
+class CoupledObserver : public ode::FlowObserver {
+ public:
+  CoupledObserver(const CoupledModel& model, const ode::LinearSwitchedSystem& sys,
+                  CoupledRunResult& out, double t0, double t1, double final_from, int region,
+                  const std::function<bool(double)>& progress)
+      : model_(model),
+        sys_(sys),
+        out_(out),
+        progress_(progress),
+        t0_(t0),
+        t1_(t1),
+        mesh_(t0, t1, final_from, contact_state(coupled_state(region).mesh)),
+        bearings_{ContactTracker(t0, t1, final_from, coupled_state(region).bearing[0]),
+                  ContactTracker(t0, t1, final_from, coupled_state(region).bearing[1])} {
+    out_.max_force_n = out_.max_deflection_m = -kInf;
+    out_.min_force_n = out_.min_deflection_m = kInf;
+  }
+
+  // No whole-period jumps: every cell is looked at for the extremes.
+  bool needs_detail(const ode::CellView&) override { return true; }
+
+  void on_cell(const ode::CellView& cell) override {
+    if (!(cell.t_end_s > cell.t_begin_s)) return;
+    double v = 0, t = 0;
+    if (cell.extreme(CoupledModel::kObservableForce, true, out_.max_force_n, v, t))
+      out_.max_force_n = v;
+    if (cell.extreme(CoupledModel::kObservableForce, false, out_.min_force_n, v, t))
+      out_.min_force_n = v;
+    if (cell.extreme(CoupledModel::kObservableDeflection, true, out_.max_deflection_m, v, t))
+      out_.max_deflection_m = v;
+    if (cell.extreme(CoupledModel::kObservableDeflection, false, out_.min_deflection_m, v, t))
+      out_.min_deflection_m = v;
+    for (int i = 0; i < 2; ++i) {
+      absolute(cell, CoupledModel::kObservableBearing + i, out_.max_bearing_force_n[i]);
+      absolute(cell, CoupledModel::kObservableAxial + i, out_.max_axial_force_n[i]);
+    }
+  }
+
+  void on_event(double t, const ode::Vector&, int from, int to) override {
+    const CoupledState a = coupled_state(from), b = coupled_state(to);
+    if (contact_state(a.mesh) != contact_state(b.mesh)) mesh_.change(t, contact_state(b.mesh));
+    for (int i = 0; i < 2; ++i)
+      if (a.bearing[i] != b.bearing[i]) bearings_[i].change(t, b.bearing[i]);
+  }
+
+  void on_sample(double t, const ode::Vector& y, int region) override {
+    CoupledSamples& s = out_.samples;
+    const ode::LinearRegion& r = sys_.regions[region];
+    const auto value = [&](int k) { return ode::functional_value(sys_, r.observables[k], t, y); };
+    const CoupledParameters& p = model_.parameters();
+    s.t_s.push_back(t);
+    s.state.push_back(y);
+    s.deflection_bar.push_back(value(CoupledModel::kObservableDeflection) / p.backlash_m);
+    s.force_bar.push_back(value(CoupledModel::kObservableForce) /
+                          (p.backlash_m * p.stiffness_n_per_m.offset));
+    s.mesh_contact.push_back(contact_state(coupled_state(region).mesh));
+    s.bearing_force_n.push_back(
+        {value(CoupledModel::kObservableBearing), value(CoupledModel::kObservableBearing + 1)});
+    s.axial_force_n.push_back(
+        {value(CoupledModel::kObservableAxial), value(CoupledModel::kObservableAxial + 1)});
+  }
+
+  bool on_progress(double t) override { return !progress_ || progress_((t - t0_) / (t1_ - t0_)); }
+
+  void finish() {
+    out_.mesh = mesh_.reading();
+    const CoupledParameters& p = model_.parameters();
+    for (int i = 0; i < 2; ++i) {
+      out_.bearing[i] = bearings_[i].reading();
+      out_.bearing[i].present = p.clearance_m[i] > 0;
+    }
+  }
+
+ private:
+  void absolute(const ode::CellView& cell, int observable, double& largest) {
+    double v = 0, t = 0;
+    if (cell.extreme(observable, true, largest, v, t)) largest = std::max(largest, v);
+    if (cell.extreme(observable, false, -largest, v, t)) largest = std::max(largest, -v);
+  }
+
+  const CoupledModel& model_;
+  const ode::LinearSwitchedSystem& sys_;
+  CoupledRunResult& out_;
+  const std::function<bool(double)>& progress_;
+  double t0_, t1_;
+  ContactTracker mesh_;
+  std::array<ContactTracker, 2> bearings_;
+};
+
+// The shortest time scale: the fastest natural period in contact or excitation period.
+double fastest_period_s(const CoupledModel& m) {
+  double w = 0;
+  for (const Mode& x : modes(m).modes) w = std::max(w, 2 * std::numbers::pi * x.frequency_hz);
+  const CoupledParameters& p = m.parameters();
+  w = std::max({w, p.stiffness_n_per_m.max_angular_frequency_rad_s(),
+                p.torsion_force_n.max_angular_frequency_rad_s(),
+                p.transmission_error_m.max_angular_frequency_rad_s()});
+  return 2 * std::numbers::pi / w;
+}
+
+}  // namespace
+
+CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  if (const std::string err = validate(c); !err.empty()) throw InputError(err);
+  if (c.solver.method != Method::kExact)
+    throw InputError(fmt::format(
+        "solver.method = \"{}\": the coupled model runs with the exact engine (\"exact\")",
+        to_string(c.solver.method)));
+  CoupledRunResult result;
+  result.input = c;
+  result.parameters = coupled_parameters(c);
+  const CoupledModel model(result.parameters);
+  const CoupledParameters& p = result.parameters;
+
+  const double t0 = 0, t1 = c.solver.duration_s;
+  const double fastest = fastest_period_s(model);
+  const double interval =
+      c.solver.output_interval_s > 0
+          ? c.solver.output_interval_s
+          : std::max(t1 / kMaxAutomaticSamples,
+                     std::min(t1 / kAutomaticSamples, fastest / kSamplesPerFastestPeriod));
+  const double samples = t1 / interval + 1;
+  if (!(samples <= kMaxSamples))
+    throw InputError(fmt::format(
+        "solver.output_interval_s = {:.6g}: {:.3g} samples over solver.duration_s = {:.6g}; at "
+        "most {:.0e}",
+        interval, samples, t1, kMaxSamples));
+  if (!(t1 / fastest <= kMaxFastestPeriods))
+    throw InputError(fmt::format(
+        "solver.duration_s = {:.6g}: {:.3g} periods of the model's fastest time scale ({:.3g} "
+        "s); at most {:.0e}",
+        t1, t1 / fastest, fastest, kMaxFastestPeriods));
+
+  ode::Vector y0 = ode::Vector::Zero(2 * p.size());
+  if (c.solver.initial == InitialCondition::kStatic) {
+    try {
+      y0 = model.static_state();
+    } catch (const std::runtime_error& e) {
+      throw InputError(std::string("solver.initial = \"static\": ") + e.what());
+    }
+  }
+  const int region = model.classify(t0, y0);
+  ode::EngineOptions eo;
+  eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
+  std::unique_ptr<ode::ExactEngine> engine;
+  try {
+    engine = std::make_unique<ode::ExactEngine>(model.linear_system(), eo);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("the coupled model's exact engine: ") + e.what());
+  }
+  const ode::LinearSwitchedSystem& sys = engine->system();
+  CoupledObserver observer(model, sys, result, t0, t1, t1 * (1 - c.solver.final_fraction), region,
+                           options.progress);
+  const ode::FlowResult flow =
+      engine->flow(t0, y0, region, t1, ode::make_output_grid(t0, t1, interval), observer);
+  observer.finish();
+  result.termination = flow.termination;
+  result.message = flow.message;
+  result.cells = flow.cells;
+  result.events = flow.events;
+  const double fs = p.static_mesh_force_n();
+  result.dynamic_mesh_factor = result.max_force_n / fs;
+  for (int i = 0; i < 2; ++i) {
+    result.bearing_factor[i] = result.max_bearing_force_n[i] / (p.cos_base_helix * fs);
+    result.axial_factor[i] = p.sin_base_helix > 0
+                                 ? result.max_axial_force_n[i] / (p.sin_base_helix * fs)
+                                 : std::numeric_limits<double>::quiet_NaN();
+  }
+  if (result.ok() && !(std::isfinite(result.max_force_n) && std::isfinite(result.min_force_n))) {
+    result.termination = ode::Termination::kNoProgress;
+    result.message = "non-finite readings (an overflow)";
+  }
+  result.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return result;
+}
+
+namespace {
+
+nlohmann::json contact_json(const ContactReading& r) {
+  nlohmann::json j = {
+      {"regime", to_string(r.regime)}, {"double_sided", r.double_sided},
+      {"impacts", r.impacts},          {"backside_impacts", r.backside_impacts},
+      {"separations", r.separations},  {"separated_fraction", r.separated_fraction}};
+  j["last_separation_s"] =
+      r.last_separation_s ? nlohmann::json(*r.last_separation_s) : nlohmann::json(nullptr);
+  return j;
+}
+
+nlohmann::json finite_or_null(double x) {
+  return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+std::string coupled_summary_json(const CoupledRunResult& r, int indent) {
+  const CoupledParameters& p = r.parameters;
+  nlohmann::json j;
+  j["case"] = r.input.name;
+  j["model"] = "coupled";
+  j["dof"] = p.dof;
+  j["completed"] = r.ok();
+  j["termination"] = ode::to_string(r.termination);
+  j["message"] = r.message;
+  nlohmann::json coords = nlohmann::json::array();
+  for (Coordinate x : p.coordinates) coords.push_back(to_string(x));
+  j["coordinates"] = coords;
+  j["mesh"] = contact_json(r.mesh);
+  j["mesh"]["max_force_n"] = r.max_force_n;
+  j["mesh"]["min_force_n"] = r.min_force_n;
+  j["mesh"]["max_deflection_bar"] = r.max_deflection_m / p.backlash_m;
+  j["mesh"]["min_deflection_bar"] = r.min_deflection_m / p.backlash_m;
+  j["mesh"]["static_force_n"] = p.static_mesh_force_n();
+  j["mesh"]["dynamic_factor"] = r.dynamic_mesh_factor;
+  nlohmann::json bearings = nlohmann::json::array();
+  for (int i = 0; i < 2; ++i) {
+    nlohmann::json b = {{"gear", i + 1},
+                        {"max_line_force_n", r.max_bearing_force_n[i]},
+                        {"line_force_factor", r.bearing_factor[i]},
+                        {"max_axial_force_n", r.max_axial_force_n[i]},
+                        {"axial_force_factor", finite_or_null(r.axial_factor[i])},
+                        {"clearance_um", p.clearance_m[i] * 1e6}};
+    b["clearance"] = r.bearing[i].present ? contact_json(r.bearing[i]) : nlohmann::json(nullptr);
+    bearings.push_back(b);
+  }
+  j["bearings"] = bearings;
+  j["cells"] = r.cells;
+  j["events"] = r.events;
+  j["duration_s"] = r.input.solver.duration_s;
+  j["wall_time_s"] = r.wall_time_s;
+  return j.dump(indent);
+}
+
+void write_coupled_timeseries_csv(std::ostream& out, const CoupledRunResult& r) {
+  const CoupledParameters& p = r.parameters;
+  std::string header = "t_s";
+  for (Coordinate x : p.coordinates) header += fmt::format(",{}", to_string(x));
+  for (Coordinate x : p.coordinates) {
+    std::string rate = to_string(x);  // "y1_m" -> "y1_m_s", "ty1_rad" -> "ty1_rad_s"
+    header += fmt::format(",{}_s", rate);
+  }
+  header +=
+      ",deflection_bar,force_bar,mesh_contact,bearing1_force_n,bearing2_force_n,axial1_force_n,"
+      "axial2_force_n\n";
+  out << header;
+  const CoupledSamples& s = r.samples;
+  fmt::memory_buffer row;
+  for (std::size_t k = 0; k < s.t_s.size(); ++k) {
+    row.clear();
+    fmt::format_to(std::back_inserter(row), "{:.10g}", s.t_s[k]);
+    for (Eigen::Index i = 0; i < s.state[k].size(); ++i)
+      fmt::format_to(std::back_inserter(row), ",{:.10g}", s.state[k][i]);
+    fmt::format_to(std::back_inserter(row), ",{:.10g},{:.10g},{},{:.10g},{:.10g},{:.10g},{:.10g}\n",
+                   s.deflection_bar[k], s.force_bar[k], s.mesh_contact[k], s.bearing_force_n[k][0],
+                   s.bearing_force_n[k][1], s.axial_force_n[k][0], s.axial_force_n[k][1]);
+    out.write(row.data(), static_cast<std::streamsize>(row.size()));
+  }
+}
+
+std::string modes_json(const ModeSet& m, int indent) {
+  nlohmann::json j;
+  nlohmann::json coords = nlohmann::json::array();
+  for (Coordinate x : m.coordinates) coords.push_back(to_string(x));
+  j["coordinates"] = coords;
+  nlohmann::json list = nlohmann::json::array();
+  for (const Mode& x : m.modes) {
+    std::vector<double> shape(x.shape.data(), x.shape.data() + x.shape.size());
+    list.push_back({{"frequency_hz", x.frequency_hz},
+                    {"damping_ratio", x.damping_ratio},
+                    {"shape", shape},
+                    {"energy",
+                     {{"mesh", x.mesh_energy},
+                      {"line_bearings", {x.line_energy[0], x.line_energy[1]}},
+                      {"axial_bearings", {x.axial_energy[0], x.axial_energy[1]}},
+                      {"tilt_bearings", {x.tilt_energy[0], x.tilt_energy[1]}},
+                      {"cross_bearings", {x.cross_energy[0], x.cross_energy[1]}}}}});
+  }
+  j["modes"] = list;
+  nlohmann::json damped = nlohmann::json::array();
+  for (const auto& [f, z] : m.damped) damped.push_back({{"frequency_hz", f}, {"damping_ratio", z}});
+  j["damped_eigenvalues"] = damped;
+  return j.dump(indent);
+}
+
+std::string modes_table(const ModeSet& m) {
+  std::string out = fmt::format(
+      "{:>4} {:>12} {:>8}   strain energy: {:>6} {:>13} {:>13} {:>13} {:>13}\n", "mode", "f (Hz)",
+      "zeta", "mesh", "line bearing", "axial bearing", "tilt bearing", "cross bearing");
+  const auto pair = [](const std::array<double, 2>& e) {
+    return fmt::format("{:5.1f} {:5.1f}", 100 * e[0], 100 * e[1]);
+  };
+  for (std::size_t r = 0; r < m.modes.size(); ++r) {
+    const Mode& x = m.modes[r];
+    out += fmt::format(
+        "{:>4} {:>12.6g} {:>8.4f}   (%)            {:>6.1f} {:>13} {:>13} {:>13} {:>13}\n", r + 1,
+        x.frequency_hz, x.damping_ratio, 100 * x.mesh_energy, pair(x.line_energy),
+        pair(x.axial_energy), pair(x.tilt_energy), pair(x.cross_energy));
+  }
+  return out;
+}
+
+}  // namespace geardyn

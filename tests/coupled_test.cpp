@@ -1,0 +1,319 @@
+// The coupled model: its modes against closed forms and an independent eigen-solve of the
+// engine's matrices, energy kept in a free vibration, the transmission error's forced response
+// against its closed form, the exact decoupling of a spur pair's axial motion, and the rigid
+// limit, where it must reproduce the one-degree model.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <complex>
+#include <numbers>
+
+#include "geardyn/coupled_model.hpp"
+#include "geardyn/coupled_run.hpp"
+#include "geardyn/run.hpp"
+
+namespace geardyn {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+Case coupled(int dof) {
+  Case c;
+  c.model.form = ModelForm::kCoupled;
+  c.model.dof = dof;
+  return c;
+}
+
+TEST(CoupledModes, ASymmetricThreeDofPairHasItsClosedForms) {
+  // Equal gears on equal bearings, dof 3 (u, y1, y2): y1 = y2 leaves the mesh alone, w^2 =
+  // k_r / m; y1 = -y2 = s couples with u as m_eq u'' + k cb^2 (u + 2 s) = 0, m s'' + k_r s +
+  // k cb^2 (u + 2 s) = 0, whose w^2 are the roots of w^4 - tr w^2 + det of M^-1 K.
+  Case c = coupled(3);
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;  // k_m, constant
+  const CoupledParameters p = coupled_parameters(c);
+  const double k = p.stiffness_n_per_m.offset, cb2 = p.cos_base_helix * p.cos_base_helix;
+  const double meq = p.equivalent_mass_kg, m = p.mass[p.line[0]];
+  const double kr = p.bearing_stiffness[p.line[0]];
+  const double a = k * cb2 / meq, b2 = 2 * k * cb2 / meq, c2 = k * cb2 / m,
+               d = (kr + 2 * k * cb2) / m;
+  const double tr = a + d, det = a * d - b2 * c2;
+  const double root = std::sqrt(tr * tr - 4 * det);
+  std::vector<double> expected = {std::sqrt((tr - root) / 2), std::sqrt(kr / m),
+                                  std::sqrt((tr + root) / 2)};
+  std::sort(expected.begin(), expected.end());
+  const ModeSet set = modes(CoupledModel(p));
+  ASSERT_EQ(set.modes.size(), 3U);
+  for (int r = 0; r < 3; ++r)
+    EXPECT_NEAR(set.modes[r].frequency_hz, expected[r] / (2 * kPi), 1e-10 * expected[r]) << r;
+  // The bearing mode holds no mesh energy; the energies of every mode sum to 1.
+  for (const Mode& x : set.modes) {
+    const double sum = x.mesh_energy + x.line_energy[0] + x.line_energy[1];
+    EXPECT_NEAR(sum, 1.0, 1e-12);
+  }
+  EXPECT_LT(set.modes[1].mesh_energy, 1e-20);
+}
+
+TEST(CoupledModes, ASpurPairsAxialModesAreTheBearingsAlone) {
+  // helix 0: z decouples, w^2 = k_a / m exactly; every mode's energies sum to 1.
+  Case c = coupled(12);
+  c.gear.helix_angle_deg = 0;
+  c.gear.outside_diameter_mm = {146.0375, 146.0375};  // 140 + 2 m_n (1 + x)
+  c.gear.center_distance_mm = 141.0;
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.bearings.axial_stiffness_n_per_m = {3e8, 7e8};
+  const CoupledParameters p = coupled_parameters(c);
+  const ModeSet set = modes(CoupledModel(p));
+  for (int i = 0; i < 2; ++i) {
+    const int j = p.index(i == 0 ? Coordinate::kAxial1 : Coordinate::kAxial2);
+    const double w = std::sqrt(c.bearings.axial_stiffness_n_per_m[i] / p.mass[j]);
+    int found = 0;
+    for (const Mode& x : set.modes)
+      if (std::abs(x.frequency_hz - w / (2 * kPi)) < 1e-10 * w) {
+        ++found;
+        EXPECT_NEAR(x.axial_energy[i], 1.0, 1e-12);
+        EXPECT_NEAR(std::abs(x.shape[j]), 1 / std::sqrt(p.mass[j]), 1e-9 / std::sqrt(p.mass[j]));
+      }
+    EXPECT_EQ(found, 1) << "axial mode of gear " << i + 1;
+  }
+  for (const Mode& x : set.modes) {
+    double sum = x.mesh_energy;
+    for (int i = 0; i < 2; ++i)
+      sum += x.line_energy[i] + x.axial_energy[i] + x.tilt_energy[i] + x.cross_energy[i];
+    EXPECT_NEAR(sum, 1.0, 1e-12);
+  }
+}
+
+TEST(CoupledModes, DampedEigenvaluesEqualThoseOfTheEnginesMatrix) {
+  // modes() assembles K and C itself; the engine's drive-contact region assembles its state
+  // matrix separately: both give the same eigenvalues, and the undamped frequencies those of
+  // -M^-1 K from the engine's matrix.
+  Case c = coupled(12);
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  const CoupledModel model(coupled_parameters(c));
+  const ModeSet set = modes(model);
+  const ode::LinearSwitchedSystem sys = model.linear_system();
+  ode::Matrix a = sys.regions[coupled_region({kDriveContact, {0, 0}})].a.constant;
+  // The same eigenvalues balanced: the state scaled by M^1/2, velocities over the highest w.
+  const int n = model.parameters().size();
+  const double w_top = 2 * kPi * set.modes.back().frequency_hz;
+  ode::Vector scale(2 * n);
+  scale << model.parameters().mass.cwiseSqrt(), model.parameters().mass.cwiseSqrt() / w_top;
+  a = scale.asDiagonal() * a * scale.cwiseInverse().asDiagonal();
+  Eigen::EigenSolver<ode::Matrix> solver(a, false);
+  std::vector<std::array<double, 2>> engine;
+  for (Eigen::Index i = 0; i < solver.eigenvalues().size(); ++i) {
+    const std::complex<double> l = solver.eigenvalues()[i];
+    if (l.imag() < 0) continue;
+    engine.push_back({std::abs(l) / (2 * kPi), -l.real() / std::abs(l)});
+  }
+  std::sort(engine.begin(), engine.end());
+  ASSERT_EQ(engine.size(), set.damped.size());
+  for (std::size_t r = 0; r < engine.size(); ++r) {
+    EXPECT_NEAR(engine[r][0], set.damped[r][0], 1e-9 * engine[r][0]);
+    EXPECT_NEAR(engine[r][1], set.damped[r][1], 1e-9);
+  }
+  Eigen::EigenSolver<ode::Matrix> stiffness(-a.bottomLeftCorner(n, n) * w_top, false);
+  std::vector<double> w2;
+  for (Eigen::Index i = 0; i < n; ++i) w2.push_back(stiffness.eigenvalues()[i].real());
+  std::sort(w2.begin(), w2.end());
+  for (int r = 0; r < n; ++r)
+    EXPECT_NEAR(std::sqrt(w2[r]) / (2 * kPi), set.modes[r].frequency_hz,
+                1e-10 * set.modes[r].frequency_hz);
+  // Light damping: the damped frequencies are close to the undamped ones.
+  for (std::size_t r = 0; r < set.modes.size(); ++r)
+    EXPECT_NEAR(set.damped[r][0], set.modes[r].frequency_hz, 1e-3 * set.modes[r].frequency_hz);
+}
+
+TEST(CoupledRun, AFreeVibrationKeepsItsEnergy) {
+  // No damping, constant stiffness, steady torque, permanent contact: from the static state
+  // displaced along every coordinate, E = 1/2 q'^T M q' + 1/2 (q - q_s)^T K (q - q_s) stays.
+  Case c = coupled(12);
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.mesh.damping_ratio = 0;
+  c.bearings.damping_ratio = 0;
+  c.load.fluctuation_ratio = 0;
+  c.load.torque_nm = 400;  // deep contact
+  c.solver.duration_s = 0.01;
+  c.solver.initial = InitialCondition::kStatic;
+  const CoupledModel model(coupled_parameters(c));
+  const int n = model.parameters().size();
+  const ode::Vector ys = model.static_state();
+  // The run from a displaced start, through the engine directly.
+  ode::Vector y0 = ys;
+  for (int j = 0; j < n; ++j) y0[j] += 1e-7 * (j % 2 ? 1 : -1) * (j + 1) / n;
+  const ode::ExactEngine engine(model.linear_system());
+  struct Energy : ode::FlowObserver {
+    ode::Matrix m, k;
+    ode::Vector qs;
+    std::vector<double> e;
+    int regions_seen = 0;
+    void on_sample(double, const ode::Vector& y, int region) override {
+      const int n2 = static_cast<int>(qs.size());
+      const ode::Vector dq = y.head(n2) - qs;
+      const ode::Vector v = y.tail(n2);
+      e.push_back(0.5 * v.dot(m * v) + 0.5 * dq.dot(k * dq));
+      regions_seen |= 1 << (coupled_state(region).mesh + 2);
+    }
+  } obs;
+  obs.m = model.parameters().mass.asDiagonal();
+  obs.k = model.contact_stiffness();
+  obs.qs = ys.head(n);
+  const ode::FlowResult r = engine.flow(0, y0, model.classify(0, y0), c.solver.duration_s,
+                                        ode::make_output_grid(0, c.solver.duration_s, 1e-5), obs);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(obs.regions_seen, 1 << (kDriveContact + 2));  // never left contact
+  ASSERT_GT(obs.e.size(), 900U);
+  const double e0 = obs.e.front();
+  EXPECT_GT(e0, 0);
+  for (double e : obs.e) EXPECT_NEAR(e, e0, 1e-10 * e0);
+}
+
+TEST(CoupledRun, TheTransmissionErrorsForcedResponseIsTheClosedForm) {
+  // Permanent contact, constant stiffness: M q'' + C q' + K q = V^T (k e + c e') + Q_s, so
+  // q - q_s = Re(H a e^{i(wt + phi)}), H = (K - w^2 M + i w C)^-1 V^T (k + i w c), per harmonic.
+  Case c = coupled(12);
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.load.fluctuation_ratio = 0;
+  c.load.torque_nm = 400;
+  c.speed.shaft_frequency_hz = 30;  // mesh 1680 Hz, between modes
+  c.mesh.transmission_error_um = {{1.0, 20.0}, {0.3, 0.0}};
+  c.solver.duration_s = 0.2;  // the slowest mode (damping ratio 0.014 at 1.8 kHz) decays e^-30
+  c.solver.output_interval_s = 1e-5;
+  c.solver.initial = InitialCondition::kStatic;
+  const CoupledRunResult r = run_coupled(c);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.mesh.impacts, 0);
+  const CoupledModel model(r.parameters);
+  const CoupledParameters& p = r.parameters;
+  const int n = p.size();
+  const ode::Vector qs = model.static_state().head(n);
+  const ode::Matrix m = p.mass.asDiagonal(), k = model.contact_stiffness(),
+                    damping = model.contact_damping();
+  const double km = p.stiffness_n_per_m.offset, cm = p.mesh_damping_n_s_per_m;
+  std::vector<Eigen::VectorXcd> h;
+  for (const Harmonic& x : p.transmission_error_m.terms) {
+    const double w = x.angular_frequency_rad_s;
+    const Eigen::MatrixXcd z = k.cast<std::complex<double>>() -
+                               w * w * m.cast<std::complex<double>>() +
+                               std::complex<double>(0, w) * damping.cast<std::complex<double>>();
+    const Eigen::VectorXcd f = p.mesh_vector.transpose().cast<std::complex<double>>() *
+                               std::complex<double>(km, w * cm) *
+                               std::polar(x.amplitude, x.phase_rad);
+    h.push_back(z.partialPivLu().solve(f));
+  }
+  double worst = 0, scale = 0;
+  for (std::size_t s = 0; s < r.samples.t_s.size(); ++s) {
+    const double t = r.samples.t_s[s];
+    if (t < 0.8 * c.solver.duration_s) continue;
+    ode::Vector q = qs;
+    for (std::size_t i = 0; i < h.size(); ++i)
+      q += (h[i] * std::exp(std::complex<double>(
+                       0, p.transmission_error_m.terms[i].angular_frequency_rad_s * t)))
+               .real();
+    const ode::Vector run = r.samples.state[s].head(n);
+    worst = std::max(worst, (run - q).cwiseAbs().maxCoeff());
+    scale = std::max(scale, (q - qs).cwiseAbs().maxCoeff());
+  }
+  EXPECT_GT(scale, 1e-7);
+  EXPECT_LT(worst, 1e-8 * scale) << "scale " << scale;
+}
+
+TEST(CoupledRun, ASpurPairsAxialMotionStaysAtRestAndTheRestIsTheThreeDofRun) {
+  Case c = coupled(12);
+  c.gear.helix_angle_deg = 0;
+  c.gear.outside_diameter_mm = {146.0375, 146.0375};
+  c.gear.center_distance_mm = 141.0;
+  c.solver.duration_s = 0.01;
+  const CoupledRunResult r12 = run_coupled(c);
+  c.model.dof = 3;
+  const CoupledRunResult r3 = run_coupled(c);
+  ASSERT_TRUE(r12.ok() && r3.ok());
+  EXPECT_GT(r12.mesh.impacts, 0);
+  EXPECT_EQ(r12.mesh.impacts, r3.mesh.impacts);
+  const CoupledParameters& p = r12.parameters;
+  ASSERT_EQ(r12.samples.t_s.size(), r3.samples.t_s.size());
+  double axial = 0, worst = 0;
+  for (std::size_t s = 0; s < r12.samples.t_s.size(); ++s) {
+    for (Coordinate x : {Coordinate::kAxial1, Coordinate::kAxial2, Coordinate::kTilt1,
+                         Coordinate::kTilt2, Coordinate::kCross1, Coordinate::kRock2})
+      axial = std::max(axial, std::abs(r12.samples.state[s][p.index(x)]));
+    for (int j = 0; j < 3; ++j)
+      worst = std::max(worst, std::abs(r12.samples.state[s][j] - r3.samples.state[s][j]));
+  }
+  EXPECT_EQ(axial, 0.0);
+  EXPECT_EQ(r12.max_axial_force_n[0], 0.0);
+  EXPECT_LT(worst, 1e-12 * p.backlash_m);
+}
+
+// The largest |delta_bar| difference between the coupled run with bearings `ratio` times
+// stiffer than the mesh and the one-degree run `one` (same samples), after checking that both
+// read the same impacts and last separation.
+double rigid_limit_difference(const Case& one_case, const RunResult& one, int dof, double ratio) {
+  Case c = one_case;
+  c.model.form = ModelForm::kCoupled;
+  c.model.dof = dof;
+  const double k = ratio * c.mesh.mean_stiffness_n_per_m;
+  c.bearings.radial_stiffness_n_per_m = {k, k};
+  c.bearings.axial_stiffness_n_per_m = {k, k};
+  // The mesh's tilt stiffness is k_m (sin(beta_b) R_b)^2, about (0.022 m)^2 k_m.
+  c.bearings.tilt_stiffness_n_m_per_rad = {k * 0.022 * 0.022, k * 0.022 * 0.022};
+  const CoupledRunResult r = run_coupled(c);
+  EXPECT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.mesh.impacts, one.reading.impacts) << dof << " " << ratio;
+  EXPECT_TRUE(r.mesh.last_separation_s && one.reading.last_separation_s);
+  if (r.mesh.last_separation_s && one.reading.last_separation_s)
+    EXPECT_NEAR(*r.mesh.last_separation_s, *one.reading.last_separation_s,
+                1e-6 * one_case.solver.duration_s);
+  EXPECT_EQ(r.samples.t_s.size(), one.samples.size());
+  double worst = 0;
+  for (std::size_t s = 0; s < std::min(r.samples.t_s.size(), one.samples.size()); ++s)
+    worst = std::max(worst, std::abs(r.samples.deflection_bar[s] - one.samples.delta_bar[s]));
+  return worst;
+}
+
+TEST(CoupledRun, RigidBearingsReproduceTheOneDegreeModel) {
+  // Bearings 1e5 and 1e6 times stiffer than the mesh: the coupled runs (dof 3 and 12) read as
+  // the one-degree run, impacts and last separation alike, and their delta_bar differs from
+  // it in proportion to k_m / k_bearing (the bearings' compliance, not an error): 1.45e-6
+  // (dof 3) and 3.3e-6 (dof 12) at 1e6, ten times less than at 1e5 (so below 1e-6 from 1e7).
+  Case one;
+  one.solver.duration_s = 0.02;
+  one.solver.output_interval_s = 1e-5;
+  const RunResult r1 = run(one);
+  ASSERT_TRUE(r1.integration.ok());
+  for (int dof : {3, 12}) {
+    const double loose = rigid_limit_difference(one, r1, dof, 1e5);
+    const double stiff = rigid_limit_difference(one, r1, dof, 1e6);
+    EXPECT_LT(stiff, 4e-6) << dof;
+    EXPECT_LT(stiff, loose / 7) << dof << ": " << loose << " then " << stiff;
+    EXPECT_GT(stiff, loose / 13) << dof << ": " << loose << " then " << stiff;
+  }
+}
+
+TEST(CoupledModel, AClearanceShiftsTheStaticStateByItself) {
+  // The dead zone: y_i at rest under the mesh force is -+ (cb F / k_r + c_i).
+  Case c = coupled(3);
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  const CoupledModel tight(coupled_parameters(c));
+  c.bearings.radial_clearance_um = {20, 35};
+  const CoupledModel loose(coupled_parameters(c));
+  const ode::Vector a = tight.static_state(), b = loose.static_state();
+  const auto& p = loose.parameters();
+  EXPECT_NEAR(b[p.line[0]] - a[p.line[0]], -20e-6, 1e-15);
+  EXPECT_NEAR(b[p.line[1]] - a[p.line[1]], 35e-6, 1e-15);
+  const CoupledState s = coupled_state(loose.classify(0, b));
+  EXPECT_EQ(s.mesh, kDriveContact);
+  EXPECT_EQ(s.bearing[0], -1);
+  EXPECT_EQ(s.bearing[1], 1);
+}
+
+TEST(CoupledModel, OtherCommandsAndMethodsRefuseIt) {
+  Case c = coupled(12);
+  EXPECT_THROW((void)build_model(c), InputError);
+  c.solver.method = Method::kDopri5;
+  EXPECT_THROW((void)run_coupled(c), InputError);
+}
+
+}  // namespace
+}  // namespace geardyn
