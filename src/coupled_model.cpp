@@ -178,7 +178,7 @@ CoupledParameters coupled_parameters(const Case& c) {
                             Coordinate::kRock1,   Coordinate::kRock2};
   for (Coordinate x : all)
     if (kept(p.dof, x)) p.coordinates.push_back(x);
-  const int n = p.size();
+  const Eigen::Index n = p.size();
   p.mass = Vector::Zero(n);
   p.bearing_stiffness = Vector::Zero(n);
   p.bearing_damping = Vector::Zero(n);
@@ -254,7 +254,7 @@ Eigen::MatrixXd CoupledModel::contact_damping() const {
 }
 
 ode::LinearSwitchedSystem CoupledModel::linear_system() const {
-  const int n = p_.size();
+  const Eigen::Index n = p_.size();
   ode::LinearSwitchedSystem sys;
   sys.dimension = 2 * n;
   std::vector<double>& table = sys.frequencies_rad_s;
@@ -483,7 +483,7 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
 }
 
 int CoupledModel::classify(double t_s, const Eigen::VectorXd& y) const {
-  const int n = p_.size();
+  const Eigen::Index n = p_.size();
   const double d = p_.mesh_vector.dot(y.head(n)) - p_.transmission_error_m(t_s);
   const double b = p_.backlash_m;
   CoupledState s;
@@ -511,7 +511,7 @@ int CoupledModel::classify(double t_s, const Eigen::VectorXd& y) const {
 Eigen::VectorXd CoupledModel::static_state() const {
   // K q = Q with the mesh in drive contact: (K_b + k_m V^T V) q = Q_mean + V^T k_m (e_0 + b),
   // each clearance bearing on the side the mesh force pushes its gear to.
-  const int n = p_.size();
+  const Eigen::Index n = p_.size();
   const double km = p_.stiffness_n_per_m.offset, b = p_.backlash_m;
   Vector force = Vector::Zero(n);
   force[p_.index(Coordinate::kTorsion)] = p_.torsion_force_n.offset;
@@ -542,7 +542,7 @@ Eigen::VectorXd CoupledModel::static_state() const {
 
 ModeSet modes(const CoupledModel& model) {
   const CoupledParameters& p = model.parameters();
-  const int n = p.size();
+  const Eigen::Index n = p.size();
   const Matrix k = model.contact_stiffness(), c = model.contact_damping();
   const Matrix m = p.mass.asDiagonal();
   ModeSet out;

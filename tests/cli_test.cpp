@@ -551,8 +551,10 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   fs::remove_all(d);
 
   // The one-degree commands and figures refuse it, naming why.
-  const Outcome s1 = cli("sweep " + coupled + " --param speed.shaft_frequency_hz --from 900 "
-                         "--to 1000 --points 2 --out " + d.string());
+  const Outcome s1 = cli("sweep " + coupled +
+                         " --param speed.shaft_frequency_hz --from 900 "
+                         "--to 1000 --points 2 --out " +
+                         d.string());
   EXPECT_EQ(s1.code, 2);
   EXPECT_NE(s1.err.find("model.form = \"coupled\""), std::string::npos) << s1.err;
   const Outcome plain = cli("modes");

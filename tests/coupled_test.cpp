@@ -95,7 +95,7 @@ TEST(CoupledModes, DampedEigenvaluesEqualThoseOfTheEnginesMatrix) {
   const ode::LinearSwitchedSystem sys = model.linear_system();
   ode::Matrix a = sys.regions[coupled_region({kDriveContact, {0, 0}})].a.constant;
   // The same eigenvalues balanced: the state scaled by M^1/2, velocities over the highest w.
-  const int n = model.parameters().size();
+  const Eigen::Index n = model.parameters().size();
   const double w_top = 2 * kPi * set.modes.back().frequency_hz;
   ode::Vector scale(2 * n);
   scale << model.parameters().mass.cwiseSqrt(), model.parameters().mass.cwiseSqrt() / w_top;
@@ -137,7 +137,7 @@ TEST(CoupledRun, AFreeVibrationKeepsItsEnergy) {
   c.solver.duration_s = 0.01;
   c.solver.initial = InitialCondition::kStatic;
   const CoupledModel model(coupled_parameters(c));
-  const int n = model.parameters().size();
+  const Eigen::Index n = model.parameters().size();
   const ode::Vector ys = model.static_state();
   // The run from a displaced start, through the engine directly.
   ode::Vector y0 = ys;
@@ -186,7 +186,7 @@ TEST(CoupledRun, TheTransmissionErrorsForcedResponseIsTheClosedForm) {
   EXPECT_EQ(r.mesh.impacts, 0);
   const CoupledModel model(r.parameters);
   const CoupledParameters& p = r.parameters;
-  const int n = p.size();
+  const Eigen::Index n = p.size();
   const ode::Vector qs = model.static_state().head(n);
   const ode::Matrix m = p.mass.asDiagonal(), k = model.contact_stiffness(),
                     damping = model.contact_damping();

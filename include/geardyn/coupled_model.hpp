@@ -77,7 +77,7 @@ struct CoupledParameters {
   HarmonicSeries torsion_force_n;  // Q on u: the one-degree model's F(t) / cos(beta_b)
   double equivalent_mass_kg = 0;   // m_eq
 
-  int size() const { return static_cast<int>(coordinates.size()); }
+  Eigen::Index size() const { return static_cast<Eigen::Index>(coordinates.size()); }
   // The index of a coordinate, or -1 when the dof leaves it out.
   int index(Coordinate c) const;
   // The static normal mesh force F_m / cos^2(beta_b) (the one-degree model's).
