@@ -550,6 +550,32 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   EXPECT_TRUE(fs::exists(d / "case.toml"));
   fs::remove_all(d);
 
+  // The figures: a run's parts (the axial panel only when the pair is helical and z is kept),
+  // and the Campbell diagram with a resonance speed per mesh-critical mode and order.
+  const Outcome fig =
+      cli("run " + coupled + " --set solver.duration_s=0.005 --plot --out " + d.string());
+  ASSERT_EQ(fig.code, 0) << fig.err;
+  EXPECT_TRUE(fs::exists(d / "coupled_time.png"));
+  EXPECT_NE(slurp(d / "coupled_time_body.gp").find("axial bearing force"), std::string::npos);
+  fs::remove_all(d);
+  ASSERT_EQ(cli("run " + coupled +
+                " --set model.dof=3 --set solver.duration_s=0.005 --plot "
+                "--out " +
+                d.string())
+                .code,
+            0);
+  EXPECT_EQ(slurp(d / "coupled_time_body.gp").find("axial bearing force"), std::string::npos);
+  fs::remove_all(d);
+  ASSERT_EQ(cli("modes " + coupled + " --out " + d.string()).code, 0);
+  EXPECT_TRUE(fs::exists(d / "campbell.png"));
+  EXPECT_TRUE(fs::exists(d / "modes.json"));
+  const std::string campbell = slurp(d / "campbell.csv");
+  EXPECT_EQ(std::count(campbell.begin(), campbell.end(), '\n'), 1 + 11 * 3);
+  const std::string body = slurp(d / "campbell_body.gp");
+  EXPECT_NE(body.find("title 'resonance speed'"), std::string::npos);
+  EXPECT_NE(body.find("title 'other mode'"), std::string::npos);  // x and the rocking tilts
+  fs::remove_all(d);
+
   // The one-degree commands and figures refuse it, naming why.
   const Outcome s1 = cli("sweep " + coupled +
                          " --param speed.shaft_frequency_hz --from 900 "

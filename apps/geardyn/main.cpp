@@ -215,7 +215,7 @@ void print_run_summary(const geardyn::RunResult& r) {
 
 // A run of the coupled model: the summary per nonlinearity, summary.json, timeseries.csv and
 // case.toml into out_dir.
-int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir) {
+int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plot) {
   ProgressBar bar("run " + c.name);
   geardyn::CoupledRunOptions opts;
   opts.progress = std::ref(bar);
@@ -250,12 +250,17 @@ int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir) {
          {"timeseries.csv", [&](std::ostream& o) { geardyn::write_coupled_timeseries_csv(o, r); }},
          {"case.toml", [&](std::ostream& o) { o << geardyn::to_toml(c); }}});
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, case.toml)\n", out_dir);
+    if (plot) {
+      geardyn::write_coupled_run_figures(out_dir, r);
+      fmt::print("  figure            {}/coupled_time (.png, .svg, .gp)\n", out_dir);
+    }
   }
   return 0;
 }
 
 // The modes of the coupled model linearised in contact at the mean stiffness.
-int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets, bool json) {
+int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets, bool json,
+              const std::string& out_dir) {
   geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
   if (c.model.form != geardyn::ModelForm::kCoupled)
     throw geardyn::InputError(fmt::format(
@@ -265,11 +270,16 @@ int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets
   const geardyn::ModeSet m = geardyn::modes(geardyn::CoupledModel(geardyn::coupled_parameters(c)));
   if (json) {
     fmt::print("{}\n", geardyn::modes_json(m));
+    if (!out_dir.empty()) geardyn::write_campbell_figure(out_dir, c, m);
     return 0;
   }
   fmt::print("modes of {} (coupled, dof {}), in contact at the mean mesh stiffness\n", c.name,
              c.model.dof);
   fmt::print("{}", geardyn::modes_table(m));
+  if (!out_dir.empty()) {
+    geardyn::write_campbell_figure(out_dir, c, m);
+    fmt::print("written to {}/ (modes.json, campbell.csv, campbell .png .svg .gp)\n", out_dir);
+  }
   return 0;
 }
 
@@ -280,8 +290,9 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
   geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
   if (c.model.form == geardyn::ModelForm::kCoupled) {
-    if (plot) throw geardyn::InputError("--plot: the coupled model has no run figures yet");
-    return cmd_run_coupled(c, out_dir);
+    if (physical)
+      throw geardyn::InputError("--physical: the coupled model's figure is in physical units");
+    return cmd_run_coupled(c, out_dir, plot);
   }
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
@@ -715,6 +726,8 @@ int main(int argc, char** argv) {
       "modes", "natural frequencies, damping and strain energies of the coupled model");
   add_case(modes);
   modes->add_flag("--json", json, "print JSON");
+  std::string modes_out;
+  modes->add_option("--out", modes_out, "directory for modes.json, campbell.csv and the figure");
 
   CLI::App* keys = app.add_subcommand("keys", "list every case key: unit, default, bounds");
   bool markdown = false;
@@ -854,7 +867,7 @@ int main(int argc, char** argv) {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot, physical);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
     if (keys->parsed()) return cmd_keys(markdown, json);
-    if (modes->parsed()) return cmd_modes(case_file, sets, json);
+    if (modes->parsed()) return cmd_modes(case_file, sets, json, modes_out);
     if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
     if (sweep_cmd->parsed()) {
       so.direction = direction == "up"     ? geardyn::SweepDirection::kUp
@@ -883,6 +896,7 @@ int main(int argc, char** argv) {
     if (reproduce->parsed()) check_output_directory(reproduce_out);
     if (cont->parsed()) check_output_directory(cont_out);
     if (stab->parsed() && !stab_out.empty()) check_output_directory(stab_out);
+    if (modes->parsed() && !modes_out.empty()) check_output_directory(modes_out);
     code = dispatch();
   } catch (const geardyn::InputError& e) {
     print_error("error", e.what());

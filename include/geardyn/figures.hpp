@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/coupled_run.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 
@@ -76,5 +77,20 @@ void write_stiffness_figure(const std::filesystem::path& dir, const std::string&
 // `physical`: delta in um and F_G in N (the gear-pair form) in place of delta / b and
 // F / (b k_m).
 void write_run_figures(const std::filesystem::path& dir, const RunResult& r, bool physical = false);
+
+// The figure of a coupled run, into a directory: coupled_time (the mesh deflection and force,
+// the line-of-action bearing forces, the axial ones when the pair is helical and the dof keeps
+// z, and the bodies' translations), with coupled_plot.csv beside it.
+void write_coupled_run_figures(const std::filesystem::path& dir, const CoupledRunResult& r);
+
+// campbell.csv: each mode's frequency and mesh energy, and the shaft frequency at which mesh
+// orders 1 to 3 reach it (f / (i z1)).
+std::string campbell_csv(const Case& c, const ModeSet& m);
+
+// The Campbell diagram of the coupled model: its modes in contact (speed-independent: no
+// gyroscopic terms in this model) against the shaft frequency, the mesh orders 1 to 3, the
+// resonance speeds of the modes with at least 5 % of their strain energy in the mesh, and the
+// case's speed; with campbell.csv and modes.json beside it.
+void write_campbell_figure(const std::filesystem::path& dir, const Case& c, const ModeSet& m);
 
 }  // namespace geardyn
