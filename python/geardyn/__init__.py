@@ -36,7 +36,7 @@ except ImportError as _e:  # pragma: no cover - depends on the installation
 
 __all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry",
            "stiffness", "run", "sweep", "orbit", "continuation", "stability", "plot", "to_xarray",
-           "save", "load", "SweepResult"]
+           "save", "load", "SweepResult", "CoupledRunResult", "modes"]
 
 
 class NumericalError(RuntimeError):
@@ -321,10 +321,11 @@ def run(case, progress=None):
 
     Returns
     -------
-    RunResult
+    RunResult or CoupledRunResult
         ``t`` (s), ``delta_bar`` (delta / b), ``force_bar`` (F / (b k_m)), ``velocity`` (m/s)
         and ``contact`` (1 drive side, 0 separated, -1 back side) as NumPy arrays that point
-        into the result; ``summary`` (the keys of summary.json); ``events`` (arrays).
+        into the result; ``summary`` (the keys of summary.json); ``events`` (arrays). A case
+        with ``model.form = "coupled"`` gives a `CoupledRunResult`.
 
     Raises
     ------
@@ -340,12 +341,129 @@ def run(case, progress=None):
             return _bar(round(100 * fraction))
     else:
         callback = _progress(progress)
+    if case["model.form"] == "coupled":
+        text, arrays, interrupted = _geardyn._run_coupled(case, callback)
+        r = CoupledRunResult(_json.loads(text), arrays)
+        if interrupted:
+            raise _interrupted(r, "run")
+        if not r.ok and "cancelled" not in r.summary["termination"]:
+            raise NumericalError(f"numerical failure ({r.summary['termination']}): "
+                                 f"{r.summary['message']}")
+        return r
     r, interrupted = _geardyn._run(case, callback)
     if interrupted:
         raise _interrupted(r, "run")
     if not r.ok and "cancelled" not in r._failure:
         raise NumericalError(f"numerical failure ({r._failure})")
     return r
+
+
+class CoupledRunResult:
+    """A run of the coupled model (``model.form = "coupled"``; docs/outputs.md).
+
+    Attributes
+    ----------
+    summary : dict
+        The keys of the command line's summary.json: ``mesh`` and ``bearings`` readings,
+        forces (N) and dynamic factors.
+    coordinates : list of str
+        The coordinates' names with their units (``"u_m"``, ``"y1_m"``, ``"ty1_rad"``, ...).
+    t : numpy.ndarray
+        Sample times, s.
+    q, velocity : numpy.ndarray
+        Samples x coordinates: the coordinates (m or rad) and their rates (m/s or rad/s).
+    deflection_bar, force_bar : numpy.ndarray
+        (d - e) / b and F_n / (b k_m) of the mesh.
+    mesh_contact : numpy.ndarray
+        1 drive side, 0 separated, -1 back side.
+    bearing_force, axial_force : numpy.ndarray
+        Samples x 2: each gear's bearing force along the line of action and axially, N.
+    ok : bool
+        Whether the run completed.
+    """
+
+    def __init__(self, summary, arrays):
+        self.summary = summary
+        self.coordinates = list(summary["coordinates"])
+        n = len(self.coordinates)
+        self.t = arrays["t"]
+        self.q = arrays["state"][:, :n]
+        self.velocity = arrays["state"][:, n:]
+        self.deflection_bar = arrays["deflection_bar"]
+        self.force_bar = arrays["force_bar"]
+        self.mesh_contact = arrays["mesh_contact"]
+        self.bearing_force = arrays["bearing_force"]
+        self.axial_force = arrays["axial_force"]
+        self.ok = bool(summary["completed"])
+
+    def __repr__(self):
+        m = self.summary["mesh"]
+        return (f"<geardyn.CoupledRunResult dof {self.summary['dof']}: mesh {m['regime']}, "
+                f"{m['impacts']} impacts, dynamic factor {m['dynamic_factor']:.4g}>")
+
+    def to_xarray(self):
+        """The run as a labelled Dataset.
+
+        Returns
+        -------
+        xarray.Dataset
+            Dimensions t (s) and coordinate (the names of `coordinates`); q and velocity
+            (t x coordinate), deflection_bar, force_bar, mesh_contact, bearing_force and
+            axial_force (t x gear, N); the summary (JSON) as an attribute.
+        """
+        import xarray as xr
+        ds = xr.Dataset(
+            {"q": (("t", "coordinate"), self.q),
+             "velocity": (("t", "coordinate"), self.velocity),
+             "deflection_bar": ("t", self.deflection_bar, {"long_name": "(d - e) / b"}),
+             "force_bar": ("t", self.force_bar, {"long_name": "F_n / (b k_m)"}),
+             "mesh_contact": ("t", self.mesh_contact),
+             "bearing_force": (("t", "gear"), self.bearing_force, {"units": "N"}),
+             "axial_force": (("t", "gear"), self.axial_force, {"units": "N"})},
+            coords={"t": ("t", self.t, {"units": "s"}), "coordinate": self.coordinates,
+                    "gear": [1, 2]},
+            attrs={"summary": _json.dumps(self.summary)})
+        return ds
+
+
+@_pythonic()
+def modes(case):
+    """The coupled model's modes, as `geardyn modes --json`.
+
+    Parameters
+    ----------
+    case : Case
+        A case with ``model.form = "coupled"``.
+
+    Returns
+    -------
+    dict
+        ``coordinates`` (names); ``frequency_hz`` and ``damping_ratio`` (arrays, one per mode,
+        ascending); ``shape`` (modes x coordinates, mass-normalised); ``energy``: a dict of the
+        strain energy fractions per part (``mesh``: one per mode; ``line_bearings``,
+        ``axial_bearings``, ``tilt_bearings``, ``cross_bearings``: modes x 2 gears);
+        ``damped``: the damped eigenvalues' frequencies and damping ratios (modes x 2).
+
+    Raises
+    ------
+    InputError
+        A case of another form, or bad input.
+    """
+    import numpy as np
+    if case["model.form"] != "coupled":
+        raise InputError(f"model.form = \"{case['model.form']}\": modes are of the coupled "
+                         "model; set model.form = \"coupled\"")
+    j = _json.loads(_geardyn._modes(case))
+    ms = j["modes"]
+    parts = ("line_bearings", "axial_bearings", "tilt_bearings", "cross_bearings")
+    return {"coordinates": j["coordinates"],
+            "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
+            "damping_ratio": np.array([m["damping_ratio"] for m in ms]),
+            "shape": np.array([m["shape"] for m in ms]),
+            "energy": dict({"mesh": np.array([m["energy"]["mesh"] for m in ms])},
+                           **{p: np.array([m["energy"][p] for m in ms]) for p in parts}),
+            "damped": np.array([[d["frequency_hz"], d["damping_ratio"]]
+                                for d in j["damped_eigenvalues"]])}
 
 
 _SWEEP_NAMES = {"points": "len(values)", "from": "values", "to": "values",

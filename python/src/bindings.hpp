@@ -101,5 +101,6 @@ void bind_stiffness(pybind11::module_& m);
 void bind_run(pybind11::module_& m);
 void bind_sweep(pybind11::module_& m);
 void bind_orbit(pybind11::module_& m);
+void bind_coupled(pybind11::module_& m);
 
 }  // namespace geardyn::python

@@ -20,4 +20,5 @@ PYBIND11_MODULE(_geardyn, m) {
   geardyn::python::bind_run(m);
   geardyn::python::bind_sweep(m);
   geardyn::python::bind_orbit(m);
+  geardyn::python::bind_coupled(m);
 }

@@ -412,11 +412,11 @@ def test_every_public_function_and_attribute_is_documented():
         obj = getattr(geardyn, name)
         if inspect.isfunction(obj) and not sections(obj):
             undocumented.append(name)
-    for cls in (geardyn.Case, geardyn.RunResult, geardyn.SweepResult):
+    for cls in (geardyn.Case, geardyn.RunResult, geardyn.SweepResult, geardyn.CoupledRunResult):
         for name, obj in vars(cls).items():
             if name.startswith("_") and name not in ("__init__", "__getitem__"):
                 continue
-            if cls is geardyn.RunResult and name == "__init__":
+            if cls in (geardyn.RunResult, geardyn.CoupledRunResult) and name == "__init__":
                 continue  # made by run(), not by users
             if isinstance(obj, property):
                 if not (obj.__doc__ or "").strip():
@@ -461,3 +461,34 @@ def test_a_sweeps_strobe_jumps_and_hysteresis_are_the_command_lines(tmp_path):
     assert up.shape == (21, 10)
     assert np.array_equal(up.values.ravel(), st["delta_bar"][: 21 * 10])
     assert json.loads(ds.attrs["hysteresis"]) == s["hysteresis"]
+
+
+def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
+    path = SOURCE / "cases/park2010_coupled.toml"
+    case = geardyn.Case.from_toml(path).with_({"solver.duration_s": 0.005})
+    r = geardyn.run(case)
+    assert isinstance(r, geardyn.CoupledRunResult) and r.ok
+    cli("run", str(path), "--set", "solver.duration_s=0.005", "--out", str(tmp_path))
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    for s in (summary, r.summary):
+        s.pop("wall_time_s")
+    assert r.summary == summary
+    assert r.q.shape == (len(r.t), 11) and r.coordinates[0] == "u_m"
+    rows = (tmp_path / "timeseries.csv").read_text().splitlines()
+    last = [float(x) for x in rows[-1].split(",")]
+    assert last[0] == pytest.approx(r.t[-1], abs=1e-15)
+    assert last[1:12] == pytest.approx(list(r.q[-1]), rel=1e-9, abs=1e-18)
+    ds = r.to_xarray()
+    assert ds["q"].dims == ("t", "coordinate") and list(ds["coordinate"].values) == r.coordinates
+    assert ds["bearing_force"].attrs["units"] == "N"
+
+    m = geardyn.modes(case)
+    out = json.loads(cli("modes", str(path), "--json").stdout)
+    assert list(m["frequency_hz"]) == [x["frequency_hz"] for x in out["modes"]]
+    assert m["shape"].shape == (11, 11)
+    total = m["energy"]["mesh"] + sum(m["energy"][p].sum(axis=1) for p in
+                                      ("line_bearings", "axial_bearings", "tilt_bearings",
+                                       "cross_bearings"))
+    assert total == pytest.approx(np.ones(11), abs=1e-12)
+    with pytest.raises(geardyn.InputError, match="modes are of the coupled model"):
+        geardyn.modes(geardyn.Case())
