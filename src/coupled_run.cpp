@@ -36,6 +36,7 @@ class ContactTracker {
       ++separations_;
       last_separation_ = t;
       free_since_ = t;
+      if (t > final_from_) free_in_final_ = true;  // as the one-degree reading (analysis.hpp)
     }
     if (to < 0) back_ = true;
     state_ = to;
@@ -60,7 +61,6 @@ class ContactTracker {
   void close_free(double t) {
     if (!free_since_) return;
     free_time_ += t - *free_since_;
-    if (t > final_from_ && separations_ > 0) free_in_final_ = true;
     free_since_.reset();
   }
   double t0_, t1_, final_from_;
@@ -175,61 +175,53 @@ double fastest_period_s(const CoupledModel& m) {
 
 }  // namespace
 
-CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
-  const auto wall_start = std::chrono::steady_clock::now();
+CoupledSolver::CoupledSolver(const Case& c) : case_(c) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
   if (c.solver.method != Method::kExact)
     throw InputError(fmt::format(
         "solver.method = \"{}\": the coupled model runs with the exact engine (\"exact\")",
         to_string(c.solver.method)));
-  CoupledRunResult result;
-  result.input = c;
-  result.parameters = coupled_parameters(c);
-  const CoupledModel model(result.parameters);
-  const CoupledParameters& p = result.parameters;
-
-  const double t0 = 0, t1 = c.solver.duration_s;
-  const double fastest = fastest_period_s(model);
-  const double interval =
-      c.solver.output_interval_s > 0
-          ? c.solver.output_interval_s
-          : std::max(t1 / kMaxAutomaticSamples,
-                     std::min(t1 / kAutomaticSamples, fastest / kSamplesPerFastestPeriod));
-  const double samples = t1 / interval + 1;
-  if (!(samples <= kMaxSamples))
-    throw InputError(fmt::format(
-        "solver.output_interval_s = {:.6g}: {:.3g} samples over solver.duration_s = {:.6g}; at "
-        "most {:.0e}",
-        interval, samples, t1, kMaxSamples));
-  if (!(t1 / fastest <= kMaxFastestPeriods))
-    throw InputError(fmt::format(
-        "solver.duration_s = {:.6g}: {:.3g} periods of the model's fastest time scale ({:.3g} "
-        "s); at most {:.0e}",
-        t1, t1 / fastest, fastest, kMaxFastestPeriods));
-
-  ode::Vector y0 = ode::Vector::Zero(2 * p.size());
-  if (c.solver.initial == InitialCondition::kStatic) {
-    try {
-      y0 = model.static_state();
-    } catch (const std::runtime_error& e) {
-      throw InputError(std::string("solver.initial = \"static\": ") + e.what());
-    }
-  }
-  const int region = model.classify(t0, y0);
+  model_ = std::make_unique<CoupledModel>(coupled_parameters(c));
   ode::EngineOptions eo;
   eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
-  std::unique_ptr<ode::ExactEngine> engine;
   try {
-    engine = std::make_unique<ode::ExactEngine>(model.linear_system(), eo);
+    engine_ = std::make_unique<ode::ExactEngine>(model_->linear_system(), eo);
   } catch (const std::invalid_argument& e) {
     throw InputError(std::string("the coupled model's exact engine: ") + e.what());
   }
-  const ode::LinearSwitchedSystem& sys = engine->system();
-  CoupledObserver observer(model, sys, result, t0, t1, t1 * (1 - c.solver.final_fraction), region,
-                           options.progress);
-  const ode::FlowResult flow =
-      engine->flow(t0, y0, region, t1, ode::make_output_grid(t0, t1, interval), observer);
+}
+
+CoupledSolver::~CoupledSolver() = default;
+
+ode::Vector CoupledSolver::initial_state(InitialCondition initial) const {
+  if (initial == InitialCondition::kCenter)
+    return ode::Vector::Zero(2 * model_->parameters().size());
+  try {
+    return model_->static_state();
+  } catch (const std::runtime_error& e) {
+    throw InputError(std::string("solver.initial = \"static\": ") + e.what());
+  }
+}
+
+ode::FlowResult CoupledSolver::advance(double t0, const ode::Vector& y0, double t1) const {
+  ode::FlowObserver nothing;
+  return engine_->flow(t0, y0, model_->classify(t0, y0), t1, ode::OutputGrid{}, nothing);
+}
+
+CoupledRunResult CoupledSolver::read(double t0, const ode::Vector& y0, double t1,
+                                     const ode::OutputGrid& grid, double final_from,
+                                     const std::function<bool(double)>& progress,
+                                     ode::Vector* end_state) const {
+  CoupledRunResult result;
+  result.input = case_;
+  result.parameters = model_->parameters();
+  const CoupledParameters& p = result.parameters;
+  const int region = model_->classify(t0, y0);
+  CoupledObserver observer(*model_, engine_->system(), result, t0, t1, final_from, region,
+                           progress);
+  const ode::FlowResult flow = engine_->flow(t0, y0, region, t1, grid, observer);
   observer.finish();
+  if (end_state) *end_state = flow.state;
   result.termination = flow.termination;
   result.message = flow.message;
   result.cells = flow.cells;
@@ -246,6 +238,33 @@ CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
     result.termination = ode::Termination::kNoProgress;
     result.message = "non-finite readings (an overflow)";
   }
+  return result;
+}
+
+CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  const CoupledSolver solver(c);
+  const double t0 = 0, t1 = c.solver.duration_s;
+  const double fastest = fastest_period_s(solver.model());
+  const double interval =
+      c.solver.output_interval_s > 0
+          ? c.solver.output_interval_s
+          : std::max(t1 / kMaxAutomaticSamples,
+                     std::min(t1 / kAutomaticSamples, fastest / kSamplesPerFastestPeriod));
+  const double samples = t1 / interval + 1;
+  if (!(samples <= kMaxSamples))
+    throw InputError(fmt::format(
+        "solver.output_interval_s = {:.6g}: {:.3g} samples over solver.duration_s = {:.6g}; at "
+        "most {:.0e}",
+        interval, samples, t1, kMaxSamples));
+  if (!(t1 / fastest <= kMaxFastestPeriods))
+    throw InputError(fmt::format(
+        "solver.duration_s = {:.6g}: {:.3g} periods of the model's fastest time scale ({:.3g} "
+        "s); at most {:.0e}",
+        t1, t1 / fastest, fastest, kMaxFastestPeriods));
+  CoupledRunResult result = solver.read(t0, solver.initial_state(c.solver.initial), t1,
+                                        ode::make_output_grid(t0, t1, interval),
+                                        t1 * (1 - c.solver.final_fraction), options.progress);
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

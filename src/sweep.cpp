@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "geardyn/case_keys.hpp"
+#include "geardyn/coupled_run.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/parallel.hpp"
@@ -30,6 +31,13 @@ bool changes_stiffness(const std::string& key) {
 }
 
 std::string number_text(double x) { return fmt::format("{:.17g}", x); }
+
+// The state a point hands to the next one of its sequence: the one-degree model's or the
+// coupled model's.
+struct Carry {
+  std::optional<ode::State> state;
+  std::optional<ode::Vector> coupled;
+};
 
 struct PointJob {
   std::size_t slot;  // index into the result's points
@@ -59,40 +67,37 @@ class PointRunner {
     return section_period_s(model.parameters());
   }
   double period_at(double value, double value2) const {
-    return period_s(
-        build_model(case_at(value, value2), nullptr, stiffness_ ? &*stiffness_ : nullptr));
+    const Case c = case_at(value, value2);
+    if (c.model.form == ModelForm::kCoupled) return coupled_period_s(c);
+    return period_s(build_model(c, nullptr, stiffness_ ? &*stiffness_ : nullptr));
+  }
+
+  // The coupled model's section period: that of its excitations, the one-degree pair's with
+  // the same case (stiffness, torques, transmission error).
+  static double coupled_period_s(const Case& c) {
+    Case pair = c;
+    pair.model.form = ModelForm::kGearPair;
+    return period_s(build_model(pair));
   }
 
   // Runs one point from `carry` (the previous point's end state) or from the case's initial
   // condition, and leaves its end state in `carry`.
-  SweepPoint run(const PointJob& job, std::optional<ode::State>& carry) const {
+  SweepPoint run(const PointJob& job, Carry& carry) const {
     const Case c = case_at(job.value, job.value2);
+    if (c.model.form == ModelForm::kCoupled) return run_coupled_point(c, job, carry);
     const GearPairModel model = build_model(c, nullptr, stiffness_ ? &*stiffness_ : nullptr);
     const double period = period_s(model);
     // With Newmark, a whole number of steps per period: block ends fall on period ends.
     const Solver solver(model, c.solver, period);
 
     ode::State s = start_state(c, model);
-    if (carry) {
+    if (carry.state) {
       // A block ends after whole periods, where every excitation is back at phase 0.
-      s = *carry;
+      s = *carry.state;
       s.t = 0;
     }
-    // A numerical failure is the point's result: kept with its reason, the sequence goes on
-    // from the initial condition.
     auto fail = [&](const ode::IntegrationSummary& sum) {
-      SweepPoint pt;
-      pt.direction = job.direction;
-      pt.value = job.value;
-      pt.value2 = job.value2;
-      constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-      pt.mean_delta_bar = pt.rms_delta_bar = pt.pp_delta_bar = pt.min_delta_bar = kNaN;
-      pt.mean_force_bar = pt.rms_force_bar = pt.pp_force_bar = pt.max_force_bar = kNaN;
-      pt.separated_fraction = pt.impacts_per_period = kNaN;
-      pt.failure =
-          fmt::format("numerical failure ({}): {}", ode::to_string(sum.termination), sum.message);
-      carry.reset();
-      return pt;
+      return failed(job, carry, ode::to_string(sum.termination), sum.message);
     };
     // Settle period by period on the section, until the predicted distance to a periodic
     // response is below the tolerance or the periods run out.
@@ -128,11 +133,115 @@ class PointRunner {
     pt.settled = q_settled > 0;
     pt.period_multiple = q_settled;
     pt.steady_error = error;
-    carry = sum.end_state;
+    carry.state = sum.end_state;
     return pt;
   }
 
  private:
+  // A numerical failure is the point's result: kept with its reason, the sequence goes on
+  // from the initial condition.
+  static SweepPoint failed(const PointJob& job, Carry& carry, const char* termination,
+                           const std::string& message) {
+    SweepPoint pt;
+    pt.direction = job.direction;
+    pt.value = job.value;
+    pt.value2 = job.value2;
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    pt.mean_delta_bar = pt.rms_delta_bar = pt.pp_delta_bar = pt.min_delta_bar = kNaN;
+    pt.mean_force_bar = pt.rms_force_bar = pt.pp_force_bar = pt.max_force_bar = kNaN;
+    pt.separated_fraction = pt.impacts_per_period = kNaN;
+    pt.failure = fmt::format("numerical failure ({}): {}", termination, message);
+    carry = Carry{};
+    return pt;
+  }
+
+  // A point of the coupled model: settled on the section by its mesh deflection d - e and
+  // rate (in b and b w_n), measured by the coupled reading (coupled_run.hpp).
+  SweepPoint run_coupled_point(const Case& c, const PointJob& job, Carry& carry) const {
+    const CoupledSolver solver(c);
+    const CoupledParameters& p = solver.model().parameters();
+    const double period = coupled_period_s(c);
+    ode::Vector y = carry.coupled ? *carry.coupled
+                                  : solver.initial_state(o_.start_static ? InitialCondition::kStatic
+                                                                         : c.solver.initial);
+    const HarmonicSeries& e = p.transmission_error_m;
+    const auto mesh = [&](double t, const ode::Vector& x) {
+      const Eigen::Index n = p.size();
+      double rate = 0;  // e'(t)
+      for (const Harmonic& h : e.terms)
+        rate -= h.amplitude * h.angular_frequency_rad_s *
+                std::sin(h.angular_frequency_rad_s * t + h.phase_rad);
+      return ode::State{t, p.mesh_vector.dot(x.head(n)) - e(t), p.mesh_vector.dot(x.tail(n)) - rate,
+                        0.0, 0};
+    };
+    const double b = p.backlash_m;
+    const double w_n = std::sqrt(p.cos_base_helix * p.cos_base_helix * p.stiffness_n_per_m.offset /
+                                 p.equivalent_mass_kg);
+    SectionSeries section(b, w_n, c.solver.tolerance);
+    double t = 0;
+    section.add(mesh(t, y));
+    int k = 0;
+    SteadyVerdict verdict;
+    for (;; ++k) {
+      if (k >= o_.settle_periods) {
+        verdict = section.judge(o_.steady_tolerance);
+        if (verdict.settled()) break;
+      }
+      if (k >= o_.max_settle_periods) break;
+      const ode::FlowResult f = solver.advance(t, y, t + period);
+      if (!f.ok()) return failed(job, carry, ode::to_string(f.termination), f.message);
+      y = f.state;
+      t += period;
+      section.add(mesh(t, y));
+    }
+    const int q = std::max(verdict.period_multiple, 1);
+    const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
+    const double t1 = t + m * period;
+    ode::Vector end;
+    const CoupledRunResult r =
+        solver.read(t, y, t1, ode::OutputGrid{t, period / spp, static_cast<std::int64_t>(m) * spp},
+                    t1 - period, {}, &end);
+    if (!r.ok()) return failed(job, carry, ode::to_string(r.termination), r.message);
+    SweepPoint pt;
+    pt.direction = job.direction;
+    pt.value = job.value;
+    pt.value2 = job.value2;
+    const CoupledSamples& smp = r.samples;
+    const double count = static_cast<double>(smp.t_s.size());
+    double sd = 0, sd2 = 0, sf = 0, sf2 = 0;
+    for (std::size_t i = 0; i < smp.t_s.size(); ++i) {
+      sd += smp.deflection_bar[i];
+      sd2 += smp.deflection_bar[i] * smp.deflection_bar[i];
+      sf += smp.force_bar[i];
+      sf2 += smp.force_bar[i] * smp.force_bar[i];
+      if (i % static_cast<std::size_t>(spp) == 0) {
+        pt.strobe_delta_bar.push_back(smp.deflection_bar[i]);
+        pt.strobe_velocity_m_s.push_back(mesh(smp.t_s[i], smp.state[i]).v);
+        pt.strobe_force_bar.push_back(smp.force_bar[i]);
+      }
+    }
+    const double force_scale = b * p.stiffness_n_per_m.offset;
+    pt.mean_delta_bar = sd / count;
+    pt.rms_delta_bar = std::sqrt(sd2 / count);
+    pt.mean_force_bar = sf / count;
+    pt.rms_force_bar = std::sqrt(sf2 / count);
+    pt.pp_delta_bar = (r.max_deflection_m - r.min_deflection_m) / b;
+    pt.min_delta_bar = r.min_deflection_m / b;
+    pt.pp_force_bar = (r.max_force_n - r.min_force_n) / force_scale;
+    pt.max_force_bar = r.max_force_n / force_scale;
+    pt.dynamic_factor = r.dynamic_mesh_factor;
+    pt.separated_fraction = r.mesh.separated_fraction;
+    pt.impacts_per_period = static_cast<double>(r.mesh.impacts) / m;
+    pt.regime = r.mesh.regime;
+    pt.double_sided = r.mesh.double_sided;
+    pt.settle_periods = k;
+    pt.settled = verdict.settled();
+    pt.period_multiple = verdict.period_multiple;
+    pt.steady_error = verdict.error;
+    carry.coupled = end;
+    return pt;
+  }
+
   void set(Case& c, const std::string& key, double value) const {
     try {
       set_case_value(c, {key, number_text(value)});
@@ -354,7 +463,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
 
   const ParallelRun pool = parallel_for(sequences.size(), o.threads, total, o.progress,
                                         [&](std::size_t i, WorkTicker& ticker) {
-                                          std::optional<ode::State> carry;
+                                          Carry carry;
                                           for (const PointJob& job : sequences[i]) {
                                             if (ticker.stopped()) return;
                                             done_points[job.slot] = runner.run(job, carry);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -12,6 +13,7 @@
 #include "geardyn/coupled_model.hpp"
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/sweep.hpp"
 
 namespace geardyn {
 namespace {
@@ -261,6 +263,11 @@ double rigid_limit_difference(const Case& one_case, const RunResult& one, int do
   const CoupledRunResult r = run_coupled(c);
   EXPECT_TRUE(r.ok()) << r.message;
   EXPECT_EQ(r.mesh.impacts, one.reading.impacts) << dof << " " << ratio;
+  EXPECT_EQ(r.mesh.regime, one.reading.regime);
+  EXPECT_EQ(r.mesh.separations, one.reading.separations);
+  // The separated time sums the impact and separation times, each shifted by the bearings'
+  // compliance (about 1e-7 s here).
+  EXPECT_NEAR(r.mesh.separated_fraction, one.reading.separated_fraction, 1e-5);
   EXPECT_TRUE(r.mesh.last_separation_s && one.reading.last_separation_s);
   if (r.mesh.last_separation_s && one.reading.last_separation_s)
     EXPECT_NEAR(*r.mesh.last_separation_s, *one.reading.last_separation_s,
@@ -288,6 +295,52 @@ TEST(CoupledRun, RigidBearingsReproduceTheOneDegreeModel) {
     EXPECT_LT(stiff, 4e-6) << dof;
     EXPECT_LT(stiff, loose / 7) << dof << ": " << loose << " then " << stiff;
     EXPECT_GT(stiff, loose / 13) << dof << ": " << loose << " then " << stiff;
+  }
+}
+
+TEST(CoupledSweep, ItsResonancesAreTheMeshCriticalModes) {
+  // A speed sweep of the 3-DOF pair in permanent contact (torque 400 N m, no torque
+  // fluctuation, the stiffness harmonics excite): its mesh force peaks where the mesh frequency
+  // meets the modes that hold mesh energy, within the grid step (0.25 Hz of shaft speed), and
+  // the up and down sweeps agree (nothing is nonlinear in contact). Every point settles.
+  Case c = coupled(3);
+  c.load.torque_nm = 400;
+  c.load.fluctuation_ratio = 0;
+  SweepOptions o;
+  o.axis = {"speed.shaft_frequency_hz", 25, 80, 221, false};
+  o.direction = SweepDirection::kBoth;
+  // The down sweep starts at 80 Hz, where a mesh period (0.22 ms) is short against the
+  // slowest mode's decay (5.7 ms): it needs more periods than the default allows.
+  o.max_settle_periods = 5000;
+  const SweepResult r = sweep(c, o);
+  const ModeSet m = modes(CoupledModel(coupled_parameters(c)));
+  std::vector<const SweepPoint*> up;
+  for (const SweepPoint& pt : r.points) {
+    EXPECT_TRUE(pt.failure.empty()) << pt.failure;
+    EXPECT_TRUE(pt.settled) << pt.value;
+    EXPECT_EQ(pt.impacts_per_period, 0);
+    if (pt.direction == SweepDirection::kUp) up.push_back(&pt);
+  }
+  for (const SweepPoint& pt : r.points)
+    if (pt.direction == SweepDirection::kDown)
+      for (const SweepPoint* u : up)
+        if (u->value == pt.value) EXPECT_NEAR(u->rms_force_bar, pt.rms_force_bar, 1e-6);
+  // Local maxima of the rms mesh force.
+  std::vector<double> peaks;
+  for (std::size_t i = 1; i + 1 < up.size(); ++i)
+    if (up[i]->rms_force_bar > up[i - 1]->rms_force_bar &&
+        up[i]->rms_force_bar > up[i + 1]->rms_force_bar)
+      peaks.push_back(up[i]->value);
+  const double z1 = c.gear.teeth[0];
+  std::vector<double> expected;
+  for (const Mode& x : m.modes)
+    if (x.mesh_energy > 0.05 && x.frequency_hz / z1 > 25 && x.frequency_hz / z1 < 80)
+      expected.push_back(x.frequency_hz / z1);
+  ASSERT_EQ(expected.size(), 2U);  // the two torsion-translation modes
+  for (double f : expected) {
+    const auto near =
+        std::find_if(peaks.begin(), peaks.end(), [&](double p) { return std::abs(p - f) <= 0.25; });
+    EXPECT_NE(near, peaks.end()) << "no peak near " << f << " Hz";
   }
 }
 

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <iosfwd>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "geardyn/analysis.hpp"
 #include "geardyn/case.hpp"
 #include "geardyn/coupled_model.hpp"
+#include "geardyn/engine.hpp"
 #include "geardyn/integrator.hpp"
 
 namespace geardyn {
@@ -63,6 +65,30 @@ struct CoupledRunResult {
 struct CoupledRunOptions {
   // Called now and then with the fraction of the window done; false cancels.
   std::function<bool(double)> progress;
+};
+
+// The coupled model of a case with its exact engine, built once: for runs and sweep points.
+class CoupledSolver {
+ public:
+  // Throws InputError for a bad case or a method other than "exact".
+  explicit CoupledSolver(const Case& c);
+  ~CoupledSolver();
+  const CoupledModel& model() const { return *model_; }
+  // The state a run starts from: at rest in the middle of the backlash and the clearances, or
+  // the static contact state (InputError when there is none).
+  ode::Vector initial_state(InitialCondition initial) const;
+  // From (t0, y0) to t1 with nothing read.
+  ode::FlowResult advance(double t0, const ode::Vector& y0, double t1) const;
+  // From (t0, y0) to t1, sampled on `grid` and read (contact separated after final_from is
+  // "sustained"); the end state into *end_state when given. wall_time_s is left 0.
+  CoupledRunResult read(double t0, const ode::Vector& y0, double t1, const ode::OutputGrid& grid,
+                        double final_from, const std::function<bool(double)>& progress = {},
+                        ode::Vector* end_state = nullptr) const;
+
+ private:
+  Case case_;
+  std::unique_ptr<CoupledModel> model_;
+  std::unique_ptr<ode::ExactEngine> engine_;
 };
 
 // Runs the case's coupled model over [0, solver.duration_s] with the exact engine from
