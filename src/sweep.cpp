@@ -105,19 +105,19 @@ class PointRunner {
     const double b = p.backlash_m;
     SectionSeries section(b, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
     section.add(s);
-    int k = 0;
     SteadyVerdict verdict;
-    for (;; ++k) {
-      if (k >= o_.settle_periods) {
-        verdict = section.judge(o_.steady_tolerance);
-        if (verdict.settled()) break;
-      }
-      if (k >= o_.max_settle_periods) break;
+    std::optional<ode::IntegrationSummary> failure;
+    const int k = settle(section, verdict, [&] {
       const auto sum = solver.advance(s, s.t + period);
-      if (!sum.ok()) return fail(sum);
+      if (!sum.ok()) {
+        failure = sum;
+        return false;
+      }
       s = sum.end_state;
       section.add(s);
-    }
+      return true;
+    });
+    if (failure) return fail(*failure);
     const int q_settled = verdict.period_multiple;
     const double error = verdict.error;
     // Measure whole response periods: at least --measure-periods, a multiple of q.
@@ -138,6 +138,22 @@ class PointRunner {
   }
 
  private:
+  // Settles period by period on the section, until the predicted distance to a periodic
+  // response is below the tolerance or the periods run out: step() runs one period and adds
+  // its section state (false on a numerical failure, which ends the settling). The periods run.
+  template <class Step>
+  int settle(const SectionSeries& section, SteadyVerdict& verdict, Step&& step) const {
+    int k = 0;
+    for (;; ++k) {
+      if (k >= o_.settle_periods) {
+        verdict = section.judge(o_.steady_tolerance);
+        if (verdict.settled()) break;
+      }
+      if (k >= o_.max_settle_periods || !step()) break;
+    }
+    return k;
+  }
+
   // A numerical failure is the point's result: kept with its reason, the sequence goes on
   // from the initial condition.
   static SweepPoint failed(const PointJob& job, Carry& carry, const char* termination,
@@ -180,20 +196,20 @@ class PointRunner {
     SectionSeries section(b, w_n, c.solver.tolerance);
     double t = 0;
     section.add(mesh(t, y));
-    int k = 0;
     SteadyVerdict verdict;
-    for (;; ++k) {
-      if (k >= o_.settle_periods) {
-        verdict = section.judge(o_.steady_tolerance);
-        if (verdict.settled()) break;
+    std::optional<ode::FlowResult> failure;
+    const int k = settle(section, verdict, [&] {
+      ode::FlowResult f = solver.advance(t, y, t + period);
+      if (!f.ok()) {
+        failure = std::move(f);
+        return false;
       }
-      if (k >= o_.max_settle_periods) break;
-      const ode::FlowResult f = solver.advance(t, y, t + period);
-      if (!f.ok()) return failed(job, carry, ode::to_string(f.termination), f.message);
       y = f.state;
       t += period;
       section.add(mesh(t, y));
-    }
+      return true;
+    });
+    if (failure) return failed(job, carry, ode::to_string(failure->termination), failure->message);
     const int q = std::max(verdict.period_multiple, 1);
     const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
     const double t1 = t + m * period;
