@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstdlib>
 #include <numbers>
 
 #include "geardyn/coupled_model.hpp"
@@ -341,6 +342,61 @@ TEST(CoupledSweep, ItsResonancesAreTheMeshCriticalModes) {
     const auto near =
         std::find_if(peaks.begin(), peaks.end(), [&](double p) { return std::abs(p - f) <= 0.25; });
     EXPECT_NE(near, peaks.end()) << "no peak near " << f << " Hz";
+  }
+}
+
+TEST(CoupledModel, TheEnginesEquationsAreTheModelsInEveryRegion) {
+  // The assembled system (products k(t) e(t), e'(t), clearance offsets, damping forms) against
+  // M q'' = Q(t) - K_b q - C_b q' - V^T F_n written out directly, at random times and states,
+  // in every region, with varying stiffness, a transmission error and clearances.
+  for (const DampingForm damping : {DampingForm::kContact, DampingForm::kAlways}) {
+    Case c = coupled(12);
+    c.mesh.damping = damping;
+    c.mesh.transmission_error_um = {{1.0, 30.0}, {0.4, -60.0}};
+    c.bearings.radial_clearance_um = {15, 25};
+    const CoupledModel model(coupled_parameters(c));
+    const CoupledParameters& p = model.parameters();
+    const ode::LinearSwitchedSystem sys = model.linear_system();
+    const Eigen::Index n = p.size();
+    std::srand(7);
+    for (int r = 0; r < kCoupledRegions; ++r) {
+      const CoupledState s = coupled_state(r);
+      if (std::abs(s.mesh) == 2) continue;  // clipped: only with tension "clip"
+      for (int trial = 0; trial < 3; ++trial) {
+        const double t = 1e-4 * (trial + 1) + 3.7e-6 * r;
+        const ode::Vector y = ode::Vector::Random(2 * n) * 1e-5;
+        const ode::Vector q = y.head(n), v = y.tail(n);
+        const HarmonicSeries& e = p.transmission_error_m;
+        double de = 0;
+        for (const Harmonic& h : e.terms)
+          de -= h.amplitude * h.angular_frequency_rad_s *
+                std::sin(h.angular_frequency_rad_s * t + h.phase_rad);
+        const double d = p.mesh_vector.dot(q) - e(t), dv = p.mesh_vector.dot(v) - de;
+        const double k = p.stiffness_n_per_m(t), cm = p.mesh_damping_n_s_per_m;
+        const double b = p.backlash_m;
+        double fn = 0;
+        if (s.mesh == kDriveContact) fn = k * (d - b) + cm * dv;
+        if (s.mesh == kBackContact) fn = k * (d + b) + cm * dv;
+        if (s.mesh == kSeparated && damping == DampingForm::kAlways) fn = cm * dv;
+        ode::Vector force = -p.mesh_vector.transpose() * fn;
+        force[p.index(Coordinate::kTorsion)] += p.torsion_force_n(t);
+        for (Eigen::Index j = 0; j < n; ++j) {
+          double kb = p.bearing_stiffness[j], cb = p.bearing_damping[j], shift = 0;
+          for (int i = 0; i < 2; ++i)
+            if (j == p.line[i]) {
+              if (s.bearing[i] == 0) kb = cb = 0;
+              shift = s.bearing[i] * p.clearance_m[i];
+            }
+          force[j] -= kb * (q[j] - shift) + cb * v[j];
+        }
+        const ode::Vector expected = force.cwiseQuotient(p.mass);
+        const ode::Vector got = ode::derivative(sys, r, t, y);
+        EXPECT_LT((got.head(n) - v).cwiseAbs().maxCoeff(), 1e-20);
+        EXPECT_LT((got.tail(n) - expected).cwiseAbs().maxCoeff(),
+                  1e-9 * expected.cwiseAbs().maxCoeff())
+            << "region " << r << " damping " << static_cast<int>(damping);
+      }
+    }
   }
 }
 
