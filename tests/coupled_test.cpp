@@ -417,6 +417,33 @@ TEST(CoupledModel, AClearanceShiftsTheStaticStateByItself) {
   EXPECT_EQ(s.bearing[1], 1);
 }
 
+TEST(CoupledRun, ClearanceBearingsAreReadAsTheMeshIs) {
+  // Equal gears on equal bearings with a 20 um clearance, dof 3: the mesh pushes gear 1 to the
+  // -c side and gear 2 to the +c side, so their bearings read the same, mirrored (the -c side
+  // counts as the "back side"); contacts and separations alternate.
+  Case c = coupled(3);
+  c.bearings.radial_clearance_um = {20, 20};
+  c.solver.duration_s = 0.02;
+  const CoupledRunResult r = run_coupled(c);
+  ASSERT_TRUE(r.ok()) << r.message;
+  const ContactReading &b1 = r.bearing[0], &b2 = r.bearing[1];
+  ASSERT_TRUE(b1.present && b2.present);
+  EXPECT_GT(b1.impacts, 5);
+  EXPECT_EQ(b1.impacts, b2.impacts);
+  EXPECT_EQ(b1.backside_impacts, b1.impacts);
+  EXPECT_EQ(b2.backside_impacts, 0);
+  EXPECT_NEAR(b1.separated_fraction, b2.separated_fraction, 1e-9);
+  EXPECT_GT(b1.separated_fraction, 0.0);
+  EXPECT_LT(b1.separated_fraction, 1.0);
+  EXPECT_LE(std::abs(b1.impacts - b1.separations), 1);
+  // The samples agree: inside the clearance the bearing force is 0.
+  const CoupledParameters& p = r.parameters;
+  for (std::size_t k = 0; k < r.samples.t_s.size(); ++k) {
+    const double y1 = r.samples.state[k][p.line[0]];
+    if (std::abs(y1) < 0.99 * p.clearance_m[0]) EXPECT_EQ(r.samples.bearing_force_n[k][0], 0.0);
+  }
+}
+
 TEST(CoupledModel, OtherCommandsAndMethodsRefuseIt) {
   Case c = coupled(12);
   EXPECT_THROW((void)build_model(c), InputError);
