@@ -84,8 +84,9 @@ TEST(CaseKeys, APerGearKeyTakesOneNumberForBoth) {
   EXPECT_EQ(c.bearings.radial_stiffness_n_per_m[0], 2e9);
   EXPECT_EQ(c.bearings.radial_stiffness_n_per_m[1], 2e9);
   EXPECT_EQ(c.gear.profile_shift[1], 0.3);
-  const std::string bad =
-      error_of([] { (void)load_case(std::nullopt, {{"gear.profile_shift", "[1, 2, 3]"}}); });
+  const std::string bad = error_of([] {
+    (void)load_case(std::nullopt, {{"gear.profile_shift", "[1, 2, 3]"}});
+  });
   EXPECT_NE(bad.find("a number for both gears, or an array of two"), std::string::npos) << bad;
 }
 
