@@ -104,6 +104,11 @@ void RunReader::reserve_samples(std::size_t n) {
   samples_.contact.reserve(n);
 }
 
+Regime regime_of(bool separated_in_final, double separated_time_s) {
+  if (separated_in_final) return Regime::kSustained;
+  return separated_time_s > 0 ? Regime::kTransient : Regime::kNone;
+}
+
 RunReading RunReader::reading() const {
   RunReading r;
   r.impacts = impacts_;
@@ -113,13 +118,7 @@ RunReading RunReader::reading() const {
   r.double_sided = back_contact_;
   r.separated_fraction = separated_time_ / (t1_ - t0_);
   r.max_impact_velocity_m_s = max_impact_velocity_;
-  if (separated_in_final_) {
-    r.regime = Regime::kSustained;
-  } else if (separated_time_ > 0) {
-    r.regime = Regime::kTransient;
-  } else {
-    r.regime = Regime::kNone;
-  }
+  r.regime = regime_of(separated_in_final_, separated_time_);
   r.max_force_bar = max_force_ / force_scale_;
   r.min_force_bar = min_force_ / force_scale_;
   r.max_delta_bar = max_delta_ / b_;

@@ -51,9 +51,7 @@ class ContactTracker {
     r.last_separation_s = last_separation_;
     r.double_sided = back_;
     r.separated_fraction = free_time_ / (t1_ - t0_);
-    r.regime = free_in_final_   ? Regime::kSustained
-               : free_time_ > 0 ? Regime::kTransient
-                                : Regime::kNone;
+    r.regime = regime_of(free_in_final_, free_time_);
     return r;
   }
 

@@ -26,6 +26,10 @@ enum class Regime {
   kSustained,  // separated within the final part of the window
 };
 const char* to_string(Regime r);
+// The regime of a contact history: sustained when a separation happened within the final part
+// of the window, transient when the contact was ever left, none otherwise (the one rule of the
+// one-degree reading and of every nonlinearity of the coupled model).
+Regime regime_of(bool separated_in_final, double separated_time_s);
 
 enum class EventKind {
   kImpact,          // entry into drive-side contact from separation
