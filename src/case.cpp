@@ -151,6 +151,10 @@ MaybeViolation check_relations(const Case& c) {
 
   if (c.model.dof != 3 && c.model.dof != 6 && c.model.dof != 12)
     return bad("model.dof", c.model.dof, "3, 6 or 12");
+  for (int i = 0; i < 2; ++i)
+    if (c.shafts.end_inertia_kg_m2[i] > 0 && c.model.form != ModelForm::kCoupled)
+      return bad(fmt::format("shafts.end_inertia_kg_m2[{}]", i), c.shafts.end_inertia_kg_m2[i],
+                 "0 unless model.form = \"coupled\" (the one-degree forms have no shafts)");
 
   const SolverData& s = c.solver;
   if (!(s.time_step_s < s.duration_s))

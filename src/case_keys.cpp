@@ -251,6 +251,17 @@ std::vector<CaseKey> make_keys() {
        "Singh 1991)",
        sweep},
 
+      {"shafts.end_inertia_kg_m2", &field<&Case::shafts, &ShaftData::end_inertia_kg_m2>, "kg m^2",
+       at_least(0), "moment of inertia", "(0: no shaft)",
+       "[motor, load]: the inertia at the far end of a torsional shaft from each gear; T1 acts "
+       "on the motor, T2 on the load (coupled model only)",
+       sweep},
+      {"shafts.stiffness_n_m_per_rad", &field<&Case::shafts, &ShaftData::stiffness_n_m_per_rad>,
+       "N m/rad", above(0), "stiffness", "", "torsional stiffness of each shaft", sweep},
+      {"shafts.damping_ratio", &field<&Case::shafts, &ShaftData::damping_ratio>, "",
+       closed_open(0, 1), "damping ratio", "",
+       "of each shaft against the reduced inertia of the two bodies it joins", sweep},
+
       {"solver.method",
        choice<kSolver, &S::method>({option("exact", Method::kExact),
                                     option("newmark", Method::kNewmark),

@@ -20,9 +20,10 @@ namespace {
 constexpr double kMeshCritical = 0.05;
 constexpr int kMeshOrders = 3;
 
-// coupled_plot.csv: t_ms, (d - e)/b, F_bar, the line-of-action bearing forces, the axial ones
-// and y1, y2, z1, z2 in um. Up to kMaxPlotPoints samples as they are; beyond, each bucket of
-// samples gives the minima and the maxima of every column (the drawn envelope is exact).
+// coupled_plot.csv: t_ms, (d - e)/b, F_bar, the line-of-action bearing forces, the axial ones,
+// y1, y2, z1, z2 in um and the shaft torques. Up to kMaxPlotPoints samples as they are; beyond,
+// each bucket of samples gives the minima and the maxima of every column (the drawn envelope is
+// exact).
 std::string coupled_plot_csv(const CoupledRunResult& r) {
   const CoupledSamples& s = r.samples;
   const CoupledParameters& p = r.parameters;
@@ -40,11 +41,13 @@ std::string coupled_plot_csv(const CoupledRunResult& r) {
                                coordinate(k, Coordinate::kLine1),
                                coordinate(k, Coordinate::kLine2),
                                coordinate(k, Coordinate::kAxial1),
-                               coordinate(k, Coordinate::kAxial2)};
+                               coordinate(k, Coordinate::kAxial2),
+                               s.shaft_torque_nm[k][0],
+                               s.shaft_torque_nm[k][1]};
   };
   std::string out =
       "t_ms,deflection_bar,force_bar,bearing1_n,bearing2_n,axial1_n,axial2_n,y1_um,y2_um,z1_um,"
-      "z2_um\n";
+      "z2_um,shaft1_nm,shaft2_nm\n";
   const auto row = [&](double t, const std::vector<double>& v) {
     fmt::format_to(std::back_inserter(out), "{:.10g}", t * 1e3);
     for (double x : v) fmt::format_to(std::back_inserter(out), ",{:.8g}", x);
@@ -79,7 +82,8 @@ void write_coupled_run_figures(const fs::path& dir, const CoupledRunResult& r) {
   const CoupledParameters& p = r.parameters;
   write_files_atomically(dir, {{"coupled_plot.csv", coupled_plot_csv(r)}});
   const bool axial = p.index(Coordinate::kAxial1) >= 0 && p.sin_base_helix > 0;
-  const int rows = axial ? 4 : 3;
+  const bool shafts = p.shaft[0] >= 0 || p.shaft[1] >= 0;
+  const int rows = 3 + (axial ? 1 : 0) + (shafts ? 1 : 0);
   std::string s =
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set key top right font ',9' opaque\n";
@@ -101,7 +105,23 @@ void write_coupled_run_figures(const fs::path& dir, const CoupledRunResult& r) {
     s += "set ylabel 'axial bearing force (N)'\n"
          "plot 'coupled_plot.csv' using 1:6 skip 1 with lines lc rgb '#1f4e9c' title 'gear 1', "
          "'' using 1:7 skip 1 with lines lc rgb '#c0392b' title 'gear 2'\n";
-  // (d) The bodies' translations.
+  // The shaft torques, of the shafts that are there.
+  if (shafts) {
+    s += "set ylabel 'shaft torque (N m)'\nplot ";
+    const char* names[] = {"drive shaft (motor)", "load shaft"};
+    const char* colours[] = {"#1f4e9c", "#c0392b"};
+    bool first = true;
+    for (int i = 0; i < 2; ++i) {
+      if (p.shaft[i] < 0) continue;
+      fmt::format_to(std::back_inserter(s),
+                     "{}'coupled_plot.csv' using 1:{} skip 1 with lines lc "
+                     "rgb '{}' title '{}'",
+                     first ? "" : ", ", 12 + i, colours[i], names[i]);
+      first = false;
+    }
+    s += "\n";
+  }
+  // The bodies' translations.
   s += "set xlabel 't (ms)'\nset ylabel 'displacement (μm)'\nplot 'coupled_plot.csv' using 1:8 "
        "skip 1 with lines lc rgb '#1f4e9c' title 'y_1', '' using 1:9 skip 1 with lines lc rgb "
        "'#c0392b' title 'y_2'";

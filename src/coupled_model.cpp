@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
@@ -146,6 +147,10 @@ const char* to_string(Coordinate c) {
       return "tx1_rad";
     case Coordinate::kRock2:
       return "tx2_rad";
+    case Coordinate::kShaft1:
+      return "phi1_rad";
+    case Coordinate::kShaft2:
+      return "phi2_rad";
   }
   return "?";
 }
@@ -156,30 +161,54 @@ int CoupledParameters::index(Coordinate c) const {
   return -1;
 }
 
+Eigen::VectorXd CoupledParameters::force(double t_s) const {
+  return drive_gain * drive_torque_nm(t_s) + steady_force;
+}
+
+Eigen::VectorXd CoupledParameters::mean_force() const {
+  return drive_gain * drive_torque_nm.offset + steady_force;
+}
+
 double CoupledParameters::static_mesh_force_n() const {
-  return torsion_force_n.offset / cos_base_helix;
+  return mean_force()[index(Coordinate::kTorsion)] / cos_base_helix;
+}
+
+double CoupledParameters::static_shaft_torque_nm(int i) const {
+  return shaft[i] < 0 ? 0.0 : mean_force()[shaft[i]];
+}
+
+Case gear_pair_of(const Case& c) {
+  Case pair = c;
+  pair.model.form = ModelForm::kGearPair;
+  pair.shafts.end_inertia_kg_m2 = {0.0, 0.0};
+  return pair;
 }
 
 CoupledParameters coupled_parameters(const Case& c) {
   if (c.model.form != ModelForm::kCoupled)
     throw InputError("coupled_parameters: the case's model.form is not \"coupled\"");
   // The one-degree model's constants (m_eq, c, F(t), k(t)) from the same case, as a gear pair.
-  Case pair = c;
-  pair.model.form = ModelForm::kGearPair;
+  const Case pair = gear_pair_of(c);
   Geometry g;
   const GearPairModel one = build_model(pair, &g);
   GearPairParameters gp = one.parameters();
 
   CoupledParameters p;
   p.dof = c.model.dof;
-  const Coordinate all[] = {Coordinate::kTorsion, Coordinate::kLine1,  Coordinate::kLine2,
-                            Coordinate::kAxial1,  Coordinate::kAxial2, Coordinate::kTilt1,
-                            Coordinate::kTilt2,   Coordinate::kCross1, Coordinate::kCross2,
-                            Coordinate::kRock1,   Coordinate::kRock2};
+  const ShaftData& shafts = c.shafts;
+  const std::array<bool, 2> has_shaft = {shafts.end_inertia_kg_m2[0] > 0,
+                                         shafts.end_inertia_kg_m2[1] > 0};
+  p.coordinates.push_back(Coordinate::kTorsion);
+  if (has_shaft[0]) p.coordinates.push_back(Coordinate::kShaft1);
+  if (has_shaft[1]) p.coordinates.push_back(Coordinate::kShaft2);
+  const Coordinate all[] = {Coordinate::kLine1,  Coordinate::kLine2,  Coordinate::kAxial1,
+                            Coordinate::kAxial2, Coordinate::kTilt1,  Coordinate::kTilt2,
+                            Coordinate::kCross1, Coordinate::kCross2, Coordinate::kRock1,
+                            Coordinate::kRock2};
   for (Coordinate x : all)
     if (kept(p.dof, x)) p.coordinates.push_back(x);
   const Eigen::Index n = p.size();
-  p.mass = Vector::Zero(n);
+  Vector diagonal = Vector::Zero(n);  // of M
   p.bearing_stiffness = Vector::Zero(n);
   p.bearing_damping = Vector::Zero(n);
   p.mesh_vector = RowVector::Zero(n);
@@ -195,12 +224,6 @@ CoupledParameters coupled_parameters(const Case& c) {
   p.mesh_damping_n_s_per_m = gp.damping_n_s_per_m;
   p.damping = gp.damping;
   p.tension = gp.tension;
-  // The force on u: the one-degree right side (without its transmission error forcing, which
-  // is the one-degree model's own way of carrying e) over cos(beta_b).
-  GearPairParameters loads = gear_pair_parameters(pair, g, gp.stiffness_n_per_m);
-  p.torsion_force_n = loads.force_n;
-  p.torsion_force_n.offset /= cb;
-  for (Harmonic& h : p.torsion_force_n.terms) h.amplitude /= cb;
 
   // The bodies: solid blanks of the reference diameter less the bore (MODEL.md section 1's
   // blank); the tilt inertia of such a disc about a diameter.
@@ -216,7 +239,7 @@ CoupledParameters coupled_parameters(const Case& c) {
     const auto set = [&](Coordinate x, double m, double k, double v) {
       const int j = p.index(x);
       if (j < 0) return;
-      p.mass[j] = m;
+      diagonal[j] = m;
       p.bearing_stiffness[j] = k;
       p.bearing_damping[j] = 2 * zeta * std::sqrt(m * k);
       p.mesh_vector[j] = v;
@@ -235,9 +258,53 @@ CoupledParameters coupled_parameters(const Case& c) {
     p.clearance_m[i] = b.radial_clearance_um[i] * kUmToM;
   }
   p.line = {p.index(Coordinate::kLine1), p.index(Coordinate::kLine2)};
+  p.shaft = {p.index(Coordinate::kShaft1), p.index(Coordinate::kShaft2)};
   const int u = p.index(Coordinate::kTorsion);
-  p.mass[u] = gp.equivalent_mass_kg;
   p.mesh_vector[u] = cb;
+  p.mass = diagonal.asDiagonal();
+
+  // The torsional block: bodies gear 1, gear 2, then the motor and the load when present;
+  // r = S theta over the first t coordinates (u, then the twists).
+  const Eigen::Index t = 1 + (has_shaft[0] ? 1 : 0) + (has_shaft[1] ? 1 : 0);
+  std::vector<double> inertia = {g.inertia_kg_m2[0], g.inertia_kg_m2[1]};
+  std::array<int, 2> end = {0, 1};  // the body each torque acts on: T1, T2
+  for (int i = 0; i < 2; ++i)
+    if (has_shaft[i]) {
+      end[i] = static_cast<int>(inertia.size());
+      inertia.push_back(shafts.end_inertia_kg_m2[i]);
+    }
+  const Eigen::Index bodies = static_cast<Eigen::Index>(inertia.size());
+  Matrix s = Matrix::Zero(t, bodies);
+  s(u, 0) = g.base_radius_m[0];
+  s(u, 1) = g.base_radius_m[1];
+  for (int i = 0; i < 2; ++i)
+    if (has_shaft[i]) {
+      s(p.shaft[i], end[i]) = 1;
+      s(p.shaft[i], i) = -1;
+    }
+  const Vector inverse_inertia = Eigen::Map<const Vector>(inertia.data(), bodies).cwiseInverse();
+  const Matrix mobility = s * inverse_inertia.asDiagonal() * s.transpose();  // S J^-1 S^T
+  const Matrix block = mobility.inverse();
+  p.mass.topLeftCorner(t, t) = block;
+  // Q = M S J^-1 f: T1 on its body (with the matched load's R_b2 / R_b1 share on T2's), a
+  // given steady T2 on its own.
+  const Matrix gain = block * s * inverse_inertia.asDiagonal();  // per N m on each body
+  const std::optional<double>& t2 = c.load.load_torque_nm;
+  p.drive_torque_nm = drive_torque_nm(c);
+  p.drive_gain = Vector::Zero(n);
+  p.steady_force = Vector::Zero(n);
+  p.drive_gain.head(t) = gain.col(end[0]);
+  if (t2)
+    p.steady_force.head(t) = gain.col(end[1]) * *t2;
+  else
+    p.drive_gain.head(t) += gain.col(end[1]) * g.base_radius_m[1] / g.base_radius_m[0];
+  // The shafts: springs on their twists, damped against the reduced inertia of their ends.
+  for (int i = 0; i < 2; ++i) {
+    if (!has_shaft[i]) continue;
+    const double k = shafts.stiffness_n_m_per_rad[i], a = inertia[i], e = inertia[end[i]];
+    p.bearing_stiffness[p.shaft[i]] = k;
+    p.bearing_damping[p.shaft[i]] = 2 * shafts.damping_ratio * std::sqrt(k * a * e / (a + e));
+  }
   return p;
 }
 
@@ -263,19 +330,19 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
   const Series e = Series::of(p_.transmission_error_m, table);
   const Series de = e.derivative(table);
   const Series ke = k.times(e, table);
-  const Series q_torsion = Series::of(p_.torsion_force_n, table);
+  const Series torque = Series::of(p_.drive_torque_nm, table);
   double lowest = 0;
   for (const auto& [f, c] : k.terms)
     if (lowest == 0 || table[f] < lowest) lowest = table[f];
   sys.coefficient_period_s = lowest > 0 ? 2 * kPi / lowest : 0.0;
   const std::size_t nf = table.size();
 
-  const Vector inv_mass = p_.mass.cwiseInverse();
+  const Matrix inv_mass = p_.mass.inverse();  // exact zeros off the torsional block
+  const Vector drive = inv_mass * p_.drive_gain, steady = inv_mass * p_.steady_force;
   const RowVector& v = p_.mesh_vector;
   const Matrix vv = v.transpose() * v;
   const double c = p_.mesh_damping_n_s_per_m, b = p_.backlash_m;
   const bool clip = p_.tension == TensionRule::kClip && p_.damping != DampingForm::kAlways;
-  const int u = p_.index(Coordinate::kTorsion);
 
   // Matrices and guard rows vary only with the stiffness (their terms stay empty otherwise);
   // forcing and offsets may vary at any frequency of the table.
@@ -357,6 +424,14 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
     g.row.constant(n + j) = p_.bearing_damping[j];
     return g;
   };
+  const auto shaft_torque = [&](int i) {
+    ode::LinearGuard g = functional();
+    const int j = p_.shaft[i];
+    if (j < 0) return g;
+    g.row.constant(j) = p_.bearing_stiffness[j];
+    g.row.constant(n + j) = p_.bearing_damping[j];
+    return g;
+  };
   const auto to = [](CoupledState s) { return coupled_region(s); };
 
   sys.regions.resize(kCoupledRegions);
@@ -378,17 +453,17 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
         force[j] += p_.bearing_stiffness[j] * s.bearing[i] * p_.clearance_m[i];
       }
     }
-    region.a.constant.bottomLeftCorner(n, n) -= inv_mass.asDiagonal() * Matrix(kb.asDiagonal());
-    region.a.constant.bottomRightCorner(n, n) -= inv_mass.asDiagonal() * Matrix(cbv.asDiagonal());
-    // The torques on u.
-    q_torsion.place(region.u, [&](Vector& x, double y) { x[n + u] += inv_mass[u] * y; });
-    for (int j = 0; j < n; ++j) region.u.constant[n + j] += inv_mass[j] * force[j];
+    region.a.constant.bottomLeftCorner(n, n) -= inv_mass * kb.asDiagonal();
+    region.a.constant.bottomRightCorner(n, n) -= inv_mass * cbv.asDiagonal();
+    // The torques.
+    torque.place(region.u, [&](Vector& x, double y) { x.tail(n) += y * drive; });
+    region.u.constant.tail(n) += steady + inv_mass * force;
     // The mesh: -V^T F_n with F_n = kappa (V q - e - edge) + gamma (V q' - e').
-    const bool drive = s.mesh == kDriveContact, back = s.mesh == kBackContact;
-    const Matrix minv_vv = inv_mass.asDiagonal() * vv;
-    const Vector minv_v = inv_mass.asDiagonal() * v.transpose();
-    if (drive || back) {
-      const double edge = drive ? b : -b;
+    const bool drive_side = s.mesh == kDriveContact, back = s.mesh == kBackContact;
+    const Matrix minv_vv = inv_mass * vv;
+    const Vector minv_v = inv_mass * v.transpose();
+    if (drive_side || back) {
+      const double edge = drive_side ? b : -b;
       k.place(region.a, [&](Matrix& a, double x) { a.bottomLeftCorner(n, n) -= x * minv_vv; });
       region.a.constant.bottomRightCorner(n, n) -= c * minv_vv;
       ke.plus(k.scaled(edge)).plus(de.scaled(c)).place(region.u, [&](Vector& x, double y) {
@@ -469,8 +544,8 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
 
     // Observables.
     region.observables.push_back(deflection(1, 0));
-    if (drive || back) {
-      region.observables.push_back(contact_force(1, drive ? b : -b));
+    if (drive_side || back) {
+      region.observables.push_back(contact_force(1, drive_side ? b : -b));
     } else if (s.mesh == kSeparated && p_.damping == DampingForm::kAlways) {
       region.observables.push_back(damper_force(1));
     } else {
@@ -478,6 +553,7 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
     }
     for (int i = 0; i < 2; ++i) region.observables.push_back(bearing_force(i, s.bearing[i]));
     for (int i = 0; i < 2; ++i) region.observables.push_back(axial_force(i));
+    for (int i = 0; i < 2; ++i) region.observables.push_back(shaft_torque(i));
   }
   return sys;
 }
@@ -513,8 +589,7 @@ Eigen::VectorXd CoupledModel::static_state() const {
   // each clearance bearing on the side the mesh force pushes its gear to.
   const Eigen::Index n = p_.size();
   const double km = p_.stiffness_n_per_m.offset, b = p_.backlash_m;
-  Vector force = Vector::Zero(n);
-  force[p_.index(Coordinate::kTorsion)] = p_.torsion_force_n.offset;
+  Vector force = p_.mean_force();
   force += p_.mesh_vector.transpose() * km * (p_.transmission_error_m.offset + b);
   Matrix k = contact_stiffness();
   for (int i = 0; i < 2; ++i) {
@@ -544,7 +619,7 @@ ModeSet modes(const CoupledModel& model) {
   const CoupledParameters& p = model.parameters();
   const Eigen::Index n = p.size();
   const Matrix k = model.contact_stiffness(), c = model.contact_damping();
-  const Matrix m = p.mass.asDiagonal();
+  const Matrix& m = p.mass;
   ModeSet out;
   out.coordinates = p.coordinates;
   Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> solver(k, m);
@@ -574,17 +649,22 @@ ModeSet modes(const CoupledModel& model) {
     mode.tilt_energy = {share(Coordinate::kTilt1) + share(Coordinate::kRock1),
                         share(Coordinate::kTilt2) + share(Coordinate::kRock2)};
     mode.cross_energy = {share(Coordinate::kCross1), share(Coordinate::kCross2)};
+    mode.shaft_energy = {share(Coordinate::kShaft1), share(Coordinate::kShaft2)};
     out.modes.push_back(std::move(mode));
   }
   // The damped eigenvalues of the first-order system, balanced: in mass-scaled coordinates
-  // M^1/2 q and velocities over the highest undamped w (the same eigenvalues; the blocks then
-  // have norms of one order instead of 1 and w^2).
+  // L^T q (M = L L^T) and velocities over the highest undamped w (the same eigenvalues; the
+  // blocks then have norms of one order instead of 1 and w^2).
   const double w_top = std::sqrt(std::max(solver.eigenvalues().maxCoeff(), 1e-300));
   Matrix a = Matrix::Zero(2 * n, 2 * n);
   a.topRightCorner(n, n) = w_top * Matrix::Identity(n, n);
-  const Vector root = p.mass.cwiseSqrt().cwiseInverse();
-  a.bottomLeftCorner(n, n) = -(root.asDiagonal() * k * root.asDiagonal()) / w_top;
-  a.bottomRightCorner(n, n) = -(root.asDiagonal() * c * root.asDiagonal());
+  const Eigen::LLT<Matrix> cholesky(m);
+  const auto scaled = [&](const Matrix& x) {  // L^-1 x L^-T
+    const Matrix left = cholesky.matrixL().solve(x);
+    return Matrix(cholesky.matrixL().solve(left.transpose()).transpose());
+  };
+  a.bottomLeftCorner(n, n) = -scaled(k) / w_top;
+  a.bottomRightCorner(n, n) = -scaled(c);
   Eigen::EigenSolver<Matrix> damped(a, false);
   for (Eigen::Index i = 0; i < damped.eigenvalues().size(); ++i) {
     const Complex lambda = damped.eigenvalues()[i];

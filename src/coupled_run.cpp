@@ -106,6 +106,7 @@ class CoupledObserver : public ode::FlowObserver {
     for (int i = 0; i < 2; ++i) {
       absolute(cell, CoupledModel::kObservableBearing + i, out_.max_bearing_force_n[i]);
       absolute(cell, CoupledModel::kObservableAxial + i, out_.max_axial_force_n[i]);
+      absolute(cell, CoupledModel::kObservableShaft + i, out_.max_shaft_torque_nm[i]);
     }
   }
 
@@ -131,6 +132,8 @@ class CoupledObserver : public ode::FlowObserver {
         {value(CoupledModel::kObservableBearing), value(CoupledModel::kObservableBearing + 1)});
     s.axial_force_n.push_back(
         {value(CoupledModel::kObservableAxial), value(CoupledModel::kObservableAxial + 1)});
+    s.shaft_torque_nm.push_back(
+        {value(CoupledModel::kObservableShaft), value(CoupledModel::kObservableShaft + 1)});
   }
 
   bool on_progress(double t) override { return !progress_ || progress_((t - t0_) / (t1_ - t0_)); }
@@ -166,7 +169,7 @@ double fastest_period_s(const CoupledModel& m) {
   for (const Mode& x : modes(m).modes) w = std::max(w, 2 * std::numbers::pi * x.frequency_hz);
   const CoupledParameters& p = m.parameters();
   w = std::max({w, p.stiffness_n_per_m.max_angular_frequency_rad_s(),
-                p.torsion_force_n.max_angular_frequency_rad_s(),
+                p.drive_torque_nm.max_angular_frequency_rad_s(),
                 p.transmission_error_m.max_angular_frequency_rad_s()});
   return 2 * std::numbers::pi / w;
 }
@@ -230,6 +233,9 @@ CoupledRunResult CoupledSolver::read(double t0, const ode::Vector& y0, double t1
     result.bearing_factor[i] = result.max_bearing_force_n[i] / (p.cos_base_helix * fs);
     result.axial_factor[i] = p.sin_base_helix > 0
                                  ? result.max_axial_force_n[i] / (p.sin_base_helix * fs)
+                                 : std::numeric_limits<double>::quiet_NaN();
+    result.shaft_factor[i] = p.shaft[i] >= 0
+                                 ? result.max_shaft_torque_nm[i] / p.static_shaft_torque_nm(i)
                                  : std::numeric_limits<double>::quiet_NaN();
   }
   if (result.ok() && !(std::isfinite(result.max_force_n) && std::isfinite(result.min_force_n))) {
@@ -317,6 +323,16 @@ std::string coupled_summary_json(const CoupledRunResult& r, int indent) {
     bearings.push_back(b);
   }
   j["bearings"] = bearings;
+  nlohmann::json shafts = nlohmann::json::array();
+  for (int i = 0; i < 2; ++i)
+    if (p.shaft[i] >= 0)
+      shafts.push_back({{"shaft", i + 1},
+                        {"end", i == 0 ? "motor" : "load"},
+                        {"end_inertia_kg_m2", r.input.shafts.end_inertia_kg_m2[i]},
+                        {"static_torque_nm", p.static_shaft_torque_nm(i)},
+                        {"max_torque_nm", r.max_shaft_torque_nm[i]},
+                        {"torque_factor", finite_or_null(r.shaft_factor[i])}});
+  j["shafts"] = shafts;
   j["cells"] = r.cells;
   j["events"] = r.events;
   j["duration_s"] = r.input.solver.duration_s;
@@ -334,8 +350,10 @@ void write_coupled_timeseries_csv(std::ostream& out, const CoupledRunResult& r) 
   }
   header +=
       ",deflection_bar,force_bar,mesh_contact,bearing1_force_n,bearing2_force_n,axial1_force_n,"
-      "axial2_force_n\n";
-  out << header;
+      "axial2_force_n";
+  for (int i = 0; i < 2; ++i)
+    if (p.shaft[i] >= 0) header += fmt::format(",shaft{}_torque_nm", i + 1);
+  out << header << '\n';
   const CoupledSamples& s = r.samples;
   fmt::memory_buffer row;
   for (std::size_t k = 0; k < s.t_s.size(); ++k) {
@@ -343,9 +361,13 @@ void write_coupled_timeseries_csv(std::ostream& out, const CoupledRunResult& r) 
     fmt::format_to(std::back_inserter(row), "{:.10g}", s.t_s[k]);
     for (Eigen::Index i = 0; i < s.state[k].size(); ++i)
       fmt::format_to(std::back_inserter(row), ",{:.10g}", s.state[k][i]);
-    fmt::format_to(std::back_inserter(row), ",{:.10g},{:.10g},{},{:.10g},{:.10g},{:.10g},{:.10g}\n",
+    fmt::format_to(std::back_inserter(row), ",{:.10g},{:.10g},{},{:.10g},{:.10g},{:.10g},{:.10g}",
                    s.deflection_bar[k], s.force_bar[k], s.mesh_contact[k], s.bearing_force_n[k][0],
                    s.bearing_force_n[k][1], s.axial_force_n[k][0], s.axial_force_n[k][1]);
+    for (int i = 0; i < 2; ++i)
+      if (p.shaft[i] >= 0)
+        fmt::format_to(std::back_inserter(row), ",{:.10g}", s.shaft_torque_nm[k][i]);
+    row.push_back('\n');
     out.write(row.data(), static_cast<std::streamsize>(row.size()));
   }
 }
@@ -366,7 +388,8 @@ std::string modes_json(const ModeSet& m, int indent) {
                       {"line_bearings", {x.line_energy[0], x.line_energy[1]}},
                       {"axial_bearings", {x.axial_energy[0], x.axial_energy[1]}},
                       {"tilt_bearings", {x.tilt_energy[0], x.tilt_energy[1]}},
-                      {"cross_bearings", {x.cross_energy[0], x.cross_energy[1]}}}}});
+                      {"cross_bearings", {x.cross_energy[0], x.cross_energy[1]}},
+                      {"shafts", {x.shaft_energy[0], x.shaft_energy[1]}}}}});
   }
   j["modes"] = list;
   nlohmann::json damped = nlohmann::json::array();
@@ -376,18 +399,19 @@ std::string modes_json(const ModeSet& m, int indent) {
 }
 
 std::string modes_table(const ModeSet& m) {
-  std::string out = fmt::format(
-      "{:>4} {:>12} {:>8}   strain energy: {:>6} {:>13} {:>13} {:>13} {:>13}\n", "mode", "f (Hz)",
-      "zeta", "mesh", "line bearing", "axial bearing", "tilt bearing", "cross bearing");
+  std::string out =
+      fmt::format("{:>4} {:>12} {:>8}   strain energy: {:>6} {:>13} {:>13} {:>13} {:>13} {:>13}\n",
+                  "mode", "f (Hz)", "zeta", "mesh", "line bearing", "axial bearing", "tilt bearing",
+                  "cross bearing", "shaft");
   const auto pair = [](const std::array<double, 2>& e) {
     return fmt::format("{:5.1f} {:5.1f}", 100 * e[0], 100 * e[1]);
   };
   for (std::size_t r = 0; r < m.modes.size(); ++r) {
     const Mode& x = m.modes[r];
     out += fmt::format(
-        "{:>4} {:>12.6g} {:>8.4f}   (%)            {:>6.1f} {:>13} {:>13} {:>13} {:>13}\n", r + 1,
-        x.frequency_hz, x.damping_ratio, 100 * x.mesh_energy, pair(x.line_energy),
-        pair(x.axial_energy), pair(x.tilt_energy), pair(x.cross_energy));
+        "{:>4} {:>12.6g} {:>8.4f}   (%)            {:>6.1f} {:>13} {:>13} {:>13} {:>13} {:>13}\n",
+        r + 1, x.frequency_hz, x.damping_ratio, 100 * x.mesh_energy, pair(x.line_energy),
+        pair(x.axial_energy), pair(x.tilt_energy), pair(x.cross_energy), pair(x.shaft_energy));
   }
   return out;
 }

@@ -80,24 +80,24 @@ GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
   // load of eq. 7 this is T1(t) cos(beta_b) / R_b1 (eq. 8); the fluctuation is on T1.
   const double R1 = g.base_radius_m[0], R2 = g.base_radius_m[1];
   const double J1 = g.inertia_kg_m2[0], J2 = g.inertia_kg_m2[1];
-  const double T1 = c.load.torque_nm;
   const double m = p.equivalent_mass_kg, cb = p.cos_base_helix;
-  double mean, per_t1;
-  if (c.load.load_torque_nm) {
-    per_t1 = m * cb * R1 / J1;
-    mean = per_t1 * T1 + m * cb * R2 * (*c.load.load_torque_nm) / J2;
-  } else {
-    per_t1 = cb / R1;
-    mean = per_t1 * T1;
-  }
-  p.force_n.offset = mean;
-  const double amplitude = per_t1 * T1 * c.load.fluctuation_ratio;
-  if (amplitude != 0.0) {
-    p.force_n.terms.push_back(
+  const double per_t1 = c.load.load_torque_nm ? m * cb * R1 / J1 : cb / R1;
+  p.force_n = drive_torque_nm(c);
+  p.force_n.offset *= per_t1;
+  for (Harmonic& h : p.force_n.terms) h.amplitude *= per_t1;
+  if (c.load.load_torque_nm) p.force_n.offset += m * cb * R2 * (*c.load.load_torque_nm) / J2;
+  return p;
+}
+
+HarmonicSeries drive_torque_nm(const Case& c) {
+  HarmonicSeries t;
+  t.offset = c.load.torque_nm;
+  const double amplitude = c.load.torque_nm * c.load.fluctuation_ratio;
+  if (amplitude != 0.0)
+    t.terms.push_back(
         {amplitude, 2.0 * std::numbers::pi * c.load.fluctuation_order * c.speed.shaft_frequency_hz,
          c.load.fluctuation_phase_deg * std::numbers::pi / 180.0});
-  }
-  return p;
+  return t;
 }
 
 void add_transmission_error(GearPairParameters& p, const HarmonicSeries& e) {

@@ -74,11 +74,7 @@ class PointRunner {
 
   // The coupled model's section period: that of its excitations, the one-degree pair's with
   // the same case (stiffness, torques, transmission error).
-  static double coupled_period_s(const Case& c) {
-    Case pair = c;
-    pair.model.form = ModelForm::kGearPair;
-    return period_s(build_model(pair));
-  }
+  static double coupled_period_s(const Case& c) { return period_s(build_model(gear_pair_of(c))); }
 
   // Runs one point from `carry` (the previous point's end state) or from the case's initial
   // condition, and leaves its end state in `carry`.
@@ -177,9 +173,12 @@ class PointRunner {
     const CoupledSolver solver(c);
     const CoupledParameters& p = solver.model().parameters();
     const double period = coupled_period_s(c);
-    ode::Vector y = carry.coupled ? *carry.coupled
-                                  : solver.initial_state(o_.start_static ? InitialCondition::kStatic
-                                                                         : c.solver.initial);
+    // The previous point's end state, unless a shaft came or went (another set of coordinates).
+    const bool same =
+        carry.coupled && carry.coupled->size() == 2 * solver.model().parameters().size();
+    ode::Vector y =
+        same ? *carry.coupled
+             : solver.initial_state(o_.start_static ? InitialCondition::kStatic : c.solver.initial);
     const HarmonicSeries& e = p.transmission_error_m;
     const auto mesh = [&](double t, const ode::Vector& x) {
       const Eigen::Index n = p.size();

@@ -522,7 +522,8 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
     EXPECT_GE(mode["frequency_hz"].get<double>(), last);
     last = mode["frequency_hz"].get<double>();
     double sum = mode["energy"]["mesh"].get<double>();
-    for (const char* part : {"line_bearings", "axial_bearings", "tilt_bearings", "cross_bearings"})
+    for (const char* part :
+         {"line_bearings", "axial_bearings", "tilt_bearings", "cross_bearings", "shafts"})
       for (const auto& e : mode["energy"][part]) sum += e.get<double>();
     EXPECT_NEAR(sum, 1.0, 1e-12);
   }
@@ -566,6 +567,37 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
             0);
   EXPECT_EQ(slurp(d / "coupled_time_body.gp").find("axial bearing force"), std::string::npos);
   fs::remove_all(d);
+  // A load shaft alone: its twist after u, its torque in the summary, the files and the
+  // figure (whose legend names no drive shaft); the one-degree form refuses shafts.
+  const Outcome shaft = cli("run " + coupled +
+                            " --set 'shafts.end_inertia_kg_m2=[0, 0.3]' --set "
+                            "solver.duration_s=0.005 --plot --out " +
+                            d.string());
+  ASSERT_EQ(shaft.code, 0) << shaft.err;
+  EXPECT_NE(shaft.out.find("load shaft"), std::string::npos);
+  std::ifstream shaft_summary(d / "summary.json");
+  const nlohmann::json sj = nlohmann::json::parse(shaft_summary);
+  ASSERT_EQ(sj["shafts"].size(), 1U);
+  EXPECT_EQ(sj["shafts"][0]["end"], "load");
+  EXPECT_NEAR(sj["shafts"][0]["static_torque_nm"].get<double>(), 49.5, 1e-9);  // R2 T1 / R1
+  EXPECT_GT(sj["shafts"][0]["max_torque_nm"].get<double>(), 49.5);
+  EXPECT_EQ(sj["coordinates"][1], "phi2_rad");
+  std::ifstream shaft_ts(d / "timeseries.csv");
+  std::getline(shaft_ts, header);
+  EXPECT_NE(header.find(",shaft2_torque_nm"), std::string::npos);
+  EXPECT_EQ(header.find("shaft1"), std::string::npos);
+  const std::string shaft_plot = slurp(d / "coupled_time_body.gp");
+  EXPECT_NE(shaft_plot.find("load shaft"), std::string::npos);
+  EXPECT_EQ(shaft_plot.find("drive shaft"), std::string::npos);
+  fs::remove_all(d);
+  const Outcome one =
+      cli("run " + std::string(GEARDYN_SOURCE_DIR) +
+          "/cases/park2010.toml --set 'shafts.end_inertia_kg_m2=[0.1, 0]' --out " + d.string());
+  EXPECT_NE(one.code, 0);
+  EXPECT_NE(one.err.find("shafts.end_inertia_kg_m2[0] = 0.1"), std::string::npos) << one.err;
+  EXPECT_NE(one.err.find("model.form = \"coupled\""), std::string::npos) << one.err;
+  EXPECT_FALSE(fs::exists(d));
+
   ASSERT_EQ(cli("modes " + coupled + " --out " + d.string()).code, 0);
   EXPECT_TRUE(fs::exists(d / "campbell.png"));
   EXPECT_TRUE(fs::exists(d / "modes.json"));

@@ -13,6 +13,7 @@
 
 #include "geardyn/coupled_model.hpp"
 #include "geardyn/coupled_run.hpp"
+#include "geardyn/geometry.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
 
@@ -36,7 +37,7 @@ TEST(CoupledModes, ASymmetricThreeDofPairHasItsClosedForms) {
   c.mesh.stiffness_source = StiffnessSource::kHarmonics;  // k_m, constant
   const CoupledParameters p = coupled_parameters(c);
   const double k = p.stiffness_n_per_m.offset, cb2 = p.cos_base_helix * p.cos_base_helix;
-  const double meq = p.equivalent_mass_kg, m = p.mass[p.line[0]];
+  const double meq = p.equivalent_mass_kg, m = p.mass(p.line[0], p.line[0]);
   const double kr = p.bearing_stiffness[p.line[0]];
   const double a = k * cb2 / meq, b2 = 2 * k * cb2 / meq, c2 = k * cb2 / m,
                d = (kr + 2 * k * cb2) / m;
@@ -69,13 +70,14 @@ TEST(CoupledModes, ASpurPairsAxialModesAreTheBearingsAlone) {
   const ModeSet set = modes(CoupledModel(p));
   for (int i = 0; i < 2; ++i) {
     const int j = p.index(i == 0 ? Coordinate::kAxial1 : Coordinate::kAxial2);
-    const double w = std::sqrt(c.bearings.axial_stiffness_n_per_m[i] / p.mass[j]);
+    const double mj = p.mass(j, j);
+    const double w = std::sqrt(c.bearings.axial_stiffness_n_per_m[i] / mj);
     int found = 0;
     for (const Mode& x : set.modes)
       if (std::abs(x.frequency_hz - w / (2 * kPi)) < 1e-10 * w) {
         ++found;
         EXPECT_NEAR(x.axial_energy[i], 1.0, 1e-12);
-        EXPECT_NEAR(std::abs(x.shape[j]), 1 / std::sqrt(p.mass[j]), 1e-9 / std::sqrt(p.mass[j]));
+        EXPECT_NEAR(std::abs(x.shape[j]), 1 / std::sqrt(mj), 1e-9 / std::sqrt(mj));
       }
     EXPECT_EQ(found, 1) << "axial mode of gear " << i + 1;
   }
@@ -101,7 +103,8 @@ TEST(CoupledModes, DampedEigenvaluesEqualThoseOfTheEnginesMatrix) {
   const Eigen::Index n = model.parameters().size();
   const double w_top = 2 * kPi * set.modes.back().frequency_hz;
   ode::Vector scale(2 * n);
-  scale << model.parameters().mass.cwiseSqrt(), model.parameters().mass.cwiseSqrt() / w_top;
+  const ode::Vector root = model.parameters().mass.diagonal().cwiseSqrt();  // M is diagonal here
+  scale << root, root / w_top;
   a = scale.asDiagonal() * a * scale.cwiseInverse().asDiagonal();
   Eigen::EigenSolver<ode::Matrix> solver(a, false);
   std::vector<std::array<double, 2>> engine;
@@ -128,10 +131,17 @@ TEST(CoupledModes, DampedEigenvaluesEqualThoseOfTheEnginesMatrix) {
     EXPECT_NEAR(set.damped[r][0], set.modes[r].frequency_hz, 1e-3 * set.modes[r].frequency_hz);
 }
 
-TEST(CoupledRun, AFreeVibrationKeepsItsEnergy) {
+class CoupledEnergy : public testing::TestWithParam<bool> {};
+
+TEST_P(CoupledEnergy, AFreeVibrationKeepsItsEnergy) {
   // No damping, constant stiffness, steady torque, permanent contact: from the static state
-  // displaced along every coordinate, E = 1/2 q'^T M q' + 1/2 (q - q_s)^T K (q - q_s) stays.
+  // displaced along every coordinate, E = 1/2 q'^T M q' + 1/2 (q - q_s)^T K (q - q_s) stays;
+  // with shafts (GetParam()), M is full in the torsional block.
   Case c = coupled(12);
+  if (GetParam()) {
+    c.shafts.end_inertia_kg_m2 = {0.05, 0.3};
+    c.shafts.damping_ratio = 0;
+  }
   c.mesh.stiffness_source = StiffnessSource::kHarmonics;
   c.mesh.damping_ratio = 0;
   c.bearings.damping_ratio = 0;
@@ -159,7 +169,7 @@ TEST(CoupledRun, AFreeVibrationKeepsItsEnergy) {
       regions_seen |= 1 << (coupled_state(region).mesh + 2);
     }
   } obs;
-  obs.m = model.parameters().mass.asDiagonal();
+  obs.m = model.parameters().mass;
   obs.k = model.contact_stiffness();
   obs.qs = ys.head(n);
   const ode::FlowResult r = engine.flow(0, y0, model.classify(0, y0), c.solver.duration_s,
@@ -171,6 +181,11 @@ TEST(CoupledRun, AFreeVibrationKeepsItsEnergy) {
   EXPECT_GT(e0, 0);
   for (double e : obs.e) EXPECT_NEAR(e, e0, 1e-10 * e0);
 }
+
+INSTANTIATE_TEST_SUITE_P(CoupledRun, CoupledEnergy, testing::Values(false, true),
+                         [](const testing::TestParamInfo<bool>& i) {
+                           return i.param ? "shafts" : "no_shafts";
+                         });
 
 TEST(CoupledRun, TheTransmissionErrorsForcedResponseIsTheClosedForm) {
   // Permanent contact, constant stiffness: M q'' + C q' + K q = V^T (k e + c e') + Q_s, so
@@ -191,8 +206,7 @@ TEST(CoupledRun, TheTransmissionErrorsForcedResponseIsTheClosedForm) {
   const CoupledParameters& p = r.parameters;
   const Eigen::Index n = p.size();
   const ode::Vector qs = model.static_state().head(n);
-  const ode::Matrix m = p.mass.asDiagonal(), k = model.contact_stiffness(),
-                    damping = model.contact_damping();
+  const ode::Matrix m = p.mass, k = model.contact_stiffness(), damping = model.contact_damping();
   const double km = p.stiffness_n_per_m.offset, cm = p.mesh_damping_n_s_per_m;
   std::vector<Eigen::VectorXcd> h;
   for (const Harmonic& x : p.transmission_error_m.terms) {
@@ -379,7 +393,7 @@ TEST(CoupledModel, TheEnginesEquationsAreTheModelsInEveryRegion) {
         if (s.mesh == kBackContact) fn = k * (d + b) + cm * dv;
         if (s.mesh == kSeparated && damping == DampingForm::kAlways) fn = cm * dv;
         ode::Vector force = -p.mesh_vector.transpose() * fn;
-        force[p.index(Coordinate::kTorsion)] += p.torsion_force_n(t);
+        force += p.force(t);
         for (Eigen::Index j = 0; j < n; ++j) {
           double kb = p.bearing_stiffness[j], cb = p.bearing_damping[j], shift = 0;
           for (int i = 0; i < 2; ++i)
@@ -389,7 +403,7 @@ TEST(CoupledModel, TheEnginesEquationsAreTheModelsInEveryRegion) {
             }
           force[j] -= kb * (q[j] - shift) + cb * v[j];
         }
-        const ode::Vector expected = force.cwiseQuotient(p.mass);
+        const ode::Vector expected = p.mass.partialPivLu().solve(force);
         const ode::Vector got = ode::derivative(sys, r, t, y);
         EXPECT_LT((got.head(n) - v).cwiseAbs().maxCoeff(), 1e-20);
         EXPECT_LT((got.tail(n) - expected).cwiseAbs().maxCoeff(),
@@ -398,6 +412,169 @@ TEST(CoupledModel, TheEnginesEquationsAreTheModelsInEveryRegion) {
       }
     }
   }
+}
+
+// A pair with a motor and a load on torsional shafts (dof 3 unless told).
+Case with_shafts(int dof = 3) {
+  Case c = coupled(dof);
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.shafts.end_inertia_kg_m2 = {0.05, 0.3};
+  c.shafts.stiffness_n_m_per_rad = {4e4, 9e4};
+  return c;
+}
+
+TEST(CoupledShafts, TheStaticTorquesAreThoseOfTheAcceleratingChain) {
+  // Steady torques on the chain motor - shaft - pinion = wheel - shaft - load accelerate it
+  // rigidly at alpha = (R2 T1 - R1 T2) / (R2 (J_m + J_1) + R1^2 (J_L + J_2) / R2) (theta_1's
+  // sense); then the drive shaft carries T1 - J_m alpha, the load shaft T2 + J_L R1 alpha / R2,
+  // and the mesh F_n = (T1 - (J_m + J_1) alpha) / (R1 cos(beta_b)). The matched load (T2 =
+  // R2 T1 / R1) leaves alpha = 0: F_n = T1 / (R1 cos(beta_b)) whatever the inertias.
+  for (const std::optional<double> t2 : {std::optional<double>(), std::optional<double>(30.0)}) {
+    Case c = with_shafts();
+    c.load.load_torque_nm = t2;
+    const CoupledParameters p = coupled_parameters(c);
+    const Geometry g = case_geometry(c);
+    const double r1 = g.base_radius_m[0], r2 = g.base_radius_m[1];
+    const double j1 = g.inertia_kg_m2[0], j2 = g.inertia_kg_m2[1];
+    const double jm = c.shafts.end_inertia_kg_m2[0], jl = c.shafts.end_inertia_kg_m2[1];
+    const double t1 = c.load.torque_nm, load = t2 ? *t2 : r2 * t1 / r1;
+    const double alpha = (r2 * t1 - r1 * load) / (r2 * (jm + j1) + r1 * r1 * (jl + j2) / r2);
+    const double fn = (t1 - (jm + j1) * alpha) / (r1 * p.cos_base_helix);
+    EXPECT_NEAR(p.static_mesh_force_n(), fn, 1e-12 * fn);
+    EXPECT_NEAR(p.static_shaft_torque_nm(0), t1 - jm * alpha, 1e-12 * t1);
+    EXPECT_NEAR(p.static_shaft_torque_nm(1), load + jl * r1 * alpha / r2, 1e-12 * t1);
+    if (!t2) EXPECT_NEAR(fn, t1 / (r1 * p.cos_base_helix), 1e-12 * fn);
+    if (t2) EXPECT_GT(std::abs(alpha), 1.0);
+    // The static state holds those torques in its twists and that force in its mesh.
+    const CoupledModel model(p);
+    const ode::Vector y = model.static_state();
+    for (int i = 0; i < 2; ++i)
+      EXPECT_NEAR(p.bearing_stiffness[p.shaft[i]] * y[p.shaft[i]], p.static_shaft_torque_nm(i),
+                  1e-9 * t1);
+    const double d = p.mesh_vector.dot(y.head(p.size()));
+    EXPECT_NEAR(p.stiffness_n_per_m.offset * (d - p.backlash_m), fn, 1e-9 * fn);
+  }
+}
+
+TEST(CoupledShafts, TheModesAreThoseOfTheAbsoluteRotations) {
+  // The same chain written in the absolute rotations (theta_1, theta_2, theta_m, theta_L, y1,
+  // y2) with a diagonal mass matrix: one rigid rotation at w = 0, and the other frequencies
+  // those of the coupled model's reduced coordinates, to 1e-10.
+  const Case c = with_shafts();
+  const CoupledParameters p = coupled_parameters(c);
+  const Geometry g = case_geometry(c);
+  const double r1 = g.base_radius_m[0], r2 = g.base_radius_m[1], cb = p.cos_base_helix;
+  ode::Matrix m = ode::Matrix::Zero(6, 6), k = ode::Matrix::Zero(6, 6);
+  m.diagonal() << g.inertia_kg_m2[0], g.inertia_kg_m2[1], c.shafts.end_inertia_kg_m2[0],
+      c.shafts.end_inertia_kg_m2[1], p.mass(p.line[0], p.line[0]), p.mass(p.line[1], p.line[1]);
+  ode::RowVector mesh(6), drive(6), load(6);
+  mesh << cb * r1, cb * r2, 0, 0, cb, -cb;  // d = cb (R1 th1 + R2 th2 + y1 - y2)
+  drive << -1, 0, 1, 0, 0, 0;               // phi_1 = th_m - th_1
+  load << 0, -1, 0, 1, 0, 0;                // phi_2 = th_L - th_2
+  k += p.stiffness_n_per_m.offset * mesh.transpose() * mesh;
+  k += c.shafts.stiffness_n_m_per_rad[0] * drive.transpose() * drive;
+  k += c.shafts.stiffness_n_m_per_rad[1] * load.transpose() * load;
+  k(4, 4) += c.bearings.radial_stiffness_n_per_m[0];
+  k(5, 5) += c.bearings.radial_stiffness_n_per_m[1];
+  Eigen::GeneralizedSelfAdjointEigenSolver<ode::Matrix> absolute(k, m);
+  const ModeSet set = modes(CoupledModel(p));
+  ASSERT_EQ(set.modes.size(), 5U);
+  const double top = absolute.eigenvalues()[5];
+  EXPECT_LT(std::abs(absolute.eigenvalues()[0]), 1e-12 * top);  // the rigid rotation
+  for (int r = 0; r < 5; ++r) {
+    const double w = std::sqrt(absolute.eigenvalues()[r + 1]) / (2 * kPi);
+    EXPECT_NEAR(set.modes[r].frequency_hz, w, 1e-10 * w) << r;
+  }
+  // The shafts hold strain energy in the modes that twist them; the shares sum to 1.
+  double shafts = 0;
+  for (const Mode& x : set.modes) {
+    EXPECT_NEAR(
+        x.mesh_energy + x.line_energy[0] + x.line_energy[1] + x.shaft_energy[0] + x.shaft_energy[1],
+        1.0, 1e-12);
+    shafts = std::max(shafts, x.shaft_energy[0] + x.shaft_energy[1]);
+  }
+  EXPECT_GT(shafts, 0.5);
+}
+
+TEST(CoupledShafts, TheEnginesEquationsAreTheAbsoluteRotationsOnes) {
+  // theta'' = J^-1 (f - S^T e_r) in the absolute rotations, f the torques (T1(t) on the motor;
+  // T2 on the load, matched or given), e_r the elastic and damping forces on (u, phi_1, phi_2):
+  // the engine's r'' must be S theta'', at random states in drive contact and separated.
+  for (const std::optional<double> t2 : {std::optional<double>(), std::optional<double>(-20.0)}) {
+    Case c = with_shafts();
+    c.load.load_torque_nm = t2;
+    c.load.fluctuation_ratio = 0.3;
+    const CoupledModel model(coupled_parameters(c));
+    const CoupledParameters& p = model.parameters();
+    const Geometry g = case_geometry(c);
+    const double r1 = g.base_radius_m[0], r2 = g.base_radius_m[1];
+    const ode::LinearSwitchedSystem sys = model.linear_system();
+    ode::Matrix s = ode::Matrix::Zero(3, 4);  // (u, phi_1, phi_2) of (th1, th2, th_m, th_L)
+    s << r1, r2, 0, 0, -1, 0, 1, 0, 0, -1, 0, 1;
+    ode::Vector inertia(4);
+    inertia << g.inertia_kg_m2[0], g.inertia_kg_m2[1], c.shafts.end_inertia_kg_m2[0],
+        c.shafts.end_inertia_kg_m2[1];
+    std::srand(11);
+    for (const int mesh : {kDriveContact, kSeparated}) {
+      const int region = coupled_region({mesh, {0, 0}});
+      for (int trial = 0; trial < 4; ++trial) {
+        const double t = 2.3e-4 * (trial + 1);
+        const ode::Vector y = ode::Vector::Random(10) * 1e-5;
+        const ode::Vector q = y.head(5), v = y.tail(5);
+        const double d = p.mesh_vector.dot(q), dv = p.mesh_vector.dot(v);
+        const double fn = mesh == kDriveContact ? p.stiffness_n_per_m(t) * (d - p.backlash_m) +
+                                                      p.mesh_damping_n_s_per_m * dv
+                                                : 0.0;
+        ode::Vector elastic = p.mesh_vector.transpose() * fn;
+        elastic += p.bearing_stiffness.cwiseProduct(q) + p.bearing_damping.cwiseProduct(v);
+        const double t1 = p.drive_torque_nm(t);
+        ode::Vector f = ode::Vector::Zero(4);
+        f[2] = t1;
+        f[3] = t2 ? *t2 : r2 * t1 / r1;
+        const ode::Vector theta = (f - s.transpose() * elastic.head(3)).cwiseQuotient(inertia);
+        const ode::Vector got = ode::derivative(sys, region, t, y);
+        const ode::Vector expected = s * theta;
+        EXPECT_LT((got.segment(5, 3) - expected).cwiseAbs().maxCoeff(),
+                  1e-9 * expected.cwiseAbs().maxCoeff());
+        for (int i = 0; i < 2; ++i) {
+          const int j = p.line[i];
+          EXPECT_NEAR(got[5 + j], -elastic[j] / p.mass(j, j),
+                      1e-9 * std::abs(elastic[j] / p.mass(j, j)));
+        }
+      }
+    }
+  }
+}
+
+TEST(CoupledShafts, StiffShaftsJoinTheirInertiasToTheGears) {
+  // As the shafts stiffen, the modes other than the shafts' own tend to those of the pair
+  // without shafts whose gears carry the motor's and the load's inertias, the difference
+  // falling in proportion to 1 / k_s.
+  Case joined = coupled(3);
+  joined.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  const Geometry g = case_geometry(joined);
+  const std::array<double, 2> ends = {0.02, 0.04};
+  joined.gear.inertia_kg_m2 =
+      std::array<double, 2>{g.inertia_kg_m2[0] + ends[0], g.inertia_kg_m2[1] + ends[1]};
+  const ModeSet target = modes(CoupledModel(coupled_parameters(joined)));
+  std::vector<double> error;
+  for (const double ks : {1e8, 1e9}) {
+    Case c = coupled(3);
+    c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+    c.shafts.end_inertia_kg_m2 = ends;
+    c.shafts.stiffness_n_m_per_rad = {ks, ks};
+    const ModeSet set = modes(CoupledModel(coupled_parameters(c)));
+    ASSERT_EQ(set.modes.size(), 5U);
+    double worst = 0;
+    for (int r = 0; r < 3; ++r)
+      worst =
+          std::max(worst, std::abs(set.modes[r].frequency_hz / target.modes[r].frequency_hz - 1));
+    // The two highest are the shafts' own, far above.
+    EXPECT_GT(set.modes[3].frequency_hz, 3 * target.modes[2].frequency_hz);
+    error.push_back(worst);
+  }
+  EXPECT_LT(error[1], 1e-3);
+  EXPECT_NEAR(error[0] / error[1], 10, 1.5);
 }
 
 TEST(CoupledModel, AClearanceShiftsTheStaticStateByItself) {

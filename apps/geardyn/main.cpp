@@ -241,6 +241,11 @@ int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plo
     fmt::print("  bearing {} force   line {:.6g} N (factor {:.4g}), axial {:.6g} N\n", i + 1,
                r.max_bearing_force_n[i], r.bearing_factor[i], r.max_axial_force_n[i]);
   }
+  for (int i = 0; i < 2; ++i)
+    if (p.shaft[i] >= 0)
+      fmt::print("  {:<17} largest torque {:.6g} N m (static {:.6g} N m, factor {:.4g})\n",
+                 i == 0 ? "drive shaft" : "load shaft", r.max_shaft_torque_nm[i],
+                 p.static_shaft_torque_nm(i), r.shaft_factor[i]);
   fmt::print("  cells             {} ({} events located), {:.3g} s wall\n", r.cells, r.events,
              r.wall_time_s);
   if (!out_dir.empty()) {

@@ -185,6 +185,18 @@ struct BearingData {
   std::array<double, 2> radial_clearance_um = {0.0, 0.0};
 };
 
+// [shafts] (model.form = "coupled"): a torsional shaft from the pinion to a motor and from the
+// wheel to a load, each an inertia at the shaft's far end (T1 acts on the motor, T2 on the load).
+// An end inertia of 0 leaves that shaft out: its torque acts on the gear itself.
+struct ShaftData {
+  std::array<double, 2> end_inertia_kg_m2 = {0.0, 0.0};  // [motor, load]
+  // Torsional stiffness of each shaft; the default is the order of a solid steel shaft 35 mm
+  // across and 0.2 m long (G pi d^4 / (32 L)), not a particular shaft: give yours.
+  std::array<double, 2> stiffness_n_m_per_rad = {5e4, 5e4};
+  // Damping ratio of each shaft against the reduced inertia of the two bodies it joins.
+  double damping_ratio = 0.02;
+};
+
 struct Case {
   ModelData model;
   GearData gear;
@@ -192,6 +204,7 @@ struct Case {
   LoadData load;
   SpeedData speed;
   BearingData bearings;
+  ShaftData shafts;
   SolverData solver;
   std::string name = "default";     // the case file's stem, or "default"
   std::filesystem::path directory;  // the case file's directory: relative paths start there

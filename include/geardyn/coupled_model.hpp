@@ -19,7 +19,19 @@
 //     M q'' + C_b q' + K_b q + V^T F_n = Q(t),
 //
 // M = diag(m_eq, m_1, m_2, ...), K_b and C_b the bearings (diagonal), Q the torques on u
-// (m_eq (R_b1 T1(t) / J1 + R_b2 T2 / J2), eq. 6 over cos(beta_b)). A bearing with a radial
+// (m_eq (R_b1 T1(t) / J1 + R_b2 T2 / J2), eq. 6 over cos(beta_b)).
+//
+// Shafts ([shafts]): a motor of inertia J_m joined to the pinion by a torsional shaft k_s1 and
+// a load J_L joined to the wheel by k_s2 add the twists phi_1 = theta_m - theta_1 and
+// phi_2 = theta_L - theta_2 (theta_2 and theta_L counted as the one-degree model counts
+// theta_2). The torsional coordinates r = (u, phi_1, phi_2) are r = S theta of the absolute
+// rotations theta = (theta_1, theta_2, theta_m, theta_L), S's null space the pair's rigid
+// rotation. With J = diag of the inertias and f the torques on theta (T1 on the motor, T2 on
+// the load, or on the gears without shafts), theta'' = J^-1 (f - S^T (elastic forces on r)), so
+// r'' = S J^-1 S^T (-elastic forces) + S J^-1 f exactly: the torsional block of M is
+// (S J^-1 S^T)^-1 (full, not diagonal) and Q = M S J^-1 f on r. Without shafts this is m_eq
+// and eq. 6. The shafts' springs k_s phi_i and dampers are diagonal in K_b and C_b. A bearing
+// with a radial
 // clearance c_i acts on y_i as a dead zone, k (y_i -+ c_i) beyond +-c_i and nothing inside
 // (Kahraman and Singh 1991), with its damping in contact only. x_i and the tilts about x are
 // not touched by a frictionless mesh at one point: they are kept with dof = 12, on their
@@ -27,6 +39,7 @@
 //
 // Coordinates by dof: 3 keeps u, y1, y2 (Kahraman and Singh 1991); 6 adds z1, z2; 12 adds ty1,
 // ty2, x1, x2, tx1, tx2 (11 coordinates: the 12 of two rigid bodies less the pair's rotation).
+// Each shaft adds its twist after u, whatever the dof.
 #pragma once
 
 #include <Eigen/Core>
@@ -53,6 +66,8 @@ enum class Coordinate {
   kCross2,
   kRock1,  // tx_1, about the x axis, rad
   kRock2,
+  kShaft1,  // phi_1 = theta_motor - theta_1, the drive shaft's twist, rad
+  kShaft2,  // phi_2 = theta_load - theta_2, the load shaft's twist, rad
 };
 // Its name in files and tables: "u_m", "y1_m", ..., "ty1_rad".
 const char* to_string(Coordinate c);
@@ -61,11 +76,14 @@ const char* to_string(Coordinate c);
 struct CoupledParameters {
   int dof = 12;
   std::vector<Coordinate> coordinates;
-  Eigen::VectorXd mass;               // diagonal of M: m_eq for u, the gear masses, tilt inertias
-  Eigen::VectorXd bearing_stiffness;  // diagonal of K_b (N/m, N m/rad; 0 for u)
-  Eigen::VectorXd bearing_damping;    // diagonal of C_b
-  Eigen::RowVectorXd mesh_vector;     // V, d = V q (m per unit coordinate)
-  std::array<int, 2> line = {1, 2};   // the coordinate index of y_1, y_2
+  // M: diagonal (the gear masses and tilt inertias) but for the torsional block of u and the
+  // shaft twists, (S J^-1 S^T)^-1 (m_eq alone without shafts).
+  Eigen::MatrixXd mass;
+  Eigen::VectorXd bearing_stiffness;    // diagonal of K_b, bearings and shafts (N/m, N m/rad; 0: u)
+  Eigen::VectorXd bearing_damping;      // diagonal of C_b
+  Eigen::RowVectorXd mesh_vector;       // V, d = V q (m per unit coordinate)
+  std::array<int, 2> line = {1, 2};     // the coordinate index of y_1, y_2
+  std::array<int, 2> shaft = {-1, -1};  // the index of phi_1, phi_2; -1: no shaft
   std::array<double, 2> clearance_m = {0, 0};  // bearing clearance along y_i, 0: none
   double backlash_m = 0;
   double cos_base_helix = 1, sin_base_helix = 0;
@@ -74,15 +92,32 @@ struct CoupledParameters {
   double mesh_damping_n_s_per_m = 0;    // c, as the one-degree model's
   DampingForm damping = DampingForm::kContact;
   TensionRule tension = TensionRule::kAllow;
-  HarmonicSeries torsion_force_n;  // Q on u: the one-degree model's F(t) / cos(beta_b)
-  double equivalent_mass_kg = 0;   // m_eq
+  // The torques' generalized force Q(t) = drive_gain T1(t) + steady_force (N on u, N m on the
+  // twists): drive_gain per N m of T1 (with the matched load's share R_b2 T1(t) / R_b1 when
+  // T2 is not given), steady_force from a given steady T2. Without shafts Q on u is the
+  // one-degree model's F(t) / cos(beta_b).
+  HarmonicSeries drive_torque_nm;  // T1(t)
+  Eigen::VectorXd drive_gain;
+  Eigen::VectorXd steady_force;
+  double equivalent_mass_kg = 0;  // m_eq of the gears alone
 
   Eigen::Index size() const { return static_cast<Eigen::Index>(coordinates.size()); }
-  // The index of a coordinate, or -1 when the dof leaves it out.
+  // The index of a coordinate, or -1 when the dof or the shafts leave it out.
   int index(Coordinate c) const;
-  // The static normal mesh force F_m / cos^2(beta_b) (the one-degree model's).
+  // Q(t), and its mean.
+  Eigen::VectorXd force(double t_s) const;
+  Eigen::VectorXd mean_force() const;
+  // The static normal mesh force: Q_u / cos(beta_b) of the mean loads (the u row of K q = Q
+  // holds the mesh alone). F_m / cos^2(beta_b) as the one-degree model's without shafts.
   double static_mesh_force_n() const;
+  // The static torque of shaft i, k_s phi_i = Q_phi of the mean loads (0 without the shaft).
+  double static_shaft_torque_nm(int i) const;
 };
+
+// The one-degree gear pair of a coupled case: the same gears, mesh, loads and speed, without
+// bearings or shafts (form "gear_pair"); its constants (m_eq, k(t), c, periods) are the coupled
+// model's.
+Case gear_pair_of(const Case& c);
 
 // Throws InputError for a case that is not of the coupled form or whose geometry or stiffness
 // is bad (naming the keys and where they were given).
@@ -110,12 +145,14 @@ class CoupledModel {
   // The system for the exact engine: state (q, q'), region index coupled_region(state). The
   // observables, the same in every region: kObservableDeflection d - e (m), kObservableForce
   // F_n (N), kObservableBearing + i the line-of-action bearing force on gear i (N, the force
-  // on the gear is minus it), kObservableAxial + i the axial one (0 without z).
+  // on the gear is minus it), kObservableAxial + i the axial one (0 without z),
+  // kObservableShaft + i shaft i's torque (0 without the shaft).
   static constexpr int kObservableDeflection = 0;
   static constexpr int kObservableForce = 1;
   static constexpr int kObservableBearing = 2;
   static constexpr int kObservableAxial = 4;
-  static constexpr int kObservableCount = 6;
+  static constexpr int kObservableShaft = 6;  // + i: shaft i's torque k_s phi + c_s phi' (N m)
+  static constexpr int kObservableCount = 8;
   ode::LinearSwitchedSystem linear_system() const;
 
   // The region a state at rest or in motion belongs to with no history.
@@ -144,6 +181,7 @@ struct Mode {
   std::array<double, 2> axial_energy{};  // in each axial bearing
   std::array<double, 2> tilt_energy{};   // in each gear's tilt bearings
   std::array<double, 2> cross_energy{};  // in each gear's cross (x) bearing
+  std::array<double, 2> shaft_energy{};  // in each shaft
 };
 struct ModeSet {
   std::vector<Coordinate> coordinates;

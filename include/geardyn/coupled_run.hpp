@@ -39,6 +39,7 @@ struct CoupledSamples {
   std::vector<int> mesh_contact;                       // 1 drive side, 0 separated, -1 back side
   std::vector<std::array<double, 2>> bearing_force_n;  // line-of-action bearing forces
   std::vector<std::array<double, 2>> axial_force_n;    // axial bearing forces
+  std::vector<std::array<double, 2>> shaft_torque_nm;  // shaft torques (0 without the shaft)
 };
 
 struct CoupledRunResult {
@@ -53,10 +54,12 @@ struct CoupledRunResult {
   double max_force_n = 0, min_force_n = 0;
   double max_deflection_m = 0, min_deflection_m = 0;                 // of d - e
   std::array<double, 2> max_bearing_force_n{}, max_axial_force_n{};  // largest |.|
+  std::array<double, 2> max_shaft_torque_nm{};                       // largest |.|
   // Dynamic factors: the largest over the static value (mesh: F_n; bearings: cos(beta_b) F_n;
-  // axial: sin(beta_b) F_n; NaN for an axial factor of a spur pair).
+  // axial: sin(beta_b) F_n; shafts: their static torque; NaN for an axial factor of a spur
+  // pair and for a shaft that is not there).
   double dynamic_mesh_factor = 0;
-  std::array<double, 2> bearing_factor{}, axial_factor{};
+  std::array<double, 2> bearing_factor{}, axial_factor{}, shaft_factor{};
   CoupledSamples samples;
   double wall_time_s = 0;
   bool ok() const { return termination == ode::Termination::kCompleted; }
@@ -101,7 +104,7 @@ CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options = {
 // summary.json of a coupled run (docs/outputs.md).
 std::string coupled_summary_json(const CoupledRunResult& r, int indent = 2);
 // timeseries.csv: t_s, every coordinate and its rate, (d - e)/b, F_n/(b k_m), mesh contact,
-// the bearing forces.
+// the bearing forces, and the torque of each shaft that is there.
 void write_coupled_timeseries_csv(std::ostream& out, const CoupledRunResult& r);
 // modes as JSON (docs/outputs.md) and as a table for the terminal.
 std::string modes_json(const ModeSet& m, int indent = 2);

@@ -69,6 +69,9 @@ struct GearPairParameters {
 GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
                                         const HarmonicSeries& stiffness_n_per_m);
 
+// The driving torque T1(t) = T1 (1 + ratio cos(order 2 pi f_1 t + phi)) of a case, N m.
+HarmonicSeries drive_torque_nm(const Case& c);
+
 // Adds a static transmission error e(t) (in m; in units of b in the non-dimensional form) to
 // the parameters: kept as transmission_error_m, and its forcing - m_eq e''(t) added to force_n.
 // Requires at most HarmonicSeries::kMaxTerms force terms in all (the case's bounds keep it).

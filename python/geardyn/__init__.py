@@ -378,6 +378,8 @@ class CoupledRunResult:
         1 drive side, 0 separated, -1 back side.
     bearing_force, axial_force : numpy.ndarray
         Samples x 2: each gear's bearing force along the line of action and axially, N.
+    shaft_torque : numpy.ndarray
+        Samples x 2: the drive and the load shaft's torque, N m (0 for a shaft not there).
     ok : bool
         Whether the run completed.
     """
@@ -394,6 +396,7 @@ class CoupledRunResult:
         self.mesh_contact = arrays["mesh_contact"]
         self.bearing_force = arrays["bearing_force"]
         self.axial_force = arrays["axial_force"]
+        self.shaft_torque = arrays["shaft_torque"]
         self.ok = bool(summary["completed"])
 
     def __repr__(self):
@@ -409,9 +412,11 @@ class CoupledRunResult:
         xarray.Dataset
             Dimensions t (s) and coordinate (the names of `coordinates`); q and velocity
             (t x coordinate), deflection_bar, force_bar, mesh_contact, bearing_force and
-            axial_force (t x gear, N); the summary (JSON) as an attribute.
+            axial_force (t x gear, N), shaft_torque (t x shaft, N m; only the shafts that are
+            there); the summary (JSON) as an attribute.
         """
         import xarray as xr
+        shafts = [s["shaft"] for s in self.summary["shafts"]]
         ds = xr.Dataset(
             {"q": (("t", "coordinate"), self.q),
              "velocity": (("t", "coordinate"), self.velocity),
@@ -423,6 +428,10 @@ class CoupledRunResult:
             coords={"t": ("t", self.t, {"units": "s"}), "coordinate": self.coordinates,
                     "gear": [1, 2]},
             attrs={"summary": _json.dumps(self.summary)})
+        if shafts:
+            ds["shaft_torque"] = xr.DataArray(
+                self.shaft_torque[:, [s - 1 for s in shafts]], dims=("t", "shaft"),
+                coords={"shaft": shafts}, attrs={"units": "N m"})
         return ds
 
 
@@ -441,7 +450,8 @@ def modes(case):
         ``coordinates`` (names); ``frequency_hz`` and ``damping_ratio`` (arrays, one per mode,
         ascending); ``shape`` (modes x coordinates, mass-normalised); ``energy``: a dict of the
         strain energy fractions per part (``mesh``: one per mode; ``line_bearings``,
-        ``axial_bearings``, ``tilt_bearings``, ``cross_bearings``: modes x 2 gears);
+        ``axial_bearings``, ``tilt_bearings``, ``cross_bearings``: modes x 2 gears;
+        ``shafts``: modes x 2 shafts, 0 for a shaft not there);
         ``damped``: the damped eigenvalues' frequencies and damping ratios (modes x 2).
 
     Raises
@@ -455,7 +465,7 @@ def modes(case):
                          "model; set model.form = \"coupled\"")
     j = _json.loads(_geardyn._modes(case))
     ms = j["modes"]
-    parts = ("line_bearings", "axial_bearings", "tilt_bearings", "cross_bearings")
+    parts = ("line_bearings", "axial_bearings", "tilt_bearings", "cross_bearings", "shafts")
     return {"coordinates": j["coordinates"],
             "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
             "damping_ratio": np.array([m["damping_ratio"] for m in ms]),

@@ -23,7 +23,7 @@ py::array_t<double> matrix(std::size_t rows, std::size_t cols,
 }
 
 // The run as (summary.json text, dict of arrays): t, state (samples x 2n), deflection_bar,
-// force_bar, mesh_contact, bearing_force (samples x 2), axial_force (samples x 2).
+// force_bar, mesh_contact, bearing_force, axial_force and shaft_torque (samples x 2 each).
 py::tuple coupled_result(const CoupledRunResult& r) {
   const CoupledSamples& s = r.samples;
   const std::size_t n = s.t_s.size();
@@ -38,6 +38,8 @@ py::tuple coupled_result(const CoupledRunResult& r) {
       matrix(n, 2, [&](std::size_t i, std::size_t j) { return s.bearing_force_n[i][j]; });
   arrays["axial_force"] =
       matrix(n, 2, [&](std::size_t i, std::size_t j) { return s.axial_force_n[i][j]; });
+  arrays["shaft_torque"] =
+      matrix(n, 2, [&](std::size_t i, std::size_t j) { return s.shaft_torque_nm[i][j]; });
   return py::make_tuple(coupled_summary_json(r, -1), arrays);
 }
 

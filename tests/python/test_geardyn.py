@@ -481,6 +481,17 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
     ds = r.to_xarray()
     assert ds["q"].dims == ("t", "coordinate") and list(ds["coordinate"].values) == r.coordinates
     assert ds["bearing_force"].attrs["units"] == "N"
+    assert "shaft_torque" not in ds  # no shafts in this case
+
+    # A drive shaft to a motor: its twist after u, its torque the command line's largest.
+    shafted = case.with_({"shafts.end_inertia_kg_m2": [0.05, 0.0]})
+    rs = geardyn.run(shafted)
+    assert rs.ok and rs.coordinates[:2] == ["u_m", "phi1_rad"]
+    ds = rs.to_xarray()
+    assert list(ds["shaft"].values) == [1] and ds["shaft_torque"].attrs["units"] == "N m"
+    assert float(abs(ds["shaft_torque"]).max()) <= rs.summary["shafts"][0]["max_torque_nm"]
+    assert float(abs(ds["shaft_torque"]).max()) > 0.9 * rs.summary["shafts"][0]["max_torque_nm"]
+    assert np.all(rs.shaft_torque[:, 1] == 0)
 
     m = geardyn.modes(case)
     out = json.loads(cli("modes", str(path), "--json").stdout)
@@ -488,7 +499,7 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
     assert m["shape"].shape == (11, 11)
     total = m["energy"]["mesh"] + sum(m["energy"][p].sum(axis=1) for p in
                                       ("line_bearings", "axial_bearings", "tilt_bearings",
-                                       "cross_bearings"))
+                                       "cross_bearings", "shafts"))
     assert total == pytest.approx(np.ones(11), abs=1e-12)
     with pytest.raises(geardyn.InputError, match="modes are of the coupled model"):
         geardyn.modes(geardyn.Case())
