@@ -194,6 +194,10 @@ TEST(CoupledRun, TheTransmissionErrorsForcedResponseIsTheClosedForm) {
   c.mesh.stiffness_source = StiffnessSource::kHarmonics;
   c.load.fluctuation_ratio = 0;
   c.load.torque_nm = 400;
+  // Stiff bearings (1e9, 5e8, 1e7): every mode decays within the window.
+  c.bearings.radial_stiffness_n_per_m = {1e9, 1e9};
+  c.bearings.axial_stiffness_n_per_m = {5e8, 5e8};
+  c.bearings.tilt_stiffness_n_m_per_rad = {1e7, 1e7};
   c.speed.shaft_frequency_hz = 30;  // mesh 1680 Hz, between modes
   c.mesh.transmission_error_um = {{1.0, 20.0}, {0.3, 0.0}};
   c.solver.duration_s = 0.2;  // the slowest mode (damping ratio 0.014 at 1.8 kHz) decays e^-30
@@ -321,6 +325,7 @@ TEST(CoupledSweep, ItsResonancesAreTheMeshCriticalModes) {
   Case c = coupled(3);
   c.load.torque_nm = 400;
   c.load.fluctuation_ratio = 0;
+  c.bearings.radial_stiffness_n_per_m = {1e9, 1e9};  // both torsion-translation modes in range
   SweepOptions o;
   o.axis = {"speed.shaft_frequency_hz", 25, 80, 221, false};
   o.direction = SweepDirection::kBoth;

@@ -173,12 +173,14 @@ struct ModelData {
 };
 
 // [bearings]: each gear's supports in the coupled model, per gear (index 0 the pinion); the
-// stiffnesses act on the gear body's translations and tilts. The defaults are an order of
-// magnitude of rolling bearings on shafts of this size, not a particular bearing: give yours.
+// stiffnesses act on the gear body's translations and tilts. The defaults are those of the
+// default gear (Park 2010 Table 1 at 49.5 N m) on two 6206 deep-groove ball bearings 80 mm
+// apart, one of them locating, linearised at the static load (docs/model.md, "Bearing values";
+// geardyn.bearings computes them): give your bearings' for another gear or load.
 struct BearingData {
-  std::array<double, 2> radial_stiffness_n_per_m = {1e9, 1e9};  // both radial directions
-  std::array<double, 2> axial_stiffness_n_per_m = {5e8, 5e8};
-  std::array<double, 2> tilt_stiffness_n_m_per_rad = {1e7, 1e7};  // both tilts
+  std::array<double, 2> radial_stiffness_n_per_m = {1.7e8, 1.7e8};  // both radial directions
+  std::array<double, 2> axial_stiffness_n_per_m = {1.6e7, 1.6e7};
+  std::array<double, 2> tilt_stiffness_n_m_per_rad = {2.8e5, 2.8e5};  // both tilts
   // Damping ratio of every bearing direction against the gear's mass or tilt inertia.
   double damping_ratio = 0.02;
   // Radial clearance along the line of action, a dead zone +-c (Kahraman and Singh 1991); 0: none.

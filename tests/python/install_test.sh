@@ -27,6 +27,8 @@ assert importlib.metadata.version("geardyn") == geardyn.__version__
 assert (pkg / "py.typed").is_file() and (pkg / "_geardyn.pyi").is_file()
 r = geardyn.run(geardyn.Case.default().set("solver.duration_s", 0.002))
 assert r.ok and len(r.t) > 10
+from geardyn.bearings import BallBearing  # the pure-Python modules are installed too
+assert BallBearing(9, 9.525, 46.0, 4.89, 4.953).radial(356.0)[1] > 0
 print("installed geardyn", geardyn.__version__, "at", pkg)
 PY
 version="$("$work/venv/bin/python" -c 'import geardyn; print(geardyn.__version__)')"
