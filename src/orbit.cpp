@@ -64,26 +64,29 @@ Shooting::Shooting(const Case& c, int periods, int segments, const ode::Vector& 
       solver_(model_, exact_solver(c, engine_tolerance)),
       system_period_s_(geardyn::system_period_s(model_.parameters())),
       period_s_(periods * system_period_s_),
-      segments_(segments),
-      scale_(scale.size() == 2 ? scale : orbit_scale(model_)) {}
+      segments_([this](int i, const ode::Vector& y) { return flow(i, y); }, segments,
+                scale.size() == 2 ? scale : orbit_scale(model_)) {}
 
 ode::FlowResult Shooting::flow(int i, const ode::Vector& y) const {
-  const double t0 = period_s_ * i / segments_, t1 = period_s_ * (i + 1) / segments_;
+  const int m = segments_.segments();
+  const double t0 = period_s_ * i / m, t1 = period_s_ * (i + 1) / m;
   const int region = model_.classify(model_.drive(t0), y[0], y[1]);
   ode::FlowObserver nothing;
   return solver_.engine()->flow(t0, y, region - GearPairModel::kFirstRegion, t1, ode::OutputGrid{},
                                 nothing, true);
 }
 
-ode::Vector Shooting::state(const ode::Vector& x, int i) const {
-  return x.segment(Eigen::Index{2} * i, 2).cwiseProduct(scale_);
+ode::Vector Segments::state(const ode::Vector& x, int i) const {
+  const Eigen::Index d = state_dimension();
+  return x.segment(d * i, d).cwiseProduct(scale_);
 }
 
-bool Shooting::guess(const ode::Vector& y0, ode::Vector& x, std::string& why) const {
+bool Segments::guess(const ode::Vector& y0, ode::Vector& x, std::string& why) const {
+  const Eigen::Index d = state_dimension();
   x.resize(dimension());
   ode::Vector y = y0;
   for (int i = 0; i < segments_; ++i) {
-    x.segment(Eigen::Index{2} * i, 2) = scaled(y);
+    x.segment(d * i, d) = scaled(y);
     if (i + 1 == segments_) break;
     const ode::FlowResult r = flow(i, y);
     if (!r.ok()) {
@@ -96,9 +99,9 @@ bool Shooting::guess(const ode::Vector& y0, ode::Vector& x, std::string& why) co
   return true;
 }
 
-bool Shooting::residual(const ode::Vector& x, ode::Vector& f, ode::Matrix* jacobian,
+bool Segments::residual(const ode::Vector& x, ode::Vector& f, ode::Matrix* jacobian,
                         std::vector<ode::Matrix>* segment_jacobians, std::string& why) const {
-  const Eigen::Index n = dimension();
+  const Eigen::Index n = dimension(), d = state_dimension();
   f.resize(n);
   if (jacobian) jacobian->setZero(n, n);
   if (segment_jacobians) segment_jacobians->clear();
@@ -109,33 +112,95 @@ bool Shooting::residual(const ode::Vector& x, ode::Vector& f, ode::Matrix* jacob
                         ode::to_string(r.termination), r.message);
       return false;
     }
-    const Eigen::Index at = Eigen::Index{2} * i;
-    const Eigen::Index next = Eigen::Index{2} * ((i + 1) % segments_);
-    f.segment(at, 2) = scaled(r.state) - x.segment(next, 2);
+    const Eigen::Index at = d * i;
+    const Eigen::Index next = d * ((i + 1) % segments_);
+    f.segment(at, d) = scaled(r.state) - x.segment(next, d);
     if (jacobian) {
       // d(scaled phi_i)/dx_i = S^-1 J_i S; d/dx_next = -I.
-      jacobian->block(at, at, 2, 2) +=
+      jacobian->block(at, at, d, d) +=
           scale_.cwiseInverse().asDiagonal() * *r.jacobian * scale_.asDiagonal();
-      jacobian->block(at, next, 2, 2) -= ode::Matrix::Identity(2, 2);
+      jacobian->block(at, next, d, d) -= ode::Matrix::Identity(d, d);
     }
     if (segment_jacobians) segment_jacobians->push_back(*r.jacobian);
   }
   return true;
 }
 
+NewtonOutcome solve_periodic(const Segments& s, ode::Vector& x, const OrbitOptions& options) {
+  NewtonOutcome out;
+  ode::Vector f, f_try, x_try, step;
+  ode::Matrix jac;
+  std::string why;
+  if (!s.residual(x, f, &jac, &out.jacobians, why)) {
+    out.message = why;
+    return out;
+  }
+  // Backtracking on the residual's largest entry.
+  double norm = f.lpNorm<Eigen::Infinity>();
+  for (;;) {
+    out.residual = norm;
+    if (norm <= options.tolerance) break;
+    if (out.iterations >= options.max_iterations) {
+      out.message =
+          fmt::format("no convergence in {} Newton iterations (residual {:.3g}, tolerance {:.3g})",
+                      out.iterations, norm, options.tolerance);
+      return out;
+    }
+    if (!solve_newton(jac, f, step)) {
+      out.message = fmt::format(
+          "the Newton matrix is singular at residual {:.3g}: a Floquet multiplier is 1 (a "
+          "fold)",
+          norm);
+      return out;
+    }
+    ++out.iterations;
+    double lambda = 1;
+    bool accepted = false;
+    why.clear();
+    for (int b = 0; b <= kMaxBacktracks && !accepted; ++b, lambda *= 0.5) {
+      x_try = x + lambda * step;
+      if (!s.residual(x_try, f_try, nullptr, nullptr, why)) continue;
+      accepted = f_try.lpNorm<Eigen::Infinity>() < norm;
+    }
+    if (!accepted) {
+      out.message = fmt::format(
+          "Newton stalled at residual {:.3g}: no step along the Newton direction lowers it "
+          "(the start may be far from an orbit, or the orbit grazes a contact){}",
+          norm, why.empty() ? "" : "; last failure: " + why);
+      return out;
+    }
+    x = x_try;
+    if (!s.residual(x, f, &jac, &out.jacobians, why)) {
+      out.message = why;
+      return out;
+    }
+    norm = f.lpNorm<Eigen::Infinity>();
+  }
+  out.converged = true;
+  out.message = fmt::format("converged in {} Newton iterations to a residual of {:.3g}",
+                            out.iterations, norm);
+  return out;
+}
+
+void floquet(const std::vector<ode::Matrix>& segment_jacobians, ode::Matrix& monodromy,
+             std::vector<std::complex<double>>& multipliers) {
+  const Eigen::Index d = segment_jacobians.empty() ? 0 : segment_jacobians.front().rows();
+  monodromy = ode::Matrix::Identity(d, d);
+  for (const ode::Matrix& j : segment_jacobians) monodromy = j * monodromy;
+  const Eigen::EigenSolver<ode::Matrix> eig(monodromy, false);
+  multipliers.clear();
+  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i)
+    multipliers.push_back(eig.eigenvalues()[i]);
+  std::sort(multipliers.begin(), multipliers.end(),
+            [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
+}
+
 bool Shooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
                     Orbit& orbit, std::string& why) const {
   orbit.system_period_s = system_period_s_;
   orbit.period_s = period_s_;
-  orbit.segments = segments_;
-  orbit.monodromy = ode::Matrix::Identity(2, 2);
-  for (const ode::Matrix& j : segment_jacobians) orbit.monodromy = j * orbit.monodromy;
-  const Eigen::EigenSolver<ode::Matrix> eig(orbit.monodromy, false);
-  orbit.multipliers.clear();
-  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i)
-    orbit.multipliers.push_back(eig.eigenvalues()[i]);
-  std::sort(orbit.multipliers.begin(), orbit.multipliers.end(),
-            [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
+  orbit.segments = segments_.segments();
+  floquet(segment_jacobians, orbit.monodromy, orbit.multipliers);
   orbit.stable = orbit.max_multiplier() < 1.0;
 
   const ode::Vector y0 = state(x, 0);
@@ -279,64 +344,27 @@ Orbit find_orbit(const Case& c, const OrbitOptions& options,
     }
     s0 = settled.end_state;
   }
-  ode::Vector y0(2), x, f, f_try, x_try, step;
+  ode::Vector y0(2), x;
   y0 << s0.q, s0.v;
-  ode::Matrix jac;
-  std::vector<ode::Matrix> jacobians;
   std::string why;
-  if (!shooting.guess(y0, x, why) || !shooting.residual(x, f, &jac, &jacobians, why)) {
+  if (!shooting.guess(y0, x, why)) {
     orbit.message = why;
     return orbit;
   }
-
-  // Newton's method with backtracking on the residual's largest entry.
-  double norm = f.lpNorm<Eigen::Infinity>();
-  for (;;) {
-    orbit.residual = norm;
-    if (norm <= options.tolerance) break;
-    if (orbit.iterations >= options.max_iterations) {
-      orbit.message =
-          fmt::format("no convergence in {} Newton iterations (residual {:.3g}, tolerance {:.3g})",
-                      orbit.iterations, norm, options.tolerance);
-      return orbit;
-    }
-    if (!detail::solve_newton(jac, f, step)) {
-      orbit.message = fmt::format(
-          "the Newton matrix is singular at residual {:.3g}: a Floquet multiplier is 1 (a "
-          "fold)",
-          norm);
-      return orbit;
-    }
-    ++orbit.iterations;
-    double lambda = 1;
-    bool accepted = false;
-    why.clear();
-    for (int b = 0; b <= kMaxBacktracks && !accepted; ++b, lambda *= 0.5) {
-      x_try = x + lambda * step;
-      if (!shooting.residual(x_try, f_try, nullptr, nullptr, why)) continue;
-      accepted = f_try.lpNorm<Eigen::Infinity>() < norm;
-    }
-    if (!accepted) {
-      orbit.message = fmt::format(
-          "Newton stalled at residual {:.3g}: no step along the Newton direction lowers it "
-          "(the start may be far from an orbit, or the orbit grazes a contact){}",
-          norm, why.empty() ? "" : "; last failure: " + why);
-      return orbit;
-    }
-    x = x_try;
-    if (!shooting.residual(x, f, &jac, &jacobians, why)) {
-      orbit.message = why;
-      return orbit;
-    }
-    norm = f.lpNorm<Eigen::Infinity>();
+  detail::NewtonOutcome newton = detail::solve_periodic(shooting.shooting(), x, options);
+  orbit.iterations = newton.iterations;
+  orbit.residual = newton.residual;
+  if (!newton.converged) {
+    orbit.message = newton.message;
+    return orbit;
   }
+  const std::vector<ode::Matrix>& jacobians = newton.jacobians;
   if (!shooting.read(x, jacobians, orbit, why)) {
     orbit.message = why;
     return orbit;
   }
   orbit.converged = true;
-  orbit.message = fmt::format("converged in {} Newton iterations to a residual of {:.3g}",
-                              orbit.iterations, norm);
+  orbit.message = newton.message;
   return orbit;
 }
 

@@ -1,8 +1,12 @@
-// geardyn internal: the multiple-shooting residual of the gear model's periodic orbits, shared
-// by find_orbit and the continuation (orbit.hpp, continuation.hpp).
+// geardyn internal: the multiple-shooting residual of periodic orbits and Newton's method on
+// it, for any flow of the exact engine (the one-degree model's and the coupled model's), shared
+// by find_orbit, find_coupled_orbit and the continuation (orbit.hpp, coupled_orbit.hpp,
+// continuation.hpp).
 #pragma once
 
 #include <Eigen/Core>
+#include <complex>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -17,6 +21,53 @@ constexpr double kEngineToleranceFraction = 1e-4;
 
 // The Newton iteration's unknowns are scaled: delta by b, delta' by b w_n: (b, b w_n).
 ode::Vector orbit_scale(const GearPairModel& model);
+
+// M segments of a period T of any flow: the unknowns are the scaled states at the segments'
+// starts, x_i = y_i / scale (state dimension d = scale.size()), and the residual is
+// F(x)_i = phi_i(y_i) / scale - x_{i+1} (i + 1 mod M).
+class Segments {
+ public:
+  // The flow of segment i from y (physical units) over its T / M, with its Jacobian.
+  using Flow = std::function<ode::FlowResult(int i, const ode::Vector& y)>;
+  Segments(Flow flow, int segments, ode::Vector scale)
+      : flow_(std::move(flow)), segments_(segments), scale_(std::move(scale)) {}
+
+  int segments() const { return segments_; }
+  Eigen::Index state_dimension() const { return scale_.size(); }
+  Eigen::Index dimension() const { return scale_.size() * segments_; }
+  ode::FlowResult flow(int i, const ode::Vector& y) const { return flow_(i, y); }
+  // Segment i's state of the scaled unknowns x, physical; and back.
+  ode::Vector state(const ode::Vector& x, int i) const;
+  ode::Vector scaled(const ode::Vector& y) const { return y.cwiseQuotient(scale_); }
+  // The scaled unknowns of a first guess: y on the section, then its flow to each segment's
+  // start. False with `why` when a flow fails.
+  bool guess(const ode::Vector& y0, ode::Vector& x, std::string& why) const;
+  // The scaled residual and, when asked, dF/dx and the segments' Jacobians (physical). False
+  // with `why` when a flow fails.
+  bool residual(const ode::Vector& x, ode::Vector& f, ode::Matrix* jacobian,
+                std::vector<ode::Matrix>* segment_jacobians, std::string& why) const;
+
+ private:
+  Flow flow_;
+  int segments_;
+  ode::Vector scale_;
+};
+
+// Newton's method with backtracking on the residual's largest entry, from x (left at the
+// last accepted iterate), to options.tolerance in at most options.max_iterations.
+struct NewtonOutcome {
+  bool converged = false;
+  int iterations = 0;
+  double residual = 0;
+  std::string message;                 // why not, or how
+  std::vector<ode::Matrix> jacobians;  // the segments' at x, when converged
+};
+NewtonOutcome solve_periodic(const Segments& s, ode::Vector& x, const OrbitOptions& options);
+
+// The monodromy matrix (the product of the segments' Jacobians, last on the left) and its
+// eigenvalues, largest modulus first.
+void floquet(const std::vector<ode::Matrix>& segment_jacobians, ode::Matrix& monodromy,
+             std::vector<std::complex<double>>& multipliers);
 
 // One case value: its model, the exact engine, and the residual of M segments of length T / M
 // over the orbit's period T = N T0. Not copyable (the solver refers to the model).
@@ -34,22 +85,22 @@ class Shooting {
   const Solver& solver() const { return solver_; }
   double system_period_s() const { return system_period_s_; }
   double period_s() const { return period_s_; }
-  int segments() const { return segments_; }
-  Eigen::Index dimension() const { return Eigen::Index{2} * segments_; }
+  int segments() const { return segments_.segments(); }
+  Eigen::Index dimension() const { return segments_.dimension(); }
+  // The multiple shooting of this case's flow (Segments above).
+  const Segments& shooting() const { return segments_; }
 
   // The flow of segment i from y (physical units) over its T / M, with its Jacobian.
   ode::FlowResult flow(int i, const ode::Vector& y) const;
-  // Segment i's state of the scaled unknowns x, physical; and back.
-  ode::Vector state(const ode::Vector& x, int i) const;
-  ode::Vector scaled(const ode::Vector& y) const { return y.cwiseQuotient(scale_); }
-  // The scaled unknowns of a first guess: y on the section, then its flow to each segment's
-  // start. False with `why` when a flow fails.
-  bool guess(const ode::Vector& y0, ode::Vector& x, std::string& why) const;
-
-  // The scaled residual F(x)_i = y_{i+1} - phi_i(y_i) and, when asked, dF/dx and the segments'
-  // Jacobians (physical). False with `why` when a flow fails.
+  ode::Vector state(const ode::Vector& x, int i) const { return segments_.state(x, i); }
+  ode::Vector scaled(const ode::Vector& y) const { return segments_.scaled(y); }
+  bool guess(const ode::Vector& y0, ode::Vector& x, std::string& why) const {
+    return segments_.guess(y0, x, why);
+  }
   bool residual(const ode::Vector& x, ode::Vector& f, ode::Matrix* jacobian,
-                std::vector<ode::Matrix>* segment_jacobians, std::string& why) const;
+                std::vector<ode::Matrix>* segment_jacobians, std::string& why) const {
+    return segments_.residual(x, f, jacobian, segment_jacobians, why);
+  }
 
   // Fills an orbit's section state, monodromy (from the segments' Jacobians at x), multipliers,
   // stability, contact sequence and reading (one period flown with a RunReader). False with
@@ -61,8 +112,7 @@ class Shooting {
   GearPairModel model_;
   Solver solver_;
   double system_period_s_, period_s_;
-  int segments_;
-  ode::Vector scale_;
+  Segments segments_;
 };
 
 // The Newton matrix solve shared by the orbit and the continuation: false when singular.
