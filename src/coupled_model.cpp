@@ -217,6 +217,7 @@ CoupledParameters coupled_parameters(const Case& c) {
   const double sb = std::sqrt(std::max(0.0, 1.0 - cb * cb));
   p.cos_base_helix = cb;
   p.sin_base_helix = sb;
+  p.base_radius_m = {g.base_radius_m[0], g.base_radius_m[1]};
   p.equivalent_mass_kg = gp.equivalent_mass_kg;
   p.backlash_m = gp.backlash_m;
   p.stiffness_n_per_m = gp.stiffness_n_per_m;

@@ -209,6 +209,12 @@ ode::FlowResult CoupledSolver::advance(double t0, const ode::Vector& y0, double 
   return engine_->flow(t0, y0, model_->classify(t0, y0), t1, ode::OutputGrid{}, nothing);
 }
 
+ode::FlowResult CoupledSolver::advance_with_jacobian(double t0, const ode::Vector& y0,
+                                                     double t1) const {
+  ode::FlowObserver nothing;
+  return engine_->flow(t0, y0, model_->classify(t0, y0), t1, ode::OutputGrid{}, nothing, true);
+}
+
 CoupledRunResult CoupledSolver::read(double t0, const ode::Vector& y0, double t1,
                                      const ode::OutputGrid& grid, double final_from,
                                      const std::function<bool(double)>& progress,

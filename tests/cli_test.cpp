@@ -510,6 +510,33 @@ TEST(Cli, KeyTablesInTheDocsAreTheProgramsOwn) {
   EXPECT_EQ(keys[1]["key"], "model.form");
 }
 
+TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
+  // The shipped case at its 1 kHz: a stable period-1 orbit in permanent contact (docs/orbits.md);
+  // the keys in --json; a --state of the wrong size is named.
+  const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
+  const Outcome o = cli("orbit " + coupled + " --json");
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(o.out);
+  for (const char* key : {"converged", "period_s", "state", "floquet_multipliers", "stable",
+                          "impacts_per_period", "min_delta_bar", "max_delta_bar", "max_force_bar"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_TRUE(j["converged"].get<bool>());
+  EXPECT_TRUE(j["stable"].get<bool>());
+  EXPECT_EQ(j["impacts_per_period"], 0);
+  EXPECT_NEAR(j["max_multiplier"].get<double>(), 0.956, 0.0005);
+  EXPECT_EQ(j["state"].size(), 22U);
+  EXPECT_EQ(j["floquet_multipliers"].size(), 22U);
+  EXPECT_GT(j["min_delta_bar"].get<double>(), 1.0);  // the mesh never leaves contact
+  const Outcome text = cli("orbit " + coupled + " --set model.dof=3");
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("stable            no"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("2 impacts/period"), std::string::npos) << text.out;
+  const Outcome bad = cli("orbit " + coupled + " --set model.dof=3 --state 0 0");
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.err.find("2 values given; this coupled case takes 6"), std::string::npos)
+      << bad.err;
+}
+
 TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
   const Outcome m = cli("modes " + coupled + " --json");
@@ -616,7 +643,10 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   ASSERT_EQ(sw.code, 0) << sw.err;
   EXPECT_TRUE(fs::exists(d / "sweep.csv"));
   fs::remove_all(d);
-  const Outcome s1 = cli("orbit " + coupled);
+  // Continuation takes the one-degree forms only, and says so.
+  const Outcome s1 =
+      cli("continue " + coupled + " --param speed.shaft_frequency_hz --from 900 --to 1000 --out " +
+          d.string());
   EXPECT_EQ(s1.code, 2);
   EXPECT_NE(s1.err.find("model.form = \"coupled\""), std::string::npos) << s1.err;
   const Outcome plain = cli("modes");

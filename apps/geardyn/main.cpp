@@ -21,6 +21,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/continuation.hpp"
+#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
@@ -517,9 +518,54 @@ const char* contact_name(int region) {
   }
 }
 
+// The coupled model's orbit: its state per coordinate, multipliers and readings.
+int cmd_coupled_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
+                      const std::vector<double>& state, bool json) {
+  std::optional<geardyn::ode::Vector> start;
+  if (!state.empty())
+    start = Eigen::Map<const geardyn::ode::Vector>(state.data(),
+                                                   static_cast<Eigen::Index>(state.size()));
+  const geardyn::CoupledOrbit r = geardyn::find_coupled_orbit(c, o, start);
+  if (json) {
+    fmt::print("{}\n", geardyn::coupled_orbit_json(r));
+    return r.converged ? 0 : kExitNumerical;
+  }
+  fmt::print("geardyn orbit: {} (coupled, dof {}){}\n", c.name, c.model.dof,
+             c.description.empty() ? "" : " - " + c.description);
+  if (!r.converged) {
+    fmt::print(stderr, "geardyn: the orbit was not found: {}\n", r.message);
+    return kExitNumerical;
+  }
+  const geardyn::CoupledRunResult& m = r.reading;
+  const double b = m.parameters.backlash_m, bk = b * m.parameters.stiffness_n_per_m.offset;
+  fmt::print(
+      "  period            {:.9g} s = {} x the system period {:.9g} s ({} shooting segment{})\n",
+      r.period_s, r.periods, r.system_period_s, r.segments, r.segments == 1 ? "" : "s");
+  fmt::print("  Newton            {}\n", r.message);
+  fmt::print("  section state     {} coordinates and their rates (--json prints them)\n",
+             r.coordinates.size());
+  fmt::print("  multipliers       {}, the largest:\n", r.multipliers.size());
+  for (std::size_t k = 0; k < std::min<std::size_t>(r.multipliers.size(), 4); ++k)
+    fmt::print("                    {:.9g}{:+.9g}i (|mu| {:.9g})\n", r.multipliers[k].real(),
+               r.multipliers[k].imag(), std::abs(r.multipliers[k]));
+  fmt::print("  stable            {}\n", r.stable ? "yes" : "no");
+  fmt::print("  mesh              {} impacts/period ({} back side), separations {}\n",
+             m.mesh.impacts, m.mesh.backside_impacts, m.mesh.separations);
+  fmt::print("  (d - e)/b         min {:.9g}  max {:.9g}\n", m.min_deflection_m / b,
+             m.max_deflection_m / b);
+  fmt::print("  F_bar             min {:.9g}  max {:.9g}\n", m.min_force_n / bk,
+             m.max_force_n / bk);
+  for (int i = 0; i < 2; ++i)
+    if (m.bearing[i].present)
+      fmt::print("  bearing {}         {} impacts/period, separations {}\n", i + 1,
+                 m.bearing[i].impacts, m.bearing[i].separations);
+  return 0;
+}
+
 int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets,
               const geardyn::OrbitOptions& o, const std::vector<double>& state, bool json) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  if (c.model.form == geardyn::ModelForm::kCoupled) return cmd_coupled_orbit(c, o, state, json);
   std::optional<geardyn::ode::State> start;
   if (!state.empty()) {
     if (state.size() != 2)

@@ -87,9 +87,10 @@ struct CoupledParameters {
   std::array<double, 2> clearance_m = {0, 0};  // bearing clearance along y_i, 0: none
   double backlash_m = 0;
   double cos_base_helix = 1, sin_base_helix = 0;
-  HarmonicSeries stiffness_n_per_m;     // k(t)
-  HarmonicSeries transmission_error_m;  // e(t)
-  double mesh_damping_n_s_per_m = 0;    // c, as the one-degree model's
+  std::array<double, 2> base_radius_m = {0, 0};  // R_b1, R_b2
+  HarmonicSeries stiffness_n_per_m;              // k(t)
+  HarmonicSeries transmission_error_m;           // e(t)
+  double mesh_damping_n_s_per_m = 0;             // c, as the one-degree model's
   DampingForm damping = DampingForm::kContact;
   TensionRule tension = TensionRule::kAllow;
   // The torques' generalized force Q(t) = drive_gain T1(t) + steady_force (N on u, N m on the

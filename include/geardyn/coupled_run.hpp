@@ -82,6 +82,8 @@ class CoupledSolver {
   ode::Vector initial_state(InitialCondition initial) const;
   // From (t0, y0) to t1 with nothing read.
   ode::FlowResult advance(double t0, const ode::Vector& y0, double t1) const;
+  // The same with dy(t1)/dy(t0) in the result's jacobian (saltation at every event).
+  ode::FlowResult advance_with_jacobian(double t0, const ode::Vector& y0, double t1) const;
   // From (t0, y0) to t1, sampled on `grid` and read (contact separated after final_from is
   // "sustained"); the end state into *end_state when given. wall_time_s is left 0.
   CoupledRunResult read(double t0, const ode::Vector& y0, double t1, const ode::OutputGrid& grid,

@@ -578,14 +578,17 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
     tolerance : float
         Newton's tolerance on the scaled residual (delta / b, delta' / (b w_n)).
     max_iterations : int
-    state : (float, float), optional
-        First guess on the section t = 0: delta (m) and delta' (m/s).
+    state : sequence of float, optional
+        First guess on the section t = 0: delta (m) and delta' (m/s); for a coupled case
+        (``model.form = "coupled"``) its 2n coordinates and their rates, SI, in the order of
+        ``coordinates``.
 
     Returns
     -------
     dict
         ``converged`` and ``message`` (not converging is reported here, not raised),
-        ``period_s`` (s; tau in the non-dimensional form), ``state`` (m, m/s),
+        ``period_s`` (s; tau in the non-dimensional form), ``state`` (m, m/s; for a coupled
+        case all coordinates and rates, with ``coordinates`` and per-bearing ``bearings``),
         ``floquet_multipliers`` (complex, largest first), ``monodromy``, ``stable``,
         ``impacts_per_period``, ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``,
         ``sequence`` (the contact events of one period) and more.

@@ -7,6 +7,7 @@
 
 #include "bindings.hpp"
 #include "geardyn/continuation.hpp"
+#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/stability.hpp"
 
@@ -55,11 +56,21 @@ void bind_orbit(py::module_& m) {
         o.tolerance = tolerance;
         o.max_iterations = max_iterations;
         std::optional<ode::State> start;
-        if (state) {
-          if (state->size() != 2)
-            throw InputError("state: takes two values, delta (m) and delta' (m/s) at t = 0");
-          start = ode::State{0.0, (*state)[0], (*state)[1], 0.0, 0};
+        if (state && state->size() == 2) start = ode::State{0.0, (*state)[0], (*state)[1], 0.0, 0};
+        if (c.model.form == ModelForm::kCoupled) {
+          std::optional<ode::Vector> y0;
+          if (state)
+            y0 = Eigen::Map<const ode::Vector>(state->data(),
+                                               static_cast<Eigen::Index>(state->size()));
+          CoupledOrbit r;
+          {
+            const py::gil_scoped_release release;
+            r = find_coupled_orbit(c, o, y0);
+          }
+          return py::str(coupled_orbit_json(r, -1));
         }
+        if (state && state->size() != 2)
+          throw InputError("state: takes two values, delta (m) and delta' (m/s) at t = 0");
         Orbit r;
         {
           const py::gil_scoped_release release;

@@ -501,5 +501,14 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
                                       ("line_bearings", "axial_bearings", "tilt_bearings",
                                        "cross_bearings", "shafts"))
     assert total == pytest.approx(np.ones(11), abs=1e-12)
+    # The coupled orbit from Python is the command line's.
+    o = geardyn.orbit(case.with_({"model.dof": 3}))
+    out = json.loads(cli("orbit", str(path), "--set", "model.dof=3", "--json").stdout)
+    assert o["converged"] and out["converged"] and not o["stable"]
+    assert o["state"].shape == (6,) and o["monodromy"].shape == (6, 6)
+    assert o["state"] == pytest.approx(np.array(out["state"]), rel=1e-12, abs=1e-18)
+    assert abs(o["floquet_multipliers"][0]) == pytest.approx(out["max_multiplier"], rel=1e-12)
+    with pytest.raises(geardyn.InputError, match="this coupled case takes 6"):
+        geardyn.orbit(case.with_({"model.dof": 3}), state=[0.0, 0.0])
     with pytest.raises(geardyn.InputError, match="modes are of the coupled model"):
         geardyn.modes(geardyn.Case())
