@@ -149,6 +149,9 @@ MaybeViolation check_relations(const Case& c) {
         "mesh.transmission_error_table", fmt::format("\"{}\"", m.transmission_error_table),
         "empty when mesh.transmission_error_um gives the harmonics (one or the other)"});
 
+  if (c.load.load_fluctuation_nm != 0 && !c.load.load_torque_nm)
+    return bad("load.load_fluctuation_nm", c.load.load_fluctuation_nm,
+               "0 unless load.load_torque_nm is given (the matched load follows T1(t) already)");
   if (c.model.dof != 3 && c.model.dof != 6 && c.model.dof != 12)
     return bad("model.dof", c.model.dof, "3, 6 or 12");
   for (int i = 0; i < 2; ++i)

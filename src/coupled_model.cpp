@@ -162,11 +162,11 @@ int CoupledParameters::index(Coordinate c) const {
 }
 
 Eigen::VectorXd CoupledParameters::force(double t_s) const {
-  return drive_gain * drive_torque_nm(t_s) + steady_force;
+  return drive_gain * drive_torque_nm(t_s) + load_gain * load_torque_nm(t_s);
 }
 
 Eigen::VectorXd CoupledParameters::mean_force() const {
-  return drive_gain * drive_torque_nm.offset + steady_force;
+  return drive_gain * drive_torque_nm.offset + load_gain * load_torque_nm.offset;
 }
 
 double CoupledParameters::static_mesh_force_n() const {
@@ -292,11 +292,12 @@ CoupledParameters coupled_parameters(const Case& c) {
   const Matrix gain = block * s * inverse_inertia.asDiagonal();  // per N m on each body
   const std::optional<double>& t2 = c.load.load_torque_nm;
   p.drive_torque_nm = drive_torque_nm(c);
+  p.load_torque_nm = load_torque_nm(c);
   p.drive_gain = Vector::Zero(n);
-  p.steady_force = Vector::Zero(n);
+  p.load_gain = Vector::Zero(n);
   p.drive_gain.head(t) = gain.col(end[0]);
   if (t2)
-    p.steady_force.head(t) = gain.col(end[1]) * *t2;
+    p.load_gain.head(t) = gain.col(end[1]);
   else
     p.drive_gain.head(t) += gain.col(end[1]) * g.base_radius_m[1] / g.base_radius_m[0];
   // The shafts: springs on their twists, damped against the reduced inertia of their ends.
@@ -332,6 +333,7 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
   const Series de = e.derivative(table);
   const Series ke = k.times(e, table);
   const Series torque = Series::of(p_.drive_torque_nm, table);
+  const Series load = Series::of(p_.load_torque_nm, table);
   double lowest = 0;
   for (const auto& [f, c] : k.terms)
     if (lowest == 0 || table[f] < lowest) lowest = table[f];
@@ -339,7 +341,7 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
   const std::size_t nf = table.size();
 
   const Matrix inv_mass = p_.mass.inverse();  // exact zeros off the torsional block
-  const Vector drive = inv_mass * p_.drive_gain, steady = inv_mass * p_.steady_force;
+  const Vector drive = inv_mass * p_.drive_gain, loaded = inv_mass * p_.load_gain;
   const RowVector& v = p_.mesh_vector;
   const Matrix vv = v.transpose() * v;
   const double c = p_.mesh_damping_n_s_per_m, b = p_.backlash_m;
@@ -458,7 +460,8 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
     region.a.constant.bottomRightCorner(n, n) -= inv_mass * cbv.asDiagonal();
     // The torques.
     torque.place(region.u, [&](Vector& x, double y) { x.tail(n) += y * drive; });
-    region.u.constant.tail(n) += steady + inv_mass * force;
+    load.place(region.u, [&](Vector& x, double y) { x.tail(n) += y * loaded; });
+    region.u.constant.tail(n) += inv_mass * force;
     // The mesh: -V^T F_n with F_n = kappa (V q - e - edge) + gamma (V q' - e').
     const bool drive_side = s.mesh == kDriveContact, back = s.mesh == kBackContact;
     const Matrix minv_vv = inv_mass * vv;

@@ -170,6 +170,7 @@ double fastest_period_s(const CoupledModel& m) {
   const CoupledParameters& p = m.parameters();
   w = std::max({w, p.stiffness_n_per_m.max_angular_frequency_rad_s(),
                 p.drive_torque_nm.max_angular_frequency_rad_s(),
+                p.load_torque_nm.max_angular_frequency_rad_s(),
                 p.transmission_error_m.max_angular_frequency_rad_s()});
   return 2 * std::numbers::pi / w;
 }

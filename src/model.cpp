@@ -85,8 +85,26 @@ GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
   p.force_n = drive_torque_nm(c);
   p.force_n.offset *= per_t1;
   for (Harmonic& h : p.force_n.terms) h.amplitude *= per_t1;
-  if (c.load.load_torque_nm) p.force_n.offset += m * cb * R2 * (*c.load.load_torque_nm) / J2;
+  const double per_t2 = m * cb * R2 / J2;
+  const HarmonicSeries t2 = load_torque_nm(c);
+  p.force_n.offset += per_t2 * t2.offset;
+  for (Harmonic h : t2.terms) {
+    h.amplitude *= per_t2;
+    p.force_n.terms.push_back(h);
+  }
   return p;
+}
+
+HarmonicSeries load_torque_nm(const Case& c) {
+  HarmonicSeries t;
+  if (!c.load.load_torque_nm) return t;
+  t.offset = *c.load.load_torque_nm;
+  if (c.load.load_fluctuation_nm != 0.0)
+    t.terms.push_back(
+        {c.load.load_fluctuation_nm,
+         2.0 * std::numbers::pi * c.load.load_fluctuation_order * c.speed.shaft_frequency_hz,
+         c.load.load_fluctuation_phase_deg * std::numbers::pi / 180.0});
+  return t;
 }
 
 HarmonicSeries drive_torque_nm(const Case& c) {

@@ -509,6 +509,11 @@ TEST(CoupledShafts, TheEnginesEquationsAreTheAbsoluteRotationsOnes) {
     Case c = with_shafts();
     c.load.load_torque_nm = t2;
     c.load.fluctuation_ratio = 0.3;
+    if (t2) {  // a fluctuating load torque at twice the shaft frequency
+      c.load.load_fluctuation_nm = 7;
+      c.load.load_fluctuation_order = 2;
+      c.load.load_fluctuation_phase_deg = 40;
+    }
     const CoupledModel model(coupled_parameters(c));
     const CoupledParameters& p = model.parameters();
     const Geometry g = case_geometry(c);
@@ -535,7 +540,8 @@ TEST(CoupledShafts, TheEnginesEquationsAreTheAbsoluteRotationsOnes) {
         const double t1 = p.drive_torque_nm(t);
         ode::Vector f = ode::Vector::Zero(4);
         f[2] = t1;
-        f[3] = t2 ? *t2 : r2 * t1 / r1;
+        const double w2 = 2 * kPi * 2 * c.speed.shaft_frequency_hz;
+        f[3] = t2 ? *t2 + 7 * std::cos(w2 * t + 40 * kPi / 180) : r2 * t1 / r1;
         const ode::Vector theta = (f - s.transpose() * elastic.head(3)).cwiseQuotient(inertia);
         const ode::Vector got = ode::derivative(sys, region, t, y);
         const ode::Vector expected = s * theta;

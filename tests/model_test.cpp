@@ -37,6 +37,36 @@ TEST(GearPairModel, Eq6WithAnIndependentLoadReducesToEq8WhenMatched) {
               1e-9);
 }
 
+TEST(GearPairModel, AFluctuatingLoadTorqueEntersEq6ThroughTheWheel) {
+  // F(t) = m_eq cos(beta_b) (R_b1 T1(t) / J1 + R_b2 T2(t) / J2) at any t, with T1 and T2 each
+  // fluctuating at their own order and phase; the matched load takes no T2 fluctuation.
+  Geometry g;
+  Case c;
+  c.gear.inertia_kg_m2 = std::array<double, 2>{0.04, 0.09};
+  c.load.load_torque_nm = 30;
+  c.load.load_fluctuation_nm = 6;
+  c.load.load_fluctuation_order = 2.5;
+  c.load.load_fluctuation_phase_deg = -35;
+  const GearPairModel m = model_of(c, &g);
+  const double cb = std::cos(g.base_helix_angle_rad), w1 = 2 * M_PI * 1000;
+  for (const double t : {0.0, 1.3e-4, 7.7e-4, 2.9e-3}) {
+    const double t1 = 49.5 * (1 + 0.25 * std::cos(w1 * t));
+    const double t2 = 30 + 6 * std::cos(2.5 * w1 * t - 35 * M_PI / 180);
+    const double f = g.equivalent_mass_kg * cb *
+                     (g.base_radius_m[0] * t1 / 0.04 + g.base_radius_m[1] * t2 / 0.09);
+    EXPECT_NEAR(m.parameters().force_n(t), f, 1e-9 * std::abs(f)) << t;
+  }
+  Case matched;
+  matched.load.load_fluctuation_nm = 6;  // without load_torque_nm: refused, named
+  try {
+    (void)model_of(matched);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("load.load_fluctuation_nm = 6"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(GearPairModel, DampingFromTheLinearisedContactOscillator) {
   Geometry g;
   const GearPairModel m = model_of(Case{}, &g);

@@ -119,10 +119,11 @@ TEST(TransmissionError, BadTablesAndKeysAreRefusedNamingTheKey) {
       << both;
   const std::string many = error_of([] {
     std::string h = "[";
-    for (int i = 0; i < 16; ++i) h += "[0.1, 0],";
+    for (int i = 0; i < 15; ++i) h += "[0.1, 0],";
     (void)load_case(std::nullopt, {{"mesh.transmission_error_um", h + "]"}});
   });
-  EXPECT_NE(many.find("at most 15 harmonics"), std::string::npos) << many;
+  // 14: room in the force's series for the two torques' fluctuations.
+  EXPECT_NE(many.find("at most 14 harmonics"), std::string::npos) << many;
   const std::string negative = error_of([] {
     (void)load_case(std::nullopt, {{"mesh.transmission_error_um", "[[-1, 0]]"}});
   });

@@ -115,8 +115,13 @@ struct LoadData {
   double fluctuation_ratio = 0.25;  // amplitude of T1's fluctuation over its mean (= F_a/F_m)
   double fluctuation_order = 1.0;   // torque frequency over shaft frequency
   double fluctuation_phase_deg = 0.0;
-  // Independent, steady load torque T2 of eq. 6; absent: matched load T2 = R_b2 T1 / R_b1 (eq. 7).
+  // Independent load torque T2 of eq. 6; absent: matched load T2 = R_b2 T1(t) / R_b1 (eq. 7).
   std::optional<double> load_torque_nm;
+  // The fluctuation of an independent T2: amplitude (N m), order over the shaft frequency and
+  // phase, T2(t) = T2 + amplitude cos(order 2 pi f_1 t + phase). Needs load_torque_nm.
+  double load_fluctuation_nm = 0.0;
+  double load_fluctuation_order = 1.0;
+  double load_fluctuation_phase_deg = 0.0;
 };
 
 // [speed]

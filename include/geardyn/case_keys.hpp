@@ -81,8 +81,9 @@ struct CaseKey {
   std::string value_text(const Case& c) const;
 };
 
-// The most transmission error harmonics (the force series keeps one more term for the torque).
-constexpr int kMaxErrorHarmonics = HarmonicSeries::kMaxTerms - 1;
+// The most transmission error harmonics (the force series keeps two more terms, for the
+// fluctuations of T1 and T2).
+constexpr int kMaxErrorHarmonics = HarmonicSeries::kMaxTerms - 2;
 
 // Every key, in the order of the case file (sections as in docs/case-files.md).
 const std::vector<CaseKey>& case_keys();

@@ -93,13 +93,14 @@ struct CoupledParameters {
   double mesh_damping_n_s_per_m = 0;             // c, as the one-degree model's
   DampingForm damping = DampingForm::kContact;
   TensionRule tension = TensionRule::kAllow;
-  // The torques' generalized force Q(t) = drive_gain T1(t) + steady_force (N on u, N m on the
-  // twists): drive_gain per N m of T1 (with the matched load's share R_b2 T1(t) / R_b1 when
-  // T2 is not given), steady_force from a given steady T2. Without shafts Q on u is the
-  // one-degree model's F(t) / cos(beta_b).
+  // The torques' generalized force Q(t) = drive_gain T1(t) + load_gain T2(t) (N on u, N m on
+  // the twists): drive_gain per N m of T1 (with the matched load's share R_b2 T1(t) / R_b1
+  // when T2 is not given), load_gain per N m of a given T2 (0 with the matched load). Without
+  // shafts Q on u is the one-degree model's F(t) / cos(beta_b).
   HarmonicSeries drive_torque_nm;  // T1(t)
+  HarmonicSeries load_torque_nm;   // T2(t), given (0 with the matched load)
   Eigen::VectorXd drive_gain;
-  Eigen::VectorXd steady_force;
+  Eigen::VectorXd load_gain;
   double equivalent_mass_kg = 0;  // m_eq of the gears alone
 
   Eigen::Index size() const { return static_cast<Eigen::Index>(coordinates.size()); }

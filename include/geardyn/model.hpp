@@ -71,6 +71,9 @@ GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
 
 // The driving torque T1(t) = T1 (1 + ratio cos(order 2 pi f_1 t + phi)) of a case, N m.
 HarmonicSeries drive_torque_nm(const Case& c);
+// The independent load torque T2(t) = T2 + amplitude cos(order 2 pi f_1 t + phase), N m (0
+// when the load is matched: load.load_torque_nm absent).
+HarmonicSeries load_torque_nm(const Case& c);
 
 // Adds a static transmission error e(t) (in m; in units of b in the non-dimensional form) to
 // the parameters: kept as transmission_error_m, and its forcing - m_eq e''(t) added to force_n.
