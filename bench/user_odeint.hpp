@@ -52,12 +52,70 @@ struct UserState {
 // up: at loose tolerances a grazing contact can chatter without end (as a user would stop it).
 constexpr int kUserMaxStalledEvents = 1000;
 
+// The event loop a user writes around Boost.Odeint: dopri5 with dense output steps `rhs`
+// (which reads `side`), `guard(x)` (>= 0 while in `side`) is checked at every step end, a
+// crossing is located by TOMS 748 on the dense output, `next_side(x)` gives the side entered and
+// the stepper restarts there. `read(x)` is appended to `out` at each of `times` in [t0, t1].
+// Returns true when it gave up on chattering events (see kUserMaxStalledEvents).
+template <class X, class Rhs, class Guard, class NextSide, class Read>
+bool user_event_loop(Rhs&& rhs, Guard&& guard, NextSide&& next_side, Read&& read, int& side, X& x,
+                     double t0, double t1, const std::vector<double>& times, double tol,
+                     std::vector<double>& out) {
+  namespace odeint = boost::numeric::odeint;
+  auto stepper = odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<X>());
+  double t = t0;
+  stepper.initialize(x, t, 1e-6 * (t1 - t0));
+  std::size_t next = 0;
+  while (next < times.size() && times[next] < t0) ++next;
+  while (next < times.size() && times[next] <= t) {
+    out.push_back(read(x));
+    ++next;
+  }
+  int stalled = 0;
+  X xs = x, xe = x;
+  auto sample_until = [&](double te) {
+    while (next < times.size() && times[next] <= te) {
+      stepper.calc_state(times[next], xs);
+      out.push_back(read(xs));
+      ++next;
+    }
+  };
+  while (t < t1) {
+    stepper.do_step(rhs);
+    double te = std::min(stepper.current_time(), t1);
+    stepper.calc_state(te, xe);
+    if (guard(xe) < 0) {  // locate the crossing on the dense output
+      auto g = [&](double tt) {
+        stepper.calc_state(tt, xs);
+        return guard(xs);
+      };
+      std::uintmax_t it = 100;
+      const double ta = stepper.previous_time();
+      te = boost::math::tools::toms748_solve(g, ta, te,
+                                             boost::math::tools::eps_tolerance<double>(50), it)
+               .second;
+      stepper.calc_state(te, xe);
+      sample_until(te);
+      stalled = (te - t < 1e-12 * (t1 - t0)) ? stalled + 1 : 0;
+      x = xe;
+      if (stalled > kUserMaxStalledEvents) return true;
+      side = next_side(xe);
+      t = te;
+      stepper.initialize(x, t, stepper.current_time_step());
+      continue;
+    }
+    sample_until(te);
+    x = xe;
+    t = te;
+  }
+  return false;
+}
+
 // Integrates from `start` at t0 to t1 with tolerance `tol` (relative and absolute, on
 // delta / b), appending delta / b at each of `times` inside [t0, t1] to `out`.
 inline UserState user_odeint(const UserModel& u, UserState start, double t0, double t1,
                              const std::vector<double>& times, double tol,
                              std::vector<double>& out) {
-  namespace odeint = boost::numeric::odeint;
   using X = std::array<double, 2>;
   int side = start.side;
   auto rhs = [&](const X& x, X& dx, double t) {
@@ -75,56 +133,11 @@ inline UserState user_odeint(const UserModel& u, UserState start, double t0, dou
     if (side == -1) return -1 - x[0];
     return std::min(1 - x[0], x[0] + 1);
   };
-  auto stepper = odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<X>());
+  auto next_side = [&](const X& x) { return side != 0 ? 0 : (x[0] > 0 ? 1 : -1); };
   X x{start.x, start.v};
-  double t = t0;
-  stepper.initialize(x, t, 1e-6 * (t1 - t0));
-  std::size_t next = 0;
-  while (next < times.size() && times[next] < t0) ++next;
-  while (next < times.size() && times[next] <= t) {
-    out.push_back(x[0]);
-    ++next;
-  }
-  int stalled = 0;
-  auto sample_until = [&](double te) {
-    while (next < times.size() && times[next] <= te) {
-      X xs;
-      stepper.calc_state(times[next], xs);
-      out.push_back(xs[0]);
-      ++next;
-    }
-  };
-  while (t < t1) {
-    stepper.do_step(rhs);
-    double te = std::min(stepper.current_time(), t1);
-    X xe;
-    stepper.calc_state(te, xe);
-    if (guard(xe) < 0) {  // locate the crossing on the dense output
-      auto g = [&](double tt) {
-        X xx;
-        stepper.calc_state(tt, xx);
-        return guard(xx);
-      };
-      std::uintmax_t it = 100;
-      const double ta = stepper.previous_time();
-      te = boost::math::tools::toms748_solve(g, ta, te,
-                                             boost::math::tools::eps_tolerance<double>(50), it)
-               .second;
-      stepper.calc_state(te, xe);
-      sample_until(te);
-      stalled = (te - t < 1e-12 * (t1 - t0)) ? stalled + 1 : 0;
-      if (stalled > kUserMaxStalledEvents) return {xe[0], xe[1], side, true};
-      side = side != 0 ? 0 : (xe[0] > 0 ? 1 : -1);
-      x = xe;
-      t = te;
-      stepper.initialize(x, t, stepper.current_time_step());
-      continue;
-    }
-    sample_until(te);
-    x = xe;
-    t = te;
-  }
-  return {x[0], x[1], side, false};
+  const bool stalled = user_event_loop<X>(
+      rhs, guard, next_side, [](const X& y) { return y[0]; }, side, x, t0, t1, times, tol, out);
+  return {x[0], x[1], side, stalled};
 }
 
 // The whole window from the middle of the backlash at rest, samples only.

@@ -70,6 +70,35 @@ class ContactTracker {
   double free_time_ = 0;
 };
 
+// An affine functional g(t) = G(t) y + g0(t) with its time-varying parts replaced by their
+// amplitudes: G_j(t) within mid_j +- spread_j, g0(t) within offset +- offset_spread.
+struct FunctionalRange {
+  ode::RowVector mid, spread;
+  double offset = 0, offset_spread = 0;
+
+  explicit FunctionalRange(const ode::LinearGuard& g)
+      : mid(g.row.constant),
+        spread(ode::RowVector::Zero(g.row.constant.size())),
+        offset(g.offset.constant) {
+    for (std::size_t f = 0; f < g.row.cos.size(); ++f)
+      spread += (g.row.cos[f].array().square() + g.row.sin[f].array().square()).sqrt().matrix();
+    for (std::size_t f = 0; f < g.offset.cos.size(); ++f)
+      offset_spread += std::hypot(g.offset.cos[f], g.offset.sin[f]);
+  }
+  // Bounds of g over a stretch where lo <= y <= hi (interval arithmetic: conservative).
+  void bounds(const ode::Vector& lo, const ode::Vector& hi, double& low, double& high) const {
+    low = offset - offset_spread;
+    high = offset + offset_spread;
+    for (Eigen::Index j = 0; j < mid.size(); ++j) {
+      if (mid[j] == 0 && spread[j] == 0) continue;
+      const double a = mid[j] - spread[j], b = mid[j] + spread[j];
+      const double p[4] = {a * lo[j], a * hi[j], b * lo[j], b * hi[j]};
+      low += std::min({p[0], p[1], p[2], p[3]});
+      high += std::max({p[0], p[1], p[2], p[3]});
+    }
+  }
+};
+
 // Looks at the engine's flow: samples, state changes per nonlinearity, exact extremes.
 class CoupledObserver : public ode::FlowObserver {
  public:
@@ -87,22 +116,21 @@ class CoupledObserver : public ode::FlowObserver {
                   ContactTracker(t0, t1, final_from, coupled_state(region).bearing[1])} {
     out_.max_force_n = out_.max_deflection_m = -kInf;
     out_.min_force_n = out_.min_deflection_m = kInf;
+    ranges_.resize(sys.regions.size());
+    for (std::size_t r = 0; r < sys.regions.size(); ++r)
+      for (const ode::LinearGuard& g : sys.regions[r].observables) ranges_[r].emplace_back(g);
   }
 
-  // No whole-period jumps: every cell is looked at for the extremes.
-  bool needs_detail(const ode::CellView&) override { return true; }
+  // A whole coefficient period may be jumped when the span's state bounds leave no room for a
+  // new extreme of any observable.
+  bool needs_detail(const ode::CellView& span) override { return any_room(span); }
 
   void on_cell(const ode::CellView& cell) override {
-    if (!(cell.t_end_s > cell.t_begin_s)) return;
-    double v = 0, t = 0;
-    if (cell.extreme(CoupledModel::kObservableForce, true, out_.max_force_n, v, t))
-      out_.max_force_n = v;
-    if (cell.extreme(CoupledModel::kObservableForce, false, out_.min_force_n, v, t))
-      out_.min_force_n = v;
-    if (cell.extreme(CoupledModel::kObservableDeflection, true, out_.max_deflection_m, v, t))
-      out_.max_deflection_m = v;
-    if (cell.extreme(CoupledModel::kObservableDeflection, false, out_.min_deflection_m, v, t))
-      out_.min_deflection_m = v;
+    if (!(cell.t_end_s > cell.t_begin_s) || !any_room(cell)) return;
+    extreme(cell, CoupledModel::kObservableForce, true, out_.max_force_n);
+    extreme(cell, CoupledModel::kObservableForce, false, out_.min_force_n);
+    extreme(cell, CoupledModel::kObservableDeflection, true, out_.max_deflection_m);
+    extreme(cell, CoupledModel::kObservableDeflection, false, out_.min_deflection_m);
     for (int i = 0; i < 2; ++i) {
       absolute(cell, CoupledModel::kObservableBearing + i, out_.max_bearing_force_n[i]);
       absolute(cell, CoupledModel::kObservableAxial + i, out_.max_axial_force_n[i]);
@@ -148,10 +176,40 @@ class CoupledObserver : public ode::FlowObserver {
   }
 
  private:
-  void absolute(const ode::CellView& cell, int observable, double& largest) {
-    double v = 0, t = 0;
-    if (cell.extreme(observable, true, largest, v, t)) largest = std::max(largest, v);
-    if (cell.extreme(observable, false, -largest, v, t)) largest = std::max(largest, -v);
+  // Observable k's bounds over a cell or span of region r.
+  void bounds(const ode::CellView& cell, int k, double& low, double& high) const {
+    ranges_[cell.region][k].bounds(*cell.lower, *cell.upper, low, high);
+  }
+  // Whether the bounds leave room for a new extreme of any observable read.
+  bool any_room(const ode::CellView& cell) const {
+    double low = 0, high = 0;
+    bounds(cell, CoupledModel::kObservableForce, low, high);
+    if (high > out_.max_force_n || low < out_.min_force_n) return true;
+    bounds(cell, CoupledModel::kObservableDeflection, low, high);
+    if (high > out_.max_deflection_m || low < out_.min_deflection_m) return true;
+    for (int i = 0; i < 2; ++i)
+      for (const auto& [k, largest] :
+           {std::pair{CoupledModel::kObservableBearing + i, out_.max_bearing_force_n[i]},
+            std::pair{CoupledModel::kObservableAxial + i, out_.max_axial_force_n[i]},
+            std::pair{CoupledModel::kObservableShaft + i, out_.max_shaft_torque_nm[i]}}) {
+        bounds(cell, k, low, high);
+        if (high > largest || -low > largest) return true;
+      }
+    return false;
+  }
+  // The cell's extreme of observable k beyond `seen` (its maximum or minimum), when its bounds
+  // leave room for one: then found exactly on the cell's polynomial.
+  void extreme(const ode::CellView& cell, int k, bool maximum, double& seen) const {
+    double low = 0, high = 0, v = 0, t = 0;
+    bounds(cell, k, low, high);
+    if (maximum ? !(high > seen) : !(low < seen)) return;
+    if (cell.extreme(k, maximum, seen, v, t)) seen = v;
+  }
+  void absolute(const ode::CellView& cell, int k, double& largest) const {
+    double low = 0, high = 0, v = 0, t = 0;
+    bounds(cell, k, low, high);
+    if (high > largest && cell.extreme(k, true, largest, v, t)) largest = std::max(largest, v);
+    if (-low > largest && cell.extreme(k, false, -largest, v, t)) largest = std::max(largest, -v);
   }
 
   const CoupledModel& model_;
@@ -161,6 +219,7 @@ class CoupledObserver : public ode::FlowObserver {
   double t0_, t1_;
   ContactTracker mesh_;
   std::array<ContactTracker, 2> bearings_;
+  std::vector<std::vector<FunctionalRange>> ranges_;  // per region, per observable
 };
 
 // The shortest time scale: the fastest natural period in contact or excitation period.
