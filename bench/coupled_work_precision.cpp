@@ -26,11 +26,10 @@
 #include <vector>
 
 #include "geardyn/coupled_run.hpp"
+#include "timing.hpp"
 #include "user_odeint.hpp"
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 // The user's copy of the model's constants (read from geardyn's, so that both solve the same
 // equations).
@@ -127,23 +126,8 @@ std::vector<double> geardyn_run(const geardyn::CoupledSolver& solver, double t1,
   return r.samples.deflection_bar;
 }
 
-double max_error(const std::vector<double>& a, const std::vector<double>& b) {
-  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
-  double e = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) e = std::max(e, std::abs(a[i] - b[i]));
-  return e;
-}
-
-template <class F>
-double best_time(int repeat, F&& f) {
-  double best = std::numeric_limits<double>::infinity();
-  for (int r = 0; r < repeat; ++r) {
-    const auto t0 = Clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double>(Clock::now() - t0).count());
-  }
-  return best;
-}
+using bench::best_time;
+using bench::max_error;
 
 }  // namespace
 

@@ -30,6 +30,7 @@
 
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
+#include "timing.hpp"
 #include "user_odeint.hpp"
 
 namespace {
@@ -37,7 +38,6 @@ namespace {
 using bench::user_model;
 using bench::user_odeint;
 using bench::UserModel;
-using Clock = std::chrono::steady_clock;
 
 // ---- geardyn, through its Solver (the one the runs use).
 std::vector<double> geardyn_run(const geardyn::GearPairModel& model, geardyn::SolverData s,
@@ -50,23 +50,8 @@ std::vector<double> geardyn_run(const geardyn::GearPairModel& model, geardyn::So
   return reader.samples().delta_bar;
 }
 
-double max_error(const std::vector<double>& a, const std::vector<double>& b) {
-  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
-  double e = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) e = std::max(e, std::abs(a[i] - b[i]));
-  return e;
-}
-
-template <class F>
-double best_time(int repeat, F&& f) {
-  double best = std::numeric_limits<double>::infinity();
-  for (int r = 0; r < repeat; ++r) {
-    const auto t0 = Clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double>(Clock::now() - t0).count());
-  }
-  return best;
-}
+using bench::best_time;
+using bench::max_error;
 
 int windows(const geardyn::Study& study, int repeat) {
   std::printf("%-7s %8s %12s %10s %12s %10s %14s %14s\n", "case", "window_s", "exact_s",

@@ -27,12 +27,6 @@ ode::Vector coupled_orbit_scale(const CoupledParameters& p, double natural_rad_s
 
 }  // namespace
 
-double CoupledOrbit::max_multiplier() const {
-  double m = 0;
-  for (const auto& mu : multipliers) m = std::max(m, std::abs(mu));
-  return m;
-}
-
 CoupledOrbit find_coupled_orbit(const Case& c, const OrbitOptions& options,
                                 const std::optional<ode::Vector>& start) {
   if (c.model.form != ModelForm::kCoupled)
@@ -112,25 +106,12 @@ CoupledOrbit find_coupled_orbit(const Case& c, const OrbitOptions& options,
 }
 
 std::string coupled_orbit_json(const CoupledOrbit& o, int indent) {
-  nlohmann::json j;
+  nlohmann::json j = detail::periodic_json(o);
   j["model"] = "coupled";
-  j["converged"] = o.converged;
-  j["message"] = o.message;
-  j["iterations"] = o.iterations;
-  j["residual"] = o.residual;
-  j["period_s"] = o.period_s;
-  j["periods"] = o.periods;
-  j["system_period_s"] = o.system_period_s;
-  j["segments"] = o.segments;
   nlohmann::json coords = nlohmann::json::array();
   for (Coordinate x : o.coordinates) coords.push_back(to_string(x));
   j["coordinates"] = coords;
   j["state"] = std::vector<double>(o.state.data(), o.state.data() + o.state.size());
-  nlohmann::json mu = nlohmann::json::array();
-  for (const auto& m : o.multipliers) mu.push_back({m.real(), m.imag()});
-  j["floquet_multipliers"] = mu;
-  j["max_multiplier"] = o.max_multiplier();
-  j["stable"] = o.stable;
   const CoupledRunResult& r = o.reading;
   const double b = r.parameters.backlash_m, bk = b * r.parameters.stiffness_n_per_m.offset;
   const bool read = o.converged;
@@ -149,13 +130,6 @@ std::string coupled_orbit_json(const CoupledOrbit& o, int indent) {
                         {"separations_per_period", r.bearing[i].separations},
                         {"max_line_force_n", number(r.max_bearing_force_n[i])}});
   j["bearings"] = bearings;
-  nlohmann::json rows = nlohmann::json::array();
-  for (Eigen::Index row = 0; row < o.monodromy.rows(); ++row) {
-    nlohmann::json v = nlohmann::json::array();
-    for (Eigen::Index k = 0; k < o.monodromy.cols(); ++k) v.push_back(o.monodromy(row, k));
-    rows.push_back(v);
-  }
-  j["monodromy"] = rows;
   return j.dump(indent);
 }
 

@@ -43,7 +43,7 @@ std::string OrbitOptions::validate() const {
   return {};
 }
 
-double Orbit::max_multiplier() const {
+double PeriodicSolution::max_multiplier() const {
   double m = 0;
   for (const auto& mu : multipliers) m = std::max(m, std::abs(mu));
   return m;
@@ -280,7 +280,9 @@ FlowSensitivity flow_sensitivity(const Case& c, const ode::State& y0, double t1_
   return s;
 }
 
-std::string orbit_json(const Orbit& o, int indent) {
+namespace detail {
+
+nlohmann::json periodic_json(const PeriodicSolution& o) {
   nlohmann::json j;
   j["converged"] = o.converged;
   j["message"] = o.message;
@@ -290,14 +292,28 @@ std::string orbit_json(const Orbit& o, int indent) {
   j["periods"] = o.periods;
   j["system_period_s"] = o.system_period_s;
   j["segments"] = o.segments;
-  j["state"] = {o.state.q, o.state.v};
-  const int contact = contact_state(o.state.region);
-  j["state_region"] = contact > 0 ? "drive contact" : contact < 0 ? "back contact" : "separated";
   nlohmann::json mu = nlohmann::json::array();
   for (const auto& m : o.multipliers) mu.push_back({m.real(), m.imag()});
   j["floquet_multipliers"] = mu;
   j["max_multiplier"] = o.max_multiplier();
   j["stable"] = o.stable;
+  nlohmann::json rows = nlohmann::json::array();
+  for (Eigen::Index r = 0; r < o.monodromy.rows(); ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (Eigen::Index k = 0; k < o.monodromy.cols(); ++k) row.push_back(o.monodromy(r, k));
+    rows.push_back(row);
+  }
+  j["monodromy"] = rows;
+  return j;
+}
+
+}  // namespace detail
+
+std::string orbit_json(const Orbit& o, int indent) {
+  nlohmann::json j = detail::periodic_json(o);
+  j["state"] = {o.state.q, o.state.v};
+  const int contact = contact_state(o.state.region);
+  j["state_region"] = contact > 0 ? "drive contact" : contact < 0 ? "back contact" : "separated";
   j["impacts_per_period"] = o.reading.impacts;
   j["backside_impacts_per_period"] = o.reading.backside_impacts;
   j["separations_per_period"] = o.reading.separations;
@@ -309,13 +325,6 @@ std::string orbit_json(const Orbit& o, int indent) {
   for (const auto& e : o.sequence)
     seq.push_back({{"t_s", e.t_s}, {"event", to_string(e.kind)}, {"velocity_m_s", e.velocity_m_s}});
   j["sequence"] = seq;
-  nlohmann::json rows = nlohmann::json::array();
-  for (Eigen::Index r = 0; r < o.monodromy.rows(); ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (Eigen::Index k = 0; k < o.monodromy.cols(); ++k) row.push_back(o.monodromy(r, k));
-    rows.push_back(row);
-  }
-  j["monodromy"] = rows;
   return j.dump(indent);
 }
 

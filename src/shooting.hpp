@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <complex>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,11 @@ NewtonOutcome solve_periodic(const Segments& s, ode::Vector& x, const OrbitOptio
 // eigenvalues, largest modulus first.
 void floquet(const std::vector<ode::Matrix>& segment_jacobians, ode::Matrix& monodromy,
              std::vector<std::complex<double>>& multipliers);
+
+// The keys every orbit's JSON shares: converged, message, iterations, residual, period_s,
+// periods, system_period_s, segments, floquet_multipliers [[re, im], ...], max_multiplier,
+// stable and monodromy (row by row).
+nlohmann::json periodic_json(const PeriodicSolution& o);
 
 // One case value: its model, the exact engine, and the residual of M segments of length T / M
 // over the orbit's period T = N T0. Not copyable (the solver refers to the model).

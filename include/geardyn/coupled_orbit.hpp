@@ -24,25 +24,13 @@
 
 namespace geardyn {
 
-struct CoupledOrbit {
-  bool converged = false;
-  std::string message;  // why not, when not converged; how, when converged
-  int iterations = 0;
-  double residual = 0;  // the scaled residual reached
-  double system_period_s = 0;
-  double period_s = 0;  // N T0
-  int periods = 1;
-  int segments = 1;
+struct CoupledOrbit : PeriodicSolution {
   std::vector<Coordinate> coordinates;
-  ode::Vector state;                              // (q, q') on the section t = 0, SI
-  ode::Matrix monodromy;                          // dy(T)/dy(0), with saltation at every event
-  std::vector<std::complex<double>> multipliers;  // its eigenvalues, largest modulus first
-  bool stable = false;                            // every multiplier inside the unit circle
+  ode::Vector state;  // (q, q') on the section t = 0, SI
   // One period flown from the state and read: the mesh's and each clearance bearing's
   // impacts and separations per period, the exact extremes of (d - e)/b, F_n and the bearing
   // forces.
   CoupledRunResult reading;
-  double max_multiplier() const;
 };
 
 // The orbit as `geardyn orbit --json` prints it for a coupled case: converged, message,

@@ -44,8 +44,9 @@ struct OrbitOptions {
   std::string validate() const;
 };
 
-// The contact events of one period of the orbit, times from the section.
-struct Orbit {
+// What every periodic orbit found by shooting reports (the one-degree model's below, the
+// coupled model's in coupled_orbit.hpp).
+struct PeriodicSolution {
   bool converged = false;
   std::string message;  // why not, when not converged; how, when converged
   int iterations = 0;
@@ -54,13 +55,17 @@ struct Orbit {
   double period_s = 0;  // N T0
   int periods = 1;
   int segments = 1;
-  ode::State state;       // on the section t = 0 (mod T): delta (m), delta' (m/s)
-  ode::Matrix monodromy;  // dy(T)/dy(0), with saltation at every event
+  ode::Matrix monodromy;                          // dy(T)/dy(0), with saltation at every event
   std::vector<std::complex<double>> multipliers;  // its eigenvalues, largest modulus first
   bool stable = false;                            // every multiplier inside the unit circle
-  std::vector<ContactEvent> sequence;             // the contact events of one period, in order
-  RunReading reading;                             // impacts, extremes of delta_bar and F_bar
   double max_multiplier() const;                  // the largest modulus (0 when none)
+};
+
+// An orbit of the one-degree model; the contact events of one period, times from the section.
+struct Orbit : PeriodicSolution {
+  ode::State state;                    // on the section t = 0 (mod T): delta (m), delta' (m/s)
+  std::vector<ContactEvent> sequence;  // the contact events of one period, in order
+  RunReading reading;                  // impacts, extremes of delta_bar and F_bar
 };
 
 // The orbit as `geardyn orbit --json` prints it: converged, message, iterations, residual,
