@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "geardyn/case_keys.hpp"
+#include "geardyn/coupled_model.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/orbit.hpp"
@@ -59,13 +60,33 @@ std::optional<double> complex_pair_test(const std::vector<std::complex<double>>&
 }  // namespace
 
 ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s) {
-  const GearPairModel model = build_model(c);
-  ode::LinearSwitchedSystem sys = model.linear_system();
-  const int contact = kDriveContact - GearPairModel::kFirstRegion;
+  ode::LinearSwitchedSystem sys;
+  int contact = 0;
+  double system_period = 0;
+  if (c.model.form == ModelForm::kCoupled) {
+    // The coupled model in drive contact, each clearance bearing on the side the static mesh
+    // force holds it (coupled_model.hpp).
+    const CoupledModel model(coupled_parameters(c));
+    sys = model.linear_system();
+    contact = coupled_region({kDriveContact, {0, 0}});
+    if (model.parameters().clearance_m[0] > 0 || model.parameters().clearance_m[1] > 0) {
+      try {
+        contact = model.classify(0.0, model.static_state());
+      } catch (const std::runtime_error& e) {
+        throw InputError(std::string("stability in permanent contact: ") + e.what());
+      }
+    }
+    system_period = system_period_s(build_model(gear_pair_of(c)).parameters());
+  } else {
+    const GearPairModel model = build_model(c);
+    sys = model.linear_system();
+    contact = kDriveContact - GearPairModel::kFirstRegion;
+    system_period = system_period_s(model.parameters());
+  }
   sys.regions[contact].guards.clear();  // permanent contact
   const double T = period_s > 0                   ? period_s
                    : sys.coefficient_period_s > 0 ? sys.coefficient_period_s
-                                                  : system_period_s(model.parameters());
+                                                  : system_period;
   ode::EngineOptions eo;
   eo.tolerance = std::max(ode::kRoundingLimit, tolerance);
   const ode::ExactEngine engine(sys, eo);

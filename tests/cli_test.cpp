@@ -531,6 +531,12 @@ TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
   ASSERT_EQ(text.code, 0) << text.err;
   EXPECT_NE(text.out.find("stable            no"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("2 impacts/period"), std::string::npos) << text.out;
+  // Its stability in permanent contact: the default case has no tongue over 20-200 Hz.
+  const Outcome st = cli("stability " + coupled +
+                         " --set model.dof=3 --param speed.shaft_frequency_hz --from 20 --to 200 "
+                         "--points 19 --json");
+  ASSERT_EQ(st.code, 0) << st.err;
+  EXPECT_EQ(nlohmann::json::parse(st.out)["boundaries"].size(), 0U);
   const Outcome bad = cli("orbit " + coupled + " --set model.dof=3 --state 0 0");
   EXPECT_NE(bad.code, 0);
   EXPECT_NE(bad.err.find("2 values given; this coupled case takes 6"), std::string::npos)

@@ -14,6 +14,9 @@
 #include <numbers>
 #include <unsupported/Eigen/MatrixFunctions>
 
+#include "geardyn/coupled_model.hpp"
+#include "geardyn/run.hpp"
+
 namespace {
 
 using geardyn::BifurcationType;
@@ -143,6 +146,76 @@ TEST(Stability, ConstantStiffnessMonodromyIsTheMatrixExponential) {
   const Eigen::Matrix2d e = (a * T).exp();
   for (int i = 0; i < 2; ++i)
     for (int j = 0; j < 2; ++j) EXPECT_NEAR(m(i, j), e(i, j), 1e-13);
+}
+
+// The coupled model's contact monodromy by a classical RK4 of y' = A(t) y over the mesh
+// period, A(t) from the system's own definition of the drive-contact region (ode::derivative
+// of the homogeneous part), 4000 steps: independent of the exact engine's cells.
+geardyn::ode::Matrix rk4_contact_monodromy(const Case& c) {
+  const geardyn::CoupledModel model(geardyn::coupled_parameters(c));
+  const geardyn::ode::LinearSwitchedSystem sys = model.linear_system();
+  const int region = geardyn::coupled_region({geardyn::kDriveContact, {0, 0}});
+  const Eigen::Index n = sys.dimension;
+  const double T = sys.coefficient_period_s;
+  const int steps = 4000;
+  const double h = T / steps;
+  const auto f = [&](double t, const geardyn::ode::Vector& y) -> geardyn::ode::Vector {
+    return geardyn::ode::derivative(sys, region, t, y) -
+           geardyn::ode::derivative(sys, region, t, geardyn::ode::Vector::Zero(n));
+  };
+  geardyn::ode::Matrix phi(n, n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    geardyn::ode::Vector y = geardyn::ode::Vector::Unit(n, j);
+
+    for (int k = 0; k < steps; ++k) {
+      const double t = k * h;
+      const geardyn::ode::Vector k1 = f(t, y), k2 = f(t + h / 2, y + h / 2 * k1),
+                                 k3 = f(t + h / 2, y + h / 2 * k2), k4 = f(t + h, y + h * k3);
+      y += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+    }
+    phi.col(j) = y;
+  }
+  return phi;
+}
+
+TEST(Stability, TheCoupledModelsPrincipalTongueIsThatOfAnIndependentMonodromy) {
+  // The Table 1 pair on its bearings, dof 3, one stiffness harmonic of 0.1, light damping
+  // (0.005): the mesh-critical mode at 3357 Hz opens its principal tongue where the mesh
+  // frequency is near twice it (56 f_1 = 2 x 3357 Hz, f_1 = 119.9 Hz). The contact monodromy
+  // equals an RK4 integration's to 1e-8 at samples, and at each located boundary the RK4
+  // monodromy's det(Phi + I) changes sign within 1e-6 of it.
+  Case c = geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml");
+  c.model.dof = 3;
+  c.mesh.stiffness_source = geardyn::StiffnessSource::kHarmonics;
+  c.mesh.stiffness_harmonics = {{0.1, 0.0}};
+  c.mesh.damping_ratio = 0.005;
+  c.bearings.damping_ratio = 0.005;
+  for (const double f1 : {110.0, 120.0}) {
+    Case at = c;
+    at.speed.shaft_frequency_hz = f1;
+    const geardyn::ode::Matrix exact = geardyn::contact_monodromy(at);
+    const geardyn::ode::Matrix rk4 = rk4_contact_monodromy(at);
+    EXPECT_LT((exact - rk4).cwiseAbs().maxCoeff(), 1e-8 * rk4.cwiseAbs().maxCoeff()) << f1;
+  }
+  StabilityOptions o;
+  o.axis = {"speed.shaft_frequency_hz", 100, 140, 41, false};
+  const geardyn::StabilityResult r = geardyn::stability(c, o);
+  ASSERT_EQ(r.boundaries.size(), 2U);
+  EXPECT_NEAR(r.boundaries[0].param, 117.18, 0.01);  // docs/orbits.md
+  EXPECT_NEAR(r.boundaries[1].param, 122.56, 0.01);
+  for (const auto& b : r.boundaries) {
+    EXPECT_EQ(b.type, BifurcationType::kPeriodDoubling);
+    double det[2];
+    for (int side = 0; side < 2; ++side) {
+      Case at = c;
+      at.speed.shaft_frequency_hz = b.param * (side == 0 ? 1 - 1e-6 : 1 + 1e-6);
+      const geardyn::ode::Matrix phi = rk4_contact_monodromy(at);
+      det[side] = (phi + geardyn::ode::Matrix::Identity(phi.rows(), phi.cols())).determinant();
+    }
+    EXPECT_LT(det[0] * det[1], 0) << b.param;
+  }
+  // Between them the motion is unstable, outside it is stable.
+  for (const auto& s : r.samples) EXPECT_EQ(s.stable, s.param < 117.18 || s.param > 122.56);
 }
 
 TEST(Stability, BadInputIsRejectedWithItsReason) {

@@ -673,7 +673,7 @@ def stability(case, param, values, param2=None, values2=()):
 
     The Mathieu-Hill problem of the mesh stiffness: the monodromy of the contact region over
     the stiffness period at each value, boundaries located where a multiplier crosses the unit
-    circle.
+    circle. A coupled case (``model.form = "coupled"``) gives all its 2n multipliers.
 
     Parameters
     ----------
