@@ -307,8 +307,10 @@ class PointRunner {
 };
 
 // Jumps and hysteresis of one row (all points of a 1-D sweep; one value of the second key of
-// a map), appended to r.
-void read_row_jumps(SweepResult& r, double value2) {
+// a map), appended to r. `contact_is_linear`: the model is linear while the mesh stays in
+// contact (no bearing clearance), so two neighbours both in permanent contact lie on one
+// linear response and cannot jump, however steep its resonance.
+void read_row_jumps(SweepResult& r, double value2, bool contact_is_linear) {
   const bool map = r.options.axis2.has_value();
   const auto in_row = [&](const SweepPoint& p) { return !map || p.value2 == value2; };
   // Jumps inside each 1-D sequence, in run order.
@@ -319,7 +321,11 @@ void read_row_jumps(SweepResult& r, double value2) {
     auto change = [&](std::size_t i) {  // between seq[i] and seq[i + 1]; 0 outside
       return i + 1 < seq.size() ? std::abs(seq[i + 1]->pp_delta_bar - seq[i]->pp_delta_bar) : 0.0;
     };
+    const auto in_contact = [](const SweepPoint* p) {
+      return p->impacts_per_period == 0 && p->separated_fraction == 0;
+    };
     for (std::size_t i = 0; i + 1 < seq.size(); ++i) {
+      if (contact_is_linear && in_contact(seq[i]) && in_contact(seq[i + 1])) continue;
       const double a = seq[i]->pp_delta_bar, b = seq[i + 1]->pp_delta_bar;
       const double neighbours = std::max(i > 0 ? change(i - 1) : 0.0, change(i + 1));
       if (change(i) > kJumpFraction * std::max(std::abs(a), std::abs(b)) &&
@@ -352,9 +358,9 @@ void read_row_jumps(SweepResult& r, double value2) {
 }
 
 // Jumps and hysteresis, row by row.
-void read_jumps(SweepResult& r) {
-  if (!r.options.axis2) return read_row_jumps(r, 0.0);
-  for (double y : r.options.axis2->values()) read_row_jumps(r, y);
+void read_jumps(SweepResult& r, bool contact_is_linear) {
+  if (!r.options.axis2) return read_row_jumps(r, 0.0, contact_is_linear);
+  for (double y : r.options.axis2->values()) read_row_jumps(r, y, contact_is_linear);
 }
 
 }  // namespace
@@ -493,7 +499,16 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
       r.failed += !p->failure.empty();
       r.points.push_back(std::move(*p));
     }
-  read_jumps(r);
+  // A bearing clearance makes the coupled model nonlinear in contact too (in the base case or
+  // along a key that sets one).
+  const auto sets_clearance = [](const SweepAxis& a) {
+    return a.key.starts_with("bearings.radial_clearance_um");
+  };
+  const bool clearances =
+      base.model.form == ModelForm::kCoupled &&
+      (base.bearings.radial_clearance_um[0] > 0 || base.bearings.radial_clearance_um[1] > 0 ||
+       sets_clearance(o.axis) || (o.axis2 && sets_clearance(*o.axis2)));
+  read_jumps(r, !clearances);
   r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }
