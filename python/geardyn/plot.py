@@ -1,4 +1,5 @@
-"""Figures for notebooks, with matplotlib: a run, a frequency response, a branch of orbits."""
+"""Figures for notebooks, with matplotlib: a run (one-degree or coupled), a frequency response,
+a branch of orbits."""
 import numpy as np
 
 
@@ -6,11 +7,12 @@ def run(r, ax=None, title=None):
     """delta / b and F / (b k_m) over time, stacked as in the paper's Figs. 4-6.
 
     Separation and back-side contact are shaded where they occur (and in the legend only
-    then); the backlash band -1 <= delta / b <= 1 is drawn in a neutral grey.
+    then); the backlash band -1 <= delta / b <= 1 is drawn in a neutral grey. A coupled run
+    (`CoupledRunResult`) is drawn by `coupled_run`.
 
     Parameters
     ----------
-    r : RunResult
+    r : RunResult or CoupledRunResult
     ax : pair of matplotlib Axes, optional
         Drawn into; new ones when None.
     title : str, optional
@@ -20,6 +22,9 @@ def run(r, ax=None, title=None):
     matplotlib.figure.Figure
     """
     import matplotlib.pyplot as plt
+
+    if not hasattr(r, "delta_bar"):
+        return coupled_run(r, title=title)
 
     if ax is None:
         fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9, 6))
@@ -50,6 +55,70 @@ def run(r, ax=None, title=None):
         ax[0].legend(loc="upper right", fontsize=8)
     if title:
         ax[0].set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def coupled_run(r, title=None):
+    """A coupled run's parts over time, one panel each, as `geardyn run --plot` draws them.
+
+    The mesh ((d - e) / b and F_n / (b k_m), separation shaded where it occurs), the bearing
+    forces along the line of action, the axial bearing forces (only when they are not zero),
+    the shaft torques (only for the shafts that are there) and the gears' translations y (and
+    z when it moves), in um. Legends name only what is drawn.
+
+    Parameters
+    ----------
+    r : CoupledRunResult
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    t_ms = r.t * 1e3
+    shafts = [s["shaft"] for s in r.summary["shafts"]]
+    axial = bool(np.any(r.axial_force != 0))
+    q = {name: r.q[:, i] for i, name in enumerate(r.coordinates)}
+    rows = 3 + axial + bool(shafts)
+    fig, ax = plt.subplots(rows, 1, sharex=True, figsize=(9, 2.2 * rows))
+    colours = ("#1f4e9c", "#c0392b")
+    separated = r.mesh_contact == 0
+    mesh = ax[0]
+    if separated.any():
+        mesh.fill_between(t_ms, 0, 1, where=separated, transform=mesh.get_xaxis_transform(),
+                          color="#f4a6a6", alpha=0.6, linewidth=0, label="separated")
+    mesh.plot(t_ms, r.deflection_bar, color=colours[0], linewidth=0.9, label="(d - e) / b")
+    mesh.plot(t_ms, r.force_bar, color=colours[1], linewidth=0.9, label="F / (b k_m)")
+    mesh.axhline(1, color="gray", linestyle="--", linewidth=0.8)
+    mesh.set_ylabel("mesh")
+    panels = [(ax[1], "bearing force (N)", [(r.bearing_force[:, i], f"gear {i + 1}")
+                                             for i in range(2)])]
+    k = 2
+    if axial:
+        panels.append((ax[k], "axial force (N)", [(r.axial_force[:, i], f"gear {i + 1}")
+                                                  for i in range(2)]))
+        k += 1
+    if shafts:
+        names = {1: "drive shaft (motor)", 2: "load shaft"}
+        panels.append((ax[k], "shaft torque (N m)", [(r.shaft_torque[:, s - 1], names[s])
+                                                     for s in shafts]))
+        k += 1
+    moves = [(q[n] * 1e6, n.split("_")[0]) for n in ("y1_m", "y2_m", "z1_m", "z2_m")
+             if n in q and (n.startswith("y") or np.any(q[n] != 0))]
+    panels.append((ax[k], "displacement (um)", moves))
+    for a, label, lines in panels:
+        for i, (y, name) in enumerate(lines):
+            a.plot(t_ms, y, color=colours[i % 2], linestyle="-" if i < 2 else "--",
+                   linewidth=0.9, label=name)
+        a.set_ylabel(label)
+    for a in ax:
+        a.grid(color="#dddddd")
+        a.legend(loc="upper right", fontsize=8)
+    ax[-1].set_xlabel("t (ms)")
+    ax[0].set_title(title or f"coupled, dof {r.summary['dof']}: mesh {r.summary['mesh']['regime']}")
     fig.tight_layout()
     return fig
 

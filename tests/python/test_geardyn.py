@@ -131,6 +131,34 @@ def test_a_run_figure_shows_only_what_happened():
                                load={"fluctuation_ratio": 0.0})) == []
 
 
+def test_a_coupled_run_figure_shows_its_parts_and_only_them(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    path = SOURCE / "cases/park2010_coupled.toml"
+    case = geardyn.Case.from_toml(path).with_({"solver.duration_s": 0.005})
+
+    def panels(r):
+        fig = geardyn.plot.run(r)  # dispatches on the result
+        return [(a.get_ylabel(), [t.get_text() for t in a.get_legend().get_texts()])
+                for a in fig.axes]
+
+    helical = panels(geardyn.run(case))
+    assert [p[0] for p in helical] == ["mesh", "bearing force (N)", "axial force (N)",
+                                       "displacement (um)"]
+    assert helical[0][1] == ["separated", "(d - e) / b", "F / (b k_m)"]  # it rattles
+    assert helical[3][1] == ["y1", "y2", "z1", "z2"]
+    # dof 3 from static contact without fluctuation: no separation, no axial panel, no z;
+    # a load shaft alone: its panel names it and no drive shaft.
+    quiet = panels(geardyn.run(case.with_({"model.dof": 3, "solver.initial": "static",
+                                           "load.fluctuation_ratio": 0.0,
+                                           "shafts.end_inertia_kg_m2": [0.0, 0.3]})))
+    assert [p[0] for p in quiet] == ["mesh", "bearing force (N)", "shaft torque (N m)",
+                                     "displacement (um)"]
+    assert quiet[0][1] == ["(d - e) / b", "F / (b k_m)"]
+    assert quiet[2][1] == ["load shaft"]
+    assert quiet[3][1] == ["y1", "y2"]
+
+
 def test_the_example_reproduces_fig4c(tmp_path):
     out = subprocess.run([sys.executable, str(SOURCE / "examples/reproduce_fig4c.py"), "--out",
                           str(tmp_path / "fig4c.png")], capture_output=True, text=True,
