@@ -288,7 +288,7 @@ CoupledParameters coupled_parameters(const Case& c) {
   const Matrix block = mobility.inverse();
   p.mass.topLeftCorner(t, t) = block;
   // Q = M S J^-1 f: T1 on its body (with the matched load's R_b2 / R_b1 share on T2's), a
-  // given steady T2 on its own.
+  // given T2(t) on its own.
   const Matrix gain = block * s * inverse_inertia.asDiagonal();  // per N m on each body
   const std::optional<double>& t2 = c.load.load_torque_nm;
   p.drive_torque_nm = drive_torque_nm(c);

@@ -1,4 +1,5 @@
 // The command-line tool end to end: outputs, exit codes and messages.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -537,6 +538,17 @@ TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
                          "--points 19 --json");
   ASSERT_EQ(st.code, 0) << st.err;
   EXPECT_EQ(nlohmann::json::parse(st.out)["boundaries"].size(), 0U);
+  // A start of its six values is taken; of two, refused by name.
+  const nlohmann::json o3 =
+      nlohmann::json::parse(cli("orbit " + coupled + " --set model.dof=3 --json").out);
+  std::string start;
+  for (const auto& x : o3["state"]) start += fmt::format(" {:.17g}", x.get<double>());
+  const Outcome from = cli("orbit " + coupled +
+                           " --set model.dof=3 --settle-periods 0 --json "
+                           "--state" +
+                           start);
+  ASSERT_EQ(from.code, 0) << from.err;
+  EXPECT_LE(nlohmann::json::parse(from.out)["iterations"].get<int>(), 1);
   const Outcome bad = cli("orbit " + coupled + " --set model.dof=3 --state 0 0");
   EXPECT_NE(bad.code, 0);
   EXPECT_NE(bad.err.find("2 values given; this coupled case takes 6"), std::string::npos)

@@ -854,8 +854,9 @@ int main(int argc, char** argv) {
                     "system periods simulated for the first guess (default 100)");
   orbit
       ->add_option("--state", orbit_state,
-                   "first guess on the section t = 0: delta (m) and delta' (m/s)")
-      ->expected(2);
+                   "first guess on the section t = 0: delta (m) and delta' (m/s); a coupled "
+                   "case: its coordinates, then their rates (SI)")
+      ->expected(2, 26);  // the coupled model: 13 coordinates at most (dof 12 and two shafts)
   orbit->add_option("--tolerance", oo.tolerance, "Newton's tolerance on the scaled residual");
   orbit->add_option("--max-iterations", oo.max_iterations, "Newton iterations at most (40)");
   orbit->add_flag("--json", json, "print JSON");

@@ -19,7 +19,7 @@
 //     M q'' + C_b q' + K_b q + V^T F_n = Q(t),
 //
 // M = diag(m_eq, m_1, m_2, ...), K_b and C_b the bearings (diagonal), Q the torques on u
-// (m_eq (R_b1 T1(t) / J1 + R_b2 T2 / J2), eq. 6 over cos(beta_b)).
+// (m_eq (R_b1 T1(t) / J1 + R_b2 T2(t) / J2), eq. 6 over cos(beta_b)).
 //
 // Shafts ([shafts]): a motor of inertia J_m joined to the pinion by a torsional shaft k_s1 and
 // a load J_L joined to the wheel by k_s2 add the twists phi_1 = theta_m - theta_1 and
@@ -30,12 +30,12 @@
 // the load, or on the gears without shafts), theta'' = J^-1 (f - S^T (elastic forces on r)), so
 // r'' = S J^-1 S^T (-elastic forces) + S J^-1 f exactly: the torsional block of M is
 // (S J^-1 S^T)^-1 (full, not diagonal) and Q = M S J^-1 f on r. Without shafts this is m_eq
-// and eq. 6. The shafts' springs k_s phi_i and dampers are diagonal in K_b and C_b. A bearing
-// with a radial
-// clearance c_i acts on y_i as a dead zone, k (y_i -+ c_i) beyond +-c_i and nothing inside
-// (Kahraman and Singh 1991), with its damping in contact only. x_i and the tilts about x are
-// not touched by a frictionless mesh at one point: they are kept with dof = 12, on their
-// bearings alone.
+// and eq. 6. The shafts' springs k_s phi_i and dampers are diagonal in K_b and C_b.
+//
+// A bearing with a radial clearance c_i acts on y_i as a dead zone, k (y_i -+ c_i) beyond +-c_i
+// and nothing inside (Kahraman and Singh 1991), with its damping in contact only. x_i and the
+// tilts about x are not touched by a frictionless mesh at one point: they are kept with
+// dof = 12, on their bearings alone.
 //
 // Coordinates by dof: 3 keeps u, y1, y2 (Kahraman and Singh 1991); 6 adds z1, z2; 12 adds ty1,
 // ty2, x1, x2, tx1, tx2 (11 coordinates: the 12 of two rigid bodies less the pair's rotation).
