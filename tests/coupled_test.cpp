@@ -489,6 +489,14 @@ TEST(CoupledShafts, TheStaticTorquesAreThoseOfTheAcceleratingChain) {
     EXPECT_NEAR(p.static_shaft_torque_nm(0), t1 - jm * alpha, 1e-12 * t1);
     EXPECT_NEAR(p.static_shaft_torque_nm(1), load + jl * r1 * alpha / r2, 1e-12 * t1);
     if (!t2) EXPECT_NEAR(fn, t1 / (r1 * p.cos_base_helix), 1e-12 * fn);
+    // Each shaft is damped at its ratio against the reduced inertia of its two ends (docs).
+    for (int i = 0; i < 2; ++i) {
+      const double je = c.shafts.end_inertia_kg_m2[i], jg = g.inertia_kg_m2[i],
+                   ks = c.shafts.stiffness_n_m_per_rad[i];
+      EXPECT_NEAR(p.bearing_damping[p.shaft[i]],
+                  2 * c.shafts.damping_ratio * std::sqrt(ks * je * jg / (je + jg)),
+                  1e-12 * p.bearing_damping[p.shaft[i]]);
+    }
     if (t2) EXPECT_GT(std::abs(alpha), 1.0);
     // The static state holds those torques in its twists and that force in its mesh.
     const CoupledModel model(p);
