@@ -14,17 +14,14 @@
 #include <complex>
 #include <numbers>
 
+#include "test_support.hpp"
+
 namespace geardyn {
 namespace {
 
 using Complex = std::complex<double>;
 
-Case coupled(int dof) {
-  Case c;
-  c.model.form = ModelForm::kCoupled;
-  c.model.dof = dof;
-  return c;
-}
+using testing::coupled;
 
 TEST(CoupledOrbit, ALinearOrbitHasTheClosedFormsMultipliersAndState) {
   // Permanent contact, constant stiffness, steady torque, a transmission error of two mesh

@@ -16,18 +16,14 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "test_support.hpp"
 
 namespace geardyn {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-Case coupled(int dof) {
-  Case c;
-  c.model.form = ModelForm::kCoupled;
-  c.model.dof = dof;
-  return c;
-}
+using testing::coupled;
 
 TEST(CoupledModes, ASymmetricThreeDofPairHasItsClosedForms) {
   // Equal gears on equal bearings, dof 3 (u, y1, y2): y1 = y2 leaves the mesh alone, w^2 =
@@ -131,7 +127,7 @@ TEST(CoupledModes, DampedEigenvaluesEqualThoseOfTheEnginesMatrix) {
     EXPECT_NEAR(set.damped[r][0], set.modes[r].frequency_hz, 1e-3 * set.modes[r].frequency_hz);
 }
 
-class CoupledEnergy : public testing::TestWithParam<bool> {};
+class CoupledEnergy : public ::testing::TestWithParam<bool> {};
 
 TEST_P(CoupledEnergy, AFreeVibrationKeepsItsEnergy) {
   // No damping, constant stiffness, steady torque, permanent contact: from the static state
@@ -182,8 +178,8 @@ TEST_P(CoupledEnergy, AFreeVibrationKeepsItsEnergy) {
   for (double e : obs.e) EXPECT_NEAR(e, e0, 1e-10 * e0);
 }
 
-INSTANTIATE_TEST_SUITE_P(CoupledRun, CoupledEnergy, testing::Values(false, true),
-                         [](const testing::TestParamInfo<bool>& i) {
+INSTANTIATE_TEST_SUITE_P(CoupledRun, CoupledEnergy, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& i) {
                            return i.param ? "shafts" : "no_shafts";
                          });
 

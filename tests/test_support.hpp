@@ -18,4 +18,12 @@ std::string error_of(F&& f) {
   return "";
 }
 
+// The default case (Park 2010's Table 1 pair) as the coupled model with `dof` kept.
+inline Case coupled(int dof) {
+  Case c;
+  c.model.form = ModelForm::kCoupled;
+  c.model.dof = dof;
+  return c;
+}
+
 }  // namespace geardyn::testing
