@@ -471,6 +471,20 @@ bool converged(const std::vector<M>& terms, double tol) {
   return true;
 }
 
+// The order at which the Taylor series of cos and sin over a cell of wh radians converge as
+// `converged` has it (the last two terms within tol of the sum of all), or p_max + 1 when they
+// do not within p_max.
+int trig_order(double wh, double tol, int p_max) {
+  double term = 1, last = 1, sum = 1;
+  for (int k = 1; k <= p_max; ++k) {
+    last = term;
+    term *= std::abs(wh) / k;
+    sum += term;
+    if (term + last <= tol * sum) return k;
+  }
+  return p_max + 1;
+}
+
 // Expands one cell starting at coefficient phase t0 (absolute time modulo the period), of
 // length h; returns false when the series do not converge within max_order terms.
 template <int D>
@@ -510,6 +524,19 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
     // cos basis: uc cos(w s) + us sin(w s); sin basis: -uc sin(w s) + us cos(w s).
     return sin_phase ? V(fk * (-uc * sk + us * ck)) : V(fk * (uc * ck + us * sk));
   };
+  // The guards' and observables' own time-varying parts (a transmission error in an offset,
+  // the stiffness in a row) are expanded to the cell's order too (functional_terms): the order
+  // is at least what their Taylor series need to converge, even where the state's series
+  // converge sooner (a separated mesh whose state the error does not force).
+  int functional_order = 0;
+  for (const auto* list : {&reg.guards, &reg.observables})
+    for (const LinearGuard& q : *list)
+      for (std::size_t f = 0; f < w.size(); ++f) {
+        const bool row = q.row.varies() && (q.row.cos[f].any() || q.row.sin[f].any());
+        const bool offset = !q.offset.cos.empty() && (q.offset.cos[f] != 0 || q.offset.sin[f] != 0);
+        if (row || offset)
+          functional_order = std::max(functional_order, trig_order(w[f] * h, tol, p_max));
+      }
   const int bases = 1 + 2 * nf;
   std::vector<std::vector<V>> resp(bases);
   cell.phi.assign(1, M::Identity(n, n));
@@ -526,7 +553,7 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
       for (int m = 0; m <= std::min(k, a_terms); ++m) v.noalias() += A[m] * resp[b][k - m];
       resp[b].push_back(scale * v);
     }
-    done = converged(cell.phi, tol);
+    done = k + 1 >= functional_order && converged(cell.phi, tol);
     for (int b = 0; b < bases && done; ++b) done = converged(resp[b], tol);
   }
   if (!done) return false;

@@ -84,6 +84,48 @@ TEST(ExactEngine, FreeFlightMatchesItsClosedForm) {
   }
 }
 
+TEST(ExactEngine, AMovingWallIsMetWhereItsClosedFormSays) {
+  // Free flight x = v0 t towards a wall at b + a sin(w t) (a guard whose offset varies, as a
+  // transmission error moves the contact edge): the state's series end at order 1, the wall's
+  // need many more; the crossing is the root of v0 t = b + a sin(w t), and the flow goes on
+  // past the wall without coming back.
+  const double v0 = 1.0, b = 1.0, a = 0.01, w = 50.0;
+  LinearSwitchedSystem s;
+  s.dimension = 2;
+  s.frequencies_rad_s = {w};
+  LinearRegion r;
+  r.a.constant = Matrix::Zero(2, 2);
+  r.a.constant(0, 1) = 1;
+  r.u.constant = Vector::Zero(2);
+  s.regions = {r, r};
+  LinearGuard g;  // inside: sign (b + a sin(w t) - x) >= 0
+  g.row.constant = RowVector::Zero(2);
+  g.offset.cos = {0.0};
+  g.scale = b;
+  g.row.constant(0) = -1;
+  g.offset.constant = b;
+  g.offset.sin = {a};
+  g.target = 1;
+  s.regions[0].guards = {g};
+  g.row.constant(0) = 1;
+  g.offset.constant = -b;
+  g.offset.sin = {-a};
+  g.target = 0;
+  s.regions[1].guards = {g};
+  const ExactEngine e(s);
+  Recorder rec;
+  Vector y0(2);
+  y0 << 0.0, v0;
+  const FlowResult res = e.flow(0, y0, 0, 2.0, OutputGrid{}, rec);
+  ASSERT_TRUE(res.ok()) << res.message;
+  double t = b / v0;  // Newton on v0 t - b - a sin(w t)
+  for (int i = 0; i < 50; ++i)
+    t -= (v0 * t - b - a * std::sin(w * t)) / (v0 - a * w * std::cos(w * t));
+  ASSERT_EQ(rec.event_t.size(), 1U);
+  EXPECT_NEAR(rec.event_t[0], t, 1e-12);
+  EXPECT_EQ(res.region, 1);
+}
+
 TEST(ExactEngine, DampedForcedOscillatorMatchesItsClosedForm) {
   // x'' + 2 zeta wn x' + wn^2 x = F cos(W t) from rest at x0: the steady response plus the
   // damped free vibration, in complex form.
