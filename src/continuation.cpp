@@ -7,12 +7,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 
 #include "geardyn/case_keys.hpp"
+#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/output.hpp"
 #include "shooting.hpp"
@@ -37,10 +39,11 @@ constexpr double kDistinctOrbit = 1e-6;
 
 // The contact sequence of one period, the grazing test's signature: cyclic, so the least of
 // its rotations (an event that moves across the section time changes nothing).
-std::vector<EventKind> signature(const Orbit& o) {
-  std::vector<EventKind> s;
-  for (const ContactEvent& e : o.sequence) s.push_back(e.kind);
-  std::vector<EventKind> best = s;
+std::vector<std::int64_t> signature(const std::vector<ContactEvent>& sequence) {
+  std::vector<std::int64_t> s;
+  s.reserve(sequence.size());
+  for (const ContactEvent& e : sequence) s.push_back(static_cast<std::int64_t>(e.kind));
+  std::vector<std::int64_t> best = s;
   for (std::size_t i = 1; i < s.size(); ++i) {
     std::rotate(s.begin(), s.begin() + 1, s.end());
     best = std::min(best, s);
@@ -48,14 +51,147 @@ std::vector<EventKind> signature(const Orbit& o) {
   return best;
 }
 
+// The orbits at one value of the key, of either model: their multiple shooting, and how a
+// converged one is read.
+class Family {
+ public:
+  virtual ~Family() = default;
+  virtual const detail::Segments& shooting() const = 0;
+  // Reads the converged unknowns x (segments' Jacobians `seg`) into `o` and, when `json` is
+  // given, the orbit as `geardyn orbit --json` prints it. False with `why`.
+  virtual bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
+                    std::string* json, std::string& why) const = 0;
+};
+
+class OneDegreeFamily final : public Family {
+ public:
+  OneDegreeFamily(const Case& c, int periods, int segments, const ode::Vector& scale,
+                  double engine_tolerance)
+      : s_(c, periods, segments, scale, engine_tolerance), periods_(periods) {}
+  const detail::Segments& shooting() const override { return s_.shooting(); }
+  bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
+            std::string* json, std::string& why) const override {
+    Orbit orbit;
+    if (!s_.read(x, seg, orbit, why)) return false;
+    orbit.converged = true;
+    orbit.periods = periods_;
+    if (json) *json = orbit_json(orbit, -1);
+    static_cast<PeriodicSolution&>(o) = orbit;
+    o.state = (ode::Vector(2) << orbit.state.q, orbit.state.v).finished();
+    o.reading = orbit.reading;
+    o.signature = signature(orbit.sequence);
+    o.contacts = {{"", orbit.reading.impacts, orbit.reading.separations}};
+    return true;
+  }
+
+ private:
+  detail::Shooting s_;
+  int periods_;
+};
+
+class CoupledFamily final : public Family {
+ public:
+  CoupledFamily(const Case& c, int periods, int segments, const ode::Vector& scale,
+                double engine_tolerance)
+      : s_(c, periods, segments, scale, engine_tolerance) {}
+  const detail::Segments& shooting() const override { return s_.shooting(); }
+  bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
+            std::string* json, std::string& why) const override {
+    CoupledOrbit orbit;
+    if (!s_.read(x, seg, orbit, why)) return false;
+    orbit.converged = true;
+    if (json) *json = coupled_orbit_json(orbit, -1);
+    static_cast<PeriodicSolution&>(o) = orbit;
+    o.state = orbit.state;
+    const CoupledRunResult& r = orbit.reading;
+    const double b = r.parameters.backlash_m, bk = b * r.parameters.stiffness_n_per_m.offset;
+    o.reading = RunReading{};
+    o.reading.regime = r.mesh.regime;
+    o.reading.double_sided = r.mesh.double_sided;
+    o.reading.impacts = r.mesh.impacts;
+    o.reading.backside_impacts = r.mesh.backside_impacts;
+    o.reading.separations = r.mesh.separations;
+    o.reading.min_delta_bar = r.min_deflection_m / b;
+    o.reading.max_delta_bar = r.max_deflection_m / b;
+    o.reading.min_force_bar = r.min_force_n / bk;
+    o.reading.max_force_bar = r.max_force_n / bk;
+    o.signature = {r.mesh.impacts, r.mesh.backside_impacts, r.mesh.separations};
+    o.contacts = {{"mesh", r.mesh.impacts, r.mesh.separations}};
+    for (int i = 0; i < 2; ++i) {
+      const ContactReading& g = r.bearing[static_cast<std::size_t>(i)];
+      o.signature.push_back(g.impacts);
+      o.signature.push_back(g.separations);
+      if (g.present)
+        o.contacts.push_back({fmt::format("bearing {}", i + 1), g.impacts, g.separations});
+    }
+    return true;
+  }
+
+ private:
+  detail::CoupledShooting s_;
+};
+
+// The family of case c's model; scale as for Shooting (empty: this case's).
+std::unique_ptr<Family> family(const Case& c, int periods, int segments, const ode::Vector& scale,
+                               double engine_tolerance) {
+  if (c.model.form == ModelForm::kCoupled)
+    return std::make_unique<CoupledFamily>(c, periods, segments, scale, engine_tolerance);
+  return std::make_unique<OneDegreeFamily>(c, periods, segments, scale, engine_tolerance);
+}
+
+// The names of a case's state entries (ContinuationResult::state_names).
+std::vector<std::string> state_names(const Case& c) {
+  if (c.model.form != ModelForm::kCoupled) return {"delta_m", "velocity_m_s"};
+  const std::vector<Coordinate> coords = coupled_parameters(c).coordinates;
+  std::vector<std::string> names;
+  names.reserve(2 * coords.size());
+  for (Coordinate x : coords) names.emplace_back(to_string(x));
+  for (Coordinate x : coords) names.push_back(std::string(to_string(x)) + "_s");
+  return names;
+}
+
+// The periodic orbit of case c (period and segments of `o`) from a state y0 on the section:
+// Newton on its shooting, read; nullopt when Newton fails.
+std::optional<BranchOrbit> orbit_from(const Case& c, const OrbitOptions& o, const ode::Vector& y0,
+                                      const ode::Vector& scale) {
+  const int segments = o.segments > 0 ? o.segments : o.periods;
+  const auto f =
+      family(c, o.periods, segments, scale,
+             std::min(c.solver.tolerance, o.tolerance * detail::kEngineToleranceFraction));
+  ode::Vector x;
+  std::string why;
+  if (!f->shooting().guess(y0, x, why)) return std::nullopt;
+  const detail::NewtonOutcome n = detail::solve_periodic(f->shooting(), x, o);
+  BranchOrbit out;
+  if (!n.converged || !f->read(x, n.jacobians, out, nullptr, why)) return std::nullopt;
+  out.converged = true;
+  out.iterations = n.iterations;
+  out.residual = n.residual;
+  return out;
+}
+
+// A grazing's detail: the counts that changed from a to b, e.g. "bearing 1 impacts 1 -> 0,
+// separations 1 -> 0 per period".
+std::string contact_change(const BranchOrbit& a, const BranchOrbit& b) {
+  std::string s;
+  for (std::size_t i = 0; i < std::min(a.contacts.size(), b.contacts.size()); ++i) {
+    const BranchOrbit::Contacts &x = a.contacts[i], &y = b.contacts[i];
+    if (x.impacts == y.impacts && x.separations == y.separations) continue;
+    fmt::format_to(std::back_inserter(s), "{}{}{}impacts {} -> {}, separations {} -> {}",
+                   s.empty() ? "" : "; ", x.name, x.name.empty() ? "" : " ", x.impacts, y.impacts,
+                   x.separations, y.separations);
+  }
+  return s.empty() ? "the contact sequence changes, its counts do not" : s + " per period";
+}
+
 // det(M - sign I), real.
-double shifted_determinant(const Orbit& o, double sign) {
+double shifted_determinant(const BranchOrbit& o, double sign) {
   const auto n = o.monodromy.rows();
   return (o.monodromy - sign * ode::Matrix::Identity(n, n)).determinant();
 }
 
 // |mu|^2 - 1 of the complex pair (Neimark-Sacker test); nullopt without one.
-std::optional<double> complex_pair_test(const Orbit& o) {
+std::optional<double> complex_pair_test(const BranchOrbit& o) {
   for (const auto& m : o.multipliers)
     if (std::abs(m.imag()) > 1e-12 * std::max(1.0, std::abs(m))) return std::norm(m) - 1;
   return std::nullopt;
@@ -65,7 +201,7 @@ std::optional<double> complex_pair_test(const Orbit& o) {
 struct Point {
   ode::Vector z;        // (x, p / p_scale)
   ode::Vector tangent;  // unit, pointing onward
-  Orbit orbit;
+  BranchOrbit orbit;
   int iterations = 0;
 };
 
@@ -92,29 +228,48 @@ class Continuer {
     return c;
   }
 
-  std::unique_ptr<detail::Shooting> shooting(double p) const {
-    return std::make_unique<detail::Shooting>(case_at(p), o_.orbit.periods, segments_, scale_,
-                                              engine_tolerance_);
+  // The family at p; null with `why` where the key's value is not allowed there (a corrector
+  // that strays past a bound fails like one that does not converge: the step is halved).
+  std::unique_ptr<Family> family_at(double p, std::string& why) const {
+    try {
+      return family(case_at(p), o_.orbit.periods, segments_, scale_, engine_tolerance_);
+    } catch (const InputError& e) {
+      why = e.what();
+      return nullptr;
+    }
   }
 
-  // The first point: find_orbit at `from`, then one correction at fixed p.
+  // The first point: find_orbit (find_coupled_orbit) at `from`, then one correction at fixed p.
   bool start(Point& pt, std::string& why) {
     const Case c0 = case_at(o_.from);
     OrbitOptions oo = o_.orbit;
     oo.segments = segments_;
-    const Orbit first = find_orbit(c0, oo, o_.start);
-    if (!first.converged) {
-      why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
-      return false;
+    ode::Vector y0;
+    if (c0.model.form == ModelForm::kCoupled) {
+      const CoupledOrbit first = find_coupled_orbit(c0, oo, o_.start);
+      if (!first.converged) {
+        why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
+        return false;
+      }
+      y0 = first.state;
+    } else {
+      if (o_.start && o_.start->size() != 2)
+        throw InputError(fmt::format(
+            "the start state has {} values; a one-degree case takes 2 (delta and delta', SI)",
+            o_.start->size()));
+      std::optional<ode::State> s0;
+      if (o_.start) s0 = ode::State{0.0, (*o_.start)[0], (*o_.start)[1], 0.0, 0};
+      const Orbit first = find_orbit(c0, oo, s0);
+      if (!first.converged) {
+        why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
+        return false;
+      }
+      y0 = (ode::Vector(2) << first.state.q, first.state.v).finished();
     }
-    {
-      const GearPairModel m0 = build_model(c0);
-      scale_ = detail::orbit_scale(m0);
-    }
-    const auto s = shooting(o_.from);
-    ode::Vector y0(2), x;
-    y0 << first.state.q, first.state.v;
-    if (!s->guess(y0, x, why)) return false;
+    const auto s = family(c0, o_.orbit.periods, segments_, ode::Vector{}, engine_tolerance_);
+    scale_ = s->shooting().scale();
+    ode::Vector x;
+    if (!s->shooting().guess(y0, x, why)) return false;
     const Eigen::Index n = x.size();
     ode::Vector z(n + 1);
     z << x, o_.from / p_scale_;
@@ -132,15 +287,16 @@ class Continuer {
     ode::Matrix jac(n + 1, n + 1);
     std::vector<ode::Matrix> seg;
     for (int it = 0;; ++it) {
-      const auto s = shooting(param(z));
-      if (!s->residual(z.head(n), f, &last_jx_, &seg, why) || !param_derivative(z, why))
+      const auto s = family_at(param(z), why);
+      if (!s || !s->shooting().residual(z.head(n), f, &last_jx_, &seg, why) ||
+          !param_derivative(z, f, why))
         return false;
       const double norm = f.lpNorm<Eigen::Infinity>();
       const double plane = t.dot(z - z_pred);
       if (norm <= o_.orbit.tolerance && std::abs(plane) <= o_.orbit.tolerance) {
         pt.z = z;
         pt.iterations = it;
-        return s->read(z.head(n), seg, pt.orbit, why);
+        return s->read(z.head(n), seg, pt.orbit, nullptr, why);
       }
       if (it >= kCorrectorIterations) {
         why = fmt::format("the corrector did not converge in {} iterations (residual {:.3g})",
@@ -160,15 +316,24 @@ class Continuer {
     }
   }
 
-  // dF/d(p / p_scale) at z by central differences, into last_fp_.
-  bool param_derivative(const ode::Vector& z, std::string& why) {
+  // dF/d(p / p_scale) at z by central differences, into last_fp_; one-sided from the
+  // residual f at z where the key is not allowed on one side (a range ending on its bound).
+  bool param_derivative(const ode::Vector& z, const ode::Vector& f, std::string& why) {
     const Eigen::Index n = z.size() - 1;
     const double p = param(z), h = kParamStep * p_scale_;
     ode::Vector fp, fm;
-    if (!shooting(p + h)->residual(z.head(n), fp, nullptr, nullptr, why) ||
-        !shooting(p - h)->residual(z.head(n), fm, nullptr, nullptr, why))
+    std::string outside;
+    const auto plus = family_at(p + h, outside), minus = family_at(p - h, outside);
+    if (!plus && !minus) {
+      why = outside;
       return false;
-    last_fp_ = (fp - fm) * (p_scale_ / (2 * h));
+    }
+    if (plus && !plus->shooting().residual(z.head(n), fp, nullptr, nullptr, why)) return false;
+    if (minus && !minus->shooting().residual(z.head(n), fm, nullptr, nullptr, why)) return false;
+    if (plus && minus)
+      last_fp_ = (fp - fm) * (p_scale_ / (2 * h));
+    else
+      last_fp_ = (plus ? fp - f : f - fm) * (p_scale_ / h);
     return true;
   }
 
@@ -176,8 +341,22 @@ class Continuer {
   // it meets the period-N branch again: there the state after half the period is the start.
   void mark_doubled() { doubled_ = segments_ % 2 == 0; }
   double half_period_gap(const ode::Vector& z) const {
-    return (z.segment(0, 2) - z.segment(Eigen::Index{2} * (segments_ / 2), 2))
-        .lpNorm<Eigen::Infinity>();
+    const Eigen::Index d = scale_.size();
+    return (z.segment(0, d) - z.segment(d * (segments_ / 2), d)).lpNorm<Eigen::Infinity>();
+  }
+
+  // The orbit of point pt as `geardyn orbit --json` prints it ("" when it cannot be read).
+  std::string orbit_json_at(const Point& pt) const {
+    const Eigen::Index n = pt.z.size() - 1;
+    std::string why, json;
+    const auto s = family_at(param(pt.z), why);
+    ode::Vector f;
+    std::vector<ode::Matrix> seg;
+    BranchOrbit o;
+    if (!s || !s->shooting().residual(pt.z.head(n), f, nullptr, &seg, why) ||
+        !s->read(pt.z.head(n), seg, o, &json, why))
+      return {};
+    return json;
   }
 
   // The unit tangent at pt (from the last correction's Jacobians), oriented along `previous`.
@@ -229,33 +408,33 @@ class Continuer {
 
   // The bifurcations between two consecutive points a and b (arclength ds apart).
   void detect(const Point& a, const Point& b, double ds, std::vector<Bifurcation>& out) {
-    const auto sig_a = signature(a.orbit), sig_b = signature(b.orbit);
-    if (sig_a != sig_b) {
-      const Point g = locate(a, b, ds, [&](const Point& m) { return signature(m.orbit) == sig_a; });
-      out.push_back({BifurcationType::kGrazing, param(g.z), 0, g.orbit,
-                     fmt::format("impacts per period {} -> {}, separations {} -> {}",
-                                 a.orbit.reading.impacts, b.orbit.reading.impacts,
-                                 a.orbit.reading.separations, b.orbit.reading.separations)});
+    const auto& sig_a = a.orbit.signature;
+    if (sig_a != b.orbit.signature) {
+      const Point g = locate(a, b, ds, [&](const Point& m) { return m.orbit.signature == sig_a; });
+      out.push_back({BifurcationType::kGrazing, param(g.z), 0, g.orbit, orbit_json_at(g),
+                     contact_change(a.orbit, b.orbit)});
       return;  // the multipliers jump at a grazing: their tests would read that jump
     }
     auto sign_test = [&](BifurcationType type, auto test, const std::string& detail) {
       const double ta = test(a.orbit), tb = test(b.orbit);
       if (!(ta * tb < 0)) return;
       const Point m = locate(a, b, ds, [&](const Point& q) { return test(q.orbit) * ta > 0; });
-      out.push_back({type, param(m.z), 0, m.orbit, detail});
+      out.push_back({type, param(m.z), 0, m.orbit, orbit_json_at(m), detail});
     };
     const double turn = a.tangent[a.tangent.size() - 1] * b.tangent[b.tangent.size() - 1];
     sign_test(
         turn < 0 ? BifurcationType::kFold : BifurcationType::kBranchPoint,
-        [](const Orbit& o) { return shifted_determinant(o, 1.0); }, "a multiplier through +1");
+        [](const BranchOrbit& o) { return shifted_determinant(o, 1.0); },
+        "a multiplier through +1");
     sign_test(
         BifurcationType::kPeriodDoubling,
-        [](const Orbit& o) { return shifted_determinant(o, -1.0); }, "a multiplier through -1");
+        [](const BranchOrbit& o) { return shifted_determinant(o, -1.0); },
+        "a multiplier through -1");
     const auto na = complex_pair_test(a.orbit), nb = complex_pair_test(b.orbit);
     if (na && nb)
       sign_test(
           BifurcationType::kNeimarkSacker,
-          [](const Orbit& o) { return complex_pair_test(o).value_or(0.0); },
+          [](const BranchOrbit& o) { return complex_pair_test(o).value_or(0.0); },
           "a complex pair through the unit circle");
   }
 
@@ -273,9 +452,18 @@ class Continuer {
     if (!start(cur, why)) return done(why);
     res.points.push_back({param(cur.z), 0, o_.orbit.periods, cur.orbit});
     double ds = o_.initial_step;
+    const Eigen::Index np = cur.z.size() - 1;  // the key's entry in z
     while (static_cast<int>(res.points.size()) < o_.max_points) {
+      // A step whose prediction passes an end of the range is shortened to land on it: the key
+      // may not be allowed beyond (a damping ratio below 0).
+      double step = ds;
+      const double p_pred = param(cur.z + ds * cur.tangent);
+      if (p_pred > hi_ || p_pred < lo_) {
+        const double end = p_pred > hi_ ? hi_ : lo_;
+        step = (end / p_scale_ - cur.z[np]) / cur.tangent[np];
+      }
       Point next;
-      bool ok = correct(cur.z + ds * cur.tangent, cur.tangent, next, why) &&
+      bool ok = correct(cur.z + step * cur.tangent, cur.tangent, next, why) &&
                 tangent(next, cur.tangent, why);
       if (ok && next.tangent.dot(cur.tangent) < kMinTangentCosine && ds > o_.min_step) {
         ok = false;
@@ -291,28 +479,33 @@ class Continuer {
       {
         // Only what lies in the range: a step past an end may hold a bifurcation beyond it.
         std::vector<Bifurcation> found;
-        detect(cur, next, ds, found);
+        detect(cur, next, step, found);
         for (Bifurcation& b : found)
           if (b.param >= lo_ && b.param <= hi_) res.bifurcations.push_back(std::move(b));
       }
       const double p = param(next.z);
-      if (p > hi_ || p < lo_) {
-        // Past an end: the last point on it, at p fixed.
-        const double end = p > hi_ ? hi_ : lo_;
+      const bool landed = step != ds;  // aimed at an end, the corrector a hair either side
+      if (p > hi_ || p < lo_ || landed) {
+        // At an end: the last point on it, at p fixed.
+        const double end = p > hi_ || (landed && p_pred > hi_) ? hi_ : lo_;
         const bool past_to = end == o_.to;
-        const double frac = (end - param(cur.z)) / (p - param(cur.z));
         ode::Vector along = ode::Vector::Zero(next.z.size());
-        along[along.size() - 1] = 1;
-        ode::Vector z = cur.z + frac * (next.z - cur.z);
-        z[z.size() - 1] = end / p_scale_;
+        along[np] = 1;
+        ode::Vector z = next.z;
+        if (std::abs(p - param(cur.z)) > 0)
+          z = cur.z + (end - param(cur.z)) / (p - param(cur.z)) * (next.z - cur.z);
+        z[np] = end / p_scale_;
         Point last;
+        std::string end_note;
         if (correct(z, along, last, why))
           res.points.push_back({end, 0, o_.orbit.periods, last.orbit});
+        else
+          end_note = fmt::format(" (no orbit corrected at the end: {})", why);
         if (past_to) {
           res.completed = true;
-          return done(fmt::format("reached {} = {:.12g}", o_.key, o_.to));
+          return done(fmt::format("reached {} = {:.12g}{}", o_.key, o_.to, end_note));
         }
-        return done(fmt::format("the branch turned back to {} = {:.12g}", o_.key, end));
+        return done(fmt::format("the branch turned back to {} = {:.12g}{}", o_.key, end, end_note));
       }
       res.points.push_back({p, 0, o_.orbit.periods, next.orbit});
       if (doubled_ && half_period_gap(next.z) < kDistinctOrbit)
@@ -379,16 +572,18 @@ std::string ContinuationOptions::validate() const {
 std::string branch_csv(const ContinuationResult& r) {
   std::string s =
       "param,stable,x_a,min_delta_bar,max_delta_bar,max_force_bar,impacts_per_period,"
-      "max_multiplier,min_force_bar,backside_impacts_per_period,separations_per_period,delta_m,"
-      "velocity_m_s,mu1_re,mu1_im,mu2_re,mu2_im,branch,periods\n";
+      "max_multiplier,min_force_bar,backside_impacts_per_period,separations_per_period";
+  for (const std::string& name : r.state_names) s += "," + name;
+  s += ",mu1_re,mu1_im,mu2_re,mu2_im,branch,periods\n";
   for (const BranchPoint& p : r.points) {
-    const Orbit& o = p.orbit;
+    const BranchOrbit& o = p.orbit;
     const RunReading& x = o.reading;
     fmt::format_to(std::back_inserter(s), "{:.17g},{},{:.17g},{:.17g},{:.17g},{:.17g},{},{:.17g},",
                    p.param, o.stable ? 1 : 0, p.amplitude(), x.min_delta_bar, x.max_delta_bar,
                    x.max_force_bar, x.impacts, o.max_multiplier());
-    fmt::format_to(std::back_inserter(s), "{:.17g},{},{},{:.17g},{:.17g}", x.min_force_bar,
-                   x.backside_impacts, x.separations, o.state.q, o.state.v);
+    fmt::format_to(std::back_inserter(s), "{:.17g},{},{}", x.min_force_bar, x.backside_impacts,
+                   x.separations);
+    for (const double y : o.state) fmt::format_to(std::back_inserter(s), ",{:.17g}", y);
     for (std::size_t i = 0; i < 2; ++i) {
       const std::complex<double> m = i < o.multipliers.size() ? o.multipliers[i] : 0.0;
       fmt::format_to(std::back_inserter(s), ",{:.17g},{:.17g}", m.real(), m.imag());
@@ -409,7 +604,7 @@ std::string bifurcations_json(const ContinuationResult& r) {
                  {"detail", b.detail},
                  {"x_a", 0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar)},
                  {"impacts_per_period", b.orbit.reading.impacts},
-                 {"state", {b.orbit.state.q, b.orbit.state.v}},
+                 {"state", std::vector<double>(b.orbit.state.begin(), b.orbit.state.end())},
                  {"floquet_multipliers", mu}});
   }
   return a.dump(2) + "\n";
@@ -471,6 +666,9 @@ void write_continuation(const std::filesystem::path& dir, const ContinuationResu
   // One curve per branch and stability (a period-doubled branch in another colour), titled
   // once.
   bool titled_stable = false, titled_unstable = false;
+  // branch.csv's column of the branch (1-based): after the 11 readings, the state and the 4
+  // multiplier columns.
+  const std::size_t branch_column = 11 + r.state_names.size() + 4 + 1;
   for (int b = 0; b < branches; ++b) {
     const char* colour = b == 0 ? "#1f3b73" : "#4a8f3c";
     for (const int stable : {1, 0}) {
@@ -483,9 +681,9 @@ void write_continuation(const std::filesystem::path& dir, const ContinuationResu
           titled ? "notitle" : (stable ? "title 'stable'" : "title 'unstable'");
       titled = true;
       plots.push_back(fmt::format(
-          "'branch.csv' every ::1 using 1:($18 == {0} && $2 == {1} ? $3 : NaN) with lines lw 2 "
+          "'branch.csv' every ::1 using 1:(${5} == {0} && $2 == {1} ? $3 : NaN) with lines lw 2 "
           "{2}lc rgb '{3}' {4}",
-          b, stable, stable ? "" : "dt 2 ", colour, title));
+          b, stable, stable ? "" : "dt 2 ", colour, title, branch_column));
     }
   }
   const std::pair<BifurcationType, const char*> styles[] = {
@@ -531,7 +729,7 @@ namespace {
 // the eigenvector of the multiplier nearest -1. nullopt when no such orbit is found.
 struct Switch {
   double param;
-  Orbit orbit;
+  BranchOrbit orbit;
   double toward;  // the end of the range the new branch heads for
 };
 std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions& o,
@@ -541,8 +739,6 @@ std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions&
   for (Eigen::Index i = 1; i < eig.eigenvalues().size(); ++i)
     if (std::abs(eig.eigenvalues()[i] + 1.0) < std::abs(eig.eigenvalues()[k] + 1.0)) k = i;
   const ode::Vector v = eig.eigenvectors().col(k).real();
-  const ode::Vector scale = detail::orbit_scale(build_model(base));
-  const ode::Vector dir = v.cwiseQuotient(scale).normalized();  // in scaled units
   const double lo = std::min(o.from, o.to), hi = std::max(o.from, o.to);
   const double step = kSwitchStep * (hi - lo);
   for (const double side : {1.0, -1.0}) {
@@ -550,23 +746,25 @@ std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions&
     if (p <= lo || p >= hi) continue;
     Case c = base;
     set_case_value(c, {o.key, fmt::format("{:.17g}", p)});
+    // One period N, one segment: the test that an orbit found is not the period-N one again.
+    const auto single = family(c, o.orbit.periods, 1, ode::Vector{}, c.solver.tolerance);
+    const ode::Vector& scale = single->shooting().scale();
+    const ode::Vector dir = v.cwiseQuotient(scale).normalized();  // in scaled units
     OrbitOptions oo = o.orbit;
     oo.periods = 2 * o.orbit.periods;
     oo.segments = 2 * (o.orbit.segments > 0 ? o.orbit.segments : o.orbit.periods);
     for (const double amount : kSwitchDisplacements)
       for (const double sign : {1.0, -1.0}) {
-        const ode::Vector y = (ode::Vector(2) << pd.orbit.state.q, pd.orbit.state.v).finished() +
-                              sign * amount * dir.cwiseProduct(scale);
-        const Orbit orbit = find_orbit(c, oo, ode::State{0.0, y[0], y[1], 0.0, 0});
-        if (!orbit.converged) continue;
-        // A period-doubled orbit, not the period-N one again: one period N does not return.
-        const detail::Shooting single(c, o.orbit.periods, 1, scale, c.solver.tolerance);
+        const ode::Vector y = pd.orbit.state + sign * amount * dir.cwiseProduct(scale);
+        const std::optional<BranchOrbit> orbit = orbit_from(c, oo, y, scale);
+        if (!orbit) continue;
         ode::Vector f;
         std::string why;
-        ode::Vector x = single.scaled((ode::Vector(2) << orbit.state.q, orbit.state.v).finished());
-        if (!single.residual(x, f, nullptr, nullptr, why)) continue;
+        if (!single->shooting().residual(single->shooting().scaled(orbit->state), f, nullptr,
+                                         nullptr, why))
+          continue;
         if (f.lpNorm<Eigen::Infinity>() > kDistinctOrbit)
-          return Switch{p, orbit, side > 0 ? hi : lo};
+          return Switch{p, *orbit, side > 0 ? hi : lo};
       }
   }
   return std::nullopt;
@@ -580,6 +778,7 @@ ContinuationResult continuation(const Case& c, const ContinuationOptions& option
   const auto wall_start = std::chrono::steady_clock::now();
   Continuer k(c, options, lo, hi);
   ContinuationResult res = k.run();
+  res.state_names = state_names(c);
   const auto finish = [&]() -> ContinuationResult& {
     res.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -10,9 +10,8 @@
 #include "shooting.hpp"
 
 namespace geardyn {
-namespace {
+namespace detail {
 
-// The unknowns' scale (coupled_orbit.hpp): b for metres, b / R_b1 for radians, rates times w_n.
 ode::Vector coupled_orbit_scale(const CoupledParameters& p, double natural_rad_s) {
   const Eigen::Index n = p.size();
   ode::Vector scale(2 * n);
@@ -25,7 +24,59 @@ ode::Vector coupled_orbit_scale(const CoupledParameters& p, double natural_rad_s
   return scale;
 }
 
+namespace {
+
+Case exact_case(const Case& c, double engine_tolerance) {
+  Case e = c;
+  e.solver.method = Method::kExact;
+  e.solver.tolerance = engine_tolerance;
+  return e;
+}
+
 }  // namespace
+
+CoupledShooting::CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                                 double engine_tolerance)
+    : CoupledShooting(c, periods, segments, scale, engine_tolerance,
+                      build_model(gear_pair_of(c)).parameters()) {}
+
+CoupledShooting::CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                                 double engine_tolerance, const GearPairParameters& pair)
+    : solver_(exact_case(c, engine_tolerance)),
+      periods_(periods),
+      system_period_s_(geardyn::system_period_s(pair)),
+      period_s_(periods * system_period_s_),
+      segments_(
+          [this](int i, const ode::Vector& y) {
+            const int m = segments_.segments();
+            return solver_.advance_with_jacobian(period_s_ * i / m, y, period_s_ * (i + 1) / m);
+          },
+          segments,
+          scale.size() > 0 ? scale
+                           : coupled_orbit_scale(solver_.model().parameters(),
+                                                 pair.natural_angular_frequency_rad_s())) {}
+
+bool CoupledShooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
+                           CoupledOrbit& orbit, std::string& why) const {
+  orbit.coordinates = solver_.model().parameters().coordinates;
+  orbit.periods = periods_;
+  orbit.segments = segments_.segments();
+  orbit.system_period_s = system_period_s_;
+  orbit.period_s = period_s_;
+  floquet(segment_jacobians, orbit.monodromy, orbit.multipliers);
+  orbit.stable = orbit.max_multiplier() < 1.0;
+  orbit.state = segments_.state(x, 0);
+  // One period read: nothing counts as "sustained" (final_from = the period's end).
+  orbit.reading = solver_.read(0.0, orbit.state, period_s_, ode::OutputGrid{}, period_s_);
+  if (!orbit.reading.ok()) {
+    why = fmt::format("reading the orbit failed ({}): {}",
+                      ode::to_string(orbit.reading.termination), orbit.reading.message);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace detail
 
 CoupledOrbit find_coupled_orbit(const Case& c, const OrbitOptions& options,
                                 const std::optional<ode::Vector>& start) {
@@ -33,36 +84,26 @@ CoupledOrbit find_coupled_orbit(const Case& c, const OrbitOptions& options,
     throw InputError("find_coupled_orbit: the case's model.form is not \"coupled\"");
   if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
   const int segments = options.segments > 0 ? options.segments : options.periods;
-  Case engine_case = c;
-  engine_case.solver.method = Method::kExact;
-  engine_case.solver.tolerance =
-      std::min(c.solver.tolerance, options.tolerance * detail::kEngineToleranceFraction);
-  const CoupledSolver solver(engine_case);
-  const CoupledParameters& p = solver.model().parameters();
-  const Eigen::Index n2 = 2 * p.size();
-  const GearPairParameters pair = build_model(gear_pair_of(c)).parameters();
+  const detail::CoupledShooting shooting(
+      c, options.periods, segments, ode::Vector{},
+      std::min(c.solver.tolerance, options.tolerance * detail::kEngineToleranceFraction));
+  const CoupledSolver& solver = shooting.solver();
+  const Eigen::Index n = solver.model().parameters().size();
 
   CoupledOrbit orbit;
-  orbit.coordinates = p.coordinates;
+  orbit.coordinates = solver.model().parameters().coordinates;
   orbit.periods = options.periods;
   orbit.segments = segments;
-  orbit.system_period_s = system_period_s(pair);
-  orbit.period_s = options.periods * orbit.system_period_s;
-  const double period = orbit.period_s;
-  const detail::Segments shooting(
-      [&](int i, const ode::Vector& y) {
-        return solver.advance_with_jacobian(period * i / segments, y, period * (i + 1) / segments);
-      },
-      segments, coupled_orbit_scale(p, pair.natural_angular_frequency_rad_s()));
-
+  orbit.system_period_s = shooting.system_period_s();
+  orbit.period_s = shooting.period_s();
   // The first guess: the start state, or the settled simulation's, on the section.
   ode::Vector y0;
   if (start) {
-    if (start->size() != n2)
+    if (start->size() != 2 * n)
       throw InputError(fmt::format(
           "--state: {} values given; this coupled case takes {} (its {} coordinates, then their "
           "rates, SI)",
-          start->size(), n2, p.size()));
+          start->size(), 2 * n, n));
     y0 = *start;
   } else {
     y0 = solver.initial_state(c.solver.initial);
@@ -79,25 +120,19 @@ CoupledOrbit find_coupled_orbit(const Case& c, const OrbitOptions& options,
   }
   ode::Vector x;
   std::string why;
-  if (!shooting.guess(y0, x, why)) {
+  if (!shooting.shooting().guess(y0, x, why)) {
     orbit.message = why;
     return orbit;
   }
-  const detail::NewtonOutcome newton = detail::solve_periodic(shooting, x, options);
+  const detail::NewtonOutcome newton = detail::solve_periodic(shooting.shooting(), x, options);
   orbit.iterations = newton.iterations;
   orbit.residual = newton.residual;
   if (!newton.converged) {
     orbit.message = newton.message;
     return orbit;
   }
-  orbit.state = shooting.state(x, 0);
-  detail::floquet(newton.jacobians, orbit.monodromy, orbit.multipliers);
-  orbit.stable = orbit.max_multiplier() < 1.0;
-  // One period read: nothing counts as "sustained" (final_from = the period's end).
-  orbit.reading = solver.read(0.0, orbit.state, period, ode::OutputGrid{}, period);
-  if (!orbit.reading.ok()) {
-    orbit.message = fmt::format("reading the orbit failed ({}): {}",
-                                ode::to_string(orbit.reading.termination), orbit.reading.message);
+  if (!shooting.read(x, newton.jacobians, orbit, why)) {
+    orbit.message = why;
     return orbit;
   }
   orbit.converged = true;

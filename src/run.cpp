@@ -44,8 +44,8 @@ GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiff
   if (c.model.form == ModelForm::kCoupled)
     throw InputError(
         "model.form = \"coupled\": this command takes the one-degree forms (\"gear_pair\", "
-        "\"nondimensional\"); `geardyn run`, `sweep`, `orbit`, `stability` and `modes` take the "
-        "coupled model");
+        "\"nondimensional\"); `geardyn run`, `sweep`, `orbit`, `continue`, `stability` and `modes` "
+        "take the coupled model");
   HarmonicSeries e;
   try {
     e = transmission_error_series(c);

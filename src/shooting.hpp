@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/coupled_orbit.hpp"
+#include "geardyn/coupled_run.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/run.hpp"
 
@@ -22,6 +24,9 @@ constexpr double kEngineToleranceFraction = 1e-4;
 
 // The Newton iteration's unknowns are scaled: delta by b, delta' by b w_n: (b, b w_n).
 ode::Vector orbit_scale(const GearPairModel& model);
+// The coupled model's (coupled_orbit.hpp): b for a coordinate in m, b / R_b1 for one in rad, a
+// rate by the same times the one-degree contact natural frequency w_n.
+ode::Vector coupled_orbit_scale(const CoupledParameters& p, double natural_rad_s);
 
 // M segments of a period T of any flow: the unknowns are the scaled states at the segments'
 // starts, x_i = y_i / scale (state dimension d = scale.size()), and the residual is
@@ -34,6 +39,7 @@ class Segments {
       : flow_(std::move(flow)), segments_(segments), scale_(std::move(scale)) {}
 
   int segments() const { return segments_; }
+  const ode::Vector& scale() const { return scale_; }
   Eigen::Index state_dimension() const { return scale_.size(); }
   Eigen::Index dimension() const { return scale_.size() * segments_; }
   ode::FlowResult flow(int i, const ode::Vector& y) const { return flow_(i, y); }
@@ -117,6 +123,36 @@ class Shooting {
  private:
   GearPairModel model_;
   Solver solver_;
+  double system_period_s_, period_s_;
+  Segments segments_;
+};
+
+// The coupled model's counterpart of Shooting: one case value, its exact engine (the case's
+// solver with method "exact" at engine_tolerance) and the residual of M segments over T = N T0.
+// Not copyable (the flow refers to the solver).
+class CoupledShooting {
+ public:
+  // `scale` as for Shooting (empty: coupled_orbit_scale of this case). Throws InputError.
+  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                  double engine_tolerance);
+  CoupledShooting(const CoupledShooting&) = delete;
+  CoupledShooting& operator=(const CoupledShooting&) = delete;
+
+  const CoupledSolver& solver() const { return solver_; }
+  double system_period_s() const { return system_period_s_; }
+  double period_s() const { return period_s_; }
+  const Segments& shooting() const { return segments_; }
+
+  // Fills an orbit's coordinates, section state, monodromy, multipliers, stability and reading
+  // (one period flown and read). False with `why` when that flow fails.
+  bool read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
+            CoupledOrbit& orbit, std::string& why) const;
+
+ private:
+  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                  double engine_tolerance, const GearPairParameters& pair);
+  CoupledSolver solver_;
+  int periods_;
   double system_period_s_, period_s_;
   Segments segments_;
 };

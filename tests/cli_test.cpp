@@ -653,7 +653,7 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   EXPECT_NE(body.find("title 'other mode'"), std::string::npos);  // x and the rocking tilts
   fs::remove_all(d);
 
-  // A sweep takes it (the jump of its first mode, tests in sweep_test); orbits do not yet.
+  // A sweep takes it (the jump of its first mode, tests in sweep_test).
   const Outcome sw = cli("sweep " + coupled +
                          " --param bearings.radial_stiffness_n_per_m --from "
                          "5e8 --to 1e9 --points 2 --no-figures --out " +
@@ -661,12 +661,18 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   ASSERT_EQ(sw.code, 0) << sw.err;
   EXPECT_TRUE(fs::exists(d / "sweep.csv"));
   fs::remove_all(d);
-  // Continuation takes the one-degree forms only, and says so.
-  const Outcome s1 =
-      cli("continue " + coupled + " --param speed.shaft_frequency_hz --from 900 --to 1000 --out " +
-          d.string());
-  EXPECT_EQ(s1.code, 2);
-  EXPECT_NE(s1.err.find("model.form = \"coupled\""), std::string::npos) << s1.err;
+  // A continuation takes it too: branch.csv's state columns are its coordinates and rates.
+  const Outcome s1 = cli("continue " + coupled +
+                         " --set model.dof=3 --set load.fluctuation_ratio=0 --set "
+                         "mesh.transmission_error_um=[[1.0,0.0]] --param speed.shaft_frequency_hz "
+                         "--from 900 --to 902 --no-figures --out " +
+                         d.string());
+  ASSERT_EQ(s1.code, 0) << s1.err;
+  const std::string branch = slurp(d / "branch.csv");
+  EXPECT_NE(branch.find(",separations_per_period,u_m,y1_m,y2_m,u_m_s,y1_m_s,y2_m_s,mu1_re,"),
+            std::string::npos)
+      << branch.substr(0, 300);
+  fs::remove_all(d);
   const Outcome plain = cli("modes");
   EXPECT_EQ(plain.code, 2);
   EXPECT_NE(plain.err.find("modes are of the coupled model"), std::string::npos) << plain.err;

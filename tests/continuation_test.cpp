@@ -45,6 +45,11 @@ const ContinuationResult& ks_branch() {
   return r;
 }
 
+// A one-degree branch orbit's state on the section t = 0.
+geardyn::ode::State section_state(const geardyn::BranchOrbit& o) {
+  return {0.0, o.state[0], o.state[1], 0.0, 0};
+}
+
 // (max - min) / 2 of delta_bar over the last period of a long exact simulation at omega from
 // `start` (periods of the excitation), and whether it separated in that period.
 struct Settled {
@@ -118,10 +123,10 @@ TEST(Continuation, FoldsAreWhereTheSimulationsJump) {
   ASSERT_EQ(r.bifurcations.size(), 4U);
   const double fold_up = r.bifurcations[1].param, fold_down = r.bifurcations[2].param;
   const double d = 2e-4;
-  const geardyn::ode::State low_end = r.bifurcations[1].orbit.state;
+  const geardyn::ode::State low_end = section_state(r.bifurcations[1].orbit);
   EXPECT_LT(simulate(fold_up - d, low_end, 3000).amplitude, 0.12);
   EXPECT_GT(simulate(fold_up + d, low_end, 3000).amplitude, 0.15);
-  const geardyn::ode::State top_end = r.bifurcations[2].orbit.state;
+  const geardyn::ode::State top_end = section_state(r.bifurcations[2].orbit);
   const Settled above = simulate(fold_down + d, top_end, 3000);
   EXPECT_EQ(above.impacts, 1);
   EXPECT_GT(above.amplitude, 0.2);
@@ -138,7 +143,7 @@ TEST(Continuation, StablePointsMatchLongSimulations) {
   for (std::size_t i = 0; i < r.points.size(); i += 8) {
     const auto& p = r.points[i];
     if (!p.orbit.stable || p.orbit.max_multiplier() > 0.9) continue;
-    geardyn::ode::State s = p.orbit.state;
+    geardyn::ode::State s = section_state(p.orbit);
     s.q += 1e-3;
     const Settled x = simulate(p.param, s, 400);
     EXPECT_NEAR(x.amplitude, p.amplitude(), 1e-9) << "omega = " << p.param;
@@ -231,7 +236,7 @@ TEST(Continuation, PeriodDoublingIsLocatedAndItsBranchFollowed) {
   sd.method = geardyn::Method::kDopri5;
   sd.tolerance = 1e-12;
   const geardyn::Solver solver(model, sd);
-  geardyn::ode::State s = q.orbit.state;
+  geardyn::ode::State s = section_state(q.orbit);
   s.region = model.classify(model.drive(0), s.q, s.v);
   const double T0 = 2 * std::numbers::pi / q.param;
   const auto one = solver.advance(s, T0);
@@ -263,6 +268,23 @@ TEST(Continuation, WritesTheBranchAndItsBifurcations) {
   EXPECT_NE(json.str().find("\"type\": \"fold\""), std::string::npos);
   EXPECT_NE(json.str().find("\"type\": \"grazing\""), std::string::npos);
   std::filesystem::remove_all(dir);
+}
+
+TEST(Continuation, ARangeEndingOnTheKeysBoundEndsOnIt) {
+  // zeta from 0.05 down to 0, where the key's range ends: the last step lands on 0 and the
+  // derivative in the key there is one-sided; no point lies past the bound.
+  ContinuationOptions o;
+  o.key = "model.zeta";
+  o.from = 0.05;
+  o.to = 0.0;
+  const ContinuationResult r = geardyn::continuation(ks_case(0.95), o);
+  ASSERT_TRUE(r.completed) << r.message;
+  ASSERT_GE(r.points.size(), 10U);
+  EXPECT_EQ(r.points.back().param, 0.0);
+  for (const auto& p : r.points) EXPECT_GE(p.param, 0.0);
+  // Undamped, the piecewise-linear orbit is conservative: its multipliers lie on the circle.
+  EXPECT_NEAR(r.points.back().orbit.max_multiplier(), 1.0, 1e-6);
+  EXPECT_LT(r.points[r.points.size() - 2].orbit.max_multiplier(), 1.0);
 }
 
 TEST(Continuation, BadInputIsRejectedWithItsReason) {

@@ -19,10 +19,16 @@
 //                    appears or vanishes)
 // M the monodromy. Each is located by bisection along the branch, re-correcting at every
 // trial point, to a width in p of kLocateWidth p_scale.
+//
+// Both models are continued: the one-degree forms on the shooting of orbit.hpp, the coupled
+// model (model.form = "coupled") on that of coupled_orbit.hpp, its unknowns all its
+// coordinates and their rates. A coupled orbit's grazing is a change in the impacts or
+// separations per period of the mesh or of a clearance bearing.
 #pragma once
 
 #include <complex>
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -45,11 +51,30 @@ constexpr double kLocateWidth = 1e-10;
 enum class BifurcationType { kFold, kBranchPoint, kPeriodDoubling, kNeimarkSacker, kGrazing };
 const char* to_string(BifurcationType t);
 
+// What the continuation keeps of an orbit, of either model.
+struct BranchOrbit : PeriodicSolution {
+  ode::Vector state;  // on the section t = 0, SI: (delta, delta'), or the coupled (q, q')
+  // The mesh's over one period: impacts, separations, extremes of delta_bar ((d - e)/b in the
+  // coupled model) and of F_bar.
+  RunReading reading;
+  // Which contacts are entered and left in one period, the grazing test: the one-degree
+  // model's contact sequence (cyclic: the least of its rotations); the coupled model's impacts,
+  // back-side impacts and separations of the mesh, then impacts and separations of each bearing.
+  std::vector<std::int64_t> signature;
+  // Impacts and separations per period of each nonlinearity: the one-degree mesh (name ""), or
+  // "mesh" and each clearance bearing ("bearing 1", "bearing 2").
+  struct Contacts {
+    std::string name;
+    std::int64_t impacts = 0, separations = 0;
+  };
+  std::vector<Contacts> contacts;
+};
+
 struct BranchPoint {
   double param = 0;
-  int branch = 0;   // 0: the branch followed; 1, 2, ...: period-doubled branches switched to
-  int periods = 1;  // the orbit's period in system periods
-  Orbit orbit;      // converged: section state, multipliers, stability, reading
+  int branch = 0;     // 0: the branch followed; 1, 2, ...: period-doubled branches switched to
+  int periods = 1;    // the orbit's period in system periods
+  BranchOrbit orbit;  // converged: section state, multipliers, stability, reading
   // (max - min) / 2 of delta_bar over one period.
   double amplitude() const {
     return 0.5 * (orbit.reading.max_delta_bar - orbit.reading.min_delta_bar);
@@ -59,9 +84,10 @@ struct BranchPoint {
 struct Bifurcation {
   BifurcationType type = BifurcationType::kFold;
   double param = 0;
-  int branch = 0;      // the branch it was found on
-  Orbit orbit;         // the orbit at the located point
-  std::string detail;  // e.g. "impacts per period 0 -> 1"
+  int branch = 0;          // the branch it was found on
+  BranchOrbit orbit;       // the orbit at the located point
+  std::string orbit_json;  // the same as `geardyn orbit --json` prints it (compact)
+  std::string detail;      // e.g. "impacts 0 -> 1, separations 0 -> 1 per period"
 };
 
 struct ContinuationOptions {
@@ -73,8 +99,9 @@ struct ContinuationOptions {
   double max_step = 0.02;
   double min_step = 1e-8;
   int max_points = 5000;  // on each branch
-  // A state on the section at `from` to start Newton from, in place of the settled simulation.
-  std::optional<ode::State> start;
+  // A state on the section at `from` to start Newton from, in place of the settled simulation:
+  // (delta, delta'), or a coupled case's (q, q'), SI.
+  std::optional<ode::Vector> start;
   // At each period doubling of the first branch (up to kMaxBranchSwitches), switch to the
   // period-doubled branch and follow it to the end of the range it heads for.
   bool follow_period_doubling = false;
@@ -86,6 +113,9 @@ struct ContinuationOptions {
 };
 
 struct ContinuationResult {
+  // The names of the state's entries, as branch.csv heads their columns: delta_m,
+  // velocity_m_s; or each coupled coordinate (u_m, y1_m, ...), then its rate (u_m_s, ...).
+  std::vector<std::string> state_names;
   std::vector<BranchPoint> points;
   std::vector<Bifurcation> bifurcations;
   bool completed = false;  // the branch reached `to`
@@ -94,19 +124,20 @@ struct ContinuationResult {
   double wall_time_s = 0;
 };
 
-// Follows the branch of the orbit found at p = from (find_orbit with options.orbit, from
-// options.start when given) towards `to`; with follow_period_doubling also the period-doubled
-// branches (the switch: Newton on the doubled period from the period-doubling orbit displaced
-// along the eigenvector of its multiplier -1, just beyond the located parameter). Throws InputError
-// on bad input (a key that is not numeric, a bad range); a branch that is lost or turns back past
-// `from` ends the result with its reason, the points kept.
+// Follows the branch of the orbit found at p = from (find_orbit, or find_coupled_orbit for a
+// coupled case, with options.orbit, from options.start when given) towards `to`; with
+// follow_period_doubling also the period-doubled branches (the switch: Newton on the doubled period
+// from the period-doubling orbit displaced along the eigenvector of its multiplier -1, just beyond
+// the located parameter). Throws InputError on bad input (a key that is not numeric, a bad range);
+// a branch that is lost or turns back past `from` ends the result with its reason, the points kept.
 ContinuationResult continuation(const Case& c, const ContinuationOptions& options);
 
 // branch.csv: one row per point, header
 // param,stable,x_a,min_delta_bar,max_delta_bar,max_force_bar,impacts_per_period,max_multiplier,
-// min_force_bar,backside_impacts_per_period,separations_per_period,delta_m,velocity_m_s,
-// mu1_re,mu1_im,mu2_re,mu2_im,branch,periods (x_a = (max - min) / 2 of delta_bar; the state
-// on the section t = 0; multipliers largest first), numbers to 17 significant digits.
+// min_force_bar,backside_impacts_per_period,separations_per_period, the state on the section
+// t = 0 (state_names: delta_m,velocity_m_s for the one-degree model), mu1_re,mu1_im,mu2_re,
+// mu2_im,branch,periods (x_a = (max - min) / 2 of delta_bar; multipliers largest first),
+// numbers to 17 significant digits.
 std::string branch_csv(const ContinuationResult& r);
 
 // bifurcations.json: [{"type", "param", "branch", "detail", "x_a", "impacts_per_period",

@@ -641,8 +641,9 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     dict
         One NumPy array per point: ``param``, ``stable``, ``x_a`` ((max - min) / 2 of delta / b),
         ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``, ``impacts_per_period``,
-        ``max_multiplier``, ``delta_m`` (m), ``velocity_m_s`` (m/s), ``branch``, ``periods``,
-        ``multipliers``; ``bifurcations`` (dicts: type, param, branch, detail, x_a and
+        ``max_multiplier``, the state on the section (``delta_m`` (m) and ``velocity_m_s``
+        (m/s); a coupled case's coordinates and their rates, ``u_m``, ``y1_m``, ...,
+        ``u_m_s``, ...), ``branch``, ``periods``, ``multipliers`` (the two largest); ``bifurcations`` (dicts: type, param, branch, detail, x_a and
         ``orbit`` as `orbit` returns it); ``completed``, ``cancelled``, ``message``.
 
     Raises

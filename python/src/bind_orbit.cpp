@@ -117,8 +117,12 @@ void bind_orbit(py::module_& m) {
             pts, [](const BranchPoint& p) { return static_cast<double>(p.orbit.reading.impacts); });
         d["max_multiplier"] =
             column(pts, [](const BranchPoint& p) { return p.orbit.max_multiplier(); });
-        d["delta_m"] = column(pts, [](const BranchPoint& p) { return p.orbit.state.q; });
-        d["velocity_m_s"] = column(pts, [](const BranchPoint& p) { return p.orbit.state.v; });
+        // The state on the section, a column per entry: delta_m and velocity_m_s, or each
+        // coupled coordinate and its rate.
+        for (std::size_t j = 0; j < r.state_names.size(); ++j)
+          d[py::str(r.state_names[j])] = column(pts, [j](const BranchPoint& p) {
+            return p.orbit.state[static_cast<Eigen::Index>(j)];
+          });
         d["branch"] =
             column(pts, [](const BranchPoint& p) { return static_cast<double>(p.branch); });
         d["periods"] =
@@ -131,7 +135,7 @@ void bind_orbit(py::module_& m) {
                               py::arg("branch") = b.branch, py::arg("detail") = b.detail,
                               py::arg("x_a") = 0.5 * (b.orbit.reading.max_delta_bar -
                                                       b.orbit.reading.min_delta_bar),
-                              py::arg("orbit") = orbit_text(b.orbit)));
+                              py::arg("orbit") = py::str(b.orbit_json)));
         }
         d["bifurcations"] = bif;
         d["completed"] = r.completed;

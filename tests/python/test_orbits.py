@@ -53,6 +53,36 @@ def test_continuation_finds_the_folds_and_grazings_of_the_command_line(tmp_path)
     assert (b["stable"] == 0).sum() > 0
 
 
+TE_PAIR = [("model.form", "coupled"), ("model.dof", 3), ("mesh.stiffness_source", "harmonics"),
+           ("mesh.damping_ratio", 0.05), ("mesh.transmission_error_um", [[2.0, 0.0]]),
+           ("load.torque_nm", 150.0), ("load.fluctuation_ratio", 0.0),
+           ("bearings.radial_stiffness_n_per_m", [2.34e8, 2.34e8]),
+           ("solver.initial", "static")]
+
+
+def test_a_coupled_continuation_matches_the_command_line(tmp_path):
+    # The pair on bearings as stiff as the mesh, excited by a transmission error: the branch's
+    # state columns are its coordinates and their rates, as in the command line's branch.csv.
+    case_file = tmp_path / "pair.toml"
+    c = geardyn.Case.default()
+    for k, v in TE_PAIR:
+        c.set(k, v)
+    case_file.write_text(c.to_toml())
+    subprocess.run([CLI, "continue", str(case_file), "--param", "speed.shaft_frequency_hz",
+                    "--from", "50", "--to", "60", "--out", str(tmp_path / "out"),
+                    "--no-figures"], capture_output=True, text=True, check=True)
+    rows = np.genfromtxt(tmp_path / "out" / "branch.csv", delimiter=",", names=True)
+    b = geardyn.continuation(c, "speed.shaft_frequency_hz", 50, 60)
+    assert b["completed"], b["message"]
+    for name in ["param", "x_a", "u_m", "y1_m", "y2_m", "u_m_s", "y2_m_s"]:
+        assert np.array_equal(b[name], rows[name]), name
+    assert "delta_m" not in b
+    assert [f["type"] for f in b["bifurcations"]] == ["grazing", "fold", "fold"]
+    orbit = b["bifurcations"][1]["orbit"]
+    assert orbit["model"] == "coupled" and orbit["state"].shape == (6,)
+    assert orbit["monodromy"].shape == (6, 6)
+
+
 def test_progress_stops_and_ctrl_c_raises_with_the_points_kept():
     seen = []
     b = geardyn.continuation(ks(), "model.omega", 0.5, 1.5,

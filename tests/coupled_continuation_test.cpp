@@ -1,0 +1,158 @@
+// Continuation of the coupled model (continuation.hpp) on the Table 1 pair with a steady torque,
+// a constant mesh stiffness and a transmission error of 2 um (a dimensional Kahraman-Singh
+// oscillator), continued in the shaft frequency across the mesh mode's primary resonance:
+// - on bearings 1e6 and 1e5 times stiffer than the mesh, its folds and grazings are the
+//   one-degree model's, the gap shrinking tenfold per decade;
+// - on bearings as stiff as the mesh (the resonance moves up), the stable points are where long
+//   simulations of the coupled model settle, and the folds are where they jump;
+// - with a radial clearance, the grazing where the bearings stop separating lies between a
+//   simulation whose bearings separate and one whose do not.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "geardyn/continuation.hpp"
+#include "geardyn/coupled_run.hpp"
+
+namespace geardyn {
+namespace {
+
+constexpr double kMeshStiffness = 2.34e8;  // N/m, the default mean
+
+// The pair, one-degree (bearing_ratio 0) or coupled (dof 3) on bearings bearing_ratio times
+// as stiff as the mesh with a radial clearance.
+Case te_pair(double bearing_ratio = 0, double clearance_um = 0) {
+  Case c;
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.mesh.mean_stiffness_n_per_m = kMeshStiffness;
+  c.mesh.damping_ratio = 0.05;
+  c.mesh.transmission_error_um = {{2.0, 0.0}};
+  c.load.torque_nm = 150;
+  c.load.fluctuation_ratio = 0;
+  if (bearing_ratio > 0) {
+    c.model.form = ModelForm::kCoupled;
+    c.model.dof = 3;
+    c.bearings.radial_stiffness_n_per_m = {bearing_ratio * kMeshStiffness,
+                                           bearing_ratio * kMeshStiffness};
+    c.bearings.radial_clearance_um = {clearance_um, clearance_um};
+    c.solver.initial = InitialCondition::kStatic;
+  }
+  return c;
+}
+
+ContinuationResult branch(const Case& c, double from, double to) {
+  ContinuationOptions o;
+  o.key = "speed.shaft_frequency_hz";
+  o.from = from;
+  o.to = to;
+  return continuation(c, o);
+}
+
+// The last period of a simulation of the coupled case at f_1 = f_hz from y0, `periods` mesh
+// periods long.
+CoupledRunResult settle(Case c, double f_hz, const ode::Vector& y0, int periods) {
+  c.speed.shaft_frequency_hz = f_hz;
+  c.solver.tolerance = 1e-12;
+  const CoupledSolver solver(c);
+  const double t = 1.0 / (f_hz * c.gear.teeth[0]);
+  const ode::FlowResult settled = solver.advance(0.0, y0, (periods - 1) * t);
+  EXPECT_TRUE(settled.ok()) << settled.message;
+  return solver.read((periods - 1) * t, settled.state, periods * t, ode::OutputGrid{}, periods * t);
+}
+
+double amplitude(const CoupledRunResult& r) {
+  return 0.5 * (r.max_deflection_m - r.min_deflection_m) / r.parameters.backlash_m;
+}
+
+TEST(CoupledContinuation, RigidBearingsGiveTheOneDegreeBranch) {
+  const ContinuationResult one = branch(te_pair(), 36, 54);
+  ASSERT_TRUE(one.completed) << one.message;
+  // Grazing into rattle, the fold up, the fold down, grazing out of rattle.
+  ASSERT_EQ(one.bifurcations.size(), 4U);
+  std::vector<double> gap[2];
+  for (const double ratio : {1e5, 1e6}) {
+    const ContinuationResult r = branch(te_pair(ratio), 36, 54);
+    ASSERT_TRUE(r.completed) << r.message;
+    ASSERT_EQ(r.bifurcations.size(), one.bifurcations.size()) << "bearings " << ratio;
+    for (std::size_t i = 0; i < r.bifurcations.size(); ++i) {
+      EXPECT_EQ(r.bifurcations[i].type, one.bifurcations[i].type);
+      gap[ratio > 5e5].push_back(std::abs(r.bifurcations[i].param - one.bifurcations[i].param) /
+                                 one.bifurcations[i].param);
+    }
+  }
+  for (std::size_t i = 0; i < gap[1].size(); ++i) {
+    EXPECT_LT(gap[1][i], 3e-6) << "bifurcation " << i;
+    EXPECT_GT(gap[1][i], 1e-8) << "bifurcation " << i;  // the bearings are there
+    EXPECT_NEAR(gap[0][i] / gap[1][i], 10.0, 0.5) << "bifurcation " << i;
+  }
+}
+
+TEST(CoupledContinuation, StablePointsAndFoldsAreThoseOfSimulations) {
+  const Case c = te_pair(1.0);
+  const ContinuationResult r = branch(c, 45, 60);
+  ASSERT_TRUE(r.completed) << r.message;
+  ASSERT_EQ(r.state_names.size(), 6U);
+  EXPECT_EQ(r.state_names[0], "u_m");
+  EXPECT_EQ(r.state_names[3], "u_m_s");
+  // Grazing into rattle at the mesh, the fold up, the fold down; the bearings never separate.
+  ASSERT_EQ(r.bifurcations.size(), 3U);
+  EXPECT_EQ(r.bifurcations[0].type, BifurcationType::kGrazing);
+  EXPECT_EQ(r.bifurcations[0].detail, "mesh impacts 0 -> 1, separations 0 -> 1 per period");
+  EXPECT_EQ(r.bifurcations[1].type, BifurcationType::kFold);
+  EXPECT_EQ(r.bifurcations[2].type, BifurcationType::kFold);
+  // Every 6th stable point away from the folds (its multipliers below 0.98; the bearing mode's
+  // are near 0.95): a simulation from 1e-3 b off the orbit (in u) settles to its amplitude and
+  // impacts.
+  int checked = 0;
+  for (std::size_t i = 0; i < r.points.size(); i += 6) {
+    const BranchPoint& p = r.points[i];
+    if (!p.orbit.stable || p.orbit.max_multiplier() > 0.98) continue;
+    ode::Vector y = p.orbit.state;
+    y[0] += 1e-3 * 100e-6;
+    const CoupledRunResult x = settle(c, p.param, y, 2000);
+    ASSERT_TRUE(x.ok()) << x.message;
+    EXPECT_NEAR(amplitude(x), p.amplitude(), 1e-8) << "f_1 = " << p.param;
+    EXPECT_EQ(x.mesh.impacts, p.orbit.reading.impacts) << "f_1 = " << p.param;
+    ++checked;
+  }
+  EXPECT_GE(checked, 6);
+  // Each fold ends a branch: just beyond it the simulation from its orbit leaves for the other.
+  const double d = 0.01;  // Hz
+  const Bifurcation &up = r.bifurcations[1], &down = r.bifurcations[2];
+  EXPECT_LT(amplitude(settle(c, up.param - d, up.orbit.state, 3000)), 0.11);
+  EXPECT_GT(amplitude(settle(c, up.param + d, up.orbit.state, 3000)), 0.13);
+  const CoupledRunResult above = settle(c, down.param + d, down.orbit.state, 3000);
+  EXPECT_EQ(above.mesh.impacts, 1);
+  EXPECT_GT(amplitude(above), 0.13);
+  const CoupledRunResult below = settle(c, down.param - d, down.orbit.state, 3000);
+  EXPECT_EQ(below.mesh.impacts, 0);
+  EXPECT_LT(amplitude(below), 0.11);
+}
+
+TEST(CoupledContinuation, ABearingClearanceGrazingIsWhereTheBearingsStopSeparating) {
+  // A clearance of 5 um, half the static bearing deflection: near the bearing mode's
+  // superharmonic resonance the bearings leave contact once a mesh period.
+  const Case c = te_pair(1.0, 5.0);
+  const ContinuationResult r = branch(c, 20, 24);
+  ASSERT_TRUE(r.completed) << r.message;
+  ASSERT_EQ(r.bifurcations.size(), 1U);
+  const Bifurcation& g = r.bifurcations[0];
+  EXPECT_EQ(g.type, BifurcationType::kGrazing);
+  EXPECT_EQ(g.detail,
+            "bearing 1 impacts 1 -> 0, separations 1 -> 0; bearing 2 impacts 1 -> 0, "
+            "separations 1 -> 0 per period");
+  EXPECT_FALSE(g.orbit_json.empty());
+  const double d = 1e-3;  // Hz
+  const CoupledRunResult before = settle(c, g.param - d, g.orbit.state, 1000);
+  const CoupledRunResult after = settle(c, g.param + d, g.orbit.state, 1000);
+  ASSERT_TRUE(before.ok() && after.ok());
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(before.bearing[i].separations, 1) << "bearing " << i + 1;
+    EXPECT_EQ(after.bearing[i].separations, 0) << "bearing " << i + 1;
+  }
+}
+
+}  // namespace
+}  // namespace geardyn
