@@ -288,8 +288,10 @@ class Continuer {
     std::vector<ode::Matrix> seg;
     for (int it = 0;; ++it) {
       const auto s = family_at(param(z), why);
+      // dF/dp (two more models built) at the predicted point only; the corrector's later
+      // iterations keep it (a chord in that one column).
       if (!s || !s->shooting().residual(z.head(n), f, &last_jx_, &seg, why) ||
-          !param_derivative(z, f, why))
+          (it == 0 && !param_derivative(z, f, why)))
         return false;
       const double norm = f.lpNorm<Eigen::Infinity>();
       const double plane = t.dot(z - z_pred);

@@ -6,8 +6,9 @@
 // orbit.hpp, p_scale = |to - from|) solve the shooting residual F(x, p) = 0 and
 // t . (Z - Z_pred) = 0, t the unit tangent of the branch, so that the branch is followed
 // through folds and its unstable parts appear. dF/dx is the exact engine's Jacobian;
-// dF/dp is a central difference of the exact residual (step kParamStep p_scale). The step in
-// arclength grows after easy corrections and is halved after failed ones.
+// dF/dp is a central difference of the exact residual (step kParamStep p_scale; one-sided at a
+// bound of the key), taken at each correction's first iterate and kept through its later ones. The
+// step in arclength grows after easy corrections and is halved after failed ones.
 //
 // Between two points the continuation looks for:
 //   fold             det(M - I) changes sign and the branch turns back in p
