@@ -106,11 +106,7 @@ class CoupledFamily final : public Family {
     const CoupledRunResult& r = orbit.reading;
     const double b = r.parameters.backlash_m, bk = b * r.parameters.stiffness_n_per_m.offset;
     o.reading = RunReading{};
-    o.reading.regime = r.mesh.regime;
-    o.reading.double_sided = r.mesh.double_sided;
-    o.reading.impacts = r.mesh.impacts;
-    o.reading.backside_impacts = r.mesh.backside_impacts;
-    o.reading.separations = r.mesh.separations;
+    static_cast<ContactCounts&>(o.reading) = r.mesh;
     o.reading.min_delta_bar = r.min_deflection_m / b;
     o.reading.max_delta_bar = r.max_deflection_m / b;
     o.reading.min_force_bar = r.min_force_n / bk;

@@ -55,9 +55,9 @@ struct Timeseries {
   std::size_t size() const { return t_s.size(); }
 };
 
-// What a run reads as. Force and displacement are non-dimensional as in the paper's figures:
-// delta_bar = delta / b, F_bar = F_G / (b k_m).
-struct RunReading {
+// What one contact did over a window: the reading of the one-degree mesh and of each
+// nonlinearity of the coupled model (the mesh, each clearance bearing).
+struct ContactCounts {
   Regime regime = Regime::kNone;
   bool double_sided = false;                // back-side contact occurred at all
   std::int64_t impacts = 0;                 // entries into contact from separation, both sides
@@ -65,6 +65,11 @@ struct RunReading {
   std::int64_t separations = 0;             // exits from contact into separation
   std::optional<double> last_separation_s;  // time of the last exit from contact
   double separated_fraction = 0;            // time separated over the window
+};
+
+// What a run reads as: its contact's counts, and force and displacement non-dimensional as in
+// the paper's figures: delta_bar = delta / b, F_bar = F_G / (b k_m).
+struct RunReading : ContactCounts {
   double max_impact_velocity_m_s = 0;
   // Extremes over every step end, transition and sample; mean and RMS over the samples.
   double max_force_bar = 0, min_force_bar = 0, mean_force_bar = 0, rms_force_bar = 0;

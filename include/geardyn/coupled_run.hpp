@@ -22,13 +22,8 @@ namespace geardyn {
 
 // One nonlinearity read as the one-degree run is (analysis.hpp): contact entered from the
 // free state is an impact (on the back side: a backside impact), left is a separation.
-struct ContactReading {
+struct ContactReading : ContactCounts {
   bool present = false;  // false: a bearing without clearance (always in contact)
-  Regime regime = Regime::kNone;
-  bool double_sided = false;
-  std::int64_t impacts = 0, backside_impacts = 0, separations = 0;
-  std::optional<double> last_separation_s;
-  double separated_fraction = 0;  // of the window
 };
 
 struct CoupledSamples {
