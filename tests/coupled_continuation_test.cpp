@@ -6,11 +6,14 @@
 // - on bearings as stiff as the mesh (the resonance moves up), the stable points are where long
 //   simulations of the coupled model settle, and the folds are where they jump;
 // - with a radial clearance, the grazing where the bearings stop separating lies between a
-//   simulation whose bearings separate and one whose do not.
+//   simulation whose bearings separate and one whose do not;
+// - on the shipped case at dof 3, a period doubling of the rattle is switched to its doubled
+//   branch, whose orbits return after two periods and not after one.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <vector>
 
 #include "geardyn/continuation.hpp"
@@ -152,6 +155,51 @@ TEST(CoupledContinuation, ABearingClearanceGrazingIsWhereTheBearingsStopSeparati
     EXPECT_EQ(before.bearing[i].separations, 1) << "bearing " << i + 1;
     EXPECT_EQ(after.bearing[i].separations, 0) << "bearing " << i + 1;
   }
+}
+
+TEST(CoupledContinuation, APeriodDoublingIsSwitchedToItsDoubledBranch) {
+  // The Table 1 pair on its bearings at dof 3 (cases/park2010_coupled.toml): its period-1
+  // rattle along f_1 doubles its period near 657.7 Hz. The switched branch's orbits return
+  // after two system periods and not after one (a flow of the coupled model without Jacobians).
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010_coupled.toml",
+                     {{"model.dof", "3"}});
+  ContinuationOptions o;
+  o.key = "speed.shaft_frequency_hz";
+  o.from = 652;
+  o.to = 700;
+  o.max_points = 9;  // on each branch
+  o.follow_period_doubling = true;
+  const ContinuationResult r = continuation(c, o);
+  ASSERT_FALSE(r.bifurcations.empty()) << r.message;
+  const Bifurcation& pd = r.bifurcations[0];
+  ASSERT_EQ(pd.type, BifurcationType::kPeriodDoubling) << r.message;
+  EXPECT_NEAR(pd.param, 657.7267, 1e-3);
+  // There a multiplier is -1.
+  double nearest = 1;
+  for (const auto& mu : pd.orbit.multipliers) nearest = std::min(nearest, std::abs(mu + 1.0));
+  EXPECT_LT(nearest, 1e-5);
+  int doubled = 0;
+  for (const BranchPoint& p : r.points) {
+    if (p.branch != 1) continue;
+    ++doubled;
+    EXPECT_EQ(p.periods, 2);
+    Case cp = c;
+    cp.speed.shaft_frequency_hz = p.param;
+    cp.solver.tolerance = 1e-12;
+    const CoupledSolver solver(cp);
+    const double t0 = 1.0 / p.param;  // the system period: the torque's
+    const ode::FlowResult one = solver.advance(0.0, p.orbit.state, t0);
+    const ode::FlowResult two = solver.advance(0.0, p.orbit.state, 2 * t0);
+    ASSERT_TRUE(one.ok() && two.ok());
+    const double b = 100e-6, n = static_cast<double>(p.orbit.state.size() / 2);
+    const ode::Vector s = p.orbit.state;
+    const auto gap = [&](const ode::Vector& y) {
+      return (y - s).head(static_cast<Eigen::Index>(n)).cwiseAbs().maxCoeff() / b;
+    };
+    EXPECT_LT(gap(two.state), 1e-7) << "f_1 = " << p.param;
+    EXPECT_GT(gap(one.state), 1e-3) << "f_1 = " << p.param;
+  }
+  EXPECT_GE(doubled, 4);
 }
 
 }  // namespace
