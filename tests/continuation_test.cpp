@@ -14,6 +14,7 @@
 
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "test_support.hpp"
 
 namespace {
 
@@ -299,6 +300,16 @@ TEST(Continuation, BadInputIsRejectedWithItsReason) {
   } catch (const geardyn::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("--param solver.method"), std::string::npos) << e.what();
   }
+  // An end the key does not allow is named before any work.
+  o = ks_options();
+  o.key = "model.zeta";
+  o.from = 0.05;
+  o.to = -0.1;
+  const std::string why =
+      geardyn::testing::error_of([&] { (void)geardyn::continuation(ks_case(), o); });
+  EXPECT_NE(why.find("--to -0.1"), std::string::npos) << why;
+  EXPECT_NE(why.find("model.zeta"), std::string::npos) << why;
+  EXPECT_NE(why.find("[0, 1)"), std::string::npos) << why;
 }
 
 TEST(Continuation, ProgressCanStopItWithThePointsKept) {
