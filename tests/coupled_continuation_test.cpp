@@ -4,7 +4,8 @@
 // - on bearings 1e6 and 1e5 times stiffer than the mesh, its folds and grazings are the
 //   one-degree model's, the gap shrinking tenfold per decade;
 // - on bearings as stiff as the mesh (the resonance moves up), the stable points are where long
-//   simulations of the coupled model settle, and the folds are where they jump;
+//   simulations of the coupled model settle, the unstable ones return after a period, and the
+//   folds are where the simulations jump;
 // - with a radial clearance, the grazing where the bearings stop separating lies between a
 //   simulation whose bearings separate and one whose do not;
 // - on the shipped case at dof 3, a period doubling of the rattle is switched to its doubled
@@ -121,6 +122,24 @@ TEST(CoupledContinuation, StablePointsAndFoldsAreThoseOfSimulations) {
     ++checked;
   }
   EXPECT_GE(checked, 6);
+  // The unstable points between the folds are orbits too: a flow of one mesh period without
+  // Jacobians (the engine at 1e-12) returns to each, to 1e-7 b.
+  int unstable = 0;
+  for (const BranchPoint& p : r.points) {
+    if (p.orbit.stable) continue;
+    ++unstable;
+    Case cp = c;
+    cp.speed.shaft_frequency_hz = p.param;
+    cp.solver.tolerance = 1e-12;
+    const CoupledSolver solver(cp);
+    const ode::FlowResult back =
+        solver.advance(0.0, p.orbit.state, 1.0 / (p.param * c.gear.teeth[0]));
+    ASSERT_TRUE(back.ok()) << back.message;
+    EXPECT_LT((back.state - p.orbit.state).head(3).cwiseAbs().maxCoeff(), 1e-7 * 100e-6)
+        << "f_1 = " << p.param;
+    EXPECT_GT(p.orbit.max_multiplier(), 1.0);
+  }
+  EXPECT_GE(unstable, 3);
   // Each fold ends a branch: just beyond it the simulation from its orbit leaves for the other.
   const double d = 0.01;  // Hz
   const Bifurcation &up = r.bifurcations[1], &down = r.bifurcations[2];
