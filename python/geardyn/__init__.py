@@ -643,8 +643,10 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
         ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``, ``impacts_per_period``,
         ``max_multiplier``, the state on the section (``delta_m`` (m) and ``velocity_m_s``
         (m/s); a coupled case's coordinates and their rates, ``u_m``, ``y1_m``, ...,
-        ``u_m_s``, ...), ``branch``, ``periods``, ``multipliers`` (the two largest); ``bifurcations`` (dicts: type, param, branch, detail, x_a and
-        ``orbit`` as `orbit` returns it); ``completed``, ``cancelled``, ``message``.
+        ``u_m_s``, ...), ``branch``, ``periods``, ``multipliers`` (the two largest);
+        ``bifurcations`` (dicts: type, param, branch, detail, x_a and ``orbit`` as `orbit`
+        returns it, or None where it could not be read again); ``completed``, ``cancelled``,
+        ``message``.
 
     Raises
     ------
@@ -662,7 +664,8 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
                                settle_periods, step, max_step, max_points,
                                follow_period_doubling, callback)
     for b in r["bifurcations"]:
-        b["orbit"] = _orbit_dict(b["orbit"])
+        # None where the located orbit could not be read again (its flow failed).
+        b["orbit"] = _orbit_dict(b["orbit"]) if b["orbit"] else None
     if r["interrupted"]:
         raise _interrupted(r, "continuation")
     return r
