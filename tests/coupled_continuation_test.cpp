@@ -106,6 +106,10 @@ TEST(CoupledContinuation, StablePointsAndFoldsAreThoseOfSimulations) {
   EXPECT_EQ(r.bifurcations[0].detail, "mesh impacts 0 -> 1, separations 0 -> 1 per period");
   EXPECT_EQ(r.bifurcations[1].type, BifurcationType::kFold);
   EXPECT_EQ(r.bifurcations[2].type, BifurcationType::kFold);
+  // Where docs/orbits.md says they are.
+  EXPECT_NEAR(r.bifurcations[0].param, 57.157, 1e-3);
+  EXPECT_NEAR(r.bifurcations[1].param, 57.315, 1e-3);
+  EXPECT_NEAR(r.bifurcations[2].param, 56.509, 1e-3);
   // Every 6th stable point away from the folds (its multipliers below 0.98; the bearing mode's
   // are near 0.95): a simulation from 1e-3 b off the orbit (in u) settles to its amplitude and
   // impacts.
@@ -166,6 +170,7 @@ TEST(CoupledContinuation, ABearingClearanceGrazingIsWhereTheBearingsStopSeparati
             "bearing 1 impacts 1 -> 0, separations 1 -> 0; bearing 2 impacts 1 -> 0, "
             "separations 1 -> 0 per period");
   EXPECT_FALSE(g.orbit_json.empty());
+  EXPECT_NEAR(g.param, 20.419, 1e-3);
   const double d = 1e-3;  // Hz
   const CoupledRunResult before = settle(c, g.param - d, g.orbit.state, 1000);
   const CoupledRunResult after = settle(c, g.param + d, g.orbit.state, 1000);
