@@ -60,10 +60,11 @@ CoupledRunResult settle(Case c, double f_hz, const ode::Vector& y0, int periods)
   c.speed.shaft_frequency_hz = f_hz;
   c.solver.tolerance = 1e-12;
   const CoupledSolver solver(c);
-  const double t = 1.0 / (f_hz * c.gear.teeth[0]);
-  const ode::FlowResult settled = solver.advance(0.0, y0, (periods - 1) * t);
+  const double mesh_period_s = 1.0 / (f_hz * c.gear.teeth[0]);
+  const double last_s = (periods - 1) * mesh_period_s, end_s = periods * mesh_period_s;
+  const ode::FlowResult settled = solver.advance(0.0, y0, last_s);
   EXPECT_TRUE(settled.ok()) << settled.message;
-  return solver.read((periods - 1) * t, settled.state, periods * t, ode::OutputGrid{}, periods * t);
+  return solver.read(last_s, settled.state, end_s, ode::OutputGrid{}, end_s);
 }
 
 double amplitude(const CoupledRunResult& r) {
