@@ -276,7 +276,8 @@ class Continuer {
   }
 
   // Newton on F(z) = 0, t . (z - z_pred) = 0 from z_pred. Fills pt.z, pt.orbit (read) and
-  // pt.iterations, and leaves dF/dx and dF/dp at pt.z for its tangent; false with `why`.
+  // pt.iterations, and leaves dF/dx at pt.z and dF/dp at the first iterate for its tangent;
+  // false with `why`.
   bool correct(const ode::Vector& z_pred, const ode::Vector& t, Point& pt, std::string& why) {
     ode::Vector z = z_pred, f, step;
     const Eigen::Index n = z.size() - 1;
