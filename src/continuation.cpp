@@ -63,76 +63,74 @@ class Family {
                     std::string* json, std::string& why) const = 0;
 };
 
-class OneDegreeFamily final : public Family {
+// A one-degree orbit as the continuation keeps it: its state, reading and contact sequence.
+void to_branch(const Orbit& orbit, BranchOrbit& o) {
+  o.state = (ode::Vector(2) << orbit.state.q, orbit.state.v).finished();
+  o.reading = orbit.reading;
+  o.signature = signature(orbit.sequence);
+  o.contacts = {{"", orbit.reading.impacts, orbit.reading.separations}};
+}
+
+// A coupled orbit as the continuation keeps it: its state, the mesh's reading in the
+// one-degree units, and the counts of the mesh and each bearing.
+void to_branch(const CoupledOrbit& orbit, BranchOrbit& o) {
+  o.state = orbit.state;
+  const CoupledRunResult& r = orbit.reading;
+  const double b = r.parameters.backlash_m, bk = b * r.parameters.stiffness_n_per_m.offset;
+  o.reading = RunReading{};
+  static_cast<ContactCounts&>(o.reading) = r.mesh;
+  o.reading.min_delta_bar = r.min_deflection_m / b;
+  o.reading.max_delta_bar = r.max_deflection_m / b;
+  o.reading.min_force_bar = r.min_force_n / bk;
+  o.reading.max_force_bar = r.max_force_n / bk;
+  o.signature = {r.mesh.impacts, r.mesh.backside_impacts, r.mesh.separations};
+  o.contacts = {{"mesh", r.mesh.impacts, r.mesh.separations}};
+  for (int i = 0; i < 2; ++i) {
+    const ContactReading& g = r.bearing[static_cast<std::size_t>(i)];
+    o.signature.push_back(g.impacts);
+    o.signature.push_back(g.separations);
+    if (g.present)
+      o.contacts.push_back({fmt::format("bearing {}", i + 1), g.impacts, g.separations});
+  }
+}
+
+std::string json_of(const Orbit& o) { return orbit_json(o, -1); }
+std::string json_of(const CoupledOrbit& o) { return coupled_orbit_json(o, -1); }
+
+// The family of one model: its shooting (detail::Shooting or detail::CoupledShooting) and its
+// orbit record (Orbit or CoupledOrbit).
+template <class ShootingT, class OrbitT>
+class FamilyOf final : public Family {
  public:
-  OneDegreeFamily(const Case& c, int periods, int segments, const ode::Vector& scale,
-                  double engine_tolerance)
+  FamilyOf(const Case& c, int periods, int segments, const ode::Vector& scale,
+           double engine_tolerance)
       : s_(c, periods, segments, scale, engine_tolerance), periods_(periods) {}
   const detail::Segments& shooting() const override { return s_.shooting(); }
   bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
             std::string* json, std::string& why) const override {
-    Orbit orbit;
+    OrbitT orbit;
     if (!s_.read(x, seg, orbit, why)) return false;
     orbit.converged = true;
     orbit.periods = periods_;
-    if (json) *json = orbit_json(orbit, -1);
+    if (json) *json = json_of(orbit);
     static_cast<PeriodicSolution&>(o) = orbit;
-    o.state = (ode::Vector(2) << orbit.state.q, orbit.state.v).finished();
-    o.reading = orbit.reading;
-    o.signature = signature(orbit.sequence);
-    o.contacts = {{"", orbit.reading.impacts, orbit.reading.separations}};
+    to_branch(orbit, o);
     return true;
   }
 
  private:
-  detail::Shooting s_;
+  ShootingT s_;
   int periods_;
-};
-
-class CoupledFamily final : public Family {
- public:
-  CoupledFamily(const Case& c, int periods, int segments, const ode::Vector& scale,
-                double engine_tolerance)
-      : s_(c, periods, segments, scale, engine_tolerance) {}
-  const detail::Segments& shooting() const override { return s_.shooting(); }
-  bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
-            std::string* json, std::string& why) const override {
-    CoupledOrbit orbit;
-    if (!s_.read(x, seg, orbit, why)) return false;
-    orbit.converged = true;
-    if (json) *json = coupled_orbit_json(orbit, -1);
-    static_cast<PeriodicSolution&>(o) = orbit;
-    o.state = orbit.state;
-    const CoupledRunResult& r = orbit.reading;
-    const double b = r.parameters.backlash_m, bk = b * r.parameters.stiffness_n_per_m.offset;
-    o.reading = RunReading{};
-    static_cast<ContactCounts&>(o.reading) = r.mesh;
-    o.reading.min_delta_bar = r.min_deflection_m / b;
-    o.reading.max_delta_bar = r.max_deflection_m / b;
-    o.reading.min_force_bar = r.min_force_n / bk;
-    o.reading.max_force_bar = r.max_force_n / bk;
-    o.signature = {r.mesh.impacts, r.mesh.backside_impacts, r.mesh.separations};
-    o.contacts = {{"mesh", r.mesh.impacts, r.mesh.separations}};
-    for (int i = 0; i < 2; ++i) {
-      const ContactReading& g = r.bearing[static_cast<std::size_t>(i)];
-      o.signature.push_back(g.impacts);
-      o.signature.push_back(g.separations);
-      if (g.present)
-        o.contacts.push_back({fmt::format("bearing {}", i + 1), g.impacts, g.separations});
-    }
-    return true;
-  }
-
- private:
-  detail::CoupledShooting s_;
 };
 
 // The family of case c's model; scale as for Shooting (empty: this case's).
 std::unique_ptr<Family> family(const Case& c, int periods, int segments, const ode::Vector& scale,
                                double engine_tolerance) {
   if (c.model.form == ModelForm::kCoupled)
-    return std::make_unique<CoupledFamily>(c, periods, segments, scale, engine_tolerance);
-  return std::make_unique<OneDegreeFamily>(c, periods, segments, scale, engine_tolerance);
+    return std::make_unique<FamilyOf<detail::CoupledShooting, CoupledOrbit>>(
+        c, periods, segments, scale, engine_tolerance);
+  return std::make_unique<FamilyOf<detail::Shooting, Orbit>>(c, periods, segments, scale,
+                                                             engine_tolerance);
 }
 
 // The names of a case's state entries (ContinuationResult::state_names).
