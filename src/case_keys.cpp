@@ -451,6 +451,11 @@ const CaseKey* find_case_key(std::string_view dotted) {
   return nullptr;
 }
 
+bool changes_stiffness(std::string_view dotted) {
+  const CaseKey* k = find_case_key(dotted);
+  return k == nullptr || k->changes_stiffness;
+}
+
 std::string check_sweepable(std::string_view dotted) {
   const CaseKey* k = find_case_key(dotted);
   if (k && k->sweepable) return {};

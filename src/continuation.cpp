@@ -103,8 +103,8 @@ template <class ShootingT, class OrbitT>
 class FamilyOf final : public Family {
  public:
   FamilyOf(const Case& c, int periods, int segments, const ode::Vector& scale,
-           double engine_tolerance)
-      : s_(c, periods, segments, scale, engine_tolerance), periods_(periods) {}
+           double engine_tolerance, const MeshStiffness* stiffness)
+      : s_(c, periods, segments, scale, engine_tolerance, stiffness), periods_(periods) {}
   const detail::Segments& shooting() const override { return s_.shooting(); }
   bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
             std::string* json, std::string& why) const override {
@@ -123,14 +123,15 @@ class FamilyOf final : public Family {
   int periods_;
 };
 
-// The family of case c's model; scale as for Shooting (empty: this case's).
+// The family of case c's model; scale and stiffness as for Shooting (empty scale: this
+// case's; no stiffness: this case's).
 std::unique_ptr<Family> family(const Case& c, int periods, int segments, const ode::Vector& scale,
-                               double engine_tolerance) {
+                               double engine_tolerance, const MeshStiffness* stiffness) {
   if (c.model.form == ModelForm::kCoupled)
     return std::make_unique<FamilyOf<detail::CoupledShooting, CoupledOrbit>>(
-        c, periods, segments, scale, engine_tolerance);
+        c, periods, segments, scale, engine_tolerance, stiffness);
   return std::make_unique<FamilyOf<detail::Shooting, Orbit>>(c, periods, segments, scale,
-                                                             engine_tolerance);
+                                                             engine_tolerance, stiffness);
 }
 
 // The names of a case's state entries (ContinuationResult::state_names).
@@ -151,7 +152,7 @@ std::optional<BranchOrbit> orbit_from(const Case& c, const OrbitOptions& o, cons
   const int segments = o.segments > 0 ? o.segments : o.periods;
   const auto f =
       family(c, o.periods, segments, scale,
-             std::min(c.solver.tolerance, o.tolerance * detail::kEngineToleranceFraction));
+             std::min(c.solver.tolerance, o.tolerance * detail::kEngineToleranceFraction), nullptr);
   ode::Vector x;
   std::string why;
   if (!f->shooting().guess(y0, x, why)) return std::nullopt;
@@ -204,7 +205,12 @@ class Continuer {
   // The branch stays within [lo, hi] (from and to, or wider for a switched branch that may
   // run back past its start to the period doubling it came from).
   Continuer(const Case& base, const ContinuationOptions& o, double lo, double hi)
-      : base_(base), o_(o), p_scale_(hi - lo), lo_(lo), hi_(hi) {
+      : base_(base),
+        o_(o),
+        stiffness_(shared_stiffness(base, {o.key})),
+        p_scale_(hi - lo),
+        lo_(lo),
+        hi_(hi) {
     segments_ = o.orbit.segments > 0 ? o.orbit.segments : o.orbit.periods;
     engine_tolerance_ =
         std::min(base.solver.tolerance, o.orbit.tolerance * detail::kEngineToleranceFraction);
@@ -226,7 +232,8 @@ class Continuer {
   // that strays past a bound fails like one that does not converge: the step is halved).
   std::unique_ptr<Family> family_at(double p, std::string& why) const {
     try {
-      return family(case_at(p), o_.orbit.periods, segments_, scale_, engine_tolerance_);
+      return family(case_at(p), o_.orbit.periods, segments_, scale_, engine_tolerance_,
+                    stiffness_ ? &*stiffness_ : nullptr);
     } catch (const InputError& e) {
       why = e.what();
       return nullptr;
@@ -260,7 +267,8 @@ class Continuer {
       }
       y0 = (ode::Vector(2) << first.state.q, first.state.v).finished();
     }
-    const auto s = family(c0, o_.orbit.periods, segments_, ode::Vector{}, engine_tolerance_);
+    const auto s = family(c0, o_.orbit.periods, segments_, ode::Vector{}, engine_tolerance_,
+                          stiffness_ ? &*stiffness_ : nullptr);
     scale_ = s->shooting().scale();
     ode::Vector x;
     if (!s->shooting().guess(y0, x, why)) return false;
@@ -524,6 +532,7 @@ class Continuer {
  private:
   const Case& base_;
   const ContinuationOptions& o_;
+  std::optional<MeshStiffness> stiffness_;  // shared_stiffness: when the key leaves it alone
   double p_scale_, lo_, hi_;
   int segments_ = 1;
   bool doubled_ = false;
@@ -744,7 +753,7 @@ std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions&
     Case c = base;
     set_case_value(c, {o.key, fmt::format("{:.17g}", p)});
     // One period N, one segment: the test that an orbit found is not the period-N one again.
-    const auto single = family(c, o.orbit.periods, 1, ode::Vector{}, c.solver.tolerance);
+    const auto single = family(c, o.orbit.periods, 1, ode::Vector{}, c.solver.tolerance, nullptr);
     const ode::Vector& scale = single->shooting().scale();
     const ode::Vector dir = v.cwiseQuotient(scale).normalized();  // in scaled units
     OrbitOptions oo = o.orbit;

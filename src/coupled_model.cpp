@@ -184,13 +184,13 @@ Case gear_pair_of(const Case& c) {
   return pair;
 }
 
-CoupledParameters coupled_parameters(const Case& c) {
+CoupledParameters coupled_parameters(const Case& c, const MeshStiffness* stiffness) {
   if (c.model.form != ModelForm::kCoupled)
     throw InputError("coupled_parameters: the case's model.form is not \"coupled\"");
   // The one-degree model's constants (m_eq, c, F(t), k(t)) from the same case, as a gear pair.
   const Case pair = gear_pair_of(c);
   Geometry g;
-  const GearPairModel one = build_model(pair, &g);
+  const GearPairModel one = build_model(pair, &g, stiffness);
   GearPairParameters gp = one.parameters();
 
   CoupledParameters p;

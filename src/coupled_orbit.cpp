@@ -36,13 +36,19 @@ Case exact_case(const Case& c, double engine_tolerance) {
 }  // namespace
 
 CoupledShooting::CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                                 double engine_tolerance)
+                                 double engine_tolerance, const MeshStiffness* stiffness)
     : CoupledShooting(c, periods, segments, scale, engine_tolerance,
-                      build_model(gear_pair_of(c)).parameters()) {}
+                      stiffness ? *stiffness : case_stiffness(c)) {}
 
 CoupledShooting::CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                                 double engine_tolerance, const GearPairParameters& pair)
-    : solver_(exact_case(c, engine_tolerance)),
+                                 double engine_tolerance, const MeshStiffness& stiffness)
+    : CoupledShooting(c, periods, segments, scale, engine_tolerance, stiffness,
+                      build_model(gear_pair_of(c), nullptr, &stiffness).parameters()) {}
+
+CoupledShooting::CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                                 double engine_tolerance, const MeshStiffness& stiffness,
+                                 const GearPairParameters& pair)
+    : solver_(exact_case(c, engine_tolerance), &stiffness),
       periods_(periods),
       system_period_s_(geardyn::system_period_s(pair)),
       period_s_(periods * system_period_s_),

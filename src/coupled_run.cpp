@@ -236,13 +236,13 @@ double fastest_period_s(const CoupledModel& m) {
 
 }  // namespace
 
-CoupledSolver::CoupledSolver(const Case& c) : case_(c) {
+CoupledSolver::CoupledSolver(const Case& c, const MeshStiffness* stiffness) : case_(c) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
   if (c.solver.method != Method::kExact)
     throw InputError(fmt::format(
         "solver.method = \"{}\": the coupled model runs with the exact engine (\"exact\")",
         to_string(c.solver.method)));
-  model_ = std::make_unique<CoupledModel>(coupled_parameters(c));
+  model_ = std::make_unique<CoupledModel>(coupled_parameters(c, stiffness));
   ode::EngineOptions eo;
   eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
   try {

@@ -59,8 +59,8 @@ ode::Vector orbit_scale(const GearPairModel& model) {
 }
 
 Shooting::Shooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                   double engine_tolerance)
-    : model_(build_model(c)),
+                   double engine_tolerance, const MeshStiffness* stiffness)
+    : model_(build_model(c, nullptr, stiffness)),
       solver_(model_, exact_solver(c, engine_tolerance)),
       system_period_s_(geardyn::system_period_s(model_.parameters())),
       period_s_(periods * system_period_s_),

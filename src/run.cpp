@@ -9,6 +9,7 @@
 #include <numbers>
 #include <optional>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/transmission_error.hpp"
 
@@ -37,6 +38,24 @@ Geometry case_geometry(const Case& c) {
   } catch (const InputError& e) {
     throw InputError(with_origins(c, e.what()));
   }
+}
+
+MeshStiffness case_stiffness(const Case& c) {
+  if (const std::string err = validate(c); !err.empty()) throw InputError(err);
+  const Geometry g = case_geometry(c);
+  try {
+    return mesh_stiffness(c, g);
+  } catch (const InputError& e) {
+    throw InputError(with_origins(c, e.what()));
+  }
+}
+
+std::optional<MeshStiffness> shared_stiffness(const Case& base,
+                                              const std::vector<std::string>& keys) {
+  if (base.model.form == ModelForm::kNondimensional) return std::nullopt;
+  for (const std::string& key : keys)
+    if (changes_stiffness(key)) return std::nullopt;
+  return case_stiffness(base);
 }
 
 GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiffness* stiffness) {

@@ -86,10 +86,11 @@ nlohmann::json periodic_json(const PeriodicSolution& o);
 class Shooting {
  public:
   // `scale` is the unknowns' scale (empty: orbit_scale of this case; a continuation keeps its
-  // first case's); `engine_tolerance` is solver.tolerance for the exact engine. Throws
-  // InputError.
+  // first case's); `engine_tolerance` is solver.tolerance for the exact engine; `stiffness`, when
+  // given, is the case's mesh stiffness (shared_stiffness: a continuation computes it once).
+  // Throws InputError.
   Shooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-           double engine_tolerance);
+           double engine_tolerance, const MeshStiffness* stiffness = nullptr);
   Shooting(const Shooting&) = delete;
   Shooting& operator=(const Shooting&) = delete;
 
@@ -132,9 +133,11 @@ class Shooting {
 // Not copyable (the flow refers to the solver).
 class CoupledShooting {
  public:
-  // `scale` as for Shooting (empty: coupled_orbit_scale of this case). Throws InputError.
+  // `scale` and `stiffness` as for Shooting (empty scale: coupled_orbit_scale of this case;
+  // without a stiffness the case's is computed once for the pair and the solver). Throws
+  // InputError.
   CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                  double engine_tolerance);
+                  double engine_tolerance, const MeshStiffness* stiffness = nullptr);
   CoupledShooting(const CoupledShooting&) = delete;
   CoupledShooting& operator=(const CoupledShooting&) = delete;
 
@@ -150,7 +153,10 @@ class CoupledShooting {
 
  private:
   CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                  double engine_tolerance, const GearPairParameters& pair);
+                  double engine_tolerance, const MeshStiffness& stiffness);
+  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                  double engine_tolerance, const MeshStiffness& stiffness,
+                  const GearPairParameters& pair);
   CoupledSolver solver_;
   int periods_;
   double system_period_s_, period_s_;

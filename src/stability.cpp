@@ -59,14 +59,17 @@ std::optional<double> complex_pair_test(const std::vector<std::complex<double>>&
 
 }  // namespace
 
-ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s) {
+ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s,
+                              const MeshStiffness* stiffness) {
   ode::LinearSwitchedSystem sys;
   int contact = 0;
   double system_period = 0;
   if (c.model.form == ModelForm::kCoupled) {
     // The coupled model in drive contact, each clearance bearing on the side the static mesh
     // force holds it (coupled_model.hpp).
-    const CoupledModel model(coupled_parameters(c));
+    const MeshStiffness own = stiffness ? MeshStiffness{} : case_stiffness(c);
+    if (!stiffness) stiffness = &own;
+    const CoupledModel model(coupled_parameters(c, stiffness));
     sys = model.linear_system();
     contact = coupled_region({kDriveContact, {0, 0}});
     if (model.parameters().clearance_m[0] > 0 || model.parameters().clearance_m[1] > 0) {
@@ -76,9 +79,9 @@ ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s) 
         throw InputError(std::string("stability in permanent contact: ") + e.what());
       }
     }
-    system_period = system_period_s(build_model(gear_pair_of(c)).parameters());
+    system_period = system_period_s(build_model(gear_pair_of(c), nullptr, stiffness).parameters());
   } else {
-    const GearPairModel model = build_model(c);
+    const GearPairModel model = build_model(c, nullptr, stiffness);
     sys = model.linear_system();
     contact = kDriveContact - GearPairModel::kFirstRegion;
     system_period = system_period_s(model.parameters());
@@ -132,10 +135,14 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
   const std::vector<double> values = o.axis.values();
   const double width = kBoundaryWidth * std::abs(o.axis.to - o.axis.from);
   const std::size_t total = rows.size() * values.size();
+  std::vector<std::string> keys{o.axis.key};
+  if (o.axis2) keys.push_back(o.axis2->key);
+  const std::optional<MeshStiffness> shared = shared_stiffness(c, keys);
   for (const double row : rows) {
     const Case base = o.axis2 ? case_at(c, *o.axis2, row) : c;
     auto monodromy = [&](double p) {
-      return contact_monodromy(case_at(base, o.axis, p), o.tolerance);
+      return contact_monodromy(case_at(base, o.axis, p), o.tolerance, 0,
+                               shared ? &*shared : nullptr);
     };
     auto locate = [&](double a, double b, double fa, double fb, BifurcationType type,
                       const std::function<double(const ode::Matrix&)>& test) {

@@ -23,13 +23,6 @@
 namespace geardyn {
 namespace {
 
-// Whether a key's change changes the mesh stiffness curve (the table of keys): with any other
-// swept key the energy method runs once for the whole sweep.
-bool changes_stiffness(const std::string& key) {
-  const CaseKey* k = find_case_key(key);
-  return k == nullptr || k->changes_stiffness;
-}
-
 std::string number_text(double x) { return fmt::format("{:.17g}", x); }
 
 // The state a point hands to the next one of its sequence: the one-degree model's or the
@@ -47,10 +40,12 @@ struct PointJob {
 
 class PointRunner {
  public:
+  // Unless a swept key changes the mesh stiffness curve, the stiffness is computed once for the
+  // whole sweep (shared_stiffness).
   PointRunner(const Case& base, const SweepOptions& o) : base_(base), o_(o) {
-    if (base.model.form == ModelForm::kGearPair && !changes_stiffness(o.axis.key) &&
-        !(o.axis2 && changes_stiffness(o.axis2->key)))
-      stiffness_ = mesh_stiffness(base, case_geometry(base));
+    std::vector<std::string> keys{o.axis.key};
+    if (o.axis2) keys.push_back(o.axis2->key);
+    stiffness_ = shared_stiffness(base, keys);
   }
 
   Case case_at(double value, double value2) const {
@@ -69,19 +64,21 @@ class PointRunner {
   double period_at(double value, double value2) const {
     const Case c = case_at(value, value2);
     if (c.model.form == ModelForm::kCoupled) return coupled_period_s(c);
-    return period_s(build_model(c, nullptr, stiffness_ ? &*stiffness_ : nullptr));
+    return period_s(build_model(c, nullptr, stiffness()));
   }
 
   // The coupled model's section period: that of its excitations, the one-degree pair's with
   // the same case (stiffness, torques, transmission error).
-  static double coupled_period_s(const Case& c) { return period_s(build_model(gear_pair_of(c))); }
+  double coupled_period_s(const Case& c) const {
+    return period_s(build_model(gear_pair_of(c), nullptr, stiffness()));
+  }
 
   // Runs one point from `carry` (the previous point's end state) or from the case's initial
   // condition, and leaves its end state in `carry`.
   SweepPoint run(const PointJob& job, Carry& carry) const {
     const Case c = case_at(job.value, job.value2);
     if (c.model.form == ModelForm::kCoupled) return run_coupled_point(c, job, carry);
-    const GearPairModel model = build_model(c, nullptr, stiffness_ ? &*stiffness_ : nullptr);
+    const GearPairModel model = build_model(c, nullptr, stiffness());
     const double period = period_s(model);
     // With Newmark, a whole number of steps per period: block ends fall on period ends.
     const Solver solver(model, c.solver, period);
@@ -170,7 +167,7 @@ class PointRunner {
   // A point of the coupled model: settled on the section by its mesh deflection d - e and
   // rate (in b and b w_n), measured by the coupled reading (coupled_run.hpp).
   SweepPoint run_coupled_point(const Case& c, const PointJob& job, Carry& carry) const {
-    const CoupledSolver solver(c);
+    const CoupledSolver solver(c, stiffness());
     const CoupledParameters& p = solver.model().parameters();
     const double period = coupled_period_s(c);
     // The previous point's end state, unless a shaft came or went (another set of coordinates).
@@ -303,6 +300,8 @@ class PointRunner {
 
   const Case& base_;
   const SweepOptions& o_;
+  // The shared stiffness, or null (each point computes its own).
+  const MeshStiffness* stiffness() const { return stiffness_ ? &*stiffness_ : nullptr; }
   std::optional<MeshStiffness> stiffness_;
 };
 

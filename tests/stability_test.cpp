@@ -4,6 +4,7 @@
 // Hill determinant; the monodromy of constant stiffness against exp(A T); bad input.
 #include "geardyn/stability.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -216,6 +217,34 @@ TEST(Stability, TheCoupledModelsPrincipalTongueIsThatOfAnIndependentMonodromy) {
   }
   // Between them the motion is unstable, outside it is stable.
   for (const auto& s : r.samples) EXPECT_EQ(s.stable, s.param < 117.18 || s.param > 122.56);
+}
+
+TEST(Stability, EachSampleIsItsCasesOwnWhetherTheStiffnessIsSharedOrNot) {
+  // A study computes the energy method's curve once when its keys leave it alone
+  // (shared_stiffness). Along f_1 (shared) and along the face width (each value its own), every
+  // sample's multipliers are those of the case at that value computed alone, bit for bit: a
+  // curve shared along the face width would keep the first width's.
+  const Case c = geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010.toml");
+  EXPECT_TRUE(geardyn::shared_stiffness(c, {"speed.shaft_frequency_hz"}));
+  EXPECT_FALSE(geardyn::shared_stiffness(c, {"speed.shaft_frequency_hz", "gear.face_width_mm"}));
+  EXPECT_FALSE(geardyn::shared_stiffness(mathieu(0.02, 0.1), {"model.omega"}));
+  for (const geardyn::SweepAxis& axis :
+       {geardyn::SweepAxis{"speed.shaft_frequency_hz", 600, 3000, 4, false},
+        geardyn::SweepAxis{"gear.face_width_mm", 15, 25, 4, false}}) {
+    StabilityOptions o;
+    o.axis = axis;
+    const geardyn::StabilityResult r = geardyn::stability(c, o);
+    ASSERT_EQ(r.samples.size(), 4U);
+    std::vector<double> moduli;
+    for (const geardyn::StabilitySample& s : r.samples) {
+      Case at = c;
+      geardyn::set_case_value(at, {axis.key, fmt::format("{:.17g}", s.param)});
+      const Eigen::EigenSolver<geardyn::ode::Matrix> eig(geardyn::contact_monodromy(at), false);
+      EXPECT_EQ(s.max_multiplier, eig.eigenvalues().cwiseAbs().maxCoeff()) << axis.key << s.param;
+      moduli.push_back(s.max_multiplier);
+    }
+    EXPECT_NE(moduli.front(), moduli.back()) << axis.key;  // the key moves the multipliers
+  }
 }
 
 TEST(Stability, BadInputIsRejectedWithItsReason) {

@@ -92,6 +92,10 @@ const std::vector<CaseKey>& case_keys();
 // is model.stiffness_harmonics); nullptr when there is none.
 const CaseKey* find_case_key(std::string_view dotted);
 
+// Whether changing `dotted` (with an optional element index) changes the mesh stiffness curve
+// (CaseKey::changes_stiffness); true for a name that is no key.
+bool changes_stiffness(std::string_view dotted);
+
 // Empty when `dotted` (with an optional element index) names a key a study may vary; otherwise
 // why not, naming the key and the keys that may be varied.
 std::string check_sweepable(std::string_view dotted);

@@ -54,6 +54,8 @@
 
 namespace geardyn {
 
+struct MeshStiffness;  // stiffness.hpp
+
 enum class Coordinate {
   kTorsion,  // u = R_b1 theta_1 + R_b2 theta_2, m
   kLine1,    // y_1, along the line of action, m
@@ -122,8 +124,9 @@ struct CoupledParameters {
 Case gear_pair_of(const Case& c);
 
 // Throws InputError for a case that is not of the coupled form or whose geometry or stiffness
-// is bad (naming the keys and where they were given).
-CoupledParameters coupled_parameters(const Case& c);
+// is bad (naming the keys and where they were given). `stiffness`, when given, is used in place
+// of computing the case's mesh stiffness (shared_stiffness in run.hpp).
+CoupledParameters coupled_parameters(const Case& c, const MeshStiffness* stiffness = nullptr);
 
 // Contact states of a region: the mesh (-2 .. 2 as model.hpp's Region) and each bearing (-1 on
 // the -c side, 0 inside the clearance or without one, 1 on the +c side).

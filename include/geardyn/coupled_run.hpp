@@ -68,8 +68,9 @@ struct CoupledRunOptions {
 // The coupled model of a case with its exact engine, built once: for runs and sweep points.
 class CoupledSolver {
  public:
-  // Throws InputError for a bad case or a method other than "exact".
-  explicit CoupledSolver(const Case& c);
+  // Throws InputError for a bad case or a method other than "exact". `stiffness` as for
+  // coupled_parameters.
+  explicit CoupledSolver(const Case& c, const MeshStiffness* stiffness = nullptr);
   ~CoupledSolver();
   const CoupledModel& model() const { return *model_; }
   // The state a run starts from: at rest in the middle of the backlash and the clearances, or

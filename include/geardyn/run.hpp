@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -152,8 +153,18 @@ double automatic_time_step_s(const GearPairParameters& p);
 // from (file:line or the --set; Case::origins).
 Geometry case_geometry(const Case& c);
 
+// The mesh stiffness of a case of the dimensional forms (its geometry's, tabulated or given;
+// mesh_stiffness), its errors naming where the keys came from. Throws InputError.
+MeshStiffness case_stiffness(const Case& c);
+
+// The mesh stiffness a study that varies only `keys` of `base` computes once for all its values:
+// empty for the nondimensional form (it has none) or when a key changes the stiffness curve
+// (changes_stiffness; each value then computes its own). Throws InputError.
+std::optional<MeshStiffness> shared_stiffness(const Case& base,
+                                              const std::vector<std::string>& keys);
+
 // The model of a case (geometry and stiffness included). `stiffness`, when given, is used in
-// place of computing the case's mesh stiffness (a sweep computes it once). Throws InputError.
+// place of computing the case's mesh stiffness (shared_stiffness). Throws InputError.
 GearPairModel build_model(const Case& c, Geometry* geometry_out = nullptr,
                           const MeshStiffness* stiffness = nullptr);
 

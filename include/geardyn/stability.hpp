@@ -22,6 +22,7 @@
 
 #include "geardyn/case.hpp"
 #include "geardyn/continuation.hpp"
+#include "geardyn/stiffness.hpp"
 #include "geardyn/sweep.hpp"
 
 namespace geardyn {
@@ -31,8 +32,10 @@ constexpr double kBoundaryWidth = 1e-13;
 
 // The monodromy of the motion in permanent drive-side contact, over `period_s` (0: the
 // stiffness period, or the system period when the stiffness is constant), by the exact engine
-// at `tolerance`. Throws InputError when the case has no period.
-ode::Matrix contact_monodromy(const Case& c, double tolerance = 1e-12, double period_s = 0);
+// at `tolerance`; `stiffness`, when given, is the case's mesh stiffness (shared_stiffness: a
+// study computes it once). Throws InputError when the case has no period.
+ode::Matrix contact_monodromy(const Case& c, double tolerance = 1e-12, double period_s = 0,
+                              const MeshStiffness* stiffness = nullptr);
 
 struct StabilityOptions {
   SweepAxis axis;                  // key, from, to, points (log allowed)
