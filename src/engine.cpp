@@ -211,18 +211,21 @@ struct Cell {
   M phi_end;                           // Phi(1)
   V r0_end;
   std::vector<V> rc_end, rs_end;
-  // Every guard's and observable's series over this cell (guards first) as linear forms of
-  // the cell's start state and forcing phases: g_k = phi_k . z + r0_k + sum_j (C_j rc_jk +
-  // S_j rs_jk) (offsets in r0). Cached where every cell has a fixed phase (periodic regions,
-  // or constant functionals); empty otherwise.
+  // A guard's or observable's series over this cell as a linear form of the cell's start
+  // state and forcing phases: g_k = phi_k . z + r0_k + sum_j (C_j rc_jk + S_j rs_jk) (offsets
+  // in r0). Cached where every cell has a fixed phase (periodic regions, or constant
+  // functionals; RegionCells::functionals_cached); empty otherwise. The guards' are built with
+  // the cell; the observables' when a flow first reads one in the region
+  // (LazyRegions::with_observables), so a flow that reads none (a shooting) never pays for them.
   struct Functional {
     std::vector<Eigen::Matrix<double, 1, D>> phi;
     std::vector<double> r0;
     std::vector<std::vector<double>> rc, rs;
   };
-  std::vector<Functional> fn;
-  M alpha;  // sum_{k>=1} |Phi_k|
-  V beta;   // sum_{k>=1} |Phi_k y_ref + r0_k| + sum_f (|rc_fk| + |rs_fk|)
+  std::vector<Functional> fn;             // the guards'
+  std::vector<Functional> observable_fn;  // the observables'
+  M alpha;                                // sum_{k>=1} |Phi_k|
+  V beta;  // sum_{k>=1} |Phi_k y_ref + r0_k| + sum_f (|rc_fk| + |rs_fk|)
 };
 
 template <int D>
@@ -236,6 +239,7 @@ struct RegionCells {
   std::vector<int> forced;  // frequencies with a forcing term
   std::vector<double> rot_cos, rot_sin;  // cos, sin of w_f h for the forced frequencies
   std::vector<Cell<D>> cells;
+  bool functionals_cached = false;         // every cell holds its functionals' forms (Cell::fn)
   std::vector<bool> guard_varies;          // the guard's row depends on t
   std::vector<double> guard_offset_swing;  // bound of the offset's change over a cell
   std::vector<R> guard_abs_row;            // |G0|
@@ -424,37 +428,38 @@ void functional_terms(const LinearSwitchedSystem& sys, const LinearGuard& q, dou
   }
 }
 
-// The functionals' series of a cell starting at phase t0 (Cell::fn).
+// The series of the functionals in `list` over a cell starting at phase t0 (Cell::fn or
+// Cell::observable_fn), into `out`.
 template <int D>
-void cache_functionals(const LinearSwitchedSystem& sys, const LinearRegion& reg, double t0,
-                       double h, Cell<D>& cell) {
+void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<LinearGuard>& list,
+                       double t0, double h, const Cell<D>& cell,
+                       std::vector<typename Cell<D>::Functional>& out) {
   using R = Eigen::Matrix<double, 1, D>;
   const int p = cell.order;
   const std::size_t nf = cell.rc.size();
   std::vector<R> G;
   std::vector<double> off;
-  cell.fn.clear();
-  for (const auto* list : {&reg.guards, &reg.observables})
-    for (const LinearGuard& q : *list) {
-      functional_terms(sys, q, t0, h, p, G, off);
-      if (G.empty()) G.assign(1, q.row.constant);  // constant: one term
-      typename Cell<D>::Functional f;
-      f.phi.assign(p + 1, R::Zero(sys.dimension));
-      f.r0 = off;
-      f.rc.assign(nf, std::vector<double>(p + 1, 0.0));
-      f.rs.assign(nf, std::vector<double>(p + 1, 0.0));
-      const int g_terms = static_cast<int>(G.size());
-      for (int k = 0; k <= p; ++k)
-        for (int m = 0; m <= std::min(k, g_terms - 1); ++m) {
-          f.phi[k] += G[m] * cell.phi[k - m];
-          f.r0[k] += G[m].dot(cell.r0[k - m]);
-          for (std::size_t j = 0; j < nf; ++j) {
-            f.rc[j][k] += G[m].dot(cell.rc[j][k - m]);
-            f.rs[j][k] += G[m].dot(cell.rs[j][k - m]);
-          }
+  out.clear();
+  for (const LinearGuard& q : list) {
+    functional_terms(sys, q, t0, h, p, G, off);
+    if (G.empty()) G.assign(1, q.row.constant);  // constant: one term
+    typename Cell<D>::Functional f;
+    f.phi.assign(p + 1, R::Zero(sys.dimension));
+    f.r0 = off;
+    f.rc.assign(nf, std::vector<double>(p + 1, 0.0));
+    f.rs.assign(nf, std::vector<double>(p + 1, 0.0));
+    const int g_terms = static_cast<int>(G.size());
+    for (int k = 0; k <= p; ++k)
+      for (int m = 0; m <= std::min(k, g_terms - 1); ++m) {
+        f.phi[k] += G[m] * cell.phi[k - m];
+        f.r0[k] += G[m].dot(cell.r0[k - m]);
+        for (std::size_t j = 0; j < nf; ++j) {
+          f.rc[j][k] += G[m].dot(cell.rc[j][k - m]);
+          f.rs[j][k] += G[m].dot(cell.rs[j][k - m]);
         }
-      cell.fn.push_back(std::move(f));
-    }
+      }
+    out.push_back(std::move(f));
+  }
 }
 
 // True when every entry of the last two terms is below tol times the entry's sum of
@@ -912,14 +917,16 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
             const double cycles = w[f] * T / (2 * std::numbers::pi);
             offsets_fit &= std::abs(cycles - std::round(cycles)) <= 1e-9 * std::max(1.0, cycles);
           }
-      for (int k = 0; k < rc.K && offsets_fit; ++k)
-        cache_functionals(sys, reg, k * rc.h, rc.h, rc.cells[k]);
+      rc.functionals_cached = offsets_fit;
     } else {
       bool constant = true;
       for (const auto* list : {&reg.guards, &reg.observables})
         for (const LinearGuard& q : *list) constant &= !q.row.varies() && q.offset.cos.empty();
-      if (constant) cache_functionals(sys, reg, 0.0, rc.h, rc.cells[0]);
+      rc.functionals_cached = constant;  // one cell (K = 1) at phase 0
     }
+    if (rc.functionals_cached)
+      for (int k = 0; k < rc.K; ++k)
+        cache_functionals(sys, reg.guards, k * rc.h, rc.h, rc.cells[k], rc.cells[k].fn);
     const bool rows_constant =
         std::none_of(rc.guard_varies.begin(), rc.guard_varies.end(), [](bool v) { return v; });
     if (!periodic) build_steady_jumps(sys, reg, rc);
@@ -947,11 +954,24 @@ class LazyRegions {
       : sys_(&sys),
         opt_(opt),
         cells_(sys.regions.size()),
-        once_(std::make_unique<std::once_flag[]>(sys.regions.size())) {}
+        once_(std::make_unique<std::once_flag[]>(sys.regions.size())),
+        observables_once_(std::make_unique<std::once_flag[]>(sys.regions.size())) {}
   // Throws std::invalid_argument when the region's series do not converge.
   const RegionCells<D>& get(int r) const {
     std::call_once(once_[r], [&] { cells_[r] = build_region<D>(*sys_, r, rate(r), opt_); });
     return cells_[r];
+  }
+  // get(r), with its cells' observable forms (Cell::observable_fn) where it caches forms.
+  const RegionCells<D>& with_observables(int r) const {
+    const RegionCells<D>& rc = get(r);
+    if (rc.functionals_cached)
+      std::call_once(observables_once_[r], [&] {
+        RegionCells<D>& w = cells_[r];
+        for (int k = 0; k < w.K; ++k)
+          cache_functionals(*sys_, sys_->regions[r].observables, k * w.h, w.h, w.cells[k],
+                            w.cells[k].observable_fn);
+      });
+    return rc;
   }
   int max_order() const {
     int p = 0;
@@ -973,7 +993,7 @@ class LazyRegions {
   const LinearSwitchedSystem* sys_;
   EngineOptions opt_;
   mutable std::vector<RegionCells<D>> cells_;
-  std::unique_ptr<std::once_flag[]> once_;
+  std::unique_ptr<std::once_flag[]> once_, observables_once_;
 };
 
 }  // namespace
@@ -1523,8 +1543,12 @@ class Flow final : public CellView {
     const Cell<D>& cell = rc.cells[cur_.k];
     const int p = cell.order;
     gc.assign(p + 1, 0.0);
-    if (!cell.fn.empty()) {
-      const typename Cell<D>::Functional& f = cell.fn[id];
+    const LinearRegion& reg = sys_.regions[cur_.region];
+    const int guards = static_cast<int>(reg.guards.size());
+    if (rc.functionals_cached && id >= guards) regions_.with_observables(cur_.region);
+    if (rc.functionals_cached) {
+      const typename Cell<D>::Functional& f =
+          id < guards ? cell.fn[id] : cell.observable_fn[id - guards];
       for (int k = 0; k <= p; ++k) {
         double v = f.phi[k].dot(cur_.z) + f.r0[k];
         for (std::size_t j = 0; j < rc.forced.size(); ++j)
@@ -1535,8 +1559,6 @@ class Flow final : public CellView {
       return;
     }
     ensure_coefficients();
-    const LinearRegion& reg = sys_.regions[cur_.region];
-    const int guards = static_cast<int>(reg.guards.size());
     const LinearGuard& q = id < guards ? reg.guards[id] : reg.observables[id - guards];
     functional_terms(sys_, q, cur_.tm, rc.h, p, rows_, offs_);
     if (rows_.empty()) {
