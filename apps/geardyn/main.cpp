@@ -45,7 +45,8 @@ std::atomic<bool> g_interrupted{false};
 extern "C" void on_interrupt(int) { g_interrupted = true; }
 
 // The one progress display of the command line: a bar on stderr once the work has taken more
-// than a second, redrawn in place on a terminal and a line per 10 % in a log.
+// than a second, redrawn in place on a terminal and in a log a line per 10 %, or after 10 s
+// without one (a continuation that snakes about one value of its key does not advance).
 class ProgressBar {
  public:
   explicit ProgressBar(std::string label, std::string unit = "")
@@ -58,8 +59,9 @@ class ProgressBar {
     const double elapsed = duration<double>(steady_clock::now() - start_).count();
     if (elapsed < kQuietSeconds) return;
     const int percent = static_cast<int>(fraction * 100.0);
-    if (!tty_ && percent < last_percent_ + 10) return;
+    if (!tty_ && percent < last_percent_ + 10 && elapsed < last_line_s_ + kLogSeconds) return;
     last_percent_ = percent;
+    last_line_s_ = elapsed;
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(fraction * kWidth);
     const double left = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
@@ -85,10 +87,12 @@ class ProgressBar {
 
  private:
   static constexpr double kQuietSeconds = 1.0;
+  static constexpr double kLogSeconds = 10.0;
   std::string label_, unit_;
   bool tty_;
   bool shown_ = false;
   int last_percent_ = -10;
+  double last_line_s_ = 0;  // when the log's last line was printed, s from the start
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
