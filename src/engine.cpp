@@ -14,6 +14,8 @@
 #include <mutex>
 #include <numbers>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace geardyn::ode {
 
@@ -594,19 +596,60 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   return true;
 }
 
-// The fastest rate of a region: the largest eigenvalue modulus of A(t) over the period, and
-// every frequency its terms hold.
-double region_rate(const LinearSwitchedSystem& sys, const LinearRegion& reg) {
-  constexpr int kSamples = 16;
+// The largest eigenvalue modulus of the matrices stacked in `samples` (n x n each, by
+// columns), remembered for the last kRateMemoEntries stacks. A study builds an engine for each
+// value of its key, and where the key leaves A(t) at the sampled phases as it was (the shaft
+// speed only scales time; loads and the transmission error force the state), the matrices and
+// so their eigenvalues are the same: the memo returns the value computed before, bit for bit.
+// Thread-safe (a sweep builds engines on several threads).
+double largest_eigenvalue_modulus(const Matrix& samples) {
+  constexpr std::size_t kRateMemoEntries = 8;
+  static std::mutex mutex;
+  static std::vector<std::pair<Matrix, double>> memo;  // most recent last
+  const auto same = [&](const Matrix& m) {
+    return m.rows() == samples.rows() && m.cols() == samples.cols() &&
+           std::equal(m.data(), m.data() + m.size(), samples.data());
+  };
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& [m, rho] : memo)
+      if (same(m)) return rho;
+  }
+  const Eigen::Index n = samples.rows();
   double rho = 0;
-  const int samples = reg.a.varies() ? kSamples : 1;
-  for (int i = 0; i < samples; ++i) {
-    const double t = sys.coefficient_period_s * i / samples;
-    const Matrix A = evaluate(reg.a, sys.frequencies_rad_s, t);
-    const Eigen::VectorXcd ev = Eigen::EigenSolver<Matrix>(A, false).eigenvalues();
+  for (Eigen::Index i = 0; i < samples.cols() / n; ++i) {
+    const Eigen::VectorXcd ev =
+        Eigen::EigenSolver<Matrix>(samples.middleCols(i * n, n), false).eigenvalues();
     for (Eigen::Index j = 0; j < ev.size(); ++j) rho = std::max(rho, std::abs(ev[j]));
   }
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (memo.size() >= kRateMemoEntries) memo.erase(memo.begin());
+  memo.emplace_back(samples, rho);
+  return rho;
+}
+
+// The fastest rate of a region: the largest eigenvalue modulus of A(t) over the period, and
+// every frequency its terms hold. A(t) is sampled at kSamples phases of the coefficient period,
+// each term's phase from its whole number of cycles in the period (LinearSwitchedSystem::
+// validate), so that the samples do not depend on the period's length: the same A(t) at
+// another speed gives the same matrices (and the memo's value).
+double region_rate(const LinearSwitchedSystem& sys, const LinearRegion& reg) {
+  constexpr int kSamples = 16;
+  const int samples = reg.a.varies() ? kSamples : 1;
+  const Eigen::Index n = sys.dimension;
   const auto& w = sys.frequencies_rad_s;
+  Matrix stacked(n, n * samples);
+  for (int i = 0; i < samples; ++i) {
+    auto A = stacked.middleCols(i * n, n);
+    A = reg.a.constant;
+    for (std::size_t f = 0; f < reg.a.cos.size(); ++f) {
+      if (!reg.a.cos[f].any() && !reg.a.sin[f].any()) continue;
+      const double cycles = std::round(w[f] * sys.coefficient_period_s / (2 * std::numbers::pi));
+      const double phase = 2 * std::numbers::pi * std::fmod(cycles * i, samples) / samples;
+      A += reg.a.cos[f] * std::cos(phase) + reg.a.sin[f] * std::sin(phase);
+    }
+  }
+  double rho = largest_eigenvalue_modulus(stacked);
   for (std::size_t f = 0; f < w.size(); ++f) {
     bool used = reg.a.varies() && (reg.a.cos[f].any() || reg.a.sin[f].any());
     used |= reg.u.varies() && (reg.u.cos[f].any() || reg.u.sin[f].any());

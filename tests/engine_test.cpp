@@ -84,6 +84,16 @@ TEST(ExactEngine, FreeFlightMatchesItsClosedForm) {
   }
 }
 
+TEST(ExactEngine, ARegionsRateIsItsOwnWhateverWasBuiltBefore) {
+  // A constant region's cells are 1.5 / (its largest eigenvalue modulus) long, a modulus the
+  // engine remembers for a system built again (a study builds one per key value): engines of
+  // x'' + k x = 1 with k = 4, 9 and 4 again have cells of 1.5 / 2, 1.5 / 3 and 1.5 / 2 s.
+  for (const double k : {4.0, 9.0, 4.0, 9.0}) {
+    const ExactEngine e(oscillator(k, 0, 1.0, 0, 1.0));
+    EXPECT_NEAR(e.cell_length_s(0), 1.5 / std::sqrt(k), 1e-14) << k;
+  }
+}
+
 TEST(ExactEngine, AMovingWallIsMetWhereItsClosedFormSays) {
   // Free flight x = v0 t towards a wall at b + a sin(w t) (a guard whose offset varies, as a
   // transmission error moves the contact edge): the state's series end at order 1, the wall's
