@@ -36,6 +36,9 @@ constexpr int kMaxBisections = 60;
 constexpr double kSwitchStep = 1e-3;
 constexpr double kSwitchDisplacements[] = {1e-2, 3e-2, 1e-1};
 constexpr double kDistinctOrbit = 1e-6;
+// A period-doubled branch steps across a period-N orbit where its half-period difference turns
+// to its opposite between two points: the cosine of their angle is below -this.
+constexpr double kOppositeCosine = 0.99;
 
 // The contact sequence of one period, the grazing test's signature: cyclic, so the least of
 // its rotations (an event that moves across the section time changes nothing).
@@ -344,10 +347,35 @@ class Continuer {
 
   // A period-doubled branch (its orbits of period 2N on an even number of segments) ends where
   // it meets the period-N branch again: there the state after half the period is the start.
+  // Past that orbit the branch runs on as its own orbits shifted by half a period, so the
+  // difference of the two states changes sign there.
   void mark_doubled() { doubled_ = segments_ % 2 == 0; }
-  double half_period_gap(const ode::Vector& z) const {
+  ode::Vector half_period_difference(const ode::Vector& z) const {
     const Eigen::Index d = scale_.size();
-    return (z.segment(0, d) - z.segment(d * (segments_ / 2), d)).lpNorm<Eigen::Infinity>();
+    return z.segment(0, d) - z.segment(d * (segments_ / 2), d);
+  }
+  double half_period_gap(const ode::Vector& z) const {
+    return half_period_difference(z).lpNorm<Eigen::Infinity>();
+  }
+  // Where the branch from a to b (arclength ds apart) steps across a period-N orbit. Near one
+  // the half-period difference is d ~ (s - s*) v: it turns to its opposite between a and b
+  // (one that merely rotates is no crossing). The crossing is the point of least gap among a,
+  // b and a bisection in arclength (a period doubling is a turning point of its doubled branch
+  // in p, so p cannot bound the bracket); the corrector may fail next to the crossing (two
+  // branches meet there) or stray from the bracket, and then the bisection stops.
+  std::optional<Point> period_n_crossing(const Point& a, const Point& b, double ds) {
+    const ode::Vector da = half_period_difference(a.z), db = half_period_difference(b.z);
+    if (!(db.dot(da) < -kOppositeCosine * da.norm() * db.norm())) return std::nullopt;
+    double lo = 0, hi = ds;
+    Point at = half_period_gap(a.z) < half_period_gap(b.z) ? a : b;
+    for (int i = 0; i < kMaxBisections && half_period_gap(at.z) >= kDistinctOrbit; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      Point m;
+      if (!point_at(a, mid, m) || (m.z - a.z).norm() > 2 * ds) break;
+      (half_period_difference(m.z).dot(da) > 0 ? lo : hi) = mid;
+      if (half_period_gap(m.z) < half_period_gap(at.z)) at = std::move(m);
+    }
+    return at;
   }
 
   // The orbit of point pt as `geardyn orbit --json` prints it ("" when it cannot be read).
@@ -512,12 +540,26 @@ class Continuer {
         }
         return done(fmt::format("the branch turned back to {} = {:.12g}{}", o_.key, end, end_note));
       }
-      res.points.push_back({p, 0, o_.orbit.periods, next.orbit});
-      if (doubled_ && half_period_gap(next.z) < kDistinctOrbit)
+      if (doubled_ && half_period_gap(next.z) < kDistinctOrbit) {
+        res.points.push_back({p, 0, o_.orbit.periods, next.orbit});
         return done(
             fmt::format("the period-doubled branch returned to the period doubling at "
                         "{} = {:.12g}",
                         o_.key, p));
+      }
+      if (doubled_) {
+        // Stepped across a period-N orbit: beyond it lie the same orbits shifted by half a
+        // period, which the branch would retrace. It ends on the crossing.
+        if (const std::optional<Point> m = period_n_crossing(cur, next, step)) {
+          res.points.push_back({param(m->z), 0, o_.orbit.periods, m->orbit});
+          return done(fmt::format(
+              "the period-doubled branch met a period-{} orbit at {} = {:.12g} (its orbits "
+              "return after half their period there to {:.1e}; beyond, the branch is the same "
+              "orbits shifted by half a period)",
+              o_.orbit.periods / 2, o_.key, param(m->z), half_period_gap(m->z)));
+        }
+      }
+      res.points.push_back({p, 0, o_.orbit.periods, next.orbit});
       if (o_.progress && !o_.progress(p, res.points.size())) {
         res.cancelled = true;
         return done(fmt::format("cancelled at {} = {:.12g}", o_.key, p));

@@ -9,15 +9,19 @@
 // - with a radial clearance, the grazing where the bearings stop separating lies between a
 //   simulation whose bearings separate and one whose do not;
 // - on the shipped case at dof 3, a period doubling of the rattle is switched to its doubled
-//   branch, whose orbits return after two periods and not after one.
+//   branch, whose orbits return after two periods and not after one, and which ends where it
+//   meets a period-1 orbit of another family.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <complex>
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "geardyn/continuation.hpp"
+#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/coupled_run.hpp"
 
 namespace geardyn {
@@ -225,6 +229,53 @@ TEST(CoupledContinuation, APeriodDoublingIsSwitchedToItsDoubledBranch) {
     EXPECT_GT(gap(one.state), 1e-3) << "f_1 = " << p.param;
   }
   EXPECT_GE(doubled, 4);
+}
+
+TEST(CoupledContinuation, ThePeriodDoubledBranchEndsWhereItMeetsAnotherPeriodOneOrbit) {
+  // The same pair: the doubled branch from 657.7267 Hz winds through folds between 657.35 and
+  // 657.83 Hz, then runs unstable up to 681.21 Hz, where it meets a period-1 orbit of
+  // another (unstable) family: there that family doubles its period. Beyond, the branch is its
+  // own orbits shifted by one period, which it would retrace back to 657.7267 Hz and out again
+  // without end; it ends on the meeting instead. Checked without the continuation: shooting a
+  // period-1 orbit from the last point's state converges there, with a multiplier at -1 that
+  // moves through -1 across it. No fold is found twice (no part of the branch retraced).
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010_coupled.toml",
+                     {{"model.dof", "3"}});
+  ContinuationOptions o;
+  o.key = "speed.shaft_frequency_hz";
+  o.from = 652;
+  o.to = 700;
+  o.max_points = 400;  // on each branch; the meeting is some 160 points along the doubled one
+  o.follow_period_doubling = true;
+  const ContinuationResult r = continuation(c, o);
+  EXPECT_NE(r.message.find("the period-doubled branch met a period-1 orbit"), std::string::npos)
+      << r.message;
+  const BranchPoint& last = r.points.back();
+  ASSERT_EQ(last.branch, 1) << r.message;
+  EXPECT_NEAR(last.param, 681.21, 0.01);
+  std::vector<double> folds;
+  for (const Bifurcation& b : r.bifurcations)
+    if (b.branch == 1 && b.type == BifurcationType::kFold) folds.push_back(b.param);
+  EXPECT_GE(folds.size(), 9U);  // 11, two of them 4e-3 Hz apart (one step may hold both)
+  for (std::size_t i = 0; i < folds.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      EXPECT_GT(std::abs(folds[i] - folds[j]), 1e-6) << folds[i] << " found twice";
+  // The period-1 orbit there: its multiplier nearest -1 is above -1 below the meeting, at -1
+  // on it (to the meeting's half-period gap) and below -1 above it.
+  const auto nearest_to_minus_one = [&](double f1) {
+    Case at = c;
+    at.speed.shaft_frequency_hz = f1;
+    const CoupledOrbit orbit = find_coupled_orbit(at, OrbitOptions{}, last.orbit.state);
+    EXPECT_TRUE(orbit.converged) << f1 << ": " << orbit.message;
+    std::complex<double> best = 0;
+    for (const auto& mu : orbit.multipliers)
+      if (std::abs(mu + 1.0) < std::abs(best + 1.0)) best = mu;
+    EXPECT_EQ(best.imag(), 0.0);
+    return best.real();
+  };
+  EXPECT_GT(nearest_to_minus_one(last.param - 0.2), -1.0);
+  EXPECT_NEAR(nearest_to_minus_one(last.param), -1.0, 1e-4);
+  EXPECT_LT(nearest_to_minus_one(last.param + 0.2), -1.0);
 }
 
 }  // namespace
