@@ -346,9 +346,9 @@ class Continuer {
   }
 
   // A period-doubled branch (its orbits of period 2N on an even number of segments) ends where
-  // it meets the period-N branch again: there the state after half the period is the start.
-  // Past that orbit the branch runs on as its own orbits shifted by half a period, so the
-  // difference of the two states changes sign there.
+  // it meets a period-N orbit again (of the branch it left or of another family): there the
+  // state after half the period is the start. Past that orbit the branch runs on as its own
+  // orbits shifted by half a period, so the difference of the two states changes sign there.
   void mark_doubled() { doubled_ = segments_ % 2 == 0; }
   ode::Vector half_period_difference(const ode::Vector& z) const {
     const Eigen::Index d = scale_.size();
