@@ -186,19 +186,30 @@ TEST(CoupledContinuation, ABearingClearanceGrazingIsWhereTheBearingsStopSeparati
   }
 }
 
-TEST(CoupledContinuation, APeriodDoublingIsSwitchedToItsDoubledBranch) {
-  // The Table 1 pair on its bearings at dof 3 (cases/park2010_coupled.toml): its period-1
-  // rattle along f_1 doubles its period near 657.7 Hz. The switched branch's orbits return
-  // after two system periods and not after one (a flow of the coupled model without Jacobians).
-  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010_coupled.toml",
-                     {{"model.dof", "3"}});
+// The Table 1 pair on its bearings at dof 3 (cases/park2010_coupled.toml).
+Case shipped_pair_at_dof_3() {
+  return load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010_coupled.toml",
+                   {{"model.dof", "3"}});
+}
+
+// Its branch along f_1 from 652 to 700 Hz with the period-doubled branch followed, at most
+// `max_points` points on each.
+ContinuationResult shipped_pair_doubled_branch(int max_points) {
   ContinuationOptions o;
   o.key = "speed.shaft_frequency_hz";
   o.from = 652;
   o.to = 700;
-  o.max_points = 9;  // on each branch
+  o.max_points = max_points;
   o.follow_period_doubling = true;
-  const ContinuationResult r = continuation(c, o);
+  return continuation(shipped_pair_at_dof_3(), o);
+}
+
+TEST(CoupledContinuation, APeriodDoublingIsSwitchedToItsDoubledBranch) {
+  // The shipped pair at dof 3: its period-1 rattle along f_1 doubles its period near 657.7 Hz.
+  // The switched branch's orbits return after two system periods and not after one (a flow of
+  // the coupled model without Jacobians).
+  const Case c = shipped_pair_at_dof_3();
+  const ContinuationResult r = shipped_pair_doubled_branch(9);
   ASSERT_FALSE(r.bifurcations.empty()) << r.message;
   const Bifurcation& pd = r.bifurcations[0];
   ASSERT_EQ(pd.type, BifurcationType::kPeriodDoubling) << r.message;
@@ -239,15 +250,9 @@ TEST(CoupledContinuation, ThePeriodDoubledBranchEndsWhereItMeetsAnotherPeriodOne
   // without end; it ends on the meeting instead. Checked without the continuation: shooting a
   // period-1 orbit from the last point's state converges there, with a multiplier at -1 that
   // moves through -1 across it. No fold is found twice (no part of the branch retraced).
-  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010_coupled.toml",
-                     {{"model.dof", "3"}});
-  ContinuationOptions o;
-  o.key = "speed.shaft_frequency_hz";
-  o.from = 652;
-  o.to = 700;
-  o.max_points = 400;  // on each branch; the meeting is some 160 points along the doubled one
-  o.follow_period_doubling = true;
-  const ContinuationResult r = continuation(c, o);
+  const Case c = shipped_pair_at_dof_3();
+  // At most 400 points a branch: the meeting is some 160 points along the doubled one.
+  const ContinuationResult r = shipped_pair_doubled_branch(400);
   EXPECT_NE(r.message.find("the period-doubled branch met a period-1 orbit"), std::string::npos)
       << r.message;
   const BranchPoint& last = r.points.back();
