@@ -3,12 +3,15 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <ostream>
+#include <utility>
+#include <vector>
 
 #include "geardyn/engine.hpp"
 #include "geardyn/model.hpp"
@@ -70,35 +73,6 @@ class ContactTracker {
   double free_time_ = 0;
 };
 
-// An affine functional g(t) = G(t) y + g0(t) with its time-varying parts replaced by their
-// amplitudes: G_j(t) within mid_j +- spread_j, g0(t) within offset +- offset_spread.
-struct FunctionalRange {
-  ode::RowVector mid, spread;
-  double offset = 0, offset_spread = 0;
-
-  explicit FunctionalRange(const ode::LinearGuard& g)
-      : mid(g.row.constant),
-        spread(ode::RowVector::Zero(g.row.constant.size())),
-        offset(g.offset.constant) {
-    for (std::size_t f = 0; f < g.row.cos.size(); ++f)
-      spread += (g.row.cos[f].array().square() + g.row.sin[f].array().square()).sqrt().matrix();
-    for (std::size_t f = 0; f < g.offset.cos.size(); ++f)
-      offset_spread += std::hypot(g.offset.cos[f], g.offset.sin[f]);
-  }
-  // Bounds of g over a stretch where lo <= y <= hi (interval arithmetic: conservative).
-  void bounds(const ode::Vector& lo, const ode::Vector& hi, double& low, double& high) const {
-    low = offset - offset_spread;
-    high = offset + offset_spread;
-    for (Eigen::Index j = 0; j < mid.size(); ++j) {
-      if (mid[j] == 0 && spread[j] == 0) continue;
-      const double a = mid[j] - spread[j], b = mid[j] + spread[j];
-      const double p[4] = {a * lo[j], a * hi[j], b * lo[j], b * hi[j]};
-      low += std::min({p[0], p[1], p[2], p[3]});
-      high += std::max({p[0], p[1], p[2], p[3]});
-    }
-  }
-};
-
 // Looks at the engine's flow: samples, state changes per nonlinearity, exact extremes.
 class CoupledObserver : public ode::FlowObserver {
  public:
@@ -123,10 +97,15 @@ class CoupledObserver : public ode::FlowObserver {
 
   // A whole coefficient period may be jumped when the span's state bounds leave no room for a
   // new extreme of any observable.
-  bool needs_detail(const ode::CellView& span) override { return any_room(span); }
+  bool needs_detail(const ode::CellView& span) override {
+    bound_all(span);
+    return any_room();
+  }
 
   void on_cell(const ode::CellView& cell) override {
-    if (!(cell.t_end_s > cell.t_begin_s) || !any_room(cell)) return;
+    if (!(cell.t_end_s > cell.t_begin_s)) return;
+    bound_all(cell);
+    if (!any_room()) return;
     extreme(cell, CoupledModel::kObservableForce, true, out_.max_force_n);
     extreme(cell, CoupledModel::kObservableForce, false, out_.min_force_n);
     extreme(cell, CoupledModel::kObservableDeflection, true, out_.max_deflection_m);
@@ -147,8 +126,8 @@ class CoupledObserver : public ode::FlowObserver {
 
   void on_sample(double t, const ode::Vector& y, int region) override {
     CoupledSamples& s = out_.samples;
-    const ode::LinearRegion& r = sys_.regions[region];
-    const auto value = [&](int k) { return ode::functional_value(sys_, r.observables[k], t, y); };
+    ode::functional_values(sys_, sys_.regions[region].observables, t, y, values_);
+    const auto value = [&](int k) { return values_[k]; };
     const CoupledParameters& p = model_.parameters();
     s.t_s.push_back(t);
     s.state.push_back(y);
@@ -176,40 +155,40 @@ class CoupledObserver : public ode::FlowObserver {
   }
 
  private:
-  // Observable k's bounds over a cell or span of region r.
-  void bounds(const ode::CellView& cell, int k, double& low, double& high) const {
-    ranges_[cell.region][k].bounds(*cell.lower, *cell.upper, low, high);
+  // Every observable's bounds over a cell or span (of its region), into low_ and high_.
+  void bound_all(const ode::CellView& cell) {
+    for (int k = 0; k < CoupledModel::kObservableCount; ++k)
+      ranges_[cell.region][k].bounds(*cell.lower, *cell.upper, low_[k], high_[k]);
   }
-  // Whether the bounds leave room for a new extreme of any observable read.
-  bool any_room(const ode::CellView& cell) const {
-    double low = 0, high = 0;
-    bounds(cell, CoupledModel::kObservableForce, low, high);
-    if (high > out_.max_force_n || low < out_.min_force_n) return true;
-    bounds(cell, CoupledModel::kObservableDeflection, low, high);
-    if (high > out_.max_deflection_m || low < out_.min_deflection_m) return true;
+  // Whether the bounds of the last bound_all leave room for a new extreme of any observable
+  // read.
+  bool any_room() const {
+    if (high_[CoupledModel::kObservableForce] > out_.max_force_n ||
+        low_[CoupledModel::kObservableForce] < out_.min_force_n)
+      return true;
+    if (high_[CoupledModel::kObservableDeflection] > out_.max_deflection_m ||
+        low_[CoupledModel::kObservableDeflection] < out_.min_deflection_m)
+      return true;
     for (int i = 0; i < 2; ++i)
       for (const auto& [k, largest] :
            {std::pair{CoupledModel::kObservableBearing + i, out_.max_bearing_force_n[i]},
             std::pair{CoupledModel::kObservableAxial + i, out_.max_axial_force_n[i]},
-            std::pair{CoupledModel::kObservableShaft + i, out_.max_shaft_torque_nm[i]}}) {
-        bounds(cell, k, low, high);
-        if (high > largest || -low > largest) return true;
-      }
+            std::pair{CoupledModel::kObservableShaft + i, out_.max_shaft_torque_nm[i]}})
+        if (high_[k] > largest || -low_[k] > largest) return true;
     return false;
   }
-  // The cell's extreme of observable k beyond `seen` (its maximum or minimum), when its bounds
-  // leave room for one: then found exactly on the cell's polynomial.
+  // The cell's extreme of observable k beyond `seen` (its maximum or minimum), when the cell's
+  // bounds (bound_all) leave room for one: then found exactly on the cell's polynomial.
   void extreme(const ode::CellView& cell, int k, bool maximum, double& seen) const {
-    double low = 0, high = 0, v = 0, t = 0;
-    bounds(cell, k, low, high);
-    if (maximum ? !(high > seen) : !(low < seen)) return;
+    double v = 0, t = 0;
+    if (maximum ? !(high_[k] > seen) : !(low_[k] < seen)) return;
     if (cell.extreme(k, maximum, seen, v, t)) seen = v;
   }
   void absolute(const ode::CellView& cell, int k, double& largest) const {
-    double low = 0, high = 0, v = 0, t = 0;
-    bounds(cell, k, low, high);
-    if (high > largest && cell.extreme(k, true, largest, v, t)) largest = std::max(largest, v);
-    if (-low > largest && cell.extreme(k, false, -largest, v, t)) largest = std::max(largest, -v);
+    double v = 0, t = 0;
+    if (high_[k] > largest && cell.extreme(k, true, largest, v, t)) largest = std::max(largest, v);
+    if (-low_[k] > largest && cell.extreme(k, false, -largest, v, t))
+      largest = std::max(largest, -v);
   }
 
   const CoupledModel& model_;
@@ -219,7 +198,9 @@ class CoupledObserver : public ode::FlowObserver {
   double t0_, t1_;
   ContactTracker mesh_;
   std::array<ContactTracker, 2> bearings_;
-  std::vector<std::vector<FunctionalRange>> ranges_;  // per region, per observable
+  std::vector<std::vector<ode::FunctionalBounds>> ranges_;             // per region, per observable
+  std::array<double, CoupledModel::kObservableCount> low_{}, high_{};  // the last bound_all's
+  std::vector<double> values_;                                         // a sample's observables
 };
 
 // The shortest time scale: the fastest natural period in contact or excitation period.

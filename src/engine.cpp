@@ -147,6 +147,63 @@ double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, dou
          evaluate(g.offset, s.frequencies_rad_s, t_s);
 }
 
+void functional_values(const LinearSwitchedSystem& s, const std::vector<LinearGuard>& gs,
+                       double t_s, const Vector& y, std::vector<double>& values) {
+  const std::vector<double>& w = s.frequencies_rad_s;
+  std::vector<double> cos_wt(w.size()), sin_wt(w.size());
+  for (std::size_t f = 0; f < w.size(); ++f) {
+    cos_wt[f] = std::cos(w[f] * t_s);
+    sin_wt[f] = std::sin(w[f] * t_s);
+  }
+  // The operations of evaluate(), in its order.
+  RowVector row(y.size());
+  values.resize(gs.size());
+  for (std::size_t i = 0; i < gs.size(); ++i) {
+    const LinearGuard& g = gs[i];
+    row = g.row.constant;
+    for (std::size_t f = 0; f < g.row.cos.size(); ++f) {
+      row += g.row.cos[f] * cos_wt[f];
+      row += g.row.sin[f] * sin_wt[f];
+    }
+    double offset = g.offset.constant;
+    for (std::size_t f = 0; f < g.offset.cos.size(); ++f) {
+      offset += g.offset.cos[f] * cos_wt[f];
+      offset += g.offset.sin[f] * sin_wt[f];
+    }
+    values[i] = row.dot(y) + offset;
+  }
+}
+
+FunctionalBounds::FunctionalBounds(const LinearGuard& g) : offset_(g.offset.constant) {
+  const RowVector& mid = g.row.constant;
+  RowVector spread = RowVector::Zero(mid.size());
+  for (std::size_t f = 0; f < g.row.cos.size(); ++f)
+    spread += (g.row.cos[f].array().square() + g.row.sin[f].array().square()).sqrt().matrix();
+  for (Eigen::Index j = 0; j < mid.size(); ++j) {
+    if (spread[j] != 0)
+      varying_.emplace_back(j, mid[j] - spread[j], mid[j] + spread[j]);
+    else if (mid[j] != 0)
+      fixed_.emplace_back(j, mid[j]);
+  }
+  for (std::size_t f = 0; f < g.offset.cos.size(); ++f)
+    offset_spread_ += std::hypot(g.offset.cos[f], g.offset.sin[f]);
+}
+
+void FunctionalBounds::bounds(const Vector& lo, const Vector& hi, double& low, double& high) const {
+  low = offset_ - offset_spread_;
+  high = offset_ + offset_spread_;
+  for (const auto& [j, c] : fixed_) {
+    const double p = c * lo[j], q = c * hi[j];
+    low += std::min(p, q);
+    high += std::max(p, q);
+  }
+  for (const auto& [j, a, b] : varying_) {
+    const double p[4] = {a * lo[j], a * hi[j], b * lo[j], b * hi[j]};
+    low += std::min({p[0], p[1], p[2], p[3]});
+    high += std::max({p[0], p[1], p[2], p[3]});
+  }
+}
+
 std::string EngineOptions::validate() const {
   if (!(tolerance > 0) || !(tolerance < 1e-3))
     return fmt::format("tolerance = {}: must be in (0, 1e-3)", tolerance);
@@ -186,6 +243,10 @@ constexpr std::uintmax_t kEventMaxIterations = 200;
 // The rounding level of a guard's polynomial, as a multiple of eps times the sum of its
 // coefficients' magnitudes: the Horner error bound for the orders used, with a margin.
 constexpr double kGuardRounding = 64 * std::numeric_limits<double>::epsilon();
+// The rounding allowed for in a functional's range over a cell (Flow::functional_range), as a
+// fraction of the magnitudes summed: the order times the dimension times eps (3e-14 for a
+// 12-DOF cell of order 11), with a margin of 30.
+constexpr double kRangeRounding = 1e-12;
 // The largest forced excursion of a cell along a guard, in units of the guard's scale, and
 // the halvings of a cell spent on it at most (2^-16 of the rate's cell: beyond any physical
 // force on a backlash).
@@ -223,6 +284,12 @@ struct Cell {
     std::vector<Eigen::Matrix<double, 1, D>> phi;
     std::vector<double> r0;
     std::vector<std::vector<double>> rc, rs;
+    // Over the cell |g(x) - g_0| <= swing_row . |z - y_ref| + swing_rest (|C_j|, |S_j| <= 1):
+    // swing_row = sum_{k>=1} |phi_k|, swing_rest = sum_{k>=1} (|phi_k . y_ref + r0_k| +
+    // sum_j (|rc_jk| + |rs_jk|)); magnitude_rest is swing_rest with the magnitudes of
+    // phi_k . y_ref and r0_k, the scale of its rounding.
+    Eigen::Matrix<double, 1, D> swing_row;
+    double swing_rest = 0, magnitude_rest = 0;
   };
   std::vector<Functional> fn;             // the guards'
   std::vector<Functional> observable_fn;  // the observables'
@@ -435,24 +502,71 @@ void functional_terms(const LinearSwitchedSystem& sys, const LinearGuard& q, dou
 template <int D>
 void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<LinearGuard>& list,
                        double t0, double h, const Cell<D>& cell,
+                       const Eigen::Matrix<double, D, 1>& y_ref,
                        std::vector<typename Cell<D>::Functional>& out) {
   using R = Eigen::Matrix<double, 1, D>;
   const int p = cell.order;
   const std::size_t nf = cell.rc.size();
+  const Eigen::Index n = sys.dimension;
   std::vector<R> G;
   std::vector<double> off;
+  // A row's time-varying part (G[m], m >= 1) lies in the columns where some of its cos or sin
+  // terms is nonzero (a mesh force's: the mesh's coordinates): those terms are formed on the
+  // cell's series at those columns alone, gathered once per set of columns.
+  std::vector<Eigen::Index> cols, gathered_cols;
+  std::vector<Matrix> phi_cols;
+  std::vector<std::vector<Vector>> resp_cols;  // r0, then rc and rs per forced frequency
   out.clear();
   for (const LinearGuard& q : list) {
     functional_terms(sys, q, t0, h, p, G, off);
     if (G.empty()) G.assign(1, q.row.constant);  // constant: one term
     typename Cell<D>::Functional f;
-    f.phi.assign(p + 1, R::Zero(sys.dimension));
+    f.phi.assign(p + 1, R::Zero(n));
     f.r0 = off;
     f.rc.assign(nf, std::vector<double>(p + 1, 0.0));
     f.rs.assign(nf, std::vector<double>(p + 1, 0.0));
     const int g_terms = static_cast<int>(G.size());
-    for (int k = 0; k <= p; ++k)
-      for (int m = 0; m <= std::min(k, g_terms - 1); ++m) {
+    cols.clear();
+    for (Eigen::Index c = 0; c < n && g_terms > 1; ++c)
+      for (std::size_t w = 0; w < q.row.cos.size(); ++w)
+        if (q.row.cos[w][c] != 0 || q.row.sin[w][c] != 0) {
+          cols.push_back(c);
+          break;
+        }
+    const bool blocked =
+        D == Eigen::Dynamic && g_terms > 1 && 2 * static_cast<Eigen::Index>(cols.size()) <= n;
+    if (blocked && cols != gathered_cols) {
+      gathered_cols = cols;
+      phi_cols.clear();
+      resp_cols.assign(1 + 2 * nf, {});
+      for (int k = 0; k <= p; ++k) {
+        phi_cols.push_back(Matrix(cell.phi[k])(cols, Eigen::all));
+        resp_cols[0].push_back(Vector(cell.r0[k])(cols));
+        for (std::size_t j = 0; j < nf; ++j) {
+          resp_cols[1 + 2 * j].push_back(Vector(cell.rc[j][k])(cols));
+          resp_cols[2 + 2 * j].push_back(Vector(cell.rs[j][k])(cols));
+        }
+      }
+    }
+    for (int k = 0; k <= p; ++k) {
+      f.phi[k] += G[0] * cell.phi[k];
+      f.r0[k] += G[0].dot(cell.r0[k]);
+      for (std::size_t j = 0; j < nf; ++j) {
+        f.rc[j][k] += G[0].dot(cell.rc[j][k]);
+        f.rs[j][k] += G[0].dot(cell.rs[j][k]);
+      }
+      // No varying column: the terms m >= 1 are zero.
+      for (int m = 1; m <= (cols.empty() ? 0 : std::min(k, g_terms - 1)); ++m) {
+        if (blocked) {
+          const RowVector g = Matrix(G[m])(Eigen::all, cols);
+          f.phi[k] += g * phi_cols[k - m];
+          f.r0[k] += g.dot(resp_cols[0][k - m]);
+          for (std::size_t j = 0; j < nf; ++j) {
+            f.rc[j][k] += g.dot(resp_cols[1 + 2 * j][k - m]);
+            f.rs[j][k] += g.dot(resp_cols[2 + 2 * j][k - m]);
+          }
+          continue;
+        }
         f.phi[k] += G[m] * cell.phi[k - m];
         f.r0[k] += G[m].dot(cell.r0[k - m]);
         for (std::size_t j = 0; j < nf; ++j) {
@@ -460,6 +574,19 @@ void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<Linear
           f.rs[j][k] += G[m].dot(cell.rs[j][k - m]);
         }
       }
+    }
+    f.swing_row = R::Zero(n);
+    for (int k = 1; k <= p; ++k) {
+      f.swing_row += f.phi[k].cwiseAbs();
+      const double at_ref = f.phi[k].dot(y_ref);
+      f.swing_rest += std::abs(at_ref + f.r0[k]);
+      f.magnitude_rest += f.phi[k].cwiseAbs().dot(y_ref.cwiseAbs()) + std::abs(f.r0[k]);
+      for (std::size_t j = 0; j < nf; ++j) {
+        const double forced = std::abs(f.rc[j][k]) + std::abs(f.rs[j][k]);
+        f.swing_rest += forced;
+        f.magnitude_rest += forced;
+      }
+    }
     out.push_back(std::move(f));
   }
 }
@@ -477,6 +604,42 @@ bool converged(const std::vector<M>& terms, double tol) {
     if (last.data()[i] > tol * sum.data()[i]) return false;
   return true;
 }
+
+// The rows and columns of a Fourier series of matrices where some cos or sin term is nonzero:
+// the block that holds the series' time-varying part.
+struct VaryingBlock {
+  std::vector<Eigen::Index> rows, cols;
+  Eigen::Index n = 0;
+
+  static VaryingBlock of(const FourierTerms<Matrix>& a, Eigen::Index n) {
+    VaryingBlock b;
+    b.n = n;
+    Eigen::Array<bool, Eigen::Dynamic, 1> r = Eigen::Array<bool, Eigen::Dynamic, 1>::Zero(n),
+                                          c = Eigen::Array<bool, Eigen::Dynamic, 1>::Zero(n);
+    for (const auto* terms : {&a.cos, &a.sin})
+      for (const Matrix& m : *terms)
+        for (Eigen::Index j = 0; j < n; ++j)
+          for (Eigen::Index i = 0; i < n; ++i)
+            if (m(i, j) != 0) r[i] = c[j] = true;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (r[i]) b.rows.push_back(i);
+      if (c[i]) b.cols.push_back(i);
+    }
+    return b;
+  }
+  // Whether products on the block cost well under the full ones.
+  bool pays() const {
+    return !rows.empty() && 2 * rows.size() * cols.size() <= static_cast<std::size_t>(n * n);
+  }
+  Matrix gather(const Matrix& m) const { return m(rows, cols); }
+  Matrix columns_of(const Matrix& m) const { return m(cols, Eigen::all); }
+  Vector columns_of(const Vector& v) const { return v(cols); }
+  // out(rows, :) += x.
+  template <class X, class Out>
+  void scatter_add(const X& x, Out& out) const {
+    for (std::size_t i = 0; i < rows.size(); ++i) out.row(rows[i]) += x.row(i);
+  }
+};
 
 // The order at which the Taylor series of cos and sin over a cell of wh radians converge as
 // `converged` has it (the last two terms within tol of the sum of all), or p_max + 1 when they
@@ -516,6 +679,17 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   int a_terms = 0;  // A[m] == 0 for m > a_terms
   for (int m = 0; m <= p_max; ++m)
     if (A[m].any()) a_terms = m;
+  // The time-varying part of A (A[m], m >= 1) lies in the rows and columns where some Ac_f or
+  // As_f is nonzero: for a gear, the mesh stiffness's, a few of a coupled model's. Its products
+  // are formed on that block alone (the full products cost n^3 each, of which O(order^2) are
+  // needed per cell); the 2-state fast path keeps the plain products.
+  const VaryingBlock block = VaryingBlock::of(reg.a, n);
+  const bool blocked = D == Eigen::Dynamic && a_terms >= 1 && block.pays();
+  std::vector<Matrix> A_block;                 // A[m] on the block, m >= 1
+  std::vector<Matrix> phi_cols;                // Phi_k's rows at the block's columns
+  std::vector<std::vector<Vector>> resp_cols;  // the same for the forced responses
+  if (blocked)
+    for (int m = 0; m <= a_terms; ++m) A_block.push_back(block.gather(Matrix(A[m])));
 
   // Forcing series, per basis: u0; per forced frequency the cos-phase and the sin-phase parts.
   const int nf = static_cast<int>(rc.forced.size());
@@ -549,16 +723,40 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   cell.phi.assign(1, M::Identity(n, n));
   for (int b = 0; b < bases; ++b) resp[b].assign(1, V::Zero(n));
 
+  if (blocked) {
+    phi_cols.push_back(block.columns_of(Matrix(cell.phi[0])));
+    resp_cols.resize(bases);
+    for (int b = 0; b < bases; ++b) resp_cols[b].push_back(block.columns_of(Vector(resp[b][0])));
+  }
   bool done = false;
+  Matrix acc;
+  Vector acc_v;
   for (int k = 0; k < p_max && !done; ++k) {
     const double scale = h / (k + 1);
     M next = M::Zero(n, n);
-    for (int m = 0; m <= std::min(k, a_terms); ++m) next.noalias() += A[m] * cell.phi[k - m];
+    const int m_last = std::min(k, a_terms);
+    if (blocked) {
+      next.noalias() += A[0] * cell.phi[k];
+      acc = Matrix::Zero(block.rows.size(), n);
+      for (int m = 1; m <= m_last; ++m) acc.noalias() += A_block[m] * phi_cols[k - m];
+      block.scatter_add(acc, next);
+    } else {
+      for (int m = 0; m <= m_last; ++m) next.noalias() += A[m] * cell.phi[k - m];
+    }
     cell.phi.push_back(scale * next);
+    if (blocked) phi_cols.push_back(block.columns_of(Matrix(cell.phi.back())));
     for (int b = 0; b < bases; ++b) {
       V v = forcing(b, k);
-      for (int m = 0; m <= std::min(k, a_terms); ++m) v.noalias() += A[m] * resp[b][k - m];
+      if (blocked) {
+        v.noalias() += A[0] * resp[b][k];
+        acc_v = Vector::Zero(block.rows.size());
+        for (int m = 1; m <= m_last; ++m) acc_v.noalias() += A_block[m] * resp_cols[b][k - m];
+        block.scatter_add(acc_v, v);
+      } else {
+        for (int m = 0; m <= m_last; ++m) v.noalias() += A[m] * resp[b][k - m];
+      }
       resp[b].push_back(scale * v);
+      if (blocked) resp_cols[b].push_back(block.columns_of(Vector(resp[b].back())));
     }
     done = k + 1 >= functional_order && converged(cell.phi, tol);
     for (int b = 0; b < bases && done; ++b) done = converged(resp[b], tol);
@@ -969,7 +1167,7 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
     }
     if (rc.functionals_cached)
       for (int k = 0; k < rc.K; ++k)
-        cache_functionals(sys, reg.guards, k * rc.h, rc.h, rc.cells[k], rc.cells[k].fn);
+        cache_functionals(sys, reg.guards, k * rc.h, rc.h, rc.cells[k], rc.y_ref, rc.cells[k].fn);
     const bool rows_constant =
         std::none_of(rc.guard_varies.begin(), rc.guard_varies.end(), [](bool v) { return v; });
     if (!periodic) build_steady_jumps(sys, reg, rc);
@@ -1011,7 +1209,7 @@ class LazyRegions {
       std::call_once(observables_once_[r], [&] {
         RegionCells<D>& w = cells_[r];
         for (int k = 0; k < w.K; ++k)
-          cache_functionals(*sys_, sys_->regions[r].observables, k * w.h, w.h, w.cells[k],
+          cache_functionals(*sys_, sys_->regions[r].observables, k * w.h, w.h, w.cells[k], w.y_ref,
                             w.cells[k].observable_fn);
       });
     return rc;
@@ -1213,6 +1411,11 @@ class Flow final : public CellView {
           if (g0 + slack - rc.guard_abs_row[i].dot(delta_) - rc.guard_offset_swing[i] > 0)
             continue;  // cannot cross in this cell
         }
+        if (rc.functionals_cached) {
+          double low = 0, high = 0;
+          functional_range(i, low, high);
+          if (low + slack > 0) continue;  // cannot cross in this cell
+        }
         guard_series(i, slack);
         if (!std::all_of(gc_.begin(), gc_.end(), [](double c) { return std::isfinite(c); }))
           return finish(Termination::kDiverged,
@@ -1318,8 +1521,15 @@ class Flow final : public CellView {
   bool extreme(int observable, bool maximum, double beyond, double& value,
                double& t_s) const override {
     const RegionCells<D>& rc = *rc_;
-    functional_series(static_cast<int>(sys_.regions[cur_.region].guards.size()) + observable, 0.0,
-                      oc_);
+    const int id = static_cast<int>(sys_.regions[cur_.region].guards.size()) + observable;
+    if (rc.functionals_cached) {
+      // The cell's range first: most cells cannot hold a new extreme.
+      regions_.with_observables(cur_.region);
+      double low = 0, high = 0;
+      functional_range(id, low, high);
+      if (maximum ? !(high > beyond) : !(low < beyond)) return false;
+    }
+    functional_series(id, 0.0, oc_);
     if (!maximum)
       for (double& c : oc_) c = -c;
     double x = 0;
@@ -1338,24 +1548,45 @@ class Flow final : public CellView {
       y = poly(x);
       return;
     }
-    // Phi(x) z + R(x) term by term: cheaper than the cell's coefficients for one point.
     const Cell<D>& cell = rc_->cells[cur_.k];
-    M P = cell.phi[cell.order];
-    V r = cell.r0[cell.order];
+    if constexpr (D == Eigen::Dynamic) {
+      // Horner over the state's terms y_k = Phi_k z + r0_k + sum_j (C_j rc_jk + S_j rs_jk),
+      // each formed as it is needed: a matrix-vector product per term reads each Phi_k once
+      // (Horner over the matrices would also write a matrix per term).
+      V& term = sample_r_;
+      for (int k = cell.order; k >= 0; --k) {
+        term.noalias() = cell.phi[k] * cur_.z;
+        term += cell.r0[k];
+        for (std::size_t j = 0; j < rc_->forced.size(); ++j)
+          term += cur_.C[j] * cell.rc[j][k] + cur_.S[j] * cell.rs[j][k];
+        if (k == cell.order)
+          y = term;
+        else
+          y = y * x + term;
+      }
+      return;
+    }
+    // Phi(x) z + R(x) term by term: for two states, cheaper than the cell's coefficients for one
+    // point. The scratch keeps a sample free of allocations.
+    M& P = sample_phi_;
+    V &r = sample_r_, &c = sample_c_, &s = sample_s_;
+    P = cell.phi[cell.order];
+    r = cell.r0[cell.order];
     for (int k = cell.order - 1; k >= 0; --k) {
       P = P * x + cell.phi[k];
       r = r * x + cell.r0[k];
     }
-    V v = P * cur_.z + r;
+    y.noalias() = P * cur_.z;
+    y += r;
     for (std::size_t j = 0; j < rc_->forced.size(); ++j) {
-      V c = cell.rc[j][cell.order], s = cell.rs[j][cell.order];
+      c = cell.rc[j][cell.order];
+      s = cell.rs[j][cell.order];
       for (int k = cell.order - 1; k >= 0; --k) {
         c = c * x + cell.rc[j][k];
         s = s * x + cell.rs[j][k];
       }
-      v += cur_.C[j] * c + cur_.S[j] * s;
+      y += cur_.C[j] * c + cur_.S[j] * s;
     }
-    y = v;
   }
 
   // Places the cursor in region r at time t with state y; J_ then maps y0 to z.
@@ -1576,6 +1807,31 @@ class Flow final : public CellView {
     return v;
   }
 
+  // Bounds of functional `id` (as functional_series) over the whole current cell, from its
+  // cached form (RegionCells::functionals_cached; the observables' built): its value at the
+  // cell's start plus or minus the swing its form bounds, widened by the rounding of both.
+  void functional_range(int id, double& low, double& high) const {
+    const RegionCells<D>& rc = *rc_;
+    const Cell<D>& cell = rc.cells[cur_.k];
+    const int guards = static_cast<int>(sys_.regions[cur_.region].guards.size());
+    const typename Cell<D>::Functional& f =
+        id < guards ? cell.fn[id] : cell.observable_fn[id - guards];
+    double g0 = f.phi[0].dot(cur_.z) + f.r0[0];
+    double magnitude = std::abs(f.r0[0]) + f.magnitude_rest;
+    for (std::size_t j = 0; j < rc.forced.size(); ++j) {
+      g0 += cur_.C[j] * f.rc[j][0] + cur_.S[j] * f.rs[j][0];
+      magnitude += std::abs(f.rc[j][0]) + std::abs(f.rs[j][0]);
+    }
+    double swing = f.swing_rest;
+    for (Eigen::Index i = 0; i < cur_.z.size(); ++i) {
+      swing += f.swing_row[i] * std::abs(cur_.z[i] - rc.y_ref[i]);
+      magnitude += (std::abs(f.phi[0][i]) + f.swing_row[i]) * std::abs(cur_.z[i]);
+    }
+    const double reach = swing + kRangeRounding * (magnitude + swing);
+    low = g0 - reach;
+    high = g0 + reach;
+  }
+
   // The series of guard i over the current cell, plus `slack`, into gc_.
   void guard_series(int i, double slack) { functional_series(i, slack, gc_); }
 
@@ -1629,6 +1885,8 @@ class Flow final : public CellView {
   Cursor<D> cur_;
   mutable std::vector<V> yk_;
   mutable bool coeffs_ready_ = false;
+  mutable M sample_phi_;  // state_at's scratch
+  mutable V sample_r_, sample_c_, sample_s_;
   std::vector<double> gc_;
   mutable std::vector<R> rows_;
   mutable std::vector<double> offs_;

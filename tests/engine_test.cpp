@@ -9,6 +9,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <vector>
 
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
@@ -64,6 +65,83 @@ LinearSwitchedSystem oscillator(double k, double c, double F0, double Fa, double
   g.target = 0;
   s.regions[1].guards = {g};
   return s;
+}
+
+// A functional of six states over three frequencies: constant, varying and zero row entries
+// of both signs, and an offset with its own harmonics.
+LinearSwitchedSystem six_state_functional(LinearGuard& g) {
+  LinearSwitchedSystem s;
+  s.dimension = 6;
+  s.frequencies_rad_s = {3.0, 7.5, 11.0};
+  g.row.constant = RowVector::Zero(6);
+  g.row.constant << 1.5, -2.0, 0.0, 0.25, 0.0, -0.75;
+  g.row.cos.assign(3, RowVector::Zero(6));
+  g.row.sin.assign(3, RowVector::Zero(6));
+  g.row.cos[0](1) = 0.5;
+  g.row.sin[2](1) = -0.3;
+  g.row.cos[1](4) = -1.25;  // an entry that is zero on average
+  g.offset.constant = -0.4;
+  g.offset.cos = {0.2, 0.0, -0.1};
+  g.offset.sin = {0.0, 0.05, 0.0};
+  return s;
+}
+
+TEST(LinearSystem, FunctionalValuesAreEachFunctionalsValueToTheLastBit) {
+  LinearGuard g;
+  const LinearSwitchedSystem s = six_state_functional(g);
+  LinearGuard constant;
+  constant.row.constant = RowVector::LinSpaced(6, -1.0, 1.5);
+  constant.offset.constant = 0.3;
+  const std::vector<LinearGuard> gs = {g, constant, g};
+  std::vector<double> values;
+  for (int i = 0; i < 50; ++i) {
+    const double t = 0.137 * i - 2.0;
+    const Vector y = Vector::LinSpaced(6, -0.5 + 0.01 * i, 2.0 - 0.03 * i);
+    geardyn::ode::functional_values(s, gs, t, y, values);
+    ASSERT_EQ(values.size(), gs.size());
+    for (std::size_t k = 0; k < gs.size(); ++k)
+      EXPECT_EQ(values[k], geardyn::ode::functional_value(s, gs[k], t, y)) << k << " at " << t;
+  }
+}
+
+TEST(LinearSystem, FunctionalBoundsHoldEveryPhaseAndStateOfTheBox) {
+  LinearGuard g;
+  const LinearSwitchedSystem s = six_state_functional(g);
+  const geardyn::ode::FunctionalBounds b(g);
+  Vector lo(6), hi(6);
+  lo << -1.0, 0.5, -3.0, -2.0, 1.0, -0.25;
+  hi << 2.0, 1.5, 3.0, -1.0, 4.0, 0.75;
+  double low = 0, high = 0;
+  b.bounds(lo, hi, low, high);
+  // Every phase and state inside, including the box's corners.
+  double seen_low = INFINITY, seen_high = -INFINITY;
+  for (int i = 0; i < 4000; ++i) {
+    const double t = 0.0173 * i;
+    Vector y(6);
+    for (int j = 0; j < 6; ++j) {
+      const double u = std::fmod(0.618034 * (i + 1) * (j + 2), 1.0);
+      y(j) = (i % 3 == 0) ? ((((i / 3) >> j) & 1) ? hi(j) : lo(j)) : lo(j) + u * (hi(j) - lo(j));
+    }
+    const double v = geardyn::ode::functional_value(s, g, t, y);
+    seen_low = std::min(seen_low, v);
+    seen_high = std::max(seen_high, v);
+  }
+  EXPECT_LE(low, seen_low);
+  EXPECT_GE(high, seen_high);
+  // Attained where the functional is constant: at the corner each entry's sign picks.
+  LinearGuard constant;
+  constant.row.constant = g.row.constant;
+  constant.offset.constant = g.offset.constant;
+  const geardyn::ode::FunctionalBounds cb(constant);
+  cb.bounds(lo, hi, low, high);
+  Vector at_low(6), at_high(6);
+  for (int j = 0; j < 6; ++j) {
+    const bool up = constant.row.constant(j) > 0;
+    at_low(j) = up ? lo(j) : hi(j);
+    at_high(j) = up ? hi(j) : lo(j);
+  }
+  EXPECT_NEAR(low, geardyn::ode::functional_value(s, constant, 0, at_low), 1e-15);
+  EXPECT_NEAR(high, geardyn::ode::functional_value(s, constant, 0, at_high), 1e-15);
 }
 
 TEST(ExactEngine, FreeFlightMatchesItsClosedForm) {

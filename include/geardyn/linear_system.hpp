@@ -21,6 +21,8 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 namespace geardyn::ode {
@@ -77,5 +79,24 @@ RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double
 // The value of any affine functional of the system (a guard or an observable) at (t, y).
 double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, double t_s,
                         const Vector& y);
+// The values of every functional of `gs` at (t, y) into `values` (resized), each equal to the
+// last bit to functional_value's; the system's cosines and sines at t are computed once.
+void functional_values(const LinearSwitchedSystem& s, const std::vector<LinearGuard>& gs,
+                       double t_s, const Vector& y, std::vector<double>& values);
+
+// Interval bounds of an affine functional (a guard or an observable) over every time and every
+// state of a box lo <= y <= hi: each row entry and the offset range over their amplitudes
+// (|c cos + s sin| <= hypot(c, s)), then interval arithmetic; conservative, and attained where
+// the functional is constant. Built once per functional, cheap to apply (zero entries skipped).
+class FunctionalBounds {
+ public:
+  explicit FunctionalBounds(const LinearGuard& g);
+  void bounds(const Vector& lo, const Vector& hi, double& low, double& high) const;
+
+ private:
+  std::vector<std::pair<Eigen::Index, double>> fixed_;             // constant entries: index, value
+  std::vector<std::tuple<Eigen::Index, double, double>> varying_;  // index, least, largest
+  double offset_ = 0, offset_spread_ = 0;
+};
 
 }  // namespace geardyn::ode
