@@ -1553,7 +1553,7 @@ class Flow final : public CellView {
       // Horner over the state's terms y_k = Phi_k z + r0_k + sum_j (C_j rc_jk + S_j rs_jk),
       // each formed as it is needed: a matrix-vector product per term reads each Phi_k once
       // (Horner over the matrices would also write a matrix per term).
-      V& term = sample_r_;
+      V& term = sample_term_;
       for (int k = cell.order; k >= 0; --k) {
         term.noalias() = cell.phi[k] * cur_.z;
         term += cell.r0[k];
@@ -1567,26 +1567,23 @@ class Flow final : public CellView {
       return;
     }
     // Phi(x) z + R(x) term by term: for two states, cheaper than the cell's coefficients for one
-    // point. The scratch keeps a sample free of allocations.
-    M& P = sample_phi_;
-    V &r = sample_r_, &c = sample_c_, &s = sample_s_;
-    P = cell.phi[cell.order];
-    r = cell.r0[cell.order];
+    // point.
+    M P = cell.phi[cell.order];
+    V r = cell.r0[cell.order];
     for (int k = cell.order - 1; k >= 0; --k) {
       P = P * x + cell.phi[k];
       r = r * x + cell.r0[k];
     }
-    y.noalias() = P * cur_.z;
-    y += r;
+    V v = P * cur_.z + r;
     for (std::size_t j = 0; j < rc_->forced.size(); ++j) {
-      c = cell.rc[j][cell.order];
-      s = cell.rs[j][cell.order];
+      V c = cell.rc[j][cell.order], s = cell.rs[j][cell.order];
       for (int k = cell.order - 1; k >= 0; --k) {
         c = c * x + cell.rc[j][k];
         s = s * x + cell.rs[j][k];
       }
-      y += cur_.C[j] * c + cur_.S[j] * s;
+      v += cur_.C[j] * c + cur_.S[j] * s;
     }
+    y = v;
   }
 
   // Places the cursor in region r at time t with state y; J_ then maps y0 to z.
@@ -1885,8 +1882,7 @@ class Flow final : public CellView {
   Cursor<D> cur_;
   mutable std::vector<V> yk_;
   mutable bool coeffs_ready_ = false;
-  mutable M sample_phi_;  // state_at's scratch
-  mutable V sample_r_, sample_c_, sample_s_;
+  mutable V sample_term_;  // state_at's scratch
   std::vector<double> gc_;
   mutable std::vector<R> rows_;
   mutable std::vector<double> offs_;
