@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <complex>
 #include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -39,6 +40,9 @@ constexpr double kDistinctOrbit = 1e-6;
 // A period-doubled branch steps across a period-N orbit where its half-period difference turns
 // to its opposite between two points: the cosine of their angle is below -this.
 constexpr double kOppositeCosine = 0.99;
+// Doublings of the step either side of a doubled branch's meeting with a period-N orbit in
+// which the crossing of that orbit's multiplier through -1 is sought (kSwitchStep p_scale and up).
+constexpr int kMeetingBracketSteps = 4;
 
 // The contact sequence of one period, the grazing test's signature: cyclic, so the least of
 // its rotations (an event that moves across the section time changes nothing).
@@ -378,6 +382,87 @@ class Continuer {
     return at;
   }
 
+  // The period doubling of the period-N orbit that the doubled branch meets at m: where that
+  // orbit's multiplier nearest -1 passes through -1, to kLocateWidth p_scale in p. The orbit
+  // is shot with period N from m's first half (its segments at the same times) and followed in
+  // p alone, which a period doubling leaves regular; the crossing is bracketed by steps of
+  // kSwitchStep p_scale either side (doubled kMeetingBracketSteps times at most) and closed by
+  // the Illinois variant of regula falsi. nullopt when a shooting fails or no bracket is found
+  // (the branch then ends on m as it is).
+  std::optional<Bifurcation> meeting_doubling(const Point& m) {
+    const int periods = o_.orbit.periods / 2, segments = segments_ / 2;
+    OrbitOptions oo = o_.orbit;
+    oo.periods = periods;
+    oo.segments = segments;
+    struct Sample {
+      double p = 0, g = 0;
+      ode::Vector x;
+      BranchOrbit orbit;
+      std::string json;
+    };
+    // Re(mu) + 1 of the multiplier nearest -1 of the period-N orbit at p, shot from x.
+    const auto shoot = [&](double p, const ode::Vector& x, Sample& out) {
+      std::string why;
+      std::unique_ptr<Family> f;
+      try {
+        f = family(case_at(p), periods, segments, scale_, engine_tolerance_,
+                   stiffness_ ? &*stiffness_ : nullptr);
+      } catch (const InputError&) {
+        return false;
+      }
+      out.p = p;
+      out.x = x;
+      const detail::NewtonOutcome n = detail::solve_periodic(f->shooting(), out.x, oo);
+      if (!n.converged || !f->read(out.x, n.jacobians, out.orbit, &out.json, why) ||
+          out.orbit.multipliers.empty())
+        return false;
+      std::complex<double> nearest = out.orbit.multipliers[0];
+      for (const auto& mu : out.orbit.multipliers)
+        if (std::abs(mu + 1.0) < std::abs(nearest + 1.0)) nearest = mu;
+      out.g = nearest.real() + 1;
+      return true;
+    };
+    Sample a, b;
+    if (!shoot(param(m.z), m.z.head(scale_.size() * segments), a)) return std::nullopt;
+    bool bracketed = false;
+    for (int i = 0; i < kMeetingBracketSteps && !bracketed; ++i) {
+      const double step = kSwitchStep * p_scale_ * std::ldexp(1.0, i);
+      for (const double side : {1.0, -1.0}) {
+        if (shoot(a.p + side * step, a.x, b) && a.g * b.g <= 0) {
+          bracketed = true;
+          break;
+        }
+      }
+    }
+    if (!bracketed) return std::nullopt;
+    // Illinois: regula falsi that halves the value kept at a stuck end.
+    double ga = a.g, gb = b.g;
+    for (int i = 0; i < kMaxBisections && std::abs(b.p - a.p) > kLocateWidth * p_scale_ &&
+                    a.g != 0 && b.g != 0;
+         ++i) {
+      const double p = (a.p * gb - b.p * ga) / (gb - ga);
+      Sample c;
+      if (!shoot(p, std::abs(p - a.p) < std::abs(p - b.p) ? a.x : b.x, c)) break;
+      if (c.g * b.g < 0) {
+        a = std::move(b);
+        ga = gb;
+      } else {
+        ga *= 0.5;
+      }
+      b = std::move(c);
+      gb = b.g;
+    }
+    const Sample& at = std::abs(a.g) < std::abs(b.g) ? a : b;
+    return Bifurcation{BifurcationType::kPeriodDoubling,
+                       at.p,
+                       0,
+                       at.orbit,
+                       at.json,
+                       fmt::format("a multiplier through -1 of the period-{} orbit the "
+                                   "period-doubled branch meets, where that branch ends",
+                                   periods)};
+  }
+
   // The orbit of point pt as `geardyn orbit --json` prints it ("" when it cannot be read).
   std::string orbit_json_at(const Point& pt) const {
     const Eigen::Index n = pt.z.size() - 1;
@@ -552,11 +637,23 @@ class Continuer {
         // period, which the branch would retrace. It ends on the crossing.
         if (const std::optional<Point> m = period_n_crossing(cur, next, step)) {
           res.points.push_back({param(m->z), 0, o_.orbit.periods, m->orbit});
+          std::optional<Bifurcation> pd = meeting_doubling(*m);
+          if (pd && !(pd->param >= lo_ && pd->param <= hi_)) pd.reset();
+          const std::string met = fmt::format("the period-doubled branch met a period-{} orbit at",
+                                              o_.orbit.periods / 2);
+          const std::string beyond =
+              "beyond, the branch is the same orbits shifted by half a period";
+          if (pd) {
+            const std::string msg = fmt::format(
+                "{} {} = {:.12g}, where that orbit's multiplier passes through -1 (the branch's "
+                "last point, at {:.12g}, returns after half its period to {:.1e}; {})",
+                met, o_.key, pd->param, param(m->z), half_period_gap(m->z), beyond);
+            res.bifurcations.push_back(std::move(*pd));
+            return done(msg);
+          }
           return done(fmt::format(
-              "the period-doubled branch met a period-{} orbit at {} = {:.12g} (its orbits "
-              "return after half their period there to {:.1e}; beyond, the branch is the same "
-              "orbits shifted by half a period)",
-              o_.orbit.periods / 2, o_.key, param(m->z), half_period_gap(m->z)));
+              "{} {} = {:.12g} (its orbits return after half their period there to {:.1e}; {})",
+              met, o_.key, param(m->z), half_period_gap(m->z), beyond));
         }
       }
       res.points.push_back({p, 0, o_.orbit.periods, next.orbit});

@@ -267,10 +267,10 @@ TEST(CoupledContinuation, ThePeriodDoubledBranchEndsWhereItMeetsAnotherPeriodOne
       EXPECT_GT(std::abs(folds[i] - folds[j]), 1e-6) << folds[i] << " found twice";
   // The period-1 orbit there: its multiplier nearest -1 is above -1 below the meeting, at -1
   // on it (to the meeting's half-period gap) and below -1 above it.
-  const auto nearest_to_minus_one = [&](double f1) {
+  const auto nearest_to_minus_one = [&](double f1, const ode::Vector& start) {
     Case at = c;
     at.speed.shaft_frequency_hz = f1;
-    const CoupledOrbit orbit = find_coupled_orbit(at, OrbitOptions{}, last.orbit.state);
+    const CoupledOrbit orbit = find_coupled_orbit(at, OrbitOptions{}, start);
     EXPECT_TRUE(orbit.converged) << f1 << ": " << orbit.message;
     std::complex<double> best = 0;
     for (const auto& mu : orbit.multipliers)
@@ -278,9 +278,25 @@ TEST(CoupledContinuation, ThePeriodDoubledBranchEndsWhereItMeetsAnotherPeriodOne
     EXPECT_EQ(best.imag(), 0.0);
     return best.real();
   };
-  EXPECT_GT(nearest_to_minus_one(last.param - 0.2), -1.0);
-  EXPECT_NEAR(nearest_to_minus_one(last.param), -1.0, 1e-4);
-  EXPECT_LT(nearest_to_minus_one(last.param + 0.2), -1.0);
+  EXPECT_GT(nearest_to_minus_one(last.param - 0.2, last.orbit.state), -1.0);
+  EXPECT_NEAR(nearest_to_minus_one(last.param, last.orbit.state), -1.0, 1e-4);
+  EXPECT_LT(nearest_to_minus_one(last.param + 0.2, last.orbit.state), -1.0);
+  // The meeting located: a period doubling of that period-1 orbit on the doubled branch, its
+  // multiplier at -1 to the engine's accuracy, and through -1 within 1e-5 Hz either side
+  // (the last point, a bisection in arclength stopped where the corrector fails, is 1e-3 Hz
+  // off).
+  const Bifurcation* meeting = nullptr;
+  for (const Bifurcation& b : r.bifurcations)
+    if (b.branch == 1 && b.type == BifurcationType::kPeriodDoubling) meeting = &b;
+  ASSERT_NE(meeting, nullptr) << r.message;
+  EXPECT_NEAR(meeting->param, 681.214, 0.01);
+  EXPECT_NE(r.message.find("where that orbit's multiplier passes through -1"), std::string::npos)
+      << r.message;
+  double nearest = 1;
+  for (const auto& mu : meeting->orbit.multipliers) nearest = std::min(nearest, std::abs(mu + 1.0));
+  EXPECT_LT(nearest, 1e-8);
+  EXPECT_GT(nearest_to_minus_one(meeting->param - 1e-5, meeting->orbit.state), -1.0);
+  EXPECT_LT(nearest_to_minus_one(meeting->param + 1e-5, meeting->orbit.state), -1.0);
 }
 
 }  // namespace

@@ -129,7 +129,10 @@ struct ContinuationResult {
 // coupled case, with options.orbit, from options.start when given) towards `to`; with
 // follow_period_doubling also the period-doubled branches (the switch: Newton on the doubled period
 // from the period-doubling orbit displaced along the eigenvector of its multiplier -1, just beyond
-// the located parameter). Throws InputError on bad input (a key that is not numeric, a bad range);
+// the located parameter). A period-doubled branch ends where it meets a period-N orbit again
+// (its half-period difference turns to its opposite); that orbit's own period doubling there is
+// located (its multiplier through -1, shot with period N) and listed as a bifurcation of the
+// doubled branch. Throws InputError on bad input (a key that is not numeric, a bad range);
 // a branch that is lost or turns back past `from` ends the result with its reason, the points kept.
 ContinuationResult continuation(const Case& c, const ContinuationOptions& options);
 
