@@ -387,8 +387,8 @@ class Continuer {
   // is shot with period N from m's first half (its segments at the same times) and followed in
   // p alone, which a period doubling leaves regular; the crossing is bracketed by steps of
   // kSwitchStep p_scale either side (doubled kMeetingBracketSteps times at most) and closed by
-  // the Illinois variant of regula falsi. nullopt when a shooting fails or no bracket is found
-  // (the branch then ends on m as it is).
+  // the Illinois variant of regula falsi. nullopt when a shooting fails before the bracket is
+  // closed or no bracket is found (the branch then ends on m as it is).
   std::optional<Bifurcation> meeting_doubling(const Point& m) {
     const int periods = o_.orbit.periods / 2, segments = segments_ / 2;
     OrbitOptions oo = o_.orbit;
@@ -452,6 +452,9 @@ class Continuer {
       b = std::move(c);
       gb = b.g;
     }
+    // A shooting that failed inside the bracket leaves it wide: not located, not reported.
+    if (!(std::abs(b.p - a.p) <= kLocateWidth * p_scale_ || a.g == 0 || b.g == 0))
+      return std::nullopt;
     const Sample& at = std::abs(a.g) < std::abs(b.g) ? a : b;
     return Bifurcation{BifurcationType::kPeriodDoubling,
                        at.p,
