@@ -295,6 +295,11 @@ struct Cell {
   std::vector<Functional> observable_fn;  // the observables'
   M alpha;                                // sum_{k>=1} |Phi_k|
   V beta;  // sum_{k>=1} |Phi_k y_ref + r0_k| + sum_f (|rc_fk| + |rs_fk|)
+  // term_weight[k]: the largest entry of |Phi_k| over the same entry of sum_j |Phi_j|, and of
+  // each response's term over its sum. Wherever sum_{k>K} x^k term_weight[k] <= tolerance,
+  // the terms above K change the state at x by less than the truncation `converged` accepted
+  // for the whole cell, entry by entry: a sample at x sums terms 0..K alone.
+  std::vector<double> term_weight;
 };
 
 template <int D>
@@ -591,14 +596,21 @@ void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<Linear
   }
 }
 
+// Entry by entry, the sum of the terms' magnitudes.
+template <class M>
+M sum_abs(const std::vector<M>& terms) {
+  M sum = terms[0].cwiseAbs();
+  for (std::size_t i = 1; i < terms.size(); ++i) sum += terms[i].cwiseAbs();
+  return sum;
+}
+
 // True when every entry of the last two terms is below tol times the entry's sum of
 // magnitudes (entries that are exactly zero throughout pass).
 template <class M>
 bool converged(const std::vector<M>& terms, double tol) {
   const int k = static_cast<int>(terms.size()) - 1;
   if (k < 4) return false;
-  M sum = terms[0].cwiseAbs();
-  for (int i = 1; i <= k; ++i) sum += terms[i].cwiseAbs();
+  const M sum = sum_abs(terms);
   const auto last = (terms[k].cwiseAbs() + terms[k - 1].cwiseAbs()).eval();
   for (Eigen::Index i = 0; i < last.size(); ++i)
     if (last.data()[i] > tol * sum.data()[i]) return false;
@@ -783,6 +795,22 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   for (int j = 0; j < nf; ++j) {
     cell.rc_end[j] = sum(cell.rc[j]);
     cell.rs_end[j] = sum(cell.rs[j]);
+  }
+  cell.term_weight.assign(cell.order + 1, 0.0);
+  auto weigh = [&](const auto& terms) {
+    const auto total = sum_abs(terms);
+    for (int k = 0; k <= cell.order; ++k) {
+      const auto& t = terms[static_cast<std::size_t>(k)];
+      double& w_k = cell.term_weight[static_cast<std::size_t>(k)];
+      for (Eigen::Index i = 0; i < t.size(); ++i)
+        if (t.data()[i] != 0) w_k = std::max(w_k, std::abs(t.data()[i]) / total.data()[i]);
+    }
+  };
+  weigh(cell.phi);
+  weigh(cell.r0);
+  for (int j = 0; j < nf; ++j) {
+    weigh(cell.rc[j]);
+    weigh(cell.rs[j]);
   }
   cell.alpha = M::Zero(n, n);
   cell.beta = V::Zero(n);
@@ -1312,7 +1340,11 @@ class Flow final : public CellView {
 
  public:
   Flow(const LinearSwitchedSystem& sys, const LazyRegions<D>& regions, const EngineOptions& opt)
-      : sys_(sys), regions_(regions), opt_(opt), n_(sys.dimension) {}
+      : sys_(sys),
+        regions_(regions),
+        opt_(opt),
+        tol_(std::max(opt.tolerance, kRoundingLimit)),
+        n_(sys.dimension) {}
 
   // A region's cells are built on first entry; if its series do not converge the flow ends
   // there with the reason.
@@ -1542,6 +1574,22 @@ class Flow final : public CellView {
     return true;
   }
 
+  // The highest term a sample at x (in [0, 1]) needs: the least K with
+  // sum_{k>K} x^k term_weight[k] <= the tolerance the cell was summed to.
+  int sample_order(const Cell<D>& cell, double x) const {
+    double power = 1;
+    for (int k = 1; k <= cell.order; ++k) power *= x;
+    double tail = 0;
+    for (int k = cell.order; k > 0; --k) {
+      tail += power * cell.term_weight[static_cast<std::size_t>(k)];
+      if (tail > tol_) return k;
+      if (x > 0) power /= x;
+    }
+    return 0;
+  }
+
+  // A sample sums the terms up to sample_order alone: those above it change the state at x by
+  // less than the cell's truncation (Cell::term_weight).
   void state_at(double t_s, Vector& y) const override {
     const double x = std::clamp((t_s - cur_.tm) / rc_->h, 0.0, 1.0);
     if (coeffs_ready_) {
@@ -1553,13 +1601,14 @@ class Flow final : public CellView {
       // Horner over the state's terms y_k = Phi_k z + r0_k + sum_j (C_j rc_jk + S_j rs_jk),
       // each formed as it is needed: a matrix-vector product per term reads each Phi_k once
       // (Horner over the matrices would also write a matrix per term).
+      const int top = sample_order(cell, x);
       V& term = sample_term_;
-      for (int k = cell.order; k >= 0; --k) {
+      for (int k = top; k >= 0; --k) {
         term.noalias() = cell.phi[k] * cur_.z;
         term += cell.r0[k];
         for (std::size_t j = 0; j < rc_->forced.size(); ++j)
           term += cur_.C[j] * cell.rc[j][k] + cur_.S[j] * cell.rs[j][k];
-        if (k == cell.order)
+        if (k == top)
           y = term;
         else
           y = y * x + term;
@@ -1873,6 +1922,7 @@ class Flow final : public CellView {
   double last_t_ = 0;                   // the last region entry, for a failure's report
   Vector last_y_;
   const EngineOptions& opt_;
+  double tol_;  // the truncation the cells were summed to
   mutable RootFinder roots_;
   mutable std::vector<double> oc_;
   int n_;

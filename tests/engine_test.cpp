@@ -469,12 +469,18 @@ TEST(ExactEngine, JacobianMatchesFiniteDifferencesThroughImpacts) {
 }
 
 // Two masses on springs to ground with a gap between them: x2 - x1 <= gap, else a contact
-// spring kc pushes them apart. State (x1, x2, v1, v2); region 0 open, 1 in contact.
-LinearSwitchedSystem two_masses() {
-  const double k1 = 1.0, k2 = 1.7, kc = 40.0, c = 0.01, gap = 0.5, m2 = 1.3;
+// spring kc pushes them apart. State (x1, x2, v1, v2); region 0 open, 1 in contact. With a
+// `variation`, mass 1's spring is k1 (1 + variation cos(6 w t)), w the force's frequency.
+LinearSwitchedSystem two_masses(double variation = 0) {
+  const double k1 = 1.0, k2 = 1.7, kc = 40.0, c = 0.01, gap = 0.5, m2 = 1.3, w = 0.9;
   LinearSwitchedSystem s;
   s.dimension = 4;
-  s.frequencies_rad_s = {0.9};
+  s.frequencies_rad_s = {w};
+  if (variation != 0) {
+    s.frequencies_rad_s.push_back(6 * w);
+    s.coefficient_period_s = 2 * std::numbers::pi / w;
+  }
+  const std::size_t nf = s.frequencies_rad_s.size();
   s.regions.resize(2);
   for (int r = 0; r < 2; ++r) {
     LinearRegion& g = s.regions[r];
@@ -494,9 +500,14 @@ LinearSwitchedSystem two_masses() {
       u(3) = kc * gap / m2;
     }
     g.a.constant = A;
+    if (variation != 0) {
+      g.a.cos.assign(nf, Matrix::Zero(4, 4));
+      g.a.sin.assign(nf, Matrix::Zero(4, 4));
+      g.a.cos[1](2, 0) = -variation * k1;
+    }
     g.u.constant = u;
-    g.u.cos = {Vector::Zero(4)};
-    g.u.sin = {Vector::Zero(4)};
+    g.u.cos.assign(nf, Vector::Zero(4));
+    g.u.sin.assign(nf, Vector::Zero(4));
     g.u.cos[0](2) = 0.8;  // a force on mass 1
     LinearGuard q;
     q.row.constant = RowVector::Zero(4);
@@ -516,6 +527,38 @@ TEST(ExactEngine, JacobianMatchesFiniteDifferencesForTwoDegreesOfFreedom) {
   y0 << 0.0, 0.0, 0.9, -0.4;
   step << 1e-6, 1e-6, 1e-6, 1e-6;
   expect_jacobian_matches_differences(e, y0, 0, 12.0, step, 4);
+}
+
+TEST(ExactEngine, SamplesInsideCellsKeepTheTruncationOfTheCells) {
+  // A sample alone in its cell sums only the terms its place in the cell needs
+  // (Cell::term_weight); the rest of the cell's series must stay within the truncation the
+  // engine was asked for. Samples about 1.2 cells apart (one per stretch, at every place in the
+  // cell) through 28 impacts, against the engine at the rounding limit.
+  const LinearSwitchedSystem s = two_masses(0.3);
+  Vector y0(4);
+  y0 << 0.0, 0.0, 0.9, -0.4;
+  const double t1 = 58.0;
+  const OutputGrid grid{0, 0.3173, 182};
+  EngineOptions o;
+  o.tolerance = geardyn::ode::kRoundingLimit;
+  Recorder ref;
+  ASSERT_TRUE(ExactEngine(s, o).flow(0, y0, 0, t1, grid, ref).ok());
+  double scale = 0;
+  for (const Vector& y : ref.y) scale = std::max(scale, y.cwiseAbs().maxCoeff());
+  for (double tol : {1e-6, 1e-8, 1e-10}) {
+    o.tolerance = tol;
+    const ExactEngine e(s, o);
+    ASSERT_GT(grid.interval_s, e.cell_length_s(0));
+    Recorder rec;
+    const FlowResult r = e.flow(0, y0, 0, t1, grid, rec);
+    ASSERT_TRUE(r.ok()) << r.message;
+    ASSERT_EQ(r.events, 28);
+    ASSERT_EQ(rec.y.size(), ref.y.size());
+    double worst = 0;
+    for (std::size_t i = 0; i < rec.y.size(); ++i)
+      worst = std::max(worst, (rec.y[i] - ref.y[i]).cwiseAbs().maxCoeff());
+    EXPECT_LE(worst, tol * scale) << "tolerance " << tol;
+  }
 }
 
 TEST(ExactEngine, SaltationAtAnImpactIsTheAnalyticMatrix) {
