@@ -590,6 +590,16 @@ class Continuer {
         ok = false;
         why = "the branch turns too sharply for the step";
       }
+      // Two folds inside one step: the key moves one way along the branch at both points and
+      // the other way between them, so the branch turned twice in the step (where det(M - I)
+      // changes sign twice and shows nothing). A shorter step separates them; at the shortest
+      // the step is kept (folds closer than that are not resolved).
+      const double dp = ok ? next.z[np] - cur.z[np] : 0.0;
+      if (ok && cur.tangent[np] * next.tangent[np] > 0 && dp * cur.tangent[np] < 0 &&
+          std::abs(dp) > o_.orbit.tolerance && 0.5 * ds >= o_.min_step) {
+        ok = false;
+        why = "two folds inside one step";
+      }
       if (!ok) {
         ds *= 0.5;
         if (ds < o_.min_step)

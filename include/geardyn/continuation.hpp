@@ -8,7 +8,9 @@
 // through folds and its unstable parts appear. dF/dx is the exact engine's Jacobian;
 // dF/dp is a central difference of the exact residual (step kParamStep p_scale; one-sided at a
 // bound of the key), taken at each correction's first iterate and kept through its later ones. The
-// step in arclength grows after easy corrections and is halved after failed ones.
+// step in arclength grows after easy corrections and is halved after failed ones, after a
+// sharp turn of the tangent, and where the key moves between two points against the tangent's
+// direction at both (two folds inside the step, where det(M - I) changes sign twice).
 //
 // Between two points the continuation looks for:
 //   fold             det(M - I) changes sign and the branch turns back in p
