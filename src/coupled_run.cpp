@@ -99,8 +99,10 @@ class CoupledObserver : public ode::FlowObserver {
     out_.max_force_n = out_.max_deflection_m = -kInf;
     out_.min_force_n = out_.min_deflection_m = kInf;
     ranges_.resize(sys.regions.size());
-    for (std::size_t r = 0; r < sys.regions.size(); ++r)
+    for (std::size_t r = 0; r < sys.regions.size(); ++r) {
       for (const ode::LinearGuard& g : sys.regions[r].observables) ranges_[r].emplace_back(g);
+      readers_.emplace_back(sys, sys.regions[r].observables);
+    }
   }
 
   // A whole coefficient period may be jumped when the span's state bounds leave no room for a
@@ -134,7 +136,7 @@ class CoupledObserver : public ode::FlowObserver {
 
   void on_sample(double t, const ode::Vector& y, int region) override {
     CoupledSamples& s = out_.samples;
-    ode::functional_values(sys_, sys_.regions[region].observables, t, y, values_);
+    readers_[static_cast<std::size_t>(region)](t, y, values_);
     const auto value = [&](int k) { return values_[k]; };
     const CoupledParameters& p = model_.parameters();
     s.t_s.push_back(t);
@@ -208,7 +210,8 @@ class CoupledObserver : public ode::FlowObserver {
   std::array<ContactTracker, 2> bearings_;
   std::vector<std::vector<ode::FunctionalBounds>> ranges_;             // per region, per observable
   std::array<double, CoupledModel::kObservableCount> low_{}, high_{};  // the last bound_all's
-  std::vector<double> values_;                                         // a sample's observables
+  std::vector<ode::FunctionalValues> readers_;  // per region, of its observables
+  std::vector<double> values_;                  // a sample's observables
 };
 
 // The shortest time scale: the fastest natural period in contact or excitation period.

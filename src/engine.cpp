@@ -147,30 +147,57 @@ double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, dou
          evaluate(g.offset, s.frequencies_rad_s, t_s);
 }
 
-void functional_values(const LinearSwitchedSystem& s, const std::vector<LinearGuard>& gs,
-                       double t_s, const Vector& y, std::vector<double>& values) {
-  const std::vector<double>& w = s.frequencies_rad_s;
-  std::vector<double> cos_wt(w.size()), sin_wt(w.size());
-  for (std::size_t f = 0; f < w.size(); ++f) {
-    cos_wt[f] = std::cos(w[f] * t_s);
-    sin_wt[f] = std::sin(w[f] * t_s);
+FunctionalValues::FunctionalValues(const LinearSwitchedSystem& s,
+                                   const std::vector<LinearGuard>& gs)
+    : s_(&s),
+      gs_(&gs),
+      used_(gs.size()),
+      cos_wt_(s.frequencies_rad_s.size()),
+      sin_wt_(s.frequencies_rad_s.size()),
+      row_(s.dimension) {
+  std::vector<bool> any(s.frequencies_rad_s.size(), false);
+  for (std::size_t i = 0; i < gs.size(); ++i) {
+    const LinearGuard& g = gs[i];
+    for (std::size_t f = 0; f < s.frequencies_rad_s.size(); ++f) {
+      const bool row = f < g.row.cos.size() && (g.row.cos[f].any() || g.row.sin[f].any());
+      const bool offset = f < g.offset.cos.size() && (g.offset.cos[f] != 0 || g.offset.sin[f] != 0);
+      if (row || offset) {
+        used_[i].push_back(f);
+        any[f] = true;
+      }
+    }
   }
-  // The operations of evaluate(), in its order.
-  RowVector row(y.size());
+  for (std::size_t f = 0; f < any.size(); ++f)
+    if (any[f]) any_.push_back(f);
+}
+
+void FunctionalValues::operator()(double t_s, const Vector& y, std::vector<double>& values) const {
+  assert(y.size() == s_->dimension);
+  const std::vector<double>& w = s_->frequencies_rad_s;
+  for (const std::size_t f : any_) {
+    cos_wt_[f] = std::cos(w[f] * t_s);
+    sin_wt_[f] = std::sin(w[f] * t_s);
+  }
+  // The operations of evaluate(), in its order, for the harmonics that are not zero.
+  const std::vector<LinearGuard>& gs = *gs_;
   values.resize(gs.size());
   for (std::size_t i = 0; i < gs.size(); ++i) {
     const LinearGuard& g = gs[i];
-    row = g.row.constant;
-    for (std::size_t f = 0; f < g.row.cos.size(); ++f) {
-      row += g.row.cos[f] * cos_wt[f];
-      row += g.row.sin[f] * sin_wt[f];
-    }
+    row_ = g.row.constant;
     double offset = g.offset.constant;
-    for (std::size_t f = 0; f < g.offset.cos.size(); ++f) {
-      offset += g.offset.cos[f] * cos_wt[f];
-      offset += g.offset.sin[f] * sin_wt[f];
+    for (const std::size_t f : used_[i]) {
+      if (f < g.row.cos.size()) {
+        row_ += g.row.cos[f] * cos_wt_[f];
+        row_ += g.row.sin[f] * sin_wt_[f];
+      }
     }
-    values[i] = row.dot(y) + offset;
+    for (const std::size_t f : used_[i]) {
+      if (f < g.offset.cos.size()) {
+        offset += g.offset.cos[f] * cos_wt_[f];
+        offset += g.offset.sin[f] * sin_wt_[f];
+      }
+    }
+    values[i] = row_.dot(y) + offset;
   }
 }
 

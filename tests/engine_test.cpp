@@ -92,12 +92,22 @@ TEST(LinearSystem, FunctionalValuesAreEachFunctionalsValueToTheLastBit) {
   LinearGuard constant;
   constant.row.constant = RowVector::LinSpaced(6, -1.0, 1.5);
   constant.offset.constant = 0.3;
-  const std::vector<LinearGuard> gs = {g, constant, g};
+  // One harmonic in the offset alone, and one in the row alone (the reader keeps, per
+  // functional, the harmonics either holds).
+  LinearGuard offset_only = constant;
+  offset_only.offset.cos = {0.0, 0.0, 0.35};
+  offset_only.offset.sin = {0.0, -0.2, 0.0};
+  LinearGuard row_only = constant;
+  row_only.row.cos.assign(3, RowVector::Zero(6));
+  row_only.row.sin.assign(3, RowVector::Zero(6));
+  row_only.row.sin[1](3) = 0.8;
+  const std::vector<LinearGuard> gs = {g, constant, offset_only, row_only, g};
+  const geardyn::ode::FunctionalValues read(s, gs);
   std::vector<double> values;
   for (int i = 0; i < 50; ++i) {
     const double t = 0.137 * i - 2.0;
     const Vector y = Vector::LinSpaced(6, -0.5 + 0.01 * i, 2.0 - 0.03 * i);
-    geardyn::ode::functional_values(s, gs, t, y, values);
+    read(t, y, values);
     ASSERT_EQ(values.size(), gs.size());
     for (std::size_t k = 0; k < gs.size(); ++k)
       EXPECT_EQ(values[k], geardyn::ode::functional_value(s, gs[k], t, y)) << k << " at " << t;

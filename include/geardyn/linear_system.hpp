@@ -79,10 +79,25 @@ RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double
 // The value of any affine functional of the system (a guard or an observable) at (t, y).
 double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, double t_s,
                         const Vector& y);
-// The values of every functional of `gs` at (t, y) into `values` (resized), each equal to the
-// last bit to functional_value's; the system's cosines and sines at t are computed once.
-void functional_values(const LinearSwitchedSystem& s, const std::vector<LinearGuard>& gs,
-                       double t_s, const Vector& y, std::vector<double>& values);
+// The values of a list of functionals (a region's guards or observables) at many (t, y), each
+// equal to the last bit to functional_value's: built once per list, it keeps the frequencies
+// each functional's row or offset holds (a harmonic whose terms are zero adds nothing) and
+// computes their cosines and sines once per call, without allocating. The system and the list
+// must outlive the reader.
+class FunctionalValues {
+ public:
+  FunctionalValues(const LinearSwitchedSystem& s, const std::vector<LinearGuard>& gs);
+  // Requires y of the system's dimension (asserted in debug builds); `values` is resized.
+  void operator()(double t_s, const Vector& y, std::vector<double>& values) const;
+
+ private:
+  const LinearSwitchedSystem* s_;
+  const std::vector<LinearGuard>* gs_;
+  std::vector<std::vector<std::size_t>> used_;  // per functional, the frequencies it holds
+  std::vector<std::size_t> any_;                // frequencies some functional holds
+  mutable std::vector<double> cos_wt_, sin_wt_;
+  mutable RowVector row_;
+};
 
 // Interval bounds of an affine functional (a guard or an observable) over every time and every
 // state of a box lo <= y <= hi: each row entry and the offset range over their amplitudes
