@@ -325,7 +325,8 @@ struct Cell {
   // term_weight[k]: the largest entry of |Phi_k| over the same entry of sum_j |Phi_j|, and of
   // each response's term over its sum. Wherever sum_{k>K} x^k term_weight[k] <= tolerance,
   // the terms above K change the state at x by less than the truncation `converged` accepted
-  // for the whole cell, entry by entry: a sample at x sums terms 0..K alone.
+  // for the whole cell, entry by entry: a sample at x sums terms 0..K alone. Kept for more
+  // than two states (the two-state path's 2 x 2 terms are all summed).
   std::vector<double> term_weight;
 };
 
@@ -823,21 +824,23 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
     cell.rc_end[j] = sum(cell.rc[j]);
     cell.rs_end[j] = sum(cell.rs[j]);
   }
-  cell.term_weight.assign(cell.order + 1, 0.0);
-  auto weigh = [&](const auto& terms) {
-    const auto total = sum_abs(terms);
-    for (int k = 0; k <= cell.order; ++k) {
-      const auto& t = terms[static_cast<std::size_t>(k)];
-      double& w_k = cell.term_weight[static_cast<std::size_t>(k)];
-      for (Eigen::Index i = 0; i < t.size(); ++i)
-        if (t.data()[i] != 0) w_k = std::max(w_k, std::abs(t.data()[i]) / total.data()[i]);
+  if constexpr (D == Eigen::Dynamic) {
+    cell.term_weight.assign(cell.order + 1, 0.0);
+    auto weigh = [&](const auto& terms) {
+      const auto total = sum_abs(terms);
+      for (int k = 0; k <= cell.order; ++k) {
+        const auto& t = terms[static_cast<std::size_t>(k)];
+        double& w_k = cell.term_weight[static_cast<std::size_t>(k)];
+        for (Eigen::Index i = 0; i < t.size(); ++i)
+          if (t.data()[i] != 0) w_k = std::max(w_k, std::abs(t.data()[i]) / total.data()[i]);
+      }
+    };
+    weigh(cell.phi);
+    weigh(cell.r0);
+    for (int j = 0; j < nf; ++j) {
+      weigh(cell.rc[j]);
+      weigh(cell.rs[j]);
     }
-  };
-  weigh(cell.phi);
-  weigh(cell.r0);
-  for (int j = 0; j < nf; ++j) {
-    weigh(cell.rc[j]);
-    weigh(cell.rs[j]);
   }
   cell.alpha = M::Zero(n, n);
   cell.beta = V::Zero(n);
@@ -1615,8 +1618,10 @@ class Flow final : public CellView {
     return 0;
   }
 
-  // A sample sums the terms up to sample_order alone: those above it change the state at x by
-  // less than the cell's truncation (Cell::term_weight).
+  // With more than two states a sample sums the terms up to sample_order alone: those above it
+  // change the state at x by less than the cell's truncation (Cell::term_weight). The two-state
+  // path sums every term: there the shorter sums cost more in tighter tolerances than they save
+  // (docs/performance.md).
   void state_at(double t_s, Vector& y) const override {
     const double x = std::clamp((t_s - cur_.tm) / rc_->h, 0.0, 1.0);
     if (coeffs_ready_) {
