@@ -325,8 +325,9 @@ struct Cell {
   // term_weight[k]: the largest entry of |Phi_k| over the same entry of sum_j |Phi_j|, and of
   // each response's term over its sum. Wherever sum_{k>K} x^k term_weight[k] <= tolerance,
   // the terms above K change the state at x by less than the truncation `converged` accepted
-  // for the whole cell, entry by entry: a sample at x sums terms 0..K alone. Kept for more
-  // than two states (the two-state path's 2 x 2 terms are all summed).
+  // for the whole cell, entry by entry: a sample at x sums terms 0..K alone. Formed for more
+  // than two states when a flow first samples the region (LazyRegions::with_term_weights; the
+  // two-state path's 2 x 2 terms are all summed).
   std::vector<double> term_weight;
 };
 
@@ -824,24 +825,6 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
     cell.rc_end[j] = sum(cell.rc[j]);
     cell.rs_end[j] = sum(cell.rs[j]);
   }
-  if constexpr (D == Eigen::Dynamic) {
-    cell.term_weight.assign(cell.order + 1, 0.0);
-    auto weigh = [&](const auto& terms) {
-      const auto total = sum_abs(terms);
-      for (int k = 0; k <= cell.order; ++k) {
-        const auto& t = terms[static_cast<std::size_t>(k)];
-        double& w_k = cell.term_weight[static_cast<std::size_t>(k)];
-        for (Eigen::Index i = 0; i < t.size(); ++i)
-          if (t.data()[i] != 0) w_k = std::max(w_k, std::abs(t.data()[i]) / total.data()[i]);
-      }
-    };
-    weigh(cell.phi);
-    weigh(cell.r0);
-    for (int j = 0; j < nf; ++j) {
-      weigh(cell.rc[j]);
-      weigh(cell.rs[j]);
-    }
-  }
   cell.alpha = M::Zero(n, n);
   cell.beta = V::Zero(n);
   for (int k = 1; k <= cell.order; ++k) {
@@ -850,6 +833,27 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
     for (int j = 0; j < nf; ++j) cell.beta += cell.rc[j][k].cwiseAbs() + cell.rs[j][k].cwiseAbs();
   }
   return true;
+}
+
+// Fills cell.term_weight (Cell's comment) from the cell's series.
+template <int D>
+void weigh_terms(Cell<D>& cell) {
+  cell.term_weight.assign(static_cast<std::size_t>(cell.order) + 1, 0.0);
+  auto weigh = [&](const auto& terms) {
+    const auto total = sum_abs(terms);
+    for (int k = 0; k <= cell.order; ++k) {
+      const auto& t = terms[static_cast<std::size_t>(k)];
+      double& w_k = cell.term_weight[static_cast<std::size_t>(k)];
+      for (Eigen::Index i = 0; i < t.size(); ++i)
+        if (t.data()[i] != 0) w_k = std::max(w_k, std::abs(t.data()[i]) / total.data()[i]);
+    }
+  };
+  weigh(cell.phi);
+  weigh(cell.r0);
+  for (std::size_t j = 0; j < cell.rc.size(); ++j) {
+    weigh(cell.rc[j]);
+    weigh(cell.rs[j]);
+  }
 }
 
 // The largest eigenvalue modulus of the matrices stacked in `samples` (n x n each, by
@@ -1254,7 +1258,8 @@ class LazyRegions {
         opt_(opt),
         cells_(sys.regions.size()),
         once_(std::make_unique<std::once_flag[]>(sys.regions.size())),
-        observables_once_(std::make_unique<std::once_flag[]>(sys.regions.size())) {}
+        observables_once_(std::make_unique<std::once_flag[]>(sys.regions.size())),
+        weights_once_(std::make_unique<std::once_flag[]>(sys.regions.size())) {}
   // Throws std::invalid_argument when the region's series do not converge.
   const RegionCells<D>& get(int r) const {
     std::call_once(once_[r], [&] { cells_[r] = build_region<D>(*sys_, r, rate(r), opt_); });
@@ -1270,6 +1275,14 @@ class LazyRegions {
           cache_functionals(*sys_, sys_->regions[r].observables, k * w.h, w.h, w.cells[k], w.y_ref,
                             w.cells[k].observable_fn);
       });
+    return rc;
+  }
+  // get(r), with its cells' term weights (Cell::term_weight), which only samples read.
+  const RegionCells<D>& with_term_weights(int r) const {
+    const RegionCells<D>& rc = get(r);
+    std::call_once(weights_once_[r], [&] {
+      for (Cell<D>& cell : cells_[r].cells) weigh_terms(cell);
+    });
     return rc;
   }
   int max_order() const {
@@ -1292,7 +1305,7 @@ class LazyRegions {
   const LinearSwitchedSystem* sys_;
   EngineOptions opt_;
   mutable std::vector<RegionCells<D>> cells_;
-  std::unique_ptr<std::once_flag[]> once_, observables_once_;
+  std::unique_ptr<std::once_flag[]> once_, observables_once_, weights_once_;
 };
 
 }  // namespace
@@ -1633,7 +1646,7 @@ class Flow final : public CellView {
       // Horner over the state's terms y_k = Phi_k z + r0_k + sum_j (C_j rc_jk + S_j rs_jk),
       // each formed as it is needed: a matrix-vector product per term reads each Phi_k once
       // (Horner over the matrices would also write a matrix per term).
-      const int top = sample_order(cell, x);
+      const int top = sample_order(regions_.with_term_weights(cur_.region).cells[cur_.k], x);
       V& term = sample_term_;
       for (int k = top; k >= 0; --k) {
         term.noalias() = cell.phi[k] * cur_.z;
