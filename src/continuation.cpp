@@ -821,27 +821,30 @@ void write_continuation(const std::filesystem::path& dir, const ContinuationResu
   std::vector<std::string> plots;
   int branches = 0;
   for (const BranchPoint& p : r.points) branches = std::max(branches, p.branch + 1);
-  // One curve per branch and stability (a period-doubled branch in another colour), titled
-  // once.
-  bool titled_stable = false, titled_unstable = false;
+  // One curve per branch and stability (each period-doubled branch in another colour). With
+  // one branch the key reads stable and unstable; with more, each names its period, once.
+  std::vector<std::string> titles;
   // branch.csv's column of the branch (1-based): after the 11 readings, the state and the 4
   // multiplier columns.
   const std::size_t branch_column = 11 + r.state_names.size() + 4 + 1;
+  const char* const colours[] = {"#1f3b73", "#4a8f3c", "#b5532b", "#7a1f7a"};
   for (int b = 0; b < branches; ++b) {
-    const char* colour = b == 0 ? "#1f3b73" : "#4a8f3c";
+    const char* colour = colours[static_cast<std::size_t>(b) % std::size(colours)];
     for (const int stable : {1, 0}) {
-      const bool present = std::any_of(r.points.begin(), r.points.end(), [&](const BranchPoint& p) {
+      const auto first = std::find_if(r.points.begin(), r.points.end(), [&](const BranchPoint& p) {
         return p.branch == b && p.orbit.stable == (stable == 1);
       });
-      if (!present) continue;
-      bool& titled = stable ? titled_stable : titled_unstable;
-      const std::string title =
-          titled ? "notitle" : (stable ? "title 'stable'" : "title 'unstable'");
-      titled = true;
+      if (first == r.points.end()) continue;
+      const char* stability = stable ? "stable" : "unstable";
+      std::string title = branches == 1 ? std::string(stability)
+                                        : fmt::format("period {}, {}", first->periods, stability);
+      const bool repeated = std::find(titles.begin(), titles.end(), title) != titles.end();
+      titles.push_back(title);
       plots.push_back(fmt::format(
           "'branch.csv' every ::1 using 1:(${5} == {0} && $2 == {1} ? $3 : NaN) with lines lw 2 "
           "{2}lc rgb '{3}' {4}",
-          b, stable, stable ? "" : "dt 2 ", colour, title, branch_column));
+          b, stable, stable ? "" : "dt 2 ", colour,
+          repeated ? std::string("notitle") : fmt::format("title '{}'", title), branch_column));
     }
   }
   const std::pair<BifurcationType, const char*> styles[] = {
@@ -870,7 +873,7 @@ void write_continuation(const std::filesystem::path& dir, const ContinuationResu
   }
   std::string body =
       "reset\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set key top left font ',9'\n";
+      "set key outside right top font ',9'\n";
   fmt::format_to(std::back_inserter(body),
                  "set title 'periodic orbits: amplitude along {0}'\nset xlabel '{0}'\n"
                  "set ylabel 'x_a = (max - min)/2 of delta / b'\nplot ",

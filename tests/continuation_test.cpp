@@ -4,8 +4,10 @@
 // the unstable part between the folds; outputs, bad input and cancelling.
 #include "geardyn/continuation.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -246,6 +248,23 @@ TEST(Continuation, PeriodDoublingIsLocatedAndItsBranchFollowed) {
   EXPECT_NEAR(two.end_state.q, s.q, 1e-8);
   EXPECT_NEAR(two.end_state.v, s.v, 1e-8);
   EXPECT_GT(std::abs(one.end_state.q - s.q) + std::abs(one.end_state.v - s.v), 1e-4);
+  // The figure's key names each branch by its period, once per stability found on it.
+  const auto dir = std::filesystem::temp_directory_path() / "geardyn_continuation_doubled";
+  std::filesystem::remove_all(dir);
+  geardyn::write_continuation(dir, r, "model.omega", true);
+  std::stringstream body;
+  body << std::ifstream(dir / "branch_body.gp").rdbuf();
+  for (int branch = 0; branch < 2; ++branch)
+    for (const bool stable : {true, false}) {
+      const bool found = std::any_of(r.points.begin(), r.points.end(), [&](const auto& p) {
+        return p.branch == branch && p.orbit.stable == stable;
+      });
+      const std::string title =
+          fmt::format("title 'period {}, {}'", branch + 1, stable ? "stable" : "unstable");
+      EXPECT_EQ(body.str().find(title) != std::string::npos, found) << title;
+    }
+  EXPECT_EQ(body.str().find("title 'stable'"), std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Continuation, WritesTheBranchAndItsBifurcations) {
