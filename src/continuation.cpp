@@ -17,6 +17,7 @@
 #include "geardyn/case_keys.hpp"
 #include "geardyn/coupled_orbit.hpp"
 #include "geardyn/figures.hpp"
+#include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
 #include "shooting.hpp"
 
@@ -895,11 +896,14 @@ struct Switch {
 };
 std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions& o,
                                     const Bifurcation& pd) {
-  const Eigen::EigenSolver<ode::Matrix> eig(pd.orbit.monodromy);
+  // On the balanced monodromy D^-1 M D (orbit.hpp's balance), whose eigenvector w is M's D w.
+  ode::Matrix balanced = pd.orbit.monodromy;
+  const ode::Vector d = balance(balanced);
+  const Eigen::EigenSolver<ode::Matrix> eig(balanced);
   Eigen::Index k = 0;
   for (Eigen::Index i = 1; i < eig.eigenvalues().size(); ++i)
     if (std::abs(eig.eigenvalues()[i] + 1.0) < std::abs(eig.eigenvalues()[k] + 1.0)) k = i;
-  const ode::Vector v = eig.eigenvectors().col(k).real();
+  const ode::Vector v = d.cwiseProduct(eig.eigenvectors().col(k).real());
   const double lo = std::min(o.from, o.to), hi = std::max(o.from, o.to);
   const double step = kSwitchStep * (hi - lo);
   for (const double side : {1.0, -1.0}) {

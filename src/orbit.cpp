@@ -49,6 +49,59 @@ double PeriodicSolution::max_multiplier() const {
   return m;
 }
 
+ode::Vector balance(ode::Matrix& m) {
+  // A sweep ends when no scaling changes a row and column's norm sum by 5 % (LAPACK's test);
+  // each sweep scales by powers of 2 whose exponents are bounded by the entries' range, so the
+  // loop ends; kMaxBalanceSweeps is its checker.
+  constexpr int kMaxBalanceSweeps = 1000;
+  constexpr double kBalanceGain = 0.95;
+  const Eigen::Index n = m.rows();
+  ode::Vector d = ode::Vector::Ones(n);
+  bool changed = true;
+  for (int sweep = 0; changed && sweep < kMaxBalanceSweeps; ++sweep) {
+    changed = false;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      double c = 0, r = 0;
+      for (Eigen::Index j = 0; j < n; ++j)
+        if (j != i) {
+          c += std::abs(m(j, i));
+          r += std::abs(m(i, j));
+        }
+      if (c == 0 || r == 0 || !std::isfinite(c + r)) continue;
+      const double sum = c + r;
+      double f = 1;
+      while (c < r / 2) {
+        c *= 4;
+        r /= 4;
+        f *= 2;
+      }
+      while (c >= 2 * r) {
+        c /= 4;
+        r *= 4;
+        f /= 2;
+      }
+      if (c + r < kBalanceGain * sum) {
+        changed = true;
+        d[i] *= f;
+        m.col(i) *= f;
+        m.row(i) /= f;
+      }
+    }
+  }
+  return d;
+}
+
+std::vector<std::complex<double>> floquet_multipliers(const ode::Matrix& monodromy) {
+  ode::Matrix b = monodromy;
+  balance(b);
+  const Eigen::EigenSolver<ode::Matrix> eig(b, false);
+  std::vector<std::complex<double>> mu;
+  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) mu.push_back(eig.eigenvalues()[i]);
+  std::sort(mu.begin(), mu.end(),
+            [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
+  return mu;
+}
+
 namespace detail {
 
 ode::Vector orbit_scale(const GearPairModel& model) {
@@ -187,12 +240,7 @@ void floquet(const std::vector<ode::Matrix>& segment_jacobians, ode::Matrix& mon
   const Eigen::Index d = segment_jacobians.empty() ? 0 : segment_jacobians.front().rows();
   monodromy = ode::Matrix::Identity(d, d);
   for (const ode::Matrix& j : segment_jacobians) monodromy = j * monodromy;
-  const Eigen::EigenSolver<ode::Matrix> eig(monodromy, false);
-  multipliers.clear();
-  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i)
-    multipliers.push_back(eig.eigenvalues()[i]);
-  std::sort(multipliers.begin(), multipliers.end(),
-            [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
+  multipliers = floquet_multipliers(monodromy);
 }
 
 bool Shooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,

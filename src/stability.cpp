@@ -23,8 +23,9 @@ namespace {
 // TOMS 748 iterations at most when locating a boundary.
 constexpr std::uintmax_t kMaxBoundaryIterations = 200;
 // Multipliers within this of the unit circle are neutral (the undamped system's stable
-// multipliers lie on it, to rounding): counted stable, and a complex pair must leave this band
-// on both sides of a Neimark-Sacker boundary.
+// multipliers lie on it, to rounding: about 1e-15 on the balanced monodromy): counted stable.
+// A complex pair's boundary is where its modulus crosses 1 + kNeutralMargin, so that an
+// undamped system's pair, which leaves the circle without crossing it, is located too.
 constexpr double kNeutralMargin = 1e-9;
 
 Case case_at(const Case& base, const SweepAxis& axis, double value) {
@@ -37,23 +38,15 @@ Case case_at(const Case& base, const SweepAxis& axis, double value) {
   return c;
 }
 
-std::vector<std::complex<double>> multipliers_of(const ode::Matrix& m) {
-  const Eigen::EigenSolver<ode::Matrix> eig(m, false);
-  std::vector<std::complex<double>> mu;
-  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) mu.push_back(eig.eigenvalues()[i]);
-  std::sort(mu.begin(), mu.end(),
-            [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
-  return mu;
-}
-
 double shifted_determinant(const ode::Matrix& m, double sign) {
   return (m - sign * ode::Matrix::Identity(m.rows(), m.cols())).determinant();
 }
 
-// |mu|^2 - 1 of the largest complex pair; nullopt without one.
+// |mu|^2 - (1 + kNeutralMargin)^2 of the largest complex pair; nullopt without one.
 std::optional<double> complex_pair_test(const std::vector<std::complex<double>>& mu) {
   for (const auto& m : mu)
-    if (std::abs(m.imag()) > 1e-12 * std::max(1.0, std::abs(m))) return std::norm(m) - 1;
+    if (std::abs(m.imag()) > 1e-12 * std::max(1.0, std::abs(m)))
+      return std::norm(m) - (1 + kNeutralMargin) * (1 + kNeutralMargin);
   return std::nullopt;
 }
 
@@ -161,7 +154,7 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
       StabilitySample s;
       s.param = p;
       s.param2 = row;
-      s.multipliers = multipliers_of(m);
+      s.multipliers = floquet_multipliers(m);
       s.max_multiplier = s.multipliers.empty() ? 0.0 : std::abs(s.multipliers.front());
       s.stable = s.max_multiplier < 1.0 + kNeutralMargin;
       if (i > 0) {
@@ -172,12 +165,11 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
             locate(prev_p, p, fa, fb,
                    sign > 0 ? BifurcationType::kFold : BifurcationType::kPeriodDoubling, test);
         }
-        const auto na = complex_pair_test(multipliers_of(prev));
+        const auto na = complex_pair_test(floquet_multipliers(prev));
         const auto nb = complex_pair_test(s.multipliers);
-        if (na && nb && *na * *nb < 0 && std::abs(*na) > kNeutralMargin &&
-            std::abs(*nb) > kNeutralMargin)
+        if (na && nb && *na * *nb < 0)
           locate(prev_p, p, *na, *nb, BifurcationType::kNeimarkSacker, [](const ode::Matrix& x) {
-            return complex_pair_test(multipliers_of(x)).value_or(0.0);
+            return complex_pair_test(floquet_multipliers(x)).value_or(0.0);
           });
       }
       res.samples.push_back(std::move(s));

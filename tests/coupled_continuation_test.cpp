@@ -299,7 +299,7 @@ TEST(CoupledContinuation, ThePeriodDoubledBranchEndsWhereItMeetsAnotherPeriodOne
       << r.message;
   double nearest = 1;
   for (const auto& mu : meeting->orbit.multipliers) nearest = std::min(nearest, std::abs(mu + 1.0));
-  EXPECT_LT(nearest, 1e-8);
+  EXPECT_LT(nearest, 1e-10);
   EXPECT_GT(nearest_to_minus_one(meeting->param - 1e-5, meeting->orbit.state), -1.0);
   EXPECT_LT(nearest_to_minus_one(meeting->param + 1e-5, meeting->orbit.state), -1.0);
 }

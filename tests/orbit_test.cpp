@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <array>
 #include <cmath>
 #include <complex>
@@ -252,6 +253,58 @@ TEST(FlowSensitivity, ABadKeyIsAnInputError) {
   const geardyn::ode::State y0{0.0, 1.0, 0.0, 0.0, 0};
   EXPECT_THROW((void)geardyn::flow_sensitivity(c, y0, 1.0, "solver.method"), geardyn::InputError);
   EXPECT_THROW((void)geardyn::flow_sensitivity(c, y0, 1.0, "model.nothing"), geardyn::InputError);
+}
+
+TEST(Floquet, BalancingIsAnExactSimilarityThatEvensTheScales) {
+  // Positions and rates a frequency of 1e4 apart in scale, as a monodromy's: D^-1 M D with
+  // D's entries powers of 2 (each entry scaled exactly), the spectrum kept, and each row and
+  // column's off-diagonal sums brought within a factor 4 of each other.
+  const Eigen::Index n = 6;
+  geardyn::ode::Matrix m(n, n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j)
+      m(i, j) = std::sin(1.0 + 3.0 * static_cast<double>(i) + 7.0 * static_cast<double>(j)) *
+                std::pow(1e4, static_cast<double>(i >= 3) - static_cast<double>(j >= 3));
+  geardyn::ode::Matrix b = m;
+  const geardyn::ode::Vector d = geardyn::balance(b);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    int e = 0;
+    EXPECT_EQ(std::frexp(d[i], &e), 0.5) << d[i];
+    double c = 0, r = 0;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      EXPECT_EQ(b(i, j), m(i, j) * d[j] / d[i]);
+      if (j != i) {
+        c += std::abs(b(j, i));
+        r += std::abs(b(i, j));
+      }
+    }
+    EXPECT_LT(std::max(c / r, r / c), 4.0) << i;
+  }
+  EXPECT_GT(d.maxCoeff() / d.minCoeff(), 1e3);  // the scales were evened
+}
+
+TEST(Floquet, MultipliersOnTheUnitCircleStayOnItInABadlyScaledMonodromy) {
+  // Three rotations (multipliers e^{+-i theta_k}, an undamped system's) mixed by an orthogonal
+  // matrix and scaled as positions and rates 1e4 apart: the multipliers' moduli are 1 to 1e-12
+  // (without balancing, ~1e-9), largest first.
+  const Eigen::Index n = 6;
+  geardyn::ode::Matrix t = geardyn::ode::Matrix::Zero(n, n);
+  for (Eigen::Index k = 0; k < 3; ++k) {
+    const double th = 0.4 + 0.9 * static_cast<double>(k);
+    t.block(2 * k, 2 * k, 2, 2) << std::cos(th), -std::sin(th), std::sin(th), std::cos(th);
+  }
+  geardyn::ode::Vector v(n);
+  v << 1.0, -2.0, 0.5, 3.0, -1.5, 2.5;
+  const geardyn::ode::Matrix q =
+      geardyn::ode::Matrix::Identity(n, n) - 2 * v * v.transpose() / v.squaredNorm();
+  geardyn::ode::Vector scale(n);
+  scale << 1.0, 1.0, 1.0, 1e4, 1e4, 1e4;
+  const geardyn::ode::Matrix m =
+      scale.asDiagonal() * q * t * q.transpose() * scale.cwiseInverse().asDiagonal();
+  const auto mu = geardyn::floquet_multipliers(m);
+  ASSERT_EQ(mu.size(), static_cast<std::size_t>(n));
+  for (const auto& z : mu) EXPECT_NEAR(std::abs(z), 1.0, 1e-12) << z;
+  for (std::size_t k = 0; k + 1 < mu.size(); ++k) EXPECT_GE(std::abs(mu[k]), std::abs(mu[k + 1]));
 }
 
 TEST(Orbit, SystemPeriodIsTheCommonPeriodOfTheExcitations) {

@@ -100,6 +100,18 @@ constexpr double kKeyStep = 1e-3;
 FlowSensitivity flow_sensitivity(const Case& c, const ode::State& y0, double t1_s,
                                  const std::string& key = {});
 
+// Balances m in place by a diagonal similarity, m <- D^-1 m D, D's entries powers of 2 (so
+// exact), until each row and column off the diagonal have norms within a factor 2 (Parlett and
+// Reinsch's iteration, as LAPACK's gebal does before an eigenvalue problem); returns D's
+// diagonal. A monodromy's positions and rates differ in scale by the system's frequencies
+// (1e4 and more); unbalanced, its eigenvalues carry errors of about 1e-9, enough to move an
+// undamped system's multipliers off the unit circle.
+ode::Vector balance(ode::Matrix& m);
+
+// The Floquet multipliers of a monodromy matrix (its eigenvalues, on the balanced matrix),
+// largest modulus first.
+std::vector<std::complex<double>> floquet_multipliers(const ode::Matrix& monodromy);
+
 // Finds the periodic orbit of period N T0 of the case's model, from `start` (a state on the
 // section t = 0) or, without it, from the state after settle_periods of simulation. Uses the
 // exact engine at the case's solver.tolerance whatever solver.method says. Throws InputError
