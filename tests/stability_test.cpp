@@ -180,18 +180,25 @@ geardyn::ode::Matrix rk4_contact_monodromy(const Case& c) {
   return phi;
 }
 
+// The shipped pair on its bearings at dof 3 in contact, one stiffness harmonic of 0.1, the
+// mesh's and the bearings' damping ratios `damping`.
+Case shipped_pair_one_harmonic(double damping) {
+  Case c = geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml");
+  c.model.dof = 3;
+  c.mesh.stiffness_source = geardyn::StiffnessSource::kHarmonics;
+  c.mesh.stiffness_harmonics = {{0.1, 0.0}};
+  c.mesh.damping_ratio = damping;
+  c.bearings.damping_ratio = damping;
+  return c;
+}
+
 TEST(Stability, TheCoupledModelsPrincipalTongueIsThatOfAnIndependentMonodromy) {
   // The Table 1 pair on its bearings, dof 3, one stiffness harmonic of 0.1, light damping
   // (0.005): the mesh-critical mode at 3357 Hz opens its principal tongue where the mesh
   // frequency is near twice it (56 f_1 = 2 x 3357 Hz, f_1 = 119.9 Hz). The contact monodromy
   // equals an RK4 integration's to 1e-8 at samples, and at each located boundary the RK4
   // monodromy's det(Phi + I) changes sign within 1e-6 of it.
-  Case c = geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml");
-  c.model.dof = 3;
-  c.mesh.stiffness_source = geardyn::StiffnessSource::kHarmonics;
-  c.mesh.stiffness_harmonics = {{0.1, 0.0}};
-  c.mesh.damping_ratio = 0.005;
-  c.bearings.damping_ratio = 0.005;
+  const Case c = shipped_pair_one_harmonic(0.005);
   for (const double f1 : {110.0, 120.0}) {
     Case at = c;
     at.speed.shaft_frequency_hz = f1;
@@ -228,12 +235,7 @@ TEST(Stability, AnUndampedCombinationTongueIsThatOfAnIndependentMonodromy) {
   // circle: to 1e-12 on the balanced monodromy (unbalanced, the eigenvalues' errors of ~1e-9
   // made noise look like boundaries). Each located boundary is checked on the RK4 monodromy:
   // stable 1e-3 Hz outside, unstable 1e-3 Hz inside.
-  Case c = geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml");
-  c.model.dof = 3;
-  c.mesh.stiffness_source = geardyn::StiffnessSource::kHarmonics;
-  c.mesh.stiffness_harmonics = {{0.1, 0.0}};
-  c.mesh.damping_ratio = 0;
-  c.bearings.damping_ratio = 0;
+  const Case c = shipped_pair_one_harmonic(0.0);
   StabilityOptions o;
   o.axis = {"speed.shaft_frequency_hz", 70, 85, 31, false};
   const geardyn::StabilityResult r = geardyn::stability(c, o);
@@ -261,8 +263,7 @@ TEST(Stability, AnUndampedCombinationTongueIsThatOfAnIndependentMonodromy) {
   // sqrt(Lambda - mu_1 mu_3) (mu_i = zeta_i w_i, the modes' decay rates) against the undamped
   // 2 sqrt(Lambda): as damping vanishes with its proportions kept, the width ratio tends to
   // (mu_1 + mu_3) / (2 sqrt(mu_1 mu_3)), 1.458 here (the modes' damping ratios differ).
-  Case damped = c;
-  damped.mesh.damping_ratio = damped.bearings.damping_ratio = 1e-5;
+  const Case damped = shipped_pair_one_harmonic(1e-5);
   const geardyn::StabilityResult d = geardyn::stability(damped, o);
   ASSERT_EQ(d.boundaries.size(), 2U);
   const geardyn::ModeSet m =
