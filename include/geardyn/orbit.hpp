@@ -101,11 +101,12 @@ FlowSensitivity flow_sensitivity(const Case& c, const ode::State& y0, double t1_
                                  const std::string& key = {});
 
 // Balances m in place by a diagonal similarity, m <- D^-1 m D, D's entries powers of 2 (so
-// exact), until each row and column off the diagonal have norms within a factor 2 (Parlett and
-// Reinsch's iteration, as LAPACK's gebal does before an eigenvalue problem); returns D's
-// diagonal. A monodromy's positions and rates differ in scale by the system's frequencies
-// (1e4 and more); unbalanced, its eigenvalues carry errors of about 1e-9, enough to move an
-// undamped system's multipliers off the unit circle.
+// exact), until no such scaling of a row and its column reduces their off-diagonal sums by 5 %
+// (Parlett and Reinsch's iteration, as LAPACK's gebal does before an eigenvalue problem);
+// returns D's diagonal. Stopped early by its sweep limit, it still leaves an exact similarity. A
+// monodromy's positions and rates differ in scale by the system's frequencies (1e4 and more);
+// unbalanced, its eigenvalues carry errors of about 1e-9, enough to move an undamped system's
+// multipliers off the unit circle.
 ode::Vector balance(ode::Matrix& m);
 
 // The Floquet multipliers of a monodromy matrix (its eigenvalues, on the balanced matrix),
