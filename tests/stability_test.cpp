@@ -266,6 +266,8 @@ TEST(Stability, AnUndampedCombinationTongueIsThatOfAnIndependentMonodromy) {
   const Case damped = shipped_pair_one_harmonic(1e-5);
   const geardyn::StabilityResult d = geardyn::stability(damped, o);
   ASSERT_EQ(d.boundaries.size(), 2U);
+  EXPECT_NEAR(d.boundaries[0].param, 76.665, 1e-3);  // docs/orbits.md
+  EXPECT_NEAR(d.boundaries[1].param, 77.788, 1e-3);
   const geardyn::ModeSet m =
       geardyn::modes(geardyn::CoupledModel(geardyn::coupled_parameters(damped)));
   ASSERT_EQ(m.modes.size(), 3U);
@@ -276,6 +278,11 @@ TEST(Stability, AnUndampedCombinationTongueIsThatOfAnIndependentMonodromy) {
   const double ratio = (rate(0) + rate(2)) / (2 * std::sqrt(rate(0) * rate(2)));
   EXPECT_NEAR(ratio, 1.458, 1e-3);
   EXPECT_NEAR((d.boundaries[1].param - d.boundaries[0].param) / (hi - lo), ratio, 1e-3 * ratio);
+  // At the damping of the principal tongue's test (0.005) the tongue is narrower than both.
+  const geardyn::StabilityResult light = geardyn::stability(shipped_pair_one_harmonic(0.005), o);
+  ASSERT_EQ(light.boundaries.size(), 2U);
+  EXPECT_NEAR(light.boundaries[0].param, 76.93, 0.01);
+  EXPECT_NEAR(light.boundaries[1].param, 77.52, 0.01);
   // Both tongues centred where the mesh frequency is the two modes' sum, to first order.
   const double centre = (m.modes[0].frequency_hz + m.modes[2].frequency_hz) / 56;
   EXPECT_NEAR(0.5 * (lo + hi), centre, 1e-3 * centre);
