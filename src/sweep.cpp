@@ -23,6 +23,8 @@
 namespace geardyn {
 namespace {
 
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
 std::string number_text(double x) { return fmt::format("{:.17g}", x); }
 
 // The state a point hands to the next one of its sequence: the one-degree model's or the
@@ -155,7 +157,6 @@ class PointRunner {
     pt.direction = job.direction;
     pt.value = job.value;
     pt.value2 = job.value2;
-    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
     pt.mean_delta_bar = pt.rms_delta_bar = pt.pp_delta_bar = pt.min_delta_bar = kNaN;
     pt.mean_force_bar = pt.rms_force_bar = pt.pp_force_bar = pt.max_force_bar = kNaN;
     pt.separated_fraction = pt.impacts_per_period = kNaN;
@@ -205,7 +206,16 @@ class PointRunner {
       section.add(mesh(t, y));
       return true;
     });
-    if (failure) return failed(job, carry, ode::to_string(failure->termination), failure->message);
+    // A failed coupled point keeps its bearing columns, as NaN.
+    const auto failed_coupled = [&](const char* termination, const std::string& message) {
+      SweepPoint pt = failed(job, carry, termination, message);
+      BearingReading nan;
+      nan.max_line_force_n = nan.line_force_factor = nan.max_axial_force_n =
+          nan.axial_force_factor = nan.impacts_per_period = kNaN;
+      pt.bearings = std::array<BearingReading, 2>{nan, nan};
+      return pt;
+    };
+    if (failure) return failed_coupled(ode::to_string(failure->termination), failure->message);
     const int q = std::max(verdict.period_multiple, 1);
     const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
     const double t1 = t + m * period;
@@ -213,7 +223,7 @@ class PointRunner {
     const CoupledRunResult r =
         solver.read(t, y, t1, ode::OutputGrid{t, period / spp, static_cast<std::int64_t>(m) * spp},
                     t1 - period, {}, &end);
-    if (!r.ok()) return failed(job, carry, ode::to_string(r.termination), r.message);
+    if (!r.ok()) return failed_coupled(ode::to_string(r.termination), r.message);
     SweepPoint pt;
     pt.direction = job.direction;
     pt.value = job.value;
@@ -250,6 +260,11 @@ class PointRunner {
     pt.settled = verdict.settled();
     pt.period_multiple = verdict.period_multiple;
     pt.steady_error = verdict.error;
+    pt.bearings.emplace();
+    for (std::size_t i = 0; i < 2; ++i)
+      (*pt.bearings)[i] = {
+          r.max_bearing_force_n[i], r.bearing_factor[i], r.max_axial_force_n[i], r.axial_factor[i],
+          r.bearing[i].present ? static_cast<double>(r.bearing[i].impacts) / m : kNaN};
     carry.coupled = end;
     return pt;
   }
@@ -527,21 +542,34 @@ std::string csv_text(const std::string& s) {
 
 std::string sweep_csv(const SweepResult& r) {
   const SweepOptions& o = r.options;
+  // The coupled model's bearings: ten more columns before `failure`.
+  const bool bearings = r.form == ModelForm::kCoupled;
   std::string out =
       "direction,param,value,param2,value2,settled,settle_periods,mean_delta_bar,rms_delta_bar,"
       "pp_delta_bar,min_delta_bar,mean_force_bar,rms_force_bar,pp_force_bar,max_force_bar,"
       "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided,period_multiple,"
-      "steady_error,failure\n";
+      "steady_error,";
+  if (bearings)
+    for (int gear = 1; gear <= 2; ++gear)
+      for (const BearingColumn& col : kBearingColumns)
+        fmt::format_to(std::back_inserter(out), "bearing{}_{},", gear, col.name);
+  out += "failure\n";
   for (const SweepPoint& p : r.points) {
     fmt::format_to(
         std::back_inserter(out),
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},",
         to_string(p.direction), o.axis.key, p.value, o.axis2 ? o.axis2->key : "", p.value2,
         p.settled ? 1 : 0, p.settle_periods, p.mean_delta_bar, p.rms_delta_bar, p.pp_delta_bar,
         p.min_delta_bar, p.mean_force_bar, p.rms_force_bar, p.pp_force_bar, p.max_force_bar,
         p.dynamic_factor ? fmt::format("{}", *p.dynamic_factor) : "", p.separated_fraction,
         p.impacts_per_period, p.failure.empty() ? to_string(p.regime) : "failed",
-        p.double_sided ? 1 : 0, p.period_multiple, p.steady_error, csv_text(p.failure));
+        p.double_sided ? 1 : 0, p.period_multiple, p.steady_error);
+    if (bearings)
+      for (std::size_t i = 0; i < 2; ++i)
+        for (const BearingColumn& col : kBearingColumns)
+          fmt::format_to(std::back_inserter(out), "{},",
+                         p.bearings ? (*p.bearings)[i].*col.member : kNaN);
+    out += csv_text(p.failure) + "\n";
   }
   return out;
 }
@@ -703,13 +731,73 @@ std::string regime_map_body(const SweepResult& r) {
   return s;
 }
 
+// The coupled model's bearings along the key: the largest line-of-action force per gear, up
+// and down, and in further panels only what occurred: the axial forces of a helical pair, the
+// impacts in a bearing's clearance.
+std::string bearing_forces_body(const SweepResult& r) {
+  const auto any = [&](std::size_t member, const auto& test) {
+    for (const SweepPoint& p : r.points)
+      if (p.bearings)
+        for (const BearingReading& b : *p.bearings)
+          if (test(b.*kBearingColumns[member].member)) return true;
+    return false;
+  };
+  const auto column_of = [](int gear, std::size_t member) {  // sweep.csv's, from 1
+    constexpr int kBase = 22;                                // the columns before the bearings
+    return kBase + 1 + (gear - 1) * static_cast<int>(kBearingColumns.size()) +
+           static_cast<int>(member);
+  };
+  struct Panel {
+    std::size_t member;
+    const char* ylabel;
+  };
+  std::vector<Panel> panels{{0, "largest line-of-action force (N)"}};
+  if (any(2, [](double x) { return std::isfinite(x) && x > 0; }))
+    panels.push_back({2, "largest axial force (N)"});
+  if (any(4, [](double x) { return std::isfinite(x); }))
+    panels.push_back({4, "impacts per period in the clearance"});
+  std::string s = fmt::format(
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top right font ',9'\n{}set multiplot layout {},1 title \"bearings along {}\"\n",
+      r.options.axis.log ? "set logscale x\n" : "", panels.size(), r.options.axis.key);
+  for (std::size_t k = 0; k < panels.size(); ++k) {
+    const Panel& panel = panels[k];
+    fmt::format_to(std::back_inserter(s), "set xlabel '{}'\nset ylabel '{}'\nplot ",
+                   k + 1 == panels.size() ? r.options.axis.key : "", panel.ylabel);
+    bool first = true;
+    for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
+      if (std::none_of(r.points.begin(), r.points.end(),
+                       [&](const SweepPoint& p) { return p.direction == d; }))
+        continue;
+      for (int gear = 1; gear <= 2; ++gear) {
+        if (panel.member == 4 && !std::any_of(r.points.begin(), r.points.end(), [&](const auto& p) {
+              return p.bearings && std::isfinite((*p.bearings)[gear - 1].impacts_per_period);
+            }))
+          continue;  // this bearing has no clearance
+        const bool up = d == SweepDirection::kUp;
+        fmt::format_to(std::back_inserter(s),
+                       "{}'sweep.csv' every ::1 using 3:(strcol(1) eq '{}' ? ${} : NaN) with "
+                       "linespoints dt {} pt {} ps {} lc rgb '{}' title '{}: gear {}'",
+                       first ? "" : ", \\\n     ", to_string(d), column_of(gear, panel.member),
+                       gear == 1 ? 1 : 2, up ? 7 : 6, up ? 0.4 : 0.5, up ? "#1f3b73" : "#b5532b",
+                       to_string(d), gear);
+        first = false;
+      }
+    }
+    s += "\n";
+  }
+  return s + "unset multiplot\n";
+}
+
 }  // namespace
 
-void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool figures) {
+std::vector<std::string> write_sweep(const std::filesystem::path& dir, const SweepResult& r,
+                                     bool figures) {
   write_files_atomically(dir, {{"sweep.csv", sweep_csv(r)},
                                {"strobe.csv", strobe_csv(r, r.form)},
                                {"summary.json", summary(r)}});
-  if (!figures || r.points.empty()) return;
+  if (!figures || r.points.empty()) return {};
+  std::vector<std::string> drawn{"frequency_response", "bifurcation"};
   const SweepOptions& o = r.options;
   const std::string xlog = o.axis.log ? "set logscale x\n" : "";
   const std::string preamble = "reset\nset encoding utf8\nset datafile separator ','\n";
@@ -789,7 +877,15 @@ void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool fi
   bi += "\n";
   render_figure(dir, "bifurcation", bi, 1000, 600);
 
-  if (o.axis2) render_figure(dir, "regime_map", regime_map_body(r), 1000, 600);
+  if (o.axis2) {
+    render_figure(dir, "regime_map", regime_map_body(r), 1000, 600);
+    drawn.emplace_back("regime_map");
+  }
+  if (r.form == ModelForm::kCoupled && !o.axis2) {
+    render_figure(dir, "bearing_forces", bearing_forces_body(r), 1000, 750);
+    drawn.emplace_back("bearing_forces");
+  }
+  return drawn;
 }
 
 }  // namespace geardyn

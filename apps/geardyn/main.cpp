@@ -4,6 +4,7 @@
 // Exit codes: 0 success, 1 numerical failure (reported with its reason), 2 bad input,
 // 3 a figure could not be drawn (gnuplot missing or failing; the data files are written).
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -408,7 +409,7 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
   bar.finish();
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} completed points\n", r.points.size());
-  geardyn::write_sweep(out_dir, r, figures && !r.cancelled);
+  const std::vector<std::string> drawn = geardyn::write_sweep(out_dir, r, figures && !r.cancelled);
   fmt::print("geardyn sweep: {} from {} to {}, {} points{}, {} ({} threads, {:.2f} s)\n",
              o.axis.key, o.axis.from, o.axis.to, o.axis.points,
              o.axis2 ? fmt::format(" x {} from {} to {}, {} points", o.axis2->key, o.axis2->from,
@@ -445,10 +446,8 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
                o.direction == geardyn::SweepDirection::kBoth && r.hysteresis.empty()
                    ? ", and up and down agree"
                    : "");
-  fmt::print("  written to {}/ (sweep.csv, strobe.csv, summary.json{})\n", out_dir,
-             figures && !r.cancelled
-                 ? ", frequency_response, bifurcation" + std::string(o.axis2 ? ", regime_map" : "")
-                 : "");
+  fmt::print("  written to {}/ (sweep.csv, strobe.csv, summary.json{}{})\n", out_dir,
+             drawn.empty() ? "" : ", ", fmt::join(drawn, ", "));
   if (r.cancelled) return kExitInterrupted;
   return r.failed > 0 ? kExitNumerical : 0;
 }

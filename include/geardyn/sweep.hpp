@@ -8,6 +8,7 @@
 // depend on the number of threads.
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -72,6 +73,30 @@ struct SweepOptions {
   std::string validate() const;
 };
 
+// One bearing of a coupled sweep point (coupled_run.hpp's reading over the measurement): the
+// largest line-of-action and axial bearing force (N, exact extremes) and their dynamic factors
+// (over the static cos(beta_b) F_n and sin(beta_b) F_n; NaN axial for a spur pair), and the
+// impacts per system period in the bearing's clearance (NaN without a clearance).
+struct BearingReading {
+  double max_line_force_n = 0, line_force_factor = 0;
+  double max_axial_force_n = 0, axial_force_factor = 0;
+  double impacts_per_period = 0;
+};
+
+// The bearing columns of a coupled sweep, in order: sweep.csv's bearing{1,2}_<name> and the
+// Python result's keys of the same names.
+struct BearingColumn {
+  const char* name;
+  double BearingReading::*member;
+};
+inline constexpr std::array<BearingColumn, 5> kBearingColumns{{
+    {"max_line_force_n", &BearingReading::max_line_force_n},
+    {"line_force_factor", &BearingReading::line_force_factor},
+    {"max_axial_force_n", &BearingReading::max_axial_force_n},
+    {"axial_force_factor", &BearingReading::axial_force_factor},
+    {"impacts_per_period", &BearingReading::impacts_per_period},
+}};
+
 struct SweepPoint {
   SweepDirection direction = SweepDirection::kUp;  // kUp or kDown
   double value = 0;
@@ -96,6 +121,9 @@ struct SweepPoint {
   bool double_sided = false;
   // Once per system period over the measurement.
   std::vector<double> strobe_delta_bar, strobe_velocity_m_s, strobe_force_bar;
+  // The coupled model's bearings over the measurement, per gear (1, 2); empty for the other
+  // forms, NaN for a failed point.
+  std::optional<std::array<BearingReading, 2>> bearings;
 };
 
 // Where the up and the down sweep part: the parameter interval over which their responses
@@ -135,13 +163,15 @@ constexpr double kHysteresisFraction = 0.05;
 constexpr double kJumpFraction = 0.3;
 constexpr double kJumpContrast = 3.0;
 
-// Runs the sweep. Throws InputError for a bad key, value or option (naming it), and
-// std::runtime_error naming the point on a numerical failure.
+// Runs the sweep. Throws InputError for a bad key, value or option (naming it); a point that
+// fails numerically is kept with its reason (SweepPoint::failure) and the others go on.
 SweepResult sweep(const Case& base, const SweepOptions& o);
 
 // sweep.csv (one row per point and direction), strobe.csv, summary.json, and with `figures` the
-// frequency-response curve, the bifurcation diagram and (2-D) the regime map, PNG and SVG.
-void write_sweep(const std::filesystem::path& dir, const SweepResult& r, bool figures = true);
+// frequency-response curve, the bifurcation diagram, (2-D) the regime map and (a 1-D sweep of
+// the coupled model) the bearing forces, PNG and SVG. Returns the names of the figures drawn.
+std::vector<std::string> write_sweep(const std::filesystem::path& dir, const SweepResult& r,
+                                     bool figures = true);
 
 std::string sweep_csv(const SweepResult& r);
 

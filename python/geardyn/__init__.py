@@ -525,7 +525,11 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         and the other statistics of delta / b and F / (b k_m), ``separated_fraction``,
         ``impacts_per_period`` per system period, ``settled``, ``settle_periods``,
         ``period_multiple`` (the response's period in T0, 0 when not settled),
-        ``steady_error`` (its predicted distance, b), ``dynamic_factor``), ``direction``, ``regime`` and ``failure`` (why a point failed,
+        ``steady_error`` (its predicted distance, b), ``dynamic_factor``; for a coupled case
+        also the bearings' ``bearing1_max_line_force_n``, ``bearing1_line_force_factor``,
+        ``bearing1_max_axial_force_n``, ``bearing1_axial_force_factor``,
+        ``bearing1_impacts_per_period`` and the same for ``bearing2``, as in sweep.csv),
+        ``direction``, ``regime`` and ``failure`` (why a point failed,
         else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
         sample belongs to), ``delta_bar``, ``velocity_m_s`` (m/s), ``force_bar``, one sample
         per system period of the measurement; ``jumps`` and ``hysteresis`` (dicts with

@@ -28,6 +28,15 @@ _COLUMNS = {
     "double_sided": ("1", "1 when back-side contact occurred"),
     "dynamic_factor": ("1", "max F_G over the static mesh force (NaN without mean load)"),
     "settle_periods": ("period", "system periods run before the measurement kept"),
+    **{f"bearing{g}_{name}": (units, f"bearing of gear {g}: {what}")
+       for g in (1, 2)
+       for name, units, what in (
+           ("max_line_force_n", "N", "largest |line-of-action force|"),
+           ("line_force_factor", "1", "largest line-of-action force over cos(beta_b) F_static"),
+           ("max_axial_force_n", "N", "largest |axial force|"),
+           ("axial_force_factor", "1", "largest axial force over sin(beta_b) F_static (NaN: spur)"),
+           ("impacts_per_period", "1/period", "impacts in its clearance per system period "
+                                              "(NaN: no clearance)"))},
     "delta_bar": ("1", "delta / b"),
     "force_bar": ("1", "F / (b k_m)"),
     "velocity": ("m/s", "delta', the velocity along the line of action"),

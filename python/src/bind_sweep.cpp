@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "bindings.hpp"
@@ -90,6 +91,15 @@ void bind_sweep(py::module_& m) {
         out["settle_periods"] = col([](const SweepPoint& p) { return p.settle_periods; });
         out["period_multiple"] = col([](const SweepPoint& p) { return p.period_multiple; });
         out["steady_error"] = col([](const SweepPoint& p) { return p.steady_error; });
+        // The coupled model's bearings, under sweep.csv's names.
+        if (r.form == ModelForm::kCoupled)
+          for (std::size_t i = 0; i < 2; ++i)
+            for (const BearingColumn& c : kBearingColumns)
+              out[py::str("bearing" + std::to_string(i + 1) + "_" + c.name)] =
+                  col([&](const SweepPoint& p) {
+                    return p.bearings ? (*p.bearings)[i].*c.member
+                                      : std::numeric_limits<double>::quiet_NaN();
+                  });
         // The strobe (one sample per system period of each point's measurement), flat:
         // sample i belongs to point strobe["point"][i].
         std::vector<std::int64_t> owner;

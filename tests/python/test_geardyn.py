@@ -540,3 +540,19 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
         geardyn.orbit(case.with_({"model.dof": 3}), state=[0.0, 0.0])
     with pytest.raises(geardyn.InputError, match="modes are of the coupled model"):
         geardyn.modes(geardyn.Case())
+    # A coupled sweep's bearing columns are the command line's, with their units in xarray.
+    s = geardyn.sweep(case, "speed.shaft_frequency_hz", [2000.0, 2500.0], direction="up")
+    cli("sweep", str(path), "--param", "speed.shaft_frequency_hz", "--from", "2000", "--to",
+        "2500", "--points", "2", "--direction", "up", "--no-figures", "--out",
+        str(tmp_path / "sweep"))
+    rows = (tmp_path / "sweep" / "sweep.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    for name in ("bearing1_max_line_force_n", "bearing2_axial_force_factor",
+                 "bearing1_impacts_per_period"):
+        column = [float(r.split(",")[header.index(name)]) for r in rows[1:]]
+        assert np.array_equal(s[name], column, equal_nan=True), name
+    assert np.all(np.isnan(s["bearing2_impacts_per_period"]))  # no clearance
+    ds = s.to_xarray()
+    assert ds["bearing1_max_line_force_n"].attrs["units"] == "N"
+    assert "bearing" not in " ".join(geardyn.sweep(geardyn.Case(), "speed.shaft_frequency_hz",
+                                                   [2000.0], direction="up"))
