@@ -554,5 +554,7 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
     assert np.all(np.isnan(s["bearing2_impacts_per_period"]))  # no clearance
     ds = s.to_xarray()
     assert ds["bearing1_max_line_force_n"].attrs["units"] == "N"
+    fig = geardyn.plot.frequency_response(s, "f1 (Hz)", column="bearing1_max_line_force_n")
+    assert list(fig.axes[0].lines[0].get_ydata()) == list(s["bearing1_max_line_force_n"])
     assert "bearing" not in " ".join(geardyn.sweep(geardyn.Case(), "speed.shaft_frequency_hz",
                                                    [2000.0], direction="up"))
