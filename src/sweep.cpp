@@ -9,7 +9,9 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <stdexcept>
+#include <string>
 
 #include "geardyn/case_keys.hpp"
 #include "geardyn/coupled_run.hpp"
@@ -538,22 +540,39 @@ std::string csv_text(const std::string& s) {
   }
   return q + "\"";
 }
-}  // namespace
 
-std::string sweep_csv(const SweepResult& r) {
-  const SweepOptions& o = r.options;
-  // The coupled model's bearings: ten more columns before `failure`.
-  const bool bearings = r.form == ModelForm::kCoupled;
+// sweep.csv's header (no newline); the coupled model's bearings add ten columns before
+// `failure`.
+std::string sweep_csv_header(ModelForm form) {
   std::string out =
       "direction,param,value,param2,value2,settled,settle_periods,mean_delta_bar,rms_delta_bar,"
       "pp_delta_bar,min_delta_bar,mean_force_bar,rms_force_bar,pp_force_bar,max_force_bar,"
       "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided,period_multiple,"
       "steady_error,";
-  if (bearings)
+  if (form == ModelForm::kCoupled)
     for (int gear = 1; gear <= 2; ++gear)
       for (const BearingColumn& col : kBearingColumns)
         fmt::format_to(std::back_inserter(out), "bearing{}_{},", gear, col.name);
-  out += "failure\n";
+  return out + "failure";
+}
+
+// The 1-based column of `name` in sweep.csv (gnuplot's $N); 0 when there is none.
+int sweep_csv_column(ModelForm form, const std::string& name) {
+  std::istringstream header(sweep_csv_header(form));
+  int k = 0;
+  for (std::string cell; std::getline(header, cell, ',');) {
+    ++k;
+    if (cell == name) return k;
+  }
+  return 0;
+}
+
+}  // namespace
+
+std::string sweep_csv(const SweepResult& r) {
+  const SweepOptions& o = r.options;
+  const bool bearings = r.form == ModelForm::kCoupled;
+  std::string out = sweep_csv_header(r.form) + "\n";
   for (const SweepPoint& p : r.points) {
     fmt::format_to(
         std::back_inserter(out),
@@ -735,27 +754,32 @@ std::string regime_map_body(const SweepResult& r) {
 // and down, and in further panels only what occurred: the axial forces of a helical pair, the
 // impacts in a bearing's clearance.
 std::string bearing_forces_body(const SweepResult& r) {
-  const auto any = [&](std::size_t member, const auto& test) {
+  using Member = double BearingReading::*;
+  // Whether some point's bearing `gear` (0: either) has `member` passing `test`.
+  const auto any = [&](Member member, int gear, const auto& test) {
     for (const SweepPoint& p : r.points)
       if (p.bearings)
-        for (const BearingReading& b : *p.bearings)
-          if (test(b.*kBearingColumns[member].member)) return true;
+        for (int i = 1; i <= 2; ++i)
+          if ((gear == 0 || gear == i) && test((*p.bearings)[i - 1].*member)) return true;
     return false;
   };
-  const auto column_of = [](int gear, std::size_t member) {  // sweep.csv's, from 1
-    constexpr int kBase = 22;                                // the columns before the bearings
-    return kBase + 1 + (gear - 1) * static_cast<int>(kBearingColumns.size()) +
-           static_cast<int>(member);
-  };
+  const auto finite = [](double x) { return std::isfinite(x); };
   struct Panel {
-    std::size_t member;
+    Member member;
     const char* ylabel;
   };
-  std::vector<Panel> panels{{0, "largest line-of-action force (N)"}};
-  if (any(2, [](double x) { return std::isfinite(x) && x > 0; }))
-    panels.push_back({2, "largest axial force (N)"});
-  if (any(4, [](double x) { return std::isfinite(x); }))
-    panels.push_back({4, "impacts per period in the clearance"});
+  std::vector<Panel> panels{
+      {&BearingReading::max_line_force_n, "largest line-of-action force (N)"}};
+  if (any(&BearingReading::max_axial_force_n, 0,
+          [](double x) { return std::isfinite(x) && x > 0; }))
+    panels.push_back({&BearingReading::max_axial_force_n, "largest axial force (N)"});
+  if (any(&BearingReading::impacts_per_period, 0, finite))
+    panels.push_back({&BearingReading::impacts_per_period, "impacts per period in the clearance"});
+  const auto column_of = [&](int gear, Member member) {
+    const auto* col = std::find_if(kBearingColumns.begin(), kBearingColumns.end(),
+                                   [&](const BearingColumn& c) { return c.member == member; });
+    return sweep_csv_column(r.form, fmt::format("bearing{}_{}", gear, col->name));
+  };
   std::string s = fmt::format(
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set key top right font ',9'\n{}set multiplot layout {},1 title \"bearings along {}\"\n",
@@ -770,17 +794,17 @@ std::string bearing_forces_body(const SweepResult& r) {
                        [&](const SweepPoint& p) { return p.direction == d; }))
         continue;
       for (int gear = 1; gear <= 2; ++gear) {
-        if (panel.member == 4 && !std::any_of(r.points.begin(), r.points.end(), [&](const auto& p) {
-              return p.bearings && std::isfinite((*p.bearings)[gear - 1].impacts_per_period);
-            }))
+        if (panel.member == &BearingReading::impacts_per_period &&
+            !any(&BearingReading::impacts_per_period, gear, finite))
           continue;  // this bearing has no clearance
         const bool up = d == SweepDirection::kUp;
         fmt::format_to(std::back_inserter(s),
-                       "{}'sweep.csv' every ::1 using 3:(strcol(1) eq '{}' ? ${} : NaN) with "
+                       "{}'sweep.csv' every ::1 using {}:(strcol({}) eq '{}' ? ${} : NaN) with "
                        "linespoints dt {} pt {} ps {} lc rgb '{}' title '{}: gear {}'",
-                       first ? "" : ", \\\n     ", to_string(d), column_of(gear, panel.member),
-                       gear == 1 ? 1 : 2, up ? 7 : 6, up ? 0.4 : 0.5, up ? "#1f3b73" : "#b5532b",
-                       to_string(d), gear);
+                       first ? "" : ", \\\n     ", sweep_csv_column(r.form, "value"),
+                       sweep_csv_column(r.form, "direction"), to_string(d),
+                       column_of(gear, panel.member), gear == 1 ? 1 : 2, up ? 7 : 6, up ? 0.4 : 0.5,
+                       up ? "#1f3b73" : "#b5532b", to_string(d), gear);
         first = false;
       }
     }
@@ -813,6 +837,9 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
                      "fs solid 1.0 noborder\n",
                      h.from_value, h.to_value);
   }
+  const auto col = [&](const char* name) { return sweep_csv_column(r.form, name); };
+  const int c_direction = col("direction"), c_value = col("value"), c_settled = col("settled"),
+            c_regime = col("regime");
   const auto curves = [&](int column, const char* label, bool arrows) {
     std::string out;
     if (arrows && !o.axis2)
@@ -831,15 +858,16 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
       if (!present) continue;
       const bool up = std::string(d) == "up";
       parts.push_back(fmt::format(
-          "'sweep.csv' every ::1 using 3:(strcol(1) eq '{0}' ? ${1} : NaN) with linespoints "
+          "'sweep.csv' every ::1 using {6}:(strcol({7}) eq '{0}' ? ${1} : NaN) with linespoints "
           "pt {2} ps {3} lc rgb '{4}' title '{0}: {5}'",
-          d, column, up ? 7 : 6, up ? 0.4 : 0.5, up ? "#1f3b73" : "#b5532b", label));
+          d, column, up ? 7 : 6, up ? 0.4 : 0.5, up ? "#1f3b73" : "#b5532b", label, c_value,
+          c_direction));
     }
     if (r.unsettled > 0)
       parts.push_back(fmt::format(
-          "'sweep.csv' every ::1 using 3:($6 == 0 && strcol(19) ne 'failed' ? ${} : NaN) with "
+          "'sweep.csv' every ::1 using {}:(${} == 0 && strcol({}) ne 'failed' ? ${} : NaN) with "
           "points pt 2 ps 1.2 lc rgb 'black' title 'not settled'",
-          column));
+          c_value, c_settled, c_regime, column));
     if (arrows && !o.axis2 && !r.hysteresis.empty())
       parts.emplace_back(
           "NaN with boxes fs solid 1.0 fc rgb '#ececec' title 'up and down differ "
@@ -850,9 +878,9 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
     return out + "\nunset arrow\n";
   };
   fmt::format_to(std::back_inserter(fr), "set xlabel ''\nset ylabel 'F / (b·k_m)'\n{}",
-                 curves(13, "rms F/(b·k_m)", false));
+                 curves(col("rms_force_bar"), "rms F/(b·k_m)", false));
   fmt::format_to(std::back_inserter(fr), "set xlabel '{}'\nset ylabel 'δ / b'\n{}", o.axis.key,
-                 curves(10, "peak-to-peak δ/b", true));
+                 curves(col("pp_delta_bar"), "peak-to-peak δ/b", true));
   fr += "unset multiplot\n";
   render_figure(dir, "frequency_response", fr, 1000, 750);
 
