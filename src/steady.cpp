@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <numeric>
 
 namespace geardyn {
 namespace {
@@ -88,6 +89,22 @@ SteadyVerdict SectionSeries::judge(double tolerance) const {
     best.error = std::min(best.error, e);
   }
   return best;
+}
+
+SteadyVerdict judge_together(const std::vector<SectionSeries>& series, double tolerance) {
+  SteadyVerdict all{1, 0.0};
+  bool steady = true;
+  for (const SectionSeries& s : series) {
+    const SteadyVerdict v = s.judge(tolerance);
+    all.error = std::max(all.error, v.error);
+    if (!v.settled()) {
+      steady = false;
+    } else if (steady) {
+      all.period_multiple = std::lcm(all.period_multiple, v.period_multiple);
+    }
+  }
+  if (!steady || all.period_multiple > kMaxSettledMultiple) all.period_multiple = 0;
+  return all;
 }
 
 }  // namespace geardyn

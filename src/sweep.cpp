@@ -104,16 +104,17 @@ class PointRunner {
     section.add(s);
     SteadyVerdict verdict;
     std::optional<ode::IntegrationSummary> failure;
-    const int k = settle(section, verdict, [&] {
-      const auto sum = solver.advance(s, s.t + period);
-      if (!sum.ok()) {
-        failure = sum;
-        return false;
-      }
-      s = sum.end_state;
-      section.add(s);
-      return true;
-    });
+    const int k = settle([&] { return section.judge(o_.steady_tolerance); }, verdict,
+                         [&] {
+                           const auto sum = solver.advance(s, s.t + period);
+                           if (!sum.ok()) {
+                             failure = sum;
+                             return false;
+                           }
+                           s = sum.end_state;
+                           section.add(s);
+                           return true;
+                         });
     if (failure) return fail(*failure);
     const int q_settled = verdict.period_multiple;
     const double error = verdict.error;
@@ -136,14 +137,15 @@ class PointRunner {
 
  private:
   // Settles period by period on the section, until the predicted distance to a periodic
-  // response is below the tolerance or the periods run out: step() runs one period and adds
-  // its section state (false on a numerical failure, which ends the settling). The periods run.
-  template <class Step>
-  int settle(const SectionSeries& section, SteadyVerdict& verdict, Step&& step) const {
+  // response is below the tolerance or the periods run out: judge() gives the verdict of the
+  // section states so far, step() runs one period and adds its section states (false on a
+  // numerical failure, which ends the settling). The periods run.
+  template <class Judge, class Step>
+  int settle(Judge&& judge, SteadyVerdict& verdict, Step&& step) const {
     int k = 0;
     for (;; ++k) {
       if (k >= o_.settle_periods) {
-        verdict = section.judge(o_.steady_tolerance);
+        verdict = judge();
         if (verdict.settled()) break;
       }
       if (k >= o_.max_settle_periods || !step()) break;
@@ -167,8 +169,9 @@ class PointRunner {
     return pt;
   }
 
-  // A point of the coupled model: settled on the section by its mesh deflection d - e and
-  // rate (in b and b w_n), measured by the coupled reading (coupled_run.hpp).
+  // A point of the coupled model: settled on the section by its mesh deflection d - e and the
+  // bearing displacements y_i and z_i the model has, each with its rate (all in b and b w_n),
+  // measured by the coupled reading (coupled_run.hpp).
   SweepPoint run_coupled_point(const Case& c, const PointJob& job, Carry& carry) const {
     const CoupledSolver solver(c, stiffness());
     const CoupledParameters& p = solver.model().parameters();
@@ -192,22 +195,38 @@ class PointRunner {
     const double b = p.backlash_m;
     const double w_n = std::sqrt(p.cos_base_helix * p.cos_base_helix * p.stiffness_n_per_m.offset /
                                  p.equivalent_mass_kg);
-    SectionSeries section(b, w_n, c.solver.tolerance);
+    // The projections judged: the mesh, then each bearing displacement the model has.
+    std::vector<Eigen::Index> bearing_coordinates;
+    for (std::size_t i = 0; i < p.coordinates.size(); ++i)
+      if (std::ranges::count(std::array{Coordinate::kLine1, Coordinate::kLine2, Coordinate::kAxial1,
+                                        Coordinate::kAxial2},
+                             p.coordinates[i]) > 0)
+        bearing_coordinates.push_back(static_cast<Eigen::Index>(i));
+    std::vector<SectionSeries> section(1 + bearing_coordinates.size(),
+                                       SectionSeries(b, w_n, c.solver.tolerance));
     double t = 0;
-    section.add(mesh(t, y));
+    const auto add = [&] {
+      section[0].add(mesh(t, y));
+      for (std::size_t j = 0; j < bearing_coordinates.size(); ++j) {
+        const Eigen::Index i = bearing_coordinates[j];
+        section[j + 1].add(ode::State{t, y(i), y(p.size() + i), 0.0, 0});
+      }
+    };
+    add();
     SteadyVerdict verdict;
     std::optional<ode::FlowResult> failure;
-    const int k = settle(section, verdict, [&] {
-      ode::FlowResult f = solver.advance(t, y, t + period);
-      if (!f.ok()) {
-        failure = std::move(f);
-        return false;
-      }
-      y = f.state;
-      t += period;
-      section.add(mesh(t, y));
-      return true;
-    });
+    const int k = settle([&] { return judge_together(section, o_.steady_tolerance); }, verdict,
+                         [&] {
+                           ode::FlowResult f = solver.advance(t, y, t + period);
+                           if (!f.ok()) {
+                             failure = std::move(f);
+                             return false;
+                           }
+                           y = f.state;
+                           t += period;
+                           add();
+                           return true;
+                         });
     // A failed coupled point keeps its bearing columns, as NaN.
     const auto failed_coupled = [&](const char* termination, const std::string& message) {
       SweepPoint pt = failed(job, carry, termination, message);

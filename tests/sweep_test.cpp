@@ -8,11 +8,13 @@
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "geardyn/orbit.hpp"
+#include "geardyn/steady.hpp"
 #include "test_support.hpp"
 
 namespace geardyn {
@@ -369,6 +371,40 @@ TEST(Sweep, GearCaseKeepsTheStiffnessAcrossFrequencyPoints) {
   flat.mesh.harmonics_kept = 0;
   o.axis2.reset();
   EXPECT_NE(sweep(flat, o).points[0].pp_delta_bar, kept.points[0].pp_delta_bar);
+}
+
+TEST(Sweep, SeveralProjectionsAreJudgedTogether) {
+  // judge_together: steady when every projection is, with the least common multiple of their
+  // periods; the largest distance; not steady when one is not or the common period passes
+  // kMaxSettledMultiple.
+  const auto series = [](int period, double decay, double amplitude) {
+    SectionSeries s(1.0, 1.0, 1e-13);
+    for (int j = 0; j < 40; ++j) {
+      const double cycle = period == 1 ? 0.0 : std::cos(2 * std::numbers::pi * j / period);
+      const double lag = period == 1 ? 0.0 : std::cos(2 * std::numbers::pi * j / period + 1);
+      s.add(ode::State{static_cast<double>(j), 0.3 * cycle + amplitude * std::pow(decay, j),
+                       0.2 * lag - amplitude * std::pow(decay, j), 0.0, 0});
+    }
+    return s;
+  };
+  const double tol = 1e-6;
+  const SectionSeries one = series(1, 0.5, 1e-3), two = series(2, 0.5, 1e-3),
+                      three = series(3, 0.5, 1e-3), four = series(4, 0.5, 1e-3),
+                      slow = series(1, 0.99, 1e-3);
+  ASSERT_EQ(one.judge(tol).period_multiple, 1);
+  ASSERT_EQ(two.judge(tol).period_multiple, 2);
+  ASSERT_EQ(three.judge(tol).period_multiple, 3);
+  ASSERT_EQ(four.judge(tol).period_multiple, 4);
+  ASSERT_FALSE(slow.judge(tol).settled());
+  EXPECT_EQ(judge_together({one}, tol).period_multiple, 1);
+  EXPECT_EQ(judge_together({one, two}, tol).period_multiple, 2);
+  EXPECT_EQ(judge_together({two, three}, tol).period_multiple, 6);
+  EXPECT_FALSE(judge_together({three, four}, tol).settled());  // 12 > kMaxSettledMultiple
+  const SteadyVerdict with_slow = judge_together({one, slow, two}, tol);
+  EXPECT_FALSE(with_slow.settled());
+  EXPECT_EQ(with_slow.error, slow.judge(tol).error);
+  EXPECT_EQ(judge_together({one, two}, tol).error,
+            std::max(one.judge(tol).error, two.judge(tol).error));
 }
 
 }  // namespace

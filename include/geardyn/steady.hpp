@@ -64,4 +64,11 @@ class SectionSeries {
   std::vector<Point> x_;
 };
 
+// A response judged on several projections of its state at once (the coupled model's mesh and
+// bearing displacements): steady when every projection is, its period the least common
+// multiple of theirs (not steady past kMaxSettledMultiple), its distance the largest of theirs.
+// A state that is periodic projects to a period that divides its own; a transient that one
+// projection barely sees shows in another.
+SteadyVerdict judge_together(const std::vector<SectionSeries>& series, double tolerance);
+
 }  // namespace geardyn
