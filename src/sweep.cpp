@@ -280,6 +280,13 @@ class PointRunner {
     pt.settle_periods = k;
     pt.settled = verdict.settled();
     pt.period_multiple = verdict.period_multiple;
+    // In permanent contact and without bearing clearances the model is linear with coefficients
+    // of period T0: its one steady response is of period T0, whatever multiple q the section
+    // fits settled on (a q-periodic point of a stable affine map is its fixed point, and the
+    // distance predicted to it stands).
+    const bool linear = !r.bearing[0].present && !r.bearing[1].present && r.mesh.impacts == 0 &&
+                        r.mesh.separations == 0 && r.mesh.separated_fraction == 0;
+    if (pt.settled && linear) pt.period_multiple = 1;
     pt.steady_error = verdict.error;
     pt.bearings.emplace();
     for (std::size_t i = 0; i < 2; ++i)

@@ -973,6 +973,9 @@ TEST(CoupledSweep, TheShippedCasesRattleLoadsItsBearingsMostAsDocsSweepsSays) {
   const SweepPoint* contact = nullptr;
   for (const SweepPoint& p : r.points) {
     ASSERT_TRUE(p.bearings.has_value());
+    // In permanent contact the model is linear: a settled point's response is of period T0.
+    if (p.settled && p.impacts_per_period == 0 && p.separated_fraction == 0)
+      EXPECT_EQ(p.period_multiple, 1) << to_string(p.direction) << " " << p.value;
     EXPECT_NEAR((*p.bearings)[0].max_line_force_n, (*p.bearings)[1].max_line_force_n,
                 1e-9 * (*p.bearings)[0].max_line_force_n);
     if (!top || (*p.bearings)[0].max_line_force_n > (*top->bearings)[0].max_line_force_n) top = &p;
@@ -1009,6 +1012,7 @@ TEST(CoupledSweep, APointInContactIsMeasuredOnItsPeriodicResponse) {
     const SweepPoint& p = r.points[0];
     const SweepPoint& ref = reference.points[0];
     EXPECT_TRUE(p.settled) << f1;
+    EXPECT_EQ(p.period_multiple, 1) << f1;  // linear in contact: one response, of period T0
     EXPECT_EQ(p.impacts_per_period, 0) << f1;
     EXPECT_NEAR(p.pp_delta_bar, ref.pp_delta_bar, 2e-6) << f1;
     for (std::size_t i = 0; i < 2; ++i) {
