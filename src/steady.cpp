@@ -1,5 +1,6 @@
 #include "geardyn/steady.hpp"
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -105,6 +106,26 @@ SteadyVerdict judge_together(const std::vector<SectionSeries>& series, double to
   }
   if (!steady || all.period_multiple > kMaxSettledMultiple) all.period_multiple = 0;
   return all;
+}
+
+double scaled_norm(const ode::Vector& v, const ode::Vector& scale) {
+  return v.cwiseQuotient(scale).cwiseAbs().maxCoeff();
+}
+
+std::optional<AffineResponse> affine_response(const ode::Matrix& monodromy, const ode::Vector& y,
+                                              const ode::Vector& image, const ode::Vector& scale) {
+  const Eigen::Index n = y.size();
+  // In scaled components: A = S^-1 (I - M) S.
+  const ode::Matrix a = scale.cwiseInverse().asDiagonal() *
+                        (ode::Matrix::Identity(n, n) - monodromy) * scale.asDiagonal();
+  const Eigen::FullPivLU<ode::Matrix> lu(a);
+  if (!lu.isInvertible()) return std::nullopt;
+  const ode::Matrix inverse = lu.inverse();
+  AffineResponse r;
+  r.amplification = inverse.cwiseAbs().rowwise().sum().maxCoeff();
+  if (!std::isfinite(r.amplification)) return std::nullopt;
+  r.state = y + scale.asDiagonal() * (inverse * (image - y).cwiseQuotient(scale));
+  return r;
 }
 
 }  // namespace geardyn

@@ -16,11 +16,13 @@
 #include "geardyn/case_keys.hpp"
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/figures.hpp"
+#include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/parallel.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/steady.hpp"
 #include "geardyn/stiffness.hpp"
+#include "shooting.hpp"
 
 namespace geardyn {
 namespace {
@@ -28,6 +30,39 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string number_text(double x) { return fmt::format("{:.17g}", x); }
+
+// The share of the steady tolerance that the error of an exact periodic response may take.
+constexpr double kResponseErrorShare = 0.1;
+
+// A coupled point's periodic response in one contact region, exact (steady.hpp's
+// affine_response) to within `error` in the scaled norm.
+struct RegionResponse {
+  ode::Vector state;
+  double error = 0;
+};
+
+// The periodic response of `region`, from a section state y at t that a whole period left in
+// it: one period with the Jacobian gives P(y) and M. It stands when M's multipliers lie inside
+// the unit circle (the flow settles on it), a period flown from it stays in the region, and its
+// error (the engine's tolerance or what that period returns with, whichever is larger, times
+// the amplification) is within kResponseErrorShare of the steady tolerance; otherwise nullopt,
+// and the fits judge.
+std::optional<RegionResponse> region_response(const CoupledSolver& solver, double t,
+                                              const ode::Vector& y, int region, double period_s,
+                                              const ode::Vector& scale, double engine_tolerance,
+                                              double steady_tolerance) {
+  const ode::FlowResult f = solver.advance_with_jacobian(t, y, t + period_s);
+  if (!f.ok() || f.events != 0 || f.region != region || !f.jacobian) return std::nullopt;
+  if (!(std::abs(floquet_multipliers(*f.jacobian).front()) < 1)) return std::nullopt;
+  const std::optional<AffineResponse> r = affine_response(*f.jacobian, y, f.state, scale);
+  if (!r) return std::nullopt;
+  const ode::FlowResult back = solver.advance(t, r->state, t + period_s);
+  if (!back.ok() || back.events != 0 || back.region != region) return std::nullopt;
+  const double noise = std::max(engine_tolerance, scaled_norm(back.state - r->state, scale));
+  const double error = r->amplification * noise;
+  if (!(error <= kResponseErrorShare * steady_tolerance)) return std::nullopt;
+  return RegionResponse{r->state, error};
+}
 
 // The state a point hands to the next one of its sequence: the one-degree model's or the
 // coupled model's.
@@ -213,20 +248,38 @@ class PointRunner {
       }
     };
     add();
+    // Where the last period stayed in one region, the distance of every coordinate to that
+    // region's periodic response is exact (each region's found once); elsewhere the fits judge.
+    const ode::Vector scale = detail::coupled_orbit_scale(p, w_n);
+    std::map<int, std::optional<RegionResponse>> responses;
+    std::optional<int> steady_region;  // the region of a last period without events
+    const auto judge = [&] {
+      if (steady_region) {
+        auto [it, fresh] = responses.try_emplace(*steady_region);
+        if (fresh)
+          it->second = region_response(solver, t, y, *steady_region, period, scale,
+                                       c.solver.tolerance, o_.steady_tolerance);
+        if (const std::optional<RegionResponse>& r = it->second) {
+          const double distance = scaled_norm(y - r->state, scale) + r->error;
+          return SteadyVerdict{distance <= o_.steady_tolerance ? 1 : 0, distance};
+        }
+      }
+      return judge_together(section, o_.steady_tolerance);
+    };
     SteadyVerdict verdict;
     std::optional<ode::FlowResult> failure;
-    const int k = settle([&] { return judge_together(section, o_.steady_tolerance); }, verdict,
-                         [&] {
-                           ode::FlowResult f = solver.advance(t, y, t + period);
-                           if (!f.ok()) {
-                             failure = std::move(f);
-                             return false;
-                           }
-                           y = f.state;
-                           t += period;
-                           add();
-                           return true;
-                         });
+    const int k = settle(judge, verdict, [&] {
+      ode::FlowResult f = solver.advance(t, y, t + period);
+      if (!f.ok()) {
+        failure = std::move(f);
+        return false;
+      }
+      steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
+      y = f.state;
+      t += period;
+      add();
+      return true;
+    });
     // A failed coupled point keeps its bearing columns, as NaN.
     const auto failed_coupled = [&](const char* termination, const std::string& message) {
       SweepPoint pt = failed(job, carry, termination, message);

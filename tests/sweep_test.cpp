@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <Eigen/LU>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -405,6 +406,56 @@ TEST(Sweep, SeveralProjectionsAreJudgedTogether) {
   EXPECT_EQ(with_slow.error, slow.judge(tol).error);
   EXPECT_EQ(judge_together({one, two}, tol).error,
             std::max(one.judge(tol).error, two.judge(tol).error));
+}
+
+TEST(Sweep, AnAffineMapsResponseIsItsFixedPointWithABoundOnItsError) {
+  // affine_response: P(y) = M y + c with a non-normal M (multipliers 0.9, 0.5, -0.3, 0.2) and
+  // components 1e4 apart in scale, as a monodromy's positions and rates are. From one state and
+  // its image it gives the point the map's iterates converge to; an error e in the image moves
+  // it by at most amplification x e, and by that much for the worst e.
+  const auto vec = [](double a, double b, double c, double d) {
+    return ode::Vector((ode::Vector(4) << a, b, c, d).finished());
+  };
+  ode::Matrix t(4, 4);
+  t << 1, 0.7, 0, 0.2, 0, 1, 0.5, 0, 0.3, 0, 1, 0.6, 0, 0.4, 0, 1;
+  const ode::Vector scale = vec(1, 1e4, 1, 1e4);
+  // S T diag(multipliers) T^-1 S^-1.
+  const auto monodromy = [&](const ode::Vector& multipliers) {
+    return ode::Matrix(scale.asDiagonal() * t * multipliers.asDiagonal() * t.inverse() *
+                       scale.cwiseInverse().asDiagonal());
+  };
+  const ode::Matrix m = monodromy(vec(0.9, 0.5, -0.3, 0.2));
+  const ode::Vector c = vec(0.3, -2e3, 0.1, 5e3);
+  const auto map = [&](const ode::Vector& y) { return ode::Vector(m * y + c); };
+  const ode::Vector y = vec(2, 1e4, -1, 3e3);
+  const std::optional<AffineResponse> r = affine_response(m, y, map(y), scale);
+  ASSERT_TRUE(r);
+  ode::Vector x = y;
+  for (int k = 0; k < 600; ++k) x = map(x);  // 0.9^600 ~ 3e-28
+  EXPECT_LT(scaled_norm(r->state - x, scale), 1e-12);
+  EXPECT_LT(scaled_norm(map(r->state) - r->state, scale), 1e-12);
+  // The worst error of the image for the bound's row: e_j = eps s_j sign(A^-1_ij).
+  const ode::Matrix a_inv =
+      (scale.cwiseInverse().asDiagonal() * (ode::Matrix::Identity(4, 4) - m) * scale.asDiagonal())
+          .inverse();
+  Eigen::Index row = 0;
+  a_inv.cwiseAbs().rowwise().sum().maxCoeff(&row);
+  const double eps = 1e-8;
+  const ode::Vector worst = eps * scale.cwiseProduct(a_inv.row(row).transpose().unaryExpr(
+                                      [](double v) { return v >= 0 ? 1.0 : -1.0; }));
+  const std::optional<AffineResponse> moved = affine_response(m, y, map(y) + worst, scale);
+  ASSERT_TRUE(moved);
+  EXPECT_NEAR(scaled_norm(moved->state - r->state, scale), r->amplification * eps,
+              1e-6 * r->amplification * eps);
+  for (int j = 0; j < 4; ++j) {  // other errors of that size move it less
+    const ode::Vector e = eps * scale.cwiseProduct(ode::Vector::Unit(4, j));
+    const std::optional<AffineResponse> other = affine_response(m, y, map(y) + e, scale);
+    ASSERT_TRUE(other);
+    EXPECT_LE(scaled_norm(other->state - r->state, scale), r->amplification * eps * (1 + 1e-9));
+  }
+  // A multiplier at 1: no unique fixed point.
+  const ode::Matrix neutral = monodromy(vec(1.0, 0.5, -0.3, 0.2));
+  EXPECT_FALSE(affine_response(neutral, y, neutral * y + c, scale));
 }
 
 }  // namespace

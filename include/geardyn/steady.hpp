@@ -12,9 +12,11 @@
 #pragma once
 
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "geardyn/integrator.hpp"
+#include "geardyn/linear_system.hpp"
 
 namespace geardyn {
 
@@ -70,5 +72,26 @@ class SectionSeries {
 // A state that is periodic projects to a period that divides its own; a transient that one
 // projection barely sees shows in another.
 SteadyVerdict judge_together(const std::vector<SectionSeries>& series, double tolerance);
+
+// The periodic response of a piecewise-linear system over whole periods spent in one region
+// (no event): there the map over one period is affine, P(y) = M y + c, the same for every such
+// period, so its fixed point follows from any one state y, its image P(y) and M,
+// x* = y + (I - M)^-1 (P(y) - y), and a state's distance to it is known, not predicted.
+// Components are scaled by `scale` (the norm is max_i |v_i| / scale_i).
+struct AffineResponse {
+  ode::Vector state;  // x*
+  // |S^-1 (I - M)^-1 S| (infinity norm, S = diag(scale)): an error of P(y) of e in the scaled
+  // norm moves x* by at most amplification x e.
+  double amplification = 0;
+};
+
+// nullopt when I - M is singular to working precision (a multiplier at 1). Whether the flow
+// settles on x* (every multiplier inside the unit circle) and whether it stays in the region
+// are the caller's to check.
+std::optional<AffineResponse> affine_response(const ode::Matrix& monodromy, const ode::Vector& y,
+                                              const ode::Vector& image, const ode::Vector& scale);
+
+// max_i |v_i| / scale_i.
+double scaled_norm(const ode::Vector& v, const ode::Vector& scale);
 
 }  // namespace geardyn
