@@ -79,12 +79,6 @@ std::string panel_plot(const TimeHistoryPanel& p, int column, const std::string&
   return s;
 }
 
-void write_text(const fs::path& p, const std::string& text) {
-  std::ofstream out(p, std::ios::binary | std::ios::trunc);
-  out << text;
-  if (!out) throw FigureError(fmt::format("{}: cannot write", p.string()));
-}
-
 }  // namespace
 
 std::string plot_csv(const Timeseries& s) {
@@ -159,20 +153,33 @@ std::string time_history_body(const std::vector<TimeHistoryPanel>& panels, bool 
 
 void render_figure(const fs::path& dir, const std::string& name, const std::string& body,
                    int width_px, int height_px) {
-  write_text(dir / (name + "_body.gp"), body);
-  write_text(dir / (name + ".gp"),
-             fmt::format("# Draws {0}.png and {0}.svg; the figure itself is in {0}_body.gp.\n"
-                         "set terminal pngcairo size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
-                         "set output '{0}.png'\nload '{0}_body.gp'\nset output\n"
-                         "set terminal svg size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
-                         "set output '{0}.svg'\nload '{0}_body.gp'\nset output\n",
-                         name, width_px, height_px));
   if (std::system("command -v gnuplot >/dev/null 2>&1") != 0)
     throw FigureError(
         "gnuplot is not installed: the figures need Debian's gnuplot-nox (scripts/setup.sh "
         "installs it)");
-  const std::string cmd =
-      fmt::format("cd {} && gnuplot {} 2>&1", shell_quote(dir.string()), shell_quote(name + ".gp"));
+  // The figure's four files are one set: drawn in its staging folder (gnuplot runs in `dir`,
+  // where the data are), and put in place together only when gnuplot succeeded.
+  OutputSet set(dir);
+  const auto runner = [&](const std::string& prefix) {
+    return fmt::format(
+        "# Draws {0}.png and {0}.svg; the figure itself is in {0}_body.gp.\n"
+        "set terminal pngcairo size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
+        "set output '{3}{0}.png'\nload '{3}{0}_body.gp'\nset output\n"
+        "set terminal svg size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
+        "set output '{3}{0}.svg'\nload '{3}{0}_body.gp'\nset output\n",
+        name, width_px, height_px, prefix);
+  };
+  set.write(name + "_body.gp", body);
+  set.write(name + ".gp", runner(""));
+  const std::string drawing = set.staging().filename().string() + "/";
+  const fs::path draw_script = set.staging() / ".draw.gp";
+  {
+    std::ofstream out(draw_script, std::ios::binary);
+    out << runner(drawing);
+    if (!out) throw FigureError(fmt::format("{}: cannot write", draw_script.string()));
+  }
+  const std::string cmd = fmt::format("cd {} && gnuplot {} 2>&1", shell_quote(dir.string()),
+                                      shell_quote(drawing + ".draw.gp"));
   FILE* pipe = popen(cmd.c_str(), "r");
   if (!pipe) throw FigureError("cannot start gnuplot");
   std::string output;
@@ -182,6 +189,9 @@ void render_figure(const fs::path& dir, const std::string& name, const std::stri
   if (status != 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw FigureError(
         fmt::format("gnuplot failed on {}: {}", (dir / (name + ".gp")).string(), output));
+  std::error_code ec;
+  fs::remove(draw_script, ec);
+  set.commit();
 }
 
 void write_stiffness_figure(const fs::path& dir, const std::string& name,

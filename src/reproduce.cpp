@@ -567,36 +567,10 @@ void write_study_files(const fs::path& dir, const StudyResult& r, bool figures);
 }  // namespace
 
 void write_study(const fs::path& dir, const StudyResult& r, bool figures) {
-  // Everything goes into a sibling directory first and is moved into place as a whole: a
-  // failure part way leaves the old study (or nothing), never part of a new one. A figure that
-  // cannot be drawn still lets the data in (exit 3 says so).
-  const fs::path target = fs::absolute(dir);
-  const std::string tag = fmt::format("{:08x}", std::random_device{}());
-  const fs::path tmp = target.parent_path() / (target.filename().string() + ".tmp-" + tag);
-  const fs::path old = target.parent_path() / (target.filename().string() + ".old-" + tag);
-  std::error_code ec;
-  fs::create_directories(target.parent_path(), ec);
-  std::exception_ptr figure_failure;
-  try {
-    write_study_files(tmp, r, figures);
-  } catch (const FigureError&) {
-    figure_failure = std::current_exception();
-  } catch (...) {
-    fs::remove_all(tmp, ec);
-    throw;
-  }
-  const bool replacing = fs::exists(target, ec);
-  if (replacing) fs::rename(target, old, ec);
-  if (!ec) fs::rename(tmp, target, ec);
-  if (ec) {
-    std::error_code ignored;
-    if (replacing) fs::rename(old, target, ignored);
-    fs::remove_all(tmp, ignored);
-    throw std::runtime_error(
-        fmt::format("{}: cannot put the study in place: {}", target.string(), ec.message()));
-  }
-  if (replacing) fs::remove_all(old, ec);
-  if (figure_failure) std::rethrow_exception(figure_failure);
+  // One named set: only the study's own files are replaced, together; a figure that cannot be
+  // drawn still lets the data in (exit 3 says so).
+  write_set(dir, "reproduce " + r.study.name,
+            [&](const fs::path& staging) { write_study_files(staging, r, figures); });
 }
 
 namespace {

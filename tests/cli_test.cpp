@@ -27,15 +27,18 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-Outcome cli(const std::string& args) {
+// A shell command line, its exit code and both streams.
+Outcome shell(const std::string& command) {
   const fs::path tmp = fs::temp_directory_path() / ("geardyn_cli_test_" + std::to_string(getpid()));
   fs::create_directories(tmp);
-  // Grouped, so that the streams of every command in `args` (a background one too) are caught.
-  const std::string cmd = "{ " + std::string(GEARDYN_CLI) + " " + args + "; } >" +
-                          (tmp / "out").string() + " 2>" + (tmp / "err").string() + " </dev/null";
+  // Grouped, so that the streams of every command in it (a background one too) are caught.
+  const std::string cmd = "{ " + command + "; } >" + (tmp / "out").string() + " 2>" +
+                          (tmp / "err").string() + " </dev/null";
   const int status = std::system(cmd.c_str());
   return {WEXITSTATUS(status), slurp(tmp / "out"), slurp(tmp / "err")};
 }
+
+Outcome cli(const std::string& args) { return shell(std::string(GEARDYN_CLI) + " " + args); }
 
 fs::path fresh(const std::string& name) {
   const fs::path d =
@@ -473,6 +476,83 @@ TEST(Cli, InterruptedSweepKeepsTheCompletedPoints) {
   EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 1);  // header and some points
   const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
   EXPECT_TRUE(j["cancelled"].get<bool>());
+}
+
+// A folder the user works in: a file, a folder with a file, and a file under one of our names in
+// a sub-folder we do not write.
+fs::path users_folder(const std::string& name) {
+  const fs::path d = fresh(name);
+  fs::create_directories(d / "src");
+  fs::create_directories(d / "notes");
+  std::ofstream(d / "thesis.tex") << "draft";
+  std::ofstream(d / "src" / "a.c") << "code";
+  std::ofstream(d / "notes" / "summary.json") << "the user's own";
+  return d;
+}
+
+// The user's files are all there as they were, and nothing of ours is left half-done.
+void expect_users_files(const fs::path& d, const std::string& what) {
+  EXPECT_EQ(slurp(d / "thesis.tex"), "draft") << what;
+  EXPECT_EQ(slurp(d / "src" / "a.c"), "code") << what;
+  EXPECT_EQ(slurp(d / "notes" / "summary.json"), "the user's own") << what;
+  for (const auto& e : fs::directory_iterator(d))
+    EXPECT_EQ(e.path().filename().string().find(".geardyn-staging"), std::string::npos) << what;
+}
+
+TEST(Cli, EveryWritingCommandKeepsTheUsersFilesAndWritesIntoTheCurrentFolder) {
+  // The reproducer, for every command that writes: an output folder that holds the
+  // user's files, written twice (the second run replaces our files), then as `--out .`.
+  const std::string nd = "--set model.form=nondimensional ";
+  const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"run --set solver.duration_s=0.005 --plot", "run_time.png"},
+      {"run " + coupled + " --set solver.duration_s=0.002 --plot", "coupled_time.png"},
+      {"sweep " + nd + "--param model.omega --from 0.8 --to 1.2 --points 3", "sweep.csv"},
+      {"continue " + nd +
+           "--set model.force_alternating=0.02 --param model.omega --from 0.5 --to 0.6",
+       "branch.csv"},
+      {"stability --set mesh.stiffness_source=harmonics --set 'mesh.stiffness_harmonics=[[0.2,0]]' "
+       "--param speed.shaft_frequency_hz --from 80 --to 100 --points 5",
+       "stability.csv"},
+      {"modes " + coupled, "modes.json"},
+      {"stiffness", "stiffness.csv"},
+      {"reproduce park2010 --no-figures", "report.html"},
+  };
+  for (const auto& [args, output] : commands) {
+    const fs::path d = users_folder("keeps");
+    for (int twice = 0; twice < 2; ++twice) {
+      const Outcome o = cli(args + " --out " + d.string());
+      ASSERT_EQ(o.code, 0) << args << "\n" << o.err;
+      EXPECT_TRUE(fs::exists(d / output)) << args;
+      expect_users_files(d, args);
+    }
+    const fs::path here = users_folder("dot");
+    const Outcome o = shell("cd " + here.string() + " && " + GEARDYN_CLI + " " + args + " --out .");
+    ASSERT_EQ(o.code, 0) << args << " --out .\n" << o.err;
+    EXPECT_TRUE(fs::exists(here / output)) << args;
+    expect_users_files(here, args + " --out .");
+    fs::remove_all(d);
+    fs::remove_all(here);
+  }
+}
+
+TEST(Cli, AFailedWriteLeavesTheOutputFolderAsItWas) {
+  // A folder of the user's under the name of one of our files: the run is done, nothing is
+  // replaced, the error names the path, and the folder is as it was (the earlier run's files
+  // included).
+  const fs::path d = users_folder("failed_write");
+  ASSERT_EQ(cli("run --set solver.duration_s=0.002 --out " + d.string()).code, 0);
+  const std::string earlier = slurp(d / "summary.json");
+  fs::remove(d / "events.csv");
+  fs::create_directories(d / "events.csv");
+  const Outcome o = cli("run --set solver.duration_s=0.003 --out " + d.string());
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_NE(o.err.find("events.csv: cannot write: exists and is not a regular file"),
+            std::string::npos)
+      << o.err;
+  EXPECT_EQ(slurp(d / "summary.json"), earlier);
+  EXPECT_TRUE(fs::is_directory(d / "events.csv"));
+  expect_users_files(d, "failed write");
 }
 
 TEST(Cli, SweepRejectsABadKey) {

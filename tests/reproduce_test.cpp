@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -99,18 +100,33 @@ TEST(Park2010Study, TheWindowScanAgreesWithRunsOverThoseWindows) {
   EXPECT_GE(checked, 12);
 }
 
-TEST(Park2010Study, IsWrittenAsAWholeInPlaceOfTheOldOne) {
-  // The study's directory is replaced as a whole: a file of an older study does not survive,
-  // and no temporary is left beside it.
+TEST(Park2010Study, ReplacesItsOwnEarlierFilesAsASetAndKeepsTheUsers) {
+  // The study is one set in its folder (output_folder.hpp): written again without figures, the
+  // figures of the earlier study go with it; a file of the user's stays, and nothing is left
+  // beside the folder or in it.
   const fs::path parent =
       fs::temp_directory_path() / ("geardyn_study_set_" + std::to_string(getpid()));
   fs::remove_all(parent);
   const fs::path d = parent / "study";
   fs::create_directories(d);
-  std::ofstream(d / "stale.txt") << "from an older study";
-  write_study(d, run_study(park2010_study()), /*figures=*/false);
-  EXPECT_FALSE(fs::exists(d / "stale.txt"));
+  std::ofstream(d / "thesis.tex") << "the user's own";
+  const StudyResult r = run_study(park2010_study());
+  write_study(d, r, /*figures=*/true);
+  ASSERT_TRUE(fs::exists(d / "fig4.png"));
+  write_study(d, r, /*figures=*/false);
+  EXPECT_FALSE(fs::exists(d / "fig4.png"));
+  EXPECT_FALSE(fs::exists(d / "fig4_body.gp"));
   EXPECT_TRUE(fs::exists(d / "study.json"));
+  EXPECT_TRUE(fs::exists(d / "cases" / "fig4a" / "timeseries.csv"));
+  std::ifstream in(d / "thesis.tex");
+  std::string text;
+  std::getline(in, text);
+  EXPECT_EQ(text, "the user's own");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(d)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{".geardyn-files.json", "cases", "report.html",
+                                             "report.md", "study.json", "thesis.tex"}));
   std::size_t entries = 0;
   for (const auto& e : fs::directory_iterator(parent)) {
     (void)e;

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -28,6 +29,7 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
+#include "geardyn/output_folder.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stability.hpp"
@@ -144,6 +146,18 @@ void print_warnings(const std::vector<std::string>& warnings) {
   for (const std::string& w : warnings) fmt::print(stderr, "warning: {}\n", w);
 }
 
+// Writes a command's files into `dir` as one named set (output_folder.hpp): the user's files
+// stay, the command's earlier files are replaced together. A file of the earlier set that the
+// user changed since is kept, and said so.
+void write_output(const std::string& dir, const std::string& command,
+                  const std::function<void(const std::filesystem::path&)>& stage) {
+  for (const std::string& kept : geardyn::write_set(dir, command, stage))
+    fmt::print(stderr,
+               "geardyn: note: {}/{} was written by an earlier `geardyn {}` and changed since: "
+               "kept as it is\n",
+               dir, kept, command);
+}
+
 std::string fmt_optional(const std::optional<double>& x, const char* spec_unit) {
   if (!x) return "none";
   return fmt::format("{:.6g}{}", *x, spec_unit);
@@ -255,16 +269,17 @@ int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plo
   fmt::print("  cells             {} ({} events located), {:.3g} s wall\n", r.cells, r.events,
              r.wall_time_s);
   if (!out_dir.empty()) {
-    geardyn::write_files_atomically(
-        out_dir,
-        {{"summary.json", [&](std::ostream& o) { o << geardyn::coupled_summary_json(r) << "\n"; }},
-         {"timeseries.csv", [&](std::ostream& o) { geardyn::write_coupled_timeseries_csv(o, r); }},
-         {"case.toml", [&](std::ostream& o) { o << geardyn::to_toml(c); }}});
+    write_output(out_dir, "run", [&](const std::filesystem::path& d) {
+      geardyn::write_files_atomically(
+          d, {{"summary.json",
+               [&](std::ostream& o) { o << geardyn::coupled_summary_json(r) << "\n"; }},
+              {"timeseries.csv",
+               [&](std::ostream& o) { geardyn::write_coupled_timeseries_csv(o, r); }},
+              {"case.toml", [&](std::ostream& o) { o << geardyn::to_toml(c); }}});
+      if (plot) geardyn::write_coupled_run_figures(d, r);
+    });
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, case.toml)\n", out_dir);
-    if (plot) {
-      geardyn::write_coupled_run_figures(out_dir, r);
-      fmt::print("  figure            {}/coupled_time (.png, .svg, .gp)\n", out_dir);
-    }
+    if (plot) fmt::print("  figure            {}/coupled_time (.png, .svg, .gp)\n", out_dir);
   }
   return 0;
 }
@@ -279,16 +294,20 @@ int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets
         "(the one-degree model has one, its contact natural frequency, printed by run)",
         geardyn::to_string(c.model.form)));
   const geardyn::ModeSet m = geardyn::modes(geardyn::CoupledModel(geardyn::coupled_parameters(c)));
+  const auto write = [&] {
+    write_output(out_dir, "modes",
+                 [&](const std::filesystem::path& d) { geardyn::write_campbell_figure(d, c, m); });
+  };
   if (json) {
     fmt::print("{}\n", geardyn::modes_json(m));
-    if (!out_dir.empty()) geardyn::write_campbell_figure(out_dir, c, m);
+    if (!out_dir.empty()) write();
     return 0;
   }
   fmt::print("modes of {} (coupled, dof {}), in contact at the mean mesh stiffness\n", c.name,
              c.model.dof);
   fmt::print("{}", geardyn::modes_table(m));
   if (!out_dir.empty()) {
-    geardyn::write_campbell_figure(out_dir, c, m);
+    write();
     fmt::print("written to {}/ (modes.json, campbell.csv, campbell .png .svg .gp)\n", out_dir);
   }
   return 0;
@@ -318,14 +337,15 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
   }
   print_run_summary(r);
   if (!out_dir.empty()) {
-    geardyn::write_run(out_dir, r);
+    write_output(out_dir, "run", [&](const std::filesystem::path& d) {
+      geardyn::write_run(d, r);
+      if (plot) geardyn::write_run_figures(d, r, physical);
+    });
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, events.csv, case.toml)\n",
                out_dir);
-    if (plot) {
-      geardyn::write_run_figures(out_dir, r, physical);
+    if (plot)
       fmt::print("  figures           {}/run_time, run_spectrum, run_phase (.png, .svg, .gp)\n",
                  out_dir);
-    }
   }
   return 0;
 }
@@ -409,7 +429,10 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
   bar.finish();
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} completed points\n", r.points.size());
-  const std::vector<std::string> drawn = geardyn::write_sweep(out_dir, r, figures && !r.cancelled);
+  std::vector<std::string> drawn;
+  write_output(out_dir, "sweep", [&](const std::filesystem::path& d) {
+    drawn = geardyn::write_sweep(d, r, figures && !r.cancelled);
+  });
   fmt::print("geardyn sweep: {} from {} to {}, {} points{}, {} ({} threads, {:.2f} s)\n",
              o.axis.key, o.axis.from, o.axis.to, o.axis.points,
              o.axis2 ? fmt::format(" x {} from {} to {}, {} points", o.axis2->key, o.axis2->from,
@@ -466,14 +489,17 @@ int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& 
   if (!out_dir.empty()) {
     // The stiffness a run of this case uses (its source, kept harmonics and mean scaling).
     const geardyn::MeshStiffness used = geardyn::mesh_stiffness(c, g);
-    geardyn::write_files_atomically(
-        out_dir, {{"stiffness.csv", geardyn::stiffness_csv(g, cycle, kept, used.fourier)},
-                  {"harmonics.json", report + "\n"}});
-    geardyn::write_stiffness_figure(
-        out_dir, c.name + ": mesh stiffness (energy method)", cycle,
-        geardyn::fourier_harmonics(cycle, kFigureHarmonics),
-        c.mesh.stiffness_source == geardyn::StiffnessSource::kHarmonics ? 0 : c.mesh.harmonics_kept,
-        used.fourier);
+    write_output(out_dir, "stiffness", [&](const std::filesystem::path& d) {
+      geardyn::write_files_atomically(
+          d, {{"stiffness.csv", geardyn::stiffness_csv(g, cycle, kept, used.fourier)},
+              {"harmonics.json", report + "\n"}});
+      geardyn::write_stiffness_figure(
+          d, c.name + ": mesh stiffness (energy method)", cycle,
+          geardyn::fourier_harmonics(cycle, kFigureHarmonics),
+          c.mesh.stiffness_source == geardyn::StiffnessSource::kHarmonics ? 0
+                                                                          : c.mesh.harmonics_kept,
+          used.fourier);
+    });
   }
   if (json) {
     fmt::print("{}\n", report);
@@ -646,7 +672,9 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} points computed\n", r.points.size());
   if (!r.points.empty())
-    geardyn::write_continuation(out_dir, r, o.key, figures && !r.cancelled, sweep_text);
+    write_output(out_dir, "continue", [&](const std::filesystem::path& d) {
+      geardyn::write_continuation(d, r, o.key, figures && !r.cancelled, sweep_text);
+    });
   fmt::print("geardyn continue: {} from {} to {}, period {} x the system period\n", o.key, o.from,
              o.to, o.orbit.periods);
   fmt::print("  {} points, {:.2f} s; {}\n", r.points.size(), r.wall_time_s, r.message);
@@ -682,7 +710,9 @@ int cmd_stability(const std::string& case_file, const std::vector<std::string>& 
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} samples computed\n", r.samples.size());
   if (!out_dir.empty() && !r.samples.empty())
-    geardyn::write_stability(out_dir, r, o, figures && !r.cancelled);
+    write_output(out_dir, "stability", [&](const std::filesystem::path& d) {
+      geardyn::write_stability(d, r, o, figures && !r.cancelled);
+    });
   if (json) {
     fmt::print("{}", geardyn::boundaries_json(r, o.axis2.has_value()));
     return r.cancelled ? kExitInterrupted : 0;

@@ -11,16 +11,11 @@
 #include <vector>
 
 #include "geardyn/coupled_run.hpp"
+#include "geardyn/output_folder.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 
 namespace geardyn {
-
-// gnuplot is missing or failed; the message says which and what it printed.
-class FigureError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 // Separation and back-side contact intervals of a run, from its located events:
 // intervals.csv with header t_start_s,t_end_s,contact (0 separated, -1 back side).

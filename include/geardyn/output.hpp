@@ -1,7 +1,7 @@
 // geardyn: writing a run's results (summary.json, timeseries.csv, events.csv, case.toml).
 //
-// Files are written atomically as a set: each to a temporary name in the output directory
-// first, then all renamed into place, so a failure leaves no half-written output.
+// Files are written as a set into a folder the user may share with us (output_folder.hpp): only
+// our files are replaced, each atomically, and a failure leaves the folder as it was.
 #pragma once
 
 #include <filesystem>
@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "geardyn/output_folder.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 
@@ -55,25 +56,6 @@ std::string stiffness_json(const Case& c, const Geometry& g, const Iso6336Stiffn
 // pairs_in_contact, contact_length_mm and pair_<j>_n_per_m for each tooth pair.
 std::string stiffness_csv(const Geometry& g, const StiffnessCycle& cycle,
                           const StiffnessFourier& fourier, const StiffnessFourier& used);
-
-// How a file is moved into place (std::filesystem::rename; a test may make it fail).
-using RenameFunction = std::function<void(const std::filesystem::path& from,
-                                          const std::filesystem::path& to, std::error_code& ec)>;
-
-// Writes the named files into `dir` (created if missing) as a set: each to a temporary name
-// first, then each moved into place, a file it replaces set aside until all are in place. On
-// any failure the files already placed are removed, the ones set aside restored and the
-// temporaries deleted: the directory is as it was. Throws std::runtime_error naming the path.
-void write_files_atomically(const std::filesystem::path& dir,
-                            const std::vector<std::pair<std::string, std::string>>& files,
-                            const RenameFunction& rename = {});
-
-// The same with each file written by a function into its stream (a large file is streamed to
-// disk, never held in memory whole).
-using FileWriter = std::function<void(std::ostream&)>;
-void write_files_atomically(const std::filesystem::path& dir,
-                            const std::vector<std::pair<std::string, FileWriter>>& files,
-                            const RenameFunction& rename = {});
 
 // timeseries.csv into a stream, row by row (timeseries_csv's text).
 void write_timeseries_csv(std::ostream& out, const Timeseries& s,

@@ -91,7 +91,9 @@ std::string report_html(const StudyResult& r);
 
 // Writes DIR/report.md, DIR/report.html, DIR/study.json, DIR/cases/<id>/ (each run's files),
 // and, with `figures`, one figure per paper figure (DIR/fig4.png, .svg, .gp ...), the panels as
-// in the paper. Throws FigureError if gnuplot fails.
+// in the paper, as one named set "reproduce <study>" (output_folder.hpp: the user's files in DIR
+// stay, the study's earlier files are replaced together). Throws FigureError if gnuplot fails,
+// with the data in place.
 void write_study(const std::filesystem::path& dir, const StudyResult& r, bool figures = true);
 
 }  // namespace geardyn

@@ -245,10 +245,25 @@ def save(result, path):
     ----------
     result : RunResult, dict or xarray.Dataset
     path : str or path-like
-        The file written; `load` reads back an identical Dataset.
+        The file written; `load` reads back an identical Dataset. It is written under a
+        temporary name in the same folder and moved into place whole, so a failure leaves an
+        earlier file of that name as it was.
     """
+    import os
+    import tempfile
+
     ds = result if hasattr(result, "to_netcdf") else to_xarray(result)
-    ds.to_netcdf(path)
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".geardyn-", suffix=".nc.tmp", dir=folder)
+    os.close(fd)
+    try:
+        ds.to_netcdf(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
 
 
 def load(path):

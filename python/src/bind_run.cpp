@@ -10,6 +10,7 @@
 #include "bindings.hpp"
 #include "geardyn/case.hpp"
 #include "geardyn/output.hpp"
+#include "geardyn/output_folder.hpp"
 #include "geardyn/run.hpp"
 
 namespace py = pybind11;
@@ -226,11 +227,17 @@ void bind_run(py::module_& m) {
       // Pickled field by field: the numbers come back to the last digit.
       .def(py::pickle(&pickled, &unpickled))
       .def(
-          "write", [](const RunResult& r, const std::string& dir) { write_run(dir, r); },
+          "write",
+          [](const RunResult& r, const std::string& dir) {
+            return write_set(dir, "run", [&](const std::filesystem::path& d) { write_run(d, r); });
+          },
           py::arg("directory"),
           "Writes the run's files as `geardyn run --out` does (docs/outputs.md).\n\n"
           "Parameters\n----------\ndirectory : str\n    Created if needed; summary.json, "
-          "timeseries.csv, events.csv, case.toml and the rest are written into it.");
+          "timeseries.csv, events.csv, case.toml and the rest are written into it. Only these "
+          "files are replaced, together; the folder's other files stay (docs/outputs.md).\n\n"
+          "Returns\n-------\nlist of str\n    Files of an earlier run written here that were "
+          "changed since and so kept.");
   // The integration runs without the GIL: other Python threads go on meanwhile.
   // Ctrl-C and `progress(fraction)` are looked at now and then (every few thousand cells).
   m.def(

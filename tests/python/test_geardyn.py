@@ -240,6 +240,8 @@ def test_a_run_pickles_exactly_and_writes_the_same_files(tmp_path):
         r.write(str(tmp_path / "a"))
         back.write(str(tmp_path / "b"))
         for f in sorted((tmp_path / "a").iterdir()):
+            if f.name == ".geardyn-files.json":  # the manifest: when each file was written
+                continue
             assert f.read_bytes() == (tmp_path / "b" / f.name).read_bytes(), f.name
         for f in (tmp_path / "a").iterdir():
             f.unlink()
@@ -558,3 +560,51 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
     assert list(fig.axes[0].lines[0].get_ydata()) == list(s["bearing1_max_line_force_n"])
     assert "bearing" not in " ".join(geardyn.sweep(geardyn.Case(), "speed.shaft_frequency_hz",
                                                    [2000.0], direction="up"))
+
+
+def _users_folder(path):
+    path.mkdir(parents=True, exist_ok=True)
+    (path / "thesis.tex").write_text("draft")
+    (path / "src").mkdir(exist_ok=True)
+    (path / "src" / "a.c").write_text("code")
+    return path
+
+
+def _expect_users_files(path):
+    assert (path / "thesis.tex").read_text() == "draft"
+    assert (path / "src" / "a.c").read_text() == "code"
+    assert not [p for p in path.iterdir() if p.name.startswith(".geardyn-staging")]
+
+
+def test_python_writers_keep_the_users_files(tmp_path, monkeypatch):
+    r = geardyn.run(geardyn.Case.default().set("solver.duration_s", 0.002))
+    folder = _users_folder(tmp_path / "work")
+    assert r.write(str(folder)) == []
+    assert r.write(str(folder)) == []
+    _expect_users_files(folder)
+    assert (folder / "summary.json").exists()
+    here = _users_folder(tmp_path / "here")
+    monkeypatch.chdir(here)
+    r.write(".")
+    _expect_users_files(here)
+    assert (here / "timeseries.csv").exists()
+    # A file the run writes is ours and replaced; any other name is the user's and stays.
+    (here / "events.csv").write_text("mine now")
+    (here / "spare.csv").write_text("not ours")
+    assert r.write(".") == []
+    assert (here / "events.csv").read_text().startswith("t_s,kind")
+    assert (here / "spare.csv").read_text() == "not ours"
+
+
+def test_save_replaces_the_file_whole_or_not_at_all(tmp_path):
+    r = geardyn.run(geardyn.Case.default().set("solver.duration_s", 0.002))
+    target = tmp_path / "r.nc"
+    (tmp_path / "thesis.tex").write_text("draft")
+    r.save(target)
+    before = target.read_bytes()
+    ds = r.to_xarray()
+    ds.attrs["not_storable"] = {"a dict": 1}  # NetCDF cannot store it: the write fails
+    with pytest.raises(Exception):
+        geardyn.save(ds, target)
+    assert target.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.nc", "thesis.tex"]
