@@ -9,11 +9,13 @@
 #include <string>
 
 #include "geardyn/case.hpp"
+#include "geardyn/case_keys.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     const geardyn::Case c = geardyn::parse_case(text, "fuzz.toml");
+    (void)geardyn::unused_settings(c);
     (void)geardyn::parse_case(geardyn::to_toml(c), "fuzz.toml (written back)");
   } catch (const geardyn::InputError&) {
   }

@@ -4,6 +4,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -178,6 +179,68 @@ MaybeViolation check_ranges(const Case& c) {
   return check_relations(c);
 }
 
+// The source name of a case made of the defaults alone.
+constexpr const char* kDefaultsSource = "(defaults)";
+
+// The case keys `message` names, as whole words (gear.teeth in "gear.teeth[0] = 3"), in the
+// order it names them, each once.
+std::vector<const CaseKey*> keys_named(const std::string& message) {
+  const auto word = [](char ch) {
+    return std::isalnum(static_cast<unsigned char>(ch)) != 0 || ch == '_' || ch == '.';
+  };
+  std::vector<std::pair<std::size_t, const CaseKey*>> found;
+  for (const CaseKey& k : case_keys()) {
+    if (k.section().empty()) continue;
+    for (std::size_t at = message.find(k.name); at != std::string::npos;
+         at = message.find(k.name, at + 1)) {
+      const std::size_t end = at + k.name.size();
+      if ((at == 0 || !word(message[at - 1])) && (end == message.size() || !word(message[end]))) {
+        found.emplace_back(at, &k);
+        break;
+      }
+    }
+  }
+  std::sort(found.begin(), found.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<const CaseKey*> out;
+  out.reserve(found.size());
+  for (const auto& [at, k] : found) out.push_back(k);
+  return out;
+}
+
+}  // namespace
+
+std::string annotate_origins(const Case& c, const std::map<std::string, std::string>& origins,
+                             const std::string& message) {
+  const std::vector<const CaseKey*> named = keys_named(message);
+  std::string from;
+  bool any_given = false;
+  for (const CaseKey* k : named) {
+    const auto it = origins.find(std::string(k->name));
+    any_given = any_given || it != origins.end();
+    if (it != origins.end() && message.find(it->second) != std::string::npos) continue;
+    from += fmt::format("{}{}{}", from.empty() ? "" : ", ", k->name,
+                        it != origins.end() ? " from " + it->second : ": default value");
+  }
+  std::string cause;
+  if (!named.empty() && !any_given) {
+    // Every key the message names is at its default: the keys given in their sections made it
+    // so (a module of nanometres makes the default outside diameter a point).
+    for (const auto& [key, origin] : origins) {
+      const CaseKey* k = find_case_key(key);
+      if (!k || std::none_of(named.begin(), named.end(),
+                             [&](const CaseKey* n) { return n->section() == k->section(); }))
+        continue;
+      cause +=
+          fmt::format("{}{} = {} ({})", cause.empty() ? "" : ", ", key, k->value_text(c), origin);
+    }
+  }
+  std::string out = cause.empty() ? message : fmt::format("with {}: {}", cause, message);
+  return from.empty() ? out : fmt::format("{} ({})", out, from);
+}
+
+namespace {
+
 // Decodes a TOML table into a Case, remembering which keys it used so that any other key can be
 // reported as unknown.
 class Reader {
@@ -340,15 +403,18 @@ class Reader {
 
   // The location of a dotted key, for range errors found after decoding.
   std::string location(const std::string& dotted) const {
+    // The key's own node, or the array it is an element of ("key[1]" of a key given whole);
+    // never its section, which a --set of another key may have made.
     std::string path = dotted;
     while (!path.empty()) {
       toml::node_view<const toml::node> v = root_.at_path(path);
       if (v) return origin(dotted, v.node()->source());
-      const auto cut = path.find_last_of(".[");
+      const auto cut = path.find_last_of('[');
       if (cut == std::string::npos) break;
       path.resize(cut);
     }
-    return source_ + " (default value)";
+    return source_ == kDefaultsSource ? std::string("default value")
+                                      : fmt::format("default value (not in {})", source_);
   }
 
  private:
@@ -359,7 +425,7 @@ class Reader {
       const std::string& k = it->key;
       if (dotted == k || dotted.rfind(k + ".", 0) == 0 || dotted.rfind(k + "[", 0) == 0 ||
           k.rfind(dotted + ".", 0) == 0)
-        return fmt::format("--set {}={}", it->key, it->value);
+        return it->label();
     }
     return where(src, source_);
   }
@@ -518,10 +584,13 @@ void guard_toml_text(const std::string& text, const std::string& source) {
   }
 }
 
-// toml::parse behind the guard.
+// toml::parse behind the guard. A UTF-8 byte-order mark (as Windows editors write one) is no
+// part of the document.
 toml::table parse_toml(const std::string& text, const std::string& source) {
-  guard_toml_text(text, source);
-  return toml::parse(text, source);
+  const std::string_view body = without_byte_order_mark(text);
+  const std::string document(body);
+  guard_toml_text(document, source);
+  return toml::parse(document, source);
 }
 
 // An override of one element of an array, `key[i]` or `key[i][j]`: replaces that element of
@@ -574,7 +643,7 @@ void set_element(toml::table& root, const Override& o, const std::string& origin
 Case decode(toml::table& root, const std::string& source, const std::vector<Override>& overrides,
             std::string name) {
   for (const Override& o : overrides) {
-    const std::string origin = fmt::format("--set {}={}", o.key, o.value);
+    const std::string origin = o.label();
     if (o.key.find('[') != std::string::npos) {
       set_element(root, o, origin);
       continue;
@@ -602,14 +671,25 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
   r.reject_unknown();
 
   if (MaybeViolation v = check_ranges(c)) {
-    throw InputError(
-        fmt::format("{}: {} = {}: must be {}", r.location(v->key), v->key, v->value, v->allowed));
+    // The bound may name other keys (a step below solver.duration_s): where each came from.
+    throw InputError(annotate_origins(
+        c, r.origins(),
+        fmt::format("{}: {} = {}: must be {}", r.location(v->key), v->key, v->value, v->allowed)));
   }
   c.origins = r.origins();
   return c;
 }
 
 }  // namespace
+
+std::string_view without_byte_order_mark(std::string_view text) {
+  constexpr std::string_view kBom = "\xEF\xBB\xBF";
+  return text.substr(0, kBom.size()) == kBom ? text.substr(kBom.size()) : text;
+}
+
+std::string Override::label() const {
+  return origin.empty() ? fmt::format("--set {}={}", key, value) : origin;
+}
 
 Override parse_override(const std::string& assignment) {
   const auto eq = assignment.find('=');
@@ -658,14 +738,14 @@ std::string read_input_file(const std::filesystem::path& path, const std::string
   text << in.rdbuf();
   if (in.bad())
     throw InputError(fmt::format("{}: error while reading the {}", path.string(), what));
-  return text.str();
+  return std::string(without_byte_order_mark(text.str()));
 }
 
 Case load_case(const std::optional<std::filesystem::path>& path,
                const std::vector<Override>& overrides) {
   if (!path) {
     toml::table empty;
-    return decode(empty, "(defaults)", overrides, "default");
+    return decode(empty, kDefaultsSource, overrides, "default");
   }
   Case c = parse_case(read_input_file(*path, "case file"), path->string(), overrides);
   c.name = path->stem().string();
@@ -682,16 +762,12 @@ void set_case_value(Case& c, const Override& o) {
   c.directory = directory;
   // The keys came from where they came from before; the override from itself.
   const std::string base = o.key.substr(0, o.key.find('['));
-  origins[base] = fmt::format("--set {}={}", o.key, o.value);
+  origins[base] = o.label();
   c.origins = std::move(origins);
 }
 
 std::string with_origins(const Case& c, const std::string& message) {
-  std::string from;
-  for (const auto& [key, origin] : c.origins)
-    if (message.find(key) != std::string::npos && message.find(origin) == std::string::npos)
-      from += fmt::format("{}{} from {}", from.empty() ? "" : ", ", key, origin);
-  return from.empty() ? message : fmt::format("{} ({})", message, from);
+  return annotate_origins(c, c.origins, message);
 }
 
 const char* to_string(Method m) {

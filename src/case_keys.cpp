@@ -510,4 +510,59 @@ std::string case_keys_markdown() {
   return out;
 }
 
+std::string unused_reason(const CaseKey& k, const Case& c) {
+  const std::string_view section = k.section();
+  const ModelForm form = c.model.form;
+  const std::string form_text = fmt::format("model.form = \"{}\"", to_string(form));
+  // By form: which sections it reads.
+  if (k.name == "model.dof" || section == "bearings" || section == "shafts") {
+    if (form != ModelForm::kCoupled)
+      return form_text + " has no bearings or shafts (only \"coupled\" reads them)";
+  } else if (section == "model" && k.name != "model.form") {
+    if (form != ModelForm::kNondimensional)
+      return form_text +
+             " reads [gear], [mesh], [load] and [speed] (only \"nondimensional\" "
+             "reads " +
+             std::string(k.name) + ")";
+  } else if (section == "gear" || section == "mesh" || section == "load" || section == "speed") {
+    if (form == ModelForm::kNondimensional)
+      return form_text + " reads [model] only (b = 1, times in tau)";
+  }
+  // By key: settings of a method or a source that is not chosen.
+  const SolverData& s = c.solver;
+  if (k.name == "solver.time_step_s" && s.method != Method::kNewmark && s.time_step_s != 0)
+    return fmt::format(
+        "solver.method = \"{}\" chooses its own steps (only \"newmark\" takes a "
+        "time step)",
+        to_string(s.method));
+  if (k.name == "mesh.stiffness_table" && c.mesh.stiffness_source != StiffnessSource::kTable &&
+      !c.mesh.stiffness_table.empty())
+    return "mesh.stiffness_source is not \"table\"";
+  if (k.name == "mesh.transmission_error_kept" && c.mesh.transmission_error_table.empty())
+    return "there is no mesh.transmission_error_table to keep harmonics of";
+  if ((k.name == "load.load_fluctuation_order" || k.name == "load.load_fluctuation_phase_deg") &&
+      c.load.load_fluctuation_nm == 0)
+    return "load.load_fluctuation_nm = 0: the load torque does not fluctuate";
+  if ((k.name == "load.fluctuation_order" || k.name == "load.fluctuation_phase_deg") &&
+      c.load.fluctuation_ratio == 0)
+    return "load.fluctuation_ratio = 0: the driving torque does not fluctuate";
+  return {};
+}
+
+std::vector<std::string> unused_settings(const Case& c) {
+  std::vector<std::string> out;
+  const Case defaults;
+  for (const CaseKey& k : case_keys()) {
+    const auto given = c.origins.find(std::string(k.name));
+    // A key given at its default changes nothing, used or not (a case file that writes every
+    // key out, as cases/park2010.toml does, is not warned about).
+    if (given == c.origins.end() || k.value_text(c) == k.value_text(defaults)) continue;
+    const std::string why = unused_reason(k, c);
+    if (!why.empty())
+      out.push_back(
+          fmt::format("{} = {} ({}): not used: {}", k.name, k.value_text(c), given->second, why));
+  }
+  return out;
+}
+
 }  // namespace geardyn

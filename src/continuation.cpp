@@ -228,11 +228,8 @@ class Continuer {
 
   Case case_at(double p) const {
     Case c = base_;
-    try {
-      set_case_value(c, {o_.key, fmt::format("{:.17g}", p)});
-    } catch (const InputError& e) {
-      throw InputError(fmt::format("--param {} at {}: {}", o_.key, p, e.what()));
-    }
+    set_case_value(c,
+                   {o_.key, fmt::format("{:.17g}", p), fmt::format("--param {} at {}", o_.key, p)});
     return c;
   }
 
@@ -940,12 +937,9 @@ std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions&
 ContinuationResult continuation(const Case& c, const ContinuationOptions& options) {
   if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
   // Both ends must be values the key allows (the start is checked where the branch begins).
-  try {
-    Case at_to = c;
-    set_case_value(at_to, {options.key, fmt::format("{}", options.to)});
-  } catch (const InputError& e) {
-    throw InputError(fmt::format("--to {}: {}", options.to, e.what()));
-  }
+  Case at_to = c;
+  set_case_value(at_to,
+                 {options.key, fmt::format("{}", options.to), fmt::format("--to {}", options.to)});
   const double lo = std::min(options.from, options.to), hi = std::max(options.from, options.to);
   const auto wall_start = std::chrono::steady_clock::now();
   Continuer k(c, options, lo, hi);

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
@@ -396,6 +397,7 @@ std::string coupled_summary_json(const CoupledRunResult& r, int indent) {
   j["events"] = r.events;
   j["duration_s"] = r.input.solver.duration_s;
   j["wall_time_s"] = r.wall_time_s;
+  j["unused_settings"] = unused_settings(r.input);
   return j.dump(indent);
 }
 

@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "geardyn/case_keys.hpp"
+
 namespace geardyn {
 namespace {
 
@@ -135,6 +137,7 @@ std::string summary_json(const RunResult& r, int indent) {
   j["duration_s"] = r.input.solver.duration_s;
   j["wall_time_s"] = r.wall_time_s;
   j["warnings"] = r.geometry.warnings;
+  j["unused_settings"] = unused_settings(r.input);
   auto peaks = [](const std::vector<SpectralPeak>& p) {
     nlohmann::json a = nlohmann::json::array();
     for (const SpectralPeak& x : p)

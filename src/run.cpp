@@ -220,7 +220,37 @@ namespace {
 
 // The bounds of kMaxSamples and the others (run.hpp), in floating point before any count is
 // made an integer.
-void check_work(const Case& c, const Derived& d, double window_s) {
+// What sets a case's fastest time scale (fastest_period_s), and the keys it comes from, so that
+// a window too long for it names the input that made it so.
+struct FastestScale {
+  std::string what;
+  std::vector<std::string> keys;
+};
+
+FastestScale fastest_scale(const Case& c, const GearPairParameters& p) {
+  const bool nd = c.model.form == ModelForm::kNondimensional;
+  double k_max = p.stiffness_n_per_m.offset;
+  for (const Harmonic& h : p.stiffness_n_per_m.terms) k_max += std::abs(h.amplitude);
+  const double contact =
+      std::sqrt(p.cos_base_helix * p.cos_base_helix * k_max / p.equivalent_mass_kg);
+  const double stiffness = p.stiffness_n_per_m.max_angular_frequency_rad_s();
+  const double force = p.force_n.max_angular_frequency_rad_s();
+  if (force >= contact && force >= stiffness)
+    return {"the torque's fluctuation",
+            nd ? std::vector<std::string>{"model.omega"}
+               : std::vector<std::string>{"load.fluctuation_order", "load.load_fluctuation_order",
+                                          "speed.shaft_frequency_hz"}};
+  if (stiffness >= contact)
+    return {"the mesh stiffness's highest harmonic",
+            nd ? std::vector<std::string>{"model.omega", "model.stiffness_harmonics"}
+               : std::vector<std::string>{"speed.shaft_frequency_hz", "gear.teeth",
+                                          "mesh.harmonics_kept", "mesh.stiffness_harmonics"}};
+  return {"the contact oscillation",
+          nd ? std::vector<std::string>{}
+             : std::vector<std::string>{"mesh.mean_stiffness_n_per_m", "gear.inertia_kg_m2"}};
+}
+
+void check_work(const Case& c, const GearPairParameters& p, const Derived& d, double window_s) {
   const double samples = window_s / d.output_interval_s + 1;
   if (!(samples <= kMaxSamples))
     throw InputError(fmt::format(
@@ -228,11 +258,22 @@ void check_work(const Case& c, const Derived& d, double window_s) {
         "most {:.0e} (choose a larger interval, or 0 for the automatic one)",
         d.output_interval_s, samples, window_s, kMaxSamples));
   const double periods = window_s / d.fastest_period_s;
-  if (!(periods <= kMaxFastestPeriods))
-    throw InputError(fmt::format(
-        "solver.duration_s = {:.6g}: {:.3g} periods of the case's fastest time scale ({:.3g} "
-        "s); at most {:.0e}",
-        window_s, periods, d.fastest_period_s, kMaxFastestPeriods));
+  if (!(periods <= kMaxFastestPeriods)) {
+    // Named by the input that made the window too long: a given key of what sets the fastest
+    // time scale (a torque order of 1e300), else the window itself.
+    const FastestScale scale = fastest_scale(c, p);
+    std::string lead = fmt::format("solver.duration_s = {:.6g}", window_s);
+    for (const std::string& key : scale.keys)
+      if (const auto given = c.origins.find(key); given != c.origins.end()) {
+        lead = fmt::format("{} = {} ({})", key, find_case_key(key)->value_text(c), given->second);
+        break;
+      }
+    throw InputError(with_origins(
+        c,
+        fmt::format("{}: {} sets the case's fastest time scale ({:.3g} s), and "
+                    "solver.duration_s = {:.6g} holds {:.3g} of its periods; at most {:.0e}",
+                    lead, scale.what, d.fastest_period_s, window_s, periods, kMaxFastestPeriods)));
+  }
   if (c.solver.method != Method::kNewmark) return;
   const double largest = d.fastest_period_s / kMinStepsPerFastestPeriod;
   if (c.solver.time_step_s > largest)
@@ -372,7 +413,7 @@ RunResult run(const Case& c, const RunOptions& options) {
                             : std::max((t1 - t0) / kMaxAutomaticSamples,
                                        std::min((t1 - t0) / kAutomaticSamples,
                                                 d.fastest_period_s / kSamplesPerFastestPeriod));
-  check_work(c, d, t1 - t0);
+  check_work(c, p, d, t1 - t0);
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, d.output_interval_s);
 
   const ode::State initial = initial_state(c, model, t0);

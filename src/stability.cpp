@@ -30,11 +30,8 @@ constexpr double kNeutralMargin = 1e-9;
 
 Case case_at(const Case& base, const SweepAxis& axis, double value) {
   Case c = base;
-  try {
-    set_case_value(c, {axis.key, fmt::format("{:.17g}", value)});
-  } catch (const InputError& e) {
-    throw InputError(fmt::format("--param {} at {}: {}", axis.key, value, e.what()));
-  }
+  set_case_value(c, {axis.key, fmt::format("{:.17g}", value),
+                     fmt::format("--param {} at {}", axis.key, value)});
   return c;
 }
 
@@ -130,6 +127,15 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
   const std::size_t total = rows.size() * values.size();
   std::vector<std::string> keys{o.axis.key};
   if (o.axis2) keys.push_back(o.axis2->key);
+  // Every value the chart sets, against its key's bounds, before any work: the ends of each
+  // range (its values lie between them), each given value.
+  for (const auto& [axis, suffix] :
+       {std::pair{&o.axis, ""}, std::pair{o.axis2 ? &*o.axis2 : nullptr, "2"}})
+    if (axis)
+      for (const AxisValue& end : axis_ends(*axis, suffix)) {
+        Case at = c;
+        set_case_value(at, {axis->key, fmt::format("{:.17g}", end.value), end.origin});
+      }
   const std::optional<MeshStiffness> shared = shared_stiffness(c, keys);
   for (const double row : rows) {
     const Case base = o.axis2 ? case_at(c, *o.axis2, row) : c;

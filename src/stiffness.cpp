@@ -252,13 +252,20 @@ std::vector<double> read_cycle_table(const Case& c, const CycleTableSpec& spec) 
   }
   std::istringstream in(text);
   std::string line;
-  std::getline(in, line);
+  // Lines as editors save them: CRLF ends, trailing blanks, a last line without a newline.
+  const auto next_line = [&] {
+    if (!std::getline(in, line)) return false;
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t'))
+      line.pop_back();
+    return true;
+  };
+  next_line();
   const std::string header = fmt::format("position,{}", spec.column);
   if (line.rfind(header, 0) != 0)
     throw InputError(fmt::format("{}: {}:1: the header must be {}", key, path.string(), header));
   std::vector<double> pos, values;
   int number = 1;
-  while (std::getline(in, line)) {
+  while (next_line()) {
     ++number;
     if (line.empty()) continue;
     double p, v;

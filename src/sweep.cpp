@@ -106,6 +106,29 @@ class PointRunner {
     return period_s(build_model(c, nullptr, stiffness()));
   }
 
+  // The work one point may do, against the run's bound on the periods of the fastest time
+  // scale (run.hpp): up to max_settle + measure system periods. Throws InputError naming the
+  // value (a shaft frequency of 1e-300 Hz makes one system period hold 1e303 contact periods).
+  void check_work_at(double value, const std::string& where, double value2,
+                     const std::string& where2) const {
+    Case c = base_;
+    set(c, o_.axis.key, value, where);
+    if (o_.axis2) set(c, o_.axis2->key, value2, where2);
+    const std::string both = where2.empty() ? where : where + " with " + where2;
+    const GearPairModel model = build_model(
+        c.model.form == ModelForm::kCoupled ? gear_pair_of(c) : c, nullptr, stiffness());
+    const double period = period_s(model), fastest = fastest_period_s(model.parameters());
+    const double periods =
+        (static_cast<double>(o_.max_settle_periods) + o_.measure_periods) * period / fastest;
+    if (!(periods <= kMaxFastestPeriods))
+      throw InputError(fmt::format(
+          "{}: a point runs up to {} system periods (--max-settle-periods + --measure-periods) "
+          "of {:.3g} s each, {:.3g} periods of the case's fastest time scale ({:.3g} s); at "
+          "most {:.0e}",
+          both, o_.max_settle_periods + o_.measure_periods, period, periods, fastest,
+          kMaxFastestPeriods));
+  }
+
   // The coupled model's section period: that of its excitations, the one-degree pair's with
   // the same case (stiffness, torques, transmission error).
   double coupled_period_s(const Case& c) const {
@@ -350,12 +373,10 @@ class PointRunner {
     return pt;
   }
 
-  void set(Case& c, const std::string& key, double value) const {
-    try {
-      set_case_value(c, {key, number_text(value)});
-    } catch (const InputError& e) {
-      throw InputError(fmt::format("--param {} at {}: {}", key, value, e.what()));
-    }
+  // `origin`: how the user gave the value, for messages ("--to -5"); by default the point.
+  static void set(Case& c, const std::string& key, double value, std::string origin = {}) {
+    if (origin.empty()) origin = fmt::format("--param {} at {}", key, value);
+    set_case_value(c, {key, number_text(value), std::move(origin)});
   }
 
   // The state a sequence starts from (and restarts from after a failed point).
@@ -546,13 +567,35 @@ std::string SweepOptions::validate() const {
   return "";
 }
 
+std::vector<AxisValue> axis_ends(const SweepAxis& a, const std::string& suffix) {
+  std::vector<AxisValue> out;
+  if (!a.explicit_values.empty()) {
+    for (double x : a.explicit_values)
+      out.push_back({x, fmt::format("the value {} of {}", x, a.key)});
+    return out;
+  }
+  out.push_back({a.from, fmt::format("--from{} {}", suffix, a.from)});
+  out.push_back({a.to, fmt::format("--to{} {}", suffix, a.to)});
+  return out;
+}
+
 SweepResult sweep(const Case& base, const SweepOptions& o) {
   if (const std::string e = o.validate(); !e.empty()) throw InputError(e);
   const auto start = std::chrono::steady_clock::now();
   SweepResult r;
   r.options = o;
   r.form = base.model.form;
+  r.unused_settings = unused_settings(base);
   const PointRunner runner(base, o);
+  // Every value the sweep sets, against its key's bounds and the work a point may do, before
+  // any work: the ends of each range (its values lie between them, and the work per point grows
+  // toward one end: the system period shrinks with the speed faster than the fastest time scale
+  // does), the corners of a map, each given value.
+  const std::vector<AxisValue> rows2 =
+      o.axis2 ? axis_ends(*o.axis2, "2") : std::vector<AxisValue>{{0.0, ""}};
+  for (const AxisValue& y : rows2)
+    for (const AxisValue& x : axis_ends(o.axis, ""))
+      runner.check_work_at(x.value, x.origin, y.value, y.origin);
   r.period_s = runner.period_at(o.axis.values().front(), o.axis2 ? o.axis2->values().front() : 0.0);
 
   // The sequences: for each row, the up sweep and/or the down sweep.
@@ -712,6 +755,7 @@ std::string summary(const SweepResult& r) {
   j["cancelled"] = r.cancelled;
   j["wall_time_s"] = r.wall_time_s;
   j["threads"] = r.threads;
+  j["unused_settings"] = r.unused_settings;
   j["hysteresis"] = nlohmann::json::array();
   for (const Hysteresis& h : r.hysteresis) {
     nlohmann::json x = {{"from_value", h.from_value}, {"to_value", h.to_value}};

@@ -160,6 +160,26 @@ std::vector<BadInput> bad_inputs(const fs::path& d) {
       {"stability --param speed.shaft_frequency_hz --from 10 --to 20 --points 0" + out,
        2,
        {"--points = 0"}},
+      {"sweep --param speed.shaft_frequency_hz --from 1e-300 --to 1e-299 --points 3" + out,
+       2,
+       {"--from 1e-300", "periods of the case's fastest time scale"}},
+      {"sweep --param mesh.backlash_um --from 100 --to -5 --points 3" + out,
+       2,
+       {"--to -5", "mesh.backlash_um = -5"}},
+      // Options that qualify nothing without their partner.
+      {"sweep " + nd + "--param model.omega --from 1 --to 2 --points 3 --from2 0 --to2 1" + out,
+       2,
+       {"--from2", "--param2"}},
+      {"sweep " + nd + "--param model.omega --from 1 --to 2 --points 3 --param2 model.zeta" + out,
+       2,
+       {"--param2", "--from2"}},
+      {"stability --param speed.shaft_frequency_hz --from 80 --to 100 --points 3 --log2" + out,
+       2,
+       {"--log2", "--param2"}},
+      {"continue " + nd + "--param model.omega --from 1 --to 2 --no-figures --overlay-sweep x" +
+           out,
+       2,
+       {"--overlay-sweep", "--no-figures"}},
       // Steps the physics cannot resolve, readings that are not finite.
       {"run --set solver.method=newmark --set solver.time_step_s=1e-3" + out,
        2,
@@ -172,7 +192,17 @@ std::vector<BadInput> bad_inputs(const fs::path& d) {
        {"non-finite readings"}},
       {"run --set mesh.backlash_um=1e-310" + out, 2, {"mesh.backlash_um = 1e-310"}},
       // Derived physics.
-      {"run --set gear.normal_module_mm=1e-9" + out, 2, {"comes to a point"}},
+      {"run --set gear.normal_module_mm=1e-9" + out,
+       2,
+       {"with gear.normal_module_mm = 1e-09 (--set gear.normal_module_mm=1e-9): "
+        "gear.outside_diameter_mm[0] = 154.98: the tooth comes to a point"}},
+      {"run --set load.fluctuation_order=1e300" + out,
+       2,
+       {"load.fluctuation_order = 1e+300 (--set load.fluctuation_order=1e300): the torque's "
+        "fluctuation sets the case's fastest time scale"}},
+      {"run --set mesh.stiffness_source=table" + out,
+       2,
+       {"mesh.stiffness_table", "mesh.stiffness_source from --set mesh.stiffness_source=table"}},
       {"run --set gear.face_width_mm=1e308" + out, 2, {"gear.face_width_mm = 1e+308"}},
       {"run --set gear.outside_diameter_mm=[300,300]" + out,
        2,
@@ -553,6 +583,73 @@ TEST(Cli, AFailedWriteLeavesTheOutputFolderAsItWas) {
   EXPECT_EQ(slurp(d / "summary.json"), earlier);
   EXPECT_TRUE(fs::is_directory(d / "events.csv"));
   expect_users_files(d, "failed write");
+}
+
+TEST(Cli, ACaseFileAsEditorsSaveItReadsAsTheSame) {
+  // A byte-order mark (Windows editors), CRLF line ends and no newline at the end: the same case
+  // as the plain file; and an error in such a file is still placed at its line.
+  const fs::path d = fresh("editors");
+  fs::create_directories(d);
+  const std::string lines[] = {"description = \"edited\"", "[mesh]",
+                               "backlash_um = 150   # a comment", "[speed]",
+                               "shaft_frequency_hz = 100"};
+  std::string plain, windows = "\xEF\xBB\xBF";
+  for (const std::string& l : lines) {
+    plain += l + "\n";
+    windows += l + "\r\n";
+  }
+  windows.resize(windows.size() - 2);  // the last line without its line end
+  std::ofstream(d / "plain.toml", std::ios::binary) << plain;
+  std::ofstream(d / "windows.toml", std::ios::binary) << windows;
+  const Outcome a = cli("run " + (d / "plain.toml").string() + " --set solver.duration_s=0.01");
+  const Outcome b = cli("run " + (d / "windows.toml").string() + " --set solver.duration_s=0.01");
+  ASSERT_EQ(a.code, 0) << a.err;
+  ASSERT_EQ(b.code, 0) << b.err;
+  const auto body = [](const std::string& out) { return out.substr(out.find('\n')); };
+  EXPECT_EQ(body(a.out).substr(0, body(a.out).find("steps")),
+            body(b.out).substr(0, body(b.out).find("steps")));
+  std::ofstream(d / "bad.toml", std::ios::binary)
+      << "\xEF\xBB\xBF[mesh]\r\nbacklash_um = 150\r\nstiffnes = 3";
+  const Outcome bad = cli("run " + (d / "bad.toml").string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("bad.toml:3:1: unknown key 'mesh.stiffnes'"), std::string::npos)
+      << bad.err;
+  fs::remove_all(d);
+}
+
+TEST(Cli, ASettingTheMethodDoesNotUseIsReported) {
+  // A Newmark step under the exact engine, [bearings] on the one-degree pair, [model] keys of
+  // the non-dimensional form on the gear pair: each said on stderr with where it came from, and
+  // listed in summary.json; a step that Newmark does use is not.
+  const fs::path d = fresh("unused");
+  const Outcome o =
+      cli("run --set solver.time_step_s=1e-7 --set bearings.damping_ratio=0.1 --set model.omega=2 "
+          "--set solver.duration_s=0.002 --out " +
+          d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  for (const char* piece :
+       {"warning: solver.time_step_s = 1e-07 (--set solver.time_step_s=1e-7): not used: "
+        "solver.method = \"exact\" chooses its own steps",
+        "bearings.damping_ratio = 0.1 (--set bearings.damping_ratio=0.1): not used",
+        "model.omega = 2.0 (--set model.omega=2): not used"})
+    EXPECT_NE(o.err.find(piece), std::string::npos) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  ASSERT_EQ(j["unused_settings"].size(), 3U) << j["unused_settings"];
+  EXPECT_NE(j["unused_settings"][0].get<std::string>().find("model.omega"), std::string::npos);
+  const Outcome used =
+      cli("run --set solver.method=newmark --set solver.time_step_s=1e-7 --set "
+          "solver.duration_s=0.002 --out " +
+          d.string());
+  ASSERT_EQ(used.code, 0) << used.err;
+  EXPECT_EQ(used.err.find("not used"), std::string::npos) << used.err;
+  EXPECT_TRUE(nlohmann::json::parse(slurp(d / "summary.json"))["unused_settings"].empty());
+  // The shipped cases give nothing they do not use.
+  for (const char* file : {"park2010.toml", "park2010_coupled.toml", "kahraman_singh.toml"}) {
+    const Outcome shipped = cli("run " + std::string(GEARDYN_SOURCE_DIR) + "/cases/" + file +
+                                " --set solver.duration_s=0.001");
+    EXPECT_EQ(shipped.err.find("not used"), std::string::npos) << file << shipped.err;
+  }
+  fs::remove_all(d);
 }
 
 TEST(Cli, SweepRejectsABadKey) {

@@ -142,6 +142,16 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
   return std::filesystem::path(s);
 }
 
+// The case a model command works on; every setting it gives that the model does not use is
+// said (case_keys.hpp, unused_settings), never dropped silently.
+geardyn::Case load_model_case(const std::string& file,
+                              const std::vector<geardyn::Override>& overrides) {
+  geardyn::Case c = geardyn::load_case(case_path(file), overrides);
+  for (const std::string& w : geardyn::unused_settings(c))
+    fmt::print(stderr, "geardyn: warning: {}\n", w);
+  return c;
+}
+
 void print_warnings(const std::vector<std::string>& warnings) {
   for (const std::string& w : warnings) fmt::print(stderr, "warning: {}\n", w);
 }
@@ -287,7 +297,7 @@ int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plo
 // The modes of the coupled model linearised in contact at the mean stiffness.
 int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets, bool json,
               const std::string& out_dir) {
-  geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
   if (c.model.form != geardyn::ModelForm::kCoupled)
     throw geardyn::InputError(fmt::format(
         "model.form = \"{}\": modes are of the coupled model; set model.form = \"coupled\" "
@@ -318,7 +328,7 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
   if (plot && out_dir.empty())
     throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
-  geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
   if (c.model.form == geardyn::ModelForm::kCoupled) {
     if (physical)
       throw geardyn::InputError("--physical: the coupled model's figure is in physical units");
@@ -416,7 +426,7 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
 
 int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets,
               geardyn::SweepOptions o, const std::string& out_dir, bool figures) {
-  const geardyn::Case base = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  const geardyn::Case base = load_model_case(case_file, parse_overrides(sets));
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   ProgressBar bar("sweep", "points");
   o.progress = [&](std::size_t done, std::size_t total) {
@@ -593,7 +603,7 @@ int cmd_coupled_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
 
 int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets,
               const geardyn::OrbitOptions& o, const std::vector<double>& state, bool json) {
-  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
   if (c.model.form == geardyn::ModelForm::kCoupled) return cmd_coupled_orbit(c, o, state, json);
   std::optional<geardyn::ode::State> start;
   if (!state.empty()) {
@@ -645,7 +655,7 @@ int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets
 int cmd_continue(const std::string& case_file, const std::vector<std::string>& sets,
                  geardyn::ContinuationOptions o, const std::string& out_dir, bool figures,
                  const std::string& overlay_dir) {
-  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   std::string sweep_text;
   if (!overlay_dir.empty()) {
@@ -696,7 +706,7 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
 int cmd_stability(const std::string& case_file, const std::vector<std::string>& sets,
                   geardyn::StabilityOptions o, const std::string& out_dir, bool json,
                   bool figures) {
-  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   ProgressBar bar("stability");
   o.progress = [&](std::size_t done, std::size_t total) {
@@ -742,7 +752,7 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
     throw geardyn::InputError(
         fmt::format("reproduce {}: unknown study; available: park2010", study_name));
   const std::vector<geardyn::Override> overrides = parse_overrides(sets);
-  const geardyn::Case base = geardyn::load_case(case_path(case_file), overrides);
+  const geardyn::Case base = load_model_case(case_file, overrides);
   const geardyn::Study study = geardyn::park2010_study(base);
   // The study sets the paper's conditions per case: a --set of the same key does not reach
   // those cases, and the user is told so.
@@ -775,6 +785,19 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
   fmt::print("report: {}/report.html and report.md{}\n", out_dir,
              figures ? ", figures fig4, fig5, fig6 (.png, .svg)" : "");
   return 0;
+}
+
+// --param2 and its range: each needs the others (a range without its key would qualify
+// nothing, a key without its range would be a map of nothing), so a missing partner is an error
+// naming both, exit 2.
+void add_second_axis(CLI::App* sub, geardyn::SweepAxis& axis, const std::string& what) {
+  CLI::Option* key = sub->add_option("--param2", axis.key, what);
+  CLI::Option* from = sub->add_option("--from2", axis.from, "first value of --param2");
+  CLI::Option* to = sub->add_option("--to2", axis.to, "last value of --param2");
+  CLI::Option* points = sub->add_option("--points2", axis.points, "number of values of --param2");
+  CLI::Option* log = sub->add_flag("--log2", axis.log, "geometric spacing of --param2");
+  for (CLI::Option* o : {from, to, points, log}) o->needs(key);
+  key->needs(from)->needs(to)->needs(points);
 }
 
 }  // namespace
@@ -840,11 +863,7 @@ int main(int argc, char** argv) {
   sweep_cmd->add_flag("--log", so.axis.log, "geometric spacing");
   sweep_cmd->add_option("--direction", direction, "up, down or both (default both)")
       ->check(CLI::IsMember({"up", "down", "both"}));
-  sweep_cmd->add_option("--param2", axis2.key, "a second key: a 2-D map");
-  sweep_cmd->add_option("--from2", axis2.from, "first value of --param2");
-  sweep_cmd->add_option("--to2", axis2.to, "last value of --param2");
-  sweep_cmd->add_option("--points2", axis2.points, "number of values of --param2");
-  sweep_cmd->add_flag("--log2", axis2.log, "geometric spacing of --param2");
+  add_second_axis(sweep_cmd, axis2, "a second key: a 2-D map");
   sweep_cmd->add_option("--settle-periods", so.settle_periods,
                         "periods always run before steadiness is judged (0)");
   sweep_cmd->add_option("--measure-periods", so.measure_periods,
@@ -913,11 +932,13 @@ int main(int argc, char** argv) {
   cont->add_flag("--follow-period-doubling", co.follow_period_doubling,
                  "switch to the period-doubled branch at each period doubling and follow it");
   cont->add_option("--out", cont_out, "output directory (default out/continue)");
-  cont->add_flag("--no-figures", cont_no_figures, "write the data without the figure");
   std::string overlay_dir;
+  CLI::Option* no_figures_option =
+      cont->add_flag("--no-figures", cont_no_figures, "write the data without the figure");
   cont->add_option("--overlay-sweep", overlay_dir,
                    "a geardyn sweep's output directory along the same key: its points drawn "
-                   "over the branch");
+                   "over the branch")
+      ->excludes(no_figures_option);  // it is drawn in the figure only
 
   CLI::App* stab = app.add_subcommand(
       "stability", "Floquet stability in permanent contact along a key (a chart: two)");
@@ -931,11 +952,7 @@ int main(int argc, char** argv) {
   stab->add_option("--to", sto.axis.to, "last value")->required();
   stab->add_option("--points", sto.axis.points, "number of values")->required();
   stab->add_flag("--log", sto.axis.log, "geometric spacing");
-  stab->add_option("--param2", stab_axis2.key, "a second key: a stability chart");
-  stab->add_option("--from2", stab_axis2.from, "first value of --param2");
-  stab->add_option("--to2", stab_axis2.to, "last value of --param2");
-  stab->add_option("--points2", stab_axis2.points, "number of values of --param2");
-  stab->add_flag("--log2", stab_axis2.log, "geometric spacing of --param2");
+  add_second_axis(stab, stab_axis2, "a second key: a stability chart");
   stab->add_option("--out", stab_out, "directory for stability.csv, boundaries.json, figure");
   stab->add_flag("--json", json, "print the boundaries as JSON");
   stab->add_flag("--no-figures", stab_no_figures, "write the data without the figure");

@@ -16,6 +16,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -222,26 +223,41 @@ struct Case {
   std::map<std::string, std::string> origins;
 };
 
-// `message` with the origins of the case's keys it mentions appended, e.g.
-// "...: the tooth comes to a point (gear.outside_diameter_mm from c.toml:5:1)".
+// `message` with where each case key it names came from: its origin (file:line:column or the
+// --set) or "default value", appended unless the message says it already, e.g. "...: the tooth
+// comes to a point (gear.outside_diameter_mm from c.toml:5:1)". When every key it names is at
+// its default, the keys given in their sections are what made the message true, and it starts
+// with them: "with gear.normal_module_mm = 1e-09 (--set gear.normal_module_mm=1e-9): ...".
 std::string with_origins(const Case& c, const std::string& message);
+// The same with the origins given apart from the case (while it is being read).
+std::string annotate_origins(const Case& c, const std::map<std::string, std::string>& origins,
+                             const std::string& message);
 
 // One `--set key=value` override: key is dotted (`speed.shaft_frequency_hz`), value is in TOML
 // value syntax (`100`, `"clip"`, `[[0.05, 0], [0.02, 0]]`).
 struct Override {
   std::string key;
   std::string value;
+  // How the user gave it, for messages: empty for "--set key=value"; a study that sets a key
+  // names its own option ("--to -5").
+  std::string origin = {};
+
+  std::string label() const;  // origin, or "--set key=value"
 };
 
 // Parses "key=value" as given on the command line. Throws InputError if there is no '='.
 Override parse_override(const std::string& assignment);
 
+// `text` without the UTF-8 byte-order mark some editors put at its start (none is no change).
+std::string_view without_byte_order_mark(std::string_view text);
+
 // The largest input file read (a case file, a stiffness table): far above any real one, far
 // below what exhausts memory.
 constexpr std::uintmax_t kMaxInputFileBytes = 16u << 20;
 
-// The text of an input file. Throws InputError naming `what` and the path unless it is a
-// regular file (not a directory, a device or a pipe) of at most kMaxInputFileBytes.
+// The text of an input file, without a UTF-8 byte-order mark. Throws InputError naming `what`
+// and the path unless it is a regular file (not a directory, a device or a pipe) of at most
+// kMaxInputFileBytes.
 std::string read_input_file(const std::filesystem::path& path, const std::string& what);
 
 // Reads a case file (or the defaults when `path` is empty) and applies the overrides in order.

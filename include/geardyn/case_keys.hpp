@@ -100,6 +100,19 @@ bool changes_stiffness(std::string_view dotted);
 // why not, naming the key and the keys that may be varied.
 std::string check_sweepable(std::string_view dotted);
 
+// Why the value of key `k` in case `c` does nothing there (the chosen form or method does not
+// read it: a Newmark step under the exact engine, [bearings] in the one-degree model, [gear] in
+// the non-dimensional form, a load fluctuation order with no load fluctuation); empty when it
+// is used, or when it holds the value that means "none" (solver.time_step_s = 0).
+std::string unused_reason(const CaseKey& k, const Case& c);
+
+// One line per key the user gave (Case::origins: a file or a --set), at a value other than its
+// default (which changes nothing either way), that the case does not use:
+// "solver.time_step_s = 1e-06 (--set solver.time_step_s=1e-6): not used: ...". The command line
+// prints them as warnings and summary.json lists them ("unused_settings"): a setting is never
+// dropped silently.
+std::vector<std::string> unused_settings(const Case& c);
+
 // The key tables of docs/case-files.md: one "## [section]" table per section, columns key, unit,
 // default, allowed, meaning.
 std::string case_keys_markdown();

@@ -33,6 +33,15 @@ struct SweepAxis {
   std::vector<double> values() const;
 };
 
+// The values of an axis that bound all its others, each with how the user gave it, for messages:
+// the two ends of a range ("--from 1e-300", "--to2 5"; `suffix` is "" or "2"), or each given
+// value ("the value 3 of mesh.backlash_um"). A study checks these before any work.
+struct AxisValue {
+  double value = 0;
+  std::string origin;
+};
+std::vector<AxisValue> axis_ends(const SweepAxis& a, const std::string& suffix);
+
 enum class SweepDirection { kUp, kDown, kBoth };
 const char* to_string(SweepDirection d);
 
@@ -152,6 +161,8 @@ struct SweepResult {
   bool cancelled = false;
   double wall_time_s = 0;
   unsigned threads = 0;
+  // The base case's settings that the model does not use (case_keys.hpp's unused_settings).
+  std::vector<std::string> unused_settings;
 };
 
 // Thresholds of the jump reading, on the peak-to-peak delta_bar (it changes most at a jump): up
