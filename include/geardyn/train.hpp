@@ -1,0 +1,167 @@
+// geardyn: gear trains assembled from elements (DESIGN.md, "Trains"). Pipeline stage 4 beside
+// model.hpp: physics only; the assembled train describes itself as the piecewise-linear system
+// of linear_system.hpp, which the exact engine integrates without knowing what it holds.
+//
+// Coordinates. Each body turns about its own axis; its coordinate theta_i (rad) is its rotation
+// away from the train's nominal rotation at constant speed, counted positive in the body's own
+// nominal direction of rotation (so that one sign rule serves external and internal meshes).
+// The train's rigid rotation is kept as a coordinate: a train whose torques balance on average
+// has it as a free mode (zero frequency), as the gear pair's u leaves it out.
+//
+// Elements, each stamping itself into M q'' + C_r q' + K_r(t) q = Q_r(t) through the indices of
+// the bodies it joins (the finite-element habit: an element knows its local matrices and its
+// degrees of freedom, the assembler adds them and never asks what it holds):
+//
+//   Body   J_i on the diagonal of M.
+//   Shaft  k_s, c_s between two bodies: the twist theta_a - theta_b.
+//   Mesh   between a driving gear a and a driven gear b, along the line of action: the normal
+//          deflection d = R_a theta_a - R_b theta_b, its force as the one-degree model's
+//          F = k(t) (d - e(t) -+ b) + c (d' - e'(t)) on the drive (-) or back (+) side, 0 in
+//          the backlash (|d - e| < b), entering the bodies by virtual work as V^T F with
+//          V = (R_a at a, -R_b at b); k(t) and e(t) at the mesh's own frequency z_a f_a.
+//   Torque a torque T(t) = T_mean + sum_i T_i cos(i Omega t + phi_i) on a body (a drive
+//          positive, a load negative), Omega the body's own angular speed.
+//   Drag   a drag on a body: -T_drag - c_v theta' (constant and viscous; a loose gear's oil).
+//
+// Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1); a region
+// is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
+// Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "geardyn/harmonic_series.hpp"
+#include "geardyn/linear_system.hpp"
+
+namespace geardyn::train {
+
+struct Body {
+  std::string name;
+  double inertia_kg_m2 = 0;  // J > 0
+};
+
+// k(t) = mean (1 + sum_i ratio_i cos(i w_mesh t + phase_i)) and e(t) = sum_i a_i cos(i w_mesh t
+// + phase_i): harmonics of the mesh frequency.
+struct MeshHarmonic {
+  double value = 0;  // ratio k_i / k_mean, or amplitude a_i (m)
+  double phase_rad = 0;
+};
+
+struct Mesh {
+  std::string name;
+  std::string driving, driven;  // body names
+  int teeth_driving = 0, teeth_driven = 0;
+  double base_radius_driving_m = 0, base_radius_driven_m = 0;
+  double backlash_m = 0;  // b, half the total normal backlash
+  double mean_stiffness_n_per_m = 0;
+  std::vector<MeshHarmonic> stiffness;           // ratios
+  std::vector<MeshHarmonic> transmission_error;  // amplitudes, m
+  double damping_n_s_per_m = 0;                  // in contact only
+};
+
+struct Shaft {
+  std::string name;
+  std::string a, b;
+  double stiffness_n_m_per_rad = 0;
+  double damping_n_m_s_per_rad = 0;
+};
+
+struct TorqueHarmonic {
+  double amplitude_nm = 0;
+  double order = 1;  // of the body's own speed
+  double phase_rad = 0;
+};
+
+struct Torque {
+  std::string name;
+  std::string body;
+  double mean_nm = 0;
+  std::vector<TorqueHarmonic> harmonics;
+};
+
+struct Drag {
+  std::string name;
+  std::string body;
+  double constant_nm = 0;            // opposes the nominal rotation
+  double viscous_n_m_s_per_rad = 0;  // on theta'
+};
+
+struct Train {
+  std::vector<Body> bodies;
+  std::vector<Mesh> meshes;
+  std::vector<Shaft> shafts;
+  std::vector<Torque> torques;
+  std::vector<Drag> drags;
+  std::string reference;          // the body whose speed is given
+  double reference_speed_hz = 0;  // its rotation frequency
+};
+
+// A ratio of whole numbers, for speeds and mesh frequencies over the reference speed: trains
+// are made of teeth counts, so their frequencies are commensurate exactly.
+struct Ratio {
+  std::int64_t num = 0, den = 1;
+};
+
+// The train assembled: matrices at the mean stiffness, speeds, frequencies and the system.
+class Assembled {
+ public:
+  // Throws InputError (case.hpp) naming the element and the key: an unknown body, a body in two
+  // places, no mesh, a non-positive inertia or radius, a train that cannot turn (a loop of
+  // meshes and shafts whose ratios disagree), a body that no mesh or shaft joins to the
+  // reference.
+  explicit Assembled(Train t);
+
+  const Train& train() const { return t_; }
+  int size() const { return static_cast<int>(t_.bodies.size()); }
+  int index(const std::string& body) const;  // -1 when there is none
+
+  // Each body's speed over the reference speed, and each mesh's frequency over it.
+  const std::vector<Ratio>& speed_ratios() const { return speed_; }
+  std::vector<Ratio> mesh_frequency_ratios() const;
+  double mesh_frequency_hz(int mesh) const;
+  // The common period of every mesh's stiffness and transmission error: 1 / (f_ref g), g the
+  // greatest common divisor of the mesh frequency ratios; 0 when every mesh is constant.
+  double coefficient_period_s() const;
+
+  const Eigen::MatrixXd& mass() const { return m_; }
+  // V of mesh m: d = V theta.
+  Eigen::RowVectorXd mesh_vector(int mesh) const;
+  // K and C with every mesh in drive contact at its mean stiffness (the shafts' and drags' terms
+  // included): the linearisation that modes() uses.
+  Eigen::MatrixXd contact_stiffness() const;
+  Eigen::MatrixXd contact_damping() const;
+
+  // The system for the exact engine (state (theta, theta'), regions as above).
+  ode::LinearSwitchedSystem linear_system() const;
+  // The region of a mesh-state vector, and back.
+  int region(const std::vector<int>& states) const;
+  std::vector<int> states(int region) const;
+  int region_count() const;
+  // The region a state belongs to with no history (each mesh by its d - e against +-b).
+  int classify(double t_s, const Eigen::VectorXd& y) const;
+
+  // Each mesh's stiffness and transmission error in time.
+  HarmonicSeries stiffness_series(int mesh) const;
+  HarmonicSeries error_series(int mesh) const;
+  // Each torque's T(t) on its body.
+  HarmonicSeries torque_series(int torque) const;
+
+ private:
+  Train t_;
+  std::vector<Ratio> speed_;
+  Eigen::MatrixXd m_;
+};
+
+// Natural modes of the train in drive contact at every mesh's mean stiffness.
+struct TrainMode {
+  double frequency_hz = 0;
+  Eigen::VectorXd shape;             // mass-normalised
+  std::vector<double> mesh_energy;   // fraction of the strain energy in each mesh
+  std::vector<double> shaft_energy;  // and in each shaft
+};
+std::vector<TrainMode> modes(const Assembled& a);
+
+}  // namespace geardyn::train

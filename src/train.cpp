@@ -1,0 +1,514 @@
+#include "geardyn/train.hpp"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <map>
+#include <numbers>
+#include <numeric>
+#include <optional>
+#include <queue>
+#include <set>
+
+#include "geardyn/case.hpp"
+
+namespace geardyn::train {
+namespace {
+
+using ode::Matrix;
+using ode::RowVector;
+using ode::Vector;
+using Complex = std::complex<double>;
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+// Two frequencies of the table within this relative distance are one (they come from ratios of
+// whole numbers, equal to rounding).
+constexpr double kSameFrequency = 1e-12;
+
+Ratio reduced(std::int64_t num, std::int64_t den) {
+  const std::int64_t g = std::gcd(num, den);
+  return {num / g, den / g};
+}
+
+Ratio times(Ratio a, std::int64_t num, std::int64_t den) {
+  const Ratio x = reduced(num, den);
+  // Cross-reduce first, so that products of teeth counts stay far from overflow.
+  const std::int64_t g1 = std::gcd(a.num, x.den), g2 = std::gcd(x.num, a.den);
+  return reduced((a.num / g1) * (x.num / g2), (a.den / g2) * (x.den / g1));
+}
+
+bool same(Ratio a, Ratio b) { return a.num == b.num && a.den == b.den; }
+
+double value(Ratio r) { return static_cast<double>(r.num) / static_cast<double>(r.den); }
+
+// A periodic signal as complex amplitudes of the harmonics of one angular frequency w:
+// x(t) = Re sum_n c_n e^(i n w t), n >= 0 (c_0 real).
+using Spectrum = std::map<int, Complex>;
+
+Spectrum product(const Spectrum& a, const Spectrum& b) {
+  Spectrum out;
+  for (const auto& [n, x] : a)
+    for (const auto& [m, y] : b) {
+      out[n + m] += 0.5 * x * y;
+      const int k = n - m;
+      const Complex z = 0.5 * x * std::conj(y);
+      if (k >= 0)
+        out[k] += z;
+      else
+        out[-k] += std::conj(z);
+    }
+  // The constant term counted twice above for n = m = 0 only in its two halves: exact.
+  return out;
+}
+
+Spectrum derivative(const Spectrum& a, double w) {
+  Spectrum out;
+  for (const auto& [n, x] : a)
+    if (n > 0) out[n] = Complex(0, n * w) * x;
+  return out;
+}
+
+Spectrum scaled(const Spectrum& a, double s) {
+  Spectrum out;
+  for (const auto& [n, x] : a) out[n] = s * x;
+  return out;
+}
+
+Spectrum plus(Spectrum a, const Spectrum& b) {
+  for (const auto& [n, x] : b) a[n] += x;
+  return a;
+}
+
+Spectrum from_harmonics(double mean, const std::vector<MeshHarmonic>& h, double scale) {
+  Spectrum s;
+  s[0] = mean;
+  for (std::size_t i = 0; i < h.size(); ++i)
+    s[static_cast<int>(i) + 1] += scale * std::polar(h[i].value, h[i].phase_rad);
+  return s;
+}
+
+HarmonicSeries series_of(const Spectrum& s, double w) {
+  HarmonicSeries out;
+  for (const auto& [n, c] : s) {
+    if (n == 0) {
+      out.offset += c.real();
+    } else if (std::abs(c) > 0) {
+      out.terms.push_back({std::abs(c), n * w, std::arg(c)});
+    }
+  }
+  return out;
+}
+
+int frequency_index(std::vector<double>& table, double w) {
+  for (std::size_t i = 0; i < table.size(); ++i)
+    if (std::abs(table[i] - w) <= kSameFrequency * w) return static_cast<int>(i);
+  table.push_back(w);
+  return static_cast<int>(table.size()) - 1;
+}
+
+[[noreturn]] void bad(const std::string& element, const std::string& what) {
+  throw InputError(fmt::format("{}: {}", element, what));
+}
+
+}  // namespace
+
+Assembled::Assembled(Train t) : t_(std::move(t)) {
+  std::set<std::string> names;
+  for (const Body& b : t_.bodies) {
+    if (b.name.empty()) bad("a body", "needs a name");
+    if (!names.insert(b.name).second)
+      bad(fmt::format("body '{}'", b.name), "is named twice (a body is in one place only)");
+    if (!(b.inertia_kg_m2 > 0 && std::isfinite(b.inertia_kg_m2)))
+      bad(fmt::format("body '{}'", b.name),
+          fmt::format("inertia_kg_m2 = {}: must be a finite inertia > 0 kg m^2", b.inertia_kg_m2));
+  }
+  if (t_.meshes.empty()) bad("the train", "has no mesh: a gear train needs at least one");
+  const auto body = [&](const std::string& element, const char* key, const std::string& name) {
+    const int i = index(name);
+    if (i < 0)
+      bad(element, fmt::format("{} = \"{}\": no body of that name (bodies: {})", key, name,
+                               fmt::join(names, ", ")));
+    return i;
+  };
+  for (const Mesh& m : t_.meshes) {
+    const std::string e = fmt::format("mesh '{}'", m.name);
+    const int a = body(e, "driving", m.driving), b = body(e, "driven", m.driven);
+    if (a == b)
+      bad(e, fmt::format("driving = driven = \"{}\": a mesh joins two bodies", m.driving));
+    if (m.teeth_driving < 1 || m.teeth_driven < 1)
+      bad(e, fmt::format("teeth = [{}, {}]: must be whole numbers >= 1", m.teeth_driving,
+                         m.teeth_driven));
+    if (!(m.base_radius_driving_m > 0 && m.base_radius_driven_m > 0))
+      bad(e, "base radii must be > 0 m");
+    if (!(m.backlash_m > 0)) bad(e, fmt::format("backlash = {} m: must be > 0", m.backlash_m));
+    if (!(m.mean_stiffness_n_per_m > 0))
+      bad(e, fmt::format("mean stiffness = {} N/m: must be > 0", m.mean_stiffness_n_per_m));
+    double sum = 0;
+    for (const MeshHarmonic& h : m.stiffness) sum += std::abs(h.value);
+    if (!(sum < 1)) bad(e, "stiffness harmonic ratios must sum to < 1 (k stays > 0)");
+  }
+  for (const Shaft& s : t_.shafts) {
+    const std::string e = fmt::format("shaft '{}'", s.name);
+    if (body(e, "a", s.a) == body(e, "b", s.b)) bad(e, "a shaft joins two bodies");
+    if (!(s.stiffness_n_m_per_rad > 0)) bad(e, "stiffness must be > 0 N m/rad");
+  }
+  for (const Torque& q : t_.torques) body(fmt::format("torque '{}'", q.name), "body", q.body);
+  for (const Drag& d : t_.drags) body(fmt::format("drag '{}'", d.name), "body", d.body);
+  const int ref = body("the train", "reference", t_.reference);
+  if (!(t_.reference_speed_hz > 0)) bad("the train", "reference_speed_hz must be > 0");
+
+  // Speeds over the reference's, from the mesh and shaft graph: a loop whose ratios disagree
+  // locks the train.
+  const int n = size();
+  std::vector<std::optional<Ratio>> speed(n);
+  speed[ref] = Ratio{1, 1};
+  std::queue<int> open;
+  open.push(ref);
+  while (!open.empty()) {
+    const int i = open.front();
+    open.pop();
+    const auto visit = [&](int j, Ratio r, const std::string& element) {
+      if (!speed[j]) {
+        speed[j] = r;
+        open.push(j);
+      } else if (!same(*speed[j], r)) {
+        bad(element, fmt::format("closes a loop whose speed ratios disagree ({} against {} for "
+                                 "body '{}'): the train is locked and cannot turn",
+                                 value(r), value(*speed[j]), t_.bodies[j].name));
+      }
+    };
+    for (const Mesh& m : t_.meshes) {
+      const int a = index(m.driving), b = index(m.driven);
+      const std::string e = fmt::format("mesh '{}'", m.name);
+      if (a == i) visit(b, times(*speed[i], m.teeth_driving, m.teeth_driven), e);
+      if (b == i) visit(a, times(*speed[i], m.teeth_driven, m.teeth_driving), e);
+    }
+    for (const Shaft& s : t_.shafts) {
+      const int a = index(s.a), b = index(s.b);
+      const std::string e = fmt::format("shaft '{}'", s.name);
+      if (a == i) visit(b, *speed[i], e);
+      if (b == i) visit(a, *speed[i], e);
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    if (!speed[i])
+      bad(fmt::format("body '{}'", t_.bodies[i].name),
+          fmt::format("is joined to the reference '{}' by no mesh or shaft", t_.reference));
+    speed_.push_back(*speed[i]);
+  }
+  m_ = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; ++i) m_(i, i) = t_.bodies[i].inertia_kg_m2;
+}
+
+int Assembled::index(const std::string& body) const {
+  for (std::size_t i = 0; i < t_.bodies.size(); ++i)
+    if (t_.bodies[i].name == body) return static_cast<int>(i);
+  return -1;
+}
+
+std::vector<Ratio> Assembled::mesh_frequency_ratios() const {
+  std::vector<Ratio> out;
+  for (const Mesh& m : t_.meshes)
+    out.push_back(times(speed_[index(m.driving)], m.teeth_driving, 1));
+  return out;
+}
+
+double Assembled::mesh_frequency_hz(int mesh) const {
+  return t_.reference_speed_hz * value(mesh_frequency_ratios()[mesh]);
+}
+
+double Assembled::coefficient_period_s() const {
+  // gcd of p_i / q_i = gcd(p_i) / lcm(q_i), over the meshes that vary.
+  std::int64_t num = 0, den = 1;
+  const std::vector<Ratio> f = mesh_frequency_ratios();
+  for (std::size_t m = 0; m < f.size(); ++m) {
+    const Mesh& x = t_.meshes[m];
+    if (x.stiffness.empty() && x.transmission_error.empty()) continue;
+    num = std::gcd(num, f[m].num);
+    den = std::lcm(den, f[m].den);
+  }
+  if (num == 0) return 0;
+  return static_cast<double>(den) / (static_cast<double>(num) * t_.reference_speed_hz);
+}
+
+Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
+  const Mesh& m = t_.meshes[mesh];
+  Eigen::RowVectorXd v = Eigen::RowVectorXd::Zero(size());
+  v(index(m.driving)) += m.base_radius_driving_m;
+  v(index(m.driven)) -= m.base_radius_driven_m;
+  return v;
+}
+
+namespace {
+
+// The shafts' and drags' K and C, which every region shares.
+void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
+  const Train& t = a.train();
+  k = Eigen::MatrixXd::Zero(a.size(), a.size());
+  c = k;
+  for (const Shaft& s : t.shafts) {
+    const int i = a.index(s.a), j = a.index(s.b);
+    const Eigen::Matrix2d pattern{{1, -1}, {-1, 1}};
+    const int at[2] = {i, j};
+    for (int x = 0; x < 2; ++x)
+      for (int y = 0; y < 2; ++y) {
+        k(at[x], at[y]) += pattern(x, y) * s.stiffness_n_m_per_rad;
+        c(at[x], at[y]) += pattern(x, y) * s.damping_n_m_s_per_rad;
+      }
+  }
+  for (const Drag& d : t.drags) c(a.index(d.body), a.index(d.body)) += d.viscous_n_m_s_per_rad;
+}
+
+}  // namespace
+
+Eigen::MatrixXd Assembled::contact_stiffness() const {
+  Eigen::MatrixXd k, c;
+  stamp_common(*this, k, c);
+  for (int m = 0; m < static_cast<int>(t_.meshes.size()); ++m) {
+    const Eigen::RowVectorXd v = mesh_vector(m);
+    k += t_.meshes[m].mean_stiffness_n_per_m * v.transpose() * v;
+  }
+  return k;
+}
+
+Eigen::MatrixXd Assembled::contact_damping() const {
+  Eigen::MatrixXd k, c;
+  stamp_common(*this, k, c);
+  for (int m = 0; m < static_cast<int>(t_.meshes.size()); ++m) {
+    const Eigen::RowVectorXd v = mesh_vector(m);
+    c += t_.meshes[m].damping_n_s_per_m * v.transpose() * v;
+  }
+  return c;
+}
+
+int Assembled::region_count() const {
+  int n = 1;
+  for (std::size_t m = 0; m < t_.meshes.size(); ++m) n *= 3;
+  return n;
+}
+
+int Assembled::region(const std::vector<int>& states) const {
+  int r = 0, p = 1;
+  for (int s : states) {
+    r += (s + 1) * p;
+    p *= 3;
+  }
+  return r;
+}
+
+std::vector<int> Assembled::states(int region) const {
+  std::vector<int> s;
+  for (std::size_t m = 0; m < t_.meshes.size(); ++m) {
+    s.push_back(region % 3 - 1);
+    region /= 3;
+  }
+  return s;
+}
+
+HarmonicSeries Assembled::stiffness_series(int mesh) const {
+  const Mesh& m = t_.meshes[mesh];
+  return series_of(from_harmonics(m.mean_stiffness_n_per_m, m.stiffness, m.mean_stiffness_n_per_m),
+                   kTwoPi * mesh_frequency_hz(mesh));
+}
+
+HarmonicSeries Assembled::error_series(int mesh) const {
+  const Mesh& m = t_.meshes[mesh];
+  return series_of(from_harmonics(0.0, m.transmission_error, 1.0),
+                   kTwoPi * mesh_frequency_hz(mesh));
+}
+
+HarmonicSeries Assembled::torque_series(int torque) const {
+  const Torque& q = t_.torques[torque];
+  const double w = kTwoPi * t_.reference_speed_hz * value(speed_[index(q.body)]);
+  HarmonicSeries s;
+  s.offset = q.mean_nm;
+  for (const TorqueHarmonic& h : q.harmonics)
+    s.terms.push_back({h.amplitude_nm, h.order * w, h.phase_rad});
+  return s;
+}
+
+int Assembled::classify(double t_s, const Eigen::VectorXd& y) const {
+  std::vector<int> s;
+  for (int m = 0; m < static_cast<int>(t_.meshes.size()); ++m) {
+    const double x = mesh_vector(m).dot(y.head(size())) - error_series(m)(t_s);
+    const double b = t_.meshes[m].backlash_m;
+    s.push_back(x >= b ? 1 : x <= -b ? -1 : 0);
+  }
+  return region(s);
+}
+
+ode::LinearSwitchedSystem Assembled::linear_system() const {
+  const int n = size(), dim = 2 * n;
+  const int meshes = static_cast<int>(t_.meshes.size());
+  ode::LinearSwitchedSystem sys;
+  sys.dimension = dim;
+  sys.coefficient_period_s = coefficient_period_s();
+
+  // Per mesh, in harmonics of its own frequency w: k(t), k(t) e(t), e(t) and e'(t).
+  struct MeshSignals {
+    double w = 0;
+    Spectrum k, ke, e, de;
+  };
+  std::vector<MeshSignals> sig(meshes);
+  for (int m = 0; m < meshes; ++m) {
+    const Mesh& x = t_.meshes[m];
+    MeshSignals& s = sig[m];
+    s.w = kTwoPi * mesh_frequency_hz(m);
+    s.k = from_harmonics(x.mean_stiffness_n_per_m, x.stiffness, x.mean_stiffness_n_per_m);
+    s.e = from_harmonics(0.0, x.transmission_error, 1.0);
+    s.ke = product(s.k, s.e);
+    s.de = derivative(s.e, s.w);
+  }
+  // The frequency table: every mesh harmonic present, then the torques'.
+  for (int m = 0; m < meshes; ++m)
+    for (const Spectrum* s : {&sig[m].k, &sig[m].ke, &sig[m].e})
+      for (const auto& [h, c] : *s)
+        if (h > 0 && std::abs(c) > 0) frequency_index(sys.frequencies_rad_s, h * sig[m].w);
+  for (int q = 0; q < static_cast<int>(t_.torques.size()); ++q)
+    for (const Harmonic& h : torque_series(q).terms)
+      if (h.amplitude != 0) frequency_index(sys.frequencies_rad_s, h.angular_frequency_rad_s);
+  const std::size_t nf = sys.frequencies_rad_s.size();
+
+  // x(t) = scale * spectrum into FourierTerms, each value placed by put(T&, double).
+  const auto add = [&](auto& terms, const Spectrum& s, double w, double scale, auto put) {
+    for (const auto& [h, c] : s) {
+      if (h == 0) {
+        put(terms.constant, scale * c.real());
+      } else if (std::abs(c) > 0) {
+        const int f = frequency_index(sys.frequencies_rad_s, h * w);
+        put(terms.cos[f], scale * c.real());
+        put(terms.sin[f], -scale * c.imag());
+      }
+    }
+  };
+  const Eigen::MatrixXd m_inv = m_.inverse();
+  Eigen::MatrixXd k_common, c_common;
+  stamp_common(*this, k_common, c_common);
+  Eigen::VectorXd q_common = Eigen::VectorXd::Zero(n);  // the torques' means and the drags
+  for (const Drag& d : t_.drags) q_common(index(d.body)) -= d.constant_nm;
+
+  const auto functional = [&] {
+    ode::LinearGuard g;
+    g.row.constant = RowVector::Zero(dim);
+    g.row.cos.assign(nf, RowVector::Zero(dim));
+    g.row.sin.assign(nf, RowVector::Zero(dim));
+    g.offset.constant = 0;
+    g.offset.cos.assign(nf, 0.0);
+    g.offset.sin.assign(nf, 0.0);
+    return g;
+  };
+  // d - e of mesh m, times `sign`, minus `edge`.
+  const auto deflection = [&](int m, double sign, double edge) {
+    ode::LinearGuard g = functional();
+    g.row.constant.head(n) = sign * mesh_vector(m);
+    add(g.offset, sig[m].e, sig[m].w, -sign, [](double& x, double v) { x += v; });
+    g.offset.constant -= edge;
+    g.scale = t_.meshes[m].backlash_m;
+    return g;
+  };
+
+  for (int r = 0; r < region_count(); ++r) {
+    const std::vector<int> st = states(r);
+    ode::LinearRegion lr;
+    lr.a.constant = Matrix::Zero(dim, dim);
+    lr.a.constant.topRightCorner(n, n) = Matrix::Identity(n, n);
+    lr.a.cos.assign(nf, Matrix::Zero(dim, dim));
+    lr.a.sin.assign(nf, Matrix::Zero(dim, dim));
+    lr.u.constant = Vector::Zero(dim);
+    lr.u.cos.assign(nf, Vector::Zero(dim));
+    lr.u.sin.assign(nf, Vector::Zero(dim));
+    lr.a.constant.bottomLeftCorner(n, n) -= m_inv * k_common;
+    lr.a.constant.bottomRightCorner(n, n) -= m_inv * c_common;
+    lr.u.constant.tail(n) += m_inv * q_common;
+    for (int q = 0; q < static_cast<int>(t_.torques.size()); ++q) {
+      const HarmonicSeries s = torque_series(q);
+      const Vector col = m_inv.col(index(t_.torques[q].body));
+      lr.u.constant.tail(n) += s.offset * col;
+      for (const Harmonic& h : s.terms) {
+        if (h.amplitude == 0) continue;
+        const int f = frequency_index(sys.frequencies_rad_s, h.angular_frequency_rad_s);
+        lr.u.cos[f].tail(n) += h.amplitude * std::cos(h.phase_rad) * col;
+        lr.u.sin[f].tail(n) -= h.amplitude * std::sin(h.phase_rad) * col;
+      }
+    }
+    for (int m = 0; m < meshes; ++m) {
+      const Eigen::RowVectorXd v = mesh_vector(m);
+      const Eigen::MatrixXd vtv = v.transpose() * v;
+      const Vector mv = m_inv * v.transpose();
+      const double b = t_.meshes[m].backlash_m, c = t_.meshes[m].damping_n_s_per_m;
+      if (st[m] != 0) {
+        // J theta'' += -V^T (k (V theta - e -+ b) + c (V theta' - e')).
+        const double edge = st[m] > 0 ? b : -b;
+        const Matrix block = m_inv * vtv;
+        add(lr.a, sig[m].k, sig[m].w, 1.0,
+            [&](Matrix& a, double x) { a.bottomLeftCorner(n, n) -= x * block; });
+        lr.a.constant.bottomRightCorner(n, n) -= c * block;
+        const Spectrum force = plus(plus(sig[m].ke, scaled(sig[m].k, edge)), scaled(sig[m].de, c));
+        add(lr.u, force, sig[m].w, 1.0, [&](Vector& u, double x) { u.tail(n) += x * mv; });
+      }
+      // Guards.
+      std::vector<int> to = st;
+      if (st[m] == 0) {
+        to[m] = 1;
+        ode::LinearGuard up = deflection(m, -1.0, -b);  // b - (d - e)
+        up.target = region(to);
+        to[m] = -1;
+        ode::LinearGuard down = deflection(m, 1.0, -b);  // (d - e) + b
+        down.target = region(to);
+        lr.guards.push_back(up);
+        lr.guards.push_back(down);
+      } else {
+        to[m] = 0;
+        ode::LinearGuard out = deflection(m, st[m] > 0 ? 1.0 : -1.0, b);
+        out.target = region(to);
+        lr.guards.push_back(out);
+      }
+      // Observables: d - e, and the force.
+      lr.observables.push_back(deflection(m, 1.0, 0.0));
+      ode::LinearGuard f = functional();
+      if (st[m] != 0) {
+        const double edge = st[m] > 0 ? b : -b;
+        add(f.row, sig[m].k, sig[m].w, 1.0,
+            [&](RowVector& row, double x) { row.head(n) += x * v; });
+        f.row.constant.tail(n) += c * v;
+        add(f.offset, plus(plus(sig[m].ke, scaled(sig[m].k, edge)), scaled(sig[m].de, c)), sig[m].w,
+            -1.0, [](double& x, double y) { x += y; });
+      }
+      f.scale = t_.meshes[m].backlash_m * t_.meshes[m].mean_stiffness_n_per_m;
+      lr.observables.push_back(f);
+    }
+    sys.regions.push_back(std::move(lr));
+  }
+  return sys;
+}
+
+std::vector<TrainMode> modes(const Assembled& a) {
+  const Eigen::MatrixXd k = a.contact_stiffness();
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(k, a.mass());
+  std::vector<TrainMode> out;
+  const Train& t = a.train();
+  for (Eigen::Index r = 0; r < solver.eigenvalues().size(); ++r) {
+    TrainMode mode;
+    mode.frequency_hz = std::sqrt(std::max(0.0, solver.eigenvalues()(r))) / kTwoPi;
+    mode.shape = solver.eigenvectors().col(r);
+    const double total = 0.5 * mode.shape.dot(k * mode.shape);
+    for (int m = 0; m < static_cast<int>(t.meshes.size()); ++m) {
+      const double d = a.mesh_vector(m).dot(mode.shape);
+      const double e = 0.5 * t.meshes[m].mean_stiffness_n_per_m * d * d;
+      mode.mesh_energy.push_back(total > 0 ? e / total : 0.0);
+    }
+    for (const Shaft& s : t.shafts) {
+      const double d = mode.shape(a.index(s.a)) - mode.shape(a.index(s.b));
+      const double e = 0.5 * s.stiffness_n_m_per_rad * d * d;
+      mode.shaft_energy.push_back(total > 0 ? e / total : 0.0);
+    }
+    out.push_back(std::move(mode));
+  }
+  return out;
+}
+
+}  // namespace geardyn::train

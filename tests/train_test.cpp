@@ -1,0 +1,334 @@
+// Gear trains from elements (train.hpp): the assembled system against the one-degree model,
+// closed forms of geared shaft lines, energy, and the checks on the arrangement.
+#include "geardyn/train.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <set>
+#include <vector>
+
+#include "geardyn/case.hpp"
+#include "geardyn/engine.hpp"
+#include "geardyn/geometry.hpp"
+#include "geardyn/model.hpp"
+#include "geardyn/run.hpp"
+
+namespace geardyn::train {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+// Samples of a flow of the exact engine.
+class Samples : public ode::FlowObserver {
+ public:
+  void on_sample(double t_s, const ode::Vector& y, int region) override {
+    t.push_back(t_s);
+    states.push_back(y);
+    regions.push_back(region);
+  }
+  std::vector<double> t;
+  std::vector<ode::Vector> states;
+  std::vector<int> regions;
+};
+
+Samples flow(const Assembled& a, const ode::Vector& y0, double t1_s, double interval_s,
+             ode::FlowResult* result = nullptr) {
+  ode::EngineOptions o;
+  o.tolerance = 1e-15;
+  const ode::ExactEngine engine(a.linear_system(), o);
+  Samples s;
+  const ode::FlowResult r = engine.flow(0.0, y0, a.classify(0.0, y0), t1_s,
+                                        ode::make_output_grid(0.0, t1_s, interval_s), s);
+  EXPECT_TRUE(r.ok()) << r.message;
+  if (result) *result = r;
+  return s;
+}
+
+// The paper's pair as a spur pair with given stiffness harmonics (so that its one-degree model
+// and a two-body train are the same physics), at f1 = 100 Hz.
+Case spur_case() {
+  Case c;
+  c.gear.helix_angle_deg = 0;
+  c.gear.normal_module_mm = 2.5;
+  c.gear.teeth = {56, 56};
+  c.gear.outside_diameter_mm = {145.0, 145.0};  // z m_n + 2 m_n, no profile shift
+  c.gear.profile_shift = {0.0, 0.0};
+  c.gear.center_distance_mm = 140.0;
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.mesh.stiffness_harmonics = {{0.1, 20.0}, {0.03, -40.0}};
+  c.speed.shaft_frequency_hz = 100;
+  c.solver.duration_s = 0.02;
+  c.solver.tolerance = 1e-13;
+  c.solver.output_interval_s = 2e-5;
+  return c;
+}
+
+// The two-body train of a one-degree case: the same inertias, radii, k(t), c and torques (the
+// load matched to the drive, eq. 7).
+Train pair_train(const Case& c, const Geometry& g, const GearPairParameters& p) {
+  Train t;
+  t.bodies = {{"pinion", g.inertia_kg_m2[0]}, {"wheel", g.inertia_kg_m2[1]}};
+  Mesh m;
+  m.name = "mesh";
+  m.driving = "pinion";
+  m.driven = "wheel";
+  m.teeth_driving = c.gear.teeth[0];
+  m.teeth_driven = c.gear.teeth[1];
+  m.base_radius_driving_m = g.base_radius_m[0];
+  m.base_radius_driven_m = g.base_radius_m[1];
+  m.backlash_m = p.backlash_m;
+  m.mean_stiffness_n_per_m = p.mean_stiffness_n_per_m();
+  for (const Harmonic& h : p.stiffness_n_per_m.terms)
+    m.stiffness.push_back({h.amplitude / p.mean_stiffness_n_per_m(), h.phase_rad});
+  m.damping_n_s_per_m = p.damping_n_s_per_m;
+  t.meshes = {m};
+  const HarmonicSeries drive = drive_torque_nm(c);
+  const double ratio = g.base_radius_m[1] / g.base_radius_m[0];
+  const double w1 = kTwoPi * c.speed.shaft_frequency_hz;
+  const double w2 = w1 * c.gear.teeth[0] / c.gear.teeth[1];
+  Torque in{"motor", "pinion", drive.offset, {}}, out{"load", "wheel", -ratio * drive.offset, {}};
+  for (const Harmonic& h : drive.terms) {
+    in.harmonics.push_back({h.amplitude, h.angular_frequency_rad_s / w1, h.phase_rad});
+    out.harmonics.push_back({-ratio * h.amplitude, h.angular_frequency_rad_s / w2, h.phase_rad});
+  }
+  t.torques = {in, out};
+  t.reference = "pinion";
+  t.reference_speed_hz = c.speed.shaft_frequency_hz;
+  return t;
+}
+
+TEST(Train, AOneMeshTrainIsTheOneDegreeModel) {
+  // The pair rattles from the middle of the backlash into contact: the train's mesh deflection
+  // R_1 theta_1 - R_2 theta_2 follows the one-degree model's delta through every impact.
+  const Case c = spur_case();
+  Geometry g;
+  const GearPairModel model = build_model(c, &g);
+  const GearPairParameters& p = model.parameters();
+  const Assembled a(pair_train(c, g, p));
+  const RunResult one = run(c);
+  ASSERT_TRUE(one.integration.ok()) << one.integration.message;
+  ASSERT_GT(one.reading.impacts, 3);
+  const Samples s = flow(a, ode::Vector::Zero(4), c.solver.duration_s, c.solver.output_interval_s);
+  ASSERT_EQ(s.t.size(), one.samples.size());
+  const Eigen::RowVectorXd v = a.mesh_vector(0);
+  double worst = 0;
+  for (std::size_t i = 0; i < s.t.size(); ++i) {
+    EXPECT_NEAR(s.t[i], one.samples.t_s[i], 1e-15);
+    worst = std::max(
+        worst, std::abs(v.dot(s.states[i].head(2)) / p.backlash_m - one.samples.delta_bar[i]));
+  }
+  EXPECT_LT(worst, 1e-8);
+  // A mutant that drops the load torque (or flips a radius) moves delta by order 1.
+}
+
+TEST(Train, ItsModesAreTheGearedShaftLinesClosedForm) {
+  // Motor -shaft- pinion =mesh= wheel -shaft- load, the mesh 1e6 times stiffer than the shafts:
+  // the modes are those of the three-inertia chain with the wheel side reflected through the
+  // ratio n = R_2 / R_1 (J / n^2, k / n^2), to the order of the stiffness ratio, plus a mesh
+  // mode far above.
+  const double j_m = 0.05, j_1 = 0.002, j_2 = 0.02, j_l = 0.3, k_1 = 2e4, k_2 = 5e4;
+  const double r_1 = 0.03, r_2 = 0.09, n = r_2 / r_1;
+  Train t;
+  t.bodies = {{"motor", j_m}, {"pinion", j_1}, {"wheel", j_2}, {"load", j_l}};
+  Mesh m;
+  m.name = "stage";
+  m.driving = "pinion";
+  m.driven = "wheel";
+  m.teeth_driving = 20;
+  m.teeth_driven = 60;
+  m.base_radius_driving_m = r_1;
+  m.base_radius_driven_m = r_2;
+  m.backlash_m = 1e-4;
+  m.mean_stiffness_n_per_m = 1e6 * k_1 / (r_1 * r_1);
+  t.meshes = {m};
+  t.shafts = {{"input", "motor", "pinion", k_1, 0}, {"output", "wheel", "load", k_2, 0}};
+  t.reference = "motor";
+  t.reference_speed_hz = 50;
+  const Assembled a(t);
+  const std::vector<TrainMode> modes = train::modes(a);
+  ASSERT_EQ(modes.size(), 4U);
+  // The free-free chain m1 -k1- m2 -k2- m3: w^2 are the roots of
+  // m1 m2 m3 w^4 - (k1 m3 (m1 + m2) + k2 m1 (m2 + m3)) w^2 + k1 k2 (m1 + m2 + m3) = 0.
+  const double m1 = j_m, m2 = j_1 + j_2 / (n * n), m3 = j_l / (n * n), k1 = k_1, k2 = k_2 / (n * n);
+  const double qa = m1 * m2 * m3, qb = -(k1 * m3 * (m1 + m2) + k2 * m1 * (m2 + m3)),
+               qc = k1 * k2 * (m1 + m2 + m3);
+  const double disc = std::sqrt(qb * qb - 4 * qa * qc);
+  const double f_low = std::sqrt((-qb - disc) / (2 * qa)) / kTwoPi;
+  const double f_high = std::sqrt((-qb + disc) / (2 * qa)) / kTwoPi;
+  EXPECT_NEAR(modes[0].frequency_hz, 0.0, 1e-3);  // the rigid rotation
+  EXPECT_NEAR(modes[1].frequency_hz / f_low, 1.0, 1e-5);
+  EXPECT_NEAR(modes[2].frequency_hz / f_high, 1.0, 1e-5);
+  EXPECT_GT(modes[3].frequency_hz, 100 * f_high);
+  EXPECT_GT(modes[3].mesh_energy[0], 0.99);  // the mesh mode strains the mesh
+  EXPECT_LT(modes[1].mesh_energy[0], 1e-5);  // the chain's do not
+  for (const TrainMode& x : modes) {
+    double sum = x.mesh_energy[0];
+    for (double e : x.shaft_energy) sum += e;
+    if (x.frequency_hz > 1) EXPECT_NEAR(sum, 1.0, 1e-9);
+  }
+}
+
+// A two-stage reducer: input pinion (20 teeth) on the motor's shaft, an intermediate shaft with
+// a wheel (50) and a pinion (17) as one body, the output wheel (61) on the load.
+Train two_stage(double second_stiffness_n_per_m) {
+  Train t;
+  t.bodies = {{"input", 0.004}, {"intermediate", 0.03}, {"output", 0.25}};
+  Mesh first;
+  first.name = "first";
+  first.driving = "input";
+  first.driven = "intermediate";
+  first.teeth_driving = 20;
+  first.teeth_driven = 50;
+  first.base_radius_driving_m = 0.0235;
+  first.base_radius_driven_m = 0.0587;
+  first.backlash_m = 5e-5;
+  first.mean_stiffness_n_per_m = 3e8;
+  first.stiffness = {{0.08, 0.3}};
+  first.transmission_error = {{2e-6, 0.0}};
+  first.damping_n_s_per_m = 800;
+  Mesh second = first;
+  second.name = "second";
+  second.driving = "intermediate";
+  second.driven = "output";
+  second.teeth_driving = 17;
+  second.teeth_driven = 61;
+  second.base_radius_driving_m = 0.0240;
+  second.base_radius_driven_m = 0.0861;
+  second.mean_stiffness_n_per_m = second_stiffness_n_per_m;
+  second.stiffness = {};
+  second.transmission_error = {};
+  second.damping_n_s_per_m = 0;
+  t.meshes = {first, second};
+  t.torques = {{"motor", "input", 40.0, {{8.0, 2, 0.0}}},
+               {"load", "output", -40.0 * (0.0587 / 0.0235) * (0.0861 / 0.0240), {}}};
+  t.reference = "input";
+  t.reference_speed_hz = 30;
+  return t;
+}
+
+TEST(Train, ItsMeshFrequenciesAreCommensurateFromTheTeeth) {
+  const Assembled a(two_stage(3e8));
+  const std::vector<Ratio> f = a.mesh_frequency_ratios();
+  EXPECT_EQ(f[0].num, 20);
+  EXPECT_EQ(f[0].den, 1);
+  EXPECT_EQ(f[1].num, 34);  // 17 teeth at 20 / 50 of the input's speed: 340 / 50, reduced
+  EXPECT_EQ(f[1].den, 5);
+  EXPECT_NEAR(a.mesh_frequency_hz(1), 30 * 6.8, 1e-12);
+  // Only the first mesh varies: the period is its own.
+  EXPECT_NEAR(a.coefficient_period_s(), 1.0 / (30 * 20), 1e-15);
+}
+
+TEST(Train, AStiffSecondStageIsTheSinglePairWithTheReflectedInertia) {
+  // The second mesh k times stiffer than the first holds the output to the intermediate
+  // shaft: the first mesh's deflection tends to that of the single pair whose wheel carries
+  // J_int + J_out (R_2' / R_3)^2 and the load reflected, the difference shrinking as 1/k.
+  const Train stiff = two_stage(3e8);
+  Train single;
+  const double ratio = 0.0240 / 0.0861;
+  single.bodies = {{"input", 0.004}, {"intermediate", 0.03 + 0.25 * ratio * ratio}};
+  single.meshes = {stiff.meshes[0]};
+  single.torques = {stiff.torques[0],
+                    {"load", "intermediate", stiff.torques[1].mean_nm * ratio, {}}};
+  single.reference = "input";
+  single.reference_speed_hz = 30;
+  const Assembled one(single);
+  // Start both at the single pair's static contact (the mesh loaded, the load balanced).
+  const double duration = 0.02, interval = 1e-4;
+  const double b = stiff.meshes[0].backlash_m;
+  const double f_static = stiff.torques[0].mean_nm / 0.0235;
+  const double d0 = b + f_static / 3e8;
+  ode::Vector y1 = ode::Vector::Zero(4);
+  y1(0) = d0 / 0.0235;
+  const Samples ref = flow(one, y1, duration, interval);
+  std::vector<double> error;
+  for (double factor : {1e2, 1e3}) {
+    const Assembled a(two_stage(factor * 3e8));
+    const double f2 = f_static * 0.0587 / 0.0240;
+    ode::Vector y = ode::Vector::Zero(6);
+    y(0) = d0 / 0.0235;
+    y(2) = -(b + f2 / (factor * 3e8)) / 0.0861;
+    const Samples s = flow(a, y, duration, interval);
+    double worst = 0;
+    for (std::size_t i = 0; i < s.t.size(); ++i)
+      worst = std::max(worst, std::abs(a.mesh_vector(0).dot(s.states[i].head(3)) -
+                                       one.mesh_vector(0).dot(ref.states[i].head(2))) /
+                                  b);
+    error.push_back(worst);
+  }
+  EXPECT_LT(error[1], 0.02);
+  EXPECT_NEAR(error[0] / error[1], 10.0, 3.0);  // first order in 1 / k
+}
+
+TEST(Train, AnUndampedTrainKeepsItsEnergyThroughImpacts) {
+  // No damping, no torque, constant stiffness: started with the input spinning, the meshes
+  // rattle through back side, backlash and drive side; kinetic plus mesh and shaft strain
+  // energy stays as it was to 1e-10 across every event.
+  Train t = two_stage(2e8);
+  for (Mesh& m : t.meshes) {
+    m.stiffness.clear();
+    m.transmission_error.clear();
+    m.damping_n_s_per_m = 0;
+  }
+  t.torques.clear();
+  t.bodies.push_back({"flywheel", 0.1});
+  t.shafts = {{"spring", "output", "flywheel", 50.0, 0.0}};
+  const Assembled a(t);
+  ode::Vector y0 = ode::Vector::Zero(8);
+  y0(4) = 2.0;  // rad/s on the input
+  ode::FlowResult r;
+  const Samples s = flow(a, y0, 0.05, 1e-5, &r);
+  EXPECT_GT(r.events, 20);
+  const auto energy = [&](const ode::Vector& y) {
+    const Eigen::VectorXd q = y.head(4), v = y.tail(4);
+    double e = 0.5 * v.dot(a.mass() * v) + 0.5 * 50.0 * std::pow(q(2) - q(3), 2);
+    for (int m = 0; m < 2; ++m) {
+      const double d = a.mesh_vector(m).dot(q), b = t.meshes[m].backlash_m;
+      const double over = d > b ? d - b : d < -b ? d + b : 0.0;
+      e += 0.5 * t.meshes[m].mean_stiffness_n_per_m * over * over;
+    }
+    return e;
+  };
+  const double e0 = energy(y0);
+  std::set<int> seen;
+  for (std::size_t i = 0; i < s.t.size(); ++i) {
+    EXPECT_NEAR(energy(s.states[i]) / e0, 1.0, 1e-10) << s.t[i];
+    for (int st : a.states(s.regions[i])) seen.insert(st);
+  }
+  EXPECT_EQ(seen.size(), 3U);  // each contact state was visited
+}
+
+TEST(Train, ABadArrangementIsRefusedNamingTheElement) {
+  const auto refused = [](Train t, const std::string& piece) {
+    try {
+      Assembled a(std::move(t));
+      ADD_FAILURE() << "accepted; expected: " << piece;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(piece), std::string::npos) << e.what();
+    }
+  };
+  Train t = two_stage(3e8);
+  Train x = t;
+  x.meshes[1].driven = "shaft3";
+  refused(x, "mesh 'second': driven = \"shaft3\": no body of that name");
+  x = t;
+  x.bodies.push_back({"input", 1.0});
+  refused(x, "body 'input': is named twice");
+  x = t;
+  x.meshes.clear();
+  refused(x, "has no mesh");
+  x = t;
+  x.shafts = {{"lock", "input", "output", 1e3, 0}};  // input and output on one shaft: locked
+  refused(x, "closes a loop whose speed ratios disagree");
+  refused(x, "the train is locked and cannot turn");
+  x = t;
+  x.bodies.push_back({"loose", 0.1});
+  refused(x, "body 'loose': is joined to the reference 'input' by no mesh or shaft");
+  x = t;
+  x.meshes[0].teeth_driven = 0;
+  refused(x, "mesh 'first': teeth = [20, 0]");
+}
+
+}  // namespace
+}  // namespace geardyn::train
