@@ -652,6 +652,27 @@ TEST(Cli, ASettingTheMethodDoesNotUseIsReported) {
   fs::remove_all(d);
 }
 
+TEST(Cli, InterruptedRunKeepsWhatItComputed) {
+  // SIGINT a second into a run of some fifteen seconds (Newmark at a fine step): the run stops
+  // where it is, its samples up to there are read and written, summary.json says it was
+  // cancelled, and the exit code is 130.
+  const fs::path d = users_folder("run_int");
+  const Outcome o = shell(std::string(GEARDYN_CLI) +
+                          " run --set solver.method=newmark --set solver.time_step_s=1e-9 --set "
+                          "solver.duration_s=0.15 --out " +
+                          d.string() + " & pid=$!; sleep 1; kill -INT $pid; wait $pid");
+  EXPECT_EQ(o.code, 130) << o.err;
+  EXPECT_NE(o.err.find("interrupted"), std::string::npos) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  EXPECT_EQ(j["termination"], "cancelled");
+  const std::string ts = slurp(d / "timeseries.csv");
+  const auto rows = std::count(ts.begin(), ts.end(), '\n') - 1;
+  const double whole = 0.15 / j["derived"]["output_interval_s"].get<double>() + 1;
+  EXPECT_GT(rows, 10);
+  EXPECT_LT(static_cast<double>(rows), 0.5 * whole);  // a second of some fifteen
+  expect_users_files(d, "interrupted run");
+}
+
 TEST(Cli, SweepRejectsABadKey) {
   const Outcome o = cli("sweep --param speed.rpm --from 1 --to 2 --points 3");
   EXPECT_EQ(o.code, 2);

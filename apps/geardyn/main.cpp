@@ -248,10 +248,16 @@ void print_run_summary(const geardyn::RunResult& r) {
 int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plot) {
   ProgressBar bar("run " + c.name);
   geardyn::CoupledRunOptions opts;
-  opts.progress = std::ref(bar);
+  opts.progress = [&](double fraction) { return bar(fraction) && !g_interrupted.load(); };
+  std::signal(SIGINT, on_interrupt);
   const geardyn::CoupledRunResult r = geardyn::run_coupled(c, opts);
+  std::signal(SIGINT, SIG_DFL);
   bar.finish();
-  if (!r.ok()) {
+  const bool interrupted = r.termination == geardyn::ode::Termination::kCancelled;
+  if (interrupted)
+    fmt::print(stderr, "interrupted: {}; the run up to there is read{}\n", r.message,
+               out_dir.empty() ? "" : " and written");
+  if (!r.ok() && !interrupted) {
     fmt::print(stderr, "geardyn: numerical failure ({}): {}\n",
                geardyn::ode::to_string(r.termination), r.message);
     return kExitNumerical;
@@ -291,7 +297,7 @@ int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plo
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, case.toml)\n", out_dir);
     if (plot) fmt::print("  figure            {}/coupled_time (.png, .svg, .gp)\n", out_dir);
   }
-  return 0;
+  return interrupted ? kExitInterrupted : 0;
 }
 
 // The modes of the coupled model linearised in contact at the mean stiffness.
@@ -336,11 +342,17 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
   }
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
-  opts.progress = std::ref(bar);
+  opts.progress = [&](double fraction) { return bar(fraction) && !g_interrupted.load(); };
+  std::signal(SIGINT, on_interrupt);
   geardyn::RunResult r = geardyn::run(c, opts);
+  std::signal(SIGINT, SIG_DFL);
   bar.finish();
   print_warnings(r.geometry.warnings);
-  if (!r.integration.ok()) {
+  const bool interrupted = r.integration.termination == geardyn::ode::Termination::kCancelled;
+  if (interrupted)
+    fmt::print(stderr, "interrupted: {}; the run up to there is read{}\n", r.integration.message,
+               out_dir.empty() ? "" : " and written");
+  if (!r.integration.ok() && !interrupted) {
     fmt::print(stderr, "geardyn: numerical failure ({}): {}\n",
                geardyn::ode::to_string(r.integration.termination), r.integration.message);
     return kExitNumerical;
@@ -357,7 +369,7 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
       fmt::print("  figures           {}/run_time, run_spectrum, run_phase (.png, .svg, .gp)\n",
                  out_dir);
   }
-  return 0;
+  return interrupted ? kExitInterrupted : 0;
 }
 
 // Every case key with its unit, default, bounds and meaning: a listing, the tables of
