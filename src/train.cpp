@@ -25,6 +25,10 @@ using ode::Vector;
 using Complex = std::complex<double>;
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
+// An eigenvalue of K phi = w^2 M phi below this fraction of the largest is a rigid mode's zero:
+// rounding leaves some 1e-15 of the largest there, and only an elastic mode below a millionth of
+// the fastest mode's frequency would be taken for rigid.
+constexpr double kRigidEigenvalueFraction = 1e-12;
 // Two frequencies of the table within this relative distance are one (they come from ratios of
 // whole numbers, equal to rounding).
 constexpr double kSameFrequency = 1e-12;
@@ -265,23 +269,31 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
 
 }  // namespace
 
+namespace {
+
+// K and C with every mesh in drive contact at its mean stiffness.
+void stamp_contact(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
+  stamp_common(a, k, c);
+  const std::vector<Mesh>& meshes = a.train().meshes;
+  for (int m = 0; m < static_cast<int>(meshes.size()); ++m) {
+    const Eigen::RowVectorXd v = a.mesh_vector(m);
+    const Eigen::MatrixXd vtv = v.transpose() * v;
+    k += meshes[m].mean_stiffness_n_per_m * vtv;
+    c += meshes[m].damping_n_s_per_m * vtv;
+  }
+}
+
+}  // namespace
+
 Eigen::MatrixXd Assembled::contact_stiffness() const {
   Eigen::MatrixXd k, c;
-  stamp_common(*this, k, c);
-  for (int m = 0; m < static_cast<int>(t_.meshes.size()); ++m) {
-    const Eigen::RowVectorXd v = mesh_vector(m);
-    k += t_.meshes[m].mean_stiffness_n_per_m * v.transpose() * v;
-  }
+  stamp_contact(*this, k, c);
   return k;
 }
 
 Eigen::MatrixXd Assembled::contact_damping() const {
   Eigen::MatrixXd k, c;
-  stamp_common(*this, k, c);
-  for (int m = 0; m < static_cast<int>(t_.meshes.size()); ++m) {
-    const Eigen::RowVectorXd v = mesh_vector(m);
-    c += t_.meshes[m].damping_n_s_per_m * v.transpose() * v;
-  }
+  stamp_contact(*this, k, c);
   return c;
 }
 
@@ -493,7 +505,11 @@ std::vector<TrainMode> modes(const Assembled& a) {
   const Train& t = a.train();
   for (Eigen::Index r = 0; r < solver.eigenvalues().size(); ++r) {
     TrainMode mode;
-    mode.frequency_hz = std::sqrt(std::max(0.0, solver.eigenvalues()(r))) / kTwoPi;
+    const double w2 = solver.eigenvalues()(r);
+    // A rigid rotation's eigenvalue is zero to the rounding of the largest: its frequency is 0.
+    mode.frequency_hz = w2 > kRigidEigenvalueFraction * solver.eigenvalues().maxCoeff()
+                            ? std::sqrt(w2) / kTwoPi
+                            : 0.0;
     mode.shape = solver.eigenvectors().col(r);
     const double total = 0.5 * mode.shape.dot(k * mode.shape);
     for (int m = 0; m < static_cast<int>(t.meshes.size()); ++m) {
