@@ -602,6 +602,9 @@ def test_save_replaces_the_file_whole_or_not_at_all(tmp_path):
     (tmp_path / "thesis.tex").write_text("draft")
     r.save(target)
     before = target.read_bytes()
+    umask = os.umask(0)
+    os.umask(umask)
+    assert target.stat().st_mode & 0o777 == 0o666 & ~umask
     ds = r.to_xarray()
     ds.attrs["not_storable"] = {"a dict": 1}  # NetCDF cannot store it: the write fails
     with pytest.raises(Exception):
