@@ -213,29 +213,31 @@ std::vector<const CaseKey*> keys_named(const std::string& message) {
 std::string annotate_origins(const Case& c, const std::map<std::string, std::string>& origins,
                              const std::string& message) {
   const std::vector<const CaseKey*> named = keys_named(message);
+  const auto given = [&](const CaseKey* k) { return origins.count(std::string(k->name)) > 0; };
+  const auto value = [&](const CaseKey* k) {
+    return fmt::format("{} = {} ({})", k->name, k->value_text(c), origins.at(std::string(k->name)));
+  };
+  // A message about a key at its default (its subject, named first) is true because of keys the
+  // user gave: those it names, else those given in the subject's section (a module of
+  // nanometres makes the default outside diameter a point). It starts with them.
+  std::string cause;
+  if (!named.empty() && !given(named.front())) {
+    for (const CaseKey* k : named)
+      if (given(k)) cause += (cause.empty() ? "" : ", ") + value(k);
+    if (cause.empty())
+      for (const auto& [key, origin] : origins)
+        if (const CaseKey* k = find_case_key(key); k && k->section() == named.front()->section())
+          cause += (cause.empty() ? "" : ", ") + value(k);
+  }
+  const std::string out = cause.empty() ? message : fmt::format("with {}: {}", cause, message);
+  // Then where every key it names came from, unless it says so already.
   std::string from;
-  bool any_given = false;
   for (const CaseKey* k : named) {
     const auto it = origins.find(std::string(k->name));
-    any_given = any_given || it != origins.end();
-    if (it != origins.end() && message.find(it->second) != std::string::npos) continue;
+    if (it != origins.end() && out.find(it->second) != std::string::npos) continue;
     from += fmt::format("{}{}{}", from.empty() ? "" : ", ", k->name,
                         it != origins.end() ? " from " + it->second : ": default value");
   }
-  std::string cause;
-  if (!named.empty() && !any_given) {
-    // Every key the message names is at its default: the keys given in their sections made it
-    // so (a module of nanometres makes the default outside diameter a point).
-    for (const auto& [key, origin] : origins) {
-      const CaseKey* k = find_case_key(key);
-      if (!k || std::none_of(named.begin(), named.end(),
-                             [&](const CaseKey* n) { return n->section() == k->section(); }))
-        continue;
-      cause +=
-          fmt::format("{}{} = {} ({})", cause.empty() ? "" : ", ", key, k->value_text(c), origin);
-    }
-  }
-  std::string out = cause.empty() ? message : fmt::format("with {}: {}", cause, message);
   return from.empty() ? out : fmt::format("{} ({})", out, from);
 }
 

@@ -125,9 +125,9 @@ Geometry compute_geometry(const GearData& g) {
         (s_ref / out.reference_diameter_m[i] + involute(at) - involute(alpha_a));
     if (!(tip_thickness > 0)) {
       throw InputError(fmt::format(
-          "gear.outside_diameter_mm[{}] = {}: the tooth comes to a point below it (tip "
-          "thickness {:.4g} mm); with m_n = {} mm, profile shift {} and {} teeth the outside "
-          "diameter is about {:.6g} mm",
+          "gear.outside_diameter_mm[{0}] = {1}: the tooth comes to a point below it (tip "
+          "thickness {2:.4g} mm); with gear.normal_module_mm = {3}, gear.profile_shift[{0}] = {4} "
+          "and gear.teeth[{0}] = {5} the outside diameter is about {6:.6g} mm",
           i, g.outside_diameter_mm[i], tip_thickness / kMmToM, g.normal_module_mm,
           g.profile_shift[i], g.teeth[i], out.expected_outside_diameter_m[i] / kMmToM));
     }
