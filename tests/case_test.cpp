@@ -116,7 +116,8 @@ TEST(Case, DerivedErrorsNameWhereTheirKeysCameFrom) {
   EXPECT_NE(msg.find("(gear.face_width_mm from wide.toml:2:17)"), std::string::npos) << msg;
   Case set = load_case(std::nullopt, {parse_override("gear.outside_diameter_mm=[300,300]")});
   msg = error_of([&] { build_model(set); });
-  EXPECT_NE(msg.find("(gear.outside_diameter_mm from --set gear.outside_diameter_mm=[300,300])"),
+  EXPECT_NE(msg.find("(gear.outside_diameter_mm from --set gear.outside_diameter_mm=[300,300], "
+                     "gear.normal_module_mm: default value"),
             std::string::npos)
       << msg;
   // A later override (a sweep's) is named as such; the others keep their origin.
