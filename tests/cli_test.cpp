@@ -619,6 +619,26 @@ TEST(Cli, ACaseFileAsEditorsSaveItReadsAsTheSame) {
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("bad.toml:3:1: unknown key 'mesh.stiffnes'"), std::string::npos)
       << bad.err;
+  // A stiffness table saved the same way gives the same stiffness as the plain one.
+  const std::string rows[] = {"position,stiffness_n_per_m", "0,2.2e8", "0.25,2.5e8", "0.5,2.3e8",
+                              "0.75,2.6e8"};
+  std::string plain_csv, windows_csv = "\xEF\xBB\xBF";
+  for (const std::string& r : rows) {
+    plain_csv += r + "\n";
+    windows_csv += r + " \r\n";  // a trailing blank too
+  }
+  windows_csv.resize(windows_csv.size() - 2);
+  std::ofstream(d / "plain.csv", std::ios::binary) << plain_csv;
+  std::ofstream(d / "windows.csv", std::ios::binary) << windows_csv;
+  const auto run_with = [&](const char* file) {
+    const Outcome o =
+        cli("run --set solver.duration_s=0.01 --set mesh.stiffness_source=table "
+            "--set mesh.stiffness_table='\"" +
+            (d / file).string() + "\"'");
+    EXPECT_EQ(o.code, 0) << file << o.err;
+    return o.out.substr(0, o.out.find("steps"));
+  };
+  EXPECT_EQ(run_with("plain.csv"), run_with("windows.csv"));
   fs::remove_all(d);
 }
 
