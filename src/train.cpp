@@ -160,8 +160,24 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (body(e, "a", s.a) == body(e, "b", s.b)) bad(e, "a shaft joins two bodies");
     if (!(s.stiffness_n_m_per_rad > 0)) bad(e, "stiffness must be > 0 N m/rad");
   }
-  for (const Torque& q : t_.torques) body(fmt::format("torque '{}'", q.name), "body", q.body);
-  for (const Drag& d : t_.drags) body(fmt::format("drag '{}'", d.name), "body", d.body);
+  std::set<int> prescribed_bodies;
+  for (const Speed& v : t_.speeds) {
+    const std::string e = fmt::format("speed '{}'", v.name);
+    if (!prescribed_bodies.insert(body(e, "body", v.body)).second)
+      bad(e, fmt::format("body = \"{}\": its speed is prescribed twice", v.body));
+    for (const SpeedHarmonic& h : v.harmonics)
+      if (!(std::isfinite(h.amplitude_rad) && h.order > 0 && std::isfinite(h.order)))
+        bad(e, "each harmonic needs a finite amplitude (rad) and an order > 0");
+  }
+  // A torque or drag on a body whose speed is prescribed would do nothing: refused, not dropped.
+  for (const Torque& q : t_.torques)
+    if (prescribed_bodies.count(body(fmt::format("torque '{}'", q.name), "body", q.body)))
+      bad(fmt::format("torque '{}'", q.name),
+          fmt::format("body = \"{}\": its speed is prescribed, so no torque acts on it", q.body));
+  for (const Drag& d : t_.drags)
+    if (prescribed_bodies.count(body(fmt::format("drag '{}'", d.name), "body", d.body)))
+      bad(fmt::format("drag '{}'", d.name),
+          fmt::format("body = \"{}\": its speed is prescribed, so no drag acts on it", d.body));
   const int ref = body("the train", "reference", t_.reference);
   if (!(t_.reference_speed_hz > 0)) bad("the train", "reference_speed_hz must be > 0");
 
@@ -212,6 +228,39 @@ int Assembled::index(const std::string& body) const {
   for (std::size_t i = 0; i < t_.bodies.size(); ++i)
     if (t_.bodies[i].name == body) return static_cast<int>(i);
   return -1;
+}
+
+bool Assembled::prescribed(int body) const {
+  return std::any_of(t_.speeds.begin(), t_.speeds.end(),
+                     [&](const Speed& v) { return index(v.body) == body; });
+}
+
+namespace {
+
+// The prescribed rotation of a speed element, theta(t), at its body's own speed.
+HarmonicSeries rotation_series(const Assembled& a, const Speed& v) {
+  const double w = kTwoPi * a.train().reference_speed_hz * value(a.speed_ratios()[a.index(v.body)]);
+  HarmonicSeries s;
+  for (const SpeedHarmonic& h : v.harmonics)
+    s.terms.push_back({h.amplitude_rad, h.order * w, h.phase_rad});
+  return s;
+}
+
+}  // namespace
+
+void Assembled::prescribe(double t_s, Eigen::VectorXd& y) const {
+  const int n = size();
+  for (const Speed& v : t_.speeds) {
+    const int i = index(v.body);
+    double theta = 0, rate = 0;
+    for (const Harmonic& h : rotation_series(*this, v).terms) {
+      theta += h.amplitude * std::cos(h.angular_frequency_rad_s * t_s + h.phase_rad);
+      rate -= h.amplitude * h.angular_frequency_rad_s *
+              std::sin(h.angular_frequency_rad_s * t_s + h.phase_rad);
+    }
+    y(i) = theta;
+    y(n + i) = rate;
+  }
 }
 
 std::vector<Ratio> Assembled::mesh_frequency_ratios() const {
@@ -383,7 +432,13 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
   for (int q = 0; q < static_cast<int>(t_.torques.size()); ++q)
     for (const Harmonic& h : torque_series(q).terms)
       if (h.amplitude != 0) frequency_index(sys.frequencies_rad_s, h.angular_frequency_rad_s);
+  for (const Speed& v : t_.speeds)
+    for (const Harmonic& h : rotation_series(*this, v).terms)
+      if (h.amplitude != 0) frequency_index(sys.frequencies_rad_s, h.angular_frequency_rad_s);
   const std::size_t nf = sys.frequencies_rad_s.size();
+  // A and the guards' rows vary only when some mesh's stiffness does (then with the coefficient
+  // period); the forcing and the guards' offsets may hold any frequency.
+  const std::size_t n_coefficient = sys.coefficient_period_s > 0 ? nf : 0;
 
   // x(t) = scale * spectrum into FourierTerms, each value placed by put(T&, double).
   const auto add = [&](auto& terms, const Spectrum& s, double w, double scale, auto put) {
@@ -406,8 +461,8 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
   const auto functional = [&] {
     ode::LinearGuard g;
     g.row.constant = RowVector::Zero(dim);
-    g.row.cos.assign(nf, RowVector::Zero(dim));
-    g.row.sin.assign(nf, RowVector::Zero(dim));
+    g.row.cos.assign(n_coefficient, RowVector::Zero(dim));
+    g.row.sin.assign(n_coefficient, RowVector::Zero(dim));
     g.offset.constant = 0;
     g.offset.cos.assign(nf, 0.0);
     g.offset.sin.assign(nf, 0.0);
@@ -428,8 +483,8 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
     ode::LinearRegion lr;
     lr.a.constant = Matrix::Zero(dim, dim);
     lr.a.constant.topRightCorner(n, n) = Matrix::Identity(n, n);
-    lr.a.cos.assign(nf, Matrix::Zero(dim, dim));
-    lr.a.sin.assign(nf, Matrix::Zero(dim, dim));
+    lr.a.cos.assign(n_coefficient, Matrix::Zero(dim, dim));
+    lr.a.sin.assign(n_coefficient, Matrix::Zero(dim, dim));
     lr.u.constant = Vector::Zero(dim);
     lr.u.cos.assign(nf, Vector::Zero(dim));
     lr.u.sin.assign(nf, Vector::Zero(dim));
@@ -493,14 +548,43 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
       f.scale = t_.meshes[m].backlash_m * t_.meshes[m].mean_stiffness_n_per_m;
       lr.observables.push_back(f);
     }
+    // A prescribed body's row is its prescription's acceleration, nothing of the train's.
+    for (const Speed& v : t_.speeds) {
+      const int row = n + index(v.body);
+      lr.a.constant.row(row).setZero();
+      lr.u.constant(row) = 0;
+      for (std::size_t f = 0; f < nf; ++f) {
+        if (f < n_coefficient) {
+          lr.a.cos[f].row(row).setZero();
+          lr.a.sin[f].row(row).setZero();
+        }
+        lr.u.cos[f](row) = 0;
+        lr.u.sin[f](row) = 0;
+      }
+      for (const Harmonic& h : rotation_series(*this, v).terms) {
+        if (h.amplitude == 0) continue;
+        const double w = h.angular_frequency_rad_s;
+        const int f = frequency_index(sys.frequencies_rad_s, w);
+        lr.u.cos[f](row) -= h.amplitude * w * w * std::cos(h.phase_rad);
+        lr.u.sin[f](row) += h.amplitude * w * w * std::sin(h.phase_rad);
+      }
+    }
     sys.regions.push_back(std::move(lr));
   }
   return sys;
 }
 
 std::vector<TrainMode> modes(const Assembled& a) {
+  // The free bodies only: a prescribed one is held.
+  std::vector<int> free;
+  for (int i = 0; i < a.size(); ++i)
+    if (!a.prescribed(i)) free.push_back(i);
+  const auto nf = static_cast<Eigen::Index>(free.size());
+  Eigen::MatrixXd select = Eigen::MatrixXd::Zero(a.size(), nf);
+  for (Eigen::Index j = 0; j < nf; ++j) select(free[j], j) = 1;
   const Eigen::MatrixXd k = a.contact_stiffness();
-  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(k, a.mass());
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(
+      select.transpose() * k * select, select.transpose() * a.mass() * select);
   std::vector<TrainMode> out;
   const Train& t = a.train();
   for (Eigen::Index r = 0; r < solver.eigenvalues().size(); ++r) {
@@ -510,7 +594,7 @@ std::vector<TrainMode> modes(const Assembled& a) {
     mode.frequency_hz = w2 > kRigidEigenvalueFraction * solver.eigenvalues().maxCoeff()
                             ? std::sqrt(w2) / kTwoPi
                             : 0.0;
-    mode.shape = solver.eigenvectors().col(r);
+    mode.shape = select * solver.eigenvectors().col(r);
     const double total = 0.5 * mode.shape.dot(k * mode.shape);
     for (int m = 0; m < static_cast<int>(t.meshes.size()); ++m) {
       const double d = a.mesh_vector(m).dot(mode.shape);

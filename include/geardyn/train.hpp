@@ -22,6 +22,8 @@
 //   Torque a torque T(t) = T_mean + sum_i T_i cos(i Omega t + phi_i) on a body (a drive
 //          positive, a load negative), Omega the body's own angular speed.
 //   Drag   a drag on a body: -T_drag - c_v theta' (constant and viscous; a loose gear's oil).
+//   Speed  a prescribed rotation of a body (below): its row of the equations is the
+//          prescription's acceleration.
 //
 // Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1); a region
 // is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
@@ -89,12 +91,30 @@ struct Drag {
   double viscous_n_m_s_per_rad = 0;  // on theta'
 };
 
+// A prescribed speed: the body's rotation about its nominal one is
+// theta(t) = sum_i a_i cos(order_i Omega t + phase_i), Omega its nominal angular speed, whatever
+// the train does to it (an engine's speed fluctuation at its firing orders driving a gearbox).
+// Its equation is replaced by theta'' = the prescription's: the body keeps its coordinate, which
+// follows the prescription, and no force of the train reaches it.
+struct SpeedHarmonic {
+  double amplitude_rad = 0;
+  double order = 1;
+  double phase_rad = 0;
+};
+
+struct Speed {
+  std::string name;
+  std::string body;
+  std::vector<SpeedHarmonic> harmonics;
+};
+
 struct Train {
   std::vector<Body> bodies;
   std::vector<Mesh> meshes;
   std::vector<Shaft> shafts;
   std::vector<Torque> torques;
   std::vector<Drag> drags;
+  std::vector<Speed> speeds;
   std::string reference;          // the body whose speed is given
   double reference_speed_hz = 0;  // its rotation frequency
 };
@@ -142,6 +162,11 @@ class Assembled {
   int region_count() const;
   // The region a state belongs to with no history (each mesh by its d - e against +-b).
   int classify(double t_s, const Eigen::VectorXd& y) const;
+  // Sets the coordinates and rates of the bodies with a prescribed speed in y = (theta,
+  // theta') to the prescription's at t; the others are left as they are.
+  void prescribe(double t_s, Eigen::VectorXd& y) const;
+  // The prescribed rotation of body i, and whether it has one.
+  bool prescribed(int body) const;
 
   // Each mesh's stiffness and transmission error in time.
   HarmonicSeries stiffness_series(int mesh) const;
@@ -155,7 +180,8 @@ class Assembled {
   Eigen::MatrixXd m_;
 };
 
-// Natural modes of the train in drive contact at every mesh's mean stiffness.
+// Natural modes of the train in drive contact at every mesh's mean stiffness, the bodies with a
+// prescribed speed held (their shape entries 0).
 struct TrainMode {
   double frequency_hz = 0;
   Eigen::VectorXd shape;             // mass-normalised
