@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <numbers>
 #include <set>
+#include <string>
 #include <vector>
 
 #include "geardyn/case.hpp"
@@ -48,6 +50,23 @@ Samples flow(const Assembled& a, const ode::Vector& y0, double t1_s, double inte
   return s;
 }
 
+// A mesh of constant stiffness and no damping between `driving` and `driven`.
+Mesh mesh(const std::string& name, const std::string& driving, const std::string& driven,
+          std::array<int, 2> teeth, std::array<double, 2> base_radius_m, double backlash_m,
+          double stiffness_n_per_m) {
+  Mesh m;
+  m.name = name;
+  m.driving = driving;
+  m.driven = driven;
+  m.teeth_driving = teeth[0];
+  m.teeth_driven = teeth[1];
+  m.base_radius_driving_m = base_radius_m[0];
+  m.base_radius_driven_m = base_radius_m[1];
+  m.backlash_m = backlash_m;
+  m.mean_stiffness_n_per_m = stiffness_n_per_m;
+  return m;
+}
+
 // The paper's pair as a spur pair with given stiffness harmonics (so that its one-degree model
 // and a two-body train are the same physics), at f1 = 100 Hz.
 Case spur_case() {
@@ -72,16 +91,8 @@ Case spur_case() {
 Train pair_train(const Case& c, const Geometry& g, const GearPairParameters& p) {
   Train t;
   t.bodies = {{"pinion", g.inertia_kg_m2[0]}, {"wheel", g.inertia_kg_m2[1]}};
-  Mesh m;
-  m.name = "mesh";
-  m.driving = "pinion";
-  m.driven = "wheel";
-  m.teeth_driving = c.gear.teeth[0];
-  m.teeth_driven = c.gear.teeth[1];
-  m.base_radius_driving_m = g.base_radius_m[0];
-  m.base_radius_driven_m = g.base_radius_m[1];
-  m.backlash_m = p.backlash_m;
-  m.mean_stiffness_n_per_m = p.mean_stiffness_n_per_m();
+  Mesh m = mesh("mesh", "pinion", "wheel", c.gear.teeth, g.base_radius_m, p.backlash_m,
+                p.mean_stiffness_n_per_m());
   for (const Harmonic& h : p.stiffness_n_per_m.terms)
     m.stiffness.push_back({h.amplitude / p.mean_stiffness_n_per_m(), h.phase_rad});
   m.damping_n_s_per_m = p.damping_n_s_per_m;
@@ -134,17 +145,8 @@ TEST(Train, ItsModesAreTheGearedShaftLinesClosedForm) {
   const double r_1 = 0.03, r_2 = 0.09, n = r_2 / r_1;
   Train t;
   t.bodies = {{"motor", j_m}, {"pinion", j_1}, {"wheel", j_2}, {"load", j_l}};
-  Mesh m;
-  m.name = "stage";
-  m.driving = "pinion";
-  m.driven = "wheel";
-  m.teeth_driving = 20;
-  m.teeth_driven = 60;
-  m.base_radius_driving_m = r_1;
-  m.base_radius_driven_m = r_2;
-  m.backlash_m = 1e-4;
-  m.mean_stiffness_n_per_m = 1e6 * k_1 / (r_1 * r_1);
-  t.meshes = {m};
+  t.meshes = {
+      mesh("stage", "pinion", "wheel", {20, 60}, {r_1, r_2}, 1e-4, 1e6 * k_1 / (r_1 * r_1))};
   t.shafts = {{"input", "motor", "pinion", k_1, 0}, {"output", "wheel", "load", k_2, 0}};
   t.reference = "motor";
   t.reference_speed_hz = 50;
@@ -177,32 +179,12 @@ TEST(Train, ItsModesAreTheGearedShaftLinesClosedForm) {
 Train two_stage(double second_stiffness_n_per_m) {
   Train t;
   t.bodies = {{"input", 0.004}, {"intermediate", 0.03}, {"output", 0.25}};
-  Mesh first;
-  first.name = "first";
-  first.driving = "input";
-  first.driven = "intermediate";
-  first.teeth_driving = 20;
-  first.teeth_driven = 50;
-  first.base_radius_driving_m = 0.0235;
-  first.base_radius_driven_m = 0.0587;
-  first.backlash_m = 5e-5;
-  first.mean_stiffness_n_per_m = 3e8;
+  Mesh first = mesh("first", "input", "intermediate", {20, 50}, {0.0235, 0.0587}, 5e-5, 3e8);
   first.stiffness = {{0.08, 0.3}};
   first.transmission_error = {{2e-6, 0.0}};
   first.damping_n_s_per_m = 800;
-  Mesh second = first;
-  second.name = "second";
-  second.driving = "intermediate";
-  second.driven = "output";
-  second.teeth_driving = 17;
-  second.teeth_driven = 61;
-  second.base_radius_driving_m = 0.0240;
-  second.base_radius_driven_m = 0.0861;
-  second.mean_stiffness_n_per_m = second_stiffness_n_per_m;
-  second.stiffness = {};
-  second.transmission_error = {};
-  second.damping_n_s_per_m = 0;
-  t.meshes = {first, second};
+  t.meshes = {first, mesh("second", "intermediate", "output", {17, 61}, {0.0240, 0.0861}, 5e-5,
+                          second_stiffness_n_per_m)};
   t.torques = {{"motor", "input", 40.0, {{8.0, 2, 0.0}}},
                {"load", "output", -40.0 * (0.0587 / 0.0235) * (0.0861 / 0.0240), {}}};
   t.reference = "input";
@@ -396,16 +378,7 @@ struct LooseGear {
   Train train(double amplitude_rad) const {
     Train t;
     t.bodies = {{"driver", 1.0}, {"loose", j_loose}};
-    Mesh m;
-    m.name = "mesh";
-    m.driving = "driver";
-    m.driven = "loose";
-    m.teeth_driving = 40;
-    m.teeth_driven = 30;
-    m.base_radius_driving_m = r_driver;
-    m.base_radius_driven_m = r_loose;
-    m.backlash_m = b;
-    m.mean_stiffness_n_per_m = k;
+    Mesh m = mesh("mesh", "driver", "loose", {40, 30}, {r_driver, r_loose}, b, k);
     m.damping_n_s_per_m = 2 * zeta * std::sqrt(k * j_loose / (r_loose * r_loose));
     t.meshes = {m};
     // A sine: the driver's acceleration is 0 at the start, where the gear rests on its flank.
