@@ -288,6 +288,85 @@ double Assembled::coefficient_period_s() const {
   return static_cast<double>(den) / (static_cast<double>(num) * t_.reference_speed_hz);
 }
 
+namespace {
+
+// The fraction p/q (q <= kMaxOrderDenominator) within kOrderTolerance of x > 0, by continued
+// fractions; none when there is no such fraction.
+std::optional<Ratio> as_fraction(double x) {
+  std::int64_t p0 = 0, q0 = 1, p1 = 1, q1 = 0;
+  double r = x;
+  for (int k = 0; k < 64; ++k) {
+    const double a = std::floor(r);
+    if (!(a < 1e15)) break;
+    const auto ai = static_cast<std::int64_t>(a);
+    const std::int64_t p2 = ai * p1 + p0, q2 = ai * q1 + q0;
+    if (q2 > kMaxOrderDenominator) break;
+    if (std::abs(static_cast<double>(p2) / static_cast<double>(q2) - x) <= kOrderTolerance * x)
+      return reduced(p2, q2);
+    p0 = p1;
+    q0 = q1;
+    p1 = p2;
+    q1 = q2;
+    if (r - a <= 0) break;
+    r = 1.0 / (r - a);
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<double> Assembled::system_period_s(std::string* why) const {
+  // Every excitation's frequency over the reference speed, with what it is.
+  std::vector<std::pair<Ratio, std::string>> ratios;
+  const std::vector<Ratio> mesh = mesh_frequency_ratios();
+  for (std::size_t m = 0; m < mesh.size(); ++m)
+    if (!t_.meshes[m].stiffness.empty() || !t_.meshes[m].transmission_error.empty())
+      ratios.emplace_back(mesh[m], fmt::format("mesh '{}'", t_.meshes[m].name));
+  const auto orders = [&](const std::string& element, const std::string& body, double order,
+                          double amplitude) {
+    if (amplitude == 0) return true;
+    const Ratio speed = speed_[index(body)];
+    const std::optional<Ratio> o = as_fraction(order);
+    if (!o) {
+      if (why)
+        *why = fmt::format(
+            "{}: order {} is no fraction with a denominator up to {}: the "
+            "excitations have no common period (quasi-periodic)",
+            element, order, kMaxOrderDenominator);
+      return false;
+    }
+    ratios.emplace_back(times(speed, o->num, o->den), element);
+    return true;
+  };
+  for (const Torque& q : t_.torques)
+    for (const TorqueHarmonic& h : q.harmonics)
+      if (!orders(fmt::format("torque '{}'", q.name), q.body, h.order, h.amplitude_nm))
+        return std::nullopt;
+  for (const Speed& v : t_.speeds)
+    for (const SpeedHarmonic& h : v.harmonics)
+      if (!orders(fmt::format("speed '{}'", v.name), v.body, h.order, h.amplitude_rad))
+        return std::nullopt;
+  if (ratios.empty()) return 0.0;
+  // gcd of p_i / q_i = gcd(p_i) / lcm(q_i); past the bound, the excitations are quasi-periodic.
+  std::int64_t num = 0, den = 1;
+  double slowest = ratios.front().first.num / static_cast<double>(ratios.front().first.den);
+  for (const auto& [r, element] : ratios) {
+    num = std::gcd(num, r.num);
+    den = std::lcm(den, r.den);
+    slowest = std::min(slowest, value(r));
+  }
+  const double base = static_cast<double>(num) / static_cast<double>(den);
+  if (!(slowest / base <= kMaxPeriodMultiple)) {
+    if (why)
+      *why = fmt::format(
+          "the excitations' common period is {:.6g} periods of the slowest of "
+          "them; at most {:g} count as periodic (quasi-periodic)",
+          slowest / base, kMaxPeriodMultiple);
+    return std::nullopt;
+  }
+  return 1.0 / (base * t_.reference_speed_hz);
+}
+
 Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   const Mesh& m = t_.meshes[mesh];
   Eigen::RowVectorXd v = Eigen::RowVectorXd::Zero(size());

@@ -204,6 +204,30 @@ TEST(Train, ItsMeshFrequenciesAreCommensurateFromTheTeeth) {
   EXPECT_NEAR(a.coefficient_period_s(), 1.0 / (30 * 20), 1e-15);
 }
 
+TEST(Train, ItsSystemPeriodIsTheCommonPeriodOfEveryExcitationOrNoneWhenQuasiPeriodic) {
+  // The reducer's first mesh at 20 and its motor torque at order 2 of the input speed: a common
+  // period of 1 / (2 f_ref). With the second mesh varying too (34/5) it is 5 / (2 f_ref); a
+  // torque at order sqrt(2) has none, and the answer says which element and why; a torque at
+  // order 2.5 (an engine's half order) has one again, 10 / f_ref (gcd of 20, 34/5 and 5/2 is
+  // 1/10).
+  Train t = two_stage(3e8);
+  EXPECT_NEAR(*Assembled(t).system_period_s(), 1.0 / (2 * 30), 1e-15);
+  t.meshes[1].stiffness = {{0.05, 0.0}};
+  EXPECT_NEAR(*Assembled(t).system_period_s(), 5.0 / (2 * 30), 1e-15);
+  t.torques[0].harmonics[0].order = std::sqrt(2.0);
+  std::string why;
+  EXPECT_FALSE(Assembled(t).system_period_s(&why));
+  EXPECT_NE(why.find("torque 'motor': order 1.41421"), std::string::npos) << why;
+  EXPECT_NE(why.find("quasi-periodic"), std::string::npos) << why;
+  t.torques[0].harmonics[0].order = 2.5;
+  EXPECT_NEAR(*Assembled(t).system_period_s(), 10.0 / 30, 1e-15);
+  // An exact period past the bound: an order of 10007/10000 makes it 10000 input periods, 10007
+  // periods of that torque (more than kMaxPeriodMultiple).
+  t.torques[0].harmonics[0].order = 1.0007;
+  EXPECT_FALSE(Assembled(t).system_period_s(&why));
+  EXPECT_NE(why.find("periods of the slowest"), std::string::npos) << why;
+}
+
 TEST(Train, AStiffSecondStageIsTheSinglePairWithTheReflectedInertia) {
   // The second mesh k times stiffer than the first holds the output to the intermediate
   // shaft: the first mesh's deflection tends to that of the single pair whose wheel carries

@@ -32,6 +32,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -125,6 +126,14 @@ struct Ratio {
   std::int64_t num = 0, den = 1;
 };
 
+// An order given as a real number counts as a fraction p/q within this relative distance...
+constexpr double kOrderTolerance = 1e-12;
+// ...with q at most this (an engine's half orders, a gear train's ratios of teeth).
+constexpr std::int64_t kMaxOrderDenominator = 10000;
+// A common period longer than this many periods of the slowest excitation is no period a study
+// can use (it would be run period by period): the excitations count as quasi-periodic.
+constexpr double kMaxPeriodMultiple = 1e4;
+
 // The train assembled: matrices at the mean stiffness, speeds, frequencies and the system.
 class Assembled {
  public:
@@ -145,6 +154,15 @@ class Assembled {
   // The common period of every mesh's stiffness and transmission error: 1 / (f_ref g), g the
   // greatest common divisor of the mesh frequency ratios; 0 when every mesh is constant.
   double coefficient_period_s() const;
+  // The period of every excitation together (each mesh's stiffness and transmission error,
+  // every torque's and prescribed speed's harmonics): 1 / (f_ref g), g the greatest common
+  // divisor of their frequencies over the reference speed, each a ratio of whole numbers (an
+  // order counts as one when it is within kOrderTolerance of a fraction whose denominator is at
+  // most kMaxOrderDenominator). Empty, with `why` saying which excitation, when there is no
+  // such period within kMaxPeriodMultiple of the slowest excitation's own period: the train is
+  // driven quasi-periodically, and a study that needs a period must say so. 0 when nothing
+  // varies.
+  std::optional<double> system_period_s(std::string* why = nullptr) const;
 
   const Eigen::MatrixXd& mass() const { return m_; }
   // V of mesh m: d = V theta.
