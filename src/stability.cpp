@@ -128,7 +128,7 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
   std::vector<std::string> keys{o.axis.key};
   if (o.axis2) keys.push_back(o.axis2->key);
   // Every value the chart sets, against its key's bounds, before any work: the ends of each
-  // range (its values lie between them), each given value.
+  // range (its values lie between them), the least and largest given value.
   for (const auto& [axis, suffix] :
        {std::pair{&o.axis, ""}, std::pair{o.axis2 ? &*o.axis2 : nullptr, "2"}})
     if (axis)

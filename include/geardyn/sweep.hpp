@@ -34,8 +34,9 @@ struct SweepAxis {
 };
 
 // The values of an axis that bound all its others, each with how the user gave it, for messages:
-// the two ends of a range ("--from 1e-300", "--to2 5"; `suffix` is "" or "2"), or each given
-// value ("the value 3 of mesh.backlash_um"). A study checks these before any work.
+// the two ends of a range ("--from 1e-300", "--to2 5"; `suffix` is "" or "2"), or the least and
+// the largest given value ("the value 3 of mesh.backlash_um"). A study checks these before any
+// work.
 struct AxisValue {
   double value = 0;
   std::string origin;
