@@ -370,8 +370,9 @@ std::optional<double> Assembled::system_period_s(std::string* why) const {
 Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   const Mesh& m = t_.meshes[mesh];
   Eigen::RowVectorXd v = Eigen::RowVectorXd::Zero(size());
-  v(index(m.driving)) += m.base_radius_driving_m;
-  v(index(m.driven)) -= m.base_radius_driven_m;
+  const double cb = std::cos(m.base_helix_angle_rad);
+  v(index(m.driving)) += cb * m.base_radius_driving_m;
+  v(index(m.driven)) -= cb * m.base_radius_driven_m;
   return v;
 }
 

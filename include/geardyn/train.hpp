@@ -15,10 +15,10 @@
 //   Body   J_i on the diagonal of M.
 //   Shaft  k_s, c_s between two bodies: the twist theta_a - theta_b.
 //   Mesh   between a driving gear a and a driven gear b, along the line of action: the normal
-//          deflection d = R_a theta_a - R_b theta_b, its force as the one-degree model's
-//          F = k(t) (d - e(t) -+ b) + c (d' - e'(t)) on the drive (-) or back (+) side, 0 in
-//          the backlash (|d - e| < b), entering the bodies by virtual work as V^T F with
-//          V = (R_a at a, -R_b at b); k(t) and e(t) at the mesh's own frequency z_a f_a.
+//          deflection d = cos(beta_b) (R_a theta_a - R_b theta_b), its force as the one-degree
+//          model's F = k(t) (d - e(t) -+ b) + c (d' - e'(t)) on the drive (-) or back (+) side, 0
+//          in the backlash (|d - e| < b), entering the bodies by virtual work as V^T F with V =
+//          (R_a at a, -R_b at b); k(t) and e(t) at the mesh's own frequency z_a f_a.
 //   Torque a torque T(t) = T_mean + sum_i T_i cos(i Omega t + phi_i) on a body (a drive
 //          positive, a load negative), Omega the body's own angular speed.
 //   Drag   a drag on a body: -T_drag - c_v theta' (constant and viscous; a loose gear's oil).
@@ -58,6 +58,9 @@ struct Mesh {
   std::string driving, driven;  // body names
   int teeth_driving = 0, teeth_driven = 0;
   double base_radius_driving_m = 0, base_radius_driven_m = 0;
+  // beta_b of a helical pair (0: spur): d and b are then along the normal line of action,
+  // d = cos(beta_b) (R_a theta_a - R_b theta_b), as the one-degree model's delta (MODEL.md).
+  double base_helix_angle_rad = 0;
   double backlash_m = 0;  // b, half the total normal backlash
   double mean_stiffness_n_per_m = 0;
   std::vector<MeshHarmonic> stiffness;           // ratios
