@@ -14,9 +14,10 @@
 
 #include "geardyn/case_keys.hpp"
 #include "geardyn/harmonic_series.hpp"
+#include "geardyn/train_case.hpp"
+#include "toml_source.hpp"
 
 namespace geardyn {
-namespace {
 
 // Where a node came from, for messages: "case.toml:12:5" or "--set mesh.backlash_um=-1".
 std::string where(const toml::source_region& src, const std::string& fallback) {
@@ -25,6 +26,17 @@ std::string where(const toml::source_region& src, const std::string& fallback) {
   if (path.rfind("--set", 0) == 0) return path;
   if (src.begin.line == 0) return path;
   return fmt::format("{}:{}:{}", path, src.begin.line, src.begin.column);
+}
+
+std::string origin_of(const std::vector<Override>& overrides, const std::string& dotted,
+                      const toml::source_region& src, const std::string& source) {
+  for (auto it = overrides.rbegin(); it != overrides.rend(); ++it) {
+    const std::string& k = it->key;
+    if (dotted == k || dotted.rfind(k + ".", 0) == 0 || dotted.rfind(k + "[", 0) == 0 ||
+        k.rfind(dotted + ".", 0) == 0)
+      return it->label();
+  }
+  return where(src, source);
 }
 
 std::string node_text(const toml::node& n) {
@@ -42,6 +54,8 @@ std::string node_text(const toml::node& n) {
   }
   return s;
 }
+
+namespace {
 
 std::string format_number(double x) { return fmt::format("{}", x); }
 
@@ -283,6 +297,13 @@ class Reader {
     out = *n->value<std::string>();
   }
 
+  // A top-level table read by another reader (the train's elements): known as a whole.
+  const toml::node* claim(const std::string& section) {
+    known_[section];
+    used_.insert(section);
+    return root_.get(section);
+  }
+
   bool has(std::string_view section, std::string_view key) const {  // does not mark it known
     const toml::table* t = root_[section].as_table();
     return t && t->get(key) != nullptr;
@@ -423,13 +444,7 @@ class Reader {
   // Where the value of a dotted key came from: the last --set that wrote it or anything under
   // it, else the node's place in the file.
   std::string origin(const std::string& dotted, const toml::source_region& src) const {
-    for (auto it = overrides_.rbegin(); it != overrides_.rend(); ++it) {
-      const std::string& k = it->key;
-      if (dotted == k || dotted.rfind(k + ".", 0) == 0 || dotted.rfind(k + "[", 0) == 0 ||
-          k.rfind(dotted + ".", 0) == 0)
-        return it->label();
-    }
-    return where(src, source_);
+    return origin_of(overrides_, dotted, src, source_);
   }
 
   const toml::node* find(std::string_view section, std::string_view key) {
@@ -586,6 +601,8 @@ void guard_toml_text(const std::string& text, const std::string& source) {
   }
 }
 
+}  // namespace
+
 // toml::parse behind the guard. A UTF-8 byte-order mark (as Windows editors write one) is no
 // part of the document.
 toml::table parse_toml(const std::string& text, const std::string& source) {
@@ -595,13 +612,21 @@ toml::table parse_toml(const std::string& text, const std::string& source) {
   return toml::parse(document, source);
 }
 
+namespace {
+
 // An override of one element of an array, `key[i]` or `key[i][j]`: replaces that element of
 // the array set in `root`. Throws InputError naming the override.
 void set_element(toml::table& root, const Override& o, const std::string& origin) {
   const std::size_t open = o.key.find('[');
   const std::string base = o.key.substr(0, open);
   std::vector<std::size_t> index;
+  // A key of a table in an array of tables: train.mesh[1].backlash_um.
+  std::string member;
   for (std::size_t pos = open; pos < o.key.size();) {
+    if (o.key[pos] == '.' && !index.empty()) {
+      member = o.key.substr(pos + 1);
+      break;
+    }
     const std::size_t close = o.key.find(']', pos);
     const std::string digits =
         close == std::string::npos ? "" : o.key.substr(pos + 1, close - pos - 1);
@@ -629,6 +654,22 @@ void set_element(toml::table& root, const Override& o, const std::string& origin
     if (k + 1 < index.size()) {
       node = arr->get(index[k]);
       continue;
+    }
+    if (!member.empty()) {
+      toml::table* element = arr->get(index[k])->as_table();
+      if (!element || member.find_first_of(".[") != std::string::npos)
+        throw InputError(fmt::format(
+            "{}: {}[{}] is no table of keys; write e.g. --set train.mesh[0].backlash_um=50", origin,
+            base, index[k]));
+      toml::table patch;
+      try {
+        patch = parse_toml(member + " = " + bare_text_quoted(o.value), origin);
+      } catch (const toml::parse_error& e) {
+        throw InputError(fmt::format("{}: not a valid TOML value ({})", origin, e.description()));
+      }
+      for (auto&& [k2, v] : patch)
+        v.visit([&, &name = k2](auto&& leaf) { element->insert_or_assign(name, leaf); });
+      return;
     }
     toml::table patch;
     try {
@@ -669,6 +710,24 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
   // Harmonics given without a source mean that those harmonics are wanted.
   if (r.has("mesh", "stiffness_harmonics") && !r.has("mesh", "stiffness_source"))
     c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  const std::map<std::string, std::string>& given = r.origins();
+  const auto form_origin = [&] {
+    const auto it = given.find("model.form");
+    return it == given.end() ? std::string("default value") : it->second;
+  };
+  if (const toml::node* train = r.claim("train")) {
+    if (c.model.form != ModelForm::kTrain)
+      throw InputError(fmt::format(
+          "{}: [train] is read with model.form = \"train\"; this case has model.form = \"{}\" "
+          "({}): set model.form = \"train\" or remove [train]",
+          where(train->source(), source), to_string(c.model.form), form_origin()));
+    c.train = std::make_shared<const TrainCase>(read_train_case(*train, source, overrides));
+  } else if (c.model.form == ModelForm::kTrain) {
+    throw InputError(fmt::format(
+        "{}: model.form = \"train\" needs a [train] section: its reference_speed_hz and "
+        "[[train.body]], [[train.mesh]] tables (docs/case-files.md, \"Gear trains\")",
+        form_origin()));
+  }
 
   r.reject_unknown();
 
@@ -792,6 +851,8 @@ const char* to_string(ModelForm f) {
       return "nondimensional";
     case ModelForm::kCoupled:
       return "coupled";
+    case ModelForm::kTrain:
+      return "train";
   }
   return "?";
 }
@@ -814,6 +875,7 @@ std::string to_toml(const Case& c) {
     }
     out += fmt::format("{} = {}\n", k.leaf(), k.value_text(c));
   }
+  if (c.train) sections += train_toml(*c.train);
   return top + sections;
 }
 

@@ -69,14 +69,16 @@ std::vector<CaseKey> make_keys() {
       {"model.form",
        choice<kModel, &D::form>({option("gear_pair", ModelForm::kGearPair),
                                  option("nondimensional", ModelForm::kNondimensional),
-                                 option("coupled", ModelForm::kCoupled)}),
+                                 option("coupled", ModelForm::kCoupled),
+                                 option("train", ModelForm::kTrain)}),
        "",
        {},
        "",
        "",
        "the gear pair of the sections below; x'' + 2 zeta x' + k(tau) f(x) = F_m + F_a "
-       "cos(Omega tau) with b = 1 (docs/sweeps.md); or the gears as rigid bodies on [bearings] "
-       "(docs/model.md)"},
+       "cos(Omega tau) with b = 1 (docs/sweeps.md); the gears as rigid bodies on [bearings] "
+       "(docs/model.md); or a gear train of the elements in [train] (docs/case-files.md, "
+       "\"Gear trains\")"},
       {"model.dof", &field<kModel, &D::dof>, "", closed(3, 12), "whole number", "(3, 6 or 12)",
        "with \"coupled\": 3 (rotations and translations along the line of action), 6 (and "
        "axial) or 12 (all six per gear)"},
@@ -515,7 +517,10 @@ std::string unused_reason(const CaseKey& k, const Case& c) {
   const ModelForm form = c.model.form;
   const std::string form_text = fmt::format("model.form = \"{}\"", to_string(form));
   // By form: which sections it reads.
-  if (k.name == "model.dof" || section == "bearings" || section == "shafts") {
+  if (form == ModelForm::kTrain) {
+    if (!section.empty() && section != "solver" && k.name != "model.form")
+      return form_text + " reads [train] and [solver] (its elements carry their own data)";
+  } else if (k.name == "model.dof" || section == "bearings" || section == "shafts") {
     if (form != ModelForm::kCoupled)
       return form_text + " has no bearings or shafts (only \"coupled\" reads them)";
   } else if (section == "model" && k.name != "model.form") {

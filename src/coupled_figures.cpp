@@ -21,9 +21,7 @@ constexpr double kMeshCritical = 0.05;
 constexpr int kMeshOrders = 3;
 
 // coupled_plot.csv: t_ms, (d - e)/b, F_bar, the line-of-action bearing forces, the axial ones,
-// y1, y2, z1, z2 in um and the shaft torques. Up to kMaxPlotPoints samples as they are; beyond,
-// each bucket of samples gives the minima and the maxima of every column (the drawn envelope is
-// exact).
+// y1, y2, z1, z2 in um and the shaft torques, decimated as decimated_csv does.
 std::string coupled_plot_csv(const CoupledRunResult& r) {
   const CoupledSamples& s = r.samples;
   const CoupledParameters& p = r.parameters;
@@ -45,34 +43,10 @@ std::string coupled_plot_csv(const CoupledRunResult& r) {
                                s.shaft_torque_nm[k][0],
                                s.shaft_torque_nm[k][1]};
   };
-  std::string out =
+  return decimated_csv(
       "t_ms,deflection_bar,force_bar,bearing1_n,bearing2_n,axial1_n,axial2_n,y1_um,y2_um,z1_um,"
-      "z2_um,shaft1_nm,shaft2_nm\n";
-  const auto row = [&](double t, const std::vector<double>& v) {
-    fmt::format_to(std::back_inserter(out), "{:.10g}", t * 1e3);
-    for (double x : v) fmt::format_to(std::back_inserter(out), ",{:.8g}", x);
-    out += "\n";
-  };
-  const std::size_t n = s.t_s.size();
-  if (n <= kMaxPlotPoints) {
-    for (std::size_t k = 0; k < n; ++k) row(s.t_s[k], columns(k));
-    return out;
-  }
-  const std::size_t buckets = kMaxPlotPoints / 2;
-  for (std::size_t b = 0; b < buckets; ++b) {
-    const std::size_t lo = b * n / buckets, hi = (b + 1) * n / buckets;
-    std::vector<double> low = columns(lo), high = low;
-    for (std::size_t k = lo + 1; k < hi; ++k) {
-      const std::vector<double> v = columns(k);
-      for (std::size_t c = 0; c < v.size(); ++c) {
-        low[c] = std::min(low[c], v[c]);
-        high[c] = std::max(high[c], v[c]);
-      }
-    }
-    row(s.t_s[lo], low);
-    row(s.t_s[(lo + hi) / 2], high);
-  }
-  return out;
+      "z2_um,shaft1_nm,shaft2_nm\n",
+      s.t_s.size(), [&](std::size_t k) { return s.t_s[k] * 1e3; }, columns);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "contact_tracker.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/model.hpp"
@@ -22,57 +23,6 @@ namespace geardyn {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// The contact history of one nonlinearity, from its state changes in time order.
-class ContactTracker {
- public:
-  ContactTracker(double t0, double t1, double final_from, int state)
-      : t0_(t0), t1_(t1), final_from_(final_from), state_(state) {
-    if (state == 0) free_since_ = t0;
-  }
-  void change(double t, int to) {
-    if (to == state_) return;
-    if (state_ == 0 && to != 0) {  // contact entered: an impact
-      ++impacts_;
-      if (to < 0) ++backside_;
-      close_free(t);
-    } else if (state_ != 0 && to == 0) {  // contact left
-      ++separations_;
-      last_separation_ = t;
-      free_since_ = t;
-      if (t > final_from_) free_in_final_ = true;  // as the one-degree reading (analysis.hpp)
-    }
-    if (to < 0) back_ = true;
-    state_ = to;
-  }
-  ContactReading reading() {
-    if (state_ == 0) close_free(t1_);
-    ContactReading r;
-    r.present = true;
-    r.impacts = impacts_;
-    r.backside_impacts = backside_;
-    r.separations = separations_;
-    r.last_separation_s = last_separation_;
-    r.double_sided = back_;
-    r.separated_fraction = free_time_ / (t1_ - t0_);
-    r.regime = regime_of(free_in_final_, free_time_);
-    return r;
-  }
-
- private:
-  void close_free(double t) {
-    if (!free_since_) return;
-    free_time_ += t - *free_since_;
-    free_since_.reset();
-  }
-  double t0_, t1_, final_from_;
-  int state_;
-  std::optional<double> free_since_;
-  std::int64_t impacts_ = 0, backside_ = 0, separations_ = 0;
-  std::optional<double> last_separation_;
-  bool back_ = false, free_in_final_ = false;
-  double free_time_ = 0;
-};
 
 // The coupled model's cells are twice the one-degree model's in h times the fastest rate
 // (EngineOptions::cell_rate_product 1.5): with 6 to 26 states a cell's cost (its series'
@@ -305,27 +255,32 @@ CoupledRunResult CoupledSolver::read(double t0, const ode::Vector& y0, double t1
   return result;
 }
 
-CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
-  const auto wall_start = std::chrono::steady_clock::now();
-  const CoupledSolver solver(c);
-  const double t0 = 0, t1 = c.solver.duration_s;
-  const double fastest = fastest_period_s(solver.model());
+double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what) {
+  const double t1 = c.solver.duration_s;
   const double interval =
       c.solver.output_interval_s > 0
           ? c.solver.output_interval_s
           : std::max(t1 / kMaxAutomaticSamples,
-                     std::min(t1 / kAutomaticSamples, fastest / kSamplesPerFastestPeriod));
+                     std::min(t1 / kAutomaticSamples, fastest_period_s / kSamplesPerFastestPeriod));
   const double samples = t1 / interval + 1;
   if (!(samples <= kMaxSamples))
-    throw InputError(fmt::format(
-        "solver.output_interval_s = {:.6g}: {:.3g} samples over solver.duration_s = {:.6g}; at "
-        "most {:.0e}",
-        interval, samples, t1, kMaxSamples));
-  if (!(t1 / fastest <= kMaxFastestPeriods))
-    throw InputError(fmt::format(
-        "solver.duration_s = {:.6g}: {:.3g} periods of the model's fastest time scale ({:.3g} "
-        "s); at most {:.0e}",
-        t1, t1 / fastest, fastest, kMaxFastestPeriods));
+    throw InputError(
+        with_origins(c, fmt::format("solver.output_interval_s = {:.6g}: {:.3g} samples over "
+                                    "solver.duration_s = {:.6g}; at most {:.0e}",
+                                    interval, samples, t1, kMaxSamples)));
+  if (!(t1 / fastest_period_s <= kMaxFastestPeriods))
+    throw InputError(with_origins(
+        c, fmt::format("solver.duration_s = {:.6g}: {:.3g} periods of the {}'s fastest time "
+                       "scale ({:.3g} s); at most {:.0e}",
+                       t1, t1 / fastest_period_s, what, fastest_period_s, kMaxFastestPeriods)));
+  return interval;
+}
+
+CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  const CoupledSolver solver(c);
+  const double t0 = 0, t1 = c.solver.duration_s;
+  const double interval = checked_output_interval_s(c, fastest_period_s(solver.model()), "model");
   CoupledRunResult result = solver.read(t0, solver.initial_state(c.solver.initial), t1,
                                         ode::make_output_grid(t0, t1, interval),
                                         t1 * (1 - c.solver.final_fraction), options.progress);

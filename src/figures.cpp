@@ -104,6 +104,36 @@ std::string plot_csv(const Timeseries& s) {
   return out;
 }
 
+std::string decimated_csv(const std::string& header, std::size_t n,
+                          const std::function<double(std::size_t)>& t_ms,
+                          const std::function<std::vector<double>(std::size_t)>& columns) {
+  std::string out = header;
+  const auto row = [&](double t, const std::vector<double>& v) {
+    fmt::format_to(std::back_inserter(out), "{:.10g}", t);
+    for (double x : v) fmt::format_to(std::back_inserter(out), ",{:.8g}", x);
+    out += "\n";
+  };
+  if (n <= kMaxPlotPoints) {
+    for (std::size_t k = 0; k < n; ++k) row(t_ms(k), columns(k));
+    return out;
+  }
+  const std::size_t buckets = kMaxPlotPoints / 2;
+  for (std::size_t b = 0; b < buckets; ++b) {
+    const std::size_t lo = b * n / buckets, hi = (b + 1) * n / buckets;
+    std::vector<double> low = columns(lo), high = low;
+    for (std::size_t k = lo + 1; k < hi; ++k) {
+      const std::vector<double> v = columns(k);
+      for (std::size_t c = 0; c < v.size(); ++c) {
+        low[c] = std::min(low[c], v[c]);
+        high[c] = std::max(high[c], v[c]);
+      }
+    }
+    row(t_ms(lo), low);
+    row(t_ms((lo + hi) / 2), high);
+  }
+  return out;
+}
+
 std::string contact_intervals_csv(const RunResult& r) {
   std::string out = "t_start_s,t_end_s,contact\n";
   if (r.samples.size() == 0) return out;

@@ -60,6 +60,10 @@ std::optional<MeshStiffness> shared_stiffness(const Case& base,
 
 GearPairModel build_model(const Case& c, Geometry* geometry_out, const MeshStiffness* stiffness) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
+  if (c.model.form == ModelForm::kTrain)
+    throw InputError(
+        "model.form = \"train\": this takes the one-degree forms; a gear train runs with "
+        "`geardyn run` (run_train, train_run.hpp)");
   if (c.model.form == ModelForm::kCoupled)
     throw InputError(
         "model.form = \"coupled\": this command takes the one-degree forms (\"gear_pair\", "

@@ -539,6 +539,7 @@ TEST(Cli, EveryWritingCommandKeepsTheUsersFilesAndWritesIntoTheCurrentFolder) {
   // user's files, written twice (the second run replaces our files), then as `--out .`.
   const std::string nd = "--set model.form=nondimensional ";
   const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
+  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
   const std::vector<std::pair<std::string, std::string>> commands = {
       {"run --set solver.duration_s=0.005 --plot", "run_time.png"},
       {"run " + coupled + " --set solver.duration_s=0.002 --plot", "coupled_time.png"},
@@ -550,6 +551,8 @@ TEST(Cli, EveryWritingCommandKeepsTheUsersFilesAndWritesIntoTheCurrentFolder) {
        "--param speed.shaft_frequency_hz --from 80 --to 100 --points 5",
        "stability.csv"},
       {"modes " + coupled, "modes.json"},
+      {"run " + reducer + " --set solver.duration_s=0.002 --plot", "train_time.png"},
+      {"modes " + reducer, "campbell.png"},
       {"stiffness", "stiffness.csv"},
       {"reproduce park2010 --no-figures", "report.html"},
   };
@@ -669,7 +672,9 @@ TEST(Cli, ASettingTheMethodDoesNotUseIsReported) {
   EXPECT_EQ(used.err.find("not used"), std::string::npos) << used.err;
   EXPECT_TRUE(nlohmann::json::parse(slurp(d / "summary.json"))["unused_settings"].empty());
   // The shipped cases give nothing they do not use.
-  for (const char* file : {"park2010.toml", "park2010_coupled.toml", "kahraman_singh.toml"}) {
+  for (const char* file :
+       {"park2010.toml", "park2010_coupled.toml", "kahraman_singh.toml", "two_stage_reducer.toml",
+        "idler_train.toml", "loose_gear_rattle.toml"}) {
     const Outcome shipped = cli("run " + std::string(GEARDYN_SOURCE_DIR) + "/cases/" + file +
                                 " --set solver.duration_s=0.001");
     EXPECT_EQ(shipped.err.find("not used"), std::string::npos) << file << shipped.err;
@@ -904,3 +909,100 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   EXPECT_NE(plain.err.find("modes are of the coupled model"), std::string::npos) << plain.err;
   EXPECT_FALSE(fs::exists(d));
 }
+
+namespace {
+
+TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
+  // The two-stage reducer: one reading per mesh by name in summary.json, every mesh's columns
+  // in timeseries.csv, and case.toml that runs to the same readings.
+  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const fs::path d = users_folder("train_run");
+  const Outcome o =
+      cli("run " + reducer + " --set solver.duration_s=0.01 --plot --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("mesh stage2"), std::string::npos) << o.out;
+  // The figure has a row per mesh, each drawing its own columns of train_plot.csv.
+  const std::string body = slurp(d / "train_time_body.gp");
+  EXPECT_NE(body.find("layout 2,1"), std::string::npos) << body;
+  EXPECT_NE(body.find("mesh stage2 (716.393 Hz)"), std::string::npos) << body;
+  EXPECT_NE(body.find("using 1:4 skip 1 axes x1y1"), std::string::npos) << body;
+  EXPECT_EQ(slurp(d / "train_plot.csv")
+                .rfind("t_ms,stage1_deflection_bar,stage1_force_n,stage2_deflection_bar,"
+                       "stage2_force_n\n0,",
+                       0),
+            0U);
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  EXPECT_EQ(j["form"], "train");
+  ASSERT_EQ(j["meshes"].size(), 2U);
+  EXPECT_EQ(j["meshes"][0]["name"], "stage1");
+  EXPECT_EQ(j["meshes"][1]["name"], "stage2");
+  EXPECT_NEAR(j["meshes"][0]["mesh_frequency_hz"].get<double>(), 2300.0, 1e-9);
+  EXPECT_NEAR(j["meshes"][1]["mesh_frequency_hz"].get<double>(), 100.0 * 23 / 61 * 19, 1e-9);
+  for (const auto& m : j["meshes"]) {
+    EXPECT_GT(m["dynamic_factor"].get<double>(), 0.9) << m;
+    EXPECT_GE(m["dynamic_factor_with_startup"].get<double>(), m["dynamic_factor"].get<double>());
+  }
+  const std::string ts = slurp(d / "timeseries.csv");
+  EXPECT_NE(ts.substr(0, ts.find('\n')).find("stage2_force_n"), std::string::npos);
+  expect_users_files(d, "train run");
+  const fs::path again = fresh("train_again");
+  const Outcome o2 = cli("run " + (d / "case.toml").string() + " --out " + again.string());
+  ASSERT_EQ(o2.code, 0) << o2.err;
+  const nlohmann::json j2 = nlohmann::json::parse(slurp(again / "summary.json"));
+  EXPECT_EQ(j2["meshes"], j["meshes"]);
+  fs::remove_all(d);
+  fs::remove_all(again);
+}
+
+TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
+  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const Outcome m = cli("modes " + reducer + " --json");
+  ASSERT_EQ(m.code, 0) << m.err;
+  const nlohmann::json j = nlohmann::json::parse(m.out);
+  ASSERT_EQ(j["modes"].size(), 6U);                              // six bodies, none held
+  EXPECT_LT(j["modes"][0]["frequency_hz"].get<double>(), 1e-6);  // the free rotation
+  EXPECT_TRUE(j["modes"][5]["mesh_energy"].contains("stage1"));
+  const fs::path d = fresh("train_refused");
+  const std::string out = " --out " + d.string();
+  for (const std::string args :
+       {"sweep " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8 --points 2" + out,
+        "orbit " + reducer,
+        "stability " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8 --points 2" + out,
+        "continue " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8" + out,
+        "reproduce park2010 --case " + reducer + out, "stiffness " + reducer + out}) {
+    const Outcome o = cli(args);
+    EXPECT_EQ(o.code, 2) << args << "\n" << o.err;
+    EXPECT_NE(o.err.find("does not take gear trains yet"), std::string::npos) << args << "\n"
+                                                                              << o.err;
+    EXPECT_FALSE(fs::exists(d)) << args;
+  }
+  // A mesh to a body that is not there: its name, key and line, exit 2, nothing written.
+  fs::create_directories(d);
+  std::ofstream(d / "bad.toml") << "[model]\nform = \"train\"\n[train]\nreference_speed_hz = 50\n"
+                                   "[[train.body]]\nname = \"a\"\ninertia_kg_m2 = 1\n"
+                                   "[[train.mesh]]\ndriving = \"a\"\ndriven = \"b\"\n"
+                                   "mean_stiffness_n_per_m = 1e8\n";
+  const Outcome bad = cli("run " + (d / "bad.toml").string() + " --out " + (d / "out").string());
+  EXPECT_EQ(bad.code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("bad.toml:8:1: train: mesh 'mesh1': driven = \"b\": no body of that name"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_FALSE(fs::exists(d / "out"));
+  fs::remove_all(d);
+}
+
+TEST(Cli, TheLooseGearRattles) {
+  // The shipped loose-gear case is above its onset of rattle: the loose gear leaves its flank
+  // and strikes again in every period of the engine's firing order.
+  const fs::path d = fresh("rattle");
+  const Outcome o = cli("run " + std::string(GEARDYN_SOURCE_DIR) +
+                        "/cases/loose_gear_rattle.toml --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"))["meshes"][0];
+  EXPECT_EQ(j["regime"], "sustained");
+  // 0.4 s at 25 Hz: ten periods; at least one impact in each.
+  EXPECT_GE(j["impacts"].get<int>(), 10) << j;
+  fs::remove_all(d);
+}
+
+}  // namespace

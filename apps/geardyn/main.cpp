@@ -35,6 +35,8 @@
 #include "geardyn/stability.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/train_case.hpp"
+#include "geardyn/train_run.hpp"
 
 namespace {
 
@@ -144,9 +146,21 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 
 // The case a model command works on; every setting it gives that the model does not use is
 // said (case_keys.hpp, unused_settings), never dropped silently.
+// A gear train (model.form = "train") is taken by `run` and `modes` so far; every other
+// command says so.
+void check_command_takes(const geardyn::Case& c, std::string_view command) {
+  if (c.model.form == geardyn::ModelForm::kTrain && command != "run" && command != "modes")
+    throw geardyn::InputError(geardyn::with_origins(
+        c, fmt::format("model.form = \"train\": `geardyn {}` does not take gear trains yet; "
+                       "`geardyn run` and `geardyn modes` do",
+                       command)));
+}
+
 geardyn::Case load_model_case(const std::string& file,
-                              const std::vector<geardyn::Override>& overrides) {
+                              const std::vector<geardyn::Override>& overrides,
+                              std::string_view command) {
   geardyn::Case c = geardyn::load_case(case_path(file), overrides);
+  check_command_takes(c, command);
   for (const std::string& w : geardyn::unused_settings(c))
     fmt::print(stderr, "geardyn: warning: {}\n", w);
   return c;
@@ -243,25 +257,39 @@ void print_run_summary(const geardyn::RunResult& r) {
                r.integration.unsplit_steps);
 }
 
-// A run of the coupled model: the summary per nonlinearity, summary.json, timeseries.csv and
-// case.toml into out_dir.
-int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plot) {
+// A run of the coupled model or a train with a progress bar and Ctrl-C (which stops it where it
+// is, its part read): says on stderr when it was interrupted, or why it failed.
+template <class Options, class Run>
+auto run_with_progress(const geardyn::Case& c, const std::string& out_dir, const Run& run,
+                       bool& interrupted) {
   ProgressBar bar("run " + c.name);
-  geardyn::CoupledRunOptions opts;
+  Options opts;
   opts.progress = [&](double fraction) { return bar(fraction) && !g_interrupted.load(); };
   std::signal(SIGINT, on_interrupt);
-  const geardyn::CoupledRunResult r = geardyn::run_coupled(c, opts);
+  auto r = run(c, opts);
   std::signal(SIGINT, SIG_DFL);
   bar.finish();
-  const bool interrupted = r.termination == geardyn::ode::Termination::kCancelled;
+  interrupted = r.termination == geardyn::ode::Termination::kCancelled;
   if (interrupted)
     fmt::print(stderr, "interrupted: {}; the run up to there is read{}\n", r.message,
                out_dir.empty() ? "" : " and written");
-  if (!r.ok() && !interrupted) {
+  if (!r.ok() && !interrupted)
     fmt::print(stderr, "geardyn: numerical failure ({}): {}\n",
                geardyn::ode::to_string(r.termination), r.message);
-    return kExitNumerical;
-  }
+  return r;
+}
+
+// A run of the coupled model: the summary per nonlinearity, summary.json, timeseries.csv and
+// case.toml into out_dir.
+int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plot) {
+  bool interrupted = false;
+  const geardyn::CoupledRunResult r = run_with_progress<geardyn::CoupledRunOptions>(
+      c, out_dir,
+      [](const geardyn::Case& x, const geardyn::CoupledRunOptions& o) {
+        return geardyn::run_coupled(x, o);
+      },
+      interrupted);
+  if (!r.ok() && !interrupted) return kExitNumerical;
   const geardyn::CoupledParameters& p = r.parameters;
   fmt::print("geardyn run: {} (coupled, dof {}: {} coordinates)\n", c.name, p.dof, p.size());
   const auto contact = [](const char* name, const geardyn::ContactReading& x) {
@@ -300,10 +328,80 @@ int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plo
   return interrupted ? kExitInterrupted : 0;
 }
 
+// A run of a gear train: each mesh read as the one-degree run reads its mesh.
+int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot) {
+  bool interrupted = false;
+  const geardyn::TrainRunResult r = run_with_progress<geardyn::TrainRunOptions>(
+      c, out_dir,
+      [](const geardyn::Case& x, const geardyn::TrainRunOptions& o) {
+        return geardyn::run_train(x, o);
+      },
+      interrupted);
+  if (!r.ok() && !interrupted) return kExitNumerical;
+  fmt::print("geardyn run: {} (train: {} bodies, {} meshes)\n", c.name, r.bodies.size(),
+             r.meshes.size());
+  if (r.system_period_s)
+    fmt::print("  system period     {:.6g} s\n", *r.system_period_s);
+  else
+    fmt::print("  system period     none: {}\n", r.system_period_note);
+  for (const geardyn::TrainMeshReading& m : r.meshes) {
+    fmt::print(
+        "  mesh {:<12} {:.6g} Hz: {}, {} impacts ({} back side), separated {:.2f} % of "
+        "the time\n",
+        m.name, m.mesh_frequency_hz, geardyn::to_string(m.regime), m.impacts, m.backside_impacts,
+        100 * m.separated_fraction);
+    fmt::print(
+        "  {:<17} force {:.6g} to {:.6g} N, static {}, dynamic factor {} (with start-up "
+        "{})\n",
+        "", m.min_force_n, m.max_force_n, fmt_optional(m.static_force_n, " N"),
+        fmt_optional(m.dynamic_factor, ""), fmt_optional(m.dynamic_factor_with_startup, ""));
+  }
+  if (!r.static_note.empty()) fmt::print("  no static state:  {}\n", r.static_note);
+  fmt::print("  cells             {} ({} events located), {:.3g} s wall\n", r.cells, r.events,
+             r.wall_time_s);
+  if (!out_dir.empty()) {
+    const std::vector<std::string> unused = geardyn::unused_settings(c);
+    write_output(out_dir, "run", [&](const std::filesystem::path& d) {
+      geardyn::write_files_atomically(
+          d,
+          {{"summary.json",
+            [&](std::ostream& o) { o << geardyn::train_summary_json(r, unused) << "\n"; }},
+           {"timeseries.csv", [&](std::ostream& o) { geardyn::write_train_timeseries_csv(o, r); }},
+           {"case.toml", [&](std::ostream& o) { o << geardyn::to_toml(c); }}});
+      if (plot) geardyn::write_train_run_figures(d, r);
+    });
+    fmt::print("  written to        {}/ (summary.json, timeseries.csv, case.toml)\n", out_dir);
+    if (plot) fmt::print("  figure            {}/train_time (.png, .svg, .gp)\n", out_dir);
+  }
+  return interrupted ? kExitInterrupted : 0;
+}
+
 // The modes of the coupled model linearised in contact at the mean stiffness.
 int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets, bool json,
               const std::string& out_dir) {
-  geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
+  geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "modes");
+  if (c.model.form == geardyn::ModelForm::kTrain) {
+    const geardyn::train::Assembled a = geardyn::assembled_train(c);
+    const std::vector<geardyn::train::TrainMode> m = geardyn::train::modes(a);
+    if (json) {
+      fmt::print("{}\n", geardyn::train_modes_json(a, m));
+    } else {
+      fmt::print("modes of {} (train), every mesh in contact at its mean stiffness{}\n", c.name,
+                 c.train->speeds.empty() ? "" : ", the prescribed bodies held");
+      fmt::print("{}", geardyn::train_modes_table(a, m));
+    }
+    if (!out_dir.empty()) {
+      write_output(out_dir, "modes", [&](const std::filesystem::path& d) {
+        geardyn::write_files_atomically(d, {{"modes.json", [&](std::ostream& o) {
+                                               o << geardyn::train_modes_json(a, m) << "\n";
+                                             }}});
+        geardyn::write_train_campbell_figure(d, a, m);
+      });
+      if (!json)
+        fmt::print("written to {}/ (modes.json, campbell.csv, campbell .png .svg .gp)\n", out_dir);
+    }
+    return 0;
+  }
   if (c.model.form != geardyn::ModelForm::kCoupled)
     throw geardyn::InputError(fmt::format(
         "model.form = \"{}\": modes are of the coupled model; set model.form = \"coupled\" "
@@ -334,7 +432,13 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
   if (plot && out_dir.empty())
     throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
-  geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
+  geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "run");
+  if (c.model.form == geardyn::ModelForm::kTrain) {
+    if (physical)
+      throw geardyn::InputError(
+          "--physical: a gear train's figure shows each mesh's (d - e) / b and its force in N");
+    return cmd_run_train(c, out_dir, plot);
+  }
   if (c.model.form == geardyn::ModelForm::kCoupled) {
     if (physical)
       throw geardyn::InputError("--physical: the coupled model's figure is in physical units");
@@ -376,7 +480,7 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
 // docs/case-files.md (--markdown), or JSON.
 int cmd_keys(bool markdown, bool json) {
   if (markdown) {
-    fmt::print("{}", geardyn::case_keys_markdown());
+    fmt::print("{}{}", geardyn::case_keys_markdown(), geardyn::train_keys_markdown());
     return 0;
   }
   const geardyn::Case defaults;
@@ -397,11 +501,15 @@ int cmd_keys(bool markdown, bool json) {
     }
   }
   if (json) fmt::print("{}\n", all.dump(2));
+  if (!json)
+    fmt::print("\nthe elements of a gear train (model.form = \"train\"):\n{}",
+               geardyn::train_keys_listing());
   return 0;
 }
 
 int cmd_geometry(const std::string& case_file, const std::vector<std::string>& sets, bool json) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  check_command_takes(c, "geometry");
   const geardyn::Geometry g = geardyn::case_geometry(c);
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   constexpr double kMm = 1e3;
@@ -438,7 +546,7 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
 
 int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets,
               geardyn::SweepOptions o, const std::string& out_dir, bool figures) {
-  const geardyn::Case base = load_model_case(case_file, parse_overrides(sets));
+  const geardyn::Case base = load_model_case(case_file, parse_overrides(sets), "sweep");
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   ProgressBar bar("sweep", "points");
   o.progress = [&](std::size_t done, std::size_t total) {
@@ -503,6 +611,7 @@ constexpr int kFigureHarmonics = 10;
 int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& sets,
                   const std::string& out_dir, bool json) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  check_command_takes(c, "stiffness");
   const geardyn::Geometry g = geardyn::case_geometry(c);
   const geardyn::Iso6336Stiffness iso = geardyn::iso6336_stiffness(c, g);
   const geardyn::StiffnessCycle cycle = geardyn::energy_method_cycle(c, g);
@@ -615,7 +724,7 @@ int cmd_coupled_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
 
 int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets,
               const geardyn::OrbitOptions& o, const std::vector<double>& state, bool json) {
-  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
+  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "orbit");
   if (c.model.form == geardyn::ModelForm::kCoupled) return cmd_coupled_orbit(c, o, state, json);
   std::optional<geardyn::ode::State> start;
   if (!state.empty()) {
@@ -667,7 +776,7 @@ int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets
 int cmd_continue(const std::string& case_file, const std::vector<std::string>& sets,
                  geardyn::ContinuationOptions o, const std::string& out_dir, bool figures,
                  const std::string& overlay_dir) {
-  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
+  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "continue");
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   std::string sweep_text;
   if (!overlay_dir.empty()) {
@@ -718,7 +827,7 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
 int cmd_stability(const std::string& case_file, const std::vector<std::string>& sets,
                   geardyn::StabilityOptions o, const std::string& out_dir, bool json,
                   bool figures) {
-  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets));
+  const geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "stability");
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   ProgressBar bar("stability");
   o.progress = [&](std::size_t done, std::size_t total) {
@@ -764,7 +873,7 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
     throw geardyn::InputError(
         fmt::format("reproduce {}: unknown study; available: park2010", study_name));
   const std::vector<geardyn::Override> overrides = parse_overrides(sets);
-  const geardyn::Case base = load_model_case(case_file, overrides);
+  const geardyn::Case base = load_model_case(case_file, overrides, "reproduce");
   const geardyn::Study study = geardyn::park2010_study(base);
   // The study sets the paper's conditions per case: a --set of the same key does not reach
   // those cases, and the user is told so.

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -158,6 +159,7 @@ enum class ModelForm {
   kGearPair,        // the gear pair of [gear], [mesh], [load], [speed] (MODEL.md)
   kNondimensional,  // x'' + 2 zeta x' + k(tau) f(x) = F_m + F_a cos(Omega tau), b = 1
   kCoupled,         // the gears as rigid bodies on [bearings] (coupled_model.hpp)
+  kTrain,           // bodies, meshes, shafts, torques, drags and speeds of [train] (train_case.hpp)
 };
 const char* to_string(ModelForm f);  // its name in a case file
 
@@ -205,6 +207,8 @@ struct ShaftData {
   double damping_ratio = 0.02;
 };
 
+struct TrainCase;  // train_case.hpp
+
 struct Case {
   ModelData model;
   GearData gear;
@@ -214,6 +218,8 @@ struct Case {
   BearingData bearings;
   ShaftData shafts;
   SolverData solver;
+  // [train] (model.form = "train"): its elements as the case file gives them; null otherwise.
+  std::shared_ptr<const TrainCase> train;
   std::string name = "default";     // the case file's stem, or "default"
   std::filesystem::path directory;  // the case file's directory: relative paths start there
   std::string description;          // free text from the case file's top-level `description`

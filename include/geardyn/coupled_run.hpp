@@ -92,6 +92,13 @@ class CoupledSolver {
   std::unique_ptr<ode::ExactEngine> engine_;
 };
 
+// The output interval of a run of `c` whose fastest time scale is `fastest_period_s` (the
+// model's fastest natural period in contact or excitation): solver.output_interval_s, or when it
+// is 0 the automatic one (run.hpp, kAutomaticSamples). Throws InputError, naming the key and
+// where it was given, past the work bounds of run.hpp (kMaxSamples samples, kMaxFastestPeriods
+// periods of the fastest scale in the window); `what` names the model in that message.
+double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what);
+
 // Runs the case's coupled model over [0, solver.duration_s] with the exact engine from
 // solver.initial ("center": at rest in the middle of the backlash and the clearances;
 // "static": the static contact state). Throws InputError for a bad case, a method other than

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "geardyn/output_folder.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
+#include "geardyn/train_run.hpp"
 
 namespace geardyn {
 
@@ -28,6 +30,14 @@ constexpr std::size_t kMaxPlotPoints = 4000;
 // kMaxPlotPoints samples as they are; beyond, min/max decimation: each bucket of consecutive
 // samples gives its minimum and its maximum (of each signal), so the drawn envelope is exact.
 std::string plot_csv(const Timeseries& s);
+
+// A time-history CSV for a figure: `header`, then one row per sample k of n, its time t_ms(k)
+// and its columns(k). Up to kMaxPlotPoints samples as they are; beyond, each bucket of
+// consecutive samples gives the minima and the maxima of every column (the drawn envelope is
+// exact).
+std::string decimated_csv(const std::string& header, std::size_t n,
+                          const std::function<double(std::size_t)>& t_ms,
+                          const std::function<std::vector<double>(std::size_t)>& columns);
 
 // One panel row of a time-history figure: delta_bar and F_bar of one run.
 struct TimeHistoryPanel {
@@ -87,5 +97,16 @@ std::string campbell_csv(const Case& c, const ModeSet& m);
 // resonance speeds of the modes with at least 5 % of their strain energy in the mesh, and the
 // case's speed; with campbell.csv and modes.json beside it.
 void write_campbell_figure(const std::filesystem::path& dir, const Case& c, const ModeSet& m);
+
+// The figure of a gear train's run, into a directory: train_time, one row per mesh with its
+// deflection (d - e) / b and its force (N), with train_plot.csv beside it.
+void write_train_run_figures(const std::filesystem::path& dir, const TrainRunResult& r);
+
+// The Campbell diagram of a train (campbell .png .svg .gp, campbell.csv): its modes in contact
+// against the reference body's speed, with the first three orders of every mesh's frequency;
+// the modes that hold at least 5 % of their strain energy in some mesh bold, and where a mesh
+// order crosses one of them marked.
+void write_train_campbell_figure(const std::filesystem::path& dir, const train::Assembled& a,
+                                 const std::vector<train::TrainMode>& modes);
 
 }  // namespace geardyn

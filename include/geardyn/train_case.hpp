@@ -1,0 +1,124 @@
+// geardyn: a gear train as a case file writes it (model.form = "train"), pipeline stage 1 beside
+// case.hpp, and its assembly into the elements of train.hpp (stage 4).
+//
+// The case file names its bodies and joins them by name, one array of tables per kind of
+// element (docs/case-files.md, "Gear trains"):
+//
+//   [model]
+//   form = "train"
+//   [train]
+//   reference = "input"          # the body whose speed is given (default: the first body)
+//   reference_speed_hz = 50
+//   [[train.body]]               # name, and inertia_kg_m2 or the gear data it follows from
+//   [[train.mesh]]               # driving, driven, backlash_um, mean_stiffness_n_per_m, ...
+//   [[train.shaft]]  [[train.torque]]  [[train.drag]]  [[train.speed]]
+//
+// Every key of an element is declared once in the tables of train_keys() (its unit, bounds,
+// whether it must be given, its meaning): they drive the reader, its messages and the key
+// tables of the docs. Values keep the case file's units here; train_of converts to SI.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geardyn/case.hpp"
+#include "geardyn/train.hpp"
+
+namespace geardyn {
+
+// One term a cos(order Omega t + phase) at an order of a body's own rotation frequency.
+struct OrderHarmonic {
+  double amplitude = 0;  // in the key's unit
+  double order = 1;      // > 0
+  double phase_deg = 0;
+};
+
+// [[train.body]]: a rigid body turning about its axis. A gear gives its teeth and module (its
+// base radius follows, and its inertia when inertia_kg_m2 is absent: a solid or bored cylinder
+// of the reference diameter, as the gear pair's); a plain inertia (motor, load) gives
+// inertia_kg_m2 alone.
+struct TrainBodyData {
+  std::string name;
+  std::optional<double> inertia_kg_m2;
+  int teeth = 0;  // 0: not a gear
+  double normal_module_mm = 0;
+  double normal_pressure_angle_deg = 20;
+  double helix_angle_deg = 0;
+  double face_width_mm = 0;
+  double bore_diameter_mm = 0;
+  double density_kg_m3 = 7850;
+};
+
+// [[train.mesh]]: a mesh between two gears, the driving one (whose drive flank pushes) first.
+struct TrainMeshData {
+  std::string name, driving, driven;
+  double backlash_um = 100;  // b, half the total normal backlash
+  double mean_stiffness_n_per_m = 0;
+  std::vector<StiffnessHarmonic> stiffness_harmonics;  // of the mesh frequency
+  std::vector<ErrorHarmonic> transmission_error_um;    // of the mesh frequency
+  double damping_ratio = 0.02;  // of the mesh's own contact oscillator, in contact only
+};
+
+// [[train.shaft]]: a torsional spring and damper between two bodies.
+struct TrainShaftData {
+  std::string name, from, to;
+  double stiffness_n_m_per_rad = 0;
+  double damping_ratio = 0.02;  // against the reduced inertia of the two bodies
+};
+
+// [[train.torque]]: a torque on a body, positive along its rotation (a drive), negative against
+// it (a load); harmonics in N m at orders of the body's speed.
+struct TrainTorqueData {
+  std::string name, body;
+  double mean_nm = 0;
+  std::vector<OrderHarmonic> harmonics;
+};
+
+// [[train.drag]]: a drag torque on a body, constant and viscous (a loose gear's oil).
+struct TrainDragData {
+  std::string name, body;
+  double constant_nm = 0;
+  double viscous_n_m_s_per_rad = 0;
+};
+
+// [[train.speed]]: a prescribed speed: the body turns at its nominal speed with a fluctuation
+// whose angular acceleration is sum a_i cos(order_i Omega t + phase_i), a_i in rad/s^2 (an
+// engine's firing orders), whatever the train does to it.
+struct TrainSpeedData {
+  std::string name, body;
+  std::vector<OrderHarmonic> acceleration_harmonics;
+};
+
+struct TrainCase {
+  std::string reference;  // empty: the first body
+  double reference_speed_hz = 0;
+  std::vector<TrainBodyData> bodies;
+  std::vector<TrainMeshData> meshes;
+  std::vector<TrainShaftData> shafts;
+  std::vector<TrainTorqueData> torques;
+  std::vector<TrainDragData> drags;
+  std::vector<TrainSpeedData> speeds;
+  // Where each element was written, "file:line:column" of its table (or the --set), by its
+  // label "mesh 'stage1'": the assembler's messages name the element, the reader adds where.
+  std::map<std::string, std::string> origins;
+};
+
+// The train of a case with model.form = "train", in SI: base radii and inertias from the gear
+// data, each mesh's damping from its ratio. Throws InputError naming the element, its key and
+// where it was written (file:line), for an arrangement the assembler refuses (an unknown body,
+// a body named twice, no mesh, a train that cannot turn) and for a case of another form.
+train::Train train_of(const Case& c);
+// The same, assembled.
+train::Assembled assembled_train(const Case& c);
+
+// The key tables of the train's elements for docs/case-files.md, as case_keys_markdown writes
+// those of the sections; and one line per key for `geardyn keys`.
+std::string train_keys_markdown();
+std::string train_keys_listing();
+
+// The [train] section written back as TOML (case.toml of a run).
+std::string train_toml(const TrainCase& t);
+
+}  // namespace geardyn

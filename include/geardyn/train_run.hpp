@@ -1,0 +1,98 @@
+// geardyn: a run of a gear train (train_case.hpp) with the exact engine, read per mesh as the
+// one-degree run reads its mesh, pipeline stages 5 and 6 beside run.hpp.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geardyn/case.hpp"
+#include "geardyn/coupled_run.hpp"
+#include "geardyn/engine.hpp"
+#include "geardyn/train.hpp"
+
+namespace geardyn {
+
+// One mesh of a train run: its contact history (impacts, separations, regime), its extremes
+// over the whole window (exact: the engine's polynomial on every cell) and its dynamic factors.
+struct TrainMeshReading : ContactReading {
+  std::string name;
+  double mesh_frequency_hz = 0;
+  double backlash_m = 0;
+  double max_force_n = 0, min_force_n = 0;            // F (N), from the start
+  double max_deflection_m = 0, min_deflection_m = 0;  // d - e (m), from the start
+  double max_force_final_n = 0;  // the largest F over the cells that begin in the final part
+  // The mesh force in drive contact at the mean torques and drags, the prescribed bodies held
+  // (static_mesh_forces_n); absent when there is none (the train's mean torques do not balance).
+  std::optional<double> static_force_n;
+  // The largest F over the static force, over the final part of the window (the steady
+  // response, as the one-degree run's dynamic_factor) and from the start; absent without a
+  // static force > 0.
+  std::optional<double> dynamic_factor, dynamic_factor_with_startup;
+};
+
+struct TrainSamples {
+  std::vector<double> t_s;
+  std::vector<Eigen::VectorXd> state;               // (theta, theta'), rad and rad/s
+  std::vector<std::vector<double>> deflection_bar;  // per sample, per mesh: (d - e) / b
+  std::vector<std::vector<double>> force_n;         // per sample, per mesh: F
+  std::vector<std::vector<int>> contact;            // per sample, per mesh: 1, 0, -1
+};
+
+struct TrainRunResult {
+  Case input;
+  std::vector<std::string> bodies;  // the coordinates' order
+  std::vector<double> body_speed_hz;
+  std::optional<double> system_period_s;  // absent: quasi-periodic (system_period_note says why)
+  std::string system_period_note;
+  std::string static_note;  // why there is no static force, when there is none
+  ode::Termination termination = ode::Termination::kCompleted;
+  std::string message;
+  std::int64_t cells = 0, events = 0;
+  std::vector<TrainMeshReading> meshes;
+  TrainSamples samples;
+  double wall_time_s = 0;
+  bool ok() const { return termination == ode::Termination::kCompleted; }
+};
+
+struct TrainRunOptions {
+  // Called now and then with the fraction of the window done; false cancels.
+  std::function<bool(double)> progress;
+};
+
+// The static state (theta, theta') of the train in drive contact at every mesh's mean
+// stiffness under the mean torques and constant drags. The bodies with a prescribed speed are
+// held at their nominal place, or with `at_s` at their prescription's place and rate at that
+// time, the free bodies following them quasi-statically (their rates too: a start at t0 without
+// a jolt). With no prescribed body the train's rigid rotation is left out (r . theta = 0, r the
+// speed ratios) and the rates are 0. Absent, with `why`, when the mean torques do not
+// balance (the train would speed up or slow down: there is no static state).
+std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why = nullptr,
+                                            std::optional<double> at_s = std::nullopt);
+// Each mesh's force k_m (V theta - b) in such a state.
+std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen::VectorXd& y);
+
+// Runs a train case over [0, solver.duration_s] with the exact engine from solver.initial
+// ("center": at rest, every mesh in the middle of its backlash, the prescribed bodies as
+// prescribed; "static": the static state). Throws InputError for a case that is no train, a
+// method other than "exact", a static start without a static state, or a window past the work
+// bounds of run.hpp; a numerical failure is reported in the result.
+TrainRunResult run_train(const Case& c, const TrainRunOptions& options = {});
+
+// summary.json of a train run (docs/outputs.md): the run, then one object per mesh.
+std::string train_summary_json(const TrainRunResult& r, const std::vector<std::string>& unused,
+                               int indent = 2);
+// timeseries.csv: t_s, each body's theta and rate, then per mesh (d - e)/b, F and contact.
+void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r);
+
+// The modes of a train as JSON and as a table for the terminal: frequency and the strain
+// energy in each mesh and shaft.
+std::string train_modes_json(const train::Assembled& a, const std::vector<train::TrainMode>& m,
+                             int indent = 2);
+std::string train_modes_table(const train::Assembled& a, const std::vector<train::TrainMode>& m);
+
+}  // namespace geardyn

@@ -1,0 +1,635 @@
+#include "geardyn/train_case.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <set>
+#include <string_view>
+#include <type_traits>
+#include <utility>
+#include <variant>
+
+#include "geardyn/case_keys.hpp"
+#include "toml_source.hpp"
+
+namespace geardyn {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kPi = std::numbers::pi;
+constexpr double kMmToM = 1e-3;
+constexpr double kUmToM = 1e-6;
+constexpr double kDegToRad = kPi / 180.0;
+
+Range above(double lo) { return {lo, kInf, false, true}; }
+Range at_least(double lo) { return {lo, kInf, true, true}; }
+Range closed_open(double lo, double hi) { return {lo, hi, true, false}; }
+Range open(double lo, double hi) { return {lo, hi, false, false}; }
+Range closed(double lo, double hi) { return {lo, hi, true, true}; }
+
+// One key of an element: the member it sets, its unit and bounds (of a number, or of each
+// harmonic's first entry), whether it must be given, and its meaning.
+template <class E>
+struct ElementKey {
+  std::string_view leaf;
+  std::variant<std::string E::*, double E::*, std::optional<double> E::*, int E::*,
+               std::vector<StiffnessHarmonic> E::*, std::vector<ErrorHarmonic> E::*,
+               std::vector<OrderHarmonic> E::*>
+      field;
+  std::string_view unit;
+  Range range;
+  bool required;
+  std::string_view doc;
+};
+
+// The keys of each kind of element: the one table the reader, its messages and the docs use.
+const std::vector<ElementKey<TrainBodyData>>& body_keys() {
+  using B = TrainBodyData;
+  static const std::vector<ElementKey<B>> keys = {
+      {"name", &B::name, "", {}, true, "the body's name, by which meshes and shafts join it"},
+      {"inertia_kg_m2", &B::inertia_kg_m2, "kg m^2", above(0), false,
+       "polar moment of inertia; absent: a cylinder of the reference diameter and face width "
+       "(a gear's)"},
+      {"teeth", &B::teeth, "", closed(0, 10000), false, "number of teeth; 0: not a gear"},
+      {"normal_module_mm", &B::normal_module_mm, "mm", closed(0, 100), false,
+       "normal module m_n (a gear's)"},
+      {"normal_pressure_angle_deg", &B::normal_pressure_angle_deg, "deg", open(0, 45), false,
+       "normal pressure angle alpha_n"},
+      {"helix_angle_deg", &B::helix_angle_deg, "deg", closed_open(0, 60), false,
+       "helix angle beta (0: spur); a mesh's two gears have the same"},
+      {"face_width_mm", &B::face_width_mm, "mm", at_least(0), false,
+       "face width, for the inertia when inertia_kg_m2 is absent"},
+      {"bore_diameter_mm", &B::bore_diameter_mm, "mm", at_least(0), false,
+       "bore of the blank, for the inertia (0: solid)"},
+      {"density_kg_m3", &B::density_kg_m3, "kg/m^3", above(0), false, "for the inertia"},
+  };
+  return keys;
+}
+
+const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
+  using M = TrainMeshData;
+  static const std::vector<ElementKey<M>> keys = {
+      {"name", &M::name, "", {}, false, "the mesh's name in outputs (default mesh1, mesh2, ...)"},
+      {"driving", &M::driving, "", {}, true, "the gear whose drive flank pushes"},
+      {"driven", &M::driven, "", {}, true, "the gear it drives"},
+      {"backlash_um", &M::backlash_um, "um", above(1e-3), false,
+       "b, half the total normal backlash 2b"},
+      {"mean_stiffness_n_per_m", &M::mean_stiffness_n_per_m, "N/m", above(0), true,
+       "mean normal mesh stiffness k_m"},
+      {"stiffness_harmonics", &M::stiffness_harmonics, "", closed_open(0, 1), false,
+       "[[ratio k_i/k_m, phase_deg], ...] at i times the mesh frequency"},
+      {"transmission_error_um", &M::transmission_error_um, "um", at_least(0), false,
+       "[[amplitude, phase_deg], ...] of the static transmission error at i times the mesh "
+       "frequency"},
+      {"damping_ratio", &M::damping_ratio, "", closed_open(0, 1), false,
+       "of the mesh's contact oscillator (its two gears on their own), acting in contact"},
+  };
+  return keys;
+}
+
+const std::vector<ElementKey<TrainShaftData>>& shaft_keys() {
+  using S = TrainShaftData;
+  static const std::vector<ElementKey<S>> keys = {
+      {"name", &S::name, "", {}, false, "the shaft's name (default shaft1, ...)"},
+      {"from", &S::from, "", {}, true, "one body it joins"},
+      {"to", &S::to, "", {}, true, "the other"},
+      {"stiffness_n_m_per_rad", &S::stiffness_n_m_per_rad, "N m/rad", above(0), true,
+       "torsional stiffness"},
+      {"damping_ratio", &S::damping_ratio, "", closed_open(0, 1), false,
+       "against the reduced inertia of the two bodies"},
+  };
+  return keys;
+}
+
+const std::vector<ElementKey<TrainTorqueData>>& torque_keys() {
+  using T = TrainTorqueData;
+  static const std::vector<ElementKey<T>> keys = {
+      {"name", &T::name, "", {}, false, "the torque's name (default torque1, ...)"},
+      {"body", &T::body, "", {}, true, "the body it acts on"},
+      {"mean_nm",
+       &T::mean_nm,
+       "N m",
+       {},
+       false,
+       "mean torque: > 0 along the body's rotation (a drive), < 0 against it (a load)"},
+      {"harmonics", &T::harmonics, "N m", at_least(0), false,
+       "[[amplitude, order, phase_deg], ...] at orders of the body's own speed"},
+  };
+  return keys;
+}
+
+const std::vector<ElementKey<TrainDragData>>& drag_keys() {
+  using D = TrainDragData;
+  static const std::vector<ElementKey<D>> keys = {
+      {"name", &D::name, "", {}, false, "the drag's name (default drag1, ...)"},
+      {"body", &D::body, "", {}, true, "the body it acts on"},
+      {"constant_nm", &D::constant_nm, "N m", at_least(0), false,
+       "constant drag torque against the rotation"},
+      {"viscous_n_m_s_per_rad", &D::viscous_n_m_s_per_rad, "N m s/rad", at_least(0), false,
+       "viscous drag on the body's speed fluctuation"},
+  };
+  return keys;
+}
+
+const std::vector<ElementKey<TrainSpeedData>>& speed_keys() {
+  using V = TrainSpeedData;
+  static const std::vector<ElementKey<V>> keys = {
+      {"name", &V::name, "", {}, false, "the prescription's name (default speed1, ...)"},
+      {"body", &V::body, "", {}, true, "the body whose speed is prescribed"},
+      {"acceleration_harmonics", &V::acceleration_harmonics, "rad/s^2", at_least(0), false,
+       "[[amplitude, order, phase_deg], ...]: its angular acceleration about the nominal speed, "
+       "at orders of its own speed (an engine's firing orders)"},
+  };
+  return keys;
+}
+
+// What a key takes: "a number > 0 N/m", "an array of [amplitude, order, phase_deg], ...".
+template <class E>
+std::string allowed(const ElementKey<E>& key) {
+  return std::visit(
+      [&](auto member) -> std::string {
+        using T = std::remove_reference_t<decltype(std::declval<E&>().*member)>;
+        const std::string unit = key.unit.empty() ? "" : fmt::format(" {}", key.unit);
+        const std::string bound = key.range.text(std::is_same_v<T, int>);
+        if constexpr (std::is_same_v<T, std::string>) {
+          return "a name in quotes";
+        } else if constexpr (std::is_same_v<T, int>) {
+          return fmt::format("a whole number {}", bound);
+        } else if constexpr (std::is_same_v<T, std::vector<OrderHarmonic>>) {
+          return fmt::format("an array of [amplitude, order, phase_deg], amplitude {}{}, order > 0",
+                             bound, unit);
+        } else if constexpr (std::is_same_v<T, std::vector<StiffnessHarmonic>> ||
+                             std::is_same_v<T, std::vector<ErrorHarmonic>>) {
+          return fmt::format("an array of [value, phase_deg], value {}{}", bound, unit);
+        } else {
+          return bound.empty() ? "a number" : fmt::format("a number {}{}", bound, unit);
+        }
+      },
+      key.field);
+}
+
+// Reads one table of an element kind with its keys; names the key as train.<kind>[i].<key>.
+class ElementReader {
+ public:
+  ElementReader(std::string source, std::string prefix, const toml::table& t,
+                const std::vector<Override>& overrides)
+      : source_(std::move(source)), prefix_(std::move(prefix)), table_(t), overrides_(overrides) {}
+
+  template <class E>
+  E read(const std::vector<ElementKey<E>>& keys) {
+    E e;
+    for (auto&& [k, node] : table_) {
+      bool known = false;
+      for (const ElementKey<E>& key : keys) known = known || key.leaf == k.str();
+      if (!known) {
+        std::string allowed;
+        for (const ElementKey<E>& key : keys)
+          allowed += fmt::format("{}{}", allowed.empty() ? "" : ", ", key.leaf);
+        throw InputError(fmt::format("{}: unknown key '{}.{}'; allowed: {}",
+                                     origin(fmt::format("{}.{}", prefix_, k.str()), k.source()),
+                                     prefix_, k.str(), allowed));
+      }
+    }
+    for (const ElementKey<E>& key : keys) {
+      const toml::node* n = table_.get(key.leaf);
+      if (!n) {
+        if (key.required)
+          throw InputError(fmt::format("{}: {} has no {}: it must be given ({})",
+                                       origin(prefix_, table_.source()), prefix_, key.leaf,
+                                       allowed(key)));
+        continue;
+      }
+      std::visit([&](auto member) { set(*n, key, e.*member); }, key.field);
+    }
+    return e;
+  }
+
+ private:
+  template <class E>
+  [[noreturn]] void fail(const toml::node& n, const ElementKey<E>& key) const {
+    throw InputError(fmt::format("{}: {}.{} = {}: must be {}",
+                                 origin(fmt::format("{}.{}", prefix_, key.leaf), n.source()),
+                                 prefix_, key.leaf, node_text(n), allowed(key)));
+  }
+
+  template <class E>
+  double number(const toml::node& n, const ElementKey<E>& key, const Range& range) const {
+    if (!n.is_number()) fail(n, key);
+    const double v = *n.value<double>();
+    if (!range.contains(v)) fail(n, key);
+    return v;
+  }
+
+  template <class E>
+  void set(const toml::node& n, const ElementKey<E>& key, std::string& out) const {
+    if (!n.is_string() || n.value<std::string>()->empty()) fail(n, key);
+    out = *n.value<std::string>();
+  }
+  template <class E>
+  void set(const toml::node& n, const ElementKey<E>& key, double& out) const {
+    out = number(n, key, key.range);
+  }
+  template <class E>
+  void set(const toml::node& n, const ElementKey<E>& key, std::optional<double>& out) const {
+    out = number(n, key, key.range);
+  }
+  template <class E>
+  void set(const toml::node& n, const ElementKey<E>& key, int& out) const {
+    if (!n.is_integer()) fail(n, key);
+    const double v = static_cast<double>(*n.value<std::int64_t>());
+    if (!key.range.contains(v)) fail(n, key);
+    out = static_cast<int>(v);
+  }
+  // Arrays of harmonics: [[a, phase], ...] or [[a, order, phase], ...].
+  template <class E, class H>
+  void set(const toml::node& n, const ElementKey<E>& key, std::vector<H>& out) const {
+    constexpr std::size_t width = std::is_same_v<H, OrderHarmonic> ? 3 : 2;
+    const toml::array* a = n.as_array();
+    if (!a || a->size() > static_cast<std::size_t>(kMaxErrorHarmonics)) fail(n, key);
+    out.clear();
+    for (const toml::node& term : *a) {
+      const toml::array* t = term.as_array();
+      if (!t || t->size() != width) fail(n, key);
+      for (const toml::node& x : *t)
+        if (!x.is_number() || !std::isfinite(*x.value<double>())) fail(n, key);
+      const double v0 = *(*t)[0].value<double>();
+      if (!key.range.contains(v0)) fail(n, key);
+      if constexpr (width == 3) {
+        const double order = *(*t)[1].value<double>();
+        if (!(order > 0)) fail(n, key);
+        out.push_back({v0, order, *(*t)[2].value<double>()});
+      } else {
+        out.push_back({v0, *(*t)[1].value<double>()});
+      }
+    }
+  }
+
+  std::string origin(const std::string& dotted, const toml::source_region& src) const {
+    return origin_of(overrides_, dotted, src, source_);
+  }
+
+  std::string source_, prefix_;
+  const toml::table& table_;
+  const std::vector<Override>& overrides_;
+};
+
+// Each array of element tables, read with its keys; a default name when none is given.
+template <class E>
+void read_array(const toml::table& train, const std::string& source,
+                const std::vector<Override>& overrides, std::string_view kind,
+                const std::vector<ElementKey<E>>& keys, std::vector<E>& out,
+                std::map<std::string, std::string>& origins) {
+  const toml::node* n = train.get(kind);
+  if (!n) return;
+  const toml::array* a = n->as_array();
+  if (!a || !a->is_array_of_tables())
+    throw InputError(fmt::format("{}: train.{} = {}: must be tables [[train.{}]], one per {}",
+                                 where(n->source(), source), kind, node_text(*n), kind, kind));
+  for (std::size_t i = 0; i < a->size(); ++i) {
+    const toml::table& t = *(*a)[i].as_table();
+    const std::string prefix = fmt::format("train.{}[{}]", kind, i);
+    ElementReader r(source, prefix, t, overrides);
+    E e = r.read(keys);
+    if (e.name.empty()) e.name = fmt::format("{}{}", kind, i + 1);
+    origins[fmt::format("{} '{}'", kind, e.name)] =
+        origin_of(overrides, prefix, t.source(), source);
+    out.push_back(std::move(e));
+  }
+}
+
+constexpr std::string_view kTrainKeys =
+    "reference, reference_speed_hz, body, mesh, shaft, torque, drag, speed";
+
+}  // namespace
+
+TrainCase read_train_case(const toml::node& node, const std::string& source,
+                          const std::vector<Override>& overrides) {
+  const toml::table* train = node.as_table();
+  if (!train)
+    throw InputError(fmt::format("{}: train = {}: must be a table [train]",
+                                 where(node.source(), source), node_text(node)));
+  TrainCase t;
+  static const std::set<std::string_view> known = {
+      "reference", "reference_speed_hz", "body", "mesh", "shaft", "torque", "drag", "speed"};
+  for (auto&& [k, v] : *train) {
+    if (!known.count(k.str()))
+      throw InputError(fmt::format("{}: unknown key 'train.{}'; allowed in [train]: {}",
+                                   where(k.source(), source), k.str(), kTrainKeys));
+  }
+  if (const toml::node* r = train->get("reference")) {
+    if (!r->is_string() || r->value<std::string>()->empty())
+      throw InputError(fmt::format("{}: train.reference = {}: must be a body's name in quotes",
+                                   origin_of(overrides, "train.reference", r->source(), source),
+                                   node_text(*r)));
+    t.reference = *r->value<std::string>();
+  }
+  const toml::node* f = train->get("reference_speed_hz");
+  if (!f)
+    throw InputError(fmt::format(
+        "{}: [train] has no reference_speed_hz: the rotation frequency of train.reference (the "
+        "first body when absent) must be given, a number > 0 Hz",
+        where(train->source(), source)));
+  if (!f->is_number() || !(*f->value<double>() > 0) || !std::isfinite(*f->value<double>()))
+    throw InputError(fmt::format(
+        "{}: train.reference_speed_hz = {}: must be a number > 0 Hz",
+        origin_of(overrides, "train.reference_speed_hz", f->source(), source), node_text(*f)));
+  t.reference_speed_hz = *f->value<double>();
+  read_array(*train, source, overrides, "body", body_keys(), t.bodies, t.origins);
+  read_array(*train, source, overrides, "mesh", mesh_keys(), t.meshes, t.origins);
+  read_array(*train, source, overrides, "shaft", shaft_keys(), t.shafts, t.origins);
+  read_array(*train, source, overrides, "torque", torque_keys(), t.torques, t.origins);
+  read_array(*train, source, overrides, "drag", drag_keys(), t.drags, t.origins);
+  read_array(*train, source, overrides, "speed", speed_keys(), t.speeds, t.origins);
+  if (t.reference.empty() && !t.bodies.empty()) t.reference = t.bodies.front().name;
+  t.origins["the train"] = where(train->source(), source);
+  return t;
+}
+
+namespace {
+
+// The message of the assembler (which names the element first: "mesh 'stage2': ...") with
+// where that element was written.
+[[noreturn]] void rethrow_with_origin(const TrainCase& t, const std::string& message) {
+  std::string where_given;
+  for (const auto& [label, origin] : t.origins)
+    if (message.rfind(label + ":", 0) == 0) where_given = origin;
+  throw InputError(where_given.empty() ? fmt::format("train: {}", message)
+                                       : fmt::format("{}: train: {}", where_given, message));
+}
+
+struct GearGeometry {
+  double base_radius_m = 0, base_helix_rad = 0, inertia_kg_m2 = 0;
+};
+
+// A body's base radius, base helix angle and inertia (MODEL.md section 1, as the gear pair's).
+GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
+  GearGeometry g;
+  const std::string label = fmt::format("body '{}'", b.name);
+  if (b.teeth > 0 && !(b.normal_module_mm > 0))
+    rethrow_with_origin(
+        t, fmt::format("{}: teeth = {} needs normal_module_mm > 0 (a gear's)", label, b.teeth));
+  const double beta = b.helix_angle_deg * kDegToRad;
+  const double alpha_t =
+      std::atan(std::tan(b.normal_pressure_angle_deg * kDegToRad) / std::cos(beta));
+  const double d = b.teeth * b.normal_module_mm * kMmToM / std::cos(beta);  // reference
+  g.base_radius_m = 0.5 * d * std::cos(alpha_t);
+  g.base_helix_rad = std::atan(std::tan(beta) * std::cos(alpha_t));
+  if (b.inertia_kg_m2) {
+    g.inertia_kg_m2 = *b.inertia_kg_m2;
+  } else {
+    const double di = b.bore_diameter_mm * kMmToM;
+    if (!(b.teeth > 0 && b.face_width_mm > 0))
+      rethrow_with_origin(t, fmt::format("{}: has no inertia_kg_m2; give it, or teeth, "
+                                         "normal_module_mm and face_width_mm for a gear's",
+                                         label));
+    if (!(di < d))
+      rethrow_with_origin(t, fmt::format("{}: bore_diameter_mm = {} must be below the reference "
+                                         "diameter {:.6g} mm",
+                                         label, b.bore_diameter_mm, d / kMmToM));
+    g.inertia_kg_m2 =
+        b.density_kg_m3 * kPi * b.face_width_mm * kMmToM * (std::pow(d, 4) - std::pow(di, 4)) / 32;
+  }
+  return g;
+}
+
+}  // namespace
+
+train::Train train_of(const Case& c) {
+  if (c.model.form != ModelForm::kTrain || !c.train)
+    throw InputError(
+        fmt::format("model.form = \"{}\": this is no gear train (model.form = "
+                    "\"train\" with its [train] elements)",
+                    to_string(c.model.form)));
+  const TrainCase& t = *c.train;
+  train::Train out;
+  out.reference = t.reference;
+  out.reference_speed_hz = t.reference_speed_hz;
+  std::map<std::string, GearGeometry> gears;
+  std::map<std::string, const TrainBodyData*> bodies;
+  for (const TrainBodyData& b : t.bodies) {
+    const GearGeometry g = body_geometry(t, b);
+    // A body named twice is the assembler's to name; the first of the name is read here.
+    gears.emplace(b.name, g);
+    bodies.emplace(b.name, &b);
+    out.bodies.push_back({b.name, g.inertia_kg_m2});
+  }
+  for (const TrainMeshData& m : t.meshes) {
+    train::Mesh x;
+    x.name = m.name;
+    x.driving = m.driving;
+    x.driven = m.driven;
+    const auto a = bodies.find(m.driving), b = bodies.find(m.driven);
+    if (a != bodies.end() && b != bodies.end()) {
+      // A mesh is between gears: teeth and radii (an unknown body is the assembler's to name).
+      for (const auto* g : {a->second, b->second})
+        if (g->teeth <= 0)
+          rethrow_with_origin(t,
+                              fmt::format("mesh '{}': {} = \"{}\" is no gear (give its teeth "
+                                          "and normal_module_mm)",
+                                          m.name, g == a->second ? "driving" : "driven", g->name));
+      if (std::abs(a->second->helix_angle_deg - b->second->helix_angle_deg) > 1e-9 ||
+          std::abs(a->second->normal_module_mm - b->second->normal_module_mm) > 1e-12 ||
+          std::abs(a->second->normal_pressure_angle_deg - b->second->normal_pressure_angle_deg) >
+              1e-9)
+        rethrow_with_origin(
+            t, fmt::format("mesh '{}': its gears '{}' and '{}' differ in normal_module_mm, "
+                           "normal_pressure_angle_deg or helix_angle_deg; gears that mesh share "
+                           "them",
+                           m.name, m.driving, m.driven));
+      x.teeth_driving = a->second->teeth;
+      x.teeth_driven = b->second->teeth;
+      x.base_radius_driving_m = gears[m.driving].base_radius_m;
+      x.base_radius_driven_m = gears[m.driven].base_radius_m;
+      x.base_helix_angle_rad = gears[m.driving].base_helix_rad;
+      // The damping of the mesh's own oscillator: its two gears, m_n = 1 / (V J^-1 V^T).
+      const double cb = std::cos(x.base_helix_angle_rad);
+      const double ra = cb * x.base_radius_driving_m, rb = cb * x.base_radius_driven_m;
+      const double m_n = 1.0 / (ra * ra / gears[m.driving].inertia_kg_m2 +
+                                rb * rb / gears[m.driven].inertia_kg_m2);
+      x.damping_n_s_per_m = 2 * m.damping_ratio * std::sqrt(m_n * m.mean_stiffness_n_per_m);
+    }
+    x.backlash_m = m.backlash_um * kUmToM;
+    x.mean_stiffness_n_per_m = m.mean_stiffness_n_per_m;
+    for (const StiffnessHarmonic& h : m.stiffness_harmonics)
+      x.stiffness.push_back({h.ratio, h.phase_deg * kDegToRad});
+    for (const ErrorHarmonic& h : m.transmission_error_um)
+      x.transmission_error.push_back({h.amplitude * kUmToM, h.phase_deg * kDegToRad});
+    out.meshes.push_back(std::move(x));
+  }
+  for (const TrainShaftData& s : t.shafts) {
+    train::Shaft x{s.name, s.from, s.to, s.stiffness_n_m_per_rad, 0.0};
+    const auto a = gears.find(s.from), b = gears.find(s.to);
+    if (a != gears.end() && b != gears.end()) {
+      const double ja = a->second.inertia_kg_m2, jb = b->second.inertia_kg_m2;
+      x.damping_n_m_s_per_rad =
+          2 * s.damping_ratio * std::sqrt(s.stiffness_n_m_per_rad * ja * jb / (ja + jb));
+    }
+    out.shafts.push_back(std::move(x));
+  }
+  for (const TrainTorqueData& q : t.torques) {
+    train::Torque x{q.name, q.body, q.mean_nm, {}};
+    for (const OrderHarmonic& h : q.harmonics)
+      x.harmonics.push_back({h.amplitude, h.order, h.phase_deg * kDegToRad});
+    out.torques.push_back(std::move(x));
+  }
+  for (const TrainDragData& d : t.drags)
+    out.drags.push_back({d.name, d.body, d.constant_nm, d.viscous_n_m_s_per_rad});
+  // A prescribed acceleration a cos(n Omega t + phi) is the rotation a / (n Omega)^2 cos(n Omega
+  // t + phi + pi): Omega, the body's speed, is known once the train is assembled.
+  for (const TrainSpeedData& v : t.speeds) out.speeds.push_back({v.name, v.body, {}});
+  try {
+    const train::Assembled speeds_only(out);
+    for (std::size_t i = 0; i < t.speeds.size(); ++i) {
+      const int body = speeds_only.index(t.speeds[i].body);
+      const train::Ratio r = speeds_only.speed_ratios()[static_cast<std::size_t>(body)];
+      const double omega =
+          2 * kPi * t.reference_speed_hz * static_cast<double>(r.num) / static_cast<double>(r.den);
+      for (const OrderHarmonic& h : t.speeds[i].acceleration_harmonics) {
+        const double w = h.order * omega;
+        out.speeds[i].harmonics.push_back(
+            {h.amplitude / (w * w), h.order, h.phase_deg * kDegToRad + kPi});
+      }
+    }
+  } catch (const InputError& e) {
+    rethrow_with_origin(t, e.what());
+  }
+  return out;
+}
+
+train::Assembled assembled_train(const Case& c) {
+  train::Train t = train_of(c);
+  try {
+    return train::Assembled(std::move(t));
+  } catch (const InputError& e) {
+    rethrow_with_origin(*c.train, e.what());
+  }
+}
+
+namespace {
+
+template <class E>
+std::string markdown_table(std::string_view kind, const std::vector<ElementKey<E>>& keys) {
+  std::string out = fmt::format("\n## [[train.{}]]\n\n", kind);
+  out += "| key | unit | default | allowed | meaning |\n|---|---|---|---|---|\n";
+  const E defaults{};
+  for (const ElementKey<E>& k : keys) {
+    const std::string value = std::visit(
+        [&](auto member) -> std::string {
+          const auto& v = defaults.*member;
+          using T = std::remove_cvref_t<decltype(v)>;
+          if (k.required) return "(required)";
+          if constexpr (std::is_same_v<T, std::string>) {
+            return k.leaf == "name" ? "" : "\"\"";
+          } else if constexpr (std::is_same_v<T, std::optional<double>>) {
+            return "absent";
+          } else if constexpr (std::is_arithmetic_v<T>) {
+            return fmt::format("{}", v);
+          } else {
+            return "[]";
+          }
+        },
+        k.field);
+    out += fmt::format("| {} | {} | {} | {} | {} |\n", k.leaf, k.unit, value, allowed(k), k.doc);
+  }
+  return out;
+}
+
+// A value as TOML text.
+std::string toml_value(const std::string& v) { return fmt::format("\"{}\"", v); }
+std::string toml_value(double v) { return fmt::format("{}", v); }
+std::string toml_value(int v) { return fmt::format("{}", v); }
+std::string toml_value(const std::optional<double>& v) { return v ? toml_value(*v) : ""; }
+std::string toml_value(const std::vector<StiffnessHarmonic>& v) {
+  std::string out;
+  for (const StiffnessHarmonic& h : v)
+    out += fmt::format("{}[{}, {}]", out.empty() ? "" : ", ", h.ratio, h.phase_deg);
+  return "[" + out + "]";
+}
+std::string toml_value(const std::vector<ErrorHarmonic>& v) {
+  std::string out;
+  for (const ErrorHarmonic& h : v)
+    out += fmt::format("{}[{}, {}]", out.empty() ? "" : ", ", h.amplitude, h.phase_deg);
+  return "[" + out + "]";
+}
+std::string toml_value(const std::vector<OrderHarmonic>& v) {
+  std::string out;
+  for (const OrderHarmonic& h : v)
+    out +=
+        fmt::format("{}[{}, {}, {}]", out.empty() ? "" : ", ", h.amplitude, h.order, h.phase_deg);
+  return "[" + out + "]";
+}
+
+template <class E>
+std::string toml_tables(std::string_view kind, const std::vector<ElementKey<E>>& keys,
+                        const std::vector<E>& elements) {
+  std::string out;
+  for (const E& e : elements) {
+    out += fmt::format("\n[[train.{}]]\n", kind);
+    for (const ElementKey<E>& k : keys)
+      std::visit(
+          [&](auto member) {
+            const std::string v = toml_value(e.*member);
+            if (!v.empty()) out += fmt::format("{} = {}\n", k.leaf, v);
+          },
+          k.field);
+  }
+  return out;
+}
+
+template <class E>
+std::string listing(std::string_view kind, const std::vector<ElementKey<E>>& keys) {
+  std::string out;
+  for (const ElementKey<E>& k : keys)
+    out += fmt::format("train.{}[].{}{}: {}; {}\n", kind, k.leaf,
+                       k.unit.empty() ? "" : fmt::format(" ({})", k.unit), allowed(k), k.doc);
+  return out;
+}
+
+}  // namespace
+
+std::string train_keys_markdown() {
+  std::string out =
+      "\n## [train]\n\n"
+      "| key | unit | default | allowed | meaning |\n|---|---|---|---|---|\n"
+      "| reference | | the first body | a body's name in quotes | the body whose speed is "
+      "given |\n"
+      "| reference_speed_hz | Hz | (required) | a number > 0 | its rotation frequency |\n";
+  out += markdown_table("body", body_keys());
+  out += markdown_table("mesh", mesh_keys());
+  out += markdown_table("shaft", shaft_keys());
+  out += markdown_table("torque", torque_keys());
+  out += markdown_table("drag", drag_keys());
+  out += markdown_table("speed", speed_keys());
+  return out;
+}
+
+std::string train_keys_listing() {
+  std::string out =
+      "train.reference: a body's name in quotes; the body whose speed is given (default: the "
+      "first body)\n"
+      "train.reference_speed_hz (Hz): a number > 0, required; its rotation frequency\n";
+  out += listing("body", body_keys());
+  out += listing("mesh", mesh_keys());
+  out += listing("shaft", shaft_keys());
+  out += listing("torque", torque_keys());
+  out += listing("drag", drag_keys());
+  out += listing("speed", speed_keys());
+  return out;
+}
+
+std::string train_toml(const TrainCase& t) {
+  std::string out = fmt::format("\n[train]\nreference = \"{}\"\nreference_speed_hz = {}\n",
+                                t.reference, t.reference_speed_hz);
+  out += toml_tables("body", body_keys(), t.bodies);
+  out += toml_tables("mesh", mesh_keys(), t.meshes);
+  out += toml_tables("shaft", shaft_keys(), t.shafts);
+  out += toml_tables("torque", torque_keys(), t.torques);
+  out += toml_tables("drag", drag_keys(), t.drags);
+  out += toml_tables("speed", speed_keys(), t.speeds);
+  return out;
+}
+
+}  // namespace geardyn

@@ -1,0 +1,161 @@
+// The figures of a gear train: a run's time histories, one row per mesh, and the Campbell
+// diagram of its modes against every mesh's orders.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "geardyn/figures.hpp"
+#include "geardyn/train_case.hpp"
+
+namespace geardyn {
+namespace fs = std::filesystem;
+
+namespace {
+
+// The modes that hold at least this fraction of their strain energy in some mesh are the ones a
+// mesh excites: drawn bold, their resonance speeds marked (as the coupled model's diagram).
+constexpr double kMeshCritical = 0.05;
+constexpr int kMeshOrders = 3;
+// Distinct colours for the meshes, in turn.
+constexpr const char* kColours[] = {"#1f4e9c", "#c0392b", "#2e8b57",
+                                    "#8e44ad", "#d35400", "#16a085"};
+
+const char* colour(std::size_t i) { return kColours[i % std::size(kColours)]; }
+
+// A name inside a gnuplot single-quoted string.
+std::string quoted(const std::string& name) {
+  std::string out;
+  for (char ch : name) out += ch == '\'' ? std::string("''") : std::string(1, ch);
+  return out;
+}
+
+}  // namespace
+
+void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
+  const TrainSamples& s = r.samples;
+  const std::size_t meshes = r.meshes.size();
+  std::string header = "t_ms";
+  for (const TrainMeshReading& m : r.meshes)
+    header += fmt::format(",{0}_deflection_bar,{0}_force_n", m.name);
+  header += "\n";
+  write_files_atomically(dir, {{"train_plot.csv", decimated_csv(
+                                                      header, s.t_s.size(),
+                                                      [&](std::size_t k) { return s.t_s[k] * 1e3; },
+                                                      [&](std::size_t k) {
+                                                        std::vector<double> v;
+                                                        for (std::size_t m = 0; m < meshes; ++m) {
+                                                          v.push_back(s.deflection_bar[k][m]);
+                                                          v.push_back(s.force_n[k][m]);
+                                                        }
+                                                        return v;
+                                                      })}});
+  std::string g =
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top right font ',9' opaque\nset ytics nomirror\nset y2tics\n";
+  fmt::format_to(std::back_inserter(g),
+                 "set multiplot layout {},1 title \"{}: gear train, {} bodies, {} meshes\"\n"
+                 "set xrange [0:{}]\n",
+                 meshes, quoted(r.input.name), r.bodies.size(), meshes,
+                 r.input.solver.duration_s * 1e3);
+  for (std::size_t m = 0; m < meshes; ++m) {
+    const TrainMeshReading& x = r.meshes[m];
+    fmt::format_to(
+        std::back_inserter(g),
+        "set title \"mesh {} ({:.6g} Hz): {}, {} impacts\" font ',10'\n"
+        "set ylabel '(d − e) / b'\nset y2label 'force (N)'\n{}"
+        "plot 'train_plot.csv' using 1:{} skip 1 axes x1y1 with lines lw 1.2 lc rgb "
+        "'{}' title '(d − e) / b', '' using 1:{} skip 1 axes x1y2 with lines lw 1 lc rgb "
+        "'gray40' title 'force (N)', 1 axes x1y1 with lines dt 2 lc rgb 'gray60' title "
+        "'contact edge'{}\n",
+        quoted(x.name), x.mesh_frequency_hz, to_string(x.regime), x.impacts,
+        m + 1 == meshes ? "set xlabel 't (ms)'\n" : "unset xlabel\n", 2 + 2 * m, colour(m),
+        3 + 2 * m,
+        // The back side's edge where the mesh left its drive side (in permanent
+        // contact it would squeeze the deflection's ripple into a line).
+        x.separations > 0 || x.double_sided
+            ? ", -1 axes x1y1 with lines dt 2 lc rgb 'gray60' notitle"
+            : "");
+  }
+  g += "unset multiplot\n";
+  render_figure(dir, "train_time", g, 1000,
+                260 * static_cast<int>(std::max<std::size_t>(meshes, 1)));
+}
+
+void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
+                                 const std::vector<train::TrainMode>& modes) {
+  const train::Train& t = a.train();
+  // Each mesh's frequency per hertz of the reference speed.
+  std::vector<double> per_hz;
+  for (std::size_t m = 0; m < t.meshes.size(); ++m)
+    per_hz.push_back(a.mesh_frequency_hz(static_cast<int>(m)) / t.reference_speed_hz);
+  std::string csv = "mode,frequency_hz,largest_mesh_energy,mesh,mesh_order,resonance_speed_hz\n";
+  double top = 0;
+  for (std::size_t r = 0; r < modes.size(); ++r) {
+    const train::TrainMode& x = modes[r];
+    const double e =
+        x.mesh_energy.empty() ? 0 : *std::max_element(x.mesh_energy.begin(), x.mesh_energy.end());
+    if (e >= kMeshCritical) top = std::max(top, x.frequency_hz);
+    for (std::size_t m = 0; m < per_hz.size(); ++m)
+      for (int i = 1; i <= kMeshOrders; ++i)
+        fmt::format_to(std::back_inserter(csv), "{},{:.10g},{:.6g},{},{},{:.10g}\n", r + 1,
+                       x.frequency_hz, e, t.meshes[m].name, i, x.frequency_hz / (i * per_hz[m]));
+  }
+  if (top == 0 && !modes.empty()) top = modes.back().frequency_hz;
+  const double slowest = *std::min_element(per_hz.begin(), per_hz.end());
+  const double x_max = std::max(1.5 * top / slowest, 1.2 * t.reference_speed_hz);
+  const double y_max = 1.15 * std::max(top, modes.empty() ? 1.0 : modes.back().frequency_hz);
+  write_files_atomically(dir, {{"campbell.csv", csv}});
+  std::string g =
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key outside right top font ',9'\n";
+  fmt::format_to(std::back_inserter(g),
+                 "set title \"gear train: modes in contact and mesh orders (speed of '{}')\"\n"
+                 "set xlabel 'speed of {} (Hz)'\nset ylabel 'frequency (Hz)'\n"
+                 "set xrange [0:{}]\nset yrange [0:{}]\n",
+                 quoted(t.reference), quoted(t.reference), x_max, y_max);
+  std::vector<std::string> plots;
+  std::string points;
+  bool critical = false, other = false;
+  for (const train::TrainMode& x : modes) {
+    if (x.frequency_hz <= 0) continue;  // the free rotation
+    const double e =
+        x.mesh_energy.empty() ? 0 : *std::max_element(x.mesh_energy.begin(), x.mesh_energy.end());
+    const bool excited = e >= kMeshCritical;
+    (excited ? critical : other) = true;
+    fmt::format_to(std::back_inserter(g), "set arrow from 0, {0} to {1}, {0} nohead {2}\n",
+                   x.frequency_hz, x_max,
+                   excited ? "lw 2 lc rgb '#1f4e9c'" : "lw 1 dt 3 lc rgb 'gray60'");
+    for (std::size_t m = 0; excited && m < per_hz.size(); ++m)
+      for (int i = 1; i <= kMeshOrders; ++i) {
+        const double speed = x.frequency_hz / (i * per_hz[m]);
+        if (speed <= x_max)
+          fmt::format_to(std::back_inserter(points), "{},{}\n", speed, x.frequency_hz);
+      }
+  }
+  for (std::size_t m = 0; m < per_hz.size(); ++m)
+    for (int i = 1; i <= kMeshOrders; ++i)
+      plots.push_back(fmt::format("{} * x with lines lw 1.2 dt {} lc rgb '{}' title '{}'",
+                                  i * per_hz[m], i, colour(m + 1),
+                                  fmt::format("mesh {} order {}", quoted(t.meshes[m].name), i)));
+  if (critical)
+    plots.push_back(
+        "keyentry with lines lw 2 lc rgb '#1f4e9c' title 'mode with >= 5 % energy in a mesh'");
+  if (other) plots.push_back("keyentry with lines lw 1 dt 3 lc rgb 'gray60' title 'other mode'");
+  if (!points.empty()) {
+    g += "$crossings << EOD\n" + points + "EOD\n";
+    plots.push_back(
+        "$crossings using 1:2 with points pt 6 ps 1.5 lc rgb 'black' title 'resonance speed'");
+  }
+  fmt::format_to(std::back_inserter(g),
+                 "set arrow from {0}, 0 to {0}, {1} nohead lw 1.5 dt 4 lc rgb 'black'\n"
+                 "set label 'operating speed' at {0}, {1} * 0.97 left offset 0.3,0 font ',8'\n",
+                 t.reference_speed_hz, y_max);
+  g += "plot ";
+  for (std::size_t k = 0; k < plots.size(); ++k) g += (k ? ", " : "") + plots[k];
+  g += "\n";
+  render_figure(dir, "campbell", g, 1100, 650);
+}
+
+}  // namespace geardyn

@@ -1,0 +1,429 @@
+#include "geardyn/train_run.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <ostream>
+
+#include "contact_tracker.hpp"
+#include "geardyn/run.hpp"
+#include "geardyn/train_case.hpp"
+
+namespace geardyn {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+// The mean torques balance when their power at the train's speeds is this small against the
+// largest term's.
+constexpr double kBalanceTolerance = 1e-9;
+
+double ratio_value(const train::Ratio& r) {
+  return static_cast<double>(r.num) / static_cast<double>(r.den);
+}
+
+// Looks at the engine's flow: samples, each mesh's contact changes and its exact extremes.
+class TrainObserver : public ode::FlowObserver {
+ public:
+  TrainObserver(const train::Assembled& a, const ode::LinearSwitchedSystem& sys,
+                TrainRunResult& out, double t0, double t1, double final_from, int region,
+                const std::function<bool(double)>& progress)
+      : a_(a), out_(out), progress_(progress), t0_(t0), t1_(t1), final_from_(final_from) {
+    const std::vector<int> s = a.states(region);
+    for (std::size_t m = 0; m < s.size(); ++m) {
+      trackers_.emplace_back(t0, t1, final_from, s[m]);
+      TrainMeshReading& r = out_.meshes[m];
+      r.max_force_n = r.max_deflection_m = r.max_force_final_n = -kInf;
+      r.min_force_n = r.min_deflection_m = kInf;
+    }
+    for (const ode::LinearRegion& reg : sys.regions) {
+      ranges_.emplace_back();
+      for (const ode::LinearGuard& g : reg.observables) ranges_.back().emplace_back(g);
+      readers_.emplace_back(sys, reg.observables);
+    }
+    low_.resize(2 * s.size());
+    high_.resize(2 * s.size());
+  }
+
+  bool needs_detail(const ode::CellView& span) override {
+    bound_all(span);
+    return any_room(span.t_begin_s >= final_from_);
+  }
+
+  void on_cell(const ode::CellView& cell) override {
+    if (!(cell.t_end_s > cell.t_begin_s)) return;
+    bound_all(cell);
+    const bool final = cell.t_begin_s >= final_from_;
+    if (!any_room(final)) return;
+    for (std::size_t m = 0; m < out_.meshes.size(); ++m) {
+      TrainMeshReading& r = out_.meshes[m];
+      const int d = static_cast<int>(2 * m), f = d + 1;
+      extreme(cell, f, true, r.max_force_n);
+      extreme(cell, f, false, r.min_force_n);
+      extreme(cell, d, true, r.max_deflection_m);
+      extreme(cell, d, false, r.min_deflection_m);
+      if (final) extreme(cell, f, true, r.max_force_final_n);
+    }
+  }
+
+  void on_event(double t, const ode::Vector&, int from, int to) override {
+    const std::vector<int> a = a_.states(from), b = a_.states(to);
+    for (std::size_t m = 0; m < a.size(); ++m)
+      if (a[m] != b[m]) trackers_[m].change(t, b[m]);
+  }
+
+  void on_sample(double t, const ode::Vector& y, int region) override {
+    TrainSamples& s = out_.samples;
+    readers_[static_cast<std::size_t>(region)](t, y, values_);
+    const std::vector<int> states = a_.states(region);
+    s.t_s.push_back(t);
+    s.state.push_back(y);
+    std::vector<double> d(states.size()), f(states.size());
+    for (std::size_t m = 0; m < states.size(); ++m) {
+      d[m] = values_[2 * m] / out_.meshes[m].backlash_m;
+      f[m] = values_[2 * m + 1];
+      // A sample is a point of the window too: the extremes hold it.
+      TrainMeshReading& r = out_.meshes[m];
+      r.max_force_n = std::max(r.max_force_n, f[m]);
+      r.min_force_n = std::min(r.min_force_n, f[m]);
+      r.max_deflection_m = std::max(r.max_deflection_m, values_[2 * m]);
+      r.min_deflection_m = std::min(r.min_deflection_m, values_[2 * m]);
+      if (t >= final_from_) r.max_force_final_n = std::max(r.max_force_final_n, f[m]);
+    }
+    s.deflection_bar.push_back(std::move(d));
+    s.force_n.push_back(std::move(f));
+    s.contact.push_back(states);
+  }
+
+  bool on_progress(double t) override { return !progress_ || progress_((t - t0_) / (t1_ - t0_)); }
+
+  void finish() {
+    for (std::size_t m = 0; m < trackers_.size(); ++m) {
+      TrainMeshReading& r = out_.meshes[m];
+      static_cast<ContactReading&>(r) = trackers_[m].reading();
+    }
+  }
+
+ private:
+  void bound_all(const ode::CellView& cell) {
+    for (std::size_t k = 0; k < low_.size(); ++k)
+      ranges_[static_cast<std::size_t>(cell.region)][k].bounds(*cell.lower, *cell.upper, low_[k],
+                                                               high_[k]);
+  }
+  bool any_room(bool final) const {
+    for (std::size_t m = 0; m < out_.meshes.size(); ++m) {
+      const TrainMeshReading& r = out_.meshes[m];
+      const std::size_t d = 2 * m, f = d + 1;
+      if (high_[f] > r.max_force_n || low_[f] < r.min_force_n) return true;
+      if (high_[d] > r.max_deflection_m || low_[d] < r.min_deflection_m) return true;
+      if (final && high_[f] > r.max_force_final_n) return true;
+    }
+    return false;
+  }
+  void extreme(const ode::CellView& cell, int k, bool maximum, double& seen) const {
+    double v = 0, t = 0;
+    const std::size_t i = static_cast<std::size_t>(k);
+    if (maximum ? !(high_[i] > seen) : !(low_[i] < seen)) return;
+    if (cell.extreme(k, maximum, seen, v, t)) seen = v;
+  }
+
+  const train::Assembled& a_;
+  TrainRunResult& out_;
+  const std::function<bool(double)>& progress_;
+  double t0_, t1_, final_from_;
+  std::vector<ContactTracker> trackers_;
+  std::vector<std::vector<ode::FunctionalBounds>> ranges_;  // per region, per observable
+  std::vector<double> low_, high_;                          // the last bound_all's
+  std::vector<ode::FunctionalValues> readers_;              // per region, of its observables
+  std::vector<double> values_;
+};
+
+// The shortest time scale of the train: its fastest mode in contact or excitation.
+double fastest_period_s(const train::Assembled& a) {
+  double w = 0;
+  for (const train::TrainMode& m : train::modes(a)) w = std::max(w, kTwoPi * m.frequency_hz);
+  const train::Train& t = a.train();
+  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
+    const int i = static_cast<int>(m);
+    w = std::max({w, a.stiffness_series(i).max_angular_frequency_rad_s(),
+                  a.error_series(i).max_angular_frequency_rad_s()});
+  }
+  for (std::size_t q = 0; q < t.torques.size(); ++q)
+    w = std::max(w, a.torque_series(static_cast<int>(q)).max_angular_frequency_rad_s());
+  for (const train::Speed& v : t.speeds) {
+    const double omega = kTwoPi * t.reference_speed_hz *
+                         ratio_value(a.speed_ratios()[static_cast<std::size_t>(a.index(v.body))]);
+    for (const train::SpeedHarmonic& h : v.harmonics) w = std::max(w, h.order * omega);
+  }
+  return kTwoPi / w;
+}
+
+}  // namespace
+
+std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why,
+                                            std::optional<double> at_s) {
+  const train::Train& t = a.train();
+  const int n = a.size();
+  Eigen::VectorXd q_load = Eigen::VectorXd::Zero(n);
+  for (const train::Torque& q : t.torques) q_load(a.index(q.body)) += q.mean_nm;
+  for (const train::Drag& d : t.drags) q_load(a.index(d.body)) -= d.constant_nm;
+  const Eigen::MatrixXd k = a.contact_stiffness();
+  // In drive contact a mesh pushes with k_m (V q - b): its b is a load k_m b V^T.
+  for (std::size_t m = 0; m < t.meshes.size(); ++m)
+    q_load += t.meshes[m].mean_stiffness_n_per_m * t.meshes[m].backlash_m *
+              a.mesh_vector(static_cast<int>(m)).transpose();
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(2 * n);
+  if (at_s) a.prescribe(*at_s, y);
+  std::vector<int> free;
+  for (int i = 0; i < n; ++i)
+    if (!a.prescribed(i)) free.push_back(i);
+  if (static_cast<int>(free.size()) < n) {
+    // The free bodies follow the held ones: K_ff q_f = Q_f - K_fp q_p, and its rate.
+    const int f = static_cast<int>(free.size());
+    Eigen::MatrixXd kff(f, f);
+    Eigen::VectorXd rhs(f), rate_rhs(f);
+    for (int i = 0; i < f; ++i) {
+      rhs(i) = q_load(free[i]);
+      rate_rhs(i) = 0;
+      for (int j = 0; j < n; ++j) {
+        if (!a.prescribed(j)) continue;
+        rhs(i) -= k(free[i], j) * y(j);
+        rate_rhs(i) -= k(free[i], j) * y(n + j);
+      }
+      for (int j = 0; j < f; ++j) kff(i, j) = k(free[i], free[j]);
+    }
+    const Eigen::FullPivLU<Eigen::MatrixXd> lu = kff.fullPivLu();
+    const Eigen::VectorXd x = lu.solve(rhs), v = lu.solve(rate_rhs);
+    for (int i = 0; i < f; ++i) {
+      y(free[i]) = x(i);
+      y(n + free[i]) = v(i);
+    }
+    return y;
+  }
+  // No body held: the rigid rotation r (the speeds) is free, and the torques must do no net
+  // work on it.
+  Eigen::VectorXd r(n);
+  for (int i = 0; i < n; ++i) r(i) = ratio_value(a.speed_ratios()[static_cast<std::size_t>(i)]);
+  const double power = r.dot(q_load);
+  const double scale = r.cwiseAbs().dot(q_load.cwiseAbs());
+  if (!(std::abs(power) <= kBalanceTolerance * scale)) {
+    if (why)
+      *why = fmt::format(
+          "the mean torques do not balance (their net power is {:.6g} W at the train's speeds): "
+          "the train speeds up or slows down, so it has no static state",
+          power * kTwoPi * t.reference_speed_hz);
+    return std::nullopt;
+  }
+  Eigen::MatrixXd bordered = Eigen::MatrixXd::Zero(n + 1, n + 1);
+  bordered.topLeftCorner(n, n) = k;
+  bordered.block(0, n, n, 1) = r;
+  bordered.block(n, 0, 1, n) = r.transpose();
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + 1);
+  rhs.head(n) = q_load;
+  const Eigen::VectorXd x = bordered.fullPivLu().solve(rhs);
+  y.head(n) = x.head(n);
+  return y;
+}
+
+std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen::VectorXd& y) {
+  std::vector<double> f;
+  const train::Train& t = a.train();
+  for (std::size_t m = 0; m < t.meshes.size(); ++m)
+    f.push_back(
+        t.meshes[m].mean_stiffness_n_per_m *
+        (a.mesh_vector(static_cast<int>(m)).dot(y.head(a.size())) - t.meshes[m].backlash_m));
+  return f;
+}
+
+TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  if (const std::string err = validate(c); !err.empty()) throw InputError(err);
+  if (c.solver.method != Method::kExact)
+    throw InputError(with_origins(
+        c, fmt::format("solver.method = \"{}\": a gear train runs with the exact engine "
+                       "(\"exact\")",
+                       to_string(c.solver.method))));
+  const train::Assembled a = assembled_train(c);
+  TrainRunResult result;
+  result.input = c;
+  const train::Train& t = a.train();
+  for (int i = 0; i < a.size(); ++i) {
+    result.bodies.push_back(t.bodies[static_cast<std::size_t>(i)].name);
+    result.body_speed_hz.push_back(t.reference_speed_hz *
+                                   ratio_value(a.speed_ratios()[static_cast<std::size_t>(i)]));
+  }
+  result.system_period_s = a.system_period_s(&result.system_period_note);
+  const std::optional<Eigen::VectorXd> rest = static_state(a, &result.static_note);
+  const std::vector<double> static_forces =
+      rest ? static_mesh_forces_n(a, *rest) : std::vector<double>{};
+  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
+    TrainMeshReading r;
+    r.name = t.meshes[m].name;
+    r.mesh_frequency_hz = a.mesh_frequency_hz(static_cast<int>(m));
+    r.backlash_m = t.meshes[m].backlash_m;
+    if (rest) r.static_force_n = static_forces[m];
+    result.meshes.push_back(r);
+  }
+
+  const double t0 = 0, t1 = c.solver.duration_s;
+  const double interval = checked_output_interval_s(c, fastest_period_s(a), "train");
+
+  Eigen::VectorXd y0 = Eigen::VectorXd::Zero(2 * a.size());
+  if (c.solver.initial == InitialCondition::kStatic) {
+    if (!rest)
+      throw InputError(with_origins(c, "solver.initial = \"static\": " + result.static_note));
+    y0 = *static_state(a, nullptr, t0);
+  }
+  a.prescribe(t0, y0);
+
+  ode::EngineOptions eo;
+  eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
+  std::unique_ptr<ode::ExactEngine> engine;
+  try {
+    engine = std::make_unique<ode::ExactEngine>(a.linear_system(), eo);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("the train's exact engine: ") + e.what());
+  }
+  const int region = a.classify(t0, y0);
+  const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
+  TrainObserver observer(a, engine->system(), result, t0, t1, final_from, region, options.progress);
+  const ode::FlowResult flow =
+      engine->flow(t0, y0, region, t1, ode::make_output_grid(t0, t1, interval), observer);
+  observer.finish();
+  result.termination = flow.termination;
+  result.message = flow.message;
+  result.cells = flow.cells;
+  result.events = flow.events;
+  for (TrainMeshReading& r : result.meshes) {
+    if (r.static_force_n && *r.static_force_n > 0) {
+      r.dynamic_factor = r.max_force_final_n / *r.static_force_n;
+      r.dynamic_factor_with_startup = r.max_force_n / *r.static_force_n;
+    }
+    if (result.ok() && !(std::isfinite(r.max_force_n) && std::isfinite(r.min_force_n))) {
+      result.termination = ode::Termination::kNoProgress;
+      result.message = fmt::format("mesh '{}': non-finite readings (an overflow)", r.name);
+    }
+  }
+  result.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return result;
+}
+
+namespace {
+nlohmann::ordered_json optional_json(const std::optional<double>& x) {
+  return x ? nlohmann::ordered_json(*x) : nlohmann::ordered_json(nullptr);
+}
+}  // namespace
+
+std::string train_summary_json(const TrainRunResult& r, const std::vector<std::string>& unused,
+                               int indent) {
+  nlohmann::ordered_json j;
+  const Case& c = r.input;
+  j["case"] = c.name;
+  j["description"] = c.description;
+  j["form"] = "train";
+  j["method"] = to_string(c.solver.method);
+  j["termination"] = ode::to_string(r.termination);
+  j["message"] = r.message;
+  j["duration_s"] = c.solver.duration_s;
+  j["system_period_s"] = optional_json(r.system_period_s);
+  if (!r.system_period_note.empty()) j["system_period_note"] = r.system_period_note;
+  if (!r.static_note.empty()) j["static_note"] = r.static_note;
+  j["cells"] = r.cells;
+  j["events"] = r.events;
+  nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
+  for (std::size_t i = 0; i < r.bodies.size(); ++i)
+    bodies.push_back({{"name", r.bodies[i]}, {"speed_hz", r.body_speed_hz[i]}});
+  j["bodies"] = bodies;
+  nlohmann::ordered_json meshes = nlohmann::ordered_json::array();
+  for (const TrainMeshReading& m : r.meshes) {
+    nlohmann::ordered_json x;
+    x["name"] = m.name;
+    x["mesh_frequency_hz"] = m.mesh_frequency_hz;
+    x["regime"] = to_string(m.regime);
+    x["double_sided"] = m.double_sided;
+    x["impacts"] = m.impacts;
+    x["backside_impacts"] = m.backside_impacts;
+    x["separations"] = m.separations;
+    x["separated_fraction"] = m.separated_fraction;
+    x["last_separation_s"] = optional_json(m.last_separation_s);
+    x["max_force_n"] = m.max_force_n;
+    x["min_force_n"] = m.min_force_n;
+    x["max_deflection_bar"] = m.max_deflection_m / m.backlash_m;
+    x["min_deflection_bar"] = m.min_deflection_m / m.backlash_m;
+    x["static_force_n"] = optional_json(m.static_force_n);
+    x["dynamic_factor"] = optional_json(m.dynamic_factor);
+    x["dynamic_factor_with_startup"] = optional_json(m.dynamic_factor_with_startup);
+    meshes.push_back(x);
+  }
+  j["meshes"] = meshes;
+  j["unused_settings"] = unused;
+  j["wall_time_s"] = r.wall_time_s;
+  return j.dump(indent);
+}
+
+void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
+  out << "t_s";
+  for (const std::string& b : r.bodies) out << ',' << b << "_rad";
+  for (const std::string& b : r.bodies) out << ',' << b << "_rad_s";
+  for (const TrainMeshReading& m : r.meshes)
+    out << ',' << m.name << "_deflection_bar," << m.name << "_force_n," << m.name << "_contact";
+  out << '\n';
+  const TrainSamples& s = r.samples;
+  for (std::size_t i = 0; i < s.t_s.size(); ++i) {
+    out << fmt::format("{:.10g}", s.t_s[i]);
+    for (Eigen::Index k = 0; k < s.state[i].size(); ++k)
+      out << fmt::format(",{:.10g}", s.state[i](k));
+    for (std::size_t m = 0; m < r.meshes.size(); ++m)
+      out << fmt::format(",{:.10g},{:.10g},{}", s.deflection_bar[i][m], s.force_n[i][m],
+                         s.contact[i][m]);
+    out << '\n';
+  }
+}
+
+std::string train_modes_json(const train::Assembled& a, const std::vector<train::TrainMode>& m,
+                             int indent) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::array();
+  const train::Train& t = a.train();
+  for (const train::TrainMode& x : m) {
+    nlohmann::ordered_json mode;
+    mode["frequency_hz"] = x.frequency_hz;
+    nlohmann::ordered_json shape, mesh, shaft;
+    for (int i = 0; i < a.size(); ++i)
+      shape[t.bodies[static_cast<std::size_t>(i)].name] = x.shape(i);
+    for (std::size_t k = 0; k < t.meshes.size(); ++k) mesh[t.meshes[k].name] = x.mesh_energy[k];
+    for (std::size_t k = 0; k < t.shafts.size(); ++k) shaft[t.shafts[k].name] = x.shaft_energy[k];
+    mode["shape"] = shape;
+    mode["mesh_energy"] = mesh.is_null() ? nlohmann::ordered_json::object() : mesh;
+    mode["shaft_energy"] = shaft.is_null() ? nlohmann::ordered_json::object() : shaft;
+    j.push_back(mode);
+  }
+  nlohmann::ordered_json out;
+  out["form"] = "train";
+  out["modes"] = j;
+  return out.dump(indent);
+}
+
+std::string train_modes_table(const train::Assembled& a, const std::vector<train::TrainMode>& m) {
+  const train::Train& t = a.train();
+  std::string out = fmt::format("{:>4}  {:>14}", "mode", "frequency_hz");
+  for (const train::Mesh& x : t.meshes) out += fmt::format("  {:>12}", x.name);
+  for (const train::Shaft& x : t.shafts) out += fmt::format("  {:>12}", x.name);
+  out += "   (strain energy, %)\n";
+  for (std::size_t i = 0; i < m.size(); ++i) {
+    out += fmt::format("{:>4}  {:>14.6g}", i + 1, m[i].frequency_hz);
+    for (double e : m[i].mesh_energy) out += fmt::format("  {:>12.2f}", 100 * e);
+    for (double e : m[i].shaft_energy) out += fmt::format("  {:>12.2f}", 100 * e);
+    out += "\n";
+  }
+  return out;
+}
+
+}  // namespace geardyn

@@ -1,0 +1,293 @@
+// Gear trains from a case file (train_case.hpp) and their runs (train_run.hpp): the reader
+// against the gear pair it must equal, the static state against its closed form, a prescribed
+// speed against its own formula, and the reader's messages.
+#include "geardyn/train_case.hpp"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+#include <string>
+
+#include "geardyn/case.hpp"
+#include "geardyn/geometry.hpp"
+#include "geardyn/run.hpp"
+#include "geardyn/train_run.hpp"
+
+namespace geardyn {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// The paper's gear pair (Park 2010 Table 1, helical, 20 degrees) as a train of two gears, with
+// the stiffness harmonics, torques and speed of pair_case() below.
+const char* kPairTrain = R"(
+[model]
+form = "train"
+[train]
+reference_speed_hz = 100
+[[train.body]]
+name = "pinion"
+teeth = 56
+normal_module_mm = 2.5
+helix_angle_deg = 20
+face_width_mm = 20
+[[train.body]]
+name = "wheel"
+teeth = 56
+normal_module_mm = 2.5
+helix_angle_deg = 20
+face_width_mm = 20
+[[train.mesh]]
+driving = "pinion"
+driven = "wheel"
+backlash_um = 100
+mean_stiffness_n_per_m = 2.34e8
+stiffness_harmonics = [[0.1, 20], [0.03, -40]]
+damping_ratio = 0.02
+[[train.torque]]
+body = "pinion"
+mean_nm = 49.5
+harmonics = [[12.375, 1, 0]]
+[[train.torque]]
+body = "wheel"
+mean_nm = -49.5
+harmonics = [[12.375, 1, 180]]
+[solver]
+duration_s = 0.02
+tolerance = 1e-13
+output_interval_s = 2e-5
+)";
+
+// The same pair as the one-degree model: the defaults (Park 2010 Table 1, T1 = 49.5 N m with a
+// fluctuation of 0.25 at order 1, the matched load of eq. 7) with the stiffness as harmonics.
+Case pair_case() {
+  Case c;
+  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
+  c.mesh.stiffness_harmonics = {{0.1, 20.0}, {0.03, -40.0}};
+  c.speed.shaft_frequency_hz = 100;
+  c.solver.duration_s = 0.02;
+  c.solver.tolerance = 1e-13;
+  c.solver.output_interval_s = 2e-5;
+  return c;
+}
+
+TEST(TrainCase, ATwoGearTrainFromAFileIsTheHelicalGearPair) {
+  // Through every impact of a rattling start (from the middle of the backlash), the file's
+  // train reads as the one-degree model of the same helical pair: the base radii and base
+  // helix from the gear data, the inertias from the blanks, the damping from its ratio, the
+  // torques from their harmonics. A mutant that drops cos(beta_b) from the mesh, or takes the
+  // transverse pressure angle for the normal one, moves delta by far more than the bound.
+  const Case pair = pair_case();
+  const RunResult one = run(pair);
+  ASSERT_TRUE(one.integration.ok()) << one.integration.message;
+  ASSERT_GT(one.reading.impacts, 3);
+  const TrainRunResult train = run_train(parse_case(kPairTrain, "pair.toml"));
+  ASSERT_TRUE(train.ok()) << train.message;
+  ASSERT_EQ(train.samples.t_s.size(), one.samples.size());
+  double worst = 0;
+  for (std::size_t i = 0; i < one.samples.size(); ++i)
+    worst =
+        std::max(worst, std::abs(train.samples.deflection_bar[i][0] - one.samples.delta_bar[i]));
+  EXPECT_LT(worst, 1e-8);
+  const TrainMeshReading& m = train.meshes.at(0);
+  EXPECT_EQ(m.impacts, one.reading.impacts);
+  EXPECT_EQ(m.backside_impacts, one.reading.backside_impacts);
+  EXPECT_EQ(m.regime, one.reading.regime);
+  const GearPairParameters p = build_model(pair).parameters();
+  const double force_scale = p.backlash_m * p.mean_stiffness_n_per_m();
+  EXPECT_NEAR(m.max_force_n / force_scale, one.reading.max_force_bar, 1e-8);
+  EXPECT_NEAR(m.min_force_n / force_scale, one.reading.min_force_bar, 1e-8);
+  // The static mesh force of the train is the pair's F_m / cos^2(beta_b).
+  ASSERT_TRUE(m.static_force_n);
+  EXPECT_NEAR(*m.static_force_n / p.static_mesh_force_n(), 1.0, 1e-12);
+  EXPECT_NEAR(m.mesh_frequency_hz, 56 * 100.0, 1e-9);
+}
+
+TEST(TrainCase, TheReducersStaticMeshForcesAreItsTorquesOverTheBaseRadii) {
+  // In a tree of meshes each mesh carries the torque that reaches it: stage 1 the motor's over
+  // pinion 1's base radius, stage 2 that times z_w1 / z_p1 over pinion 2's, each along the
+  // normal line of action (over cos(beta_b)).
+  const Case c =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml");
+  const train::Assembled a = assembled_train(c);
+  std::string why;
+  const auto q = static_state(a, &why);
+  ASSERT_TRUE(q) << why;
+  const std::vector<double> f = static_mesh_forces_n(a, *q);
+  const auto base = [](int z, double mn_mm, double beta_deg) {
+    const double beta = beta_deg * kPi / 180,
+                 at = std::atan(std::tan(20 * kPi / 180) / std::cos(beta));
+    return std::pair{0.5 * z * mn_mm * 1e-3 / std::cos(beta) * std::cos(at),
+                     std::cos(std::atan(std::tan(beta) * std::cos(at)))};
+  };
+  const auto [r1, cb1] = base(23, 1.75, 25);
+  const auto [r2, cb2] = base(19, 2.5, 22);
+  EXPECT_NEAR(f[0] / (150 / (r1 * cb1)), 1.0, 1e-9);
+  EXPECT_NEAR(f[1] / (150.0 * 61 / 23 / (r2 * cb2)), 1.0, 1e-9);
+  // Unbalanced torques have no static state, and say so.
+  Case unbalanced = c;
+  set_case_value(unbalanced, {"train.torque[1].mean_nm", "-1000"});
+  EXPECT_FALSE(static_state(assembled_train(unbalanced), &why));
+  EXPECT_NE(why.find("do not balance"), std::string::npos) << why;
+}
+
+TEST(TrainCase, APrescribedSpeedFollowsItsAccelerationHarmonics) {
+  // The input gear of the loose-gear case turns as prescribed: its rotation is
+  // -a / (n Omega)^2 cos(n Omega t + phase), so that its acceleration is a cos(n Omega t +
+  // phase), whatever the loose gear does.
+  Case c =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml");
+  set_case_value(c, {"train.speed[0].acceleration_harmonics", "[[500, 2, 30]]"});
+  set_case_value(c, {"solver.duration_s", "0.1"});
+  const TrainRunResult r = run_train(c);
+  ASSERT_TRUE(r.ok()) << r.message;
+  const double w = 2 * 2 * kPi * 12.5;
+  double worst = 0;
+  for (std::size_t i = 0; i < r.samples.t_s.size(); ++i) {
+    const double t = r.samples.t_s[i];
+    const double expected = -500 / (w * w) * std::cos(w * t + 30 * kPi / 180);
+    worst = std::max(worst, std::abs(r.samples.state[i](0) - expected));
+  }
+  EXPECT_LT(worst, 1e-12 * 500 / (w * w) + 1e-15);
+  EXPECT_GT(r.meshes[0].impacts, 0);  // above the onset of rattle
+}
+
+TEST(TrainCase, RattleStartsWhereTheDragCanNoLongerHoldTheLooseGear) {
+  // The loose gear stays on its drive flank while J (R_in / R_loose) a <= T_drag (the onset of
+  // the case file's comment); within the mesh compliance's effect (the library's own test
+  // bounds it at 0.05 %), 2 % below the onset there is no separation and 2 % above it rattles.
+  Case c =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml");
+  const train::Assembled a = assembled_train(c);
+  const double j_loose = a.mass()(1, 1);
+  const double onset = 0.2 / (j_loose * 30.0 / 40.0);
+  EXPECT_NEAR(onset, 240.0, 1.0);  // as the case's comment says
+  for (const double f : {0.98, 1.02}) {
+    set_case_value(
+        c, {"train.speed[0].acceleration_harmonics", fmt::format("[[{}, 2, 0]]", f * onset)});
+    const TrainRunResult r = run_train(c);
+    ASSERT_TRUE(r.ok()) << r.message;
+    if (f < 1) {
+      EXPECT_EQ(r.meshes[0].separations, 0) << f;
+    } else {
+      EXPECT_GT(r.meshes[0].separations, 0) << f;
+    }
+  }
+}
+
+TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {
+  // case.toml of a run holds the train as given: read again, it writes the same text.
+  for (const char* file :
+       {"two_stage_reducer.toml", "idler_train.toml", "loose_gear_rattle.toml"}) {
+    const Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / file);
+    ASSERT_TRUE(c.train) << file;
+    const std::string text = to_toml(c);
+    const Case again = parse_case(text, "again.toml");
+    ASSERT_TRUE(again.train) << file;
+    EXPECT_EQ(to_toml(again), text) << file;
+    EXPECT_EQ(again.train->meshes.size(), c.train->meshes.size());
+  }
+}
+
+// The message of reading `text`, or "" when it reads.
+std::string error_of(const std::string& text) {
+  try {
+    (void)assembled_train(parse_case(text, "t.toml"));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(TrainCase, BadArrangementsAreNamedWithTheirElementKeyAndPlace) {
+  const std::string head = R"([model]
+form = "train"
+[train]
+reference_speed_hz = 50
+[[train.body]]
+name = "a"
+teeth = 20
+normal_module_mm = 2
+face_width_mm = 10
+[[train.body]]
+name = "b"
+teeth = 40
+normal_module_mm = 2
+face_width_mm = 10
+)";
+  const std::string mesh = R"([[train.mesh]]
+name = "m"
+driving = "a"
+driven = "b"
+mean_stiffness_n_per_m = 2e8
+)";
+  EXPECT_EQ(error_of(head + mesh), "");
+  struct Row {
+    std::string text;
+    std::vector<std::string> pieces;
+  };
+  const std::vector<Row> rows = {
+      {head + R"([[train.mesh]]
+name = "m"
+driving = "a"
+driven = "c"
+mean_stiffness_n_per_m = 2e8
+)",
+       {"t.toml:15:", "mesh 'm'", "driven = \"c\"", "no body of that name"}},
+      {head + mesh + R"([[train.body]]
+name = "a"
+inertia_kg_m2 = 1
+)",
+       {"t.toml:20:", "body 'a'", "named twice"}},
+      {head, {"has no mesh"}},
+      {head + mesh + R"([[train.shaft]]
+from = "a"
+to = "b"
+stiffness_n_m_per_rad = 1e4
+)",
+       {"shaft 'shaft1'", "loop", "t.toml:20:"}},
+      {head + R"([[train.mesh]]
+driving = "a"
+driven = "b"
+mean_stiffness_n_per_m = 2e8
+backlash_um = -5
+)",
+       {"t.toml:19:", "train.mesh[0].backlash_um = -5", "> 0.001 um"}},
+      {head + R"([[train.mesh]]
+driving = "a"
+driven = "b"
+)",
+       {"t.toml:15:", "train.mesh[0] has no mean_stiffness_n_per_m"}},
+      {head + mesh + R"([[train.drag]]
+body = "b"
+oil = 0.1
+)",
+       {"t.toml:22:", "unknown key 'train.drag[0].oil'", "constant_nm"}},
+      {"[train]\nreference_speed_hz = 5\n", {"[train] is read with model.form = \"train\""}},
+      {"[model]\nform = \"train\"\n", {"t.toml:2:", "needs a [train] section"}},
+  };
+  for (const Row& row : rows) {
+    std::string message;
+    try {
+      (void)assembled_train(parse_case(row.text, "t.toml"));
+    } catch (const InputError& e) {
+      message = e.what();
+    }
+    for (const std::string& piece : row.pieces)
+      EXPECT_NE(message.find(piece), std::string::npos) << piece << " in: " << message;
+  }
+  // A --set of an element's key is named as given.
+  try {
+    (void)parse_case(head + mesh, "t.toml", {{"train.mesh[0].backlash_um", "-1"}});
+    ADD_FAILURE() << "a negative backlash was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--set train.mesh[0].backlash_um=-1"), std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace geardyn
