@@ -36,7 +36,7 @@ except ImportError as _e:  # pragma: no cover - depends on the installation
 
 __all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry",
            "stiffness", "run", "sweep", "orbit", "continuation", "stability", "plot", "to_xarray",
-           "save", "load", "SweepResult", "CoupledRunResult", "modes"]
+           "save", "load", "SweepResult", "CoupledRunResult", "TrainRunResult", "modes"]
 
 
 class NumericalError(RuntimeError):
@@ -59,6 +59,8 @@ def _toml_value(value):
         return _json.dumps(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):  # an inline table: an element of a train
+        return "{" + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + "}"
     if hasattr(value, "tolist"):  # a NumPy scalar or array
         return _toml_value(value.tolist())
     raise InputError(f"{value!r}: a case value must be a number, string, bool, list or NumPy "
@@ -121,6 +123,26 @@ def _flat(keys, prefix=""):
 def _case_overrides(keys):
     """Case(**keys)'s (key, TOML text) pairs (called by the extension)."""
     return [(k, _toml_value(v)) for k, v in _flat(keys)]
+
+
+def _case_document(keys):
+    """Case(**keys) of a gear train as one case file's text, or None for the other forms (called
+    by the extension): a train's form and its elements only make sense together, so they are
+    read as one document rather than key by key."""
+    pairs = _flat(keys)
+    if not any(k == "train" or k.startswith("train.") for k, _ in pairs):
+        return None
+    top, sections = [], {}
+    for k, v in pairs:
+        section, _, leaf = k.rpartition(".")
+        if section:
+            sections.setdefault(section, []).append(f"{leaf} = {_toml_value(v)}")
+        else:
+            top.append(f"{leaf} = {_toml_value(v)}")
+    text = "\n".join(top) + "\n"
+    for section, lines in sections.items():
+        text += f"\n[{section}]\n" + "\n".join(lines) + "\n"
+    return text
 
 
 def _set(self, key, value):
@@ -325,7 +347,8 @@ def run(case, progress=None):
         ``t`` (s), ``delta_bar`` (delta / b), ``force_bar`` (F / (b k_m)), ``velocity`` (m/s)
         and ``contact`` (1 drive side, 0 separated, -1 back side) as NumPy arrays that point
         into the result; ``summary`` (the keys of summary.json); ``events`` (arrays). A case
-        with ``model.form = "coupled"`` gives a `CoupledRunResult`.
+        with ``model.form = "coupled"`` gives a `CoupledRunResult`, one with ``"train"`` a
+        `TrainRunResult`.
 
     Raises
     ------
@@ -341,9 +364,12 @@ def run(case, progress=None):
             return _bar(round(100 * fraction))
     else:
         callback = _progress(progress)
-    if case["model.form"] == "coupled":
-        text, arrays, interrupted = _geardyn._run_coupled(case, callback)
-        r = CoupledRunResult(_json.loads(text), arrays)
+    form = case["model.form"]
+    if form in ("train", "coupled"):
+        run_form, result = ((_geardyn._run_train, TrainRunResult) if form == "train"
+                            else (_geardyn._run_coupled, CoupledRunResult))
+        text, arrays, interrupted = run_form(case, callback)
+        r = result(_json.loads(text), arrays)
         if interrupted:
             raise _interrupted(r, "run")
         if not r.ok and "cancelled" not in r.summary["termination"]:
@@ -435,14 +461,90 @@ class CoupledRunResult:
         return ds
 
 
+class TrainRunResult:
+    """A run of a gear train (``model.form = "train"``; docs/outputs.md, "Gear trains").
+
+    Attributes
+    ----------
+    summary : dict
+        The keys of the command line's summary.json: ``meshes``, one reading per mesh (regime,
+        impacts, forces in N, dynamic factors), ``bodies`` with their speeds.
+    bodies, meshes : list of str
+        The bodies' and the meshes' names, in the case's order.
+    t : numpy.ndarray
+        Sample times, s.
+    theta, rate : numpy.ndarray
+        Samples x bodies: each body's rotation about its nominal one (rad) and its rate (rad/s).
+    deflection_bar, force, contact : numpy.ndarray
+        Samples x meshes: (d - e) / b, the mesh force (N) and the contact state (1 drive side,
+        0 separated, -1 back side).
+    ok : bool
+        Whether the run completed.
+    """
+
+    def __init__(self, summary, arrays):
+        self.summary = summary
+        self.bodies = [b["name"] for b in summary["bodies"]]
+        self.meshes = [m["name"] for m in summary["meshes"]]
+        n = len(self.bodies)
+        self.t = arrays["t"]
+        self.theta = arrays["state"][:, :n]
+        self.rate = arrays["state"][:, n:]
+        self.deflection_bar = arrays["deflection_bar"]
+        self.force = arrays["force"]
+        self.contact = arrays["contact"]
+        self.ok = summary["termination"] == "completed"
+
+    def __repr__(self):
+        parts = ", ".join(f"{m['name']} {m['regime']} ({m['impacts']} impacts)"
+                          for m in self.summary["meshes"])
+        return f"<geardyn.TrainRunResult {len(self.bodies)} bodies: {parts}>"
+
+    def to_xarray(self):
+        """The run as a labelled Dataset.
+
+        Returns
+        -------
+        xarray.Dataset
+            Dimensions t (s), body and mesh (their names); theta and rate (t x body),
+            deflection_bar, force (N) and contact (t x mesh); per mesh its readings
+            (impacts, separated_fraction, dynamic_factor, ...) as variables along mesh; the
+            summary (JSON) as an attribute.
+        """
+        import xarray as xr
+        meshes = self.summary["meshes"]
+        per_mesh = {k: ("mesh", [_nan_if_none(m[k]) for m in meshes])
+                    for k in ("mesh_frequency_hz", "impacts", "backside_impacts", "separations",
+                              "separated_fraction", "max_force_n", "min_force_n",
+                              "static_force_n", "dynamic_factor", "dynamic_factor_with_startup")}
+        per_mesh["regime"] = ("mesh", [m["regime"] for m in meshes])
+        return xr.Dataset(
+            dict({"theta": (("t", "body"), self.theta, {"units": "rad"}),
+                  "rate": (("t", "body"), self.rate, {"units": "rad/s"}),
+                  "deflection_bar": (("t", "mesh"), self.deflection_bar,
+                                     {"long_name": "(d - e) / b"}),
+                  "force": (("t", "mesh"), self.force, {"units": "N"}),
+                  "contact": (("t", "mesh"), self.contact)}, **per_mesh),
+            coords={"t": ("t", self.t, {"units": "s"}), "body": self.bodies,
+                    "mesh": self.meshes},
+            attrs={"summary": _json.dumps(self.summary)})
+
+
+def _nan_if_none(x):
+    return float("nan") if x is None else x
+
+
 @_pythonic()
 def modes(case):
-    """The coupled model's modes, as `geardyn modes --json`.
+    """The coupled model's or a gear train's modes, as `geardyn modes --json`.
 
     Parameters
     ----------
     case : Case
-        A case with ``model.form = "coupled"``.
+        A case with ``model.form = "coupled"`` or ``"train"``. A train's modes are a dict of
+        ``bodies`` (names), ``frequency_hz`` (ascending), ``shape`` (modes x bodies,
+        mass-normalised), ``mesh_energy`` and ``shaft_energy`` (by name: the strain energy
+        fraction in each mode); the coupled model's as below.
 
     Returns
     -------
@@ -457,9 +559,18 @@ def modes(case):
     Raises
     ------
     InputError
-        A case of another form, or bad input.
+        A case of a one-degree form, or bad input.
     """
     import numpy as np
+    if case["model.form"] == "train":
+        ms = _json.loads(_geardyn._train_modes(case))["modes"]
+        return {"bodies": list(ms[0]["shape"]) if ms else [],
+                "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
+                "shape": np.array([list(m["shape"].values()) for m in ms]),
+                "mesh_energy": {k: np.array([m["mesh_energy"][k] for m in ms])
+                                for k in (ms[0]["mesh_energy"] if ms else {})},
+                "shaft_energy": {k: np.array([m["shaft_energy"][k] for m in ms])
+                                 for k in (ms[0]["shaft_energy"] if ms else {})}}
     if case["model.form"] != "coupled":
         raise InputError(f"model.form = \"{case['model.form']}\": modes are of the coupled "
                          "model; set model.form = \"coupled\"")

@@ -13,6 +13,11 @@ void bind_case(py::module_& m) {
       .def(py::init([](const py::kwargs& keys) {
              // The defaults, then each key (dotted, or a section's dict) converted to TOML by
              // the Python layer.
+             // A gear train's keys are read together, as one case file.
+             const py::object document =
+                 py::module_::import("geardyn").attr("_case_document")(keys);
+             if (!document.is_none())
+               return parse_case(document.cast<std::string>(), "(Case keys)");
              Case c = load_case(std::nullopt);
              const py::list pairs = py::module_::import("geardyn").attr("_case_overrides")(keys);
              for (const py::handle& kv : pairs) {

@@ -611,3 +611,50 @@ def test_save_replaces_the_file_whole_or_not_at_all(tmp_path):
         geardyn.save(ds, target)
     assert target.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.nc", "thesis.tex"]
+
+
+def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
+    # The idler train from its file, from the command line and from a dict built in code: the
+    # same readings per mesh; its xarray has a mesh dimension.
+    path = SOURCE / "cases/idler_train.toml"
+    case = geardyn.Case.from_toml(path).with_({"solver.duration_s": 0.01})
+    r = geardyn.run(case)
+    assert isinstance(r, geardyn.TrainRunResult) and r.ok
+    cli("run", str(path), "--set", "solver.duration_s=0.01", "--out", str(tmp_path))
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    for s in (summary, r.summary):
+        s.pop("wall_time_s")
+    assert r.summary == summary
+    assert r.meshes == ["in", "out"] and r.bodies == ["driver", "idler", "driven"]
+    assert r.force.shape == (len(r.t), 2) and r.theta.shape == (len(r.t), 3)
+    ds = r.to_xarray()
+    assert ds["force"].dims == ("t", "mesh") and list(ds["mesh"].values) == ["in", "out"]
+    assert float(ds["force"].sel(mesh="out").max()) <= summary["meshes"][1]["max_force_n"]
+    assert float(ds["dynamic_factor"].sel(mesh="in")) == summary["meshes"][0]["dynamic_factor"]
+
+    gear = {"normal_module_mm": 2, "face_width_mm": 20}
+    mesh = {"backlash_um": 40, "mean_stiffness_n_per_m": 4e8, "damping_ratio": 0.03}
+    in_code = geardyn.Case(
+        model={"form": "train"},
+        train={"reference": "driver", "reference_speed_hz": 50,
+               "body": [dict(gear, name="driver", teeth=30),
+                        dict(gear, name="idler", teeth=47, bore_diameter_mm=25),
+                        dict(gear, name="driven", teeth=60, bore_diameter_mm=30)],
+               "mesh": [dict(mesh, name="in", driving="driver", driven="idler",
+                             stiffness_harmonics=[[0.15, 0], [0.05, 0]]),
+                        dict(mesh, name="out", driving="idler", driven="driven",
+                             stiffness_harmonics=[[0.15, 90], [0.05, 180]])],
+               "torque": [{"name": "drive", "body": "driver", "mean_nm": 20},
+                          {"name": "load", "body": "driven", "mean_nm": -40}]},
+        solver={"duration_s": 0.01, "initial": "static"})
+    rc = geardyn.run(in_code)
+    rc.summary.pop("wall_time_s")
+    assert rc.summary["meshes"] == summary["meshes"]
+    modes = geardyn.modes(in_code)
+    assert modes["bodies"] == ["driver", "idler", "driven"] and modes["frequency_hz"][0] < 1e-6
+    assert set(modes["mesh_energy"]) == {"in", "out"}
+    # Each element's key is checked as in a file, named by its place in its array.
+    with pytest.raises(geardyn.InputError, match=r"train\.mesh\[0\]\.backlash_um = -1"):
+        geardyn.Case(model={"form": "train"},
+                     train={"reference_speed_hz": 50, "body": [dict(gear, name="a", teeth=20)],
+                            "mesh": [dict(mesh, driving="a", driven="a", backlash_um=-1)]})

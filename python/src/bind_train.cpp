@@ -1,0 +1,75 @@
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "geardyn/case_keys.hpp"
+#include "geardyn/train_case.hpp"
+#include "geardyn/train_run.hpp"
+
+namespace py = pybind11;
+
+namespace geardyn::python {
+namespace {
+
+// rows x cols values as a NumPy array.
+template <class T, class At>
+py::array_t<T> table(std::size_t rows, std::size_t cols, const At& at) {
+  py::array_t<T> a({rows, cols});
+  auto v = a.template mutable_unchecked<2>();
+  for (std::size_t i = 0; i < rows; ++i)
+    for (std::size_t j = 0; j < cols; ++j) v(i, j) = at(i, j);
+  return a;
+}
+
+// The run as (summary.json text, dict of arrays): t, state (samples x 2 bodies),
+// deflection_bar, force (N) and contact (samples x meshes).
+py::tuple train_result(const TrainRunResult& r) {
+  const TrainSamples& s = r.samples;
+  const std::size_t n = s.t_s.size(), meshes = r.meshes.size();
+  const std::size_t width = 2 * r.bodies.size();
+  py::dict arrays;
+  arrays["t"] = py::array_t<double>(py::ssize_t(n), s.t_s.data());
+  arrays["state"] =
+      table<double>(n, width, [&](std::size_t i, std::size_t j) { return s.state[i](j); });
+  arrays["deflection_bar"] = table<double>(
+      n, meshes, [&](std::size_t i, std::size_t m) { return s.deflection_bar[i][m]; });
+  arrays["force"] =
+      table<double>(n, meshes, [&](std::size_t i, std::size_t m) { return s.force_n[i][m]; });
+  arrays["contact"] =
+      table<int>(n, meshes, [&](std::size_t i, std::size_t m) { return s.contact[i][m]; });
+  return py::make_tuple(train_summary_json(r, unused_settings(r.input), -1), arrays);
+}
+
+}  // namespace
+
+void bind_train(py::module_& m) {
+  // The train's run without the GIL; Ctrl-C and progress as for the one-degree run.
+  m.def(
+      "_run_train",
+      [](const Case& c, const py::object& progress) {
+        Hook hook(progress);
+        TrainRunOptions o;
+        o.progress = [&hook](double fraction) { return hook(fraction); };
+        TrainRunResult r;
+        run_interruptible(hook, [&] { r = run_train(c, o); });
+        py::tuple out = train_result(r);
+        return py::make_tuple(out[0], out[1], hook.interrupted());
+      },
+      py::arg("case"), py::arg("progress") = py::none());
+  m.def(
+      "_train_modes",
+      [](const Case& c) {
+        const train::Assembled a = assembled_train(c);
+        return train_modes_json(a, train::modes(a), -1);
+      },
+      py::arg("case"));
+  m.def(
+      "_parse_case",
+      [](const std::string& text, const std::string& source) { return parse_case(text, source); },
+      py::arg("text"), py::arg("source"));
+}
+
+}  // namespace geardyn::python
