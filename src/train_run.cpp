@@ -13,6 +13,7 @@
 #include <ostream>
 
 #include "contact_tracker.hpp"
+#include "geardyn/adaptive.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_case.hpp"
 
@@ -70,6 +71,21 @@ class TrainObserver : public ode::FlowObserver {
       extreme(cell, d, true, r.max_deflection_m);
       extreme(cell, d, false, r.min_deflection_m);
       if (final) extreme(cell, f, true, r.max_force_final_n);
+    }
+  }
+
+  // A step's end is a point of the window (the adaptive integrator's only ones besides events
+  // and samples; inside the exact engine's cells on_cell has seen it already).
+  void on_step(double t, const ode::Vector& y, int region) override {
+    readers_[static_cast<std::size_t>(region)](t, y, values_);
+    for (std::size_t m = 0; m < out_.meshes.size(); ++m) {
+      TrainMeshReading& r = out_.meshes[m];
+      const double d = values_[2 * m], f = values_[2 * m + 1];
+      r.max_force_n = std::max(r.max_force_n, f);
+      r.min_force_n = std::min(r.min_force_n, f);
+      r.max_deflection_m = std::max(r.max_deflection_m, d);
+      r.min_deflection_m = std::min(r.min_deflection_m, d);
+      if (t >= final_from_) r.max_force_final_n = std::max(r.max_force_final_n, f);
     }
   }
 
@@ -179,7 +195,7 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
   for (std::size_t m = 0; m < t.meshes.size(); ++m)
     q_load += t.meshes[m].mean_stiffness_n_per_m * t.meshes[m].backlash_m *
               a.mesh_vector(static_cast<int>(m)).transpose();
-  Eigen::VectorXd y = Eigen::VectorXd::Zero(2 * n);
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(2 * static_cast<Eigen::Index>(n));
   if (at_s) a.prescribe(*at_s, y);
   std::vector<int> free;
   for (int i = 0; i < n; ++i)
@@ -245,11 +261,11 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
 TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
-  if (c.solver.method != Method::kExact)
+  if (c.solver.method == Method::kNewmark)
     throw InputError(with_origins(
-        c, fmt::format("solver.method = \"{}\": a gear train runs with the exact engine "
-                       "(\"exact\")",
-                       to_string(c.solver.method))));
+        c,
+        "solver.method = \"newmark\": a gear train runs with the exact engine (\"exact\") "
+        "or Dormand-Prince with located events (\"dopri5\")"));
   const train::Assembled a = assembled_train(c);
   TrainRunResult result;
   result.input = c;
@@ -275,7 +291,7 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   const double t0 = 0, t1 = c.solver.duration_s;
   const double interval = checked_output_interval_s(c, fastest_period_s(a), "train");
 
-  Eigen::VectorXd y0 = Eigen::VectorXd::Zero(2 * a.size());
+  Eigen::VectorXd y0 = Eigen::VectorXd::Zero(2 * static_cast<Eigen::Index>(a.size()));
   if (c.solver.initial == InitialCondition::kStatic) {
     if (!rest)
       throw InputError(with_origins(c, "solver.initial = \"static\": " + result.static_note));
@@ -283,20 +299,31 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   }
   a.prescribe(t0, y0);
 
-  ode::EngineOptions eo;
-  eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
-  std::unique_ptr<ode::ExactEngine> engine;
-  try {
-    engine = std::make_unique<ode::ExactEngine>(a.linear_system(), eo);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(std::string("the train's exact engine: ") + e.what());
-  }
   const int region = a.classify(t0, y0);
   const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
-  TrainObserver observer(a, engine->system(), result, t0, t1, final_from, region, options.progress);
-  const ode::FlowResult flow =
-      engine->flow(t0, y0, region, t1, ode::make_output_grid(t0, t1, interval), observer);
-  observer.finish();
+  const ode::OutputGrid grid = ode::make_output_grid(t0, t1, interval);
+  ode::FlowResult flow;
+  if (c.solver.method == Method::kDopri5) {
+    const ode::LinearSwitchedSystem sys = a.linear_system();
+    TrainObserver observer(a, sys, result, t0, t1, final_from, region, options.progress);
+    ode::AdaptiveOptions ao;
+    ao.tolerance = c.solver.tolerance;
+    flow = ode::adaptive_flow(sys, t0, y0, region, t1, grid, observer, ao);
+    observer.finish();
+  } else {
+    ode::EngineOptions eo;
+    eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
+    std::unique_ptr<ode::ExactEngine> engine;
+    try {
+      engine = std::make_unique<ode::ExactEngine>(a.linear_system(), eo);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("the train's exact engine: ") + e.what());
+    }
+    TrainObserver observer(a, engine->system(), result, t0, t1, final_from, region,
+                           options.progress);
+    flow = engine->flow(t0, y0, region, t1, grid, observer);
+    observer.finish();
+  }
   result.termination = flow.termination;
   result.message = flow.message;
   result.cells = flow.cells;

@@ -178,6 +178,74 @@ TEST(TrainCase, RattleStartsWhereTheDragCanNoLongerHoldTheLooseGear) {
   }
 }
 
+// The largest difference of (d - e) / b over every mesh and sample of two runs of one case.
+double largest_difference(const TrainRunResult& a, const TrainRunResult& b) {
+  EXPECT_EQ(a.samples.t_s.size(), b.samples.t_s.size());
+  double worst = 0;
+  for (std::size_t i = 0; i < std::min(a.samples.t_s.size(), b.samples.t_s.size()); ++i)
+    for (std::size_t m = 0; m < a.meshes.size(); ++m)
+      worst = std::max(worst,
+                       std::abs(a.samples.deflection_bar[i][m] - b.samples.deflection_bar[i][m]));
+  return worst;
+}
+
+TEST(TrainCase, TheAdaptiveIntegratorAgreesWithTheExactEngineThroughTheImpacts) {
+  // Two independent integrators of one train (adaptive.hpp against engine.hpp): the loose gear
+  // through its first impacts, and the reducer in permanent contact with both stages' stiffness
+  // and transmission error varying. The rattle is sensitive to its state (a difference grows
+  // tenfold in about 20 ms), so the window is the first 60 ms.
+  Case loose =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml");
+  set_case_value(loose, {"solver.duration_s", "0.06"});
+  set_case_value(loose, {"solver.output_interval_s", "1e-4"});
+  set_case_value(loose, {"solver.tolerance", "1e-11"});
+  const TrainRunResult exact = run_train(loose);
+  set_case_value(loose, {"solver.method", "dopri5"});
+  const TrainRunResult adaptive = run_train(loose);
+  ASSERT_TRUE(exact.ok() && adaptive.ok()) << exact.message << adaptive.message;
+  ASSERT_GE(exact.meshes[0].impacts, 10);
+  EXPECT_EQ(adaptive.meshes[0].impacts, exact.meshes[0].impacts);
+  EXPECT_EQ(adaptive.meshes[0].backside_impacts, exact.meshes[0].backside_impacts);
+  EXPECT_LT(largest_difference(exact, adaptive), 1e-6);
+  // The extremes of the adaptive run are read at its step ends, events and samples: below the
+  // exact ones, and close.
+  EXPECT_LE(adaptive.meshes[0].max_force_n, exact.meshes[0].max_force_n * (1 + 1e-9));
+  EXPECT_GT(adaptive.meshes[0].max_force_n, 0.99 * exact.meshes[0].max_force_n);
+
+  Case reducer =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml");
+  set_case_value(reducer, {"solver.duration_s", "0.02"});
+  set_case_value(reducer, {"solver.output_interval_s", "1e-5"});
+  set_case_value(reducer, {"solver.tolerance", "1e-10"});
+  set_case_value(reducer, {"solver.method", "exact"});
+  const TrainRunResult contact_exact = run_train(reducer);
+  set_case_value(reducer, {"solver.method", "dopri5"});
+  const TrainRunResult contact_adaptive = run_train(reducer);
+  ASSERT_TRUE(contact_exact.ok() && contact_adaptive.ok());
+  EXPECT_LT(largest_difference(contact_exact, contact_adaptive), 1e-8);
+  // Newmark is the one-degree model's: a train refuses it, naming the methods it takes.
+  set_case_value(reducer, {"solver.method", "newmark"});
+  try {
+    (void)run_train(reducer);
+    ADD_FAILURE() << "newmark was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("\"dopri5\""), std::string::npos) << e.what();
+  }
+}
+
+TEST(TrainCase, AnAdaptiveRunCanBeCancelledAndKeepsWhatItDid) {
+  Case c =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml");
+  set_case_value(c, {"solver.method", "dopri5"});
+  TrainRunOptions o;
+  o.progress = [](double fraction) { return fraction < 0.3; };
+  const TrainRunResult r = run_train(c, o);
+  EXPECT_EQ(r.termination, ode::Termination::kCancelled);
+  ASSERT_FALSE(r.samples.t_s.empty());
+  EXPECT_GT(r.samples.t_s.back(), 0.3 * c.solver.duration_s);
+  EXPECT_LT(r.samples.t_s.back(), 0.6 * c.solver.duration_s);
+}
+
 TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {
   // case.toml of a run holds the train as given: read again, it writes the same text.
   for (const char* file :

@@ -357,7 +357,8 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
         fmt_optional(m.dynamic_factor, ""), fmt_optional(m.dynamic_factor_with_startup, ""));
   }
   if (!r.static_note.empty()) fmt::print("  no static state:  {}\n", r.static_note);
-  fmt::print("  cells             {} ({} events located), {:.3g} s wall\n", r.cells, r.events,
+  fmt::print("  {:<17} {} ({} events located), {:.3g} s wall\n",
+             c.solver.method == geardyn::Method::kDopri5 ? "steps" : "cells", r.cells, r.events,
              r.wall_time_s);
   if (!out_dir.empty()) {
     const std::vector<std::string> unused = geardyn::unused_settings(c);
