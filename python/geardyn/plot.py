@@ -1,5 +1,5 @@
-"""Figures for notebooks, with matplotlib: a run (one-degree or coupled), a frequency response,
-a branch of orbits."""
+"""Figures for notebooks, with matplotlib: a run (one-degree, coupled or a gear train), a
+frequency response, a branch of orbits."""
 import numpy as np
 
 
@@ -8,11 +8,11 @@ def run(r, ax=None, title=None):
 
     Separation and back-side contact are shaded where they occur (and in the legend only
     then); the backlash band -1 <= delta / b <= 1 is drawn in a neutral grey. A coupled run
-    (`CoupledRunResult`) is drawn by `coupled_run`.
+    (`CoupledRunResult`) is drawn by `coupled_run`, a train's (`TrainRunResult`) by `train_run`.
 
     Parameters
     ----------
-    r : RunResult or CoupledRunResult
+    r : RunResult, CoupledRunResult or TrainRunResult
     ax : pair of matplotlib Axes, optional
         Drawn into; new ones when None.
     title : str, optional
@@ -23,6 +23,8 @@ def run(r, ax=None, title=None):
     """
     import matplotlib.pyplot as plt
 
+    if hasattr(r, "meshes"):
+        return train_run(r, title=title)
     if not hasattr(r, "delta_bar"):
         return coupled_run(r, title=title)
 
@@ -119,6 +121,50 @@ def coupled_run(r, title=None):
         a.legend(loc="upper right", fontsize=8)
     ax[-1].set_xlabel("t (ms)")
     ax[0].set_title(title or f"coupled, dof {r.summary['dof']}: mesh {r.summary['mesh']['regime']}")
+    fig.tight_layout()
+    return fig
+
+
+def train_run(r, title=None):
+    """A gear train's run, one panel per mesh, as `geardyn run --plot` draws it: the mesh's
+    (d - e) / b (separation shaded where it occurs, the contact edges dashed) and its force in
+    N on a second axis.
+
+    Parameters
+    ----------
+    r : TrainRunResult
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    t_ms = r.t * 1e3
+    fig, ax = plt.subplots(len(r.meshes), 1, sharex=True, figsize=(9, 2.4 * len(r.meshes)),
+                           squeeze=False)
+    for m, (name, reading) in enumerate(zip(r.meshes, r.summary["meshes"])):
+        a = ax[m][0]
+        separated = r.contact[:, m] == 0
+        if separated.any():
+            a.fill_between(t_ms, 0, 1, where=separated, transform=a.get_xaxis_transform(),
+                           color="#f4a6a6", alpha=0.6, linewidth=0, label="separated")
+        a.plot(t_ms, r.deflection_bar[:, m], color="#1f4e9c", linewidth=0.9, label="(d - e) / b")
+        a.axhline(1, color="gray", linestyle="--", linewidth=0.8)
+        if separated.any() or reading["double_sided"]:
+            a.axhline(-1, color="gray", linestyle="--", linewidth=0.8)
+        a.set_ylabel("(d - e) / b")
+        f = a.twinx()
+        f.plot(t_ms, r.force[:, m], color="gray", linewidth=0.7, label="force (N)")
+        f.set_ylabel("force (N)")
+        a.set_title(f"mesh {name} ({reading['mesh_frequency_hz']:.6g} Hz): {reading['regime']}, "
+                    f"{reading['impacts']} impacts", fontsize=9)
+        a.grid(color="#dddddd")
+        a.legend(loc="upper left", fontsize=8)
+    ax[-1][0].set_xlabel("t (ms)")
+    if title:
+        fig.suptitle(title)
     fig.tight_layout()
     return fig
 

@@ -66,10 +66,6 @@ void bind_train(py::module_& m) {
         return train_modes_json(a, train::modes(a), -1);
       },
       py::arg("case"));
-  m.def(
-      "_parse_case",
-      [](const std::string& text, const std::string& source) { return parse_case(text, source); },
-      py::arg("text"), py::arg("source"));
 }
 
 }  // namespace geardyn::python

@@ -631,6 +631,9 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert ds["force"].dims == ("t", "mesh") and list(ds["mesh"].values) == ["in", "out"]
     assert float(ds["force"].sel(mesh="out").max()) <= summary["meshes"][1]["max_force_n"]
     assert float(ds["dynamic_factor"].sel(mesh="in")) == summary["meshes"][0]["dynamic_factor"]
+    fig = geardyn.plot.run(r)  # a panel per mesh
+    assert [a.get_title().split(" (")[0] for a in fig.axes if a.get_title()] == ["mesh in",
+                                                                                 "mesh out"]
 
     gear = {"normal_module_mm": 2, "face_width_mm": 20}
     mesh = {"backlash_um": 40, "mean_stiffness_n_per_m": 4e8, "damping_ratio": 0.03}
