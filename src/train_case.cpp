@@ -246,18 +246,18 @@ class ElementReader {
   // Arrays of harmonics: [[a, phase], ...] or [[a, order, phase], ...].
   template <class E, class H>
   void set(const toml::node& n, const ElementKey<E>& key, std::vector<H>& out) const {
-    constexpr std::size_t width = std::is_same_v<H, OrderHarmonic> ? 3 : 2;
+    constexpr std::size_t kWidth = std::is_same_v<H, OrderHarmonic> ? 3 : 2;
     const toml::array* a = n.as_array();
     if (!a || a->size() > static_cast<std::size_t>(kMaxErrorHarmonics)) fail(n, key);
     out.clear();
     for (const toml::node& term : *a) {
       const toml::array* t = term.as_array();
-      if (!t || t->size() != width) fail(n, key);
+      if (!t || t->size() != kWidth) fail(n, key);
       for (const toml::node& x : *t)
         if (!x.is_number() || !std::isfinite(*x.value<double>())) fail(n, key);
       const double v0 = *(*t)[0].value<double>();
       if (!key.range.contains(v0)) fail(n, key);
-      if constexpr (width == 3) {
+      if constexpr (kWidth == 3) {
         const double order = *(*t)[1].value<double>();
         if (!(order > 0)) fail(n, key);
         out.push_back({v0, order, *(*t)[2].value<double>()});
