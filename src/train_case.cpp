@@ -72,7 +72,7 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
 const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
   using M = TrainMeshData;
   static const std::vector<ElementKey<M>> keys = {
-      {"name", &M::name, "", {}, false, "the mesh's name in outputs (default mesh1, mesh2, ...)"},
+      {"name", &M::name, "", {}, false, "the mesh's name in outputs"},
       {"driving", &M::driving, "", {}, true, "the gear whose drive flank pushes"},
       {"driven", &M::driven, "", {}, true, "the gear it drives"},
       {"backlash_um", &M::backlash_um, "um", above(1e-3), false,
@@ -93,7 +93,7 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
 const std::vector<ElementKey<TrainShaftData>>& shaft_keys() {
   using S = TrainShaftData;
   static const std::vector<ElementKey<S>> keys = {
-      {"name", &S::name, "", {}, false, "the shaft's name (default shaft1, ...)"},
+      {"name", &S::name, "", {}, false, "the shaft's name"},
       {"from", &S::from, "", {}, true, "one body it joins"},
       {"to", &S::to, "", {}, true, "the other"},
       {"stiffness_n_m_per_rad", &S::stiffness_n_m_per_rad, "N m/rad", above(0), true,
@@ -107,7 +107,7 @@ const std::vector<ElementKey<TrainShaftData>>& shaft_keys() {
 const std::vector<ElementKey<TrainTorqueData>>& torque_keys() {
   using T = TrainTorqueData;
   static const std::vector<ElementKey<T>> keys = {
-      {"name", &T::name, "", {}, false, "the torque's name (default torque1, ...)"},
+      {"name", &T::name, "", {}, false, "the torque's name"},
       {"body", &T::body, "", {}, true, "the body it acts on"},
       {"mean_nm",
        &T::mean_nm,
@@ -124,7 +124,7 @@ const std::vector<ElementKey<TrainTorqueData>>& torque_keys() {
 const std::vector<ElementKey<TrainDragData>>& drag_keys() {
   using D = TrainDragData;
   static const std::vector<ElementKey<D>> keys = {
-      {"name", &D::name, "", {}, false, "the drag's name (default drag1, ...)"},
+      {"name", &D::name, "", {}, false, "the drag's name"},
       {"body", &D::body, "", {}, true, "the body it acts on"},
       {"constant_nm", &D::constant_nm, "N m", at_least(0), false,
        "constant drag torque against the rotation"},
@@ -137,7 +137,7 @@ const std::vector<ElementKey<TrainDragData>>& drag_keys() {
 const std::vector<ElementKey<TrainSpeedData>>& speed_keys() {
   using V = TrainSpeedData;
   static const std::vector<ElementKey<V>> keys = {
-      {"name", &V::name, "", {}, false, "the prescription's name (default speed1, ...)"},
+      {"name", &V::name, "", {}, false, "the prescription's name"},
       {"body", &V::body, "", {}, true, "the body whose speed is prescribed"},
       {"acceleration_harmonics", &V::acceleration_harmonics, "rad/s^2", at_least(0), false,
        "[[amplitude, order, phase_deg], ...]: its angular acceleration about the nominal speed, "
@@ -510,10 +510,10 @@ train::Assembled assembled_train(const Case& c) {
 
 namespace {
 
+// Each key of an element kind, described for the docs, the listing and `geardyn keys --json`.
 template <class E>
-std::string markdown_table(std::string_view kind, const std::vector<ElementKey<E>>& keys) {
-  std::string out = fmt::format("\n## [[train.{}]]\n\n", kind);
-  out += "| key | unit | default | allowed | meaning |\n|---|---|---|---|---|\n";
+void describe(std::string_view kind, const std::vector<ElementKey<E>>& keys,
+              std::vector<TrainKeyInfo>& out) {
   const E defaults{};
   for (const ElementKey<E>& k : keys) {
     const std::string value = std::visit(
@@ -522,7 +522,7 @@ std::string markdown_table(std::string_view kind, const std::vector<ElementKey<E
           using T = std::remove_cvref_t<decltype(v)>;
           if (k.required) return "(required)";
           if constexpr (std::is_same_v<T, std::string>) {
-            return k.leaf == "name" ? "" : "\"\"";
+            return k.leaf == "name" ? fmt::format("{0}1, {0}2, ...", kind) : "\"\"";
           } else if constexpr (std::is_same_v<T, std::optional<double>>) {
             return "absent";
           } else if constexpr (std::is_arithmetic_v<T>) {
@@ -532,9 +532,9 @@ std::string markdown_table(std::string_view kind, const std::vector<ElementKey<E
           }
         },
         k.field);
-    out += fmt::format("| {} | {} | {} | {} | {} |\n", k.leaf, k.unit, value, allowed(k), k.doc);
+    out.push_back({std::string(kind), std::string(k.leaf), std::string(k.unit), value, allowed(k),
+                   std::string(k.doc)});
   }
-  return out;
 }
 
 // A value as TOML text.
@@ -579,44 +579,52 @@ std::string toml_tables(std::string_view kind, const std::vector<ElementKey<E>>&
   return out;
 }
 
-template <class E>
-std::string listing(std::string_view kind, const std::vector<ElementKey<E>>& keys) {
-  std::string out;
-  for (const ElementKey<E>& k : keys)
-    out += fmt::format("train.{}[].{}{}: {}; {}\n", kind, k.leaf,
-                       k.unit.empty() ? "" : fmt::format(" ({})", k.unit), allowed(k), k.doc);
-  return out;
-}
-
 }  // namespace
 
+const std::vector<TrainKeyInfo>& train_key_list() {
+  static const std::vector<TrainKeyInfo> list = [] {
+    std::vector<TrainKeyInfo> out = {
+        {"", "reference", "", "the first body", "a body's name in quotes",
+         "the body whose speed is given"},
+        {"", "reference_speed_hz", "Hz", "(required)", "a number > 0", "its rotation frequency"}};
+    describe("body", body_keys(), out);
+    describe("mesh", mesh_keys(), out);
+    describe("shaft", shaft_keys(), out);
+    describe("torque", torque_keys(), out);
+    describe("drag", drag_keys(), out);
+    describe("speed", speed_keys(), out);
+    return out;
+  }();
+  return list;
+}
+
+std::string TrainKeyInfo::dotted() const {
+  return kind.empty() ? fmt::format("train.{}", leaf) : fmt::format("train.{}[].{}", kind, leaf);
+}
+
 std::string train_keys_markdown() {
-  std::string out =
-      "\n## [train]\n\n"
-      "| key | unit | default | allowed | meaning |\n|---|---|---|---|---|\n"
-      "| reference | | the first body | a body's name in quotes | the body whose speed is "
-      "given |\n"
-      "| reference_speed_hz | Hz | (required) | a number > 0 | its rotation frequency |\n";
-  out += markdown_table("body", body_keys());
-  out += markdown_table("mesh", mesh_keys());
-  out += markdown_table("shaft", shaft_keys());
-  out += markdown_table("torque", torque_keys());
-  out += markdown_table("drag", drag_keys());
-  out += markdown_table("speed", speed_keys());
+  std::string out;
+  std::string kind = "?";
+  for (const TrainKeyInfo& k : train_key_list()) {
+    if (k.kind != kind) {
+      kind = k.kind;
+      out += kind.empty() ? std::string("\n## [train]\n\n")
+                          : fmt::format("\n## [[train.{}]]\n\n", kind);
+      out += "| key | unit | default | allowed | meaning |\n|---|---|---|---|---|\n";
+    }
+    out += fmt::format("| {} | {} | {} | {} | {} |\n", k.leaf, k.unit, k.default_text, k.allowed,
+                       k.meaning);
+  }
   return out;
 }
 
 std::string train_keys_listing() {
-  std::string out =
-      "train.reference: a body's name in quotes; the body whose speed is given (default: the "
-      "first body)\n"
-      "train.reference_speed_hz (Hz): a number > 0, required; its rotation frequency\n";
-  out += listing("body", body_keys());
-  out += listing("mesh", mesh_keys());
-  out += listing("shaft", shaft_keys());
-  out += listing("torque", torque_keys());
-  out += listing("drag", drag_keys());
-  out += listing("speed", speed_keys());
+  std::string out;
+  for (const TrainKeyInfo& k : train_key_list())
+    out +=
+        fmt::format("{}{}: {}; default {}; {}\n", k.dotted(),
+                    k.unit.empty() ? "" : fmt::format(" ({})", k.unit), k.allowed,
+                    k.default_text.empty() ? "the kind and its place" : k.default_text, k.meaning);
   return out;
 }
 

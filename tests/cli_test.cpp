@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -962,6 +963,15 @@ TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
   ASSERT_EQ(j["modes"].size(), 6U);                              // six bodies, none held
   EXPECT_LT(j["modes"][0]["frequency_hz"].get<double>(), 1e-6);  // the free rotation
   EXPECT_TRUE(j["modes"][5]["mesh_energy"].contains("stage1"));
+  // The elements' keys are listed with the sections' (the docs' tables: KeyTablesInTheDocs...).
+  const nlohmann::json keys = nlohmann::json::parse(cli("keys --json").out);
+  const auto backlash = std::find_if(keys.begin(), keys.end(), [](const nlohmann::json& k) {
+    return k["key"] == "train.mesh[].backlash_um";
+  });
+  ASSERT_NE(backlash, keys.end());
+  EXPECT_EQ((*backlash)["default"], "100");
+  EXPECT_NE(cli("keys").out.find("train.speed[].acceleration_harmonics (rad/s^2)"),
+            std::string::npos);
   const fs::path d = fresh("train_refused");
   const std::string out = " --out " + d.string();
   for (const std::string args :

@@ -501,7 +501,17 @@ int cmd_keys(bool markdown, bool json) {
                  k.allowed());
     }
   }
-  if (json) fmt::print("{}\n", all.dump(2));
+  if (json) {
+    for (const geardyn::TrainKeyInfo& k : geardyn::train_key_list())
+      all.push_back({{"key", k.dotted()},
+                     {"unit", k.unit},
+                     {"default", k.default_text},
+                     {"allowed", k.allowed},
+                     {"sweepable", false},
+                     {"changes_stiffness", false},
+                     {"meaning", k.meaning}});
+    fmt::print("{}\n", all.dump(2));
+  }
   if (!json)
     fmt::print("\nthe elements of a gear train (model.form = \"train\"):\n{}",
                geardyn::train_keys_listing());

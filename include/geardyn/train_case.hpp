@@ -113,8 +113,15 @@ train::Train train_of(const Case& c);
 // The same, assembled.
 train::Assembled assembled_train(const Case& c);
 
-// The key tables of the train's elements for docs/case-files.md, as case_keys_markdown writes
-// those of the sections; and one line per key for `geardyn keys`.
+// Every key of [train] and of its elements, described from the tables the reader uses: for
+// the key tables of docs/case-files.md (as case_keys_markdown writes those of the sections),
+// `geardyn keys` and `geardyn keys --json`.
+struct TrainKeyInfo {
+  std::string kind;  // "body", "mesh", ...; "" for a key of [train] itself
+  std::string leaf, unit, default_text, allowed, meaning;
+  std::string dotted() const;  // "train.mesh[].backlash_um", "train.reference_speed_hz"
+};
+const std::vector<TrainKeyInfo>& train_key_list();
 std::string train_keys_markdown();
 std::string train_keys_listing();
 
