@@ -18,7 +18,8 @@
 namespace geardyn {
 
 // One mesh of a train run: its contact history (impacts, separations, regime), its extremes
-// over the whole window (exact: the engine's polynomial on every cell) and its dynamic factors.
+// over the whole window (with the exact engine exact, on the engine's polynomial in every cell;
+// with dopri5 at step ends, events and samples) and its dynamic factors.
 struct TrainMeshReading : ContactReading {
   std::string name;
   double mesh_frequency_hz = 0;
@@ -76,11 +77,12 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
 // Each mesh's force k_m (V theta - b) in such a state.
 std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen::VectorXd& y);
 
-// Runs a train case over [0, solver.duration_s] with the exact engine from solver.initial
+// Runs a train case over [0, solver.duration_s] with the exact engine (solver.method = "exact")
+// or the adaptive integrator of adaptive.hpp ("dopri5", at solver.tolerance) from solver.initial
 // ("center": at rest, every mesh in the middle of its backlash, the prescribed bodies as
-// prescribed; "static": the static state). Throws InputError for a case that is no train, a
-// method other than "exact", a static start without a static state, or a window past the work
-// bounds of run.hpp; a numerical failure is reported in the result.
+// prescribed; "static": the static state). Throws InputError for a case that is no train,
+// "newmark", a static start without a static state, or a window past the work bounds of run.hpp;
+// a numerical failure is reported in the result.
 TrainRunResult run_train(const Case& c, const TrainRunOptions& options = {});
 
 // summary.json of a train run (docs/outputs.md): the run, then one object per mesh.
