@@ -976,7 +976,6 @@ TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
   const std::string out = " --out " + d.string();
   for (const std::string args :
        {"sweep " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8 --points 2" + out,
-        "orbit " + reducer,
         "stability " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8 --points 2" + out,
         "continue " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8" + out,
         "reproduce park2010 --case " + reducer + out, "stiffness " + reducer + out}) {
@@ -999,6 +998,30 @@ TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
       << bad.err;
   EXPECT_FALSE(fs::exists(d / "out"));
   fs::remove_all(d);
+}
+
+TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
+  // `geardyn orbit` of a train with a prescribed speed: its JSON as every orbit's, with the
+  // meshes' impacts per period; a train that turns freely is refused, saying why.
+  const std::string loose = std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml";
+  const Outcome o = cli("orbit " + loose +
+                        " --set 'train.speed[0].acceleration_harmonics=[[290, 2, 0]]' "
+                        "--segments 4 --settle-periods 200 --json");
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(o.out);
+  EXPECT_EQ(j["model"], "train");
+  EXPECT_TRUE(j["converged"].get<bool>());
+  EXPECT_EQ(j["coordinates"], (nlohmann::json{"loose_rad", "loose_rad_s"}));
+  EXPECT_GE(j["meshes"][0]["impacts_per_period"].get<int>(), 2);
+  EXPECT_FALSE(j["stable"].get<bool>());
+  const Outcome text = cli("orbit " + loose +
+                           " --set 'train.speed[0].acceleration_harmonics=[[290, 2, 0]]' "
+                           "--segments 4 --settle-periods 200");
+  EXPECT_NE(text.out.find("mesh rattle"), std::string::npos) << text.out;
+  const Outcome free =
+      cli("orbit " + std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml");
+  EXPECT_EQ(free.code, 2) << free.err;
+  EXPECT_NE(free.err.find("turns freely"), std::string::npos) << free.err;
 }
 
 TEST(Cli, TheLooseGearRattles) {

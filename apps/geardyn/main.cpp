@@ -36,6 +36,7 @@
 #include "geardyn/stiffness.hpp"
 #include "geardyn/sweep.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_orbit.hpp"
 #include "geardyn/train_run.hpp"
 
 namespace {
@@ -146,13 +147,14 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 
 // The case a model command works on; every setting it gives that the model does not use is
 // said (case_keys.hpp, unused_settings), never dropped silently.
-// A gear train (model.form = "train") is taken by `run` and `modes` so far; every other
-// command says so.
+// A gear train (model.form = "train") is taken by `run`, `modes` and `orbit` so far; every
+// other command says so.
 void check_command_takes(const geardyn::Case& c, std::string_view command) {
-  if (c.model.form == geardyn::ModelForm::kTrain && command != "run" && command != "modes")
+  if (c.model.form == geardyn::ModelForm::kTrain && command != "run" && command != "modes" &&
+      command != "orbit")
     throw geardyn::InputError(geardyn::with_origins(
         c, fmt::format("model.form = \"train\": `geardyn {}` does not take gear trains yet; "
-                       "`geardyn run` and `geardyn modes` do",
+                       "`geardyn run`, `geardyn modes` and `geardyn orbit` do",
                        command)));
 }
 
@@ -733,10 +735,49 @@ int cmd_coupled_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
   return 0;
 }
 
+// A gear train's orbit (train_orbit.hpp): its period, Newton, multipliers and each mesh's
+// impacts per period.
+int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
+                    const std::vector<double>& state, bool json) {
+  if (!state.empty())
+    throw geardyn::InputError(
+        "--state: a gear train's orbit starts from its settled run (a section state is not "
+        "taken yet)");
+  const geardyn::TrainOrbit r = geardyn::find_train_orbit(c, o);
+  if (json) {
+    fmt::print("{}\n", geardyn::train_orbit_json(r));
+    return r.converged ? 0 : kExitNumerical;
+  }
+  fmt::print("geardyn orbit: {} (train){}\n", c.name,
+             c.description.empty() ? "" : " - " + c.description);
+  if (!r.converged) {
+    fmt::print(stderr, "geardyn: the orbit was not found: {}\n", r.message);
+    return kExitNumerical;
+  }
+  fmt::print(
+      "  period            {:.9g} s = {} x the system period {:.9g} s ({} shooting segment{})\n",
+      r.period_s, r.periods, r.system_period_s, r.segments, r.segments == 1 ? "" : "s");
+  fmt::print("  Newton            {}\n", r.message);
+  fmt::print(
+      "  unknowns          {} (the free bodies' rotations and rates; --json prints the "
+      "state)\n",
+      r.coordinates.size());
+  fmt::print("  multipliers       {}, the largest:\n", r.multipliers.size());
+  for (std::size_t k = 0; k < std::min<std::size_t>(r.multipliers.size(), 4); ++k)
+    fmt::print("                    {:.9g}{:+.9g}i (|mu| {:.9g})\n", r.multipliers[k].real(),
+               r.multipliers[k].imag(), std::abs(r.multipliers[k]));
+  fmt::print("  stable            {}\n", r.stable ? "yes" : "no");
+  for (std::size_t m = 0; m < r.meshes.size(); ++m)
+    fmt::print("  mesh {:<12} {} impacts/period ({} back side)\n", r.meshes[m],
+               r.impacts_per_period[m], r.backside_impacts_per_period[m]);
+  return 0;
+}
+
 int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets,
               const geardyn::OrbitOptions& o, const std::vector<double>& state, bool json) {
   const geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "orbit");
   if (c.model.form == geardyn::ModelForm::kCoupled) return cmd_coupled_orbit(c, o, state, json);
+  if (c.model.form == geardyn::ModelForm::kTrain) return cmd_train_orbit(c, o, state, json);
   std::optional<geardyn::ode::State> start;
   if (!state.empty()) {
     if (state.size() != 2)

@@ -1,0 +1,42 @@
+// geardyn: periodic orbits of a gear train (train_case.hpp) and their Floquet multipliers, by
+// the multiple shooting of orbit.hpp on the train's exact engine, with the exact Jacobian
+// (saltation at every impact of every mesh).
+//
+// The unknowns are the coordinates and rates of the bodies whose speed is not prescribed: a
+// prescribed body follows its prescription whatever the train does, so its state at the
+// section is the prescription's and no unknown (its own multipliers would be 1 and 1). A train
+// with no prescribed body turns freely: its orbits come in a family along the free rotation
+// (a multiplier 1 that no damping moves), which this does not take yet; it says so.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "geardyn/case.hpp"
+#include "geardyn/orbit.hpp"
+
+namespace geardyn {
+
+struct TrainOrbit : PeriodicSolution {
+  std::vector<std::string> coordinates;  // the unknowns: each free body's theta, then its rate
+  Eigen::VectorXd state;                 // every body's (theta, theta') at the section t = 0
+  std::vector<std::string> meshes;       // the meshes' names
+  std::vector<std::int64_t> impacts_per_period, backside_impacts_per_period;  // per mesh
+};
+
+// The orbit of N system periods (options.periods) of a train case: from a first guess settled
+// over options.settle_periods system periods from solver.initial, Newton's method on M
+// segments (options.segments; 0: N) to options.tolerance on the scaled residual (each
+// coordinate by the backlash over the base radius of its body's first mesh, each rate by that
+// times the train's highest natural frequency in contact). Throws InputError for a case that is
+// no train, a train without a prescribed speed, a train whose excitations have no common
+// period (quasi-periodic: there is no orbit to find) or none at all, bad options; a Newton
+// that does not converge is reported in the result.
+TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options);
+
+// `geardyn orbit --json` of a train: the keys every orbit has (orbit.hpp's periodic JSON),
+// "model": "train", the coordinates, the section state and per mesh its impacts per period.
+std::string train_orbit_json(const TrainOrbit& o, int indent = 2);
+
+}  // namespace geardyn
