@@ -193,7 +193,7 @@ TEST(TrainCase, TheAdaptiveIntegratorAgreesWithTheExactEngineThroughTheImpacts) 
   // Two independent integrators of one train (adaptive.hpp against engine.hpp): the loose gear
   // through its first impacts, and the reducer in permanent contact with both stages' stiffness
   // and transmission error varying. The rattle is sensitive to its state (a difference grows
-  // tenfold in about 20 ms), so the window is the first 60 ms.
+  // four to ten times in each 20 ms), so the window is the first 60 ms.
   Case loose =
       load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml");
   set_case_value(loose, {"solver.duration_s", "0.06"});
