@@ -325,6 +325,8 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
                                    origin_of(overrides, "train.reference", r->source(), source),
                                    node_text(*r)));
     t.reference = *r->value<std::string>();
+    t.origins["the train: reference"] =
+        origin_of(overrides, "train.reference", r->source(), source);
   }
   const toml::node* f = train->get("reference_speed_hz");
   if (!f)
@@ -353,9 +355,16 @@ namespace {
 // The message of the assembler (which names the element first: "mesh 'stage2': ...") with
 // where that element was written.
 [[noreturn]] void rethrow_with_origin(const TrainCase& t, const std::string& message) {
-  std::string where_given;
+  // The longest label the message starts with: "the train: reference" (where the reference was
+  // given) before "the train" (the [train] table).
+  std::string where_given, matched;
   for (const auto& [label, origin] : t.origins)
-    if (message.rfind(label + ":", 0) == 0) where_given = origin;
+    if (message.rfind(label, 0) == 0 && label.size() > matched.size() &&
+        (message.size() == label.size() || message[label.size()] == ':' ||
+         message[label.size()] == ' ')) {
+      where_given = origin;
+      matched = label;
+    }
   throw InputError(where_given.empty() ? fmt::format("train: {}", message)
                                        : fmt::format("{}: train: {}", where_given, message));
 }

@@ -347,6 +347,17 @@ oil = 0.1
     for (const std::string& piece : row.pieces)
       EXPECT_NE(message.find(piece), std::string::npos) << piece << " in: " << message;
   }
+  // A reference to no body is named where it was given.
+  try {
+    (void)assembled_train(parse_case(head + mesh, "t.toml", {{"train.reference", "\"nobody\""}}));
+    ADD_FAILURE() << "a reference to no body was taken";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--set train.reference=\"nobody\": train: the train: "
+                                          "reference = \"nobody\": no body of that name",
+                                          0),
+              0U)
+        << e.what();
+  }
   // A --set of an element's key is named as given.
   try {
     (void)parse_case(head + mesh, "t.toml", {{"train.mesh[0].backlash_um", "-1"}});

@@ -101,7 +101,8 @@ struct TrainCase {
   std::vector<TrainDragData> drags;
   std::vector<TrainSpeedData> speeds;
   // Where each element was written, "file:line:column" of its table (or the --set), by its
-  // label "mesh 'stage1'": the assembler's messages name the element, the reader adds where.
+  // label "mesh 'stage1'" ("the train" for [train], "the train: reference" for its reference
+  // key): the assembler's messages name the element, the reader adds where.
   std::map<std::string, std::string> origins;
 };
 
