@@ -285,12 +285,8 @@ auto run_with_progress(const geardyn::Case& c, const std::string& out_dir, const
 // case.toml into out_dir.
 int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plot) {
   bool interrupted = false;
-  const geardyn::CoupledRunResult r = run_with_progress<geardyn::CoupledRunOptions>(
-      c, out_dir,
-      [](const geardyn::Case& x, const geardyn::CoupledRunOptions& o) {
-        return geardyn::run_coupled(x, o);
-      },
-      interrupted);
+  const geardyn::CoupledRunResult r =
+      run_with_progress<geardyn::CoupledRunOptions>(c, out_dir, geardyn::run_coupled, interrupted);
   if (!r.ok() && !interrupted) return kExitNumerical;
   const geardyn::CoupledParameters& p = r.parameters;
   fmt::print("geardyn run: {} (coupled, dof {}: {} coordinates)\n", c.name, p.dof, p.size());
@@ -333,12 +329,8 @@ int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plo
 // A run of a gear train: each mesh read as the one-degree run reads its mesh.
 int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot) {
   bool interrupted = false;
-  const geardyn::TrainRunResult r = run_with_progress<geardyn::TrainRunOptions>(
-      c, out_dir,
-      [](const geardyn::Case& x, const geardyn::TrainRunOptions& o) {
-        return geardyn::run_train(x, o);
-      },
-      interrupted);
+  const geardyn::TrainRunResult r =
+      run_with_progress<geardyn::TrainRunOptions>(c, out_dir, geardyn::run_train, interrupted);
   if (!r.ok() && !interrupted) return kExitNumerical;
   fmt::print("geardyn run: {} (train: {} bodies, {} meshes)\n", c.name, r.bodies.size(),
              r.meshes.size());

@@ -50,13 +50,10 @@ void bind_coupled(py::module_& m) {
   m.def(
       "_run_coupled",
       [](const Case& c, const py::object& progress) {
-        Hook hook(progress);
-        CoupledRunOptions o;
-        o.progress = [&hook](double fraction) { return hook(fraction); };
-        CoupledRunResult r;
-        run_interruptible(hook, [&] { r = run_coupled(c, o); });
-        py::tuple out = coupled_result(r);
-        return py::make_tuple(out[0], out[1], hook.interrupted());
+        return run_from_python<CoupledRunOptions>(
+            c, progress,
+            [](const Case& x, const CoupledRunOptions& o) { return run_coupled(x, o); },
+            coupled_result);
       },
       py::arg("case"), py::arg("progress") = py::none());
   m.def(

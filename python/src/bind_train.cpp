@@ -50,13 +50,9 @@ void bind_train(py::module_& m) {
   m.def(
       "_run_train",
       [](const Case& c, const py::object& progress) {
-        Hook hook(progress);
-        TrainRunOptions o;
-        o.progress = [&hook](double fraction) { return hook(fraction); };
-        TrainRunResult r;
-        run_interruptible(hook, [&] { r = run_train(c, o); });
-        py::tuple out = train_result(r);
-        return py::make_tuple(out[0], out[1], hook.interrupted());
+        return run_from_python<TrainRunOptions>(
+            c, progress, [](const Case& x, const TrainRunOptions& o) { return run_train(x, o); },
+            train_result);
       },
       py::arg("case"), py::arg("progress") = py::none());
   m.def(

@@ -95,6 +95,21 @@ void run_interruptible(Hook& hook, F&& work) {
   hook.rethrow();
 }
 
+// A run whose options carry a progress callback (the coupled model's, a train's) from Python:
+// run(c, options) without the GIL as run_interruptible does, then read(result) gives its
+// (summary.json text, arrays); returns (text, arrays, whether Ctrl-C interrupted it).
+template <class Options, class CaseT, class Run, class Read>
+pybind11::tuple run_from_python(const CaseT& c, const pybind11::object& progress, const Run& run,
+                                const Read& read) {
+  Hook hook(progress);
+  Options o;
+  o.progress = [&hook](double fraction) { return hook(fraction); };
+  decltype(run(c, o)) r;
+  run_interruptible(hook, [&] { r = run(c, o); });
+  const pybind11::tuple out = read(r);
+  return pybind11::make_tuple(out[0], out[1], hook.interrupted());
+}
+
 void bind_case(pybind11::module_& m);
 void bind_geometry(pybind11::module_& m);
 void bind_stiffness(pybind11::module_& m);
