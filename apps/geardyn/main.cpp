@@ -683,6 +683,16 @@ const char* contact_name(int region) {
   }
 }
 
+// An orbit's Floquet multipliers (the four largest) and whether it is stable, as `geardyn orbit`
+// prints them for the coupled model and for a train.
+void print_multipliers(const geardyn::PeriodicSolution& r) {
+  fmt::print("  multipliers       {}, the largest:\n", r.multipliers.size());
+  for (std::size_t k = 0; k < std::min<std::size_t>(r.multipliers.size(), 4); ++k)
+    fmt::print("                    {:.9g}{:+.9g}i (|mu| {:.9g})\n", r.multipliers[k].real(),
+               r.multipliers[k].imag(), std::abs(r.multipliers[k]));
+  fmt::print("  stable            {}\n", r.stable ? "yes" : "no");
+}
+
 // The coupled model's orbit: its state per coordinate, multipliers and readings.
 int cmd_coupled_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
                       const std::vector<double>& state, bool json) {
@@ -709,11 +719,7 @@ int cmd_coupled_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
   fmt::print("  Newton            {}\n", r.message);
   fmt::print("  section state     {} coordinates and their rates (--json prints them)\n",
              r.coordinates.size());
-  fmt::print("  multipliers       {}, the largest:\n", r.multipliers.size());
-  for (std::size_t k = 0; k < std::min<std::size_t>(r.multipliers.size(), 4); ++k)
-    fmt::print("                    {:.9g}{:+.9g}i (|mu| {:.9g})\n", r.multipliers[k].real(),
-               r.multipliers[k].imag(), std::abs(r.multipliers[k]));
-  fmt::print("  stable            {}\n", r.stable ? "yes" : "no");
+  print_multipliers(r);
   fmt::print("  mesh              {} impacts/period ({} back side), separations {}\n",
              m.mesh.impacts, m.mesh.backside_impacts, m.mesh.separations);
   fmt::print("  (d - e)/b         min {:.9g}  max {:.9g}\n", m.min_deflection_m / b,
@@ -754,11 +760,7 @@ int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
       "  unknowns          {} (the free bodies' rotations and rates; --json prints the "
       "state)\n",
       r.coordinates.size());
-  fmt::print("  multipliers       {}, the largest:\n", r.multipliers.size());
-  for (std::size_t k = 0; k < std::min<std::size_t>(r.multipliers.size(), 4); ++k)
-    fmt::print("                    {:.9g}{:+.9g}i (|mu| {:.9g})\n", r.multipliers[k].real(),
-               r.multipliers[k].imag(), std::abs(r.multipliers[k]));
-  fmt::print("  stable            {}\n", r.stable ? "yes" : "no");
+  print_multipliers(r);
   for (std::size_t m = 0; m < r.meshes.size(); ++m)
     fmt::print("  mesh {:<12} {} impacts/period ({} back side)\n", r.meshes[m],
                r.impacts_per_period[m], r.backside_impacts_per_period[m]);
