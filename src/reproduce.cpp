@@ -390,29 +390,6 @@ std::string figure_file(const std::string& figure) {
   return f;  // "Fig. 4" -> "fig4"
 }
 
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '&':
-        out += "&amp;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 // Sentences on the cases whose regime differs between the window and the long window.
 std::vector<std::string> window_notes(const StudyResult& r) {
   std::vector<std::string> notes;

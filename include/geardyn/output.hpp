@@ -18,6 +18,9 @@
 
 namespace geardyn {
 
+// `s` escaped for HTML text and attribute values (&, <, >, ").
+std::string html_escape(const std::string& s);
+
 // The derived geometry in case-file units (mm, deg), as `geardyn geometry --json` prints it.
 std::string geometry_json(const Geometry& g);
 
