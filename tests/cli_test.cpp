@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 namespace {
@@ -1036,6 +1037,108 @@ TEST(Cli, TheLooseGearRattles) {
   // 0.4 s at 25 Hz: ten periods; at least one impact in each.
   EXPECT_GE(j["impacts"].get<int>(), 10) << j;
   fs::remove_all(d);
+}
+
+// ---- geardyn validate (docs/validation.md) ----------------------------------------------
+
+std::set<std::string> failing_checks(const nlohmann::json& j) {
+  std::set<std::string> out;
+  for (const auto& row : j["rows"])
+    if (!row["passed"].get<bool>()) out.insert(row["check"].get<std::string>());
+  return out;
+}
+
+TEST(Validate, EveryCheckPassesAndItsReportsAreWrittenBesideTheUsersFiles) {
+  // The whole set, as a user runs it: a failing row fails this test (and so CI).
+  const fs::path d = fresh("validate");
+  fs::create_directories(d);
+  std::ofstream(d / "notes.txt") << "mine";
+  const Outcome o = cli("validate --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.out << o.err;
+  EXPECT_NE(o.out.find("0 failed"), std::string::npos) << o.out;
+  EXPECT_EQ(slurp(d / "notes.txt"), "mine");
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "validation.json"));
+  EXPECT_TRUE(j["passed"].get<bool>());
+  EXPECT_FALSE(j["quick"].get<bool>());
+  EXPECT_TRUE(failing_checks(j).empty());
+  // Every check ran and gave rows; every row names its source and has a finite error.
+  std::set<std::string> with_rows;
+  for (const auto& row : j["rows"]) {
+    with_rows.insert(row["check"].get<std::string>());
+    EXPECT_FALSE(row["source"].get<std::string>().empty()) << row["quantity"];
+    EXPECT_TRUE(row["error"].is_number()) << row["quantity"];
+  }
+  const std::string md = slurp(d / "validation.md");
+  const std::string docs = slurp(fs::path(GEARDYN_SOURCE_DIR) / "docs/validation.md");
+  for (const auto& check : j["checks"]) {
+    const std::string id = check["id"].get<std::string>();
+    EXPECT_TRUE(with_rows.count(id)) << id;
+    EXPECT_NE(md.find("(`" + id + "`)"), std::string::npos) << id;
+    EXPECT_NE(docs.find("\n## " + id + "\n"), std::string::npos) << "docs/validation.md: " << id;
+  }
+  EXPECT_GT(j["rows"].size(), 100U);
+  // The table on stdout has a line per row.
+  std::size_t passes = 0;
+  for (std::size_t at = o.out.find("\n  pass "); at != std::string::npos;
+       at = o.out.find("\n  pass ", at + 1))
+    ++passes;
+  EXPECT_EQ(passes, j["rows"].size());
+}
+
+TEST(Validate, TheQuickSetComparesFewerCasesOfTheSameChecks) {
+  const Outcome full = cli("validate --json");
+  const Outcome quick = cli("validate --quick --json");
+  ASSERT_EQ(full.code, 0) << full.err;
+  ASSERT_EQ(quick.code, 0) << quick.err;
+  const nlohmann::json f = nlohmann::json::parse(full.out), q = nlohmann::json::parse(quick.out);
+  EXPECT_TRUE(q["quick"].get<bool>());
+  EXPECT_TRUE(q["passed"].get<bool>());
+  EXPECT_LT(q["rows"].size(), f["rows"].size());
+  std::set<std::string> full_quantities;
+  for (const auto& row : f["rows"])
+    full_quantities.insert(row["check"].get<std::string>() + ": " +
+                           row["quantity"].get<std::string>());
+  // A quick row is a full row (the KS stable points are every 16th rather than every 8th).
+  for (const auto& row : q["rows"])
+    EXPECT_TRUE(full_quantities.count(row["check"].get<std::string>() + ": " +
+                                      row["quantity"].get<std::string>()))
+        << row["quantity"];
+}
+
+TEST(Validate, ABrokenElementFailsTheChecksWhoseReferencesDoNotPassThroughIt) {
+  // The one-degree gear pair's mesh damping negated (a test-only switch): the checks with a
+  // reference independent of that element fail, exit 1; the others still pass.
+  const Outcome o = shell("GEARDYN_TEST_MUTANT=gear_pair_damping_sign " + std::string(GEARDYN_CLI) +
+                          " validate --json");
+  EXPECT_EQ(o.code, 1) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(o.out);
+  EXPECT_FALSE(j["passed"].get<bool>());
+  const std::set<std::string> expected = {"contact_response", "paper_dopri5", "paper_findings",
+                                          "coupled_rigid",    "te_response",  "train_pair"};
+  EXPECT_EQ(failing_checks(j), expected);
+}
+
+TEST(Validate, ItsHtmlReportRendersItsTableInAHeadlessBrowser) {
+  const fs::path d = fresh("validate_html");
+  ASSERT_EQ(cli("validate --quick --out " + d.string()).code, 0);
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "validation.json"));
+  const std::string url = "file://" + fs::absolute(d / "validation.html").string();
+  const std::string browser = "chromium --headless --no-sandbox --disable-gpu ";
+  const Outcome dom = shell(browser + "--dump-dom " + url);
+  ASSERT_EQ(dom.code, 0) << dom.err;
+  std::size_t rows = 0;
+  for (std::size_t at = dom.out.find("<tr class=\"pass\">"); at != std::string::npos;
+       at = dom.out.find("<tr class=\"pass\">", at + 1))
+    ++rows;
+  EXPECT_EQ(rows, j["rows"].size());
+  EXPECT_NE(dom.out.find("<table id=\"validation\">"), std::string::npos);
+  // Drawn: a screenshot of the table is far from a blank page's (about 5 kB).
+  const fs::path png = d / "shot.png";
+  const Outcome shot =
+      shell(browser + "--window-size=1200,900 --screenshot=" + png.string() + " " + url);
+  ASSERT_EQ(shot.code, 0) << shot.err;
+  ASSERT_TRUE(fs::exists(png));
+  EXPECT_GT(fs::file_size(png), 50000U);
 }
 
 }  // namespace

@@ -9,33 +9,15 @@
 #include <fstream>
 #include <numbers>
 
+#include "geardyn/validation.hpp"
 #include "test_support.hpp"
 
 namespace geardyn {
 namespace {
 
-// ISO/TR 6336-30:2017, example 1: m_n = 8 mm, alpha_n = 20 deg, beta = 15.8 deg, z = 17/103,
-// b = 100 mm, x = 0.145/0, a = 500 mm, basic rack profile D (h_fP = 1.4 m_n), steel,
-// T1 = 9 kN m (F_t = 127 352 N). Reference: z_n = 18.905/114.543, c'_th = 17.85584,
-// c' = 12.37047, c_gamma_alpha = 17.46485, c_gamma_beta = 14.84512 N/(mm um).
-Case iso_tr_example_1() {
-  Case c;
-  GearData& g = c.gear;
-  g.normal_module_mm = 8;
-  g.normal_pressure_angle_deg = 20;
-  g.helix_angle_deg = 15.8;
-  g.teeth = {17, 103};
-  g.face_width_mm = 100;
-  g.profile_shift = {0.145, 0.0};
-  g.center_distance_mm = 500;
-  g.basic_rack_dedendum = {1.4, 1.4};
-  g.outside_diameter_mm = {160, 872};  // a placeholder for the probe, which gives the standard tips
-  const Geometry probe = compute_geometry(g);  // standard tip diameters for these shifts
-  g.outside_diameter_mm = {probe.expected_outside_diameter_m[0] * 1e3,
-                           probe.expected_outside_diameter_m[1] * 1e3};
-  c.load.torque_nm = 9000;
-  return c;
-}
+// ISO/TR 6336-30:2017, example 1 (validation.hpp): reference z_n = 18.905/114.543,
+// c'_th = 17.85584, c' = 12.37047, c_gamma_alpha = 17.46485, c_gamma_beta = 14.84512 N/(mm um).
+Case iso_tr_example_1() { return iso_tr_6336_30_example_1(); }
 
 TEST(Iso6336, ReproducesTheTechnicalReportExample) {
   const Case c = iso_tr_example_1();

@@ -15,64 +15,12 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/validation.hpp"
 
 namespace geardyn {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-
-// The paper's gear pair (Park 2010 Table 1, helical, 20 degrees) as a train of two gears, with
-// the stiffness harmonics, torques and speed of pair_case() below.
-const char* kPairTrain = R"(
-[model]
-form = "train"
-[train]
-reference_speed_hz = 100
-[[train.body]]
-name = "pinion"
-teeth = 56
-normal_module_mm = 2.5
-helix_angle_deg = 20
-face_width_mm = 20
-[[train.body]]
-name = "wheel"
-teeth = 56
-normal_module_mm = 2.5
-helix_angle_deg = 20
-face_width_mm = 20
-[[train.mesh]]
-driving = "pinion"
-driven = "wheel"
-backlash_um = 100
-mean_stiffness_n_per_m = 2.34e8
-stiffness_harmonics = [[0.1, 20], [0.03, -40]]
-damping_ratio = 0.02
-[[train.torque]]
-body = "pinion"
-mean_nm = 49.5
-harmonics = [[12.375, 1, 0]]
-[[train.torque]]
-body = "wheel"
-mean_nm = -49.5
-harmonics = [[12.375, 1, 180]]
-[solver]
-duration_s = 0.02
-tolerance = 1e-13
-output_interval_s = 2e-5
-)";
-
-// The same pair as the one-degree model: the defaults (Park 2010 Table 1, T1 = 49.5 N m with a
-// fluctuation of 0.25 at order 1, the matched load of eq. 7) with the stiffness as harmonics.
-Case pair_case() {
-  Case c;
-  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
-  c.mesh.stiffness_harmonics = {{0.1, 20.0}, {0.03, -40.0}};
-  c.speed.shaft_frequency_hz = 100;
-  c.solver.duration_s = 0.02;
-  c.solver.tolerance = 1e-13;
-  c.solver.output_interval_s = 2e-5;
-  return c;
-}
 
 TEST(TrainCase, ATwoGearTrainFromAFileIsTheHelicalGearPair) {
   // Through every impact of a rattling start (from the middle of the backlash), the file's
@@ -80,11 +28,13 @@ TEST(TrainCase, ATwoGearTrainFromAFileIsTheHelicalGearPair) {
   // helix from the gear data, the inertias from the blanks, the damping from its ratio, the
   // torques from their harmonics. A mutant that drops cos(beta_b) from the mesh, or takes the
   // transverse pressure angle for the normal one, moves delta by far more than the bound.
-  const Case pair = pair_case();
+  // The pair and its train file: validation.hpp (the shipped check train_pair is this test's
+  // core).
+  const Case pair = park2010_pair_case();
   const RunResult one = run(pair);
   ASSERT_TRUE(one.integration.ok()) << one.integration.message;
   ASSERT_GT(one.reading.impacts, 3);
-  const TrainRunResult train = run_train(parse_case(kPairTrain, "pair.toml"));
+  const TrainRunResult train = run_train(park2010_pair_as_train());
   ASSERT_TRUE(train.ok()) << train.message;
   ASSERT_EQ(train.samples.t_s.size(), one.samples.size());
   double worst = 0;

@@ -18,6 +18,7 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/validation.hpp"
 
 namespace geardyn::train {
 namespace {
@@ -70,19 +71,13 @@ Mesh mesh(const std::string& name, const std::string& driving, const std::string
 // The paper's pair as a spur pair with given stiffness harmonics (so that its one-degree model
 // and a two-body train are the same physics), at f1 = 100 Hz.
 Case spur_case() {
-  Case c;
+  Case c = park2010_pair_case();  // validation.hpp: harmonics, speed, window, tolerance
   c.gear.helix_angle_deg = 0;
   c.gear.normal_module_mm = 2.5;
   c.gear.teeth = {56, 56};
   c.gear.outside_diameter_mm = {145.0, 145.0};  // z m_n + 2 m_n, no profile shift
   c.gear.profile_shift = {0.0, 0.0};
   c.gear.center_distance_mm = 140.0;
-  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
-  c.mesh.stiffness_harmonics = {{0.1, 20.0}, {0.03, -40.0}};
-  c.speed.shaft_frequency_hz = 100;
-  c.solver.duration_s = 0.02;
-  c.solver.tolerance = 1e-13;
-  c.solver.output_interval_s = 2e-5;
   return c;
 }
 

@@ -1,8 +1,9 @@
 // geardyn command-line tool: parses arguments, calls the library, prints and writes. No
 // numerics here.
 //
-// Exit codes: 0 success, 1 numerical failure (reported with its reason), 2 bad input,
-// 3 a figure could not be drawn (gnuplot missing or failing; the data files are written).
+// Exit codes: 0 success, 1 numerical failure (reported with its reason) or a failed validation
+// check, 2 bad input, 3 a figure could not be drawn (gnuplot missing or failing; the data files
+// are written), 130 interrupted.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <unistd.h>
@@ -38,6 +39,7 @@
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_orbit.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/validation.hpp"
 
 namespace {
 
@@ -954,6 +956,38 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
   return 0;
 }
 
+int cmd_validate(bool quick, bool json, const std::string& out_dir) {
+  ProgressBar bar("validate", "checks");
+  geardyn::ValidationOptions o;
+  o.quick = quick;
+  o.progress = [&bar](std::size_t done, std::size_t total, const std::string& check) {
+    bar.show(static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(total, 1)),
+             fmt::format("{}/{} checks{}", done, total, check.empty() ? "" : ", " + check));
+    return !g_interrupted.load();
+  };
+  std::signal(SIGINT, on_interrupt);
+  const geardyn::ValidationResult r = geardyn::validate(o);
+  std::signal(SIGINT, SIG_DFL);
+  bar.finish();
+  if (r.cancelled) fmt::print(stderr, "interrupted: reporting the {} checks done\n", r.checks_run);
+  if (!out_dir.empty())
+    for (const std::string& kept : geardyn::write_validation(out_dir, r))
+      fmt::print(stderr,
+                 "geardyn: note: {}/{} was written by an earlier `geardyn validate` and changed "
+                 "since: kept as it is\n",
+                 out_dir, kept);
+  if (json) {
+    fmt::print("{}", geardyn::validation_json(r));
+  } else {
+    fmt::print("geardyn validate{}: every check is described in docs/validation.md\n{}",
+               quick ? " --quick" : "", geardyn::validation_table(r));
+    if (!out_dir.empty())
+      fmt::print("written to {}/ (validation.md, validation.html, validation.json)\n", out_dir);
+  }
+  if (r.cancelled) return kExitInterrupted;
+  return r.passed() ? 0 : kExitNumerical;
+}
+
 // --param2 and its range: each needs the others (a range without its key would qualify
 // nothing, a key without its range would be a map of nothing), so a missing partner is an error
 // naming both, exit 2.
@@ -1124,6 +1158,15 @@ int main(int argc, char** argv) {
   stab->add_flag("--json", json, "print the boundaries as JSON");
   stab->add_flag("--no-figures", stab_no_figures, "write the data without the figure");
 
+  CLI::App* validate = app.add_subcommand(
+      "validate", "run geardyn's validation: every check against its reference, pass or fail");
+  bool quick = false;
+  std::string validate_out;
+  validate->add_flag("--quick", quick, "the quick set (fewer cases per check)");
+  validate->add_flag("--json", json, "print JSON");
+  validate->add_option("--out", validate_out,
+                       "directory for validation.md, validation.html and validation.json");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -1153,6 +1196,7 @@ int main(int argc, char** argv) {
     if (cont->parsed())
       return cmd_continue(case_file, sets, co, cont_out, !cont_no_figures, overlay_dir);
     if (orbit->parsed()) return cmd_orbit(case_file, sets, oo, orbit_state, json);
+    if (validate->parsed()) return cmd_validate(quick, json, validate_out);
     if (reproduce->parsed())
       return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);
     return 0;
@@ -1166,6 +1210,7 @@ int main(int argc, char** argv) {
     if (cont->parsed()) check_output_directory(cont_out);
     if (stab->parsed() && !stab_out.empty()) check_output_directory(stab_out);
     if (modes->parsed() && !modes_out.empty()) check_output_directory(modes_out);
+    if (validate->parsed() && !validate_out.empty()) check_output_directory(validate_out);
     code = dispatch();
   } catch (const geardyn::InputError& e) {
     print_error("error", e.what());

@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "geardyn/run.hpp"
+#include "geardyn/validation.hpp"
 
 namespace geardyn {
 namespace {
@@ -142,18 +143,9 @@ TEST_P(TransmissionErrorResponse, MatchesTheClosedForm) {
 // The paper's gear with constant stiffness, steady torque doubled, mesh at 0.71 of the contact
 // natural frequency, 1 um at the mesh frequency and 0.3 um at twice it (above resonance).
 Case gear_with_error(Method method) {
-  Case c;
-  c.mesh.stiffness_source = StiffnessSource::kHarmonics;
-  c.load.torque_nm = 100;
-  c.load.fluctuation_ratio = 0;
-  c.speed.shaft_frequency_hz = 33;
-  c.mesh.transmission_error_um = {{1.0, 0.0}, {0.3, 40.0}};
-  c.solver.initial = InitialCondition::kStatic;
+  Case c = gear_with_transmission_error();  // validation.hpp (its check te_response)
   c.solver.method = method;
-  c.solver.duration_s = 0.08;
-  c.solver.tolerance = 1e-12;
   c.solver.time_step_s = 1e-8;
-  c.solver.output_interval_s = 2e-5;
   return c;
 }
 
