@@ -818,6 +818,76 @@ def stability(case, param, values, param2=None, values2=()):
     return r
 
 
+class Validation:
+    """What `geardyn validate` reports (docs/validation.md): one row per compared quantity.
+
+    Attributes
+    ----------
+    passed : bool
+        Every check ran and every row passed.
+    quick : bool
+    rows : list of dict
+        ``check``, ``quantity``, ``value``, ``reference``, ``source``, ``cited``, ``error``
+        (None when the check could not run), ``measure``, ``tolerance``, ``passed``.
+    checks : list of dict
+        ``id`` (the anchor in docs/validation.md), ``title``, ``quick``.
+    failures : list of dict
+        The rows that failed.
+    """
+
+    def __init__(self, text, table, html):
+        j = _json.loads(text)
+        self.passed = j["passed"]
+        self.quick = j["quick"]
+        self.cancelled = j["cancelled"]
+        self.wall_time_s = j["wall_time_s"]
+        self.checks = j["checks"]
+        self.rows = j["rows"]
+        self.failures = [r for r in self.rows if not r["passed"]]
+        self._table, self._html = table, html
+
+    def __str__(self):
+        return self._table
+
+    def __repr__(self):
+        return (f"<geardyn.Validation: {len(self.rows)} rows, {len(self.failures)} failed"
+                f"{', quick' if self.quick else ''}>")
+
+    def _repr_html_(self):
+        return self._html
+
+
+def validate(quick=False, out=None, progress=None):
+    """Runs geardyn's validation with this installed library, as `geardyn validate`.
+
+    Every check compares geardyn's values with references computed independently or cited;
+    docs/validation.md describes each one.
+
+    Parameters
+    ----------
+    quick : bool
+        The quick set (fewer cases per check).
+    out : str or path, optional
+        A folder for validation.md, validation.html and validation.json (only those files are
+        written there; the folder's other files are left alone).
+    progress : None, True or callable
+        ``progress(done, total)`` between checks (a false return stops); True: a tqdm bar.
+
+    Returns
+    -------
+    Validation
+        Its ``passed`` says whether every row passed; ``print()`` shows the table, and a
+        notebook the HTML report. Ctrl-C raises KeyboardInterrupt with the checks done in
+        ``.result``.
+    """
+    text, table, html, interrupted = _geardyn._validate(
+        bool(quick), _progress(progress, unit="check"), "" if out is None else str(out))
+    v = Validation(text, table, html)
+    if interrupted:
+        raise _interrupted(v, "validation")
+    return v
+
+
 from . import plot  # noqa: E402,F401
 from .data import SweepResult, load, save, to_xarray  # noqa: E402,F401
 from .data import _result_save, _run_to_pandas, _run_to_xarray  # noqa: E402

@@ -22,4 +22,5 @@ PYBIND11_MODULE(_geardyn, m) {
   geardyn::python::bind_orbit(m);
   geardyn::python::bind_coupled(m);
   geardyn::python::bind_train(m);
+  geardyn::python::bind_validation(m);
 }

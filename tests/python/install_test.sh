@@ -2,7 +2,8 @@
 # `pip install --no-build-isolation .` into a fresh virtual environment that sees Debian's
 # NumPy (--system-site-packages), from a copy of the sources, without network: then the
 # package imports from outside the source tree with its metadata, version, type stubs and the
-# `geardyn` command. Usage: install_test.sh SOURCE_DIR
+# `geardyn` command, and the installed validation passes (as the README shows it). Usage:
+# install_test.sh SOURCE_DIR
 set -euo pipefail
 src="$1"
 work="$(mktemp -d)"
@@ -29,9 +30,13 @@ r = geardyn.run(geardyn.Case.default().set("solver.duration_s", 0.002))
 assert r.ok and len(r.t) > 10
 from geardyn.bearings import BallBearing  # the pure-Python modules are installed too
 assert BallBearing(9, 9.525, 46.0, 4.89, 4.953).radial(356.0)[1] > 0
+v = geardyn.validate(quick=True)
+assert v.passed, str(v)
 print("installed geardyn", geardyn.__version__, "at", pkg)
 PY
 version="$("$work/venv/bin/python" -c 'import geardyn; print(geardyn.__version__)')"
 test "$("$work/venv/bin/geardyn" --version)" = "geardyn $version"
 "$work/venv/bin/geardyn" run --set solver.duration_s=0.002 >/dev/null
+(cd "$work" && "$work/venv/bin/geardyn" validate --quick --out validation >/dev/null)
+test -s "$work/validation/validation.html"
 echo "pip install: ok"

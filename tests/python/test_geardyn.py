@@ -661,3 +661,24 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
         geardyn.Case(model={"form": "train"},
                      train={"reference_speed_hz": 50, "body": [dict(gear, name="a", teeth=20)],
                             "mesh": [dict(mesh, driving="a", driven="a", backlash_um=-1)]})
+
+
+def test_validate_passes_with_this_library_and_writes_its_reports_beside_the_users(tmp_path):
+    (tmp_path / "mine.txt").write_text("mine")
+    calls = []
+    v = geardyn.validate(quick=True, out=tmp_path, progress=lambda d, t: calls.append((d, t)))
+    assert v.passed and v.quick and not v.cancelled and v.failures == []
+    assert len(v.rows) > 50
+    assert {c["id"] for c in v.checks} == {r["check"] for r in v.rows}
+    assert calls[0] == (0, len(v.checks)) and calls[-1] == (len(v.checks), len(v.checks))
+    assert (tmp_path / "mine.txt").read_text() == "mine"
+    assert json.loads((tmp_path / "validation.json").read_text())["rows"] == v.rows
+    assert "<table" in v._repr_html_()
+    assert f"{len(v.rows)} passed, 0 failed" in str(v)
+
+
+def test_validate_stopped_by_its_progress_keeps_the_checks_done():
+    v = geardyn.validate(quick=True, progress=lambda done, total: done < 2)
+    assert v.cancelled and not v.passed
+    assert [c for c in dict.fromkeys(r["check"] for r in v.rows)] == \
+        [c["id"] for c in v.checks[:2]]
