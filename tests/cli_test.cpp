@@ -1118,6 +1118,21 @@ TEST(Validate, ABrokenElementFailsTheChecksWhoseReferencesDoNotPassThroughIt) {
   EXPECT_EQ(failing_checks(j), expected);
 }
 
+TEST(Validate, CtrlCStopsAfterTheCheckUnderWayAndReportsTheChecksDone) {
+  // The full set takes over 3 s: Ctrl-C after 1 s stops it; exit 130 and reports of what ran.
+  const fs::path d = fresh("validate_interrupt");
+  const Outcome o = shell(std::string(GEARDYN_CLI) + " validate --out " + d.string() +
+                          " & pid=$!; sleep 1; kill -INT $pid; wait $pid");
+  EXPECT_EQ(o.code, 130) << o.err;
+  EXPECT_NE(o.err.find("interrupted: reporting the"), std::string::npos) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "validation.json"));
+  EXPECT_TRUE(j["cancelled"].get<bool>());
+  EXPECT_FALSE(j["passed"].get<bool>());
+  EXPECT_LT(j["checks_run"].get<int>(), j["checks_total"].get<int>());
+  EXPECT_GT(j["checks_run"].get<int>(), 0);
+  EXPECT_TRUE(failing_checks(j).empty());  // what ran, passed
+}
+
 TEST(Validate, ItsHtmlReportRendersItsTableInAHeadlessBrowser) {
   const fs::path d = fresh("validate_html");
   ASSERT_EQ(cli("validate --quick --out " + d.string()).code, 0);
