@@ -42,8 +42,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // The exact engine's promise at its default tolerance, and any integrator's at a tolerance
 // asked of it: the largest |delta/b| error over a run (docs/numerics.md).
 constexpr double kDefaultAccuracyB = 1e-8;
-// A closed form against a run at tolerance 1e-12: a few hundred roundings of the state, and
-// the tolerance itself over the window.
+// A located event (time, velocity) against its closed form: events are found by root finding
+// to near the rounding of the state, whatever the tolerance; 1e-9 relative leaves room.
 constexpr double kClosedFormRelative = 1e-9;
 // Printed references (ISO/TR 6336-30 prints five or six digits).
 constexpr double kPrintedRelative = 1e-4;
