@@ -387,7 +387,7 @@ RunResult run(const Case& c, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   RunResult result;
   result.input = c;
-  const GearPairModel model = build_model(c, &result.geometry);
+  const GearPairModel model = build_model(c, &result.geometry, options.stiffness);
   const GearPairParameters& p = model.parameters();
   const Geometry& g = result.geometry;
 

@@ -69,6 +69,9 @@ struct RunOptions {
   bool keep_events = true;
   // Called now and then with the fraction of the window done; returning false cancels.
   std::function<bool(double)> progress;
+  // A mesh stiffness computed once for runs whose cases differ only in keys that leave it
+  // alone (shared_stiffness): a study's samples. Null: the case's own.
+  const MeshStiffness* stiffness = nullptr;
 };
 
 // Where a run's steady part starts, and why.
