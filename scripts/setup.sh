@@ -12,7 +12,7 @@ packages=(
   python3-dev pybind11-dev python3-numpy python3-matplotlib python3-pytest
   python3-venv python3-pip python3-setuptools python3-tqdm python3-xarray python3-netcdf4
   python3-pandas python3-nbclient python3-nbformat python3-ipykernel
-  chromium
+  chromium python3-dask python3-distributed python3-openturns python3-plotly python3-scipy
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -227,6 +227,15 @@ def _getitem(self, key):
     return node
 
 
+def _form(case):
+    """The case's model.form, read from its TOML text without parsing all of it (a study asks
+    it once a sample)."""
+    import re
+
+    m = re.search(r'^\[model\]\n(?:[^\[\n]*\n)*?form = "(\w+)"', case.to_toml(), re.M)
+    return m.group(1) if m else case["model.form"]
+
+
 def _from_dict(keys):
     """A case from a dict of keys; the keys not given keep their defaults.
 
@@ -364,7 +373,7 @@ def run(case, progress=None):
             return _bar(round(100 * fraction))
     else:
         callback = _progress(progress)
-    form = case["model.form"]
+    form = _form(case)
     if form in ("train", "coupled"):
         run_form, result = ((_geardyn._run_train, TrainRunResult) if form == "train"
                             else (_geardyn._run_coupled, CoupledRunResult))
@@ -562,7 +571,7 @@ def modes(case):
         A case of a one-degree form, or bad input.
     """
     import numpy as np
-    if case["model.form"] == "train":
+    if _form(case) == "train":
         ms = _json.loads(_geardyn._train_modes(case))["modes"]
         return {"bodies": list(ms[0]["shape"]) if ms else [],
                 "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
@@ -571,7 +580,7 @@ def modes(case):
                                 for k in (ms[0]["mesh_energy"] if ms else {})},
                 "shaft_energy": {k: np.array([m["shaft_energy"][k] for m in ms])
                                  for k in (ms[0]["shaft_energy"] if ms else {})}}
-    if case["model.form"] != "coupled":
+    if _form(case) != "coupled":
         raise InputError(f"model.form = \"{case['model.form']}\": modes are of the coupled "
                          "model; set model.form = \"coupled\"")
     j = _json.loads(_geardyn._modes(case))
@@ -890,6 +899,8 @@ def validate(quick=False, out=None, progress=None):
 
 from . import plot  # noqa: E402,F401
 from .data import SweepResult, load, save, to_xarray  # noqa: E402,F401
+from .studies import StudyError, design, sobol_indices, statistics, study  # noqa: E402,F401
+from .studies import report as study_report  # noqa: E402,F401
 from .data import _result_save, _run_to_pandas, _run_to_xarray  # noqa: E402
 
 for _f, _name in ((_run_to_xarray, "to_xarray"), (_run_to_pandas, "to_pandas")):

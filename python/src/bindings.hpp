@@ -119,5 +119,6 @@ void bind_orbit(pybind11::module_& m);
 void bind_coupled(pybind11::module_& m);
 void bind_train(pybind11::module_& m);
 void bind_validation(pybind11::module_& m);
+void bind_study(pybind11::module_& m);
 
 }  // namespace geardyn::python

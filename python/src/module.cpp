@@ -23,4 +23,5 @@ PYBIND11_MODULE(_geardyn, m) {
   geardyn::python::bind_coupled(m);
   geardyn::python::bind_train(m);
   geardyn::python::bind_validation(m);
+  geardyn::python::bind_study(m);
 }

@@ -2,7 +2,8 @@
 # `pip install --no-build-isolation .` into a fresh virtual environment that sees Debian's
 # NumPy (--system-site-packages), from a copy of the sources, without network: then the
 # package imports from outside the source tree with its metadata, version, type stubs and the
-# `geardyn` command, and the installed validation passes (as the README shows it). Usage:
+# `geardyn` and `geardyn-study` commands, and the installed validation passes (as the README
+# shows it). Usage:
 # install_test.sh SOURCE_DIR
 set -euo pipefail
 src="$1"
@@ -39,4 +40,7 @@ test "$("$work/venv/bin/geardyn" --version)" = "geardyn $version"
 "$work/venv/bin/geardyn" run --set solver.duration_s=0.002 >/dev/null
 (cd "$work" && "$work/venv/bin/geardyn" validate --quick --out validation >/dev/null)
 test -s "$work/validation/validation.html"
+printf 'samples = 4\n[set]\n"solver.duration_s" = 0.002\n[inputs."mesh.backlash_um"]\ndistribution = "uniform"\nlower = 80\nupper = 120\n' > "$work/s.toml"
+"$work/venv/bin/geardyn-study" "$work/s.toml" --out "$work/study" >/dev/null 2>&1
+test -s "$work/study/study.nc" && test -s "$work/study/report.html"
 echo "pip install: ok"

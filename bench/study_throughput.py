@@ -1,0 +1,55 @@
+"""Samples per second of a study (docs/performance.md, "Studies"): a run study of the paper's
+gear over 20 ms and a sweep study, in this process and on 1 and 2 Dask worker processes, and
+the overhead of a Dask task (batches of 1 sample against batches of 32).
+
+    PYTHONPATH=build/release/python python3 bench/study_throughput.py
+"""
+import time
+
+import geardyn
+
+RUN = geardyn.Case.default().set("solver.duration_s", 0.02)
+INPUTS = {"mesh.backlash_um": {"distribution": "uniform", "lower": 80, "upper": 120},
+          "load.fluctuation_ratio": {"distribution": "uniform", "lower": 0.1, "upper": 0.4}}
+SWEEP = {"kind": "sweep", "param": "speed.shaft_frequency_hz",
+         "values": [1500 + 50 * i for i in range(21)], "direction": "up"}
+
+
+def timed(**kw):
+    t = time.perf_counter()
+    ds = geardyn.study(RUN, INPUTS, seed=1, **kw)
+    return time.perf_counter() - t, ds.sizes["sample"]
+
+
+def line(what, seconds, n):
+    print(f"{what:<46} {n:5d} samples {seconds:7.2f} s {n / seconds:8.1f} samples/s "
+          f"{1e3 * seconds / n:7.2f} ms/sample")
+
+
+def main():
+    from dask.distributed import Client, LocalCluster
+
+    timed(samples=8)  # imports (OpenTURNS, xarray) and the first plans, once
+    line("run study, in-process", *timed(samples=200))
+    d = geardyn.design(RUN, INPUTS, 200, "lhs", seed=1)
+    t = time.perf_counter()
+    for i in range(200):
+        geardyn.run(RUN.with_({k: float(v[i]) for k, v in d.items()}))
+    line("the same 200 cases by geardyn.run, one by one", time.perf_counter() - t, 200)
+    line("sweep study (21 points), in-process", *timed(samples=8, analysis=SWEEP))
+    for workers in (1, 2):
+        with LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None) as c, \
+                Client(c) as client:
+            timed(samples=8, executor=client)  # warm the workers (imports)
+            line(f"run study, {workers} Dask worker(s)", *timed(samples=200, executor=client))
+            line(f"sweep study, {workers} Dask worker(s)",
+                 *timed(samples=8, analysis=SWEEP, executor=client))
+            if workers == 1:
+                one, n = timed(samples=64, executor=client, batch_size=1)
+                many, _ = timed(samples=64, executor=client, batch_size=32)
+                print(f"Dask task overhead: {1e3 * (one - many) / (64 - 2):.2f} ms a task "
+                      f"(64 samples in 64 tasks {one:.2f} s, in 2 tasks {many:.2f} s)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,336 @@
+"""Studies (geardyn.study, docs/studies.md): designs seeded and stratified, bad input named,
+the store written as samples complete and resumed without recomputing, and a Dask cluster of
+two worker processes giving the in-process result bit for bit, a worker killed or not."""
+import os
+import threading
+
+import numpy as np
+import pytest
+import scipy.stats
+
+import geardyn
+
+# A short window keeps each sample cheap; the study's logic does not depend on it.
+CASE = geardyn.Case.default().set("solver.duration_s", 0.004)
+INPUTS = {
+    "mesh.backlash_um": {"distribution": "uniform", "lower": 80, "upper": 120},
+    "load.fluctuation_ratio": {"distribution": "truncated_normal", "mean": 0.25, "std": 0.05,
+                               "lower": 0.1, "upper": 0.4},
+}
+OUTPUTS = ("impacts", "dynamic_factor", "max_force_bar", "rattle", "separated_fraction")
+
+
+def same_outputs(a, b):
+    for k in OUTPUTS:
+        np.testing.assert_array_equal(a[k].values, b[k].values, err_msg=k)
+    for k in INPUTS:
+        np.testing.assert_array_equal(a[k].values, b[k].values, err_msg=k)
+
+
+def test_a_design_is_its_seeds_and_a_latin_hypercube_fills_every_stratum():
+    d1 = geardyn.design(CASE, INPUTS, 50, "lhs", seed=7)
+    d2 = geardyn.design(CASE, INPUTS, 50, "lhs", seed=7)
+    d3 = geardyn.design(CASE, INPUTS, 50, "lhs", seed=8)
+    for k in INPUTS:
+        np.testing.assert_array_equal(d1[k], d2[k])
+        assert not np.array_equal(d1[k], d3[k])
+    # One sample in each of the 50 equiprobable strata of each input.
+    u = (d1["mesh.backlash_um"] - 80) / 40
+    assert sorted(np.floor(u * 50).astype(int)) == list(range(50))
+    tn = scipy.stats.truncnorm((0.1 - 0.25) / 0.05, (0.4 - 0.25) / 0.05, 0.25, 0.05)
+    assert sorted(np.floor(tn.cdf(d1["load.fluctuation_ratio"]) * 50).astype(int)) == \
+        list(range(50))
+    # A grid is the full factorial, variants as listed.
+    g = geardyn.design(CASE, {"mesh.backlash_um": [50, 100], "speed.shaft_frequency_hz":
+                              [100, 200, 300]}, method="grid")
+    assert len(g["mesh.backlash_um"]) == 6 and set(g["speed.shaft_frequency_hz"]) == \
+        {100, 200, 300}
+    v = geardyn.design(CASE, [{"mesh.backlash_um": 60}, {"mesh.backlash_um": 90}],
+                       method="variants")
+    assert list(v["mesh.backlash_um"]) == [60, 90]
+
+
+def test_a_scipy_frozen_distribution_and_a_correlation_are_taken():
+    d = geardyn.design(CASE, {"mesh.backlash_um": scipy.stats.uniform(80, 40),
+                              "load.fluctuation_ratio": {"distribution": "uniform",
+                                                         "lower": 0.1, "upper": 0.4}},
+                       400, "monte_carlo", seed=1, correlation=[[1, 0.8], [0.8, 1]])
+    assert np.all((d["mesh.backlash_um"] >= 80) & (d["mesh.backlash_um"] <= 120))
+    rho = scipy.stats.spearmanr(d["mesh.backlash_um"], d["load.fluctuation_ratio"])[0]
+    assert abs(rho - 0.8) < 0.06
+
+
+@pytest.mark.parametrize("inputs, kwargs, words", [
+    ({"mesh.nonsense_um": {"distribution": "uniform", "lower": 1, "upper": 2}}, {},
+     ["mesh.nonsense_um"]),
+    ({"mesh.backlash_um": {"distribution": "normal", "mean": 100, "std": 30}}, {},
+     ["inputs.mesh.backlash_um", "reaches", "Truncate"]),
+    ({"model.form": {"distribution": "uniform", "lower": 1, "upper": 2}}, {},
+     ["model.form"]),
+    ({"mesh.backlash_um": {"distribution": "gamma", "k": 2}}, {},
+     ["inputs.mesh.backlash_um.distribution", "gamma", "uniform"]),
+    ({"mesh.backlash_um": {"distribution": "uniform", "lower": 80}}, {},
+     ["inputs.mesh.backlash_um", "missing upper"]),
+    (INPUTS, {"method": "halton"}, ["method = 'halton'", "lhs"]),
+    (INPUTS, {"samples": 0}, ["samples = 0"]),
+    (INPUTS, {"executor": "tcp://127.0.0.1:9"}, ["cannot reach the Dask scheduler"]),
+])
+def test_bad_input_is_named_and_nothing_is_written(tmp_path, inputs, kwargs, words):
+    store = tmp_path / "store"
+    args = dict(samples=4, method="lhs", store=store)
+    args.update(kwargs)
+    with pytest.raises(ValueError) as e:
+        geardyn.study(CASE, inputs, **args)
+    for w in words:
+        assert w in str(e.value), str(e.value)
+    assert not store.exists()
+
+
+def test_an_interrupted_study_resumes_with_only_the_missing_samples(tmp_path):
+    full = geardyn.study(CASE, INPUTS, samples=12, seed=2, batch_size=3)
+    assert full.attrs["samples_computed"] == 12
+    store = tmp_path / "store"
+    (tmp_path / "store").mkdir()
+    (store / "mine.txt").write_text("mine")
+
+    def stop_after_six(done, total):
+        if done >= 6:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt) as e:
+        geardyn.study(CASE, INPUTS, samples=12, seed=2, batch_size=3, store=store,
+                      progress=stop_after_six)
+    partial = e.value.result
+    assert partial.attrs["samples_computed"] == 6
+    stored = {f: f.stat().st_mtime_ns for f in (store / "batches").glob("*.nc")}
+    assert len(stored) == 2
+    # The same study again without resume is refused; another study in the store too.
+    with pytest.raises(ValueError, match="resume"):
+        geardyn.study(CASE, INPUTS, samples=12, seed=2, store=store)
+    with pytest.raises(ValueError, match="another study"):
+        geardyn.study(CASE, INPUTS, samples=12, seed=3, store=store, resume=True)
+    resumed = geardyn.study(CASE, INPUTS, samples=12, seed=2, batch_size=4, store=store,
+                            resume=True)
+    assert resumed.attrs["samples_computed"] == 6
+    same_outputs(resumed, full)
+    assert {f: f.stat().st_mtime_ns for f in stored} == stored  # not written again
+    assert (store / "mine.txt").read_text() == "mine"
+    # Each sample once across the store's files.
+    covered = []
+    for f in (store / "batches").glob("samples_*.nc"):
+        first, last = (int(x) for x in f.stem.split("_")[1:3])
+        covered += range(first, last + 1)
+    assert sorted(covered) == list(range(12))
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as c, distributed.Client(c) as client:
+        yield client
+
+
+def test_two_dask_workers_give_the_in_process_result_bit_for_bit(cluster, tmp_path):
+    local = geardyn.study(CASE, INPUTS, samples=16, method="sobol", seed=4)
+    for batch in (1, 5):
+        dask = geardyn.study(CASE, INPUTS, samples=16, method="sobol", seed=4,
+                             executor=cluster, batch_size=batch, store=tmp_path / str(batch))
+        same_outputs(dask, local)
+    # And through the scheduler's address, as geardyn-study --scheduler gives it.
+    addr = cluster.scheduler.address
+    same_outputs(geardyn.study(CASE, INPUTS, samples=16, method="sobol", seed=4,
+                               executor=addr), local)
+
+
+def test_a_worker_killed_mid_study_has_its_samples_computed_elsewhere(cluster, tmp_path):
+    local = geardyn.study(CASE, INPUTS, samples=40, seed=5)
+    killed = []
+
+    def kill_one(done, total):
+        if done >= 4 and not killed:
+            worker = sorted(cluster.scheduler_info()["workers"])[0]
+            killed.append(worker)
+            def kill():
+                try:
+                    cluster.run(os._exit, 1, workers=[worker])
+                except OSError:  # the worker dies before it answers
+                    pass
+            threading.Thread(target=kill, daemon=True).start()
+
+    ds = geardyn.study(CASE, INPUTS, samples=40, seed=5, executor=cluster, batch_size=2,
+                       store=tmp_path / "s", progress=kill_one)
+    assert killed
+    same_outputs(ds, local)
+    covered = []
+    for f in (tmp_path / "s" / "batches").glob("samples_*.nc"):
+        first, last = (int(x) for x in f.stem.split("_")[1:3])
+        covered += range(first, last + 1)
+    assert sorted(covered) == list(range(40))
+
+
+# The contact natural frequency f_n = C sqrt(k_m / w): the equivalent mass is proportional to
+# the face width w (the blanks' inertias), so its statistics and Sobol' indices over uniform
+# k_m and w are closed forms (docs/studies.md).
+K = (1.8e8, 2.8e8)
+W = (15.0, 25.0)
+NATURAL = geardyn.Case.default().set("solver.duration_s", 1e-4)
+
+
+def natural_frequency_constant():
+    r = geardyn.run(NATURAL)
+    return r.summary["derived"]["natural_frequency_hz"] / np.sqrt(
+        NATURAL["mesh.mean_stiffness_n_per_m"] / NATURAL["gear.face_width_mm"])
+
+
+def uniform_moments():
+    (a, b), (c, d) = K, W
+    e_sqrt_k = 2 / 3 * (b ** 1.5 - a ** 1.5) / (b - a)
+    e_k = (a + b) / 2
+    e_isqrt_w = 2 * (np.sqrt(d) - np.sqrt(c)) / (d - c)
+    e_iw = np.log(d / c) / (d - c)
+    return e_sqrt_k, e_k, e_isqrt_w, e_iw
+
+
+INPUTS_KW = {"mesh.mean_stiffness_n_per_m": {"distribution": "uniform", "lower": K[0],
+                                             "upper": K[1]},
+             "gear.face_width_mm": {"distribution": "uniform", "lower": W[0], "upper": W[1]}}
+
+
+def test_statistics_of_an_analytic_output_hold_their_exact_values_and_shrink_as_one_over_sqrt_n():
+    C = natural_frequency_constant()
+    e_sqrt_k, _, e_isqrt_w, _ = uniform_moments()
+    exact_mean = C * e_sqrt_k * e_isqrt_w
+    half = {}
+    for n in (64, 256):
+        ds = geardyn.study(NATURAL, INPUTS_KW, samples=n, method="monte_carlo", seed=11)
+        s = geardyn.statistics(ds, ["natural_frequency_hz"])["natural_frequency_hz"]
+        lo, hi = s["mean_interval"]
+        assert lo < exact_mean < hi, (n, lo, exact_mean, hi)
+        half[n] = (hi - lo) / 2
+    assert 1.6 < half[64] / half[256] < 2.5  # sqrt(256 / 64) = 2
+    # Quantiles with one input: f_q = C sqrt(k_q / w), k_q = a + q (b - a).
+    one = geardyn.study(NATURAL, {"mesh.mean_stiffness_n_per_m": INPUTS_KW[
+        "mesh.mean_stiffness_n_per_m"]}, samples=200, method="monte_carlo", seed=3)
+    s = geardyn.statistics(one, ["natural_frequency_hz"],
+                           limits={"natural_frequency_hz": 2600.0})["natural_frequency_hz"]
+    w = NATURAL["gear.face_width_mm"]
+    for q, (value, (lo, hi)) in s["quantiles"].items():
+        exact = C * np.sqrt((K[0] + q * (K[1] - K[0])) / w)
+        assert lo <= exact <= hi, (q, lo, exact, hi)
+    # P(f_n > 2600 Hz) = P(k > w (2600 / C)^2).
+    p = (K[1] - w * (2600.0 / C) ** 2) / (K[1] - K[0])
+    prob, (lo, hi) = s["exceedance"][2600.0]
+    assert lo <= p <= hi, (lo, p, hi)
+
+
+def test_sobol_indices_of_an_analytic_output_hold_their_exact_values():
+    C = natural_frequency_constant()
+    e_sqrt_k, e_k, e_isqrt_w, e_iw = uniform_moments()
+    var = C ** 2 * (e_k * e_iw - e_sqrt_k ** 2 * e_isqrt_w ** 2)
+    v_k = C ** 2 * (e_k - e_sqrt_k ** 2) * e_isqrt_w ** 2
+    v_w = C ** 2 * e_sqrt_k ** 2 * (e_iw - e_isqrt_w ** 2)
+    exact = {"mesh.mean_stiffness_n_per_m": (v_k / var, 1 - v_w / var),
+             "gear.face_width_mm": (v_w / var, 1 - v_k / var)}
+    ds = geardyn.study(NATURAL, INPUTS_KW, samples=300, method="saltelli", seed=1)
+    assert ds.sizes["sample"] == 300 * 4
+    idx = geardyn.sobol_indices(ds, "natural_frequency_hz")
+    for k, (first, total) in exact.items():
+        for which, value in (("first", first), ("total", total)):
+            est, (lo, hi) = idx[k][which]
+            assert lo <= value <= hi, (k, which, lo, value, hi)
+    with pytest.raises(ValueError, match="saltelli"):
+        geardyn.sobol_indices(geardyn.study(NATURAL, INPUTS_KW, samples=4), "natural_frequency_hz")
+
+
+def test_the_study_command_writes_its_store_data_and_a_report_that_renders(tmp_path):
+    import subprocess
+    import sys
+
+    spec = tmp_path / "s.toml"
+    spec.write_text('samples = 12\nmethod = "lhs"\nseed = 1\n[set]\n"solver.duration_s" = '
+                    '0.004\n[limits]\nrattle = 0.5\n[inputs."mesh.backlash_um"]\n'
+                    'distribution = "uniform"\nlower = 80\nupper = 120\n')
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "geardyn._study_cli", str(spec), "--out", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "12 samples (12 computed now, 0 failed)" in r.stdout
+    r2 = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
+    assert r2.returncode == 0 and "(0 computed now" in r2.stdout, r2.stdout + r2.stderr
+    import xarray as xr
+    with xr.open_dataset(out / "study.nc") as ds:
+        assert ds.sizes["sample"] == 12 and "rattle" in ds
+    # Rendered by a real browser: plotly's script ran (its SVG is in the page), no error.
+    page = subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu",
+                           "--enable-logging=stderr", "--v=0", "--dump-dom",
+                           (out / "report.html").as_uri()], capture_output=True, text=True,
+                          timeout=120)
+    assert page.returncode == 0
+    assert page.stdout.count('class="main-svg"') >= 3
+    assert "Uncaught" not in page.stderr
+    assert "id=\"statistics\"" in page.stdout or "id='statistics'" in page.stdout
+    # Bad input: a key the study file does not have, named; exit 2; nothing written.
+    bad = tmp_path / "bad.toml"
+    bad.write_text("samples = 4\nsample_count = 3\n")
+    r3 = subprocess.run([sys.executable, "-m", "geardyn._study_cli", str(bad), "--out",
+                         str(tmp_path / "bad")], capture_output=True, text=True)
+    assert r3.returncode == 2 and "sample_count: not a study key" in r3.stderr, r3.stderr
+    assert not (tmp_path / "bad").exists()
+
+
+def test_a_trains_element_key_is_an_input_and_each_mesh_is_read():
+    c = geardyn.Case.from_toml(os.path.join(os.environ.get("GEARDYN_SOURCE_DIR", "."), "cases",
+                                            "loose_gear_rattle.toml"))
+    c.set("solver.duration_s", 0.05)
+    ds = geardyn.study(c, {"train.drag[0].constant_nm": {"distribution": "uniform",
+                                                          "lower": 0.1, "upper": 0.4}},
+                       samples=4, seed=1)
+    assert ds["train.drag[0].constant_nm"].attrs["units"] == "N m"
+    # Each sample's reading is that of its own run.
+    for i in (0, 3):
+        r = geardyn.run(c.with_({"train.drag[0].constant_nm":
+                                 float(ds["train.drag[0].constant_nm"][i])}))
+        assert ds["rattle.impacts"][i] == r.summary["meshes"][0]["impacts"]
+
+
+def test_a_samples_readings_are_those_of_its_own_run():
+    # The gear pair's samples go to the library in one call per batch, with the stiffness
+    # shared: each sample's readings equal, to the last bit, geardyn.run's of its own case.
+    ds = geardyn.study(CASE.with_({"mesh.stiffness_source": "energy"}), INPUTS, samples=5,
+                       seed=9, batch_size=5)
+    for i in range(5):
+        r = geardyn.run(CASE.with_({"mesh.stiffness_source": "energy"})
+                        .with_({k: float(ds[k][i]) for k in INPUTS}))
+        s = r.summary
+        expected = {k: s[k] for k in ("impacts", "backside_impacts", "separations",
+                                      "separated_fraction", "max_force_bar", "max_delta_bar",
+                                      "max_impact_velocity_m_s", "dynamic_factor",
+                                      "dynamic_factor_with_startup")}
+        expected["rattle"] = 1.0 if s["regime"] == "sustained" else 0.0
+        expected["natural_frequency_hz"] = s["derived"]["natural_frequency_hz"]
+        for k, v in expected.items():
+            np.testing.assert_equal(float(ds[k][i]), np.nan if v is None else float(v),
+                                    err_msg=f"sample {i}: {k}")
+
+
+def test_the_outputs_kept_are_those_named():
+    ds = geardyn.study(CASE, INPUTS, samples=3, outputs=["rattle", "dynamic_factor"])
+    assert set(ds.data_vars) == set(INPUTS) | {"rattle", "dynamic_factor", "failure"}
+    with pytest.raises(ValueError, match="dynamic_factr: not an output"):
+        geardyn.study(CASE, INPUTS, samples=3, outputs=["dynamic_factr"])
+
+
+def test_a_sweep_study_reads_each_samples_frequency_response():
+    values = list(np.linspace(1500, 3500, 11))
+    analysis = {"kind": "sweep", "param": "speed.shaft_frequency_hz", "values": values}
+    case = geardyn.Case.default()
+    ds = geardyn.study(case, {"mesh.backlash_um": [80, 120]}, method="grid", analysis=analysis)
+    for i, b in enumerate((80, 120)):
+        s = geardyn.sweep(case.with_({"mesh.backlash_um": b}), analysis["param"], values)
+        f = np.asarray(s["max_force_bar"])
+        assert ds["peak_max_force_bar"][i] == f.max()
+        assert ds["peak_at"][i] == np.asarray(s["value"])[f.argmax()]
+        assert ds["jumps"][i] == len(s["jumps"])
+        rattling = np.asarray(s["value"])[np.asarray(s["impacts_per_period"]) > 0]
+        assert ds["rattle_from"][i] == rattling.min() and ds["rattle_to"][i] == rattling.max()
