@@ -31,12 +31,26 @@ class StudyError(ValueError):
 # ---- inputs ---------------------------------------------------------------------------------
 
 def _ot():
+    first = "openturns" not in __import__("sys").modules
     try:
         import openturns as ot
     except ImportError as e:  # pragma: no cover - installed by scripts/setup.sh
         raise ImportError("studies need OpenTURNS (Debian: apt-get install python3-openturns)") \
             from e
+    if first:
+        _python_sigint()
     return ot
+
+
+def _python_sigint():
+    """Puts Python's SIGINT handler back in place of OpenTURNS's, which its import and its
+    objects' calls install and which aborts the process on Ctrl-C outside them: Ctrl-C then
+    stops a study as elsewhere."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.getsignal(signal.SIGINT))
 
 
 # A distribution written as a dict (a study file's [inputs."key"] table): its name and the
@@ -506,6 +520,7 @@ def study(case, inputs, samples=None, method="lhs", seed=0, analysis=None, execu
     if analysis.get("kind") == "sweep" and ("param" not in analysis or "values" not in analysis):
         raise StudyError("analysis (sweep): needs 'param' and 'values'")
     design_ = design(case, inputs, samples, method, seed, correlation)
+    _python_sigint()  # OpenTURNS's objects, gone with design(), leave their own handler
     keys = list(design_)
     spec = _spec(case, design_, analysis, method, seed)
     n = spec["samples"]

@@ -334,3 +334,31 @@ def test_a_sweep_study_reads_each_samples_frequency_response():
         assert ds["jumps"][i] == len(s["jumps"])
         rattling = np.asarray(s["value"])[np.asarray(s["impacts_per_period"]) > 0]
         assert ds["rattle_from"][i] == rattling.min() and ds["rattle_to"][i] == rattling.max()
+
+
+def test_ctrl_c_stops_the_study_command_keeping_the_store_and_resume_completes_it(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    spec = tmp_path / "s.toml"
+    spec.write_text('samples = 400\nbatch_size = 4\n[set]\n"solver.duration_s" = 0.02\n'
+                    '[inputs."mesh.backlash_um"]\ndistribution = "uniform"\nlower = 80\n'
+                    'upper = 120\n')
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "geardyn._study_cli", str(spec), "--out", str(out)]
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and len(list((out / "store" / "batches").glob("*.nc"))) < 2:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert "--resume continues" in err
+    kept = len(list((out / "store" / "batches").glob("*.nc")))
+    assert 2 <= kept < 100
+    assert not (out / "study.nc").exists()
+    r = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert f"({400 - 4 * kept} computed now" in r.stdout, r.stdout
