@@ -179,6 +179,9 @@ def design(case, inputs, samples=None, method="lhs", seed=0, correlation=None):
     """
     if method not in _METHODS:
         raise StudyError(f"method = {method!r}: must be one of {', '.join(_METHODS)}")
+    for k in ({k for v in inputs for k in v} if isinstance(inputs, (list, tuple))
+              else inputs):
+        _check_key(case, k)
     if method == "variants":
         if not isinstance(inputs, (list, tuple)) or not inputs:
             raise StudyError("method = 'variants': inputs must be a non-empty list of dicts")
@@ -228,14 +231,24 @@ def design(case, inputs, samples=None, method="lhs", seed=0, correlation=None):
     for k, v in out.items():
         if not np.all(np.isfinite(v)):
             raise StudyError(f"inputs.{k}: a value is not a finite number")
-        try:
-            case[k]
-        except KeyError:
-            raise StudyError(f"inputs.{k}: not a key of the base case (docs/case-files.md "
-                             "lists them)") from None
-        if not isinstance(case[k], (int, float)) or isinstance(case[k], bool):
-            raise StudyError(f"inputs.{k}: not a numeric key (it holds {case[k]!r})")
+        if method in ("grid", "variants"):
+            for value in np.unique(v):
+                try:
+                    case.with_({k: float(value)})
+                except ValueError as e:
+                    raise StudyError(f"inputs.{k} = {value:g}: {e}") from None
     return out
+
+
+def _check_key(case, key):
+    """An input must be a numeric key of the base case."""
+    try:
+        value = case[key]
+    except KeyError:
+        raise StudyError(f"inputs.{key}: not a key of the base case (docs/case-files.md lists "
+                         "them)") from None
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        raise StudyError(f"inputs.{key}: not a numeric key (it holds {value!r})")
 
 
 # ---- the analyses -------------------------------------------------------------------------

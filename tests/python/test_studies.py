@@ -362,3 +362,10 @@ def test_ctrl_c_stops_the_study_command_keeping_the_store_and_resume_completes_i
     r = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert f"({400 - 4 * kept} computed now" in r.stdout, r.stdout
+
+
+def test_a_grid_value_the_key_refuses_is_named_before_any_sample_runs(tmp_path):
+    with pytest.raises(ValueError, match=r"inputs.mesh.backlash_um = -5"):
+        geardyn.study(CASE, {"mesh.backlash_um": [50, -5]}, method="grid",
+                      store=tmp_path / "s")
+    assert not (tmp_path / "s").exists()
