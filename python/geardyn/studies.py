@@ -18,6 +18,8 @@ import tempfile
 
 import numpy as np
 
+from .data import _COLUMNS
+
 _METHODS = ("monte_carlo", "lhs", "sobol", "saltelli", "grid", "variants")
 _STORE_SPEC = "study.json"
 _BATCHES = "batches"
@@ -441,17 +443,17 @@ def _batch_dataset(first, outputs, failures):
 
 # ---- the study ----------------------------------------------------------------------------
 
-# Units of the outputs a run or sweep keeps (attributes "units" and "long_name").
+# Units of the outputs a run or sweep keeps (attributes "units" and "long_name"): the columns
+# of a sweep's table where they are the same reading (data._COLUMNS), the study's own here.
 _OUTPUT_UNITS = {
+    **{k: _COLUMNS[k] for k in ("separated_fraction", "max_force_bar", "dynamic_factor")},
     "impacts": ("1", "impacts in the window"),
     "backside_impacts": ("1", "back-side impacts in the window"),
     "separations": ("1", "separations in the window"),
-    "separated_fraction": ("1", "fraction of the window separated"),
-    "max_force_bar": ("1", "maximum of F / (b k_m)"),
     "max_delta_bar": ("1", "maximum of delta / b"),
     "max_impact_velocity_m_s": ("m/s", "largest impact velocity"),
-    "dynamic_factor": ("1", "max F_G over the static mesh force, final part"),
     "dynamic_factor_with_startup": ("1", "max F_G over the static mesh force, whole window"),
+    "max_force_n": ("N", "largest mesh force"),
     "rattle": ("1", "1 when the regime is sustained rattle"),
     "natural_frequency_hz": ("Hz", "the contact natural frequency at the mean stiffness"),
     "converged": ("1", "1 when the orbit was found"),
@@ -482,8 +484,12 @@ def _dataset(design_, parts, spec, computed):
         out = out.reindex(sample=np.arange(n))
         for k in out.data_vars:
             ds[k] = out[k]
-            if k in _OUTPUT_UNITS:
-                ds[k].attrs.update(units=_OUTPUT_UNITS[k][0], long_name=_OUTPUT_UNITS[k][1])
+            reading = k.rsplit(".", 1)[-1]  # a train's "<mesh>.impacts", the coupled "mesh."
+            if reading in _OUTPUT_UNITS:
+                units, long_name = _OUTPUT_UNITS[reading]
+                prefix = k[:-len(reading)]
+                ds[k].attrs.update(units=units,
+                                   long_name=f"{prefix[:-1]}: {long_name}" if prefix else long_name)
     ds.attrs.update(method=spec["method"], seed=spec["seed"], inputs=json.dumps(spec["inputs"]),
                     analysis=json.dumps(spec["analysis"]), case=spec["case"],
                     fingerprint=spec["fingerprint"], samples_computed=computed)

@@ -102,7 +102,7 @@ def test_an_interrupted_study_resumes_with_only_the_missing_samples(tmp_path):
                       progress=stop_after_six)
     partial = e.value.result
     assert partial.attrs["samples_computed"] == 6
-    stored = {f: f.stat().st_mtime_ns for f in (store / "batches").glob("*.nc")}
+    stored = {f: f.stat().st_mtime_ns for f in (store / "batches").glob("samples_*.nc")}
     assert len(stored) == 2
     # The same study again without resume is refused; another study in the store too.
     with pytest.raises(ValueError, match="resume"):
@@ -243,16 +243,23 @@ def test_sobol_indices_of_an_analytic_output_hold_their_exact_values():
         geardyn.sobol_indices(geardyn.study(NATURAL, INPUTS_KW, samples=4), "natural_frequency_hz")
 
 
+def study_command(tmp_path, head):
+    """`geardyn-study` of a study file with `head` and one input, the backlash, into OUT."""
+    import sys
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(head + '\n[inputs."mesh.backlash_um"]\ndistribution = "uniform"\n'
+                    'lower = 80\nupper = 120\n')
+    out = tmp_path / "out"
+    return [sys.executable, "-m", "geardyn._study_cli", str(spec), "--out", str(out)], out
+
+
 def test_the_study_command_writes_its_store_data_and_a_report_that_renders(tmp_path):
     import subprocess
     import sys
 
-    spec = tmp_path / "s.toml"
-    spec.write_text('samples = 12\nmethod = "lhs"\nseed = 1\n[set]\n"solver.duration_s" = '
-                    '0.004\n[limits]\nrattle = 0.5\n[inputs."mesh.backlash_um"]\n'
-                    'distribution = "uniform"\nlower = 80\nupper = 120\n')
-    out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "geardyn._study_cli", str(spec), "--out", str(out)]
+    cmd, out = study_command(tmp_path, 'samples = 12\nmethod = "lhs"\nseed = 1\n[set]\n'
+                             '"solver.duration_s" = 0.004\n[limits]\nrattle = 0.5')
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "12 samples (12 computed now, 0 failed)" in r.stdout
@@ -287,6 +294,7 @@ def test_a_trains_element_key_is_an_input_and_each_mesh_is_read():
                                                           "lower": 0.1, "upper": 0.4}},
                        samples=4, seed=1)
     assert ds["train.drag[0].constant_nm"].attrs["units"] == "N m"
+    assert ds["rattle.impacts"].attrs["long_name"] == "rattle: impacts in the window"
     # Each sample's reading is that of its own run.
     for i in (0, 3):
         r = geardyn.run(c.with_({"train.drag[0].constant_nm":
@@ -339,24 +347,21 @@ def test_a_sweep_study_reads_each_samples_frequency_response():
 def test_ctrl_c_stops_the_study_command_keeping_the_store_and_resume_completes_it(tmp_path):
     import signal
     import subprocess
-    import sys
     import time
 
-    spec = tmp_path / "s.toml"
-    spec.write_text('samples = 400\nbatch_size = 4\n[set]\n"solver.duration_s" = 0.02\n'
-                    '[inputs."mesh.backlash_um"]\ndistribution = "uniform"\nlower = 80\n'
-                    'upper = 120\n')
-    out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "geardyn._study_cli", str(spec), "--out", str(out)]
+    cmd, out = study_command(tmp_path, 'samples = 400\nbatch_size = 4\n[set]\n'
+                             '"solver.duration_s" = 0.02')
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    batches = out / "store" / "batches"
     deadline = time.time() + 60
-    while time.time() < deadline and len(list((out / "store" / "batches").glob("*.nc"))) < 2:
+    while time.time() < deadline and len(list(batches.glob("samples_*.nc"))) < 2:
         time.sleep(0.05)
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=60)
     assert p.returncode == 130, err
     assert "--resume continues" in err
-    kept = len(list((out / "store" / "batches").glob("*.nc")))
+    kept = len(list(batches.glob("samples_*.nc")))
+    assert sorted(f.name for f in batches.iterdir() if not f.name.startswith("samples_")) == []
     assert 2 <= kept < 100
     assert not (out / "study.nc").exists()
     r = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
