@@ -8,11 +8,14 @@
 namespace geardyn {
 
 bool WorkTicker::tick() {
-  const std::size_t n = ++done_;
-  if (progress_) {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    if (!progress_(n, total_)) stop_ = true;
+  if (!progress_) {
+    ++done_;
+    return !stop_;
   }
+  // The count is taken under the lock that orders the calls, so the callback hears the
+  // counts in increasing order and its last call is the total.
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (!progress_(++done_, total_)) stop_ = true;
   return !stop_;
 }
 

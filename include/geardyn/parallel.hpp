@@ -16,7 +16,7 @@ class WorkTicker {
       : total_(total_units), progress_(progress) {}
 
   // One unit of work done: counted, and reported to the progress callback (one call at a
-  // time). Returns false once the work is to stop.
+  // time, the counts in increasing order). Returns false once the work is to stop.
   bool tick();
   // True once the progress callback returned false or a job threw: start no further unit.
   bool stopped() const { return stop_.load(); }
