@@ -3,13 +3,17 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <boost/math/interpolators/cardinal_cubic_b_spline.hpp>
 #include <boost/math/quadrature/gauss.hpp>
 #include <cmath>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <numbers>
 #include <sstream>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/spectrum.hpp"
 
 namespace geardyn {
@@ -43,45 +47,49 @@ constexpr double kShearCoefficient = 1.2;
 double involute_fn(double a) { return std::tan(a) - a; }
 
 // One tooth, for its compliance along the path of contact (per unit face width).
+//
+// The beam part of the compliance at contact radius rc is the integral over the tooth height,
+// from the root radius rf to rc, of
+//   [arm^2 / (E (2/3) h^3) + k_s cos^2(a1) / (2 G h) + sin^2(a1) / (2 E h)] dy/dr,
+// where the moment arm (yc - y) cos(a1) - hc sin(a1) is A - cos(a1) (y - rf) with
+// A = (yc - rf) cos(a1) - hc sin(a1): only A and a1 depend on rc. Expanding the square, the
+// integral is A^2 F0 - 2 A cos(a1) F1 + cos^2(a1) F2 + (k_s cos^2(a1) / (2 G) + sin^2(a1) /
+// (2 E)) F3 with the cumulative integrals from rf of
+//   F0: w,  F1: w (y - rf),  F2: w (y - rf)^2  (w = dy/dr / (E (2/3) h^3)),  F3: dy/dr / h,
+// which do not depend on rc. They are tabulated once per tooth at the nodes of a composite
+// Gauss-Legendre grid over the height, the base circle a node (the flank's kink), and a
+// contact radius adds the part from the node below it: ten integrand values instead of a
+// whole quadrature per contact radius.
 struct Tooth {
   double rb, rf, psi_b, e, g;
   double theta_f, sf, h_fi;
 
+  // tan(acos(rb / r)) = sqrt(r^2 - rb^2) / rb, the pressure angle's tangent at r > rb.
+  double tan_pressure(double r) const { return std::sqrt(r * r - rb * rb) / rb; }
   // Half tooth angle at radius r: involute above the base circle, radial flank below it.
-  double psi(double r) const { return r > rb ? psi_b - involute_fn(std::acos(rb / r)) : psi_b; }
+  double psi(double r) const {
+    return r > rb ? psi_b - (tan_pressure(r) - std::acos(rb / r)) : psi_b;
+  }
 
-  // Bending, shear, axial and fillet-foundation compliance for a unit normal force at radius rc.
-  double compliance(double rc, int intervals) const {
+  // The integrands of F0..F3 at r.
+  std::array<double, 4> integrands(double r) const {
+    const double p = psi(r), sp = std::sin(p), cp = std::cos(p);
+    const double h = r * sp, u = r * cp - rf;
+    const double dy_dr = r > rb ? cp + sp * tan_pressure(r) : cp;
+    const double w = dy_dr / (e * (2.0 / 3.0) * h * h * h);
+    return {w, w * u, w * u * u, dy_dr / h};
+  }
+
+  // The load point's terms at rc: A, cos(a1), sin(a1), and the fillet foundation's compliance
+  // (Sainsot et al. 2004).
+  struct LoadPoint {
+    double arm0, ca, sa, foundation;
+  };
+  LoadPoint load_point(double rc) const {
     const double psi_c = psi(rc);
     const double alpha1 = std::acos(std::min(1.0, rb / rc)) - psi_c;
     const double ca = std::cos(alpha1), sa = std::sin(alpha1);
     const double yc = rc * std::cos(psi_c), hc = rc * std::sin(psi_c);
-    auto integrand = [&](double r) {
-      const double p = psi(r);
-      const double h = r * std::sin(p), y = r * std::cos(p);
-      const double dy_dr =
-          r > rb ? std::cos(p) + std::sin(p) * std::tan(std::acos(rb / r)) : std::cos(p);
-      const double arm = (yc - y) * ca - hc * sa;
-      const double bending = arm * arm / (e * (2.0 / 3.0) * h * h * h);
-      const double shear = kShearCoefficient * ca * ca / (g * 2.0 * h);
-      const double axial = sa * sa / (e * 2.0 * h);
-      return (bending + shear + axial) * dy_dr;
-    };
-    double beam = 0;
-    auto integrate = [&](double a, double b) {
-      if (!(b > a)) return;
-      const double step = (b - a) / intervals;
-      for (int k = 0; k < intervals; ++k)
-        beam += boost::math::quadrature::gauss<double, 10>::integrate(integrand, a + k * step,
-                                                                      a + (k + 1) * step);
-    };
-    if (rf < rb && rc > rb) {
-      integrate(rf, rb);  // the kink of the flank at the base circle is a node
-      integrate(rb, rc);
-    } else {
-      integrate(rf, rc);
-    }
-    // Fillet foundation (Sainsot et al. 2004).
     const double uf = yc - hc * std::tan(alpha1) - rf;
     double x[4];
     for (int i = 0; i < 4; ++i) {
@@ -93,8 +101,121 @@ struct Tooth {
     const double foundation =
         ca * ca / e *
         (x[0] * u * u + x[1] * u + x[2] * (1 + x[3] * std::tan(alpha1) * std::tan(alpha1)));
-    return beam + foundation;
+    return {(yc - rf) * ca - hc * sa, ca, sa, foundation};
   }
+
+  double compliance(double rc, const std::array<double, 4>& f) const {
+    const LoadPoint q = load_point(rc);
+    const double beam = q.arm0 * q.arm0 * f[0] - 2 * q.arm0 * q.ca * f[1] + q.ca * q.ca * f[2] +
+                        (kShearCoefficient * q.ca * q.ca / (2 * g) + q.sa * q.sa / (2 * e)) * f[3];
+    return beam + q.foundation;
+  }
+
+  // The integrals over [a, b] of the values of f(r) (an std::array), by `intervals` 10-point
+  // Gauss-Legendre intervals. Above the base circle the involute's sqrt(r^2 - rb^2) has a
+  // square-root branch at rb, where plain Gauss converges only algebraically: there the
+  // variable is t = sqrt(r - rb) (dr = 2 t dt), in which the integrands are smooth, and the
+  // intervals are uniform in t.
+  template <class F>
+  auto integrate(double a, double b, int intervals, F&& f) const {
+    using Rule = boost::math::quadrature::gauss<double, 10>;  // nodes +-x_i, weights w_i
+    decltype(f(a)) sum{};
+    if (!(b > a)) return sum;
+    const bool involute = a >= rb;
+    const double lo = involute ? std::sqrt(a - rb) : a, hi = involute ? std::sqrt(b - rb) : b;
+    const double half = 0.5 * (hi - lo) / intervals;
+    const auto add = [&](double x, double weight) {
+      const double r = involute ? rb + x * x : x;
+      const double w = involute ? weight * 2 * x : weight;
+      const auto values = f(r);
+      for (std::size_t m = 0; m < values.size(); ++m) sum[m] += w * values[m];
+    };
+    for (int k = 0; k < intervals; ++k) {
+      const double mid = lo + (2 * k + 1) * half;
+      for (std::size_t i = 0; i < Rule::abscissa().size(); ++i) {
+        const double x = half * Rule::abscissa()[i], w = half * Rule::weights()[i];
+        add(mid + x, w);
+        add(mid - x, w);
+      }
+    }
+    return sum;
+  }
+
+  // F0..F3 over [a, b].
+  std::array<double, 4> integrals(double a, double b, int intervals) const {
+    return integrate(a, b, intervals, [this](double r) { return integrands(r); });
+  }
+
+  // The compliance at rc integrated afresh over [rf, rc] (the base circle a node), the moment
+  // arm not expanded, with `intervals` intervals on each side: the reference the tabulated
+  // integrals are checked against (EnergyMethodOptions::direct).
+  double compliance_direct(double rc, int intervals) const {
+    const double psi_c = psi(rc);
+    const double alpha1 = std::acos(std::min(1.0, rb / rc)) - psi_c;
+    const double ca = std::cos(alpha1), sa = std::sin(alpha1);
+    const double yc = rc * std::cos(psi_c), hc = rc * std::sin(psi_c);
+    const auto energy = [&](double r) {
+      const double p = psi(r);
+      const double h = r * std::sin(p), y = r * std::cos(p);
+      const double dy_dr =
+          r > rb ? std::cos(p) + std::sin(p) * std::tan(std::acos(rb / r)) : std::cos(p);
+      const double arm = (yc - y) * ca - hc * sa;
+      const double bending = arm * arm / (e * (2.0 / 3.0) * h * h * h);
+      const double shear = kShearCoefficient * ca * ca / (g * 2.0 * h);
+      const double axial = sa * sa / (e * 2.0 * h);
+      return std::array<double, 1>{(bending + shear + axial) * dy_dr};
+    };
+    double beam = 0;
+    if (rf < rb && rc > rb) {
+      beam = integrate(rf, rb, intervals, energy)[0] + integrate(rb, rc, intervals, energy)[0];
+    } else {
+      beam = integrate(rf, rc, intervals, energy)[0];
+    }
+    return beam + load_point(rc).foundation;
+  }
+};
+
+// F0..F3 of a tooth tabulated at the nodes of a composite Gauss grid from rf to r_top:
+// `intervals` intervals below the base circle (when the root is below it) and as many above.
+class ToothTable {
+ public:
+  ToothTable(const Tooth& t, double r_top, int intervals) : t_(t) {
+    // Uniform in r on the radial flank, in t = sqrt(r - rb) on the involute (as `integrals`).
+    const auto segment = [&](double a, double b) {
+      if (!(b > a)) return;
+      const bool involute = a >= t.rb;
+      const double lo = involute ? std::sqrt(a - t.rb) : a, hi = involute ? std::sqrt(b - t.rb) : b;
+      const double step = (hi - lo) / intervals;
+      for (int k = 0; k < intervals; ++k) {
+        const double x = lo + k * step;
+        nodes_.push_back(involute ? t.rb + x * x : x);
+      }
+    };
+    if (t.rf < t.rb) segment(t.rf, t.rb);
+    segment(std::max(t.rf, t.rb), r_top);
+    nodes_.push_back(r_top);
+    cumulative_.assign(nodes_.size(), {});
+    for (std::size_t k = 1; k < nodes_.size(); ++k) {
+      const std::array<double, 4> part = t.integrals(nodes_[k - 1], nodes_[k], 1);
+      for (int m = 0; m < 4; ++m) cumulative_[k][m] = cumulative_[k - 1][m] + part[m];
+    }
+  }
+
+  double compliance(double rc) const {
+    // The node at or below rc, and the rest of the way from it.
+    const auto above = std::upper_bound(nodes_.begin(), nodes_.end(), rc);
+    const std::size_t k =
+        above == nodes_.begin() ? 0 : static_cast<std::size_t>(above - nodes_.begin()) - 1;
+    std::array<double, 4> f = cumulative_[k];
+    const std::array<double, 4> rest = t_.integrals(nodes_[k], rc, 1);
+    for (int m = 0; m < 4; ++m) f[m] += rest[m];
+    return t_.compliance(rc, f);
+  }
+
+ private:
+  const Tooth& t_;
+  std::vector<double> nodes_;
+  std::vector<std::array<double, 4>> cumulative_;
 };
 
 Tooth make_tooth(const Case& c, const Geometry& g, int i) {
@@ -195,11 +316,17 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const Energ
   const int np = o.path_points;
   const double ds = (s_e - s_a) / (np - 1);
   std::vector<double> k_unit(np);
+  // The contact radii reach the tips at the path's ends.
+  const ToothTable table1(t1, std::max(ra1, std::hypot(rb1, s_e)), o.quadrature_intervals);
+  const ToothTable table2(t2, std::max(ra2, std::hypot(rb2, t1t2 - s_a)), o.quadrature_intervals);
   for (int i = 0; i < np; ++i) {
     const double s = s_a + i * ds;
     const double rc1 = std::hypot(rb1, s), rc2 = std::hypot(rb2, t1t2 - s);
-    k_unit[i] = 1.0 / (hertz + t1.compliance(rc1, o.quadrature_intervals) +
-                       t2.compliance(rc2, o.quadrature_intervals));
+    const double c1 =
+        o.direct ? t1.compliance_direct(rc1, o.quadrature_intervals) : table1.compliance(rc1);
+    const double c2 =
+        o.direct ? t2.compliance_direct(rc2, o.quadrature_intervals) : table2.compliance(rc2);
+    k_unit[i] = 1.0 / (hertz + c1 + c2);
   }
   const boost::math::interpolators::cardinal_cubic_b_spline<double> spline(k_unit.begin(),
                                                                            k_unit.end(), s_a, ds);
@@ -334,6 +461,41 @@ double truncation_error(const StiffnessCycle& cycle, const StiffnessFourier& f) 
   return worst / f.mean_n_per_m;
 }
 
+namespace {
+// The energy method's curves computed in this process, by the text of every key that changes
+// the stiffness (CaseKey::changes_stiffness, the keys a study's shared stiffness relies on
+// too): a gear run again (from Python, a study whose samples vary other keys, a benchmark)
+// computes its curve once. Emptied when it holds kCachedCurves.
+constexpr std::size_t kCachedCurves = 32;
+
+std::string stiffness_inputs(const Case& c) {
+  std::string text;
+  for (const CaseKey& k : case_keys())
+    if (k.changes_stiffness) {
+      text += k.name;
+      text += '=';
+      text += k.value_text(c);
+      text += '\n';
+    }
+  return text;
+}
+
+StiffnessCycle cached_energy_cycle(const Case& c, const Geometry& g) {
+  static std::mutex mutex;
+  static std::map<std::string, StiffnessCycle> curves;
+  std::string inputs = stiffness_inputs(c);
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (const auto found = curves.find(inputs); found != curves.end()) return found->second;
+  }
+  StiffnessCycle cycle = energy_method_cycle(c, g);
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (curves.size() >= kCachedCurves) curves.clear();
+  curves.emplace(std::move(inputs), cycle);
+  return cycle;
+}
+}  // namespace
+
 MeshStiffness mesh_stiffness(const Case& c, const Geometry& g) {
   MeshStiffness m;
   switch (c.mesh.stiffness_source) {
@@ -342,7 +504,7 @@ MeshStiffness mesh_stiffness(const Case& c, const Geometry& g) {
       m.fourier.harmonics = c.mesh.stiffness_harmonics;
       return m;
     case StiffnessSource::kEnergy:
-      m.cycle = energy_method_cycle(c, g);
+      m.cycle = cached_energy_cycle(c, g);
       break;
     case StiffnessSource::kTable:
       m.cycle = table_cycle(c);
