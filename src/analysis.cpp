@@ -142,7 +142,7 @@ RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader,
                                  const ode::OutputGrid& grid)
     : model_(model),
       reader_(reader),
-      sample_drive_(model.drive_grid(grid.t0_s - grid.interval_s, grid.interval_s)) {
+      sample_drive_(model.drive_grid(grid.time(-1), grid.interval_s)) {
   reader.reserve_samples(static_cast<std::size_t>(std::max<std::int64_t>(0, grid.count)));
   const HarmonicSeries& k = model.parameters().stiffness_n_per_m;
   double swing = 0;

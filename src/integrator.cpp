@@ -1,5 +1,6 @@
 #include "geardyn/integrator.hpp"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 
@@ -32,6 +33,17 @@ OutputGrid make_output_grid(double t0_s, double t1_s, double interval_s) {
   g.interval_s = interval_s;
   g.count = static_cast<std::int64_t>(std::floor((t1_s - t0_s) / interval_s + kEndSlack)) + 1;
   return g;
+}
+
+std::int64_t OutputGrid::count_until(double t_s) const {
+  if (count == 0 || !(time(0) <= t_s)) return 0;
+  // The estimate from the division, corrected with the times themselves, which decide.
+  auto n = std::min<std::int64_t>(
+      count, static_cast<std::int64_t>(std::floor((t_s - t0_s) / interval_s)) - first + 1);
+  n = std::max<std::int64_t>(n, 1);
+  while (n < count && time(n) <= t_s) ++n;
+  while (n > 1 && time(n - 1) > t_s) --n;
+  return n;
 }
 
 }  // namespace geardyn::ode

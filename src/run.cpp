@@ -137,6 +137,74 @@ ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
                                initial.region - GearPairModel::kFirstRegion, t1, grid, observer));
 }
 
+namespace {
+// The steppers' observer that hands everything to several readers; the first one hears the
+// progress.
+struct ReaderTee {
+  std::span<RunReader* const> readers;
+  void on_step(const ode::State& s, const GearPairModel::Drive& d) {
+    for (RunReader* r : readers) r->on_step(s, d);
+  }
+  void on_transition(const ode::State& s, int from_region) {
+    for (RunReader* r : readers) r->on_transition(s, from_region);
+  }
+  void on_sample(const ode::State& s) {
+    for (RunReader* r : readers) r->on_sample(s);
+  }
+  bool on_progress(double t_s) { return readers.front()->on_progress(t_s); }
+};
+
+// The same for the exact engine: one RunFlowObserver per reader (each finds the extremes its
+// reader has not seen), a cell in detail when any of them asks.
+class FlowTee final : public ode::FlowObserver {
+ public:
+  FlowTee(const GearPairModel& model, std::span<RunReader* const> readers,
+          const ode::OutputGrid& grid) {
+    observers_.reserve(readers.size());
+    for (RunReader* r : readers) observers_.emplace_back(model, *r, grid);
+  }
+  void on_cell(const ode::CellView& cell) override {
+    for (RunFlowObserver& o : observers_) o.on_cell(cell);
+  }
+  bool needs_detail(const ode::CellView& span) override {
+    bool any = false;
+    for (RunFlowObserver& o : observers_) any = o.needs_detail(span) || any;
+    return any;
+  }
+  void on_step(double t_s, const ode::Vector& y, int region) override {
+    for (RunFlowObserver& o : observers_) o.on_step(t_s, y, region);
+  }
+  void on_event(double t_s, const ode::Vector& y, int from, int to) override {
+    for (RunFlowObserver& o : observers_) o.on_event(t_s, y, from, to);
+  }
+  void on_sample(double t_s, const ode::Vector& y, int region) override {
+    for (RunFlowObserver& o : observers_) o.on_sample(t_s, y, region);
+  }
+  bool on_progress(double t_s) override { return observers_.front().on_progress(t_s); }
+
+ private:
+  std::vector<RunFlowObserver> observers_;
+};
+}  // namespace
+
+ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
+                                    const ode::OutputGrid& grid,
+                                    std::span<RunReader* const> readers) const {
+  if (readers.size() == 1) return run(initial, t1, grid, *readers.front());
+  ReaderTee tee{readers};
+  switch (s_.method) {
+    case Method::kNewmark:
+      return ode::integrate_newmark(model_, initial, t1, dt_, grid, tee);
+    case Method::kDopri5:
+      return ode::integrate_dopri5(model_, initial, t1, grid, tee, dopri5_options());
+    case Method::kExact:
+      break;
+  }
+  FlowTee observer(model_, readers, grid);
+  return summary(engine_->flow(initial.t, to_vector(initial),
+                               initial.region - GearPairModel::kFirstRegion, t1, grid, observer));
+}
+
 ode::Dopri5Options Solver::dopri5_options() const {
   const GearPairParameters& p = model_.parameters();
   ode::Dopri5Options o;
@@ -316,14 +384,24 @@ void refuse_non_finite(const RunReading& x, ode::IntegrationSummary& s) {
     }
 }
 
-// The steady part of a run over [t0, t1] from `initial`: the response is followed on the section
-// t = k T0 until steady (steady.hpp, to kSteadyTolerance), leaving at least one period to read;
-// without a steady state, the final half. Its readings are taken by integrating the part again
-// (exact extremes, as the whole run's).
-SteadyPart read_steady_part(const Case& c, const GearPairModel& model, const ode::State& initial,
-                            double t0, double t1, double output_interval_s) {
-  SteadyPart part;
+// A run over [initial.t, t1] integrated once: `reader` reads the whole of it while the response
+// is followed on the section t = t0 + k T0 until steady (steady.hpp, to kSteadyTolerance, leaving
+// at least one period to read), and a second reader reads the steady part from there in the
+// same pass; without a steady state, the final half (kSteadyFraction), read from its start.
+// Until then the run is integrated a period at a time, so that the section states are the
+// integrator's own; the pieces' samples are the grid's, bit for bit.
+struct OnePass {
+  ode::IntegrationSummary integration;
+  SteadyPart steady;  // its reading is valid only when the integration completed
+  double time_step_s = 0;
+};
+
+OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::State& initial,
+                       double t1, const ode::OutputGrid& grid, RunReader& reader) {
+  OnePass out;
+  SteadyPart& part = out.steady;
   const GearPairParameters& p = model.parameters();
+  const double t0 = initial.t;
   double period = 0;
   try {
     period = section_period_s(p);
@@ -331,41 +409,80 @@ SteadyPart read_steady_part(const Case& c, const GearPairModel& model, const ode
     part.basis = SteadyBasis::kAperiodic;
   }
   part.error = std::numeric_limits<double>::infinity();
-  std::optional<ode::State> from;
-  if (period > 0) {
-    const Solver solver(model, c.solver, period);
-    SectionSeries x(p.backlash_m, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
-    ode::State s = initial;
-    x.add(s);
-    for (;;) {
-      const SteadyVerdict v = x.judge(kSteadyTolerance);
+  const double t_half = t1 - kSteadyFraction * (t1 - t0);
+  const Solver solver(model, c.solver, period > 0 ? period : t1 - t0);
+  out.time_step_s = solver.time_step_s();
+  reader.reserve_samples(static_cast<std::size_t>(std::max<std::int64_t>(0, grid.count)));
+
+  SectionSeries sections(p.backlash_m, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
+  bool judging = period > 0;
+  if (judging) sections.add(initial);
+  std::optional<RunReader> half, settled;  // the final half's reader, the settled part's
+  ode::State s = initial;
+  double t = t0;                   // where the pieces have reached
+  std::int64_t sections_done = 0;  // section times passed
+  std::int64_t sampled = 0;        // grid samples emitted
+  ode::IntegrationSummary& total = out.integration;
+  for (;;) {
+    if (judging) {
+      const SteadyVerdict v = sections.judge(kSteadyTolerance);
       part.error = v.error;
       if (v.settled()) {
         part.basis = SteadyBasis::kSettled;
         part.period_multiple = v.period_multiple;
-        from = s;
-        break;
+        part.from_s = t;
+        settled.emplace(model, t, t1, /*final_fraction=*/1.0, /*keep_events=*/false,
+                        /*keep_samples=*/false);
+        half.reset();
+        judging = false;
+      } else if (t + 2 * period > t1) {
+        judging = false;  // a steady part holds at least one period
       }
-      if (s.t + 2 * period > t1) break;  // a steady part holds at least one period
-      const auto sum = solver.advance(s, s.t + period);
-      if (!sum.ok()) break;  // the run itself reports the failure
-      s = sum.end_state;
-      x.add(s);
+    }
+    if (!settled && !half && t >= t_half) {
+      part.from_s = t;
+      half.emplace(model, t, t1, 1.0, false, false);
+    }
+    // The next stop: the next section time while judging, the final half's start, the end.
+    const double next_section = judging ? t0 + static_cast<double>(sections_done + 1) * period : t1;
+    double stop = std::min(next_section, t1);
+    if (!settled && !half && t_half < stop) stop = t_half;
+    const std::int64_t until = stop < t1 ? grid.count_until(stop) : grid.count;
+    std::vector<RunReader*> readers{&reader};
+    if (half) readers.push_back(&*half);
+    if (settled) readers.push_back(&*settled);
+    const ode::IntegrationSummary piece =
+        solver.run(s, stop, grid.stretch(sampled, std::max(until, sampled)), readers);
+    sampled = std::max(until, sampled);
+    total.termination = piece.termination;
+    total.message = piece.message;
+    total.steps += piece.steps;
+    total.transitions += piece.transitions;
+    total.unsplit_steps += piece.unsplit_steps;
+    total.end_time_s = piece.end_time_s;
+    total.end_state = piece.end_state;
+    if (!piece.ok() || stop >= t1) break;
+    // A piece may be shorter than the integrators' interval between progress calls.
+    if (!reader.on_progress(stop)) {
+      total.termination = ode::Termination::kCancelled;
+      total.message = fmt::format("cancelled at t = {:.9g} s", stop);
+      break;
+    }
+    s = piece.end_state;
+    t = stop;
+    if (judging && stop == next_section) {
+      sections.add(s);
+      ++sections_done;
     }
   }
-  if (!from) {
-    const double t_half = t1 - kSteadyFraction * (t1 - t0);
-    const auto sum = Solver(model, c.solver, t_half - t0).advance(initial, t_half);
-    if (!sum.ok()) return part;
-    from = sum.end_state;
+  if (settled) {
+    part.reading = settled->reading();
+  } else if (half) {
+    part.reading = half->reading();
+  } else {
+    part.from_s = t_half;  // the run failed before its final half
   }
-  part.from_s = from->t;
-  RunReader reader(model, from->t, t1, /*final_fraction=*/1.0, /*keep_events=*/false,
-                   /*keep_samples=*/false);
-  const Solver solver(model, c.solver, t1 - from->t);
-  solver.run(*from, t1, ode::make_output_grid(from->t, t1, output_interval_s), reader);
-  part.reading = reader.reading();
-  return part;
+  return out;
 }
 
 }  // namespace
@@ -424,20 +541,17 @@ RunResult run(const Case& c, const RunOptions& options) {
 
   RunReader reader(model, t0, t1, c.solver.final_fraction, options.keep_events,
                    options.keep_samples, options.progress);
-  const Solver solver(model, c.solver, t1 - t0);
-  result.integration = solver.run(initial, t1, grid, reader);
-  d.time_step_s = solver.time_step_s();
+  OnePass pass = integrate_once(c, model, initial, t1, grid, reader);
+  result.integration = std::move(pass.integration);
+  d.time_step_s = pass.time_step_s;
   result.reading = reader.reading();
   if (result.integration.ok()) refuse_non_finite(result.reading, result.integration);
   result.events = reader.events();
   result.samples = std::move(reader.samples());
-  if (result.integration.ok()) {
-    result.steady = read_steady_part(c, model, initial, t0, t1, d.output_interval_s);
-    result.steady_start_s = result.steady.from_s;
-  } else {
-    result.steady_start_s = t1 - kSteadyFraction * (t1 - t0);
-  }
-  compute_spectra(result);
+  if (result.integration.ok()) result.steady = std::move(pass.steady);
+  result.steady_start_s =
+      result.integration.ok() ? result.steady.from_s : t1 - kSteadyFraction * (t1 - t0);
+  if (options.keep_samples) compute_spectra(result);
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

@@ -4,15 +4,43 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <mutex>
 #include <numbers>
 
 namespace geardyn {
 namespace {
-// FFTW's planner is not thread-safe; execution of a plan is.
-std::mutex& planner_mutex() {
-  static std::mutex m;
-  return m;
+// FFTW's planner is not thread-safe; execution of a plan is. A plan is made once per length
+// (planning a new length costs more than a transform of a run's samples) with FFTW_UNALIGNED,
+// so that it serves any arrays through the new-array interface; the cache is emptied when it
+// holds kMaxCachedPlans lengths.
+constexpr std::size_t kMaxCachedPlans = 64;
+
+struct PlanCache {
+  std::mutex mutex;
+  std::map<int, fftw_plan> plans;
+  ~PlanCache() {
+    for (auto& [n, plan] : plans) fftw_destroy_plan(plan);
+  }
+};
+
+PlanCache& plan_cache() {
+  static PlanCache cache;
+  return cache;
+}
+
+fftw_plan real_plan(int n, double* in, fftw_complex* out) {
+  PlanCache& cache = plan_cache();
+  const std::lock_guard<std::mutex> lock(cache.mutex);
+  if (const auto found = cache.plans.find(n); found != cache.plans.end()) return found->second;
+  if (cache.plans.size() >= kMaxCachedPlans) {
+    for (auto& [length, plan] : cache.plans) fftw_destroy_plan(plan);
+    cache.plans.clear();
+  }
+  // FFTW_ESTIMATE leaves the arrays untouched while planning.
+  const fftw_plan plan = fftw_plan_dft_r2c_1d(n, in, out, FFTW_ESTIMATE | FFTW_UNALIGNED);
+  cache.plans.emplace(n, plan);
+  return plan;
 }
 }  // namespace
 
@@ -20,17 +48,8 @@ std::vector<std::complex<double>> real_dft(const std::vector<double>& x) {
   const int n = static_cast<int>(x.size());
   std::vector<double> in(x);
   std::vector<std::complex<double>> out(n / 2 + 1);
-  fftw_plan plan;
-  {
-    std::lock_guard<std::mutex> lock(planner_mutex());
-    plan = fftw_plan_dft_r2c_1d(n, in.data(), reinterpret_cast<fftw_complex*>(out.data()),
-                                FFTW_ESTIMATE);
-  }
-  fftw_execute(plan);
-  {
-    std::lock_guard<std::mutex> lock(planner_mutex());
-    fftw_destroy_plan(plan);
-  }
+  auto* spectrum = reinterpret_cast<fftw_complex*>(out.data());
+  fftw_execute_dft_r2c(real_plan(n, in.data(), spectrum), in.data(), spectrum);
   return out;
 }
 

@@ -105,12 +105,20 @@ struct IntegrationSummary {
   bool ok() const { return termination == Termination::kCompleted; }
 };
 
-// Uniform output times t0 + k * interval, k = 0 .. count-1.
+// Uniform output times t0 + (first + k) * interval, k = 0 .. count-1: with `first`, a stretch
+// of a longer grid whose times are bit for bit the longer grid's (a run integrated in pieces).
 struct OutputGrid {
   double t0_s = 0;
   double interval_s = 0;
   std::int64_t count = 0;
-  double time(std::int64_t k) const { return t0_s + static_cast<double>(k) * interval_s; }
+  std::int64_t first = 0;
+  double time(std::int64_t k) const { return t0_s + static_cast<double>(first + k) * interval_s; }
+  // The stretch of this grid from index i0 (of this grid) to before i1.
+  OutputGrid stretch(std::int64_t i0, std::int64_t i1) const {
+    return {t0_s, interval_s, i1 - i0, first + i0};
+  }
+  // How many of this grid's times are at or before t_s.
+  std::int64_t count_until(double t_s) const;
 };
 
 // Output times every `interval_s` from t0 up to t1 inclusive (to within a rounding error).
