@@ -15,6 +15,7 @@
 
 #include "contact_tracker.hpp"
 #include "geardyn/case_keys.hpp"
+#include "geardyn/csv.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
@@ -371,21 +372,18 @@ void write_coupled_timeseries_csv(std::ostream& out, const CoupledRunResult& r) 
     if (p.shaft[i] >= 0) header += fmt::format(",shaft{}_torque_nm", i + 1);
   out << header << '\n';
   const CoupledSamples& s = r.samples;
-  fmt::memory_buffer row;
+  CsvWriter csv(out);
   for (std::size_t k = 0; k < s.t_s.size(); ++k) {
-    row.clear();
-    fmt::format_to(std::back_inserter(row), "{:.10g}", s.t_s[k]);
-    for (Eigen::Index i = 0; i < s.state[k].size(); ++i)
-      fmt::format_to(std::back_inserter(row), ",{:.10g}", s.state[k][i]);
-    fmt::format_to(std::back_inserter(row), ",{:.10g},{:.10g},{},{:.10g},{:.10g},{:.10g},{:.10g}",
-                   s.deflection_bar[k], s.force_bar[k], s.mesh_contact[k], s.bearing_force_n[k][0],
-                   s.bearing_force_n[k][1], s.axial_force_n[k][0], s.axial_force_n[k][1]);
+    csv.number(s.t_s[k]);
+    for (Eigen::Index i = 0; i < s.state[k].size(); ++i) csv.number(s.state[k][i]);
+    csv.number(s.deflection_bar[k]).number(s.force_bar[k]).integer(s.mesh_contact[k]);
+    csv.number(s.bearing_force_n[k][0]).number(s.bearing_force_n[k][1]);
+    csv.number(s.axial_force_n[k][0]).number(s.axial_force_n[k][1]);
     for (int i = 0; i < 2; ++i)
-      if (p.shaft[i] >= 0)
-        fmt::format_to(std::back_inserter(row), ",{:.10g}", s.shaft_torque_nm[k][i]);
-    row.push_back('\n');
-    out.write(row.data(), static_cast<std::streamsize>(row.size()));
+      if (p.shaft[i] >= 0) csv.number(s.shaft_torque_nm[k][i]);
+    csv.end_row();
   }
+  csv.finish();
 }
 
 std::string modes_json(const ModeSet& m, int indent) {

@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "geardyn/case_keys.hpp"
+#include "geardyn/csv.hpp"
 
 namespace geardyn {
 namespace {
@@ -175,13 +176,12 @@ std::string summary_json(const RunResult& r, int indent) {
 void write_timeseries_csv(std::ostream& out, const Timeseries& s, ModelForm form) {
   out << fmt::format("{},delta_bar,{},force_bar,contact\n", form_key("t_s", form),
                      form_key("velocity_m_s", form));
-  fmt::memory_buffer row;
+  CsvWriter csv(out);
   for (std::size_t i = 0; i < s.size(); ++i) {
-    row.clear();
-    fmt::format_to(std::back_inserter(row), "{:.10g},{:.10g},{:.10g},{:.10g},{}\n", s.t_s[i],
-                   s.delta_bar[i], s.velocity_m_s[i], s.force_bar[i], s.contact[i]);
-    out.write(row.data(), static_cast<std::streamsize>(row.size()));
+    csv.number(s.t_s[i]).number(s.delta_bar[i]).number(s.velocity_m_s[i]).number(s.force_bar[i]);
+    csv.integer(s.contact[i]).end_row();
   }
+  csv.finish();
 }
 
 std::string timeseries_csv(const Timeseries& s, ModelForm form) {

@@ -14,6 +14,7 @@
 
 #include "contact_tracker.hpp"
 #include "geardyn/adaptive.hpp"
+#include "geardyn/csv.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_case.hpp"
 
@@ -404,15 +405,15 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
     out << ',' << m.name << "_deflection_bar," << m.name << "_force_n," << m.name << "_contact";
   out << '\n';
   const TrainSamples& s = r.samples;
+  CsvWriter csv(out);
   for (std::size_t i = 0; i < s.t_s.size(); ++i) {
-    out << fmt::format("{:.10g}", s.t_s[i]);
-    for (Eigen::Index k = 0; k < s.state[i].size(); ++k)
-      out << fmt::format(",{:.10g}", s.state[i](k));
+    csv.number(s.t_s[i]);
+    for (Eigen::Index k = 0; k < s.state[i].size(); ++k) csv.number(s.state[i](k));
     for (std::size_t m = 0; m < r.meshes.size(); ++m)
-      out << fmt::format(",{:.10g},{:.10g},{}", s.deflection_bar[i][m], s.force_n[i][m],
-                         s.contact[i][m]);
-    out << '\n';
+      csv.number(s.deflection_bar[i][m]).number(s.force_n[i][m]).integer(s.contact[i][m]);
+    csv.end_row();
   }
+  csv.finish();
 }
 
 std::string train_modes_json(const train::Assembled& a, const std::vector<train::TrainMode>& m,
