@@ -285,6 +285,10 @@ constexpr int kEntryRefinements = 2;
 constexpr std::int64_t kPhasorResyncCells = 256;
 // Cells in one steady jump of a constant-coefficient region without forcing, and at most with.
 constexpr int kSteadyBlockCells = 16;
+// A whole-period jump whose end is the flow's end t1 to within this many units of rounding of
+// the times is taken, the flow then ending at t1: a caller's t1 = t0 + k T and the engine's
+// m h differ by a rounding (a sweep settles one period per flow).
+constexpr double kEndTimeUlps = 8;
 constexpr int kMaxSteadyBlockCells = 4096;
 
 // The Taylor series of one cell, in the scaled variable x = s / h in [0, 1]: a term k is the
@@ -957,7 +961,7 @@ struct Binomials {
 class RootFinder {
  public:
   // The subdivision buffers are sized once: the recursion holds references into them.
-  RootFinder() : binom_(shared_binomials()), scratch_(kMaxSubdivisions + 1) {}
+  RootFinder() : binom_(shared_binomials()) {}
 
   std::optional<double> first_crossing(const std::vector<double>& c, double a, double b) {
     // A lower bound from the coefficients' signs (0 <= a <= x <= b <= 1, so x^k lies between
@@ -1136,7 +1140,8 @@ class RootFinder {
   int p_ = 0;
   int nodes_ = 0;
   std::vector<double> coef_, bern_, q_, d_, minus_;
-  std::vector<std::array<std::vector<double>, 3>> scratch_;  // per subdivision depth
+  // Per subdivision depth, held inline (a flow makes one RootFinder: no allocation for it).
+  std::array<std::array<std::vector<double>, 3>, kMaxSubdivisions + 1> scratch_;
   double a_ = 0, w_ = 1;
 };
 
@@ -1415,7 +1420,8 @@ class Flow final : public CellView {
     double t = t0;
     V y = y0;
     if (jac_) J_ = M::Identity(n_, n_);
-    enter(region, t, y);
+    enter(region, t, y, /*snap=*/true);
+    if (std::abs(t - cur_.tm) <= start_rounding(t)) t = cur_.tm;
     std::int64_t next_sample = 0;
     auto emit_samples = [&](double upto, bool inclusive) {
       // Two samples or more in the stretch: the cell's coefficients serve them all.
@@ -1447,13 +1453,22 @@ class Flow final : public CellView {
       if (rc.period_jumps && cur_.k == 0 && t == cur_.tm) {
         const double t_end = cur_.tm + rc.jump_cells * rc.h;
         const bool sample_inside = next_sample < out.count && out.time(next_sample) < t_end;
-        if (t_end < t1 && !sample_inside && jump_period(t_end, obs)) {
+        const double rounding = kEndTimeUlps * std::numeric_limits<double>::epsilon() *
+                                std::max(std::abs(t1), std::abs(t_end));
+        if (t_end <= t1 + rounding && !sample_inside && jump_period(t_end, obs)) {
+          ++res.periods;
+          res.cells += rc.jump_cells;
+          if (t_end >= t1 - rounding) {  // the block ends the flow
+            t = t1;
+            y = cur_.z;
+            out_ = y;
+            obs.on_step(t, out_, cur_.region);
+            break;
+          }
           t = cur_.tm;
           y = cur_.z;
           out_ = y;
           obs.on_step(t, out_, cur_.region);
-          ++res.periods;
-          res.cells += rc.jump_cells;
           since_progress += rc.jump_cells;
           if (since_progress >= opt_.progress_interval_cells) {
             since_progress = 0;
@@ -1681,7 +1696,10 @@ class Flow final : public CellView {
   }
 
   // Places the cursor in region r at time t with state y; J_ then maps y0 to z.
-  void enter(int r, double t, const V& y) {
+  // Enters region r at (t, y). With `snap` (a flow's start), a t within the rounding of the
+  // times (kEndTimeUlps) of a cell's start is taken as that start, so that a flow continuing
+  // another from its end starts on the cell and may jump whole periods from there.
+  void enter(int r, double t, const V& y, bool snap = false) {
     last_t_ = t;
     last_y_ = y;
     rc_ = &regions_.get(r);
@@ -1690,12 +1708,13 @@ class Flow final : public CellView {
     cur_.m = static_cast<std::int64_t>(std::floor(t / rc.h));
     if (static_cast<double>(cur_.m + 1) * rc.h <= t) ++cur_.m;
     if (static_cast<double>(cur_.m) * rc.h > t) --cur_.m;
+    if (snap && static_cast<double>(cur_.m + 1) * rc.h - t <= start_rounding(t)) ++cur_.m;
     cur_.tm = static_cast<double>(cur_.m) * rc.h;
     cur_.k = static_cast<int>(((cur_.m % rc.K) + rc.K) % rc.K);
     coeffs_ready_ = false;
     resync();
     const double x = (t - cur_.tm) / rc.h;
-    if (x <= 0) {
+    if (x <= 0 || (snap && t - cur_.tm <= start_rounding(t))) {
       cur_.z = y;
       return;
     }
@@ -1713,6 +1732,10 @@ class Flow final : public CellView {
     for (int i = 0; i < kEntryRefinements; ++i) cur_.z += lu.solve(y - (P * cur_.z + f));
     coeffs_ready_ = false;
     if (jac_) J_ = lu.solve(J_);
+  }
+
+  double start_rounding(double t) const {
+    return kEndTimeUlps * std::numeric_limits<double>::epsilon() * std::max(std::abs(t), rc_->h);
   }
 
   void resync() {

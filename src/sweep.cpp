@@ -162,17 +162,22 @@ class PointRunner {
     section.add(s);
     SteadyVerdict verdict;
     std::optional<ode::IntegrationSummary> failure;
+    // Section times k T0 from the point's start, not sums of periods (whose rounding would
+    // keep the engine from ending a flow with a whole-period jump).
+    int sections = 0;
+    const auto to_section = [&](int periods) {
+      sections += periods;
+      const auto sum = solver.advance(s, sections * period);
+      if (!sum.ok()) {
+        failure = sum;
+        return false;
+      }
+      s = sum.end_state;
+      section.add(s);
+      return true;
+    };
     const int k = settle([&] { return section.judge(o_.steady_tolerance); }, verdict,
-                         [&] {
-                           const auto sum = solver.advance(s, s.t + period);
-                           if (!sum.ok()) {
-                             failure = sum;
-                             return false;
-                           }
-                           s = sum.end_state;
-                           section.add(s);
-                           return true;
-                         });
+                         [&] { return to_section(1); }, to_section);
     if (failure) return fail(*failure);
     const int q_settled = verdict.period_multiple;
     const double error = verdict.error;
@@ -198,9 +203,17 @@ class PointRunner {
   // response is below the tolerance or the periods run out: judge() gives the verdict of the
   // section states so far, step() runs one period and adds its section states (false on a
   // numerical failure, which ends the settling). The periods run.
-  template <class Judge, class Step>
-  int settle(Judge&& judge, SteadyVerdict& verdict, Step&& step) const {
+  // The periods before --settle-periods whose section states no verdict will read (all but
+  // the last kJudgedSections - 1) are run by bulk(n) in one flow, which adds the state at its
+  // end (false on a numerical failure).
+  template <class Judge, class Step, class Bulk>
+  int settle(Judge&& judge, SteadyVerdict& verdict, Step&& step, Bulk&& bulk) const {
     int k = 0;
+    const int unread = std::min(o_.settle_periods, o_.max_settle_periods) - (kJudgedSections - 1);
+    if (unread > 0) {
+      if (!bulk(unread)) return k;
+      k = unread;
+    }
     for (;; ++k) {
       if (k >= o_.settle_periods) {
         verdict = judge();
@@ -291,18 +304,24 @@ class PointRunner {
     };
     SteadyVerdict verdict;
     std::optional<ode::FlowResult> failure;
-    const int k = settle(judge, verdict, [&] {
-      ode::FlowResult f = solver.advance(t, y, t + period);
+    int sections = 0;  // section times k T0, as the one-degree point's
+    const auto to_section = [&](int periods) {
+      sections += periods;
+      const double t_next = sections * period;
+      ode::FlowResult f = solver.advance(t, y, t_next);
       if (!f.ok()) {
         failure = std::move(f);
         return false;
       }
+      // Without events over the flow, its last period had none.
       steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
       y = f.state;
-      t += period;
+      t = t_next;
       add();
       return true;
-    });
+    };
+    const int k = settle(
+        judge, verdict, [&] { return to_section(1); }, to_section);
     // A failed coupled point keeps its bearing columns, as NaN.
     const auto failed_coupled = [&](const char* termination, const std::string& message) {
       SweepPoint pt = failed(job, carry, termination, message);

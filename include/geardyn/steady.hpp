@@ -23,6 +23,9 @@ namespace geardyn {
 // The largest period multiple q tested (period-q responses settle as such; longer ones,
 // quasi-periodic and chaotic responses do not).
 constexpr int kMaxSettledMultiple = 8;
+// SectionSeries::judge reads at most the latest this many section states (3 q + 1 for the
+// largest q): those before them may be run without being recorded.
+constexpr int kJudgedSections = 3 * kMaxSettledMultiple + 1;
 
 // The default tolerance on the distance to the periodic response, in b (delta) and b w_n
 // (delta').
