@@ -1,0 +1,166 @@
+// The user's paths against the engine's own loop, measured in one program so that the ratios
+// compare times of one machine at one moment.
+//
+// Runs: the paper's 11 cases over 20 ms with 2001 samples, the exact engine at tolerance 1e-3
+// (its setting for 1e-6, bench/work_precision). Timed per case, best of --repeat:
+//   - engine: the engine's loop alone, as bench/work_precision times it: the model built
+//     outside the clock, the Solver (its cells) and a RunReader keeping the samples inside;
+//   - run(): geardyn::run on the case, as `geardyn run` calls it: the model, the whole reading,
+//     the events, the steady part (read in the same pass) and the spectra;
+//   - a study sample: geardyn::run with neither samples nor events kept (RunOptions), as a
+//     study's run batch calls it;
+//   - files: write_run of that result into a scratch folder (summary.json, timeseries.csv,
+//     events.csv, case.toml);
+//   - odeint: the plain Boost.Odeint program at 1e-9, its setting for 1e-6.
+// Sweep: the Kahraman-Singh sweep of bench/ks_sweep (401 points up and down, 240 periods settled
+// and 10 read a point at 64 samples a period, from static contact), through geardyn::sweep on
+// one thread with the same settling (settle_periods = max_settle_periods = 240), against
+// bench/ks_sweep's engine loop (build_model, Solver, advance 240 periods, read 10).
+//
+//   ./build/release/bench/user_paths [--repeat N]
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <numbers>
+#include <string_view>
+#include <vector>
+
+#include "geardyn/output.hpp"
+#include "geardyn/reproduce.hpp"
+#include "geardyn/run.hpp"
+#include "geardyn/sweep.hpp"
+#include "timing.hpp"
+#include "user_odeint.hpp"
+
+namespace {
+
+using bench::best_time;
+
+constexpr double kWindowS = 0.02;
+constexpr std::int64_t kSamples = 2001;
+constexpr double kEngineTolerance = 1e-3;
+constexpr double kOdeintTolerance = 1e-9;
+
+double engine_loop(const geardyn::GearPairModel& model, const geardyn::SolverData& s) {
+  const geardyn::ode::OutputGrid grid{0, kWindowS / (kSamples - 1), kSamples};
+  geardyn::RunReader reader(model, 0, kWindowS, 0.1, true, true);
+  const geardyn::Solver solver(model, s, kWindowS);
+  const geardyn::ode::State initial{0, 0, 0, 0, geardyn::kSeparated};
+  const auto sum = solver.run(initial, kWindowS, grid, reader);
+  if (!sum.ok()) std::fprintf(stderr, "engine loop failed: %s\n", sum.message.c_str());
+  return reader.samples().delta_bar.back();
+}
+
+// bench/ks_sweep's engine loop: one direction, the state carried from point to point.
+constexpr int kSweepPoints = 401, kSettlePeriods = 240, kReadPeriods = 10, kPerPeriod = 64;
+
+geardyn::Case ks_case(double omega) {
+  geardyn::Case c;
+  c.model.form = geardyn::ModelForm::kNondimensional;
+  c.model.zeta = 0.05;
+  c.model.force_mean = 0.1;
+  c.model.force_alternating = 0.02;
+  c.model.omega = omega;
+  c.solver.method = geardyn::Method::kExact;
+  c.solver.tolerance = kEngineTolerance;
+  return c;
+}
+
+std::vector<double> ks_engine(bool up, geardyn::ode::State& carry) {
+  std::vector<double> amplitudes;
+  for (int i = 0; i < kSweepPoints; ++i) {
+    const int j = up ? i : kSweepPoints - 1 - i;
+    const double w = 0.5 + 1.0 * j / (kSweepPoints - 1);
+    const geardyn::Case c = ks_case(w);
+    const geardyn::GearPairModel model = geardyn::build_model(c);
+    const geardyn::Solver solver(model, c.solver);
+    const double T = 2 * std::numbers::pi / w;
+    geardyn::ode::State start = carry;
+    start.t = 0;
+    const auto settled = solver.advance(start, kSettlePeriods * T);
+    const double t0 = kSettlePeriods * T, t1 = t0 + kReadPeriods * T;
+    const geardyn::ode::OutputGrid grid{t0, T / kPerPeriod, kReadPeriods * kPerPeriod};
+    geardyn::RunReader reader(model, t0, t1, 0.1, false, true);
+    const auto sum = solver.run(settled.end_state, t1, grid, reader);
+    carry = sum.end_state;
+    amplitudes.push_back(0.5 * (reader.max_delta_m() - reader.min_delta_m()));
+  }
+  return amplitudes;
+}
+
+geardyn::SweepResult ks_sweep() {
+  geardyn::SweepOptions o;
+  o.axis = {"model.omega", 0.5, 1.5, kSweepPoints};
+  o.direction = geardyn::SweepDirection::kBoth;
+  o.settle_periods = o.max_settle_periods = kSettlePeriods;
+  o.measure_periods = kReadPeriods;
+  o.samples_per_period = kPerPeriod;
+  o.threads = 1;
+  return geardyn::sweep(ks_case(1.0), o);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int repeat = 3;
+  for (int i = 1; i + 1 < argc; ++i)
+    if (std::string_view(argv[i]) == "--repeat") repeat = std::max(1, std::atoi(argv[i + 1]));
+  const std::filesystem::path scratch =
+      std::filesystem::temp_directory_path() / "geardyn_user_paths";
+  std::filesystem::create_directories(scratch);
+
+  std::printf("runs: 20 ms, %lld samples, exact engine at %g; ms, best of %d\n",
+              static_cast<long long>(kSamples), kEngineTolerance, repeat);
+  std::printf("%-8s %9s %9s %9s %9s %9s %12s\n", "case", "engine", "run()", "sample", "files",
+              "odeint", "run/engine");
+  double engine_sum = 0, run_sum = 0, sample_sum = 0, files_sum = 0, odeint_sum = 0;
+  for (const geardyn::StudyCase& sc : geardyn::park2010_study().cases) {
+    geardyn::Case c = sc.input;
+    c.solver.duration_s = kWindowS;
+    c.solver.output_interval_s = kWindowS / (kSamples - 1);
+    c.solver.method = geardyn::Method::kExact;
+    c.solver.tolerance = kEngineTolerance;
+    c.solver.initial = geardyn::InitialCondition::kCenter;
+    const geardyn::GearPairModel model = geardyn::build_model(c);
+    const double engine = best_time(repeat, [&] { engine_loop(model, c.solver); });
+    geardyn::RunResult result;
+    const double run = best_time(repeat, [&] { result = geardyn::run(c); });
+    geardyn::RunOptions study;
+    study.keep_samples = study.keep_events = false;
+    const double sample = best_time(repeat, [&] { geardyn::run(c, study); });
+    const double files = best_time(repeat, [&] { geardyn::write_run(scratch, result); });
+    std::vector<double> times;
+    for (std::int64_t k = 0; k < kSamples; ++k)
+      times.push_back(kWindowS * static_cast<double>(k) / (kSamples - 1));
+    const bench::UserModel um = bench::user_model(model.parameters());
+    const double odeint =
+        best_time(repeat, [&] { bench::user_odeint(um, kWindowS, times, kOdeintTolerance); });
+    std::printf("%-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.2f\n", sc.id.c_str(), 1e3 * engine,
+                1e3 * run, 1e3 * sample, 1e3 * files, 1e3 * odeint, run / engine);
+    engine_sum += engine;
+    run_sum += run;
+    sample_sum += sample;
+    files_sum += files;
+    odeint_sum += odeint;
+  }
+  std::printf("%-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.2f\n", "all", 1e3 * engine_sum, 1e3 * run_sum,
+              1e3 * sample_sum, 1e3 * files_sum, 1e3 * odeint_sum, run_sum / engine_sum);
+  std::filesystem::remove_all(scratch);
+
+  double engine_sweep = 0;
+  const double loop = best_time(repeat, [&] {
+    geardyn::ode::State carry{0, 1.1, 0, 0, geardyn::kDriveContact};  // static contact
+    ks_engine(true, carry);
+    ks_engine(false, carry);
+  });
+  engine_sweep = loop;
+  geardyn::SweepResult r;
+  const double user = best_time(repeat, [&] { r = ks_sweep(); });
+  std::printf("\nKahraman-Singh sweep, 401 points up and down, %d periods settled and %d read:\n",
+              kSettlePeriods, kReadPeriods);
+  std::printf("  engine loop (bench/ks_sweep) %.3f s, geardyn::sweep %.3f s (%zu points): %.2f\n",
+              engine_sweep, user, r.points.size(), user / engine_sweep);
+  return 0;
+}
