@@ -91,6 +91,12 @@ void run_interruptible(Hook& hook, F&& work) {
     }
   }
   worker.join();
+  // A Ctrl-C that came as the work ended is the work's too: otherwise Python would raise it
+  // at its next line, without the result.
+  if (PyErr_CheckSignals() != 0) {
+    PyErr_Clear();
+    hook.interrupt();
+  }
   if (failure) std::rethrow_exception(failure);
   hook.rethrow();
 }
