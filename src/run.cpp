@@ -548,7 +548,7 @@ RunResult run(const Case& c, const RunOptions& options) {
   if (result.integration.ok()) refuse_non_finite(result.reading, result.integration);
   result.events = reader.events();
   result.samples = std::move(reader.samples());
-  if (result.integration.ok()) result.steady = std::move(pass.steady);
+  if (result.integration.ok()) result.steady = pass.steady;
   result.steady_start_s =
       result.integration.ok() ? result.steady.from_s : t1 - kSteadyFraction * (t1 - t0);
   if (options.keep_samples) compute_spectra(result);
