@@ -603,7 +603,7 @@ _SWEEP_NAMES = {"points": "len(values)", "from": "values", "to": "values",
 @_pythonic(_SWEEP_NAMES)
 def sweep(case, param, values, direction="both", settle_periods=0, measure_periods=10,
           max_settle_periods=200, steady_tolerance=1e-6, start="static", threads=0,
-          progress=None, param2=None, values2=()):
+          progress=None, param2=None, values2=(), executor=None):
     """Sweeps a case key up and down, as `geardyn sweep`; with `param2`, a map.
 
     Each point continues from the previous one's end state, settles period by period until
@@ -637,6 +637,11 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
     param2 : str, optional
         A second key: a sweep along `param` at each of its `values2` (a map).
     values2 : sequence of float
+    executor : None, dask.distributed.Client or str
+        Where a map's rows run: None in this process (on `threads`), or a Dask client or
+        scheduler address, one task a row (each row's up and down sweeps are sequences, so a
+        row is the unit of work). The result equals the in-process map bit for bit; a lost
+        worker's row is run again elsewhere. A one-dimensional sweep runs as one task.
 
     Returns
     -------
@@ -663,6 +668,11 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
     KeyboardInterrupt
         Ctrl-C; ``.result`` holds the completed points.
     """
+    options = dict(direction=direction, settle_periods=settle_periods,
+                   measure_periods=measure_periods, max_settle_periods=max_settle_periods,
+                   steady_tolerance=steady_tolerance, start=start)
+    if executor is not None:
+        return _sweep_on(executor, case, param, values, options, param2, values2, progress)
     r = _geardyn._sweep(case, param, _floats("values", values), direction, settle_periods,
                         measure_periods, max_settle_periods, steady_tolerance, start, threads,
                         _progress(progress, unit="point"), param2 or "",
@@ -672,6 +682,78 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         r["param2"] = param2
     if r["interrupted"]:
         raise _interrupted(r, "sweep")
+    return r
+
+
+def _sweep_task(case, param, values, options, param2, value2):
+    """One map row (or a whole one-dimensional sweep) on a worker, on one thread."""
+    rows = {} if value2 is None else {"param2": param2, "values2": [value2]}
+    return dict(sweep(case, param, values, threads=1, **options, **rows))
+
+
+def _merged_rows(parts, param, param2):
+    """Rows swept apart, as one sweep of them all in row order (the in-process map's order)."""
+    out = {}
+    first = parts[0]
+    for key, v in first.items():
+        if key == "strobe":
+            strobe, offset = {}, 0
+            for p in parts:
+                for k, a in p["strobe"].items():
+                    strobe.setdefault(k, []).append(a + offset if k == "point" else a)
+                offset += len(p["value"])
+            out[key] = {k: _numpy.concatenate(a) for k, a in strobe.items()}
+        elif isinstance(v, _numpy.ndarray):
+            out[key] = _numpy.concatenate([p[key] for p in parts])
+        elif isinstance(v, list):
+            out[key] = [x for p in parts for x in p[key]]
+        elif key in ("cancelled", "interrupted"):
+            out[key] = any(p[key] for p in parts)
+        else:
+            out[key] = v
+    r = SweepResult(out, param=param)
+    if param2:
+        r["param2"] = param2
+    return r
+
+
+def _sweep_on(executor, case, param, values, options, param2, values2, progress):
+    """sweep() with its rows as Dask tasks; progress hears the points of the rows done."""
+    from dask.distributed import as_completed
+
+    from . import studies
+
+    values = _floats("values", values)
+    rows = list(_floats("values2", values2)) if param2 else [None]
+    if param2 and not rows:
+        raise InputError("values2: a map needs at least one value")
+    callback = _progress(progress, unit="point")
+    per_row = len(values) * (2 if options["direction"] == "both" else 1)
+    total = per_row * len(rows)
+    client, own = studies._client(executor)
+    futures = {client.submit(_sweep_task, case, param, values, options, param2, v, pure=False,
+                             retries=2): i for i, v in enumerate(rows)}
+    done = {}
+    cancelled = False
+    try:
+        if callback:
+            callback(0, total)
+        for f in as_completed(list(futures)):
+            done[futures[f]] = f.result()
+            if callback and callback(len(done) * per_row, total) is False:
+                cancelled = True
+                break
+    except KeyboardInterrupt:
+        client.cancel(list(futures))
+        result = _merged_rows([done[i] for i in sorted(done)], param, param2) if done else {}
+        raise _interrupted(result, "sweep") from None
+    finally:
+        if cancelled:
+            client.cancel(list(futures))
+        if own:
+            client.close()
+    r = _merged_rows([done[i] for i in sorted(done)], param, param2)
+    r["cancelled"] = r["cancelled"] or cancelled
     return r
 
 

@@ -143,6 +143,36 @@ def test_two_dask_workers_give_the_in_process_result_bit_for_bit(cluster, tmp_pa
                                executor=addr), local)
 
 
+def test_a_maps_rows_as_dask_tasks_give_the_in_process_map_bit_for_bit(cluster):
+    ks = geardyn.Case(model={"form": "nondimensional", "force_alternating": 0.02})
+    omegas, zetas = np.linspace(0.8, 1.1, 7), [0.04, 0.05, 0.06]
+    kw = dict(param2="model.zeta", values2=zetas, max_settle_periods=60)
+    local = geardyn.sweep(ks, "model.omega", omegas, threads=1, **kw)
+    seen = []
+    dask = geardyn.sweep(ks, "model.omega", omegas, executor=cluster,
+                         progress=lambda done, total: seen.append((done, total)) or True, **kw)
+
+    def same(a, b):
+        assert a.keys() == b.keys()
+        for key, v in a.items():
+            if isinstance(v, dict):
+                same(v, b[key])
+            elif isinstance(v, np.ndarray):
+                assert v.dtype == b[key].dtype and np.array_equal(
+                    v, b[key], equal_nan=v.dtype.kind == "f"), key
+            else:
+                assert v == b[key], key
+
+    same(dict(dask), dict(local))
+    assert len(dask["value"]) == 42 and seen[0] == (0, 42) and seen[-1] == (42, 42)
+    assert [h["value2"] for h in dask["hysteresis"]] == sorted(h["value2"] for h in
+                                                              dask["hysteresis"])
+    # A one-dimensional sweep runs as one task, here through the scheduler's address.
+    one = geardyn.sweep(ks, "model.omega", omegas, max_settle_periods=60)
+    same(dict(geardyn.sweep(ks, "model.omega", omegas, max_settle_periods=60,
+                            executor=cluster.scheduler.address)), dict(one))
+
+
 def test_a_worker_killed_mid_study_has_its_samples_computed_elsewhere(cluster, tmp_path):
     local = geardyn.study(CASE, INPUTS, samples=40, seed=5)
     killed = []
