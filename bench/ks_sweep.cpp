@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "geardyn/run.hpp"
+#include "kahraman_singh.hpp"
 #include "user_odeint.hpp"
 
 namespace {
@@ -30,16 +31,6 @@ constexpr int kPoints = 401;
 constexpr int kPeriods = 250;
 constexpr int kMeasuredPeriods = 10;
 constexpr int kSamplesPerPeriod = 64;
-
-geardyn::Case ks_case(double omega) {
-  geardyn::Case c;
-  c.model.form = geardyn::ModelForm::kNondimensional;
-  c.model.zeta = 0.05;
-  c.model.force_mean = 0.1;
-  c.model.force_alternating = 0.02;
-  c.model.omega = omega;
-  return c;
-}
 
 std::vector<double> omegas(bool up) {
   std::vector<double> w;
@@ -61,7 +52,7 @@ double amplitude(const std::vector<double>& x) {
 std::vector<double> sweep_geardyn(bool up, geardyn::ode::State& carry, double tol) {
   std::vector<double> amps;
   for (double w : omegas(up)) {
-    const geardyn::Case c = ks_case(w);
+    const geardyn::Case c = bench::kahraman_singh(w);
     const geardyn::GearPairModel model = geardyn::build_model(c);
     geardyn::SolverData s = c.solver;
     s.method = geardyn::Method::kExact;
@@ -94,7 +85,7 @@ std::vector<double> sweep_odeint(bool up, bench::UserState& carry, double tol) {
       amps.push_back(std::numeric_limits<double>::quiet_NaN());
       continue;
     }
-    const geardyn::GearPairModel model = geardyn::build_model(ks_case(w));
+    const geardyn::GearPairModel model = geardyn::build_model(bench::kahraman_singh(w));
     const bench::UserModel um = bench::user_model(model.parameters());
     const double T = 2 * std::numbers::pi / w;
     std::vector<double> times;

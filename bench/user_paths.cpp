@@ -31,6 +31,7 @@
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "kahraman_singh.hpp"
 #include "timing.hpp"
 #include "user_odeint.hpp"
 
@@ -57,12 +58,7 @@ double engine_loop(const geardyn::GearPairModel& model, const geardyn::SolverDat
 constexpr int kSweepPoints = 401, kSettlePeriods = 240, kReadPeriods = 10, kPerPeriod = 64;
 
 geardyn::Case ks_case(double omega) {
-  geardyn::Case c;
-  c.model.form = geardyn::ModelForm::kNondimensional;
-  c.model.zeta = 0.05;
-  c.model.force_mean = 0.1;
-  c.model.force_alternating = 0.02;
-  c.model.omega = omega;
+  geardyn::Case c = bench::kahraman_singh(omega);
   c.solver.method = geardyn::Method::kExact;
   c.solver.tolerance = kEngineTolerance;
   return c;
