@@ -9,6 +9,8 @@ study file, its value and what is allowed; nothing is written), 130 interrupted 
 computed stays in the store; --resume continues).
 """
 import argparse
+import asyncio
+import concurrent.futures
 import pathlib
 import sys
 import tomllib
@@ -97,6 +99,12 @@ def main(argv=None):
         return 130
     except ValueError as e:
         _fail(str(e))
+    except (OSError, TimeoutError, asyncio.CancelledError, concurrent.futures.CancelledError) as e:
+        # The scheduler or the cluster was lost (killed, unreachable): the batches stored stay.
+        print(f"geardyn-study: error: the Dask executor failed ({type(e).__name__}: {e}); the "
+              f"samples computed are kept in {out / 'store'}; --resume continues",
+              file=sys.stderr)
+        return 1
     finally:
         if client is not None:
             client.close()

@@ -399,6 +399,61 @@ def test_ctrl_c_stops_the_study_command_keeping_the_store_and_resume_completes_i
     assert f"({400 - 4 * kept} computed now" in r.stdout, r.stdout
 
 
+def test_a_killed_scheduler_stops_the_study_command_keeping_the_store_and_resume_completes_it(
+        tmp_path):
+    import json
+    import subprocess
+    import sys
+    import time
+
+    # A scheduler and a worker of their own, as on a cluster; the scheduler is killed once two
+    # batches are stored.
+    info = tmp_path / "scheduler.json"
+    python = [sys.executable, "-m"]  # the test's interpreter, which imports geardyn
+    scheduler = subprocess.Popen(
+        python + ["distributed.cli.dask_scheduler", "--scheduler-file", str(info), "--port", "0",
+                  "--dashboard-address", ":0", "--no-show"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    worker = None
+    try:
+        deadline = time.time() + 60
+        address = None
+        while address is None and time.time() < deadline:
+            try:
+                address = json.loads(info.read_text())["address"]
+            except (OSError, ValueError, KeyError):  # not written yet
+                time.sleep(0.05)
+        worker = subprocess.Popen(
+            python + ["distributed.cli.dask_worker", "--scheduler-file", str(info),
+                      "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        cmd, out = study_command(tmp_path, 'samples = 40\nbatch_size = 2\n[set]\n'
+                                 '"solver.duration_s" = 0.02')
+        # The client gives up on a lost scheduler after its reconnection timeout (Dask's
+        # default 30 s; 2 s here).
+        env = dict(os.environ, DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="2s")
+        p = subprocess.Popen(cmd + ["--scheduler", address], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, env=env)
+        batches = out / "store" / "batches"
+        while time.time() < deadline and len(list(batches.glob("samples_*.nc"))) < 2:
+            time.sleep(0.05)
+        scheduler.kill()
+        _, err = p.communicate(timeout=120)
+    finally:
+        for proc in (scheduler, worker):
+            if proc is not None:
+                proc.kill()
+                proc.wait()
+    assert p.returncode == 1, err
+    assert "the Dask executor failed" in err and "--resume continues" in err, err
+    kept = len(list(batches.glob("samples_*.nc")))
+    assert 2 <= kept < 20
+    assert not (out / "study.nc").exists()
+    r = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert f"({40 - 2 * kept} computed now" in r.stdout, r.stdout
+
+
 def test_a_grid_value_the_key_refuses_is_named_before_any_sample_runs(tmp_path):
     with pytest.raises(ValueError, match=r"inputs.mesh.backlash_um = -5"):
         geardyn.study(CASE, {"mesh.backlash_um": [50, -5]}, method="grid",
