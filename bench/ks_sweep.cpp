@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "geardyn/run.hpp"
-#include "kahraman_singh.hpp"
+#include "geardyn/validation.hpp"
 #include "user_odeint.hpp"
 
 namespace {
@@ -52,7 +52,7 @@ double amplitude(const std::vector<double>& x) {
 std::vector<double> sweep_geardyn(bool up, geardyn::ode::State& carry, double tol) {
   std::vector<double> amps;
   for (double w : omegas(up)) {
-    const geardyn::Case c = bench::kahraman_singh(w);
+    const geardyn::Case c = geardyn::kahraman_singh_case(w);
     const geardyn::GearPairModel model = geardyn::build_model(c);
     geardyn::SolverData s = c.solver;
     s.method = geardyn::Method::kExact;
@@ -85,7 +85,7 @@ std::vector<double> sweep_odeint(bool up, bench::UserState& carry, double tol) {
       amps.push_back(std::numeric_limits<double>::quiet_NaN());
       continue;
     }
-    const geardyn::GearPairModel model = geardyn::build_model(bench::kahraman_singh(w));
+    const geardyn::GearPairModel model = geardyn::build_model(geardyn::kahraman_singh_case(w));
     const bench::UserModel um = bench::user_model(model.parameters());
     const double T = 2 * std::numbers::pi / w;
     std::vector<double> times;

@@ -31,7 +31,7 @@
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
-#include "kahraman_singh.hpp"
+#include "geardyn/validation.hpp"
 #include "timing.hpp"
 #include "user_odeint.hpp"
 
@@ -58,7 +58,7 @@ double engine_loop(const geardyn::GearPairModel& model, const geardyn::SolverDat
 constexpr int kSweepPoints = 401, kSettlePeriods = 240, kReadPeriods = 10, kPerPeriod = 64;
 
 geardyn::Case ks_case(double omega) {
-  geardyn::Case c = bench::kahraman_singh(omega);
+  geardyn::Case c = geardyn::kahraman_singh_case(omega);
   c.solver.method = geardyn::Method::kExact;
   c.solver.tolerance = kEngineTolerance;
   return c;

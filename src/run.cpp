@@ -123,18 +123,8 @@ Solver::~Solver() = default;
 
 ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
                                     const ode::OutputGrid& grid, RunReader& reader) const {
-  switch (s_.method) {
-    case Method::kNewmark:
-      return ode::integrate_newmark(model_, initial, t1, dt_, grid, reader);
-    case Method::kDopri5: {
-      return ode::integrate_dopri5(model_, initial, t1, grid, reader, dopri5_options());
-    }
-    case Method::kExact:
-      break;
-  }
-  RunFlowObserver observer(model_, reader, grid);
-  return summary(engine_->flow(initial.t, to_vector(initial),
-                               initial.region - GearPairModel::kFirstRegion, t1, grid, observer));
+  RunReader* const one[] = {&reader};
+  return run(initial, t1, grid, one);
 }
 
 namespace {
@@ -190,7 +180,6 @@ class FlowTee final : public ode::FlowObserver {
 ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
                                     const ode::OutputGrid& grid,
                                     std::span<RunReader* const> readers) const {
-  if (readers.size() == 1) return run(initial, t1, grid, *readers.front());
   ReaderTee tee{readers};
   switch (s_.method) {
     case Method::kNewmark:

@@ -437,16 +437,6 @@ void mathieu_hill(Rows& rows, bool quick) {
 
 // ---- ks_continuation ---------------------------------------------------------------------
 
-Case ks_case(double omega) {
-  Case c;
-  c.model.form = ModelForm::kNondimensional;
-  c.model.zeta = 0.05;
-  c.model.force_mean = 0.1;
-  c.model.force_alternating = 0.02;
-  c.model.omega = omega;
-  return c;
-}
-
 struct Settled {
   double amplitude;
   std::int64_t impacts;
@@ -455,7 +445,7 @@ struct Settled {
 // (max - min) / 2 of x over the last of `periods` periods of an exact simulation at omega
 // from `start` (on the section t = 0) at tolerance 1e-12.
 Settled simulate(double omega, ode::State start, int periods) {
-  const Case c = ks_case(omega);
+  const Case c = kahraman_singh_case(omega);
   const GearPairModel model = build_model(c);
   SolverData sd = c.solver;
   sd.tolerance = 1e-12;
@@ -480,7 +470,7 @@ void ks_continuation(Rows& rows, bool quick) {
   o.key = "model.omega";
   o.from = 0.5;
   o.to = 1.5;
-  const ContinuationResult r = continuation(ks_case(0.5), o);
+  const ContinuationResult r = continuation(kahraman_singh_case(0.5), o);
   if (!r.completed) throw std::runtime_error(r.message);
   if (r.bifurcations.size() != 4)
     throw std::runtime_error(
@@ -538,7 +528,7 @@ void floquet_fd(Rows& rows, bool) {
   // The Kahraman-Singh oscillator at Omega 0.95 rattles on one side (an impact and a
   // separation a period): its monodromy (saltation at both events) against central
   // differences of the period map, steps 1e-6.
-  const Case c = ks_case(0.95);
+  const Case c = kahraman_singh_case(0.95);
   OrbitOptions oo;
   oo.settle_periods = 3;
   const Orbit o = find_orbit(c, oo);
@@ -885,6 +875,16 @@ Case gear_with_transmission_error() {
   c.solver.duration_s = 0.08;
   c.solver.tolerance = 1e-12;
   c.solver.output_interval_s = 2e-5;
+  return c;
+}
+
+Case kahraman_singh_case(double omega) {
+  Case c;
+  c.model.form = ModelForm::kNondimensional;
+  c.model.zeta = 0.05;
+  c.model.force_mean = 0.1;
+  c.model.force_alternating = 0.02;
+  c.model.omega = omega;
   return c;
 }
 

@@ -16,6 +16,7 @@
 
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/validation.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -25,15 +26,7 @@ using geardyn::Case;
 using geardyn::ContinuationOptions;
 using geardyn::ContinuationResult;
 
-Case ks_case(double omega = 0.5) {
-  Case c;
-  c.model.form = geardyn::ModelForm::kNondimensional;
-  c.model.zeta = 0.05;
-  c.model.force_mean = 0.1;
-  c.model.force_alternating = 0.02;
-  c.model.omega = omega;
-  return c;
-}
+Case ks_case(double omega = 0.5) { return geardyn::kahraman_singh_case(omega); }
 
 ContinuationOptions ks_options() {
   ContinuationOptions o;

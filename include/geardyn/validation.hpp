@@ -91,6 +91,10 @@ Case gear_with_transmission_error();
 // Park 2010's helical pair (Table 1) with the stiffness as harmonics (0.1 at 20 deg, 0.03 at
 // -40 deg), f1 = 100 Hz, 20 ms at tolerance 1e-13, samples every 20 us (train_pair) ...
 Case park2010_pair_case();
+// The Kahraman-Singh oscillator (the non-dimensional gear: zeta 0.05, F_m 0.1, F_a 0.02) at
+// excitation frequency omega: the ks_continuation check's, the continuation tests' and the
+// sweep benchmarks' case.
+Case kahraman_singh_case(double omega);
 // ... and the same pair written as a train of two gears, read from its case-file text.
 Case park2010_pair_as_train();
 
