@@ -31,4 +31,24 @@ double best_time(int repeat, F&& f) {
   return best;
 }
 
+// The shortest wall time of each of several functions over `repeat` rounds, the functions
+// taken in turn within a round, so that a machine whose speed drifts (a shared one) slows
+// all of them alike and their ratios hold; s, in the order given.
+template <class... F>
+std::vector<double> best_times_interleaved(int repeat, F&&... f) {
+  using Clock = std::chrono::steady_clock;
+  std::vector<double> best(sizeof...(F), std::numeric_limits<double>::infinity());
+  for (int r = 0; r < repeat; ++r) {
+    std::size_t i = 0;
+    const auto time_one = [&](auto& g) {
+      const auto t0 = Clock::now();
+      g();
+      best[i] = std::min(best[i], std::chrono::duration<double>(Clock::now() - t0).count());
+      ++i;
+    };
+    (time_one(f), ...);
+  }
+  return best;
+}
+
 }  // namespace bench

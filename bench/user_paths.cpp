@@ -2,7 +2,8 @@
 // compare times of one machine at one moment.
 //
 // Runs: the paper's 11 cases over 20 ms with 2001 samples, the exact engine at tolerance 1e-3
-// (its setting for 1e-6, bench/work_precision). Timed per case, best of --repeat:
+// (its setting for 1e-6, bench/work_precision). Timed per case, the best of --repeat rounds in
+// which every column runs once in turn (bench::best_times_interleaved):
 //   - engine: the engine's loop alone, as bench/work_precision times it: the model built
 //     outside the clock, the Solver (its cells) and a RunReader keeping the samples inside;
 //   - run(): geardyn::run on the case, as `geardyn run` calls it: the model, the whole reading,
@@ -17,7 +18,8 @@
 // one thread with the same settling (settle_periods = max_settle_periods = 240), against
 // bench/ks_sweep's engine loop (build_model, Solver, advance 240 periods, read 10).
 //
-//   ./build/release/bench/user_paths [--repeat N]
+//   ./build/release/bench/user_paths [--repeat N] [--case ID]
+// --case times that paper case alone and skips the sweep (for a profiler).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,8 +38,6 @@
 #include "user_odeint.hpp"
 
 namespace {
-
-using bench::best_time;
 
 constexpr double kWindowS = 0.02;
 constexpr std::int64_t kSamples = 2001;
@@ -101,8 +101,11 @@ geardyn::SweepResult ks_sweep() {
 
 int main(int argc, char** argv) {
   int repeat = 3;
-  for (int i = 1; i + 1 < argc; ++i)
+  std::string_view only;
+  for (int i = 1; i + 1 < argc; ++i) {
     if (std::string_view(argv[i]) == "--repeat") repeat = std::max(1, std::atoi(argv[i + 1]));
+    if (std::string_view(argv[i]) == "--case") only = argv[i + 1];
+  }
   const std::filesystem::path scratch =
       std::filesystem::temp_directory_path() / "geardyn_user_paths";
   std::filesystem::create_directories(scratch);
@@ -113,6 +116,7 @@ int main(int argc, char** argv) {
               "odeint", "run/engine");
   double engine_sum = 0, run_sum = 0, sample_sum = 0, files_sum = 0, odeint_sum = 0;
   for (const geardyn::StudyCase& sc : geardyn::park2010_study().cases) {
+    if (!only.empty() && sc.id != only) continue;
     geardyn::Case c = sc.input;
     c.solver.duration_s = kWindowS;
     c.solver.output_interval_s = kWindowS / (kSamples - 1);
@@ -120,19 +124,19 @@ int main(int argc, char** argv) {
     c.solver.tolerance = kEngineTolerance;
     c.solver.initial = geardyn::InitialCondition::kCenter;
     const geardyn::GearPairModel model = geardyn::build_model(c);
-    const double engine = best_time(repeat, [&] { engine_loop(model, c.solver); });
-    geardyn::RunResult result;
-    const double run = best_time(repeat, [&] { result = geardyn::run(c); });
+    geardyn::RunResult result = geardyn::run(c);
     geardyn::RunOptions study;
     study.keep_samples = study.keep_events = false;
-    const double sample = best_time(repeat, [&] { geardyn::run(c, study); });
-    const double files = best_time(repeat, [&] { geardyn::write_run(scratch, result); });
     std::vector<double> times;
     for (std::int64_t k = 0; k < kSamples; ++k)
       times.push_back(kWindowS * static_cast<double>(k) / (kSamples - 1));
     const bench::UserModel um = bench::user_model(model.parameters());
-    const double odeint =
-        best_time(repeat, [&] { bench::user_odeint(um, kWindowS, times, kOdeintTolerance); });
+    const std::vector<double> best = bench::best_times_interleaved(
+        repeat, [&] { engine_loop(model, c.solver); }, [&] { result = geardyn::run(c); },
+        [&] { geardyn::run(c, study); }, [&] { geardyn::write_run(scratch, result); },
+        [&] { bench::user_odeint(um, kWindowS, times, kOdeintTolerance); });
+    const double engine = best[0], run = best[1], sample = best[2], files = best[3],
+                 odeint = best[4];
     std::printf("%-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.2f\n", sc.id.c_str(), 1e3 * engine,
                 1e3 * run, 1e3 * sample, 1e3 * files, 1e3 * odeint, run / engine);
     engine_sum += engine;
@@ -144,16 +148,18 @@ int main(int argc, char** argv) {
   std::printf("%-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.2f\n", "all", 1e3 * engine_sum, 1e3 * run_sum,
               1e3 * sample_sum, 1e3 * files_sum, 1e3 * odeint_sum, run_sum / engine_sum);
   std::filesystem::remove_all(scratch);
+  if (!only.empty()) return 0;
 
-  double engine_sweep = 0;
-  const double loop = best_time(repeat, [&] {
-    geardyn::ode::State carry{0, 1.1, 0, 0, geardyn::kDriveContact};  // static contact
-    ks_engine(true, carry);
-    ks_engine(false, carry);
-  });
-  engine_sweep = loop;
   geardyn::SweepResult r;
-  const double user = best_time(repeat, [&] { r = ks_sweep(); });
+  const std::vector<double> sweep_best = bench::best_times_interleaved(
+      repeat,
+      [&] {
+        geardyn::ode::State carry{0, 1.1, 0, 0, geardyn::kDriveContact};  // static contact
+        ks_engine(true, carry);
+        ks_engine(false, carry);
+      },
+      [&] { r = ks_sweep(); });
+  const double engine_sweep = sweep_best[0], user = sweep_best[1];
   std::printf("\nKahraman-Singh sweep, 401 points up and down, %d periods settled and %d read:\n",
               kSettlePeriods, kReadPeriods);
   std::printf("  engine loop (bench/ks_sweep) %.3f s, geardyn::sweep %.3f s (%zu points): %.2f\n",

@@ -31,61 +31,70 @@ const char* to_string(EventKind k) {
   return "?";
 }
 
+RunReader::Tally::Tally(double start_s, double final_start_s)
+    : start(start_s),
+      final_start(final_start_s),
+      max_force(-std::numeric_limits<double>::infinity()),
+      min_force(std::numeric_limits<double>::infinity()),
+      max_delta(-std::numeric_limits<double>::infinity()),
+      min_delta(std::numeric_limits<double>::infinity()) {}
+
 RunReader::RunReader(const GearPairModel& model, double t0_s, double t1_s, double final_fraction,
                      bool keep_events, bool keep_samples, std::function<bool(double)> progress)
     : model_(model),
       t0_(t0_s),
       t1_(t1_s),
-      final_start_(t1_s - final_fraction * (t1_s - t0_s)),
       keep_events_(keep_events),
       keep_samples_(keep_samples),
       progress_(std::move(progress)),
       b_(model.parameters().backlash_m),
       force_scale_(model.parameters().backlash_m * model.parameters().mean_stiffness_n_per_m()),
       last_t_(t0_s),
-      max_force_(-std::numeric_limits<double>::infinity()),
-      min_force_(std::numeric_limits<double>::infinity()),
-      max_delta_(-std::numeric_limits<double>::infinity()),
-      min_delta_(std::numeric_limits<double>::infinity()) {}
+      whole_(t0_s, t1_s - final_fraction * (t1_s - t0_s)) {}
+
+void RunReader::mark(double t_s) { part_.emplace(t_s, t_s); }
 
 void RunReader::on_transition(const ode::State& s, int from_region) {
   const int from = contact_state(from_region);
   const int to = contact_state(s.region);
-  if (to == -1) back_contact_ = true;
-  if (from == to) return;  // clipping inside contact does not change the contact state
-  EventKind kind;
-  if (from == 0) {
-    ++impacts_;
-    kind = EventKind::kImpact;
-    if (to == -1) {
-      ++backside_impacts_;
-      kind = EventKind::kBacksideImpact;
+  const auto count = [&](Tally& x) {
+    if (to == -1) x.back_contact = true;
+    if (from == to) return;  // clipping inside contact does not change the contact state
+    if (from == 0) {
+      ++x.impacts;
+      if (to == -1) ++x.backside_impacts;
+      x.max_impact_velocity = std::max(x.max_impact_velocity, std::abs(s.v));
+    } else {
+      ++x.separations;
+      x.last_separation = s.t;
+      if (s.t > x.final_start) x.separated_in_final = true;
     }
-    max_impact_velocity_ = std::max(max_impact_velocity_, std::abs(s.v));
-  } else {
-    ++separations_;
-    last_separation_ = s.t;
-    kind = EventKind::kSeparation;
-    if (s.t > final_start_) separated_in_final_ = true;
-  }
-  if (keep_events_) events_.push_back({s.t, kind, s.v});
+  };
+  count(whole_);
+  if (part_) count(*part_);
+  if (from == to || !keep_events_) return;
+  const EventKind kind = from != 0  ? EventKind::kSeparation
+                         : to == -1 ? EventKind::kBacksideImpact
+                                    : EventKind::kImpact;
+  events_.push_back({s.t, kind, s.v});
 }
 
 void RunReader::on_sample(const ode::State& s, const GearPairModel::Drive& d) {
   const double f = model_.mesh_force(d, s.q, s.v, s.region);
   const double fb = f / force_scale_;
   const double db = s.q / b_;
-  sum_force_ += fb;
-  sum_force2_ += fb * fb;
-  sum_delta_ += db;
-  sum_delta2_ += db * db;
-  ++n_samples_;
-  max_force_ = std::max(max_force_, f);
-  min_force_ = std::min(min_force_, f);
-  max_delta_ = std::max(max_delta_, s.q);
-  min_delta_ = std::min(min_delta_, s.q);
   const int cs = contact_state(s.region);
-  if (cs == -1) back_contact_ = true;
+  const auto add = [&](Tally& x) {
+    x.sum_force += fb;
+    x.sum_force2 += fb * fb;
+    x.sum_delta += db;
+    x.sum_delta2 += db * db;
+    ++x.n_samples;
+    x.extremes(f, s.q);
+    if (cs == -1) x.back_contact = true;
+  };
+  add(whole_);
+  if (part_) add(*part_);
   if (keep_samples_) {
     samples_.t_s.push_back(s.t);
     samples_.delta_bar.push_back(db);
@@ -109,29 +118,29 @@ Regime regime_of(bool separated_in_final, double separated_time_s) {
   return separated_time_s > 0 ? Regime::kTransient : Regime::kNone;
 }
 
-RunReading RunReader::reading() const {
+RunReading RunReader::read(const Tally& x) const {
   RunReading r;
-  r.impacts = impacts_;
-  r.backside_impacts = backside_impacts_;
-  r.separations = separations_;
-  r.last_separation_s = last_separation_;
-  r.double_sided = back_contact_;
-  r.separated_fraction = separated_time_ / (t1_ - t0_);
-  r.max_impact_velocity_m_s = max_impact_velocity_;
-  r.regime = regime_of(separated_in_final_, separated_time_);
-  r.max_force_bar = max_force_ / force_scale_;
-  r.min_force_bar = min_force_ / force_scale_;
-  r.max_delta_bar = max_delta_ / b_;
-  r.min_delta_bar = min_delta_ / b_;
-  if (n_samples_ > 0) {
-    const double n = static_cast<double>(n_samples_);
-    r.mean_force_bar = sum_force_ / n;
-    r.rms_force_bar = std::sqrt(sum_force2_ / n);
-    r.mean_delta_bar = sum_delta_ / n;
-    r.rms_delta_bar = std::sqrt(sum_delta2_ / n);
+  r.impacts = x.impacts;
+  r.backside_impacts = x.backside_impacts;
+  r.separations = x.separations;
+  r.last_separation_s = x.last_separation;
+  r.double_sided = x.back_contact;
+  r.separated_fraction = x.separated_time / (t1_ - x.start);
+  r.max_impact_velocity_m_s = x.max_impact_velocity;
+  r.regime = regime_of(x.separated_in_final, x.separated_time);
+  r.max_force_bar = x.max_force / force_scale_;
+  r.min_force_bar = x.min_force / force_scale_;
+  r.max_delta_bar = x.max_delta / b_;
+  r.min_delta_bar = x.min_delta / b_;
+  if (x.n_samples > 0) {
+    const double n = static_cast<double>(x.n_samples);
+    r.mean_force_bar = x.sum_force / n;
+    r.rms_force_bar = std::sqrt(x.sum_force2 / n);
+    r.mean_delta_bar = x.sum_delta / n;
+    r.rms_delta_bar = std::sqrt(x.sum_delta2 / n);
   }
   const double static_force = model_.parameters().static_mesh_force_n();
-  if (static_force > 0) r.dynamic_factor = max_force_ / static_force;
+  if (static_force > 0) r.dynamic_factor = x.max_force / static_force;
   return r;
 }
 

@@ -1537,6 +1537,7 @@ class Flow final : public CellView {
       upper_ = cur_.z + delta_;
       lower = &lower_;
       upper = &upper_;
+      ++stretches_;
       obs.on_cell(*this);
       emit_samples(t_end_s, crossed < 0 && x_end == x_stop && x_stop < 1.0);
       ++res.cells;
@@ -1619,12 +1620,21 @@ class Flow final : public CellView {
       functional_range(id, low, high);
       if (maximum ? !(high > beyond) : !(low < beyond)) return false;
     }
-    functional_series(id, 0.0, oc_);
-    if (!maximum)
-      for (double& c : oc_) c = -c;
+    // One series a stretch and observable: its maximum and minimum read the same.
+    if (series_stretch_ != stretches_ || series_id_ != id) {
+      functional_series(id, 0.0, series_);
+      series_stretch_ = stretches_;
+      series_id_ = id;
+    }
+    const std::vector<double>* series = &series_;
+    if (!maximum) {
+      oc_.resize(series_.size());
+      for (std::size_t k = 0; k < series_.size(); ++k) oc_[k] = -series_[k];
+      series = &oc_;
+    }
     double x = 0;
     const double target = maximum ? beyond : -beyond;
-    const double v = roots_.maximum(oc_, std::clamp((t_begin_s - cur_.tm) / rc.h, 0.0, 1.0),
+    const double v = roots_.maximum(*series, std::clamp((t_begin_s - cur_.tm) / rc.h, 0.0, 1.0),
                                     std::clamp((t_end_s - cur_.tm) / rc.h, 0.0, 1.0), target, x);
     if (!(v > target)) return false;
     value = maximum ? v : -v;
@@ -1993,6 +2003,12 @@ class Flow final : public CellView {
   double tol_;  // the truncation the cells were summed to
   mutable RootFinder roots_;
   mutable std::vector<double> oc_;
+  // The stretches handed to on_cell so far, and the observable series last formed (for which
+  // stretch, of which functional id): extreme's cache.
+  std::int64_t stretches_ = 0;
+  mutable std::vector<double> series_;
+  mutable std::int64_t series_stretch_ = -1;
+  mutable int series_id_ = -1;
   int n_;
   FlowObserver* obs_ = nullptr;
   bool jac_ = false;

@@ -123,73 +123,15 @@ Solver::~Solver() = default;
 
 ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
                                     const ode::OutputGrid& grid, RunReader& reader) const {
-  RunReader* const one[] = {&reader};
-  return run(initial, t1, grid, one);
-}
-
-namespace {
-// The steppers' observer that hands everything to several readers; the first one hears the
-// progress.
-struct ReaderTee {
-  std::span<RunReader* const> readers;
-  void on_step(const ode::State& s, const GearPairModel::Drive& d) {
-    for (RunReader* r : readers) r->on_step(s, d);
-  }
-  void on_transition(const ode::State& s, int from_region) {
-    for (RunReader* r : readers) r->on_transition(s, from_region);
-  }
-  void on_sample(const ode::State& s) {
-    for (RunReader* r : readers) r->on_sample(s);
-  }
-  bool on_progress(double t_s) { return readers.front()->on_progress(t_s); }
-};
-
-// The same for the exact engine: one RunFlowObserver per reader (each finds the extremes its
-// reader has not seen), a cell in detail when any of them asks.
-class FlowTee final : public ode::FlowObserver {
- public:
-  FlowTee(const GearPairModel& model, std::span<RunReader* const> readers,
-          const ode::OutputGrid& grid) {
-    observers_.reserve(readers.size());
-    for (RunReader* r : readers) observers_.emplace_back(model, *r, grid);
-  }
-  void on_cell(const ode::CellView& cell) override {
-    for (RunFlowObserver& o : observers_) o.on_cell(cell);
-  }
-  bool needs_detail(const ode::CellView& span) override {
-    bool any = false;
-    for (RunFlowObserver& o : observers_) any = o.needs_detail(span) || any;
-    return any;
-  }
-  void on_step(double t_s, const ode::Vector& y, int region) override {
-    for (RunFlowObserver& o : observers_) o.on_step(t_s, y, region);
-  }
-  void on_event(double t_s, const ode::Vector& y, int from, int to) override {
-    for (RunFlowObserver& o : observers_) o.on_event(t_s, y, from, to);
-  }
-  void on_sample(double t_s, const ode::Vector& y, int region) override {
-    for (RunFlowObserver& o : observers_) o.on_sample(t_s, y, region);
-  }
-  bool on_progress(double t_s) override { return observers_.front().on_progress(t_s); }
-
- private:
-  std::vector<RunFlowObserver> observers_;
-};
-}  // namespace
-
-ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
-                                    const ode::OutputGrid& grid,
-                                    std::span<RunReader* const> readers) const {
-  ReaderTee tee{readers};
   switch (s_.method) {
     case Method::kNewmark:
-      return ode::integrate_newmark(model_, initial, t1, dt_, grid, tee);
+      return ode::integrate_newmark(model_, initial, t1, dt_, grid, reader);
     case Method::kDopri5:
-      return ode::integrate_dopri5(model_, initial, t1, grid, tee, dopri5_options());
+      return ode::integrate_dopri5(model_, initial, t1, grid, reader, dopri5_options());
     case Method::kExact:
       break;
   }
-  FlowTee observer(model_, readers, grid);
+  RunFlowObserver observer(model_, reader, grid);
   return summary(engine_->flow(initial.t, to_vector(initial),
                                initial.region - GearPairModel::kFirstRegion, t1, grid, observer));
 }
@@ -375,10 +317,10 @@ void refuse_non_finite(const RunReading& x, ode::IntegrationSummary& s) {
 
 // A run over [initial.t, t1] integrated once: `reader` reads the whole of it while the response
 // is followed on the section t = t0 + k T0 until steady (steady.hpp, to kSteadyTolerance, leaving
-// at least one period to read), and a second reader reads the steady part from there in the
-// same pass; without a steady state, the final half (kSteadyFraction), read from its start.
-// Until then the run is integrated a period at a time, so that the section states are the
-// integrator's own; the pieces' samples are the grid's, bit for bit.
+// at least one period to read), and reads the steady part from there in the same pass (a mark,
+// RunReader::mark); without a steady state, the final half (kSteadyFraction), marked at its
+// start. Until then the run is integrated a period at a time, so that the section states are
+// the integrator's own; the pieces' samples are the grid's, bit for bit.
 struct OnePass {
   ode::IntegrationSummary integration;
   SteadyPart steady;  // its reading is valid only when the integration completed
@@ -406,7 +348,6 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
   SectionSeries sections(p.backlash_m, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
   bool judging = period > 0;
   if (judging) sections.add(initial);
-  std::optional<RunReader> half, settled;  // the final half's reader, the settled part's
   ode::State s = initial;
   double t = t0;                   // where the pieces have reached
   std::int64_t sections_done = 0;  // section times passed
@@ -420,28 +361,23 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
         part.basis = SteadyBasis::kSettled;
         part.period_multiple = v.period_multiple;
         part.from_s = t;
-        settled.emplace(model, t, t1, /*final_fraction=*/1.0, /*keep_events=*/false,
-                        /*keep_samples=*/false);
-        half.reset();
+        reader.mark(t);
         judging = false;
       } else if (t + 2 * period > t1) {
         judging = false;  // a steady part holds at least one period
       }
     }
-    if (!settled && !half && t >= t_half) {
+    if (!reader.marked() && t >= t_half) {
       part.from_s = t;
-      half.emplace(model, t, t1, 1.0, false, false);
+      reader.mark(t);
     }
     // The next stop: the next section time while judging, the final half's start, the end.
     const double next_section = judging ? t0 + static_cast<double>(sections_done + 1) * period : t1;
     double stop = std::min(next_section, t1);
-    if (!settled && !half && t_half < stop) stop = t_half;
+    if (!reader.marked() && t_half < stop) stop = t_half;
     const std::int64_t until = stop < t1 ? grid.count_until(stop) : grid.count;
-    std::vector<RunReader*> readers{&reader};
-    if (half) readers.push_back(&*half);
-    if (settled) readers.push_back(&*settled);
     const ode::IntegrationSummary piece =
-        solver.run(s, stop, grid.stretch(sampled, std::max(until, sampled)), readers);
+        solver.run(s, stop, grid.stretch(sampled, std::max(until, sampled)), reader);
     sampled = std::max(until, sampled);
     total.termination = piece.termination;
     total.message = piece.message;
@@ -464,10 +400,8 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
       ++sections_done;
     }
   }
-  if (settled) {
-    part.reading = settled->reading();
-  } else if (half) {
-    part.reading = half->reading();
+  if (reader.marked()) {
+    part.reading = reader.part_reading();
   } else {
     part.from_s = t_half;  // the run failed before its final half
   }

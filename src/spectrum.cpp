@@ -61,14 +61,21 @@ Spectrum amplitude_spectrum(const std::vector<double>& samples, double dt_s) {
   for (double x : samples) mean += x;
   mean /= static_cast<double>(n);
 
-  std::vector<double> in(n);
-  double gain = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double w = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) /
-                                          static_cast<double>(n - 1));
-    in[i] = (samples[i] - mean) * w;
-    gain += w;
+  // The Hann window of the last length asked for on this thread (a run's two spectra, a
+  // study's runs, share it).
+  thread_local std::vector<double> window;
+  thread_local double gain = 0;
+  if (window.size() != n) {
+    window.resize(n);
+    gain = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) /
+                                       static_cast<double>(n - 1));
+      gain += window[i];
+    }
   }
+  std::vector<double> in(n);
+  for (std::size_t i = 0; i < n; ++i) in[i] = (samples[i] - mean) * window[i];
   const std::vector<std::complex<double>> spectrum = real_dft(in);
   const std::size_t bins = spectrum.size();
   out.frequency_hz.resize(bins);

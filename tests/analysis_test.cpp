@@ -89,6 +89,70 @@ TEST(RunReader, NeverSeparatedIsNone) {
   EXPECT_DOUBLE_EQ(*r.dynamic_factor, largest / s.model.parameters().static_mesh_force_n());
 }
 
+// A mark reads the rest of a run as a reader of the rest alone would, while the whole is read
+// as without it: through the exact engine (its extremes searched inside cells against the
+// part's) and through a stepper. The case rattles on both sides of the mark.
+void expect_same(const RunReading& a, const RunReading& b, double tol) {
+  EXPECT_EQ(a.impacts, b.impacts);
+  EXPECT_EQ(a.backside_impacts, b.backside_impacts);
+  EXPECT_EQ(a.separations, b.separations);
+  EXPECT_EQ(a.last_separation_s, b.last_separation_s);
+  EXPECT_EQ(a.regime, b.regime);
+  EXPECT_EQ(a.double_sided, b.double_sided);
+  EXPECT_NEAR(a.separated_fraction, b.separated_fraction, tol);
+  EXPECT_NEAR(a.max_impact_velocity_m_s, b.max_impact_velocity_m_s, tol);
+  for (const auto& [x, y] : {std::pair{a.max_force_bar, b.max_force_bar},
+                             {a.min_force_bar, b.min_force_bar},
+                             {a.max_delta_bar, b.max_delta_bar},
+                             {a.min_delta_bar, b.min_delta_bar},
+                             {a.mean_force_bar, b.mean_force_bar},
+                             {a.rms_force_bar, b.rms_force_bar},
+                             {a.mean_delta_bar, b.mean_delta_bar},
+                             {a.rms_delta_bar, b.rms_delta_bar}})
+    EXPECT_NEAR(x, y, tol * std::max(1.0, std::abs(y)));
+  ASSERT_EQ(a.dynamic_factor.has_value(), b.dynamic_factor.has_value());
+  if (a.dynamic_factor) EXPECT_NEAR(*a.dynamic_factor, *b.dynamic_factor, tol);
+}
+
+class RunReaderMark : public ::testing::TestWithParam<Method> {};
+
+TEST_P(RunReaderMark, ReadsTheRestAsAFreshReaderWhileTheWholeIsUnchanged) {
+  Case c;
+  c.speed.shaft_frequency_hz = 100;
+  c.mesh.backlash_um = 150;
+  c.solver.method = GetParam();
+  const GearPairModel model = build_model(c);
+  const Solver solver(model, c.solver);
+  const double t1 = 0.02, tm = 0.011;
+  const ode::OutputGrid grid = ode::make_output_grid(0, t1, t1 / 1000);
+  const std::int64_t split = grid.count_until(tm);
+  const ode::State start{0, 0, 0, 0, kSeparated};
+
+  RunReader marked(model, 0, t1, 0.1), whole(model, 0, t1, 0.1), rest(model, tm, t1, 1.0);
+  const auto a = solver.run(start, tm, grid.stretch(0, split), marked);
+  ASSERT_TRUE(solver.run(start, tm, grid.stretch(0, split), whole).ok());
+  ASSERT_TRUE(a.ok()) << a.message;
+  marked.mark(tm);
+  ASSERT_TRUE(marked.marked());
+  ASSERT_TRUE(solver.run(a.end_state, t1, grid.stretch(split, grid.count), marked).ok());
+  ASSERT_TRUE(solver.run(a.end_state, t1, grid.stretch(split, grid.count), whole).ok());
+  ASSERT_TRUE(solver.run(a.end_state, t1, grid.stretch(split, grid.count), rest).ok());
+
+  const RunReading part = marked.part_reading(), fresh = rest.reading();
+  ASSERT_GT(fresh.impacts, 3);                        // the rest rattles
+  ASSERT_GT(whole.reading().impacts, fresh.impacts);  // and so did the start
+  expect_same(part, fresh, 1e-12);
+  expect_same(marked.reading(), whole.reading(), 1e-12);
+  EXPECT_EQ(marked.events().size(), whole.events().size());
+  EXPECT_EQ(marked.samples().size(), whole.samples().size());
+  // The part starts afresh at a later mark.
+  marked.mark(t1);
+  EXPECT_EQ(marked.part_reading().impacts, 0);
+}
+
+INSTANTIATE_TEST_SUITE_P(Methods, RunReaderMark,
+                         ::testing::Values(Method::kExact, Method::kNewmark));
+
 TEST(Run, TheDynamicFactorIsTheSteadyOneWithTheStartUpBeside) {
   // At f1 = 10 kHz the teeth rattle while the start from rest mid-backlash dies out, then stay
   // in contact: the whole window's dynamic factor (9.1) is the start-up's; the steady part,

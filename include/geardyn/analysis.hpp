@@ -86,6 +86,13 @@ class RunReader {
             bool keep_events = true, bool keep_samples = true,
             std::function<bool(double)> progress = {});
 
+  // From t_s on (a time the integration stopped at, between two calls), the reader also reads
+  // the rest of the run on its own: part_reading(), as a reader of [t_s, t1] with final
+  // fraction 1 would (neither events nor samples kept). A later mark starts the part afresh.
+  // The whole is read as before; the run's steady part is read so in the same pass.
+  void mark(double t_s);
+  bool marked() const { return part_.has_value(); }
+
   // Observer interface (integrator.hpp).
   void on_step(const ode::State& s, const GearPairModel::Drive& d) {
     on_time(s.t, s.region);
@@ -94,18 +101,16 @@ class RunReader {
   // The time accounting of a step alone: it ended at t_s in `region`.
   void on_time(double t_s, int region) {
     if (contact_state(region) == 0) {
-      separated_time_ += t_s - last_t_;
-      if (t_s > final_start_) separated_in_final_ = true;
+      whole_.separated_for(t_s - last_t_, t_s);
+      if (part_) part_->separated_for(t_s - last_t_, t_s);
     }
     last_t_ = t_s;
   }
   // A point inside a step: only the extremes look at it.
   void on_point(const ode::State& s, const GearPairModel::Drive& d) {
     const double f = model_.mesh_force(d, s.q, s.v, s.region);
-    max_force_ = std::max(max_force_, f);
-    min_force_ = std::min(min_force_, f);
-    max_delta_ = std::max(max_delta_, s.q);
-    min_delta_ = std::min(min_delta_, s.q);
+    whole_.extremes(f, s.q);
+    if (part_) part_->extremes(f, s.q);
   }
   void on_transition(const ode::State& s, int from_region);
   void on_sample(const ode::State& s) { on_sample(s, model_.drive(s.t)); }
@@ -113,33 +118,56 @@ class RunReader {
   void on_sample(const ode::State& s, const GearPairModel::Drive& d);
   bool on_progress(double t_s) { return !progress_ || progress_((t_s - t0_) / (t1_ - t0_)); }
 
-  RunReading reading() const;
-  // The extremes so far, SI (N, m).
-  double max_force_n() const { return max_force_; }
-  double min_force_n() const { return min_force_; }
-  double max_delta_m() const { return max_delta_; }
-  double min_delta_m() const { return min_delta_; }
+  RunReading reading() const { return read(whole_); }
+  // The reading of [mark, t1]; only when marked().
+  RunReading part_reading() const { return read(*part_); }
+  // The extremes so far, SI (N, m), of the part when marked (those an extreme inside a step
+  // must beat to change either reading), else of the whole.
+  double max_force_n() const { return latest().max_force; }
+  double min_force_n() const { return latest().min_force; }
+  double max_delta_m() const { return latest().max_delta; }
+  double min_delta_m() const { return latest().min_delta; }
   const std::vector<ContactEvent>& events() const { return events_; }
   Timeseries& samples() { return samples_; }
   // Room for n samples, so that keeping them does not reallocate.
   void reserve_samples(std::size_t n);
 
  private:
+  // What is read of one stretch of the run, [start_s, t1].
+  struct Tally {
+    Tally(double start_s, double final_start_s);
+    void separated_for(double dt_s, double t_s) {
+      separated_time += dt_s;
+      if (t_s > final_start) separated_in_final = true;
+    }
+    void extremes(double force_n, double delta_m) {
+      max_force = std::max(max_force, force_n);
+      min_force = std::min(min_force, force_n);
+      max_delta = std::max(max_delta, delta_m);
+      min_delta = std::min(min_delta, delta_m);
+    }
+    double start, final_start;
+    double separated_time = 0;
+    bool separated_in_final = false;
+    bool back_contact = false;
+    double max_force, min_force, max_delta, min_delta;
+    double sum_force = 0, sum_force2 = 0, sum_delta = 0, sum_delta2 = 0;
+    std::int64_t n_samples = 0;
+    std::int64_t impacts = 0, backside_impacts = 0, separations = 0;
+    std::optional<double> last_separation;
+    double max_impact_velocity = 0;
+  };
+  const Tally& latest() const { return part_ ? *part_ : whole_; }
+  RunReading read(const Tally& t) const;
+
   const GearPairModel& model_;
-  double t0_, t1_, final_start_;
+  double t0_, t1_;
   bool keep_events_, keep_samples_;
   std::function<bool(double)> progress_;
   double b_, force_scale_;
   double last_t_;
-  double separated_time_ = 0;
-  bool separated_in_final_ = false;
-  bool back_contact_ = false;
-  double max_force_, min_force_, max_delta_, min_delta_;
-  double sum_force_ = 0, sum_force2_ = 0, sum_delta_ = 0, sum_delta2_ = 0;
-  std::int64_t n_samples_ = 0;
-  std::int64_t impacts_ = 0, backside_impacts_ = 0, separations_ = 0;
-  std::optional<double> last_separation_;
-  double max_impact_velocity_ = 0;
+  Tally whole_;
+  std::optional<Tally> part_;
   std::vector<ContactEvent> events_;
   Timeseries samples_;
 };

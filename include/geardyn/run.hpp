@@ -6,7 +6,6 @@
 #include <functional>
 #include <memory>
 #include <optional>
-#include <span>
 #include <string>
 #include <vector>
 
@@ -129,10 +128,6 @@ class Solver {
   // From `initial` to t1, samples on `grid`, read by `reader`.
   ode::IntegrationSummary run(const ode::State& initial, double t1, const ode::OutputGrid& grid,
                               RunReader& reader) const;
-  // The same read by every one of `readers` at once (a run and its steady part); the first
-  // hears the progress and may cancel.
-  ode::IntegrationSummary run(const ode::State& initial, double t1, const ode::OutputGrid& grid,
-                              std::span<RunReader* const> readers) const;
   // From `initial` to t1 with nothing read (a settling phase): the end state and the outcome.
   ode::IntegrationSummary advance(const ode::State& initial, double t1) const;
   // The Newmark step actually taken (0 for the other methods).
