@@ -207,18 +207,6 @@ ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s)
   return s;
 }
 
-const char* to_string(SteadyBasis b) {
-  switch (b) {
-    case SteadyBasis::kSettled:
-      return "settled";
-    case SteadyBasis::kNotSettled:
-      return "not_settled";
-    case SteadyBasis::kAperiodic:
-      return "aperiodic";
-  }
-  return "?";
-}
-
 namespace {
 
 // The bounds of kMaxSamples and the others (run.hpp), in floating point before any count is
@@ -319,8 +307,8 @@ void refuse_non_finite(const RunReading& x, ode::IntegrationSummary& s) {
 // is followed on the section t = t0 + k T0 until steady (steady.hpp, to kSteadyTolerance, leaving
 // at least one period to read), and reads the steady part from there in the same pass (a mark,
 // RunReader::mark); without a steady state, the final half (kSteadyFraction), marked at its
-// start. Until then the run is integrated a period at a time, so that the section states are
-// the integrator's own; the pieces' samples are the grid's, bit for bit.
+// start (integrate_watching). Until then the run is integrated a period at a time, so that the
+// section states are the integrator's own; the pieces' samples are the grid's, bit for bit.
 struct OnePass {
   ode::IntegrationSummary integration;
   SteadyPart steady;  // its reading is valid only when the integration completed
@@ -330,51 +318,26 @@ struct OnePass {
 OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::State& initial,
                        double t1, const ode::OutputGrid& grid, RunReader& reader) {
   OnePass out;
-  SteadyPart& part = out.steady;
   const GearPairParameters& p = model.parameters();
-  const double t0 = initial.t;
   double period = 0;
   try {
     period = section_period_s(p);
   } catch (const InputError&) {
-    part.basis = SteadyBasis::kAperiodic;
+    period = 0;  // no common period: aperiodic
   }
-  part.error = std::numeric_limits<double>::infinity();
-  const double t_half = t1 - kSteadyFraction * (t1 - t0);
-  const Solver solver(model, c.solver, period > 0 ? period : t1 - t0);
+  const Solver solver(model, c.solver, period > 0 ? period : t1 - initial.t);
   out.time_step_s = solver.time_step_s();
   reader.reserve_samples(static_cast<std::size_t>(std::max<std::int64_t>(0, grid.count)));
 
   SectionSeries sections(p.backlash_m, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
-  bool judging = period > 0;
-  if (judging) sections.add(initial);
   ode::State s = initial;
-  double t = t0;                   // where the pieces have reached
-  std::int64_t sections_done = 0;  // section times passed
-  std::int64_t sampled = 0;        // grid samples emitted
+  std::int64_t sampled = 0;  // grid samples emitted
   ode::IntegrationSummary& total = out.integration;
-  for (;;) {
-    if (judging) {
-      const SteadyVerdict v = sections.judge(kSteadyTolerance);
-      part.error = v.error;
-      if (v.settled()) {
-        part.basis = SteadyBasis::kSettled;
-        part.period_multiple = v.period_multiple;
-        part.from_s = t;
-        reader.mark(t);
-        judging = false;
-      } else if (t + 2 * period > t1) {
-        judging = false;  // a steady part holds at least one period
-      }
-    }
-    if (!reader.marked() && t >= t_half) {
-      part.from_s = t;
-      reader.mark(t);
-    }
-    // The next stop: the next section time while judging, the final half's start, the end.
-    const double next_section = judging ? t0 + static_cast<double>(sections_done + 1) * period : t1;
-    double stop = std::min(next_section, t1);
-    if (!reader.marked() && t_half < stop) stop = t_half;
+  const auto judge = [&] {
+    sections.add(s);
+    return sections.judge(kSteadyTolerance);
+  };
+  const auto advance = [&](double stop) {
     const std::int64_t until = stop < t1 ? grid.count_until(stop) : grid.count;
     const ode::IntegrationSummary piece =
         solver.run(s, stop, grid.stretch(sampled, std::max(until, sampled)), reader);
@@ -386,25 +349,24 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
     total.unsplit_steps += piece.unsplit_steps;
     total.end_time_s = piece.end_time_s;
     total.end_state = piece.end_state;
-    if (!piece.ok() || stop >= t1) break;
+    if (!piece.ok()) return false;
+    s = piece.end_state;
     // A piece may be shorter than the integrators' interval between progress calls.
-    if (!reader.on_progress(stop)) {
+    if (stop < t1 && !reader.on_progress(stop)) {
       total.termination = ode::Termination::kCancelled;
       total.message = fmt::format("cancelled at t = {:.9g} s", stop);
-      break;
+      return false;
     }
-    s = piece.end_state;
-    t = stop;
-    if (judging && stop == next_section) {
-      sections.add(s);
-      ++sections_done;
-    }
-  }
-  if (reader.marked()) {
-    part.reading = reader.part_reading();
-  } else {
-    part.from_s = t_half;  // the run failed before its final half
-  }
+    return true;
+  };
+  const SteadyStart start =
+      integrate_watching(initial.t, t1, period, judge, advance, [&](double t) { reader.mark(t); });
+  SteadyPart& part = out.steady;
+  part.basis = start.basis;
+  part.from_s = start.from_s;
+  part.period_multiple = start.period_multiple;
+  part.error = start.error;
+  if (start.marked) part.reading = reader.part_reading();
   return out;
 }
 

@@ -128,4 +128,60 @@ std::optional<AffineResponse> affine_response(const ode::Matrix& monodromy, cons
   return r;
 }
 
+const char* to_string(SteadyBasis b) {
+  switch (b) {
+    case SteadyBasis::kSettled:
+      return "settled";
+    case SteadyBasis::kNotSettled:
+      return "not_settled";
+    case SteadyBasis::kAperiodic:
+      return "aperiodic";
+  }
+  return "?";
+}
+
+SteadyStart integrate_watching(double t0, double t1, double period_s,
+                               const std::function<SteadyVerdict()>& judge,
+                               const std::function<bool(double)>& advance,
+                               const std::function<void(double)>& mark) {
+  SteadyStart out;
+  const double t_half = t1 - kSteadyFraction * (t1 - t0);
+  bool judging = period_s > 0;
+  if (!judging) out.basis = SteadyBasis::kAperiodic;
+  bool at_section = judging;       // the run stands at a section time
+  double t = t0;                   // where the run has reached
+  std::int64_t sections_done = 0;  // section times passed
+  const auto mark_at = [&](double when) {
+    out.from_s = when;
+    out.marked = true;
+    mark(when);
+  };
+  for (;;) {
+    if (judging && at_section) {
+      const SteadyVerdict v = judge();
+      out.error = v.error;
+      if (v.settled()) {
+        out.basis = SteadyBasis::kSettled;
+        out.period_multiple = v.period_multiple;
+        mark_at(t);
+        judging = false;
+      } else if (t + 2 * period_s > t1) {
+        judging = false;  // a steady part holds at least one period
+      }
+    }
+    if (!out.marked && t >= t_half) mark_at(t);
+    // The next stop: the next section time while judging, the final half's start, the end.
+    const double next_section =
+        judging ? t0 + static_cast<double>(sections_done + 1) * period_s : t1;
+    double stop = std::min(next_section, t1);
+    if (!out.marked && t_half < stop) stop = t_half;
+    if (!advance(stop) || stop >= t1) break;
+    t = stop;
+    at_section = judging && stop == next_section;
+    if (at_section) ++sections_done;
+  }
+  if (!out.marked) out.from_s = t_half;
+  return out;
+}
+
 }  // namespace geardyn

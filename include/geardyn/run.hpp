@@ -38,8 +38,6 @@ constexpr double kMaxSamples = 5e6;         // about 200 MB of samples, 400 MB o
 constexpr double kMaxFastestPeriods = 1e8;  // e.g. 4e4 s of the Table 1 pair
 constexpr double kMaxNewmarkSteps = 1e10;   // minutes at the Newmark rate of this machine
 constexpr double kMinStepsPerFastestPeriod = 10.0;
-// The steady part of a run, for its spectra: the final half of the window.
-constexpr double kSteadyFraction = 0.5;
 // Dominant frequencies reported per signal.
 constexpr std::size_t kReportedPeaks = 5;
 
@@ -73,14 +71,6 @@ struct RunOptions {
   // alone (shared_stiffness): a study's samples. Null: the case's own.
   const MeshStiffness* stiffness = nullptr;
 };
-
-// Where a run's steady part starts, and why.
-enum class SteadyBasis {
-  kSettled,     // the response reached its periodic response (steady.hpp) at from_s
-  kNotSettled,  // no steady state within the window: the final half is read
-  kAperiodic,   // the excitations have no common period: the final half is read
-};
-const char* to_string(SteadyBasis b);
 
 // The readings over the steady part of a run, [from_s, t1]: the start-up transient (from rest
 // mid-backlash, or from static contact) left out.

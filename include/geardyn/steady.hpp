@@ -11,6 +11,7 @@
 // Sweeps settle their points with it; runs find their steady part with it.
 #pragma once
 
+#include <functional>
 #include <limits>
 #include <optional>
 #include <vector>
@@ -30,6 +31,8 @@ constexpr int kJudgedSections = 3 * kMaxSettledMultiple + 1;
 // The default tolerance on the distance to the periodic response, in b (delta) and b w_n
 // (delta').
 constexpr double kSteadyTolerance = 1e-6;
+// A run's steady part without a steady state: the final half of the window.
+constexpr double kSteadyFraction = 0.5;
 
 struct SteadyVerdict {
   int period_multiple = 0;  // q of the periodic response reached; 0: not steady
@@ -96,5 +99,40 @@ std::optional<AffineResponse> affine_response(const ode::Matrix& monodromy, cons
 
 // max_i |v_i| / scale_i.
 double scaled_norm(const ode::Vector& v, const ode::Vector& scale);
+
+// Where a run's steady part starts, and why.
+enum class SteadyBasis {
+  kSettled,     // the response reached its periodic response at from_s
+  kNotSettled,  // no steady state within the window: the final half is read
+  kAperiodic,   // the excitations have no common period: the final half is read
+};
+const char* to_string(SteadyBasis b);
+
+// Where a run's steady part starts (SteadyPart of run.hpp, the train run's).
+struct SteadyStart {
+  SteadyBasis basis = SteadyBasis::kNotSettled;
+  double from_s = 0;
+  int period_multiple = 0;  // of the periodic response, in periods (kSettled)
+  // The predicted distance to the periodic response at from_s (the series' scales); infinite
+  // when no decay was seen.
+  double error = std::numeric_limits<double>::infinity();
+  bool marked = false;  // the part was marked (false: the run ended before it began)
+};
+
+// One run over [t0, t1] integrated once while its steady part is sought, the same for every
+// model: until the response settles on the section t = t0 + k period_s (judged to
+// kSteadyTolerance, with at least one period left to read) it is integrated a period at a
+// time; the part from there is marked; without a steady state (or with period_s = 0, no common
+// period: kAperiodic), the final half (kSteadyFraction) is marked at its start.
+//   judge()      adds the state reached, at t0 and at each section time, and gives the verdict
+//                of the sections so far;
+//   advance(t)   integrates from where the run is to t (its samples included); false ends the
+//                run (a numerical failure or a cancellation, the caller's to report);
+//   mark(t)      the steady part starts at t (a time advance stopped at; a later mark starts
+//                it afresh).
+SteadyStart integrate_watching(double t0, double t1, double period_s,
+                               const std::function<SteadyVerdict()>& judge,
+                               const std::function<bool(double)>& advance,
+                               const std::function<void(double)>& mark);
 
 }  // namespace geardyn
