@@ -48,8 +48,11 @@ class ContactTracker {
   }
 
  private:
+  // A free stretch that reaches into the final part is a separation there, as the one-degree
+  // reading's time separated after its start (analysis.hpp).
   void close_free(double t) {
     if (!free_since_) return;
+    if (t > final_from_) free_in_final_ = true;
     free_time_ += t - *free_since_;
     free_since_.reset();
   }

@@ -570,10 +570,7 @@ int CoupledModel::classify(double t_s, const Eigen::VectorXd& y) const {
   s.mesh = d >= b ? kDriveContact : d <= -b ? kBackContact : kSeparated;
   const bool clip = p_.tension == TensionRule::kClip && p_.damping != DampingForm::kAlways;
   if (clip && s.mesh != kSeparated) {
-    double e_rate = 0;  // e'(t)
-    for (const Harmonic& h : p_.transmission_error_m.terms)
-      e_rate -= h.amplitude * h.angular_frequency_rad_s *
-                std::sin(h.angular_frequency_rad_s * t_s + h.phase_rad);
+    const double e_rate = p_.transmission_error_m.rate(t_s);
     const double f = p_.stiffness_n_per_m(t_s) * (d - (s.mesh > 0 ? b : -b)) +
                      p_.mesh_damping_n_s_per_m * (p_.mesh_vector.dot(y.tail(n)) - e_rate);
     if (s.mesh > 0 && f < 0) s.mesh = kDriveClipped;

@@ -361,12 +361,8 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
   };
   const SteadyStart start =
       integrate_watching(initial.t, t1, period, judge, advance, [&](double t) { reader.mark(t); });
-  SteadyPart& part = out.steady;
-  part.basis = start.basis;
-  part.from_s = start.from_s;
-  part.period_multiple = start.period_multiple;
-  part.error = start.error;
-  if (start.marked) part.reading = reader.part_reading();
+  static_cast<SteadyStart&>(out.steady) = start;
+  if (start.marked) out.steady.reading = reader.part_reading();
   return out;
 }
 

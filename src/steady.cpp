@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <limits>
 #include <numeric>
 
 namespace geardyn {
@@ -145,6 +147,7 @@ SteadyStart integrate_watching(double t0, double t1, double period_s,
                                const std::function<bool(double)>& advance,
                                const std::function<void(double)>& mark) {
   SteadyStart out;
+  out.error = std::numeric_limits<double>::infinity();
   const double t_half = t1 - kSteadyFraction * (t1 - t0);
   bool judging = period_s > 0;
   if (!judging) out.basis = SteadyBasis::kAperiodic;

@@ -256,12 +256,8 @@ class PointRunner {
     const HarmonicSeries& e = p.transmission_error_m;
     const auto mesh = [&](double t, const ode::Vector& x) {
       const Eigen::Index n = p.size();
-      double rate = 0;  // e'(t)
-      for (const Harmonic& h : e.terms)
-        rate -= h.amplitude * h.angular_frequency_rad_s *
-                std::sin(h.angular_frequency_rad_s * t + h.phase_rad);
-      return ode::State{t, p.mesh_vector.dot(x.head(n)) - e(t), p.mesh_vector.dot(x.tail(n)) - rate,
-                        0.0, 0};
+      return ode::State{t, p.mesh_vector.dot(x.head(n)) - e(t),
+                        p.mesh_vector.dot(x.tail(n)) - e.rate(t), 0.0, 0};
     };
     const double b = p.backlash_m;
     const double w_n = std::sqrt(p.cos_base_helix * p.cos_base_helix * p.stiffness_n_per_m.offset /

@@ -252,14 +252,9 @@ void Assembled::prescribe(double t_s, Eigen::VectorXd& y) const {
   const int n = size();
   for (const Speed& v : t_.speeds) {
     const int i = index(v.body);
-    double theta = 0, rate = 0;
-    for (const Harmonic& h : rotation_series(*this, v).terms) {
-      theta += h.amplitude * std::cos(h.angular_frequency_rad_s * t_s + h.phase_rad);
-      rate -= h.amplitude * h.angular_frequency_rad_s *
-              std::sin(h.angular_frequency_rad_s * t_s + h.phase_rad);
-    }
-    y(i) = theta;
-    y(n + i) = rate;
+    const HarmonicSeries rotation = rotation_series(*this, v);
+    y(i) = rotation(t_s);  // no offset: about the nominal rotation
+    y(n + i) = rotation.rate(t_s);
   }
 }
 

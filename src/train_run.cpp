@@ -31,47 +31,54 @@ double ratio_value(const train::Ratio& r) {
   return static_cast<double>(r.num) / static_cast<double>(r.den);
 }
 
-// Looks at the engine's flow: samples, each mesh's contact changes and its exact extremes.
+// Looks at the engine's flow: samples, each mesh's contact changes and its exact extremes, over
+// the whole window and, from a mark on, over the steady part beside it.
 class TrainObserver : public ode::FlowObserver {
  public:
   TrainObserver(const train::Assembled& a, const ode::LinearSwitchedSystem& sys,
                 TrainRunResult& out, double t0, double t1, double final_from, int region,
                 const std::function<bool(double)>& progress)
-      : a_(a), out_(out), progress_(progress), t0_(t0), t1_(t1), final_from_(final_from) {
-    const std::vector<int> s = a.states(region);
-    for (std::size_t m = 0; m < s.size(); ++m) {
-      trackers_.emplace_back(t0, t1, final_from, s[m]);
-      TrainMeshReading& r = out_.meshes[m];
-      r.max_force_n = r.max_deflection_m = r.max_force_final_n = -kInf;
-      r.min_force_n = r.min_deflection_m = kInf;
-    }
+      : a_(a),
+        out_(out),
+        progress_(progress),
+        t0_(t0),
+        t1_(t1),
+        states_(a.states(region)),
+        whole_(states_.size()) {
+    for (const int state : states_) trackers_.emplace_back(t0, t1, final_from, state);
     for (const ode::LinearRegion& reg : sys.regions) {
       ranges_.emplace_back();
       for (const ode::LinearGuard& g : reg.observables) ranges_.back().emplace_back(g);
       readers_.emplace_back(sys, reg.observables);
     }
-    low_.resize(2 * s.size());
-    high_.resize(2 * s.size());
+    low_.resize(2 * states_.size());
+    high_.resize(2 * states_.size());
+  }
+
+  // From t on (a time a flow ended at), each mesh's steady part is read beside the whole: its
+  // contact history and its extremes, found against the part's own (a later mark starts it
+  // afresh).
+  void mark(double t) {
+    part_trackers_.clear();
+    for (const int state : states_) part_trackers_.emplace_back(t, t1_, t, state);
+    part_.assign(states_.size(), Extremes{});
   }
 
   bool needs_detail(const ode::CellView& span) override {
     bound_all(span);
-    return any_room(span.t_begin_s >= final_from_);
+    return any_room();
   }
 
   void on_cell(const ode::CellView& cell) override {
     if (!(cell.t_end_s > cell.t_begin_s)) return;
     bound_all(cell);
-    const bool final = cell.t_begin_s >= final_from_;
-    if (!any_room(final)) return;
-    for (std::size_t m = 0; m < out_.meshes.size(); ++m) {
-      TrainMeshReading& r = out_.meshes[m];
+    if (!any_room()) return;
+    for (std::size_t m = 0; m < states_.size(); ++m) {
       const int d = static_cast<int>(2 * m), f = d + 1;
-      extreme(cell, f, true, r.max_force_n);
-      extreme(cell, f, false, r.min_force_n);
-      extreme(cell, d, true, r.max_deflection_m);
-      extreme(cell, d, false, r.min_deflection_m);
-      if (final) extreme(cell, f, true, r.max_force_final_n);
+      search(cell, m, f, true);
+      search(cell, m, f, false);
+      search(cell, m, d, true);
+      search(cell, m, d, false);
     }
   }
 
@@ -79,21 +86,17 @@ class TrainObserver : public ode::FlowObserver {
   // and samples; inside the exact engine's cells on_cell has seen it already).
   void on_step(double t, const ode::Vector& y, int region) override {
     readers_[static_cast<std::size_t>(region)](t, y, values_);
-    for (std::size_t m = 0; m < out_.meshes.size(); ++m) {
-      TrainMeshReading& r = out_.meshes[m];
-      const double d = values_[2 * m], f = values_[2 * m + 1];
-      r.max_force_n = std::max(r.max_force_n, f);
-      r.min_force_n = std::min(r.min_force_n, f);
-      r.max_deflection_m = std::max(r.max_deflection_m, d);
-      r.min_deflection_m = std::min(r.min_deflection_m, d);
-      if (t >= final_from_) r.max_force_final_n = std::max(r.max_force_final_n, f);
-    }
+    for (std::size_t m = 0; m < states_.size(); ++m) point(m, values_[2 * m], values_[2 * m + 1]);
   }
 
   void on_event(double t, const ode::Vector&, int from, int to) override {
     const std::vector<int> a = a_.states(from), b = a_.states(to);
-    for (std::size_t m = 0; m < a.size(); ++m)
-      if (a[m] != b[m]) trackers_[m].change(t, b[m]);
+    for (std::size_t m = 0; m < a.size(); ++m) {
+      if (a[m] == b[m]) continue;
+      trackers_[m].change(t, b[m]);
+      if (!part_trackers_.empty()) part_trackers_[m].change(t, b[m]);
+    }
+    states_ = b;
   }
 
   void on_sample(double t, const ode::Vector& y, int region) override {
@@ -106,13 +109,7 @@ class TrainObserver : public ode::FlowObserver {
     for (std::size_t m = 0; m < states.size(); ++m) {
       d[m] = values_[2 * m] / out_.meshes[m].backlash_m;
       f[m] = values_[2 * m + 1];
-      // A sample is a point of the window too: the extremes hold it.
-      TrainMeshReading& r = out_.meshes[m];
-      r.max_force_n = std::max(r.max_force_n, f[m]);
-      r.min_force_n = std::min(r.min_force_n, f[m]);
-      r.max_deflection_m = std::max(r.max_deflection_m, values_[2 * m]);
-      r.min_deflection_m = std::min(r.min_deflection_m, values_[2 * m]);
-      if (t >= final_from_) r.max_force_final_n = std::max(r.max_force_final_n, f[m]);
+      point(m, values_[2 * m], f[m]);  // a sample is a point of the window too
     }
     s.deflection_bar.push_back(std::move(d));
     s.force_n.push_back(std::move(f));
@@ -121,41 +118,81 @@ class TrainObserver : public ode::FlowObserver {
 
   bool on_progress(double t) override { return !progress_ || progress_((t - t0_) / (t1_ - t0_)); }
 
+  // The readings into the result: the whole window, and the steady part when it was marked.
   void finish() {
     for (std::size_t m = 0; m < trackers_.size(); ++m) {
       TrainMeshReading& r = out_.meshes[m];
-      static_cast<ContactReading&>(r) = trackers_[m].reading();
+      static_cast<TrainMeshPart&>(r) = reading(trackers_[m], whole_[m]);
+      if (!part_trackers_.empty()) r.steady = reading(part_trackers_[m], part_[m]);
     }
   }
 
  private:
+  // The extremes of one mesh over a stretch: F (N) and d - e (m), at indices 2 m + 1 and 2 m
+  // of the observables.
+  struct Extremes {
+    double max_force = -kInf, min_force = kInf, max_deflection = -kInf, min_deflection = kInf;
+    double& at(int k, bool maximum) {
+      if (k % 2 == 1) return maximum ? max_force : min_force;
+      return maximum ? max_deflection : min_deflection;
+    }
+  };
+  static TrainMeshPart reading(ContactTracker& tracker, const Extremes& x) {
+    TrainMeshPart r;
+    static_cast<ContactReading&>(r) = tracker.reading();
+    r.max_force_n = x.max_force;
+    r.min_force_n = x.min_force;
+    r.max_deflection_m = x.max_deflection;
+    r.min_deflection_m = x.min_deflection;
+    return r;
+  }
+  // The extremes a new value must beat to change a reading: the part's once marked (within the
+  // whole's), else the whole's.
+  Extremes& latest(std::size_t m) { return part_.empty() ? whole_[m] : part_[m]; }
+  const Extremes& latest(std::size_t m) const { return part_.empty() ? whole_[m] : part_[m]; }
+  void note(std::size_t m, int k, bool maximum, double v) {
+    double& w = whole_[m].at(k, maximum);
+    w = maximum ? std::max(w, v) : std::min(w, v);
+    if (part_.empty()) return;
+    double& p = part_[m].at(k, maximum);
+    p = maximum ? std::max(p, v) : std::min(p, v);
+  }
+  void point(std::size_t m, double deflection, double force) {
+    const int d = static_cast<int>(2 * m);
+    note(m, d, true, deflection);
+    note(m, d, false, deflection);
+    note(m, d + 1, true, force);
+    note(m, d + 1, false, force);
+  }
   void bound_all(const ode::CellView& cell) {
     for (std::size_t k = 0; k < low_.size(); ++k)
       ranges_[static_cast<std::size_t>(cell.region)][k].bounds(*cell.lower, *cell.upper, low_[k],
                                                                high_[k]);
   }
-  bool any_room(bool final) const {
-    for (std::size_t m = 0; m < out_.meshes.size(); ++m) {
-      const TrainMeshReading& r = out_.meshes[m];
+  bool any_room() const {
+    for (std::size_t m = 0; m < states_.size(); ++m) {
+      const Extremes& x = latest(m);
       const std::size_t d = 2 * m, f = d + 1;
-      if (high_[f] > r.max_force_n || low_[f] < r.min_force_n) return true;
-      if (high_[d] > r.max_deflection_m || low_[d] < r.min_deflection_m) return true;
-      if (final && high_[f] > r.max_force_final_n) return true;
+      if (high_[f] > x.max_force || low_[f] < x.min_force) return true;
+      if (high_[d] > x.max_deflection || low_[d] < x.min_deflection) return true;
     }
     return false;
   }
-  void extreme(const ode::CellView& cell, int k, bool maximum, double& seen) const {
-    double v = 0, t = 0;
+  void search(const ode::CellView& cell, std::size_t m, int k, bool maximum) {
+    const double seen = latest(m).at(k, maximum);
     const std::size_t i = static_cast<std::size_t>(k);
     if (maximum ? !(high_[i] > seen) : !(low_[i] < seen)) return;
-    if (cell.extreme(k, maximum, seen, v, t)) seen = v;
+    double v = 0, t = 0;
+    if (cell.extreme(k, maximum, seen, v, t)) note(m, k, maximum, v);
   }
 
   const train::Assembled& a_;
   TrainRunResult& out_;
   const std::function<bool(double)>& progress_;
-  double t0_, t1_, final_from_;
-  std::vector<ContactTracker> trackers_;
+  double t0_, t1_;
+  std::vector<int> states_;  // each mesh's contact state now
+  std::vector<ContactTracker> trackers_, part_trackers_;
+  std::vector<Extremes> whole_, part_;                      // part_ empty until marked
   std::vector<std::vector<ode::FunctionalBounds>> ranges_;  // per region, per observable
   std::vector<double> low_, high_;                          // the last bound_all's
   std::vector<ode::FunctionalValues> readers_;              // per region, of its observables
@@ -300,38 +337,90 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   }
   a.prescribe(t0, y0);
 
-  const int region = a.classify(t0, y0);
+  int region = a.classify(t0, y0);
   const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, interval);
-  ode::FlowResult flow;
+  std::unique_ptr<ode::ExactEngine> engine;
+  std::optional<ode::LinearSwitchedSystem> adaptive_system;
+  ode::AdaptiveOptions ao;
   if (c.solver.method == Method::kDopri5) {
-    const ode::LinearSwitchedSystem sys = a.linear_system();
-    TrainObserver observer(a, sys, result, t0, t1, final_from, region, options.progress);
-    ode::AdaptiveOptions ao;
+    adaptive_system = a.linear_system();
     ao.tolerance = c.solver.tolerance;
-    flow = ode::adaptive_flow(sys, t0, y0, region, t1, grid, observer, ao);
-    observer.finish();
   } else {
     ode::EngineOptions eo;
     eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
-    std::unique_ptr<ode::ExactEngine> engine;
     try {
       engine = std::make_unique<ode::ExactEngine>(a.linear_system(), eo);
     } catch (const std::invalid_argument& e) {
       throw InputError(std::string("the train's exact engine: ") + e.what());
     }
-    TrainObserver observer(a, engine->system(), result, t0, t1, final_from, region,
-                           options.progress);
-    flow = engine->flow(t0, y0, region, t1, grid, observer);
-    observer.finish();
   }
-  result.termination = flow.termination;
-  result.message = flow.message;
-  result.cells = flow.cells;
-  result.events = flow.events;
+  const ode::LinearSwitchedSystem& sys = engine ? engine->system() : *adaptive_system;
+  TrainObserver observer(a, sys, result, t0, t1, final_from, region, options.progress);
+
+  // The steady part is judged on the section by every mesh's d - e and every shaft's twist,
+  // with their rates (SectionSeries: in b and b w, w the highest natural frequency in contact).
+  double w_top = 0;
+  for (const train::TrainMode& m : train::modes(a))
+    w_top = std::max(w_top, kTwoPi * m.frequency_hz);
+  if (!(w_top > 0)) w_top = kTwoPi / fastest_period_s(a);
+  std::vector<SectionSeries> sections;
+  std::vector<HarmonicSeries> errors;
+  double angle_scale = kInf;  // the smallest b / (cos beta_b R) of the meshes, rad
+  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
+    const train::Mesh& x = t.meshes[m];
+    sections.emplace_back(x.backlash_m, w_top, c.solver.tolerance);
+    errors.push_back(a.error_series(static_cast<int>(m)));
+    for (const double r : {x.base_radius_driving_m, x.base_radius_driven_m})
+      angle_scale = std::min(angle_scale, x.backlash_m / (std::cos(x.base_helix_angle_rad) * r));
+  }
+  for (std::size_t k = 0; k < t.shafts.size(); ++k)
+    sections.emplace_back(angle_scale, w_top, c.solver.tolerance);
+  const Eigen::Index n = a.size();
+  Eigen::VectorXd y = y0;
+  double now = t0;
+  std::int64_t sampled = 0;  // grid samples emitted
+  const auto judge = [&] {
+    for (std::size_t m = 0; m < t.meshes.size(); ++m) {
+      const Eigen::RowVectorXd v = a.mesh_vector(static_cast<int>(m));
+      sections[m].add(
+          {now, v.dot(y.head(n)) - errors[m](now), v.dot(y.tail(n)) - errors[m].rate(now), 0.0, 0});
+    }
+    for (std::size_t k = 0; k < t.shafts.size(); ++k) {
+      const int i = a.index(t.shafts[k].a), j = a.index(t.shafts[k].b);
+      sections[t.meshes.size() + k].add({now, y(i) - y(j), y(n + i) - y(n + j), 0.0, 0});
+    }
+    return judge_together(sections, kSteadyTolerance);
+  };
+  const auto advance = [&](double stop) {
+    const std::int64_t until = stop < t1 ? grid.count_until(stop) : grid.count;
+    const ode::OutputGrid piece = grid.stretch(sampled, std::max(until, sampled));
+    sampled = std::max(until, sampled);
+    const ode::FlowResult f =
+        engine ? engine->flow(now, y, region, stop, piece, observer)
+               : ode::adaptive_flow(*adaptive_system, now, y, region, stop, piece, observer, ao);
+    result.termination = f.termination;
+    result.message = f.message;
+    result.cells += f.cells;
+    result.events += f.events;
+    if (!f.ok()) return false;
+    y = f.state;
+    region = f.region;
+    now = stop;
+    // A piece may be shorter than the engine's interval between progress calls.
+    if (stop < t1 && options.progress && !options.progress((stop - t0) / (t1 - t0))) {
+      result.termination = ode::Termination::kCancelled;
+      result.message = fmt::format("cancelled at t = {:.9g} s", stop);
+      return false;
+    }
+    return true;
+  };
+  result.steady = integrate_watching(t0, t1, result.system_period_s.value_or(0), judge, advance,
+                                     [&](double at) { observer.mark(at); });
+  observer.finish();
   for (TrainMeshReading& r : result.meshes) {
     if (r.static_force_n && *r.static_force_n > 0) {
-      r.dynamic_factor = r.max_force_final_n / *r.static_force_n;
+      if (result.steady.marked) r.dynamic_factor = r.steady.max_force_n / *r.static_force_n;
       r.dynamic_factor_with_startup = r.max_force_n / *r.static_force_n;
     }
     if (result.ok() && !(std::isfinite(r.max_force_n) && std::isfinite(r.min_force_n))) {
@@ -347,6 +436,23 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
 namespace {
 nlohmann::ordered_json optional_json(const std::optional<double>& x) {
   return x ? nlohmann::ordered_json(*x) : nlohmann::ordered_json(nullptr);
+}
+nlohmann::ordered_json finite_json(double x) {
+  return std::isfinite(x) ? nlohmann::ordered_json(x) : nlohmann::ordered_json(nullptr);
+}
+// A mesh's contact reading and extremes over a stretch (summary.json, docs/outputs.md).
+void part_json(nlohmann::ordered_json& x, const TrainMeshPart& m, double backlash_m) {
+  x["regime"] = to_string(m.regime);
+  x["double_sided"] = m.double_sided;
+  x["impacts"] = m.impacts;
+  x["backside_impacts"] = m.backside_impacts;
+  x["separations"] = m.separations;
+  x["separated_fraction"] = m.separated_fraction;
+  x["last_separation_s"] = optional_json(m.last_separation_s);
+  x["max_force_n"] = m.max_force_n;
+  x["min_force_n"] = m.min_force_n;
+  x["max_deflection_bar"] = m.max_deflection_m / backlash_m;
+  x["min_deflection_bar"] = m.min_deflection_m / backlash_m;
 }
 }  // namespace
 
@@ -366,6 +472,10 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
   if (!r.static_note.empty()) j["static_note"] = r.static_note;
   j["cells"] = r.cells;
   j["events"] = r.events;
+  j["steady"] = {{"basis", to_string(r.steady.basis)},
+                 {"from_s", r.steady.from_s},
+                 {"period_multiple", r.steady.period_multiple},
+                 {"steady_error", finite_json(r.steady.error)}};
   nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < r.bodies.size(); ++i)
     bodies.push_back({{"name", r.bodies[i]}, {"speed_hz", r.body_speed_hz[i]}});
@@ -375,17 +485,10 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     nlohmann::ordered_json x;
     x["name"] = m.name;
     x["mesh_frequency_hz"] = m.mesh_frequency_hz;
-    x["regime"] = to_string(m.regime);
-    x["double_sided"] = m.double_sided;
-    x["impacts"] = m.impacts;
-    x["backside_impacts"] = m.backside_impacts;
-    x["separations"] = m.separations;
-    x["separated_fraction"] = m.separated_fraction;
-    x["last_separation_s"] = optional_json(m.last_separation_s);
-    x["max_force_n"] = m.max_force_n;
-    x["min_force_n"] = m.min_force_n;
-    x["max_deflection_bar"] = m.max_deflection_m / m.backlash_m;
-    x["min_deflection_bar"] = m.min_deflection_m / m.backlash_m;
+    part_json(x, m, m.backlash_m);
+    nlohmann::ordered_json steady;
+    part_json(steady, m.steady, m.backlash_m);
+    x["steady"] = steady;
     x["static_force_n"] = optional_json(m.static_force_n);
     x["dynamic_factor"] = optional_json(m.dynamic_factor);
     x["dynamic_factor_with_startup"] = optional_json(m.dynamic_factor_with_startup);

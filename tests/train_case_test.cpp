@@ -56,6 +56,87 @@ TEST(TrainCase, ATwoGearTrainFromAFileIsTheHelicalGearPair) {
   EXPECT_NEAR(m.mesh_frequency_hz, 56 * 100.0, 1e-9);
 }
 
+TEST(TrainCase, ATwoGearTrainsSteadyPartIsThePairs) {
+  // The steady part is sought as the one-degree run seeks it (integrate_watching): the pair's
+  // train settles at the same section time, its steady reading the pair's, and its dynamic
+  // factor is the steady part's largest force over the static one.
+  Case pair = park2010_pair_case();
+  Case as_train = park2010_pair_as_train();
+  for (Case* c : {&pair, &as_train}) set_case_value(*c, {"solver.duration_s", "0.1"});
+  const RunResult one = run(pair);
+  ASSERT_TRUE(one.integration.ok()) << one.integration.message;
+  ASSERT_EQ(one.steady.basis, SteadyBasis::kSettled);
+  const TrainRunResult train = run_train(as_train);
+  ASSERT_TRUE(train.ok()) << train.message;
+  EXPECT_EQ(train.steady.basis, SteadyBasis::kSettled);
+  EXPECT_EQ(train.steady.period_multiple, one.steady.period_multiple);
+  EXPECT_DOUBLE_EQ(train.steady.from_s, one.steady.from_s);
+  const TrainMeshReading& m = train.meshes.at(0);
+  const RunReading& y = one.steady.reading;
+  EXPECT_EQ(m.steady.impacts, y.impacts);
+  EXPECT_EQ(m.steady.regime, y.regime);
+  EXPECT_GT(m.impacts, m.steady.impacts);  // the start-up rattled
+  const GearPairParameters p = build_model(pair).parameters();
+  const double force_scale = p.backlash_m * p.mean_stiffness_n_per_m();
+  EXPECT_NEAR(m.steady.max_force_n / force_scale, y.max_force_bar, 1e-8);
+  EXPECT_NEAR(m.steady.min_force_n / force_scale, y.min_force_bar, 1e-8);
+  EXPECT_NEAR(m.steady.max_deflection_m / p.backlash_m, y.max_delta_bar, 1e-8);
+  ASSERT_TRUE(m.dynamic_factor && m.static_force_n);
+  EXPECT_DOUBLE_EQ(*m.dynamic_factor, m.steady.max_force_n / *m.static_force_n);
+  EXPECT_LT(*m.dynamic_factor, *m.dynamic_factor_with_startup);
+  EXPECT_NEAR(*m.dynamic_factor / *y.dynamic_factor, 1.0, 1e-7);  // forces to 1e-8 b k_m
+}
+
+TEST(TrainCase, ARattlingLooseGearReadsItsFinalHalf) {
+  // The loose gear rattles without settling: the final half is read, and said so; its impacts
+  // are those of the final half, the regime sustained.
+  const Case c =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml");
+  const TrainRunResult r = run_train(c);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.steady.basis, SteadyBasis::kNotSettled);
+  EXPECT_DOUBLE_EQ(r.steady.from_s, 0.5 * c.solver.duration_s);
+  const TrainMeshReading& m = r.meshes.at(0);
+  EXPECT_EQ(m.steady.regime, Regime::kSustained);
+  EXPECT_GT(m.steady.impacts, 10);
+  EXPECT_LT(m.steady.impacts, m.impacts);
+  EXPECT_LE(m.steady.max_force_n, m.max_force_n);
+  EXPECT_GE(m.steady.min_force_n, m.min_force_n);
+  // The part's impacts are the whole's after from_s, counted from the samples' contact.
+  std::int64_t entries = 0;
+  for (std::size_t i = 1; i < r.samples.t_s.size(); ++i)
+    if (r.samples.t_s[i - 1] >= r.steady.from_s && r.samples.contact[i - 1][0] == 0 &&
+        r.samples.contact[i][0] != 0)
+      ++entries;
+  EXPECT_LE(entries, m.steady.impacts);  // an impact and its rebound may fall between samples
+  EXPECT_GE(entries, m.steady.impacts / 2);
+}
+
+TEST(TrainCase, TheIdlersSteadyPartIsTheSameThroughEitherIntegrator) {
+  // The exact engine and dopri5 (adaptive.hpp) find the idler train's steady part at the same
+  // section time, and read its forces alike: dopri5's extremes are those of its step ends and
+  // samples, within 1e-3 of the force's swing of the exact ones (2e-4 here).
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "idler_train.toml");
+  const TrainRunResult exact = run_train(c);
+  set_case_value(c, {"solver.method", "dopri5"});
+  set_case_value(c, {"solver.tolerance", "1e-10"});
+  const TrainRunResult adaptive = run_train(c);
+  ASSERT_TRUE(exact.ok() && adaptive.ok()) << exact.message << adaptive.message;
+  ASSERT_EQ(exact.steady.basis, SteadyBasis::kSettled);
+  EXPECT_EQ(adaptive.steady.basis, SteadyBasis::kSettled);
+  ASSERT_TRUE(exact.system_period_s);
+  EXPECT_NEAR(adaptive.steady.from_s, exact.steady.from_s, 1.01 * *exact.system_period_s);
+  for (std::size_t m = 0; m < exact.meshes.size(); ++m) {
+    const TrainMeshPart &a = exact.meshes[m].steady, &b = adaptive.meshes[m].steady;
+    const double swing = a.max_force_n - a.min_force_n;
+    EXPECT_NEAR(b.max_force_n, a.max_force_n, 1e-3 * swing) << m;
+    EXPECT_NEAR(b.min_force_n, a.min_force_n, 1e-3 * swing) << m;
+    EXPECT_LE(b.max_force_n, a.max_force_n + 1e-6 * swing) << m;  // step points lie inside
+    // The steady part's range lies within the whole window's, which holds the start-up.
+    EXPECT_LT(a.max_force_n, exact.meshes[m].max_force_n) << m;
+  }
+}
+
 TEST(TrainCase, TheReducersStaticMeshForcesAreItsTorquesOverTheBaseRadii) {
   // In a tree of meshes each mesh carries the torque that reaches it: stage 1 the motor's over
   // pinion 1's base radius, stage 2 that times z_w1 / z_p1 over pinion 2's, each along the
@@ -192,7 +273,9 @@ TEST(TrainCase, AnAdaptiveRunCanBeCancelledAndKeepsWhatItDid) {
   const TrainRunResult r = run_train(c, o);
   EXPECT_EQ(r.termination, ode::Termination::kCancelled);
   ASSERT_FALSE(r.samples.t_s.empty());
-  EXPECT_GT(r.samples.t_s.back(), 0.3 * c.solver.duration_s);
+  // Cancelled where the progress first reached 0.3 (a period's end: the run goes a period at a
+  // time while it watches for the steady part), the samples kept up to there.
+  EXPECT_GT(r.samples.t_s.back(), 0.29 * c.solver.duration_s);
   EXPECT_LT(r.samples.t_s.back(), 0.6 * c.solver.duration_s);
 }
 

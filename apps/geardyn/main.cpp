@@ -191,6 +191,28 @@ std::string fmt_optional(const std::optional<double>& x, const char* spec_unit) 
   return fmt::format("{:.6g}{}", *x, spec_unit);
 }
 
+// Where a run's steady part starts, and why: one line (the one-degree run's and a train's).
+void print_steady_start(const geardyn::SteadyStart& st, const char* t_name, const char* t_after) {
+  switch (st.basis) {
+    case geardyn::SteadyBasis::kSettled:
+      fmt::print("  steady part       from {} = {:.6g}{}: periodic (period {} x T0) to {:.2g} b\n",
+                 t_name, st.from_s, t_after, st.period_multiple, st.error);
+      break;
+    case geardyn::SteadyBasis::kNotSettled:
+      fmt::print(
+          "  steady part       not reached in the window (distance {:.2g} b): the final half, "
+          "from {} = {:.6g}{}\n",
+          st.error, t_name, st.from_s, t_after);
+      break;
+    case geardyn::SteadyBasis::kAperiodic:
+      fmt::print(
+          "  steady part       the excitations have no common period: the final half, from {} = "
+          "{:.6g}{}\n",
+          t_name, st.from_s, t_after);
+      break;
+  }
+}
+
 void print_run_summary(const geardyn::RunResult& r) {
   const auto& x = r.reading;
   const auto& d = r.derived;
@@ -229,24 +251,7 @@ void print_run_summary(const geardyn::RunResult& r) {
              x.max_delta_bar, x.mean_delta_bar);
   const geardyn::SteadyPart& st = r.steady;
   const geardyn::RunReading& y = st.reading;
-  switch (st.basis) {
-    case geardyn::SteadyBasis::kSettled:
-      fmt::print("  steady part       from {} = {:.6g}{}: periodic (period {} x T0) to {:.2g} b\n",
-                 t_name, st.from_s, t_after, st.period_multiple, st.error);
-      break;
-    case geardyn::SteadyBasis::kNotSettled:
-      fmt::print(
-          "  steady part       not reached in the window (distance {:.2g} b): the final half, "
-          "from {} = {:.6g}{}\n",
-          st.error, t_name, st.from_s, t_after);
-      break;
-    case geardyn::SteadyBasis::kAperiodic:
-      fmt::print(
-          "  steady part       the excitations have no common period: the final half, from {} = "
-          "{:.6g}{}\n",
-          t_name, st.from_s, t_after);
-      break;
-  }
+  print_steady_start(st, t_name, t_after);
   fmt::print("    regime          {}, {} impacts, F_bar max {:.5g}, delta_bar {:.5g} to {:.5g}\n",
              geardyn::to_string(y.regime), y.impacts, y.max_force_bar, y.min_delta_bar,
              y.max_delta_bar);
@@ -340,6 +345,7 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
     fmt::print("  system period     {:.6g} s\n", *r.system_period_s);
   else
     fmt::print("  system period     none: {}\n", r.system_period_note);
+  print_steady_start(r.steady, "t", " s");
   for (const geardyn::TrainMeshReading& m : r.meshes) {
     fmt::print(
         "  mesh {:<12} {:.6g} Hz: {}, {} impacts ({} back side), separated {:.2f} % of "
@@ -347,10 +353,13 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
         m.name, m.mesh_frequency_hz, geardyn::to_string(m.regime), m.impacts, m.backside_impacts,
         100 * m.separated_fraction);
     fmt::print(
-        "  {:<17} force {:.6g} to {:.6g} N, static {}, dynamic factor {} (with start-up "
-        "{})\n",
+        "  {:<17} force {:.6g} to {:.6g} N, static {}, dynamic factor {} (steady part; with "
+        "the start-up {})\n",
         "", m.min_force_n, m.max_force_n, fmt_optional(m.static_force_n, " N"),
         fmt_optional(m.dynamic_factor, ""), fmt_optional(m.dynamic_factor_with_startup, ""));
+    fmt::print("  {:<17} steady part: {}, {} impacts, force {:.6g} to {:.6g} N\n", "",
+               geardyn::to_string(m.steady.regime), m.steady.impacts, m.steady.min_force_n,
+               m.steady.max_force_n);
   }
   if (!r.static_note.empty()) fmt::print("  no static state:  {}\n", r.static_note);
   fmt::print("  {:<17} {} ({} events located), {:.3g} s wall\n",

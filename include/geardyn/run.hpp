@@ -74,13 +74,8 @@ struct RunOptions {
 
 // The readings over the steady part of a run, [from_s, t1]: the start-up transient (from rest
 // mid-backlash, or from static contact) left out.
-struct SteadyPart {
-  SteadyBasis basis = SteadyBasis::kNotSettled;
-  double from_s = 0;
-  int period_multiple = 0;  // of the periodic response, in system periods (kSettled)
-  // The predicted distance to the periodic response at from_s (b, b w_n; steady.hpp);
-  // infinite when no decay was seen.
-  double error = 0;
+// Where it starts and why (the distance in b and b w_n), and its reading.
+struct SteadyPart : SteadyStart {
   RunReading reading;  // its regime: separated anywhere in the part or not
 };
 

@@ -114,8 +114,8 @@ struct SteadyStart {
   double from_s = 0;
   int period_multiple = 0;  // of the periodic response, in periods (kSettled)
   // The predicted distance to the periodic response at from_s (the series' scales); infinite
-  // when no decay was seen.
-  double error = std::numeric_limits<double>::infinity();
+  // when no decay was seen (0 in a run that failed).
+  double error = 0;
   bool marked = false;  // the part was marked (false: the run ended before it began)
 };
 

@@ -13,26 +13,31 @@
 #include "geardyn/case.hpp"
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/engine.hpp"
+#include "geardyn/steady.hpp"
 #include "geardyn/train.hpp"
 
 namespace geardyn {
 
-// One mesh of a train run: its contact history (impacts, separations, regime), its extremes
-// over the whole window (with the exact engine exact, on the engine's polynomial in every cell;
-// with dopri5 at step ends, events and samples) and its dynamic factors.
-struct TrainMeshReading : ContactReading {
+// What one mesh did over a stretch of a train run: its contact history (impacts, separations,
+// regime) and its extremes (with the exact engine exact, on the engine's polynomial in every
+// cell; with dopri5 at step ends, events and samples).
+struct TrainMeshPart : ContactReading {
+  double max_force_n = 0, min_force_n = 0;            // F (N)
+  double max_deflection_m = 0, min_deflection_m = 0;  // d - e (m)
+};
+
+// One mesh of a train run: the whole window read, its steady part (TrainRunResult::steady)
+// read, and its dynamic factors.
+struct TrainMeshReading : TrainMeshPart {
   std::string name;
   double mesh_frequency_hz = 0;
   double backlash_m = 0;
-  double max_force_n = 0, min_force_n = 0;            // F (N), from the start
-  double max_deflection_m = 0, min_deflection_m = 0;  // d - e (m), from the start
-  double max_force_final_n = 0;  // the largest F over the cells that begin in the final part
+  TrainMeshPart steady;  // its regime: separated anywhere in the part or not
   // The mesh force in drive contact at the mean torques and drags, the prescribed bodies held
   // (static_mesh_forces_n); absent when there is none (the train's mean torques do not balance).
   std::optional<double> static_force_n;
-  // The largest F over the static force, over the final part of the window (the steady
-  // response, as the one-degree run's dynamic_factor) and from the start; absent without a
-  // static force > 0.
+  // The largest F over the static force, over the steady part (as the one-degree run's
+  // dynamic_factor) and from the start; absent without a static force > 0.
   std::optional<double> dynamic_factor, dynamic_factor_with_startup;
 };
 
@@ -51,6 +56,11 @@ struct TrainRunResult {
   std::optional<double> system_period_s;  // absent: quasi-periodic (system_period_note says why)
   std::string system_period_note;
   std::string static_note;  // why there is no static force, when there is none
+  // Where the steady part starts, as the one-degree run's (steady.hpp): the train settled on
+  // the section t = k T0 (judged on every mesh's d - e and every shaft's twist, with their
+  // rates), else the final half; the distance in each mesh's b (a shaft's: in the smallest
+  // b / (cos beta_b R) of the meshes) and b times the highest natural frequency in contact.
+  SteadyStart steady;
   ode::Termination termination = ode::Termination::kCompleted;
   std::string message;
   std::int64_t cells = 0, events = 0;
@@ -80,7 +90,8 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
 // Runs a train case over [0, solver.duration_s] with the exact engine (solver.method = "exact")
 // or the adaptive integrator of adaptive.hpp ("dopri5", at solver.tolerance) from solver.initial
 // ("center": at rest, every mesh in the middle of its backlash, the prescribed bodies as
-// prescribed; "static": the static state). Throws InputError for a case that is no train,
+// prescribed; "static": the static state), integrated once while its steady part is sought
+// (integrate_watching). Throws InputError for a case that is no train,
 // "newmark", a static start without a static state, or a window past the work bounds of run.hpp;
 // a numerical failure is reported in the result.
 TrainRunResult run_train(const Case& c, const TrainRunOptions& options = {});

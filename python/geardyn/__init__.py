@@ -517,8 +517,10 @@ class TrainRunResult:
         xarray.Dataset
             Dimensions t (s), body and mesh (their names); theta and rate (t x body),
             deflection_bar, force (N) and contact (t x mesh); per mesh its readings
-            (impacts, separated_fraction, dynamic_factor, ...) as variables along mesh; the
-            summary (JSON) as an attribute.
+            (impacts, separated_fraction, dynamic_factor, ...) and those of its steady part
+            (steady_impacts, steady_regime, steady_max_force_n, ...) as variables along mesh;
+            the summary (JSON) as an attribute, where "steady" says where the part starts and
+            why.
         """
         import xarray as xr
         meshes = self.summary["meshes"]
@@ -527,6 +529,10 @@ class TrainRunResult:
                               "separated_fraction", "max_force_n", "min_force_n",
                               "static_force_n", "dynamic_factor", "dynamic_factor_with_startup")}
         per_mesh["regime"] = ("mesh", [m["regime"] for m in meshes])
+        # The steady part (summary "steady": where it starts and why) per mesh.
+        for k in ("impacts", "separated_fraction", "max_force_n", "min_force_n"):
+            per_mesh["steady_" + k] = ("mesh", [m["steady"][k] for m in meshes])
+        per_mesh["steady_regime"] = ("mesh", [m["steady"]["regime"] for m in meshes])
         return xr.Dataset(
             dict({"theta": (("t", "body"), self.theta, {"units": "rad"}),
                   "rate": (("t", "body"), self.rate, {"units": "rad/s"}),

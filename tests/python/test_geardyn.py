@@ -631,6 +631,13 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert ds["force"].dims == ("t", "mesh") and list(ds["mesh"].values) == ["in", "out"]
     assert float(ds["force"].sel(mesh="out").max()) <= summary["meshes"][1]["max_force_n"]
     assert float(ds["dynamic_factor"].sel(mesh="in")) == summary["meshes"][0]["dynamic_factor"]
+    # The steady part per mesh (where it starts in the summary), its forces within the whole's.
+    assert summary["steady"]["basis"] in ("settled", "not_settled")
+    assert float(ds["steady_max_force_n"].sel(mesh="in")) == \
+        summary["meshes"][0]["steady"]["max_force_n"]
+    assert (ds["steady_max_force_n"] <= ds["max_force_n"]).all()
+    assert list(ds["steady_regime"].values) == [m["steady"]["regime"]
+                                                for m in summary["meshes"]]
     fig = geardyn.plot.run(r)  # a panel per mesh
     assert [a.get_title().split(" (")[0] for a in fig.axes if a.get_title()] == ["mesh in",
                                                                                  "mesh out"]
