@@ -33,7 +33,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // loosest tolerance).
 constexpr double kCoupledCellRateProduct = 3.0;
 
-// Looks at the engine's flow: samples, state changes per nonlinearity, exact extremes.
+// Looks at the engine's flow: samples, state changes per nonlinearity, exact extremes, over
+// the whole window and, from a mark on, over the steady part beside it.
 class CoupledObserver : public ode::FlowObserver {
  public:
   CoupledObserver(const CoupledModel& model, const ode::LinearSwitchedSystem& sys,
@@ -45,17 +46,18 @@ class CoupledObserver : public ode::FlowObserver {
         progress_(progress),
         t0_(t0),
         t1_(t1),
-        mesh_(t0, t1, final_from, contact_state(coupled_state(region).mesh)),
-        bearings_{ContactTracker(t0, t1, final_from, coupled_state(region).bearing[0]),
-                  ContactTracker(t0, t1, final_from, coupled_state(region).bearing[1])} {
-    out_.max_force_n = out_.max_deflection_m = -kInf;
-    out_.min_force_n = out_.min_deflection_m = kInf;
+        state_(coupled_state(region)),
+        whole_(t0, t1, final_from, state_) {
     ranges_.resize(sys.regions.size());
     for (std::size_t r = 0; r < sys.regions.size(); ++r) {
       for (const ode::LinearGuard& g : sys.regions[r].observables) ranges_[r].emplace_back(g);
       readers_.emplace_back(sys, sys.regions[r].observables);
     }
   }
+
+  // From t on (a time a flow ended at), the steady part is read beside the whole, its extremes
+  // found against its own (a later mark starts it afresh).
+  void mark(double t) { part_.emplace(t, t1_, t, state_); }
 
   // A whole coefficient period may be jumped when the span's state bounds leave no room for a
   // new extreme of any observable.
@@ -68,22 +70,22 @@ class CoupledObserver : public ode::FlowObserver {
     if (!(cell.t_end_s > cell.t_begin_s)) return;
     bound_all(cell);
     if (!any_room()) return;
-    extreme(cell, CoupledModel::kObservableForce, true, out_.max_force_n);
-    extreme(cell, CoupledModel::kObservableForce, false, out_.min_force_n);
-    extreme(cell, CoupledModel::kObservableDeflection, true, out_.max_deflection_m);
-    extreme(cell, CoupledModel::kObservableDeflection, false, out_.min_deflection_m);
+    extreme(cell, CoupledModel::kObservableForce, true);
+    extreme(cell, CoupledModel::kObservableForce, false);
+    extreme(cell, CoupledModel::kObservableDeflection, true);
+    extreme(cell, CoupledModel::kObservableDeflection, false);
     for (int i = 0; i < 2; ++i) {
-      absolute(cell, CoupledModel::kObservableBearing + i, out_.max_bearing_force_n[i]);
-      absolute(cell, CoupledModel::kObservableAxial + i, out_.max_axial_force_n[i]);
-      absolute(cell, CoupledModel::kObservableShaft + i, out_.max_shaft_torque_nm[i]);
+      absolute(cell, CoupledModel::kObservableBearing + i);
+      absolute(cell, CoupledModel::kObservableAxial + i);
+      absolute(cell, CoupledModel::kObservableShaft + i);
     }
   }
 
   void on_event(double t, const ode::Vector&, int from, int to) override {
-    const CoupledState a = coupled_state(from), b = coupled_state(to);
-    if (contact_state(a.mesh) != contact_state(b.mesh)) mesh_.change(t, contact_state(b.mesh));
-    for (int i = 0; i < 2; ++i)
-      if (a.bearing[i] != b.bearing[i]) bearings_[i].change(t, b.bearing[i]);
+    const CoupledState b = coupled_state(to);
+    whole_.change(t, state_, b);
+    if (part_) part_->change(t, state_, b);
+    state_ = b;
   }
 
   void on_sample(double t, const ode::Vector& y, int region) override {
@@ -108,15 +110,65 @@ class CoupledObserver : public ode::FlowObserver {
   bool on_progress(double t) override { return !progress_ || progress_((t - t0_) / (t1_ - t0_)); }
 
   void finish() {
-    out_.mesh = mesh_.reading();
     const CoupledParameters& p = model_.parameters();
-    for (int i = 0; i < 2; ++i) {
-      out_.bearing[i] = bearings_[i].reading();
-      out_.bearing[i].present = p.clearance_m[i] > 0;
-    }
+    static_cast<CoupledPart&>(out_) = whole_.reading(p);
+    if (part_) out_.steady_part = part_->reading(p);
   }
 
  private:
+  // What is read of one stretch: the contact histories and the extremes (indexed by
+  // observable: the largest and smallest value, or for the forces read as magnitudes, the
+  // largest |value| in `largest`).
+  struct Tally {
+    Tally(double t0, double t1, double final_from, const CoupledState& s)
+        : mesh(t0, t1, final_from, contact_state(s.mesh)),
+          bearings{ContactTracker(t0, t1, final_from, s.bearing[0]),
+                   ContactTracker(t0, t1, final_from, s.bearing[1])} {
+      high.fill(-kInf);
+      low.fill(kInf);
+    }
+    void change(double t, const CoupledState& a, const CoupledState& b) {
+      if (contact_state(a.mesh) != contact_state(b.mesh)) mesh.change(t, contact_state(b.mesh));
+      for (int i = 0; i < 2; ++i)
+        if (a.bearing[i] != b.bearing[i]) bearings[i].change(t, b.bearing[i]);
+    }
+    CoupledPart reading(const CoupledParameters& p) {
+      CoupledPart r;
+      r.mesh = mesh.reading();
+      for (int i = 0; i < 2; ++i) {
+        r.bearing[i] = bearings[i].reading();
+        r.bearing[i].present = p.clearance_m[i] > 0;
+        r.max_bearing_force_n[i] = largest[CoupledModel::kObservableBearing + i];
+        r.max_axial_force_n[i] = largest[CoupledModel::kObservableAxial + i];
+        r.max_shaft_torque_nm[i] = largest[CoupledModel::kObservableShaft + i];
+      }
+      r.max_force_n = high[CoupledModel::kObservableForce];
+      r.min_force_n = low[CoupledModel::kObservableForce];
+      r.max_deflection_m = high[CoupledModel::kObservableDeflection];
+      r.min_deflection_m = low[CoupledModel::kObservableDeflection];
+      return r;
+    }
+    ContactTracker mesh;
+    std::array<ContactTracker, 2> bearings;
+    std::array<double, CoupledModel::kObservableCount> high{}, low{}, largest{};
+  };
+
+  // The tally whose extremes a new value must beat to change a reading: the part's once
+  // marked (within the whole's), else the whole's.
+  const Tally& latest() const { return part_ ? *part_ : whole_; }
+  void note(int k, bool maximum, double v) {
+    for (Tally* x : {&whole_, part_ ? &*part_ : nullptr}) {
+      if (!x) continue;
+      if (maximum)
+        x->high[k] = std::max(x->high[k], v);
+      else
+        x->low[k] = std::min(x->low[k], v);
+    }
+  }
+  void note_magnitude(int k, double v) {
+    whole_.largest[k] = std::max(whole_.largest[k], v);
+    if (part_) part_->largest[k] = std::max(part_->largest[k], v);
+  }
   // Every observable's bounds over a cell or span (of its region), into low_ and high_.
   void bound_all(const ode::CellView& cell) {
     for (int k = 0; k < CoupledModel::kObservableCount; ++k)
@@ -125,32 +177,29 @@ class CoupledObserver : public ode::FlowObserver {
   // Whether the bounds of the last bound_all leave room for a new extreme of any observable
   // read.
   bool any_room() const {
-    if (high_[CoupledModel::kObservableForce] > out_.max_force_n ||
-        low_[CoupledModel::kObservableForce] < out_.min_force_n)
-      return true;
-    if (high_[CoupledModel::kObservableDeflection] > out_.max_deflection_m ||
-        low_[CoupledModel::kObservableDeflection] < out_.min_deflection_m)
-      return true;
+    const Tally& x = latest();
+    for (const int k : {CoupledModel::kObservableForce, CoupledModel::kObservableDeflection})
+      if (high_[k] > x.high[k] || low_[k] < x.low[k]) return true;
     for (int i = 0; i < 2; ++i)
-      for (const auto& [k, largest] :
-           {std::pair{CoupledModel::kObservableBearing + i, out_.max_bearing_force_n[i]},
-            std::pair{CoupledModel::kObservableAxial + i, out_.max_axial_force_n[i]},
-            std::pair{CoupledModel::kObservableShaft + i, out_.max_shaft_torque_nm[i]}})
-        if (high_[k] > largest || -low_[k] > largest) return true;
+      for (const int k : {CoupledModel::kObservableBearing + i, CoupledModel::kObservableAxial + i,
+                          CoupledModel::kObservableShaft + i})
+        if (high_[k] > x.largest[k] || -low_[k] > x.largest[k]) return true;
     return false;
   }
-  // The cell's extreme of observable k beyond `seen` (its maximum or minimum), when the cell's
-  // bounds (bound_all) leave room for one: then found exactly on the cell's polynomial.
-  void extreme(const ode::CellView& cell, int k, bool maximum, double& seen) const {
+  // The cell's extreme of observable k beyond the latest one (its maximum or minimum), when
+  // the cell's bounds (bound_all) leave room for one: then found exactly on the cell's
+  // polynomial.
+  void extreme(const ode::CellView& cell, int k, bool maximum) {
+    const double seen = maximum ? latest().high[k] : latest().low[k];
     double v = 0, t = 0;
     if (maximum ? !(high_[k] > seen) : !(low_[k] < seen)) return;
-    if (cell.extreme(k, maximum, seen, v, t)) seen = v;
+    if (cell.extreme(k, maximum, seen, v, t)) note(k, maximum, v);
   }
-  void absolute(const ode::CellView& cell, int k, double& largest) const {
+  void absolute(const ode::CellView& cell, int k) {
+    const double largest = latest().largest[k];
     double v = 0, t = 0;
-    if (high_[k] > largest && cell.extreme(k, true, largest, v, t)) largest = std::max(largest, v);
-    if (-low_[k] > largest && cell.extreme(k, false, -largest, v, t))
-      largest = std::max(largest, -v);
+    if (high_[k] > largest && cell.extreme(k, true, largest, v, t)) note_magnitude(k, v);
+    if (-low_[k] > largest && cell.extreme(k, false, -largest, v, t)) note_magnitude(k, -v);
   }
 
   const CoupledModel& model_;
@@ -158,8 +207,9 @@ class CoupledObserver : public ode::FlowObserver {
   CoupledRunResult& out_;
   const std::function<bool(double)>& progress_;
   double t0_, t1_;
-  ContactTracker mesh_;
-  std::array<ContactTracker, 2> bearings_;
+  CoupledState state_;  // the nonlinearities' states now
+  Tally whole_;
+  std::optional<Tally> part_;
   std::vector<std::vector<ode::FunctionalBounds>> ranges_;             // per region, per observable
   std::array<double, CoupledModel::kObservableCount> low_{}, high_{};  // the last bound_all's
   std::vector<ode::FunctionalValues> readers_;  // per region, of its observables
@@ -220,6 +270,30 @@ ode::FlowResult CoupledSolver::advance_with_jacobian(double t0, const ode::Vecto
   return engine_->flow(t0, y0, model_->classify(t0, y0), t1, ode::OutputGrid{}, nothing, true);
 }
 
+namespace {
+// The dynamic factors of a coupled result, over its steady part when one was marked, else over
+// the window read (CoupledRunResult).
+void factors(CoupledRunResult& result) {
+  const CoupledParameters& p = result.parameters;
+  const double fs = p.static_mesh_force_n();
+  const CoupledPart& x = result.steady.marked ? result.steady_part : result;
+  result.dynamic_mesh_factor = x.max_force_n / fs;
+  result.dynamic_mesh_factor_with_startup = result.max_force_n / fs;
+  for (int i = 0; i < 2; ++i) {
+    result.bearing_factor[i] = x.max_bearing_force_n[i] / (p.cos_base_helix * fs);
+    result.axial_factor[i] = p.sin_base_helix > 0 ? x.max_axial_force_n[i] / (p.sin_base_helix * fs)
+                                                  : std::numeric_limits<double>::quiet_NaN();
+    result.shaft_factor[i] = p.shaft[i] >= 0
+                                 ? x.max_shaft_torque_nm[i] / p.static_shaft_torque_nm(i)
+                                 : std::numeric_limits<double>::quiet_NaN();
+  }
+  if (result.ok() && !(std::isfinite(result.max_force_n) && std::isfinite(result.min_force_n))) {
+    result.termination = ode::Termination::kNoProgress;
+    result.message = "non-finite readings (an overflow)";
+  }
+}
+}  // namespace
+
 CoupledRunResult CoupledSolver::read(double t0, const ode::Vector& y0, double t1,
                                      const ode::OutputGrid& grid, double final_from,
                                      const std::function<bool(double)>& progress,
@@ -227,7 +301,6 @@ CoupledRunResult CoupledSolver::read(double t0, const ode::Vector& y0, double t1
   CoupledRunResult result;
   result.input = case_;
   result.parameters = model_->parameters();
-  const CoupledParameters& p = result.parameters;
   const int region = model_->classify(t0, y0);
   CoupledObserver observer(*model_, engine_->system(), result, t0, t1, final_from, region,
                            progress);
@@ -238,22 +311,89 @@ CoupledRunResult CoupledSolver::read(double t0, const ode::Vector& y0, double t1
   result.message = flow.message;
   result.cells = flow.cells;
   result.events = flow.events;
-  const double fs = p.static_mesh_force_n();
-  result.dynamic_mesh_factor = result.max_force_n / fs;
-  for (int i = 0; i < 2; ++i) {
-    result.bearing_factor[i] = result.max_bearing_force_n[i] / (p.cos_base_helix * fs);
-    result.axial_factor[i] = p.sin_base_helix > 0
-                                 ? result.max_axial_force_n[i] / (p.sin_base_helix * fs)
-                                 : std::numeric_limits<double>::quiet_NaN();
-    result.shaft_factor[i] = p.shaft[i] >= 0
-                                 ? result.max_shaft_torque_nm[i] / p.static_shaft_torque_nm(i)
-                                 : std::numeric_limits<double>::quiet_NaN();
-  }
-  if (result.ok() && !(std::isfinite(result.max_force_n) && std::isfinite(result.min_force_n))) {
-    result.termination = ode::Termination::kNoProgress;
-    result.message = "non-finite readings (an overflow)";
-  }
+  factors(result);
   return result;
+}
+
+CoupledRunResult CoupledSolver::read_watching(double t0, const ode::Vector& y0, double t1,
+                                              const ode::OutputGrid& grid, double final_from,
+                                              double period_s,
+                                              const std::function<bool(double)>& progress) const {
+  CoupledRunResult result;
+  result.input = case_;
+  result.parameters = model_->parameters();
+  int region = model_->classify(t0, y0);
+  CoupledObserver observer(*model_, engine_->system(), result, t0, t1, final_from, region,
+                           progress);
+  CoupledSections sections(model_->parameters(), case_.solver.tolerance);
+  ode::Vector y = y0;
+  double now = t0;
+  std::int64_t sampled = 0;  // grid samples emitted
+  const auto judge = [&] {
+    sections.add(now, y);
+    return sections.judge(kSteadyTolerance);
+  };
+  const auto advance = [&](double stop) {
+    const std::int64_t until = stop < t1 ? grid.count_until(stop) : grid.count;
+    const ode::OutputGrid piece = grid.stretch(sampled, std::max(until, sampled));
+    sampled = std::max(until, sampled);
+    const ode::FlowResult f = engine_->flow(now, y, region, stop, piece, observer);
+    result.termination = f.termination;
+    result.message = f.message;
+    result.cells += f.cells;
+    result.events += f.events;
+    if (!f.ok()) return false;
+    y = f.state;
+    region = f.region;
+    now = stop;
+    // A piece may be shorter than the engine's interval between progress calls.
+    if (stop < t1 && progress && !progress((stop - t0) / (t1 - t0))) {
+      result.termination = ode::Termination::kCancelled;
+      result.message = fmt::format("cancelled at t = {:.9g} s", stop);
+      return false;
+    }
+    return true;
+  };
+  result.steady =
+      integrate_watching(t0, t1, period_s, judge, advance, [&](double at) { observer.mark(at); });
+  observer.finish();
+  factors(result);
+  return result;
+}
+
+CoupledSections::CoupledSections(const CoupledParameters& p, double integration_tolerance) : p_(p) {
+  for (std::size_t i = 0; i < p.coordinates.size(); ++i)
+    if (std::ranges::count(std::array{Coordinate::kLine1, Coordinate::kLine2, Coordinate::kAxial1,
+                                      Coordinate::kAxial2},
+                           p.coordinates[i]) > 0)
+      bearing_coordinates_.push_back(static_cast<Eigen::Index>(i));
+  const double w_n = std::sqrt(p.cos_base_helix * p.cos_base_helix * p.stiffness_n_per_m.offset /
+                               p.equivalent_mass_kg);
+  series_.assign(1 + bearing_coordinates_.size(),
+                 SectionSeries(p.backlash_m, w_n, integration_tolerance));
+}
+
+ode::State CoupledSections::mesh(double t_s, const ode::Vector& y) const {
+  const Eigen::Index n = p_.size();
+  const HarmonicSeries& e = p_.transmission_error_m;
+  return {t_s, p_.mesh_vector.dot(y.head(n)) - e(t_s), p_.mesh_vector.dot(y.tail(n)) - e.rate(t_s),
+          0.0, 0};
+}
+
+void CoupledSections::add(double t_s, const ode::Vector& y) {
+  series_[0].add(mesh(t_s, y));
+  for (std::size_t j = 0; j < bearing_coordinates_.size(); ++j) {
+    const Eigen::Index i = bearing_coordinates_[j];
+    series_[j + 1].add(ode::State{t_s, y(i), y(p_.size() + i), 0.0, 0});
+  }
+}
+
+double coupled_section_period_s(const Case& c, const MeshStiffness* stiffness) {
+  try {
+    return section_period_s(build_model(gear_pair_of(c), nullptr, stiffness).parameters());
+  } catch (const InputError&) {
+    return 0;  // no common period
+  }
 }
 
 double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what) {
@@ -282,9 +422,9 @@ CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
   const CoupledSolver solver(c);
   const double t0 = 0, t1 = c.solver.duration_s;
   const double interval = checked_output_interval_s(c, fastest_period_s(solver.model()), "model");
-  CoupledRunResult result = solver.read(t0, solver.initial_state(c.solver.initial), t1,
-                                        ode::make_output_grid(t0, t1, interval),
-                                        t1 * (1 - c.solver.final_fraction), options.progress);
+  CoupledRunResult result = solver.read_watching(
+      t0, solver.initial_state(c.solver.initial), t1, ode::make_output_grid(t0, t1, interval),
+      t1 * (1 - c.solver.final_fraction), coupled_section_period_s(c), options.progress);
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
@@ -327,6 +467,13 @@ std::string coupled_summary_json(const CoupledRunResult& r, int indent) {
   j["mesh"]["min_deflection_bar"] = r.min_deflection_m / p.backlash_m;
   j["mesh"]["static_force_n"] = p.static_mesh_force_n();
   j["mesh"]["dynamic_factor"] = r.dynamic_mesh_factor;
+  j["mesh"]["dynamic_factor_with_startup"] = r.dynamic_mesh_factor_with_startup;
+  const CoupledPart& y = r.steady_part;
+  j["mesh"]["steady"] = contact_json(y.mesh);
+  j["mesh"]["steady"]["max_force_n"] = y.max_force_n;
+  j["mesh"]["steady"]["min_force_n"] = y.min_force_n;
+  j["mesh"]["steady"]["max_deflection_bar"] = y.max_deflection_m / p.backlash_m;
+  j["mesh"]["steady"]["min_deflection_bar"] = y.min_deflection_m / p.backlash_m;
   nlohmann::json bearings = nlohmann::json::array();
   for (int i = 0; i < 2; ++i) {
     nlohmann::json b = {{"gear", i + 1},
@@ -336,6 +483,10 @@ std::string coupled_summary_json(const CoupledRunResult& r, int indent) {
                         {"axial_force_factor", finite_or_null(r.axial_factor[i])},
                         {"clearance_um", p.clearance_m[i] * 1e6}};
     b["clearance"] = r.bearing[i].present ? contact_json(r.bearing[i]) : nlohmann::json(nullptr);
+    b["steady"] = {
+        {"max_line_force_n", y.max_bearing_force_n[i]},
+        {"max_axial_force_n", y.max_axial_force_n[i]},
+        {"clearance", r.bearing[i].present ? contact_json(y.bearing[i]) : nlohmann::json(nullptr)}};
     bearings.push_back(b);
   }
   j["bearings"] = bearings;
@@ -347,8 +498,13 @@ std::string coupled_summary_json(const CoupledRunResult& r, int indent) {
                         {"end_inertia_kg_m2", r.input.shafts.end_inertia_kg_m2[i]},
                         {"static_torque_nm", p.static_shaft_torque_nm(i)},
                         {"max_torque_nm", r.max_shaft_torque_nm[i]},
+                        {"steady_max_torque_nm", y.max_shaft_torque_nm[i]},
                         {"torque_factor", finite_or_null(r.shaft_factor[i])}});
   j["shafts"] = shafts;
+  j["steady"] = {{"basis", to_string(r.steady.basis)},
+                 {"from_s", r.steady.from_s},
+                 {"period_multiple", r.steady.period_multiple},
+                 {"steady_error", finite_or_null(r.steady.error)}};
   j["cells"] = r.cells;
   j["events"] = r.events;
   j["duration_s"] = r.input.solver.duration_s;

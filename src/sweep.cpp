@@ -253,32 +253,12 @@ class PointRunner {
     ode::Vector y =
         same ? *carry.coupled
              : solver.initial_state(o_.start_static ? InitialCondition::kStatic : c.solver.initial);
-    const HarmonicSeries& e = p.transmission_error_m;
-    const auto mesh = [&](double t, const ode::Vector& x) {
-      const Eigen::Index n = p.size();
-      return ode::State{t, p.mesh_vector.dot(x.head(n)) - e(t),
-                        p.mesh_vector.dot(x.tail(n)) - e.rate(t), 0.0, 0};
-    };
     const double b = p.backlash_m;
     const double w_n = std::sqrt(p.cos_base_helix * p.cos_base_helix * p.stiffness_n_per_m.offset /
                                  p.equivalent_mass_kg);
-    // The projections judged: the mesh, then each bearing displacement the model has.
-    std::vector<Eigen::Index> bearing_coordinates;
-    for (std::size_t i = 0; i < p.coordinates.size(); ++i)
-      if (std::ranges::count(std::array{Coordinate::kLine1, Coordinate::kLine2, Coordinate::kAxial1,
-                                        Coordinate::kAxial2},
-                             p.coordinates[i]) > 0)
-        bearing_coordinates.push_back(static_cast<Eigen::Index>(i));
-    std::vector<SectionSeries> section(1 + bearing_coordinates.size(),
-                                       SectionSeries(b, w_n, c.solver.tolerance));
+    CoupledSections section(p, c.solver.tolerance);
     double t = 0;
-    const auto add = [&] {
-      section[0].add(mesh(t, y));
-      for (std::size_t j = 0; j < bearing_coordinates.size(); ++j) {
-        const Eigen::Index i = bearing_coordinates[j];
-        section[j + 1].add(ode::State{t, y(i), y(p.size() + i), 0.0, 0});
-      }
-    };
+    const auto add = [&] { section.add(t, y); };
     add();
     // Where the last period stayed in one region, the distance of every coordinate to that
     // region's periodic response is exact (each region's found once); elsewhere the fits judge.
@@ -296,7 +276,7 @@ class PointRunner {
           return SteadyVerdict{distance <= o_.steady_tolerance ? 1 : 0, distance};
         }
       }
-      return judge_together(section, o_.steady_tolerance);
+      return section.judge(o_.steady_tolerance);
     };
     SteadyVerdict verdict;
     std::optional<ode::FlowResult> failure;
@@ -350,7 +330,7 @@ class PointRunner {
       sf2 += smp.force_bar[i] * smp.force_bar[i];
       if (i % static_cast<std::size_t>(spp) == 0) {
         pt.strobe_delta_bar.push_back(smp.deflection_bar[i]);
-        pt.strobe_velocity_m_s.push_back(mesh(smp.t_s[i], smp.state[i]).v);
+        pt.strobe_velocity_m_s.push_back(section.mesh(smp.t_s[i], smp.state[i]).v);
         pt.strobe_force_bar.push_back(smp.force_bar[i]);
       }
     }

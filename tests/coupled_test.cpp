@@ -325,6 +325,44 @@ TEST(CoupledRun, RigidBearingsReproduceTheOneDegreeModel) {
   }
 }
 
+TEST(CoupledRun, ItsSteadyPartIsTheOneDegreeRunsOnRigidBearings) {
+  // The coupled run seeks its steady part as the one-degree run does (integrate_watching): on
+  // bearings 1e6 times stiffer than the mesh it settles where the one-degree run does, and its
+  // dynamic factor is the steady part's (the start-up's beside it), both the one-degree run's.
+  // Against the bearings' compliance, forces agree to 1e-5 and the settling to a few periods.
+  Case one;
+  one.speed.shaft_frequency_hz = 10000;  // a rattling start-up that dies out into contact
+  one.solver.duration_s = 0.08;
+  const RunResult r1 = run(one);
+  ASSERT_TRUE(r1.integration.ok());
+  ASSERT_EQ(r1.steady.basis, SteadyBasis::kSettled);
+  Case c = one;
+  c.model.form = ModelForm::kCoupled;
+  c.model.dof = 3;
+  const double k = 1e6 * c.mesh.mean_stiffness_n_per_m;
+  c.bearings.radial_stiffness_n_per_m = {k, k};
+  const CoupledRunResult r = run_coupled(c);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.steady.basis, SteadyBasis::kSettled);
+  EXPECT_TRUE(r.steady.marked);
+  const double period = coupled_section_period_s(c);
+  EXPECT_NEAR(r.steady.from_s, r1.steady.from_s, 5 * period);
+  EXPECT_EQ(r.steady_part.mesh.impacts, 0);
+  EXPECT_GT(r.mesh.impacts, 0);
+  EXPECT_EQ(r.steady_part.mesh.regime, r1.steady.reading.regime);
+  ASSERT_TRUE(r1.steady.reading.dynamic_factor && r1.reading.dynamic_factor);
+  EXPECT_NEAR(r.dynamic_mesh_factor / *r1.steady.reading.dynamic_factor, 1.0, 1e-5);
+  EXPECT_NEAR(r.dynamic_mesh_factor_with_startup / *r1.reading.dynamic_factor, 1.0, 1e-5);
+  EXPECT_LT(r.dynamic_mesh_factor, r.dynamic_mesh_factor_with_startup);
+  EXPECT_DOUBLE_EQ(r.dynamic_mesh_factor,
+                   r.steady_part.max_force_n / r.parameters.static_mesh_force_n());
+  // The bearing factors are the steady part's too.
+  EXPECT_LE(r.steady_part.max_bearing_force_n[0], r.max_bearing_force_n[0]);
+  EXPECT_DOUBLE_EQ(r.bearing_factor[0],
+                   r.steady_part.max_bearing_force_n[0] /
+                       (r.parameters.cos_base_helix * r.parameters.static_mesh_force_n()));
+}
+
 TEST(CoupledSweep, ItsResonancesAreTheMeshCriticalModes) {
   // A speed sweep of the 3-DOF pair in permanent contact (torque 400 N m, no torque
   // fluctuation, the stiffness harmonics excite): its mesh force peaks where the mesh frequency

@@ -303,8 +303,13 @@ int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plo
                100 * x.separated_fraction);
   };
   contact("mesh", r.mesh);
-  fmt::print("  mesh force        {:.6g} to {:.6g} N (static {:.6g} N), dynamic factor {:.6g}\n",
-             r.min_force_n, r.max_force_n, p.static_mesh_force_n(), r.dynamic_mesh_factor);
+  fmt::print(
+      "  mesh force        {:.6g} to {:.6g} N (static {:.6g} N), dynamic factor {:.6g} (steady "
+      "part; with the start-up {:.6g})\n",
+      r.min_force_n, r.max_force_n, p.static_mesh_force_n(), r.dynamic_mesh_factor,
+      r.dynamic_mesh_factor_with_startup);
+  print_steady_start(r.steady, "t", " s");
+  contact("  mesh", r.steady_part.mesh);
   for (int i = 0; i < 2; ++i) {
     if (r.bearing[i].present) contact(i == 0 ? "bearing 1" : "bearing 2", r.bearing[i]);
     fmt::print("  bearing {} force   line {:.6g} N (factor {:.4g}), axial {:.6g} N\n", i + 1,

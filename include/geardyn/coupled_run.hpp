@@ -17,6 +17,7 @@
 #include "geardyn/coupled_model.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/integrator.hpp"
+#include "geardyn/steady.hpp"
 
 namespace geardyn {
 
@@ -37,23 +38,36 @@ struct CoupledSamples {
   std::vector<std::array<double, 2>> shaft_torque_nm;  // shaft torques (0 without the shaft)
 };
 
-struct CoupledRunResult {
+// What the coupled model did over a stretch of a run: each nonlinearity's contact history and
+// the extremes, exact (the engine's polynomial on every cell).
+struct CoupledPart {
+  ContactReading mesh;
+  std::array<ContactReading, 2> bearing;
+  double max_force_n = 0, min_force_n = 0;
+  double max_deflection_m = 0, min_deflection_m = 0;                 // of d - e
+  std::array<double, 2> max_bearing_force_n{}, max_axial_force_n{};  // largest |.|
+  std::array<double, 2> max_shaft_torque_nm{};                       // largest |.|
+};
+
+// A coupled run: the readings of the window read (CoupledPart), and, for a run that sought
+// its steady part (run_coupled), those of the steady part.
+struct CoupledRunResult : CoupledPart {
   Case input;
   CoupledParameters parameters;
   ode::Termination termination = ode::Termination::kCompleted;
   std::string message;
   std::int64_t cells = 0, events = 0;
-  ContactReading mesh;
-  std::array<ContactReading, 2> bearing;
-  // Extremes over the whole window, exact (the engine's polynomial on every cell).
-  double max_force_n = 0, min_force_n = 0;
-  double max_deflection_m = 0, min_deflection_m = 0;                 // of d - e
-  std::array<double, 2> max_bearing_force_n{}, max_axial_force_n{};  // largest |.|
-  std::array<double, 2> max_shaft_torque_nm{};                       // largest |.|
+  // Where the steady part starts, as the one-degree run's (run_coupled; judged on the mesh's
+  // d - e and every bearing displacement, CoupledSections), and its readings. A window read
+  // without it (CoupledSolver::read: a sweep's block, an orbit's period) has basis
+  // kNotSettled, marked false.
+  SteadyStart steady;
+  CoupledPart steady_part;
   // Dynamic factors: the largest over the static value (mesh: F_n; bearings: cos(beta_b) F_n;
   // axial: sin(beta_b) F_n; shafts: their static torque; NaN for an axial factor of a spur
-  // pair and for a shaft that is not there).
-  double dynamic_mesh_factor = 0;
+  // pair and for a shaft that is not there), over the steady part when the run marked one,
+  // else over the window read; the mesh's also from the start.
+  double dynamic_mesh_factor = 0, dynamic_mesh_factor_with_startup = 0;
   std::array<double, 2> bearing_factor{}, axial_factor{}, shaft_factor{};
   CoupledSamples samples;
   double wall_time_s = 0;
@@ -85,12 +99,39 @@ class CoupledSolver {
   CoupledRunResult read(double t0, const ode::Vector& y0, double t1, const ode::OutputGrid& grid,
                         double final_from, const std::function<bool(double)>& progress = {},
                         ode::Vector* end_state = nullptr) const;
+  // The same integrated once while the steady part is sought on the section t0 + k period_s
+  // (integrate_watching; 0: no common period, the final half), read beside the whole.
+  CoupledRunResult read_watching(double t0, const ode::Vector& y0, double t1,
+                                 const ode::OutputGrid& grid, double final_from, double period_s,
+                                 const std::function<bool(double)>& progress = {}) const;
 
  private:
   Case case_;
   std::unique_ptr<CoupledModel> model_;
   std::unique_ptr<ode::ExactEngine> engine_;
 };
+
+// The coupled model's state as the section judges it (steady.hpp): the mesh's d - e and each
+// bearing displacement the model has, each with its rate, in b and b w_n (w_n the one-degree
+// pair's contact frequency): a transient that one projection barely sees shows in another.
+class CoupledSections {
+ public:
+  CoupledSections(const CoupledParameters& p, double integration_tolerance);
+  // The state at the next section time.
+  void add(double t_s, const ode::Vector& y);
+  SteadyVerdict judge(double tolerance) const { return judge_together(series_, tolerance); }
+  // The mesh's (d - e, its rate) at (t, y).
+  ode::State mesh(double t_s, const ode::Vector& y) const;
+
+ private:
+  const CoupledParameters& p_;
+  std::vector<Eigen::Index> bearing_coordinates_;
+  std::vector<SectionSeries> series_;
+};
+
+// The section period of a coupled case: its one-degree pair's (the same stiffness, torques and
+// transmission error), 0 when the excitations have no common period.
+double coupled_section_period_s(const Case& c, const MeshStiffness* stiffness = nullptr);
 
 // The output interval of a run of `c` whose fastest time scale is `fastest_period_s` (the
 // model's fastest natural period in contact or excitation): solver.output_interval_s, or when it
