@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -298,64 +299,48 @@ CoupledRunResult CoupledSolver::read(double t0, const ode::Vector& y0, double t1
                                      const ode::OutputGrid& grid, double final_from,
                                      const std::function<bool(double)>& progress,
                                      ode::Vector* end_state) const {
-  CoupledRunResult result;
-  result.input = case_;
-  result.parameters = model_->parameters();
-  const int region = model_->classify(t0, y0);
-  CoupledObserver observer(*model_, engine_->system(), result, t0, t1, final_from, region,
-                           progress);
-  const ode::FlowResult flow = engine_->flow(t0, y0, region, t1, grid, observer);
-  observer.finish();
-  if (end_state) *end_state = flow.state;
-  result.termination = flow.termination;
-  result.message = flow.message;
-  result.cells = flow.cells;
-  result.events = flow.events;
-  factors(result);
-  return result;
+  return read_pieces(t0, y0, t1, grid, final_from, std::nullopt, progress, end_state);
 }
 
 CoupledRunResult CoupledSolver::read_watching(double t0, const ode::Vector& y0, double t1,
                                               const ode::OutputGrid& grid, double final_from,
                                               double period_s,
                                               const std::function<bool(double)>& progress) const {
+  return read_pieces(t0, y0, t1, grid, final_from, period_s, progress, nullptr);
+}
+
+CoupledRunResult CoupledSolver::read_pieces(double t0, const ode::Vector& y0, double t1,
+                                            const ode::OutputGrid& grid, double final_from,
+                                            std::optional<double> period_s,
+                                            const std::function<bool(double)>& progress,
+                                            ode::Vector* end_state) const {
   CoupledRunResult result;
   result.input = case_;
   result.parameters = model_->parameters();
-  int region = model_->classify(t0, y0);
+  const int region = model_->classify(t0, y0);
   CoupledObserver observer(*model_, engine_->system(), result, t0, t1, final_from, region,
                            progress);
   CoupledSections sections(model_->parameters(), case_.solver.tolerance);
-  ode::Vector y = y0;
-  double now = t0;
-  std::int64_t sampled = 0;  // grid samples emitted
+  FlowPieces pieces(
+      t0, y0, region, t1, grid,
+      [&](double from, const ode::Vector& y, int r, double to, const ode::OutputGrid& piece) {
+        return engine_->flow(from, y, r, to, piece, observer);
+      },
+      progress);
   const auto judge = [&] {
-    sections.add(now, y);
+    sections.add(pieces.t_s(), pieces.state());
     return sections.judge(kSteadyTolerance);
   };
-  const auto advance = [&](double stop) {
-    const std::int64_t until = stop < t1 ? grid.count_until(stop) : grid.count;
-    const ode::OutputGrid piece = grid.stretch(sampled, std::max(until, sampled));
-    sampled = std::max(until, sampled);
-    const ode::FlowResult f = engine_->flow(now, y, region, stop, piece, observer);
-    result.termination = f.termination;
-    result.message = f.message;
-    result.cells += f.cells;
-    result.events += f.events;
-    if (!f.ok()) return false;
-    y = f.state;
-    region = f.region;
-    now = stop;
-    // A piece may be shorter than the engine's interval between progress calls.
-    if (stop < t1 && progress && !progress((stop - t0) / (t1 - t0))) {
-      result.termination = ode::Termination::kCancelled;
-      result.message = fmt::format("cancelled at t = {:.9g} s", stop);
-      return false;
-    }
-    return true;
-  };
-  result.steady =
-      integrate_watching(t0, t1, period_s, judge, advance, [&](double at) { observer.mark(at); });
+  if (period_s)
+    result.steady = integrate_watching(t0, t1, *period_s, judge, std::ref(pieces),
+                                       [&](double at) { observer.mark(at); });
+  else
+    pieces(t1);
+  if (end_state) *end_state = pieces.state();
+  result.termination = pieces.total().termination;
+  result.message = pieces.total().message;
+  result.cells = pieces.total().cells;
+  result.events = pieces.total().events;
   observer.finish();
   factors(result);
   return result;

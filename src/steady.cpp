@@ -1,5 +1,7 @@
 #include "geardyn/steady.hpp"
 
+#include <fmt/format.h>
+
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
@@ -7,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
+#include <utility>
 
 namespace geardyn {
 namespace {
@@ -185,6 +188,43 @@ SteadyStart integrate_watching(double t0, double t1, double period_s,
   }
   if (!out.marked) out.from_s = t_half;
   return out;
+}
+
+FlowPieces::FlowPieces(double t0, const ode::Vector& y0, int region, double t1,
+                       const ode::OutputGrid& grid, Flow flow, std::function<bool(double)> progress)
+    : t0_(t0),
+      t_(t0),
+      t1_(t1),
+      grid_(grid),
+      flow_(std::move(flow)),
+      progress_(std::move(progress)) {
+  total_.state = y0;
+  total_.region = region;
+  total_.end_time_s = t0;
+}
+
+bool FlowPieces::operator()(double stop) {
+  const std::int64_t until = stop < t1_ ? grid_.count_until(stop) : grid_.count;
+  const ode::OutputGrid piece = grid_.stretch(sampled_, std::max(until, sampled_));
+  sampled_ = std::max(until, sampled_);
+  ode::FlowResult f = flow_(t_, total_.state, total_.region, stop, piece);
+  total_.termination = f.termination;
+  total_.message = std::move(f.message);
+  total_.cells += f.cells;
+  total_.periods += f.periods;
+  total_.events += f.events;
+  if (!f.ok()) return false;
+  total_.state = std::move(f.state);
+  total_.region = f.region;
+  total_.end_time_s = f.end_time_s;
+  t_ = stop;
+  // A piece may be shorter than the engine's interval between progress calls.
+  if (stop < t1_ && progress_ && !progress_((stop - t0_) / (t1_ - t0_))) {
+    total_.termination = ode::Termination::kCancelled;
+    total_.message = fmt::format("cancelled at t = {:.9g} s", stop);
+    return false;
+  }
+  return true;
 }
 
 }  // namespace geardyn

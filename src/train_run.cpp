@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -337,7 +338,7 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   }
   a.prescribe(t0, y0);
 
-  int region = a.classify(t0, y0);
+  const int region = a.classify(t0, y0);
   const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, interval);
   std::unique_ptr<ode::ExactEngine> engine;
@@ -377,10 +378,16 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   for (std::size_t k = 0; k < t.shafts.size(); ++k)
     sections.emplace_back(angle_scale, w_top, c.solver.tolerance);
   const Eigen::Index n = a.size();
-  Eigen::VectorXd y = y0;
-  double now = t0;
-  std::int64_t sampled = 0;  // grid samples emitted
+  FlowPieces pieces(
+      t0, y0, region, t1, grid,
+      [&](double from, const ode::Vector& y, int r, double to, const ode::OutputGrid& piece) {
+        return engine ? engine->flow(from, y, r, to, piece, observer)
+                      : ode::adaptive_flow(*adaptive_system, from, y, r, to, piece, observer, ao);
+      },
+      options.progress);
   const auto judge = [&] {
+    const double now = pieces.t_s();
+    const ode::Vector& y = pieces.state();
     for (std::size_t m = 0; m < t.meshes.size(); ++m) {
       const Eigen::RowVectorXd v = a.mesh_vector(static_cast<int>(m));
       sections[m].add(
@@ -392,31 +399,12 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
     }
     return judge_together(sections, kSteadyTolerance);
   };
-  const auto advance = [&](double stop) {
-    const std::int64_t until = stop < t1 ? grid.count_until(stop) : grid.count;
-    const ode::OutputGrid piece = grid.stretch(sampled, std::max(until, sampled));
-    sampled = std::max(until, sampled);
-    const ode::FlowResult f =
-        engine ? engine->flow(now, y, region, stop, piece, observer)
-               : ode::adaptive_flow(*adaptive_system, now, y, region, stop, piece, observer, ao);
-    result.termination = f.termination;
-    result.message = f.message;
-    result.cells += f.cells;
-    result.events += f.events;
-    if (!f.ok()) return false;
-    y = f.state;
-    region = f.region;
-    now = stop;
-    // A piece may be shorter than the engine's interval between progress calls.
-    if (stop < t1 && options.progress && !options.progress((stop - t0) / (t1 - t0))) {
-      result.termination = ode::Termination::kCancelled;
-      result.message = fmt::format("cancelled at t = {:.9g} s", stop);
-      return false;
-    }
-    return true;
-  };
-  result.steady = integrate_watching(t0, t1, result.system_period_s.value_or(0), judge, advance,
-                                     [&](double at) { observer.mark(at); });
+  result.steady = integrate_watching(t0, t1, result.system_period_s.value_or(0), judge,
+                                     std::ref(pieces), [&](double at) { observer.mark(at); });
+  result.termination = pieces.total().termination;
+  result.message = pieces.total().message;
+  result.cells = pieces.total().cells;
+  result.events = pieces.total().events;
   observer.finish();
   for (TrainMeshReading& r : result.meshes) {
     if (r.static_force_n && *r.static_force_n > 0) {

@@ -106,6 +106,12 @@ class CoupledSolver {
                                  const std::function<bool(double)>& progress = {}) const;
 
  private:
+  // Both: with a period, watching; without, the window as one flow.
+  CoupledRunResult read_pieces(double t0, const ode::Vector& y0, double t1,
+                               const ode::OutputGrid& grid, double final_from,
+                               std::optional<double> period_s,
+                               const std::function<bool(double)>& progress,
+                               ode::Vector* end_state) const;
   Case case_;
   std::unique_ptr<CoupledModel> model_;
   std::unique_ptr<ode::ExactEngine> engine_;

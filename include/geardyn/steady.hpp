@@ -16,6 +16,7 @@
 #include <optional>
 #include <vector>
 
+#include "geardyn/engine.hpp"
 #include "geardyn/integrator.hpp"
 #include "geardyn/linear_system.hpp"
 
@@ -134,5 +135,32 @@ SteadyStart integrate_watching(double t0, double t1, double period_s,
                                const std::function<SteadyVerdict()>& judge,
                                const std::function<bool(double)>& advance,
                                const std::function<void(double)>& mark);
+
+// The advance of integrate_watching for a flow of the exact engine or the adaptive integrator
+// (engine.hpp's FlowResult): each piece from where the last ended, its samples the grid's own
+// (bit for bit those of one flow), the cells and events summed, the progress told between
+// pieces (false cancels: "cancelled at t = ...").
+class FlowPieces {
+ public:
+  // One piece: (t_from, y, region, t_to, the piece's grid) -> its result.
+  using Flow = std::function<ode::FlowResult(double, const ode::Vector&, int, double,
+                                             const ode::OutputGrid&)>;
+  FlowPieces(double t0, const ode::Vector& y0, int region, double t1, const ode::OutputGrid& grid,
+             Flow flow, std::function<bool(double)> progress);
+  // Runs to `stop`; false on a failure or a cancellation (total() says which).
+  bool operator()(double stop);
+  double t_s() const { return t_; }
+  const ode::Vector& state() const { return total_.state; }
+  // Termination and message of the last piece, cells and events of all, the state reached.
+  const ode::FlowResult& total() const { return total_; }
+
+ private:
+  double t0_, t_, t1_;
+  ode::OutputGrid grid_;
+  Flow flow_;
+  std::function<bool(double)> progress_;
+  std::int64_t sampled_ = 0;  // grid samples emitted
+  ode::FlowResult total_;
+};
 
 }  // namespace geardyn
