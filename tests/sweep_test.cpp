@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -39,6 +40,69 @@ SweepOptions omega_sweep(double from, double to, int points, SweepDirection d) {
   o.axis = {"model.omega", from, to, points, false};
   o.direction = d;
   return o;
+}
+
+// integrate_watching's contract, on a scripted response: the run goes a period at a time while
+// it judges, marks where the verdict says steady and runs the rest in one piece; without a
+// verdict it marks the final half; a failed piece ends it unmarked before the half.
+struct Watched {
+  std::vector<double> stops, judged, marks;
+  SteadyStart start;
+};
+Watched watch(double period, int settle_at, double fail_at = 1e9) {
+  Watched w;
+  double now = 0;
+  w.start = integrate_watching(
+      0, 10, period,
+      [&] {
+        w.judged.push_back(now);
+        const bool steady = static_cast<int>(w.judged.size()) > settle_at;
+        return SteadyVerdict{steady ? 2 : 0, steady ? 1e-9 : 0.5};
+      },
+      [&](double stop) {
+        if (stop > fail_at) return false;
+        w.stops.push_back(stop);
+        now = stop;
+        return true;
+      },
+      [&](double t) { w.marks.push_back(t); });
+  return w;
+}
+
+TEST(IntegrateWatching, GoesAPeriodAtATimeUntilSteadyThenMarksAndRunsToTheEnd) {
+  const Watched w = watch(1.0, 3);  // steady at the 4th verdict: t = 3
+  EXPECT_EQ(w.stops, (std::vector<double>{1, 2, 3, 10}));
+  EXPECT_EQ(w.judged, (std::vector<double>{0, 1, 2, 3}));
+  EXPECT_EQ(w.marks, (std::vector<double>{3}));
+  EXPECT_EQ(w.start.basis, SteadyBasis::kSettled);
+  EXPECT_EQ(w.start.period_multiple, 2);
+  EXPECT_DOUBLE_EQ(w.start.from_s, 3);
+  EXPECT_TRUE(w.start.marked);
+}
+
+TEST(IntegrateWatching, WithoutAVerdictTheFinalHalfIsMarked) {
+  const Watched w = watch(1.0, 100);
+  // Judged while at least two periods are left (t + 2 T <= t1), then on to the end; the half
+  // is marked where the run stands at t = 5.
+  EXPECT_EQ(w.judged.back(), 9);
+  EXPECT_EQ(w.marks, (std::vector<double>{5}));
+  EXPECT_EQ(w.start.basis, SteadyBasis::kNotSettled);
+  EXPECT_DOUBLE_EQ(w.start.error, 0.5);
+  EXPECT_EQ(w.stops.back(), 10);
+  // No period: the half is one stop, the rest another, nothing judged.
+  const Watched a = watch(0.0, 0);
+  EXPECT_EQ(a.stops, (std::vector<double>{5, 10}));
+  EXPECT_TRUE(a.judged.empty());
+  EXPECT_EQ(a.start.basis, SteadyBasis::kAperiodic);
+  // A period that does not divide the half: the half is a stop of its own.
+  const Watched b = watch(1.5, 100);
+  EXPECT_EQ(b.marks, (std::vector<double>{5}));
+  EXPECT_NE(std::find(b.stops.begin(), b.stops.end(), 5.0), b.stops.end());
+  // A failure before the half: unmarked, from_s the half.
+  const Watched f = watch(1.0, 100, 2.5);
+  EXPECT_TRUE(f.marks.empty());
+  EXPECT_FALSE(f.start.marked);
+  EXPECT_DOUBLE_EQ(f.start.from_s, 5);
 }
 
 TEST(Sweep, LinearCaseFollowsTheClosedFormFrequencyResponse) {

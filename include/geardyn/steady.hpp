@@ -109,7 +109,7 @@ enum class SteadyBasis {
 };
 const char* to_string(SteadyBasis b);
 
-// Where a run's steady part starts (SteadyPart of run.hpp, the train run's).
+// Where a run's steady part starts (run.hpp's SteadyPart, the train and coupled runs').
 struct SteadyStart {
   SteadyBasis basis = SteadyBasis::kNotSettled;
   double from_s = 0;
