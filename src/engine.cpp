@@ -39,6 +39,19 @@ double cos_quarter(double c, double s, int m) {
 }
 double sin_quarter(double c, double s, int m) { return cos_quarter(s, -c, m); }
 
+// A frequency fits a period when its cycles over it are an integer to within this fraction
+// (of the cycles, at least of one): the tolerance the validation holds the coefficients to.
+constexpr double kHarmonicFit = 1e-9;
+// A forcing frequency is folded into a periodic region's cells (RegionCells::phasor_forced)
+// when it is a harmonic of the period to within the rounding of computing it as one.
+constexpr double kHarmonicFold = 64 * std::numeric_limits<double>::epsilon();
+
+// Whether w_rad_s makes a whole number of cycles over period_s, to within `fraction`.
+bool harmonic_of(double w_rad_s, double period_s, double fraction) {
+  const double cycles = w_rad_s * period_s / (2 * std::numbers::pi);
+  return std::abs(cycles - std::round(cycles)) <= fraction * std::max(1.0, cycles);
+}
+
 template <class T>
 T evaluate(const FourierTerms<T>& x, const std::vector<double>& w, double t) {
   T v = x.constant;
@@ -115,8 +128,7 @@ std::string LinearSwitchedSystem::validate() const {
           if (q.row.varies() && (q.row.cos[f].any() || q.row.sin[f].any())) used = true;
       }
       if (!used) continue;
-      const double cycles = frequencies_rad_s[f] * coefficient_period_s / (2 * std::numbers::pi);
-      if (std::abs(cycles - std::round(cycles)) > 1e-9 * std::max(1.0, cycles))
+      if (!harmonic_of(frequencies_rad_s[f], coefficient_period_s, kHarmonicFit))
         return fmt::format("frequency {} rad/s is not a multiple of 2 pi / {} s",
                            frequencies_rad_s[f], coefficient_period_s);
     }
@@ -321,6 +333,10 @@ struct Cell {
     // phi_k . y_ref and r0_k, the scale of its rounding.
     Eigen::Matrix<double, 1, D> swing_row;
     double swing_rest = 0, magnitude_rest = 0;
+    // The same terms packed row by row, term k's row being (phi_k, r0_k, rc_1k, rs_1k, ...,
+    // rc_jk, rs_jk): term k is its row's dot product with (z, 1, C_1, S_1, ...), which reads
+    // one contiguous table (Flow::functional_series).
+    std::vector<double> packed;
   };
   std::vector<Functional> fn;             // the guards'
   std::vector<Functional> observable_fn;  // the observables'
@@ -346,7 +362,11 @@ struct RegionCells {
   std::vector<int> forced;  // frequencies with a forcing term
   std::vector<double> rot_cos, rot_sin;  // cos, sin of w_f h for the forced frequencies
   std::vector<Cell<D>> cells;
-  bool functionals_cached = false;         // every cell holds its functionals' forms (Cell::fn)
+  bool functionals_cached = false;  // every cell holds its functionals' forms (Cell::fn)
+  // The forced frequencies (positions in `forced`) whose phasors a cached form still reads
+  // (Cell::Functional::packed): in a periodic region a harmonic of the coefficient period has
+  // the same phase at every start of cell k, so its terms are folded into the form's r0.
+  std::vector<int> phasor_forced;
   std::vector<bool> guard_varies;          // the guard's row depends on t
   std::vector<double> guard_offset_swing;  // bound of the offset's change over a cell
   std::vector<R> guard_abs_row;            // |G0|
@@ -535,14 +555,16 @@ void functional_terms(const LinearSwitchedSystem& sys, const LinearGuard& q, dou
   }
 }
 
-// The series of the functionals in `list` over a cell starting at phase t0 (Cell::fn or
+// The series of the functionals in `list` over cell k of `rc` (Cell::fn or
 // Cell::observable_fn), into `out`.
 template <int D>
 void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<LinearGuard>& list,
-                       double t0, double h, const Cell<D>& cell,
-                       const Eigen::Matrix<double, D, 1>& y_ref,
+                       const RegionCells<D>& rc, int k_cell,
                        std::vector<typename Cell<D>::Functional>& out) {
   using R = Eigen::Matrix<double, 1, D>;
+  const Cell<D>& cell = rc.cells[static_cast<std::size_t>(k_cell)];
+  const double t0 = k_cell * rc.h, h = rc.h;
+  const Eigen::Matrix<double, D, 1>& y_ref = rc.y_ref;
   const int p = cell.order;
   const std::size_t nf = cell.rc.size();
   const Eigen::Index n = sys.dimension;
@@ -623,6 +645,27 @@ void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<Linear
         const double forced = std::abs(f.rc[j][k]) + std::abs(f.rs[j][k]);
         f.swing_rest += forced;
         f.magnitude_rest += forced;
+      }
+    }
+    // The packed rows: the frequencies without a phasor enter r0 at this cell's phase.
+    std::vector<bool> has_phasor(nf, false);
+    for (int j : rc.phasor_forced) has_phasor[static_cast<std::size_t>(j)] = true;
+    const std::size_t width = static_cast<std::size_t>(n) + 1 + 2 * rc.phasor_forced.size();
+    f.packed.resize(width * static_cast<std::size_t>(p + 1));
+    for (int k = 0; k <= p; ++k) {
+      double* row = f.packed.data() + width * static_cast<std::size_t>(k);
+      for (Eigen::Index i = 0; i < n; ++i) row[i] = f.phi[k][i];
+      double r0 = f.r0[k];
+      for (std::size_t j = 0; j < nf; ++j)
+        if (!has_phasor[j]) {
+          const double th = sys.frequencies_rad_s[static_cast<std::size_t>(rc.forced[j])] * t0;
+          r0 += std::cos(th) * f.rc[j][k] + std::sin(th) * f.rs[j][k];
+        }
+      row[n] = r0;
+      for (std::size_t i = 0; i < rc.phasor_forced.size(); ++i) {
+        const auto j = static_cast<std::size_t>(rc.phasor_forced[i]);
+        row[n + 1 + 2 * i] = f.rc[j][k];
+        row[n + 2 + 2 * i] = f.rs[j][k];
       }
     }
     out.push_back(std::move(f));
@@ -1222,19 +1265,22 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
         for (const LinearGuard& q : *list)
           for (std::size_t f = 0; f < q.offset.cos.size(); ++f) {
             if (q.offset.cos[f] == 0 && q.offset.sin[f] == 0) continue;
-            const double cycles = w[f] * T / (2 * std::numbers::pi);
-            offsets_fit &= std::abs(cycles - std::round(cycles)) <= 1e-9 * std::max(1.0, cycles);
+            offsets_fit &= harmonic_of(w[f], T, kHarmonicFit);
           }
       rc.functionals_cached = offsets_fit;
+      for (std::size_t j = 0; j < rc.forced.size(); ++j)
+        if (!harmonic_of(w[static_cast<std::size_t>(rc.forced[j])], T, kHarmonicFold))
+          rc.phasor_forced.push_back(static_cast<int>(j));
     } else {
       bool constant = true;
       for (const auto* list : {&reg.guards, &reg.observables})
         for (const LinearGuard& q : *list) constant &= !q.row.varies() && q.offset.cos.empty();
       rc.functionals_cached = constant;  // one cell (K = 1) at phase 0
+      for (std::size_t j = 0; j < rc.forced.size(); ++j)
+        rc.phasor_forced.push_back(static_cast<int>(j));
     }
     if (rc.functionals_cached)
-      for (int k = 0; k < rc.K; ++k)
-        cache_functionals(sys, reg.guards, k * rc.h, rc.h, rc.cells[k], rc.y_ref, rc.cells[k].fn);
+      for (int k = 0; k < rc.K; ++k) cache_functionals(sys, reg.guards, rc, k, rc.cells[k].fn);
     const bool rows_constant =
         std::none_of(rc.guard_varies.begin(), rc.guard_varies.end(), [](bool v) { return v; });
     if (!periodic) build_steady_jumps(sys, reg, rc);
@@ -1277,8 +1323,7 @@ class LazyRegions {
       std::call_once(observables_once_[r], [&] {
         RegionCells<D>& w = cells_[r];
         for (int k = 0; k < w.K; ++k)
-          cache_functionals(*sys_, sys_->regions[r].observables, k * w.h, w.h, w.cells[k], w.y_ref,
-                            w.cells[k].observable_fn);
+          cache_functionals(*sys_, sys_->regions[r].observables, w, k, w.cells[k].observable_fn);
       });
     return rc;
   }
@@ -1965,22 +2010,35 @@ class Flow final : public CellView {
     const RegionCells<D>& rc = *rc_;
     const Cell<D>& cell = rc.cells[cur_.k];
     const int p = cell.order;
-    gc.assign(p + 1, 0.0);
+    gc.resize(p + 1);
     const LinearRegion& reg = sys_.regions[cur_.region];
     const int guards = static_cast<int>(reg.guards.size());
     if (rc.functionals_cached && id >= guards) regions_.with_observables(cur_.region);
     if (rc.functionals_cached) {
       const typename Cell<D>::Functional& f =
           id < guards ? cell.fn[id] : cell.observable_fn[id - guards];
-      for (int k = 0; k <= p; ++k) {
-        double v = f.phi[k].dot(cur_.z) + f.r0[k];
-        for (std::size_t j = 0; j < rc.forced.size(); ++j)
-          v += cur_.C[j] * f.rc[j][k] + cur_.S[j] * f.rs[j][k];
+      // Each term a dot product of its packed row with (z, 1, C_1, S_1, ...).
+      const std::size_t n = static_cast<std::size_t>(cur_.z.size());
+      const std::size_t width = n + 1 + 2 * rc.phasor_forced.size();
+      std::vector<double>& w = packed_state_;
+      w.resize(width);
+      for (std::size_t i = 0; i < n; ++i) w[i] = cur_.z[static_cast<Eigen::Index>(i)];
+      w[n] = 1;
+      for (std::size_t i = 0; i < rc.phasor_forced.size(); ++i) {
+        const auto j = static_cast<std::size_t>(rc.phasor_forced[i]);
+        w[n + 1 + 2 * i] = cur_.C[j];
+        w[n + 2 + 2 * i] = cur_.S[j];
+      }
+      const double* row = f.packed.data();
+      for (int k = 0; k <= p; ++k, row += width) {
+        double v = 0;
+        for (std::size_t i = 0; i < width; ++i) v += row[i] * w[i];
         gc[k] = v;
       }
       gc[0] += slack;
       return;
     }
+    std::fill(gc.begin(), gc.end(), 0.0);
     ensure_coefficients();
     const LinearGuard& q = id < guards ? reg.guards[id] : reg.observables[id - guards];
     functional_terms(sys_, q, cur_.tm, rc.h, p, rows_, offs_);
@@ -2003,6 +2061,7 @@ class Flow final : public CellView {
   double tol_;  // the truncation the cells were summed to
   mutable RootFinder roots_;
   mutable std::vector<double> oc_;
+  mutable std::vector<double> packed_state_;  // (z, 1, C_1, S_1, ...): functional_series' scratch
   // The stretches handed to on_cell so far, and the observable series last formed (for which
   // stretch, of which functional id): extreme's cache.
   std::int64_t stretches_ = 0;
