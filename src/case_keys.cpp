@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "geardyn/harmonic_series.hpp"
+#include "geardyn/train_case.hpp"
 
 namespace geardyn {
 namespace {
@@ -461,10 +462,14 @@ bool changes_stiffness(std::string_view dotted) {
 std::string check_sweepable(std::string_view dotted) {
   const CaseKey* k = find_case_key(dotted);
   if (k && k->sweepable) return {};
-  const std::string why =
+  std::string why =
       !k ? "unknown key"
          : "not a real number the model reads (solver settings, counts, choices and text are "
            "not varied by a study)";
+  if (dotted.starts_with("train.")) {
+    why = train_key_not_sweepable(dotted);
+    if (why.empty()) return {};
+  }
   return fmt::format(
       "{}: {}; `geardyn keys` lists the keys a study may vary (an element of an array as "
       "key[i])",

@@ -52,7 +52,9 @@ MeshStiffness case_stiffness(const Case& c) {
 
 std::optional<MeshStiffness> shared_stiffness(const Case& base,
                                               const std::vector<std::string>& keys) {
-  if (base.model.form == ModelForm::kNondimensional) return std::nullopt;
+  // The non-dimensional form has no gears; a train's meshes carry their own stiffness.
+  if (base.model.form == ModelForm::kNondimensional || base.model.form == ModelForm::kTrain)
+    return std::nullopt;
   for (const std::string& key : keys)
     if (changes_stiffness(key)) return std::nullopt;
   return case_stiffness(base);

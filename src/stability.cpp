@@ -16,6 +16,8 @@
 #include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/train.hpp"
+#include "geardyn/train_case.hpp"
 
 namespace geardyn {
 namespace {
@@ -54,7 +56,18 @@ ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s,
   ode::LinearSwitchedSystem sys;
   int contact = 0;
   double system_period = 0;
-  if (c.model.form == ModelForm::kCoupled) {
+  std::optional<ode::Matrix> reduce;  // Q of the coordinates read (train::Assembled)
+  if (c.model.form == ModelForm::kTrain) {
+    // Every mesh in drive contact, read in the train's own coordinates (reduced_basis).
+    const train::Assembled a = assembled_train(c);
+    sys = a.linear_system();
+    contact = a.region(std::vector<int>(a.train().meshes.size(), 1));
+    std::string why;
+    const std::optional<double> period = a.system_period_s(&why);
+    if (!period) throw InputError(with_origins(c, "the train has no period: " + why));
+    system_period = *period;
+    reduce = a.reduced_basis();
+  } else if (c.model.form == ModelForm::kCoupled) {
     // The coupled model in drive contact, each clearance bearing on the side the static mesh
     // force holds it (coupled_model.hpp).
     const MeshStiffness own = stiffness ? MeshStiffness{} : case_stiffness(c);
@@ -89,6 +102,7 @@ ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s,
   if (!r.ok() || !r.jacobian)
     throw std::runtime_error(fmt::format("the contact monodromy's flow failed ({}): {}",
                                          ode::to_string(r.termination), r.message));
+  if (reduce) return reduce->transpose() * *r.jacobian * *reduce;
   return *r.jacobian;
 }
 

@@ -4,6 +4,7 @@
 #include <fmt/ranges.h>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -233,6 +234,29 @@ int Assembled::index(const std::string& body) const {
 bool Assembled::prescribed(int body) const {
   return std::any_of(t_.speeds.begin(), t_.speeds.end(),
                      [&](const Speed& v) { return index(v.body) == body; });
+}
+
+Eigen::MatrixXd Assembled::reduced_basis() const {
+  const Eigen::Index n = size();
+  if (!t_.speeds.empty()) {
+    std::vector<Eigen::Index> free;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!prescribed(static_cast<int>(i))) free.push_back(i);
+    const auto m = static_cast<Eigen::Index>(free.size());
+    Eigen::MatrixXd q = Eigen::MatrixXd::Zero(2 * n, 2 * m);
+    for (Eigen::Index k = 0; k < m; ++k) {
+      q(free[static_cast<std::size_t>(k)], k) = 1;
+      q(n + free[static_cast<std::size_t>(k)], m + k) = 1;
+    }
+    return q;
+  }
+  // The rigid rotation (r, 0), r the speed ratios; Q the rest of an orthonormal basis whose
+  // first column is it (Householder).
+  Eigen::VectorXd rigid = Eigen::VectorXd::Zero(2 * n);
+  for (Eigen::Index i = 0; i < n; ++i) rigid(i) = value(speed_[static_cast<std::size_t>(i)]);
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(rigid);
+  const Eigen::MatrixXd full = qr.householderQ() * Eigen::MatrixXd::Identity(2 * n, 2 * n);
+  return full.rightCols(2 * n - 1);
 }
 
 namespace {

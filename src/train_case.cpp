@@ -607,6 +607,43 @@ const std::vector<TrainKeyInfo>& train_key_list() {
   return list;
 }
 
+namespace {
+
+// Whether `leaf` is a real number of an element of kind `keys`; nullopt when it is no key.
+template <class E>
+std::optional<bool> real_leaf(const std::vector<ElementKey<E>>& keys, std::string_view leaf) {
+  for (const ElementKey<E>& k : keys)
+    if (k.leaf == leaf)
+      return std::holds_alternative<double E::*>(k.field) ||
+             std::holds_alternative<std::optional<double> E::*>(k.field);
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::string train_key_not_sweepable(std::string_view dotted) {
+  if (dotted == "train.reference_speed_hz") return {};
+  // train.<kind>[<i>].<leaf>
+  const std::size_t open = dotted.find('['), close = dotted.find("].");
+  if (!dotted.starts_with("train.") || open == std::string_view::npos ||
+      close == std::string_view::npos || close < open ||
+      dotted.find_first_not_of("0123456789", open + 1) != close || close == open + 1)
+    return "unknown key (an element's key is written train.<kind>[i].<key>)";
+  const std::string_view kind = dotted.substr(6, open - 6), leaf = dotted.substr(close + 2);
+  std::optional<bool> real;
+  if (kind == "body") real = real_leaf(body_keys(), leaf);
+  if (kind == "mesh") real = real_leaf(mesh_keys(), leaf);
+  if (kind == "shaft") real = real_leaf(shaft_keys(), leaf);
+  if (kind == "torque") real = real_leaf(torque_keys(), leaf);
+  if (kind == "drag") real = real_leaf(drag_keys(), leaf);
+  if (kind == "speed") real = real_leaf(speed_keys(), leaf);
+  if (!real) return "unknown key";
+  if (!*real)
+    return "not a real number the model reads (names, counts and harmonics' lists are not varied "
+           "by a study)";
+  return {};
+}
+
 std::string TrainKeyInfo::dotted() const {
   return kind.empty() ? fmt::format("train.{}", leaf) : fmt::format("train.{}[].{}", kind, leaf);
 }

@@ -977,7 +977,6 @@ TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
   const std::string out = " --out " + d.string();
   for (const std::string args :
        {"sweep " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8 --points 2" + out,
-        "stability " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8 --points 2" + out,
         "continue " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8" + out,
         "reproduce park2010 --case " + reducer + out, "stiffness " + reducer + out}) {
     const Outcome o = cli(args);
@@ -1023,6 +1022,39 @@ TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
       cli("orbit " + std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml");
   EXPECT_EQ(free.code, 2) << free.err;
   EXPECT_NE(free.err.find("turns freely"), std::string::npos) << free.err;
+}
+
+TEST(Cli, ATrainsStabilityChartFromTheCommandLine) {
+  // `geardyn stability` of a train over an element's key (stability_test checks the numbers):
+  // its table and figure beside a file of the user's, and a key of no element refused with
+  // exit 2 before anything is written.
+  const std::string idler = std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml";
+  const fs::path d = fresh("train_stability");
+  fs::create_directories(d);
+  std::ofstream(d / "notes.txt") << "mine";
+  const Outcome o = cli("stability " + idler +
+                        " --param 'train.mesh[1].damping_ratio' --from 0.01 --to 0.1 --points 3"
+                        " --out " +
+                        d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("3 samples, 0 unstable"), std::string::npos) << o.out;
+  std::ifstream csv(d / "stability.csv");
+  std::string line;
+  int rows = 0;
+  while (std::getline(csv, line)) ++rows;
+  EXPECT_EQ(rows, 4);  // the header and 3 samples
+  EXPECT_TRUE(fs::exists(d / "stability.svg"));
+  std::ifstream mine(d / "notes.txt");
+  std::getline(mine, line);
+  EXPECT_EQ(line, "mine");
+  const fs::path none = fresh("train_stability_refused");
+  const Outcome bad =
+      cli("stability " + idler +
+          " --param 'train.mesh[1].name' --from 0.01 --to 0.1 --points 3 --out " + none.string());
+  EXPECT_EQ(bad.code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("train.mesh[1].name: not a real number"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(none));
+  fs::remove_all(d);
 }
 
 TEST(Cli, TheLooseGearRattles) {

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <boost/math/tools/toms748_solve.hpp>
 #include <cmath>
 #include <complex>
@@ -16,8 +17,12 @@
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "geardyn/coupled_model.hpp"
+#include "geardyn/engine.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/train.hpp"
+#include "geardyn/train_case.hpp"
+#include "geardyn/validation.hpp"
 
 namespace {
 
@@ -313,6 +318,134 @@ TEST(Stability, EachSampleIsItsCasesOwnWhetherTheStiffnessIsSharedOrNot) {
       moduli.push_back(s.max_multiplier);
     }
     EXPECT_NE(moduli.front(), moduli.back()) << axis.key;  // the key moves the multipliers
+  }
+}
+
+// The multipliers of a monodromy, by modulus then argument.
+std::vector<std::complex<double>> sorted_multipliers(const geardyn::ode::Matrix& m) {
+  std::vector<std::complex<double>> mu = geardyn::floquet_multipliers(m);
+  std::sort(mu.begin(), mu.end(), [](std::complex<double> a, std::complex<double> b) {
+    return std::abs(a) != std::abs(b) ? std::abs(a) < std::abs(b) : std::arg(a) < std::arg(b);
+  });
+  return mu;
+}
+
+TEST(Stability, AFreelyTurningTrainHasItsMeshsMultipliersAndANeutralRate) {
+  // The paper's pair written as a train of two gears under torques: read modulo the rigid
+  // rotation, its monodromy holds the one-degree pair's two multipliers and a third of 1, the
+  // rate of the rotation, which nothing damps. Read in the full state it would hold a Jordan
+  // block at 1 that rounding splits by about 1e-8, above the neutral margin.
+  const geardyn::ode::Matrix pair = geardyn::contact_monodromy(geardyn::park2010_pair_case());
+  const geardyn::ode::Matrix train = geardyn::contact_monodromy(geardyn::park2010_pair_as_train());
+  ASSERT_EQ(pair.rows(), 2);
+  ASSERT_EQ(train.rows(), 3);
+  const auto mp = sorted_multipliers(pair);
+  std::vector<std::complex<double>> mt = sorted_multipliers(train);
+  const auto one = std::min_element(
+      mt.begin(), mt.end(), [](auto a, auto b) { return std::abs(a - 1.0) < std::abs(b - 1.0); });
+  EXPECT_LT(std::abs(*one - 1.0), 1e-10) << *one;
+  mt.erase(one);
+  for (std::size_t i = 0; i < 2; ++i)
+    EXPECT_LT(std::abs(mt[i] - mp[i]), 1e-8 * std::abs(mp[i])) << mt[i] << " against " << mp[i];
+
+  // The shipped idler train (30, 47 and 60 teeth: the rotation is not 1, 1, 1): its reduced
+  // multipliers, the 1 of the rate aside, are the full state's, the two at the rotation's 1
+  // aside.
+  const Case idler =
+      geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml");
+  const geardyn::train::Assembled a = geardyn::assembled_train(idler);
+  geardyn::ode::LinearSwitchedSystem sys = a.linear_system();
+  const int contact = a.region(std::vector<int>(a.train().meshes.size(), 1));
+  sys.regions[contact].guards.clear();
+  geardyn::ode::EngineOptions eo;
+  eo.tolerance = 1e-12;
+  const geardyn::ode::ExactEngine engine(sys, eo);
+  geardyn::ode::FlowObserver nothing;
+  const geardyn::ode::FlowResult full =
+      engine.flow(0.0, geardyn::ode::Vector::Zero(sys.dimension), contact, sys.coefficient_period_s,
+                  geardyn::ode::OutputGrid{}, nothing, true);
+  ASSERT_TRUE(full.ok() && full.jacobian) << full.message;
+  const auto drop_nearest_one = [](std::vector<std::complex<double>> mu, int count) {
+    for (int i = 0; i < count; ++i)
+      mu.erase(std::min_element(mu.begin(), mu.end(), [](auto x, auto y) {
+        return std::abs(x - 1.0) < std::abs(y - 1.0);
+      }));
+    return mu;
+  };
+  const auto mf = drop_nearest_one(sorted_multipliers(*full.jacobian), 2);
+  const geardyn::ode::Matrix reduced = geardyn::contact_monodromy(idler);
+  ASSERT_EQ(reduced.rows(), 5);
+  const auto mr = sorted_multipliers(reduced);
+  const auto rate = std::min_element(
+      mr.begin(), mr.end(), [](auto x, auto y) { return std::abs(x - 1.0) < std::abs(y - 1.0); });
+  EXPECT_LT(std::abs(*rate - 1.0), 1e-10) << *rate;
+  const auto rest = drop_nearest_one(mr, 1);
+  ASSERT_EQ(rest.size(), mf.size());
+  for (std::size_t i = 0; i < rest.size(); ++i)
+    EXPECT_LT(std::abs(rest[i] - mf[i]), 1e-8 * std::max(1e-3, std::abs(mf[i])))
+        << rest[i] << " against " << mf[i];
+}
+
+TEST(Stability, APrescribedTrainIsReadInItsFreeBodysCoordinates) {
+  // The shipped loose gear, its input's speed prescribed: the monodromy is the loose gear's
+  // (theta, theta') alone. In permanent contact at constant stiffness it is exp(A T) of
+  // J theta'' + C theta' + K theta = 0 with the loose gear's entries of the assembled matrices:
+  // over its own period (the firing period, in which the contact oscillation decays to 1e-13)
+  // and over 3 / w (w^2 = K / J), where it has decayed little; compared with the rates scaled
+  // by w.
+  const Case c =
+      geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml");
+  const geardyn::train::Assembled a = geardyn::assembled_train(c);
+  const int loose = a.index("loose");
+  const double j = a.mass()(loose, loose), k = a.contact_stiffness()(loose, loose),
+               d = a.contact_damping()(loose, loose);
+  ASSERT_GT(d, 0);
+  const double w = std::sqrt(k / j);
+  EXPECT_NEAR(*a.system_period_s(), 1.0 / 25, 1e-15);
+  // The system with the rate scaled by w, whose exponential is well conditioned.
+  Eigen::Matrix2d s, scale;
+  s << 0, w, -w, -d / j;
+  scale << 1, 0, 0, w;
+  for (const double T : {*a.system_period_s(), 3 / w}) {
+    const geardyn::ode::Matrix m = geardyn::contact_monodromy(c, 1e-12, T == 3 / w ? T : 0.0);
+    ASSERT_EQ(m.rows(), 2);
+    const Eigen::Matrix2d es = (s * T).exp();
+    const Eigen::Matrix2d ms = scale.inverse() * m * scale;
+    for (int r = 0; r < 2; ++r)
+      for (int q = 0; q < 2; ++q) EXPECT_NEAR(ms(r, q), es(r, q), 1e-12) << T << ": " << r << q;
+  }
+}
+
+TEST(Stability, ATrainsChartVariesItsElementsKeys) {
+  // A chart over a mesh's damping ratio of the loose gear: each sample its own case's (the
+  // largest multiplier exp(-zeta w T) falls as the damping rises); a key of no element kind, or
+  // a name, is refused before any work.
+  const Case c =
+      geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml");
+  StabilityOptions o;
+  o.axis = {"train.mesh[0].damping_ratio", 0.01, 0.1, 4};
+  const geardyn::StabilityResult r = geardyn::stability(c, o);
+  ASSERT_EQ(r.samples.size(), 4U);
+  for (std::size_t i = 0; i < r.samples.size(); ++i) {
+    EXPECT_TRUE(r.samples[i].stable);
+    Case at = c;
+    geardyn::set_case_value(
+        at, {"train.mesh[0].damping_ratio", fmt::format("{:.17g}", r.samples[i].param)});
+    EXPECT_NEAR(r.samples[i].max_multiplier,
+                std::abs(sorted_multipliers(geardyn::contact_monodromy(at)).back()), 1e-14);
+    if (i > 0) EXPECT_LT(r.samples[i].max_multiplier, r.samples[i - 1].max_multiplier);
+  }
+  for (const auto& [key, why] : {std::pair{"train.gear[0].teeth", "unknown key"},
+                                 std::pair{"train.mesh[0].name", "not a real number"},
+                                 std::pair{"train.mesh.damping_ratio", "train.<kind>[i].<key>"}}) {
+    o.axis = {key, 0.01, 0.1, 4};
+    try {
+      (void)geardyn::stability(c, o);
+      ADD_FAILURE() << key << " accepted";
+    } catch (const geardyn::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
   }
 }
 

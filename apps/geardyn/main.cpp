@@ -149,14 +149,14 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 
 // The case a model command works on; every setting it gives that the model does not use is
 // said (case_keys.hpp, unused_settings), never dropped silently.
-// A gear train (model.form = "train") is taken by `run`, `modes` and `orbit` so far; every
-// other command says so.
+// A gear train (model.form = "train") is taken by `run`, `modes`, `orbit` and `stability` so
+// far; every other command says so.
 void check_command_takes(const geardyn::Case& c, std::string_view command) {
   if (c.model.form == geardyn::ModelForm::kTrain && command != "run" && command != "modes" &&
-      command != "orbit")
+      command != "orbit" && command != "stability")
     throw geardyn::InputError(geardyn::with_origins(
         c, fmt::format("model.form = \"train\": `geardyn {}` does not take gear trains yet; "
-                       "`geardyn run`, `geardyn modes` and `geardyn orbit` do",
+                       "`geardyn run`, `modes`, `orbit` and `stability` do",
                        command)));
 }
 

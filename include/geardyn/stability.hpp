@@ -33,7 +33,10 @@ constexpr double kBoundaryWidth = 1e-13;
 // The monodromy of the motion in permanent drive-side contact, over `period_s` (0: the
 // stiffness period, or the system period when the stiffness is constant), by the exact engine
 // at `tolerance`; `stiffness`, when given, is the case's mesh stiffness (shared_stiffness: a
-// study computes it once). Throws InputError when the case has no period.
+// study computes it once). A gear train's has every mesh in drive contact over the meshes'
+// common period and is read in its own coordinates (train::Assembled::reduced_basis: the free
+// bodies' with a prescribed speed, else modulo the rigid rotation). Throws InputError when the
+// case has no period.
 ode::Matrix contact_monodromy(const Case& c, double tolerance = 1e-12, double period_s = 0,
                               const MeshStiffness* stiffness = nullptr);
 

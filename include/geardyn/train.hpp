@@ -188,6 +188,17 @@ class Assembled {
   void prescribe(double t_s, Eigen::VectorXd& y) const;
   // The prescribed rotation of body i, and whether it has one.
   bool prescribed(int body) const;
+  // The coordinates in which the train's own motion is read by its studies of stability, as
+  // the orthonormal columns Q of a 2 size() x m matrix: a Jacobian J of the state (theta,
+  // theta') reduces to Q^T J Q.
+  // - With a prescribed speed: the free bodies' coordinates and rates (a prescribed body's state
+  //   follows its prescription whatever the train does, so its perturbations are zero).
+  // - Without one: the complement of the rigid rotation (theta = the speed ratios times an
+  //   angle, rates 0), which no force of the train changes: a perturbation along it stays
+  //   (multiplier 1, with the rate's a Jordan block that rounding splits by about 1e-8), so the
+  //   motion is read modulo it. The rate of the rigid rotation stays among the coordinates: its
+  //   multiplier is 1 (neutral) unless a viscous drag damps it.
+  Eigen::MatrixXd reduced_basis() const;
 
   // Each mesh's stiffness and transmission error in time.
   HarmonicSeries stiffness_series(int mesh) const;

@@ -21,6 +21,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "geardyn/case.hpp"
@@ -125,6 +126,11 @@ struct TrainKeyInfo {
 const std::vector<TrainKeyInfo>& train_key_list();
 std::string train_keys_markdown();
 std::string train_keys_listing();
+
+// Empty when `dotted` is a real number of [train] or of one of its elements, which a study
+// may vary ("train.reference_speed_hz", "train.mesh[0].damping_ratio"); else why not. Whether
+// the element exists is the case's to say when the value is set.
+std::string train_key_not_sweepable(std::string_view dotted);
 
 // The [train] section written back as TOML (case.toml of a run).
 std::string train_toml(const TrainCase& t);

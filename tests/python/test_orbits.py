@@ -126,6 +126,22 @@ def test_stability_boundaries_of_the_mathieu_tongue():
     assert (s["stable"][inside] == 0).all() and (s["stable"][~inside] == 1).all()
 
 
+def test_a_trains_stability_is_the_command_lines(tmp_path):
+    # The loose gear (its input's speed prescribed) over its mesh's damping: the multipliers
+    # `geardyn stability` writes, each stable, the largest falling as the damping rises.
+    path = os.path.join(os.environ["GEARDYN_SOURCE_DIR"], "cases", "loose_gear_rattle.toml")
+    subprocess.run([CLI, "stability", path, "--param", "train.mesh[0].damping_ratio",
+                    "--from", "0.01", "--to", "0.1", "--points", "3", "--out", str(tmp_path)],
+                   capture_output=True, text=True, check=True)
+    rows = np.genfromtxt(tmp_path / "stability.csv", delimiter=",", names=True)
+    case = geardyn.Case.from_toml(path)
+    s = geardyn.stability(case, "train.mesh[0].damping_ratio", list(rows["param"]))
+    assert np.array_equal(s["max_multiplier"], rows["max_multiplier"])
+    assert (s["stable"] == 1).all() and (np.diff(s["max_multiplier"]) < 0).all()
+    with pytest.raises(geardyn.InputError, match=r"train.mesh\[0\].name: not a real number"):
+        geardyn.stability(case, "train.mesh[0].name", [0.01, 0.1])
+
+
 def test_bad_input_is_an_input_error():
     with pytest.raises(geardyn.InputError, match="^periods = 0"):
         geardyn.orbit(ks(omega=0.95), periods=0)
