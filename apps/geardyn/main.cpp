@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -199,10 +200,14 @@ void print_steady_start(const geardyn::SteadyStart& st, const char* t_name, cons
                  t_name, st.from_s, t_after, st.period_multiple, st.error);
       break;
     case geardyn::SteadyBasis::kNotSettled:
+      // No distance is predicted without a decay seen over enough section times (steady.hpp).
       fmt::print(
-          "  steady part       not reached in the window (distance {:.2g} b): the final half, "
-          "from {} = {:.6g}{}\n",
-          st.error, t_name, st.from_s, t_after);
+          "  steady part       not reached in the window ({}): the final half, from {} = "
+          "{:.6g}{}\n",
+          std::isfinite(st.error)
+              ? fmt::format("distance {:.2g} b", st.error)
+              : std::string("no decay seen over its system periods to predict a distance"),
+          t_name, st.from_s, t_after);
       break;
     case geardyn::SteadyBasis::kAperiodic:
       fmt::print(
