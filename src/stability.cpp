@@ -62,10 +62,19 @@ ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s,
     const train::Assembled a = assembled_train(c);
     sys = a.linear_system();
     contact = a.region(std::vector<int>(a.train().meshes.size(), 1));
+    // The system period is needed only where the meshes' stiffness is constant: the forcing
+    // (torques, transmission errors) does not enter the monodromy.
     std::string why;
     const std::optional<double> period = a.system_period_s(&why);
-    if (!period) throw InputError(with_origins(c, "the train has no period: " + why));
-    system_period = *period;
+    if (!(sys.coefficient_period_s > 0) && !(period_s > 0)) {
+      if (!period) throw InputError(with_origins(c, "the train has no period: " + why));
+      if (!(*period > 0))
+        throw InputError(with_origins(
+            c,
+            "nothing in the train varies in time: in permanent contact it is a constant "
+            "linear system, whose stability its modes' damping gives (geardyn modes)"));
+    }
+    system_period = period.value_or(0.0);
     reduce = a.reduced_basis();
   } else if (c.model.form == ModelForm::kCoupled) {
     // The coupled model in drive contact, each clearance bearing on the side the static mesh

@@ -435,6 +435,28 @@ TEST(Stability, ATrainsChartVariesItsElementsKeys) {
                 std::abs(sorted_multipliers(geardyn::contact_monodromy(at)).back()), 1e-14);
     if (i > 0) EXPECT_LT(r.samples[i].max_multiplier, r.samples[i - 1].max_multiplier);
   }
+  // Only the meshes' stiffness enters the monodromy: the idler train with a torque harmonic at
+  // an order that shares no period with its meshes is charted as without it; a train in which
+  // nothing varies has no period to chart over, and says so.
+  const Case idler =
+      geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml");
+  Case quasi = idler;
+  geardyn::set_case_value(quasi, {"train.torque[0].harmonics", "[[5, 1.41421356237, 0]]"});
+  std::string no_period;
+  ASSERT_FALSE(geardyn::assembled_train(quasi).system_period_s(&no_period)) << "a period";
+  // (To the engine's tolerance: the torque's frequency joins the cells' forced responses.)
+  const geardyn::ode::Matrix with = geardyn::contact_monodromy(quasi),
+                             without = geardyn::contact_monodromy(idler);
+  EXPECT_LT((with - without).cwiseAbs().maxCoeff(), 1e-10 * without.cwiseAbs().maxCoeff());
+  Case still = c;
+  geardyn::set_case_value(still, {"train.speed[0].acceleration_harmonics", "[]"});
+  try {
+    (void)geardyn::contact_monodromy(still);
+    ADD_FAILURE() << "a train in which nothing varies was charted";
+  } catch (const geardyn::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("nothing in the train varies"), std::string::npos)
+        << e.what();
+  }
   for (const auto& [key, why] : {std::pair{"train.gear[0].teeth", "unknown key"},
                                  std::pair{"train.mesh[0].name", "not a real number"},
                                  std::pair{"train.mesh.damping_ratio", "train.<kind>[i].<key>"}}) {
