@@ -147,12 +147,15 @@ RunReading RunReader::read(const Tally& x) const {
 }  // namespace geardyn
 
 namespace geardyn {
-RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader,
-                                 const ode::OutputGrid& grid)
-    : model_(model),
-      reader_(reader),
-      sample_drive_(model.drive_grid(grid.time(-1), grid.interval_s)) {
-  reader.reserve_samples(static_cast<std::size_t>(std::max<std::int64_t>(0, grid.count)));
+namespace {
+// Stretches kept before CellExtremes searches them in the middle of a flow: keeping is a few
+// numbers a stretch, and a long drifting run keeps one or two a crest.
+constexpr std::size_t kMaxKeptStretches = 2048;
+}  // namespace
+
+CellExtremes::CellExtremes(const GearPairModel& model, RunReader& reader,
+                           const ode::ExactEngine& engine)
+    : model_(model), reader_(reader), engine_(engine) {
   const HarmonicSeries& k = model.parameters().stiffness_n_per_m;
   double swing = 0;
   for (const Harmonic& h : k.terms) swing += std::abs(h.amplitude);
@@ -160,8 +163,8 @@ RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader,
   k_max_ = k.offset + swing;
 }
 
-bool RunFlowObserver::room_for_extremes(int engine_region, double dlo, double dhi, double vlo,
-                                        double vhi, std::array<bool, 4>& want) const {
+CellExtremes::Four CellExtremes::bounds_from_state(int engine_region, double dlo, double dhi,
+                                                   double vlo, double vhi) const {
   const int region = engine_region + GearPairModel::kFirstRegion;
   const GearPairParameters& p = model_.parameters();
   const double b = p.backlash_m, c = p.damping_n_s_per_m;
@@ -178,38 +181,98 @@ bool RunFlowObserver::room_for_extremes(int engine_region, double dlo, double dh
     flo = std::min(c * vlo, c * vhi);
     fhi = std::max(c * vlo, c * vhi);
   }
-  want = {dhi > reader_.max_delta_m(), dlo<reader_.min_delta_m(), fhi> reader_.max_force_n(),
-          flo < reader_.min_force_n()};
-  return want[0] || want[1] || want[2] || want[3];
+  return {dhi, dlo, fhi, flo};
 }
 
-bool RunFlowObserver::needs_detail(const ode::CellView& span) {
-  std::array<bool, 4> want{};
-  return room_for_extremes(span.region, (*span.lower)[0], (*span.upper)[0], (*span.lower)[1],
-                           (*span.upper)[1], want);
+CellExtremes::Four CellExtremes::seen() const {
+  return {reader_.max_delta_m(), reader_.min_delta_m(), reader_.max_force_n(),
+          reader_.min_force_n()};
 }
 
-void RunFlowObserver::on_cell(const ode::CellView& cell) {
+bool CellExtremes::room(const Four& bound, const Four& seen) {
+  for (int q = 0; q < 4; ++q)
+    if (beyond(q, bound[q], seen[q])) return true;
+  return false;
+}
+
+bool CellExtremes::room(const ode::CellView& span) const {
+  return room(bounds_from_state(span.region, (*span.lower)[0], (*span.upper)[0], (*span.lower)[1],
+                                (*span.upper)[1]),
+              seen());
+}
+
+void CellExtremes::look(const ode::CellView& cell) {
   if (!(cell.t_end_s > cell.t_begin_s)) return;
-  // Which extremes (max delta, min delta, max F, min F) the cell's bounds leave room for; those
-  // the engine then finds exactly on the stretch's polynomial.
-  std::array<bool, 4> want{};
-  if (!room_for_extremes(cell.region, (*cell.lower)[0], (*cell.upper)[0], (*cell.lower)[1],
-                         (*cell.upper)[1], want))
-    return;
-  const int region = cell.region + GearPairModel::kFirstRegion;
-  const std::array<double, 4> seen{reader_.max_delta_m(), reader_.min_delta_m(),
-                                   reader_.max_force_n(), reader_.min_force_n()};
+  // The state's bounds first, then the observables' own where the cell gives them.
+  Four bound = bounds_from_state(cell.region, (*cell.lower)[0], (*cell.upper)[0], (*cell.lower)[1],
+                                 (*cell.upper)[1]);
+  const Four s = seen();
+  if (!room(bound, s)) return;
+  double low = 0, high = 0;
+  if ((beyond(0, bound[0], s[0]) || beyond(1, bound[1], s[1])) &&
+      cell.range(GearPairModel::kObservableDelta, low, high)) {
+    bound[0] = std::min(bound[0], high);
+    bound[1] = std::max(bound[1], low);
+  }
+  if ((beyond(2, bound[2], s[2]) || beyond(3, bound[3], s[3])) &&
+      cell.range(GearPairModel::kObservableForce, low, high)) {
+    bound[2] = std::min(bound[2], high);
+    bound[3] = std::max(bound[3], low);
+  }
+  if (!room(bound, s)) return;
+  cell.keep(kept_);
+  kept_bounds_.push_back(bound);
+  if (kept_.size() >= kMaxKeptStretches) finish();
+}
+
+void CellExtremes::finish() {
   ode::Vector& y = point_;
   for (int q = 0; q < 4; ++q) {
-    if (!want[q]) continue;
+    const bool maximum = q % 2 == 0;
     const int observable =
         q < 2 ? GearPairModel::kObservableDelta : GearPairModel::kObservableForce;
-    double value = 0, t = 0;
-    if (!cell.extreme(observable, q % 2 == 0, seen[q], value, t)) continue;
-    cell.state_at(t, y);
-    reader_.on_point({t, y[0], y[1], 0.0, region}, model_.drive(t));
+    // Searches the stretches of order_ while their bound beats the extreme seen.
+    const auto search = [&] {
+      engine_.revisit(kept_, order_, [&](std::size_t i, const ode::CellView& cell) {
+        const double best = seen()[q];
+        if (!beyond(q, kept_bounds_[i][q], best)) return false;
+        double value = 0, t = 0;
+        if (cell.extreme(observable, maximum, best, value, t)) {
+          cell.state_at(t, y);
+          reader_.on_point({t, y[0], y[1], 0.0, cell.region + GearPairModel::kFirstRegion},
+                           model_.drive(t));
+        }
+        return true;
+      });
+    };
+    // The stretch of the widest bound first: its extreme is the one most others must beat.
+    std::size_t top = kept_.size();
+    for (std::size_t i = 0; i < kept_.size(); ++i)
+      if (beyond(q, kept_bounds_[i][q], seen()[q]) &&
+          (top == kept_.size() || beyond(q, kept_bounds_[i][q], kept_bounds_[top][q])))
+        top = i;
+    if (top == kept_.size()) continue;
+    order_.assign(1, top);
+    search();
+    // Then those whose bound still beats it, widest first.
+    order_.clear();
+    for (std::size_t i = 0; i < kept_.size(); ++i)
+      if (i != top && beyond(q, kept_bounds_[i][q], seen()[q])) order_.push_back(i);
+    std::sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
+      return beyond(q, kept_bounds_[a][q], kept_bounds_[b][q]);
+    });
+    search();
   }
+  kept_.clear();
+  kept_bounds_.clear();
+}
+
+RunFlowObserver::RunFlowObserver(const GearPairModel& model, RunReader& reader,
+                                 const ode::OutputGrid& grid, CellExtremes& extremes)
+    : reader_(reader),
+      extremes_(extremes),
+      sample_drive_(model.drive_grid(grid.time(-1), grid.interval_s)) {
+  reader.reserve_samples(static_cast<std::size_t>(std::max<std::int64_t>(0, grid.count)));
 }
 
 }  // namespace geardyn

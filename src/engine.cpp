@@ -286,6 +286,11 @@ constexpr double kGuardRounding = 64 * std::numeric_limits<double>::epsilon();
 // fraction of the magnitudes summed: the order times the dimension times eps (3e-14 for a
 // 12-DOF cell of order 11), with a margin of 30.
 constexpr double kRangeRounding = 1e-12;
+// The terms of an observable's series over a cell that CellView::range sums exactly (a cubic,
+// whose extremes are closed forms); the others are bounded by their magnitudes. At the
+// engine's cell length (h times the fastest rate about 1.5) the bounded terms are about a
+// twelfth of the whole series' swing.
+constexpr int kExactRangeTerms = 4;
 // The largest forced excursion of a cell along a guard, in units of the guard's scale, and
 // the halvings of a cell spent on it at most (2^-16 of the rate's cell: beyond any physical
 // force on a backlash).
@@ -333,6 +338,13 @@ struct Cell {
     // phi_k . y_ref and r0_k, the scale of its rounding.
     Eigen::Matrix<double, 1, D> swing_row;
     double swing_rest = 0, magnitude_rest = 0;
+    // The same sums over the terms above kExactRangeTerms - 1 alone: with the first
+    // kExactRangeTerms terms summed exactly, they bound the rest (Flow::range).
+    Eigen::Matrix<double, 1, D> tail_row;
+    double tail_rest = 0;
+    // Entry by entry, the magnitudes of the exact terms' packed rows summed: the scale of their
+    // rounding is its dot product with |(z, 1, C_1, S_1, ...)|.
+    std::vector<double> head_magnitude;
     // The same terms packed row by row, term k's row being (phi_k, r0_k, rc_1k, rs_1k, ...,
     // rc_jk, rs_jk): term k is its row's dot product with (z, 1, C_1, S_1, ...), which reads
     // one contiguous table (Flow::functional_series).
@@ -636,15 +648,21 @@ void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<Linear
       }
     }
     f.swing_row = R::Zero(n);
+    f.tail_row = R::Zero(n);
     for (int k = 1; k <= p; ++k) {
       f.swing_row += f.phi[k].cwiseAbs();
       const double at_ref = f.phi[k].dot(y_ref);
-      f.swing_rest += std::abs(at_ref + f.r0[k]);
+      double rest = std::abs(at_ref + f.r0[k]);
       f.magnitude_rest += f.phi[k].cwiseAbs().dot(y_ref.cwiseAbs()) + std::abs(f.r0[k]);
       for (std::size_t j = 0; j < nf; ++j) {
         const double forced = std::abs(f.rc[j][k]) + std::abs(f.rs[j][k]);
-        f.swing_rest += forced;
+        rest += forced;
         f.magnitude_rest += forced;
+      }
+      f.swing_rest += rest;
+      if (k >= kExactRangeTerms) {
+        f.tail_row += f.phi[k].cwiseAbs();
+        f.tail_rest += rest;
       }
     }
     // The packed rows: the frequencies without a phasor enter r0 at this cell's phase.
@@ -668,6 +686,10 @@ void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<Linear
         row[n + 2 + 2 * i] = f.rs[j][k];
       }
     }
+    f.head_magnitude.assign(width, 0.0);
+    for (int k = 0; k <= std::min(p, kExactRangeTerms - 1); ++k)
+      for (std::size_t c = 0; c < width; ++c)
+        f.head_magnitude[c] += std::abs(f.packed[width * static_cast<std::size_t>(k) + c]);
     out.push_back(std::move(f));
   }
 }
@@ -1425,6 +1447,32 @@ struct Cursor {
   std::int64_t since_resync = 0;
 };
 
+// The least and greatest value of c0 + c1 x + c2 x^2 + c3 x^3 over [a, b]: the ends and the
+// real roots of the derivative inside.
+inline void cubic_range(const std::array<double, 4>& c, double a, double b, double& low,
+                        double& high) {
+  const auto at = [&](double x) { return c[0] + x * (c[1] + x * (c[2] + x * c[3])); };
+  low = std::min(at(a), at(b));
+  high = std::max(at(a), at(b));
+  const auto consider = [&](double x) {
+    if (!(x > a && x < b)) return;
+    const double v = at(x);
+    low = std::min(low, v);
+    high = std::max(high, v);
+  };
+  // 3 c3 x^2 + 2 c2 x + c1 = 0, the roots in the form that keeps their precision.
+  const double qa = 3 * c[3], qb = 2 * c[2], qc = c[1];
+  if (qa == 0) {
+    if (qb != 0) consider(-qc / qb);
+    return;
+  }
+  const double disc = qb * qb - 4 * qa * qc;
+  if (disc < 0) return;
+  const double q = -0.5 * (qb + std::copysign(std::sqrt(disc), qb));
+  consider(q / qa);
+  if (q != 0) consider(qc / q);
+}
+
 template <int D>
 class Flow final : public CellView {
   using M = Eigen::Matrix<double, D, D>;
@@ -1660,7 +1708,7 @@ class Flow final : public CellView {
     const int id = static_cast<int>(sys_.regions[cur_.region].guards.size()) + observable;
     if (rc.functionals_cached) {
       // The cell's range first: most cells cannot hold a new extreme.
-      regions_.with_observables(cur_.region);
+      observables_ready();
       double low = 0, high = 0;
       functional_range(id, low, high);
       if (maximum ? !(high > beyond) : !(low < beyond)) return false;
@@ -1687,6 +1735,78 @@ class Flow final : public CellView {
     return true;
   }
 
+  // The series' first kExactRangeTerms terms (a cubic) exactly over the stretch, the others
+  // bounded by their magnitudes (Cell::Functional::tail_row, tail_rest) times x_end^4.
+  bool range(int observable, double& low, double& high) const override {
+    const RegionCells<D>& rc = *rc_;
+    if (!rc.functionals_cached) return false;
+    observables_ready();
+    const Cell<D>& cell = rc.cells[cur_.k];
+    const typename Cell<D>::Functional& f = cell.observable_fn[observable];
+    const std::size_t width = packed_stretch_state(rc);
+    const std::vector<double>& w = packed_state_;
+    std::array<double, kExactRangeTerms> c{};
+    const double* row = f.packed.data();
+    for (int k = 0; k <= std::min(cell.order, kExactRangeTerms - 1); ++k, row += width) {
+      double v = 0;
+      for (std::size_t i = 0; i < width; ++i) v += row[i] * w[i];
+      c[static_cast<std::size_t>(k)] = v;
+    }
+    double magnitude = 0;
+    for (std::size_t i = 0; i < width; ++i) magnitude += f.head_magnitude[i] * std::abs(w[i]);
+    double tail = f.tail_rest;
+    for (Eigen::Index i = 0; i < cur_.z.size(); ++i)
+      tail += f.tail_row[i] * std::abs(cur_.z[i] - rc.y_ref[i]);
+    const double x0 = std::clamp((t_begin_s - cur_.tm) / rc.h, 0.0, 1.0);
+    const double x1 = std::clamp((t_end_s - cur_.tm) / rc.h, x0, 1.0);
+    tail *= (x1 * x1) * (x1 * x1);
+    cubic_range(c, x0, x1, low, high);
+    const double reach = tail + kRangeRounding * (magnitude + tail);
+    low -= reach;
+    high += reach;
+    return true;
+  }
+
+  void keep(KeptStretches& kept) const override {
+    const std::size_t at = kept.values.size(), n = static_cast<std::size_t>(n_);
+    kept.stretches.push_back({t_begin_s, t_end_s, cur_.region, cur_.m, at});
+    kept.values.resize(at + n + 2 * cur_.C.size());
+    double* v = kept.values.data() + at;
+    for (std::size_t i = 0; i < n; ++i) v[i] = cur_.z[static_cast<Eigen::Index>(i)];
+    v += n;
+    for (std::size_t j = 0; j < cur_.C.size(); ++j) {
+      v[j] = cur_.C[j];
+      v[cur_.C.size() + j] = cur_.S[j];
+    }
+  }
+
+  // Makes this the view of kept stretch i (ExactEngine::revisit): the cursor as it was when the
+  // stretch was kept. Bounds are not kept.
+ public:
+  void load(const KeptStretches& kept, std::size_t i) {
+    const KeptStretches::Stretch& s = kept.stretches[i];
+    rc_ = &regions_.get(s.region);
+    const RegionCells<D>& rc = *rc_;
+    cur_.region = s.region;
+    cur_.m = s.cell;
+    cur_.tm = static_cast<double>(s.cell) * rc.h;
+    cur_.k = static_cast<int>(((s.cell % rc.K) + rc.K) % rc.K);
+    const double* v = kept.values.data() + s.values;
+    cur_.z = Eigen::Map<const V>(v, n_);
+    v += n_;
+    const std::size_t nf = rc.forced.size();
+    cur_.C.assign(v, v + nf);
+    cur_.S.assign(v + nf, v + 2 * nf);
+    coeffs_ready_ = false;
+    t_begin_s = s.t_begin_s;
+    t_end_s = s.t_end_s;
+    this->region = s.region;
+    lower = nullptr;
+    upper = nullptr;
+    ++stretches_;  // extreme's series cache is for the stretch before
+  }
+
+ private:
   // The highest term a sample at x (in [0, 1]) needs: the least K with
   // sum_{k>K} x^k term_weight[k] <= the tolerance the cell was summed to.
   int sample_order(const Cell<D>& cell, double x) const {
@@ -2001,6 +2121,43 @@ class Flow final : public CellView {
     high = g0 + reach;
   }
 
+  // (z, 1, C_1, S_1, ...) of the current cell into packed_state_, the phasors those the
+  // region's cached forms read (RegionCells::phasor_forced); its width.
+  std::size_t pack_state(const RegionCells<D>& rc) const {
+    const std::size_t n = static_cast<std::size_t>(cur_.z.size());
+    const std::size_t width = n + 1 + 2 * rc.phasor_forced.size();
+    std::vector<double>& w = packed_state_;
+    w.resize(width);
+    for (std::size_t i = 0; i < n; ++i) w[i] = cur_.z[static_cast<Eigen::Index>(i)];
+    w[n] = 1;
+    for (std::size_t i = 0; i < rc.phasor_forced.size(); ++i) {
+      const auto j = static_cast<std::size_t>(rc.phasor_forced[i]);
+      w[n + 1 + 2 * i] = cur_.C[j];
+      w[n + 2 + 2 * i] = cur_.S[j];
+    }
+    return width;
+  }
+
+  // pack_state once a stretch for range (nothing else packs another cursor's state
+  // between two calls within one stretch; others repack without asking).
+  std::size_t packed_stretch_state(const RegionCells<D>& rc) const {
+    if (packed_stretch_ == stretches_)
+      return static_cast<std::size_t>(n_) + 1 + 2 * rc.phasor_forced.size();
+    packed_stretch_ = stretches_;
+    return pack_state(rc);
+  }
+
+  // The current region's observable forms built (LazyRegions::with_observables), asked of the
+  // regions once per region and flow.
+  void observables_ready() const {
+    if (observables_ready_.empty()) observables_ready_.assign(sys_.regions.size(), 0);
+    char& ready = observables_ready_[static_cast<std::size_t>(cur_.region)];
+    if (!ready) {
+      regions_.with_observables(cur_.region);
+      ready = 1;
+    }
+  }
+
   // The series of guard i over the current cell, plus `slack`, into gc_.
   void guard_series(int i, double slack) { functional_series(i, slack, gc_); }
 
@@ -2013,22 +2170,13 @@ class Flow final : public CellView {
     gc.resize(p + 1);
     const LinearRegion& reg = sys_.regions[cur_.region];
     const int guards = static_cast<int>(reg.guards.size());
-    if (rc.functionals_cached && id >= guards) regions_.with_observables(cur_.region);
+    if (rc.functionals_cached && id >= guards) observables_ready();
     if (rc.functionals_cached) {
       const typename Cell<D>::Functional& f =
           id < guards ? cell.fn[id] : cell.observable_fn[id - guards];
       // Each term a dot product of its packed row with (z, 1, C_1, S_1, ...).
-      const std::size_t n = static_cast<std::size_t>(cur_.z.size());
-      const std::size_t width = n + 1 + 2 * rc.phasor_forced.size();
-      std::vector<double>& w = packed_state_;
-      w.resize(width);
-      for (std::size_t i = 0; i < n; ++i) w[i] = cur_.z[static_cast<Eigen::Index>(i)];
-      w[n] = 1;
-      for (std::size_t i = 0; i < rc.phasor_forced.size(); ++i) {
-        const auto j = static_cast<std::size_t>(rc.phasor_forced[i]);
-        w[n + 1 + 2 * i] = cur_.C[j];
-        w[n + 2 + 2 * i] = cur_.S[j];
-      }
+      const std::size_t width = pack_state(rc);
+      const std::vector<double>& w = packed_state_;
       const double* row = f.packed.data();
       for (int k = 0; k <= p; ++k, row += width) {
         double v = 0;
@@ -2061,7 +2209,9 @@ class Flow final : public CellView {
   double tol_;  // the truncation the cells were summed to
   mutable RootFinder roots_;
   mutable std::vector<double> oc_;
-  mutable std::vector<double> packed_state_;  // (z, 1, C_1, S_1, ...): functional_series' scratch
+  mutable std::vector<double> packed_state_;     // (z, 1, C_1, S_1, ...): pack_state's
+  mutable std::vector<char> observables_ready_;  // per region: observables_ready's
+  mutable std::int64_t packed_stretch_ = -1;     // the stretch packed_stretch_state packed
   // The stretches handed to on_cell so far, and the observable series last formed (for which
   // stretch, of which functional id): extreme's cache.
   std::int64_t stretches_ = 0;
@@ -2098,6 +2248,25 @@ FlowResult ExactEngine::flow(double t0_s, const Vector& y0, int region, double t
   }
   Flow<Eigen::Dynamic> f(I.sys, *I.general, I.opt);
   return f.run(t0_s, y0, region, t1_s, output, observer, jacobian);
+}
+
+void ExactEngine::revisit(const KeptStretches& kept, const std::vector<std::size_t>& order,
+                          const std::function<bool(std::size_t, const CellView&)>& look) const {
+  const Impl& I = *impl_;
+  const auto each = [&](auto& flow) {
+    for (std::size_t i : order) {
+      assert(i < kept.size());
+      flow.load(kept, i);
+      if (!look(i, flow)) return;
+    }
+  };
+  if (I.fixed) {
+    Flow<2> f(I.sys, *I.fixed, I.opt);
+    each(f);
+    return;
+  }
+  Flow<Eigen::Dynamic> f(I.sys, *I.general, I.opt);
+  each(f);
 }
 
 }  // namespace geardyn::ode

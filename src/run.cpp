@@ -124,7 +124,8 @@ Solver::Solver(const GearPairModel& model, const SolverData& s, double period_s)
 Solver::~Solver() = default;
 
 ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
-                                    const ode::OutputGrid& grid, RunReader& reader) const {
+                                    const ode::OutputGrid& grid, RunReader& reader,
+                                    CellExtremes* extremes) const {
   switch (s_.method) {
     case Method::kNewmark:
       return ode::integrate_newmark(model_, initial, t1, dt_, grid, reader);
@@ -133,9 +134,14 @@ ode::IntegrationSummary Solver::run(const ode::State& initial, double t1,
     case Method::kExact:
       break;
   }
-  RunFlowObserver observer(model_, reader, grid);
-  return summary(engine_->flow(initial.t, to_vector(initial),
-                               initial.region - GearPairModel::kFirstRegion, t1, grid, observer));
+  std::optional<CellExtremes> own;
+  if (!extremes) extremes = &own.emplace(model_, reader, *engine_);
+  RunFlowObserver observer(model_, reader, grid, *extremes);
+  const ode::FlowResult flow =
+      engine_->flow(initial.t, to_vector(initial), initial.region - GearPairModel::kFirstRegion, t1,
+                    grid, observer);
+  if (own) own->finish();
+  return summary(flow);
 }
 
 ode::Dopri5Options Solver::dopri5_options() const {
@@ -331,6 +337,10 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
   out.time_step_s = solver.time_step_s();
   reader.reserve_samples(static_cast<std::size_t>(std::max<std::int64_t>(0, grid.count)));
 
+  // One deferred search of the cells' extremes for the pieces between two marks.
+  std::optional<CellExtremes> extremes;
+  if (solver.engine()) extremes.emplace(model, reader, *solver.engine());
+  CellExtremes* deferred = extremes ? &*extremes : nullptr;
   SectionSeries sections(p.backlash_m, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
   ode::State s = initial;
   std::int64_t sampled = 0;  // grid samples emitted
@@ -342,7 +352,7 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
   const auto advance = [&](double stop) {
     const std::int64_t until = stop < t1 ? grid.count_until(stop) : grid.count;
     const ode::IntegrationSummary piece =
-        solver.run(s, stop, grid.stretch(sampled, std::max(until, sampled)), reader);
+        solver.run(s, stop, grid.stretch(sampled, std::max(until, sampled)), reader, deferred);
     sampled = std::max(until, sampled);
     total.termination = piece.termination;
     total.message = piece.message;
@@ -361,8 +371,12 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
     }
     return true;
   };
-  const SteadyStart start =
-      integrate_watching(initial.t, t1, period, judge, advance, [&](double t) { reader.mark(t); });
+  const auto mark = [&](double t) {
+    if (deferred) deferred->finish();  // the stretches before t belong to the whole alone
+    reader.mark(t);
+  };
+  const SteadyStart start = integrate_watching(initial.t, t1, period, judge, advance, mark);
+  if (deferred) deferred->finish();
   static_cast<SteadyStart&>(out.steady) = start;
   if (start.marked) out.steady.reading = reader.part_reading();
   return out;

@@ -172,17 +172,56 @@ class RunReader {
   Timeseries samples_;
 };
 
+// The extremes of delta and F_G inside the exact engine's cells for a RunReader, found exactly
+// (a search on the cell's polynomial) so that the readings do not depend on the engine's cell
+// length, and deferred: a stretch whose bounds leave room for an extreme beyond those seen is
+// kept (ode::KeptStretches) with its bounds (CellView::range), and finish() searches the kept
+// stretches in the order of their bounds, each only while its bound still reaches the best
+// value found. A response
+// whose crests each beat the last (a steady part that still drifts) is then searched at a few
+// crests, not at every one.
+class CellExtremes {
+ public:
+  CellExtremes(const GearPairModel& model, RunReader& reader, const ode::ExactEngine& engine);
+  // Looks at a stretch inside the engine's on_cell: kept if it may hold a new extreme.
+  void look(const ode::CellView& cell);
+  // Whether bounds of the state over a span leave room for an extreme beyond those seen.
+  bool room(const ode::CellView& span) const;
+  // Searches the kept stretches, so that the reader holds every extreme of the flows looked
+  // at: to be called before the reader is marked or read.
+  void finish();
+
+ private:
+  // The extremes in the order max delta, min delta, max F, min F.
+  using Four = std::array<double, 4>;
+  // Bounds of the four over a stretch in `engine_region` from those of delta and delta'.
+  Four bounds_from_state(int engine_region, double dlo, double dhi, double vlo, double vhi) const;
+  Four seen() const;  // the reader's extremes so far
+  static bool beyond(int q, double bound, double seen) {
+    return q % 2 == 0 ? bound > seen : bound < seen;
+  }
+  static bool room(const Four& bound, const Four& seen);
+
+  const GearPairModel& model_;
+  RunReader& reader_;
+  const ode::ExactEngine& engine_;
+  double k_min_, k_max_;                      // bounds of k(t)
+  ode::Vector point_ = ode::Vector::Zero(2);  // a state inside a cell
+  ode::KeptStretches kept_;
+  std::vector<Four> kept_bounds_;   // of each kept stretch
+  std::vector<std::size_t> order_;  // finish's scratch: the stretches to search
+};
+
 // The exact engine's observer for a run of the gear model: passes its steps, events and samples
-// to a RunReader, and finds the extremes of delta and F_G inside a cell where the cell's bounds
-// say that one may lie beyond those seen so far (a search on the cell's polynomial), so that
-// the readings do not depend on the engine's cell length.
+// to a RunReader and its cells to a CellExtremes.
 class RunFlowObserver final : public ode::FlowObserver {
  public:
   // `grid` is the output grid of the flow: the inputs at its times are rotated, not evaluated.
-  RunFlowObserver(const GearPairModel& model, RunReader& reader, const ode::OutputGrid& grid);
-  void on_cell(const ode::CellView& cell) override;
+  RunFlowObserver(const GearPairModel& model, RunReader& reader, const ode::OutputGrid& grid,
+                  CellExtremes& extremes);
+  void on_cell(const ode::CellView& cell) override { extremes_.look(cell); }
   // A span needs detail when its bounds leave room for a new extreme.
-  bool needs_detail(const ode::CellView& span) override;
+  bool needs_detail(const ode::CellView& span) override { return extremes_.room(span); }
   // The extremes at a step's end were looked at by on_cell.
   void on_step(double t_s, const ode::Vector& /*y*/, int region) override {
     reader_.on_time(t_s, region + GearPairModel::kFirstRegion);
@@ -196,18 +235,12 @@ class RunFlowObserver final : public ode::FlowObserver {
   bool on_progress(double t_s) override { return reader_.on_progress(t_s); }
 
  private:
-  // Whether bounds of delta and delta' over a stretch leave room for an extreme beyond those
-  // seen; `want` says which.
-  bool room_for_extremes(int engine_region, double dlo, double dhi, double vlo, double vhi,
-                         std::array<bool, 4>& want) const;
   static ode::State state(double t_s, const ode::Vector& y, int region) {
     return {t_s, y[0], y[1], 0.0, region + GearPairModel::kFirstRegion};
   }
-  const GearPairModel& model_;
   RunReader& reader_;
-  double k_min_, k_max_;  // bounds of k(t)
+  CellExtremes& extremes_;
   GearPairModel::DriveGrid sample_drive_;
-  ode::Vector point_ = ode::Vector::Zero(2);  // a state inside a cell
 };
 
 }  // namespace geardyn

@@ -36,7 +36,9 @@
 // Termination::kNoProgress and a message, never a hang); the observer may cancel.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -68,6 +70,8 @@ struct EngineOptions {
   std::string validate() const;
 };
 
+struct KeptStretches;
+
 // Bounds of the state over a stretch of one cell, and its value anywhere inside (valid until
 // the observer call returns).
 class CellView {
@@ -82,6 +86,13 @@ class CellView {
   // minimum) over [t_begin, t_end]; if so its extreme there (value, time), exact to rounding.
   virtual bool extreme(int observable, bool maximum, double beyond, double& value,
                        double& t_s) const = 0;
+  // Bounds of the region's observable i over the stretch where the region gives them for a
+  // few products (its cells cache their forms: periodic or constant coefficients): the series'
+  // first terms summed exactly, the rest bounded; tighter than those of lower and upper. False,
+  // and nothing set, otherwise.
+  virtual bool range(int observable, double& low, double& high) const = 0;
+  // Appends the stretch to `kept` (ExactEngine::revisit looks at it after the call returns).
+  virtual void keep(KeptStretches& kept) const = 0;
 
  protected:
   ~CellView() = default;
@@ -105,6 +116,29 @@ class FlowObserver {
   virtual void on_sample(double /*t_s*/, const Vector& /*y*/, int /*region*/) {}
   // Now and then; false cancels the flow.
   virtual bool on_progress(double /*t_s*/) { return true; }
+};
+
+// Stretches kept from flows (CellView::keep) to be looked at after them (ExactEngine::revisit)
+// as on_cell would have: an observer that wants only the greatest of many stretches' extremes
+// keeps its candidates and, at the end, searches only those whose range still reaches the best
+// value found. Filled by CellView::keep alone; a flat store, so that keeping allocates only as
+// it grows.
+struct KeptStretches {
+  struct Stretch {
+    double t_begin_s, t_end_s;
+    int region;
+    std::int64_t cell;   // the cell's index on the region's grid (t_m = cell h)
+    std::size_t values;  // where the cell's start state and forcing phases begin in `values`
+  };
+  std::vector<Stretch> stretches;
+  // Per stretch: the state its cell's series start from (the system's dimension), then cos and
+  // sin of each of its region's forced frequencies at the cell's start.
+  std::vector<double> values;
+  std::size_t size() const { return stretches.size(); }
+  void clear() {
+    stretches.clear();
+    values.clear();
+  }
 };
 
 struct FlowEvent {
@@ -147,6 +181,13 @@ class ExactEngine {
   // numerical failure or cancellation is reported in the result, never thrown.
   FlowResult flow(double t0_s, const Vector& y0, int region, double t1_s, const OutputGrid& output,
                   FlowObserver& observer, bool jacobian = false) const;
+
+  // Hands `look` the kept stretches `order` names (indices into kept, each kept from a flow of
+  // this engine), in that order, with the index and the CellView on_cell had (state_at, extreme
+  // and range as there; lower and upper are not kept: null), until `look` returns false. May be
+  // called from inside an observer's call of a flow of this engine.
+  void revisit(const KeptStretches& kept, const std::vector<std::size_t>& order,
+               const std::function<bool(std::size_t, const CellView&)>& look) const;
 
  private:
   struct Impl;

@@ -35,7 +35,7 @@ using Matrix = Eigen::MatrixXd;
 // terms. `cos` and `sin` are either empty (no time dependence) or hold one entry per frequency.
 template <class T>
 struct FourierTerms {
-  T constant;
+  T constant{};  // zero for a scalar; an Eigen type is sized by its user
   std::vector<T> cos, sin;
   bool varies() const { return !cos.empty(); }
 };

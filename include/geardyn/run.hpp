@@ -110,9 +110,12 @@ class Solver {
   Solver(const GearPairModel& model, const SolverData& s, double period_s = 0);
   ~Solver();
 
-  // From `initial` to t1, samples on `grid`, read by `reader`.
+  // From `initial` to t1, samples on `grid`, read by `reader`. With the exact engine the
+  // extremes inside its cells are searched at the end of the flow, or, given `extremes` (of
+  // this solver's engine and `reader`), left to it: the caller's to finish, so that one search
+  // serves several pieces of a run.
   ode::IntegrationSummary run(const ode::State& initial, double t1, const ode::OutputGrid& grid,
-                              RunReader& reader) const;
+                              RunReader& reader, CellExtremes* extremes = nullptr) const;
   // From `initial` to t1 with nothing read (a settling phase): the end state and the outcome.
   ode::IntegrationSummary advance(const ode::State& initial, double t1) const;
   // The Newmark step actually taken (0 for the other methods).
