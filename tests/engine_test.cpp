@@ -615,6 +615,16 @@ const geardyn::Case& paper_case(const char* id) {
   throw std::invalid_argument(id);
 }
 
+// The stretches of a gear model's flow from rest mid-backlash over [0, t1].
+StretchLog logged_flow(const ExactEngine& e, double t1) {
+  StretchLog log;
+  const FlowResult r =
+      e.flow(0, Vector::Zero(2), geardyn::kSeparated - geardyn::GearPairModel::kFirstRegion, t1,
+             OutputGrid{}, log);
+  EXPECT_TRUE(r.ok()) << r.message;
+  return log;
+}
+
 TEST(ExactEngine, KeptStretchesAreLookedAtAfterTheFlowAsInsideIt) {
   // Every stretch of a rattling paper case (fig4c) and a drifting one in contact (fig5a) kept
   // inside the flow and revisited after it: the same region and times, and the same extremes,
@@ -622,11 +632,7 @@ TEST(ExactEngine, KeptStretchesAreLookedAtAfterTheFlowAsInsideIt) {
   for (const char* id : {"fig4c", "fig5a"}) {
     const geardyn::GearPairModel model = geardyn::build_model(paper_case(id));
     const ExactEngine e(model.linear_system());
-    StretchLog log;
-    const FlowResult r =
-        e.flow(0, Vector::Zero(2), geardyn::kSeparated - geardyn::GearPairModel::kFirstRegion, 0.01,
-               OutputGrid{}, log);
-    ASSERT_TRUE(r.ok()) << r.message;
+    const StretchLog log = logged_flow(e, 0.01);
     ASSERT_EQ(log.kept.size(), log.seen.size());
     ASSERT_GT(log.kept.size(), 100u) << id;
     std::vector<std::size_t> order(log.kept.size());
@@ -667,11 +673,7 @@ TEST(ExactEngine, AnObservablesRangeHoldsItsExtremesOverEveryStretch) {
   for (const char* id : {"fig4c", "fig5a", "fig6c"}) {
     const geardyn::GearPairModel model = geardyn::build_model(paper_case(id));
     const ExactEngine e(model.linear_system());
-    StretchLog log;
-    const FlowResult r =
-        e.flow(0, Vector::Zero(2), geardyn::kSeparated - geardyn::GearPairModel::kFirstRegion, 0.02,
-               OutputGrid{}, log);
-    ASSERT_TRUE(r.ok()) << r.message;
+    const StretchLog log = logged_flow(e, 0.02);
     int cut = 0;
     std::array<int, 2> bounds{};
     std::array<double, 2> excess{}, highest{-1e300, -1e300}, lowest{1e300, 1e300};
