@@ -110,9 +110,10 @@ def main(argv=None):
             client.close()
         if cluster is not None:
             cluster.close()
-    from .studies import _atomic_netcdf, report
+    from .data import write_atomically
+    from .studies import report
 
-    _atomic_netcdf(ds, out / "study.nc")
+    write_atomically(out / "study.nc", ds.to_netcdf, ".nc.tmp")
     report(ds, out / "report.html", limits=limits)
     failed = int((ds["failure"] != "").sum()) if "failure" in ds else 0
     print(f"geardyn-study: {ds.sizes['sample']} samples ({ds.attrs['samples_computed']} "

@@ -253,20 +253,65 @@ def save(result, path):
     import tempfile
 
     ds = result if hasattr(result, "to_netcdf") else to_xarray(result)
+    write_atomically(path, ds.to_netcdf, ".nc.tmp")
+
+
+def write_atomically(path, write, suffix):
+    """Writes a file whole or not at all: `write(name)` writes it under a temporary name in the
+    same folder (suffix `suffix`), which then takes the mode a file created in place gets (0666
+    less the umask, not the temporary file's 0600) and is moved onto `path`. A failure removes
+    the temporary file and leaves an earlier file at `path` as it was. Ctrl-C during the write
+    is held back until the file is in place or removed (then KeyboardInterrupt is raised; a
+    write that failed raises its own error instead), so that an interrupted study or save never
+    leaves a partial or stray file."""
+    import os
+    import tempfile
+
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".geardyn-", suffix=".nc.tmp", dir=folder)
-    os.close(fd)
-    try:
-        ds.to_netcdf(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # as a file created in place would be, not mkstemp's 0600
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    with _interrupts_held():
+        fd, tmp = tempfile.mkstemp(prefix=".geardyn-", suffix=suffix, dir=folder)
+        os.close(fd)
+        try:
+            write(tmp)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+            raise
+
+
+class _interrupts_held:
+    """Holds Ctrl-C (SIGINT) back inside the block and raises KeyboardInterrupt at its end if
+    one came. Only the main thread receives signals, and a handler not installed from Python
+    cannot be put back: elsewhere the block runs as it is."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.received = False
+        self.previous = None
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.getsignal(signal.SIGINT)
+            if previous is not None:
+                self.previous = signal.signal(signal.SIGINT, self._receive)
+        return self
+
+    def _receive(self, signum, frame):
+        self.received = True
+
+    def __exit__(self, kind, value, traceback):
+        import signal
+
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+        if self.received and kind is None:
+            raise KeyboardInterrupt
+        return False
 
 
 def load(path):

@@ -12,13 +12,11 @@ a sample's result does not depend on the executor, the number of workers or the 
 import hashlib
 import json
 import math
-import os
 import pathlib
-import tempfile
 
 import numpy as np
 
-from .data import _COLUMNS
+from .data import _COLUMNS, write_atomically
 
 _METHODS = ("monte_carlo", "lhs", "sobol", "saltelli", "grid", "variants")
 _STORE_SPEC = "study.json"
@@ -362,28 +360,6 @@ def _spec(case, design_, analysis, method, seed):
             "inputs": list(design_), "analysis": analysis, "case": case.to_toml()}
 
 
-def _as_created(path):
-    """A temporary file (mode 0600) given the mode a new file gets (0666 less the umask)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(path, 0o666 & ~mask)
-
-
-def _atomic_netcdf(ds, path):
-    """Writes a Dataset to `path` through a temporary file in the same folder and a rename: a
-    crash leaves either the whole file or none."""
-    fd, tmp = tempfile.mkstemp(prefix=".geardyn-", suffix=".nc", dir=path.parent)
-    os.close(fd)
-    try:
-        ds.to_netcdf(tmp)
-        _as_created(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-
-
 class _Store:
     """A folder holding one study: study.json (what it is), batches/ (one NetCDF file per
     completed batch, samples first..last). Only these names are written; the folder's other
@@ -405,9 +381,9 @@ class _Store:
                     "(geardyn-study --resume) continues it")
         else:
             self.batches.mkdir(parents=True, exist_ok=True)
-            tmp = spec_file.with_name(".study.json.tmp")
-            tmp.write_text(json.dumps(spec, indent=1) + "\n")
-            os.replace(tmp, spec_file)
+            text = json.dumps(spec, indent=1) + "\n"
+            write_atomically(spec_file, lambda name: pathlib.Path(name).write_text(text),
+                             ".json.tmp")
         self.batches.mkdir(parents=True, exist_ok=True)
 
     def done(self):
@@ -420,7 +396,8 @@ class _Store:
 
     def write(self, ds):
         first, last = int(ds["sample"][0]), int(ds["sample"][-1])
-        _atomic_netcdf(ds, self.batches / f"samples_{first:08d}_{last:08d}.nc")
+        write_atomically(self.batches / f"samples_{first:08d}_{last:08d}.nc", ds.to_netcdf,
+                         ".nc.tmp")
 
     def read(self):
         import xarray as xr
@@ -823,9 +800,4 @@ def report(ds, path, outputs=None, limits=None):
             "<title>geardyn study</title><style>body{font-family:sans-serif;margin:2em}"
             "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:0.3em}"
             "</style></head><body>\n" + "\n".join(parts) + "\n</body></html>\n")
-    path = pathlib.Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=".geardyn-", suffix=".html", dir=path.parent)
-    with os.fdopen(fd, "w") as out:
-        out.write(text)
-    _as_created(tmp)
-    os.replace(tmp, path)
+    write_atomically(path, lambda name: pathlib.Path(name).write_text(text), ".html.tmp")

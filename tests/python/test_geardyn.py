@@ -613,6 +613,43 @@ def test_save_replaces_the_file_whole_or_not_at_all(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.nc", "thesis.tex"]
 
 
+def test_ctrl_c_during_a_write_is_raised_once_the_file_is_whole(tmp_path):
+    # Ctrl-C (SIGINT) in the middle of a write is held back: the file is finished and moved into
+    # place, then KeyboardInterrupt is raised, and no temporary file stays beside the user's. A
+    # write that fails under Ctrl-C leaves the earlier file. (A study interrupted while storing
+    # a batch once left a stray temporary file in its store.)
+    import signal
+
+    from geardyn.data import write_atomically
+
+    (tmp_path / "thesis.tex").write_text("draft")
+    target = tmp_path / "out.txt"
+
+    def interrupted_write(name):
+        with open(name, "w") as f:
+            f.write("first half, ")
+            os.kill(os.getpid(), signal.SIGINT)
+            f.write("second half")
+
+    with pytest.raises(KeyboardInterrupt):
+        write_atomically(target, interrupted_write, ".txt.tmp")
+    assert target.read_text() == "first half, second half"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.txt", "thesis.tex"]
+
+    def failing_write(name):
+        with open(name, "w") as f:
+            f.write("partial")
+            os.kill(os.getpid(), signal.SIGINT)
+            raise OSError("disk full")
+
+    with pytest.raises(OSError):
+        write_atomically(target, failing_write, ".txt.tmp")
+    assert target.read_text() == "first half, second half"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.txt", "thesis.tex"]
+    # Outside a write Ctrl-C is Python's again.
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     # The idler train from its file, from the command line and from a dict built in code: the
     # same readings per mesh; its xarray has a mesh dimension.
