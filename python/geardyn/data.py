@@ -249,9 +249,6 @@ def save(result, path):
         temporary name in the same folder and moved into place whole, so a failure leaves an
         earlier file of that name as it was.
     """
-    import os
-    import tempfile
-
     ds = result if hasattr(result, "to_netcdf") else to_xarray(result)
     write_atomically(path, ds.to_netcdf, ".nc.tmp")
 
