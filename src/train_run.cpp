@@ -201,7 +201,7 @@ class TrainObserver : public ode::FlowObserver {
 };
 
 // The shortest time scale of the train: its fastest mode in contact or excitation.
-double fastest_period_s(const train::Assembled& a) {
+double shortest_time_scale_s(const train::Assembled& a) {
   double w = 0;
   for (const train::TrainMode& m : train::modes(a)) w = std::max(w, kTwoPi * m.frequency_hz);
   const train::Train& t = a.train();
@@ -297,18 +297,67 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
   return f;
 }
 
-TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
-  const auto wall_start = std::chrono::steady_clock::now();
+TrainSolver::TrainSolver(const Case& c) : case_(c) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
   if (c.solver.method == Method::kNewmark)
     throw InputError(with_origins(
         c,
         "solver.method = \"newmark\": a gear train runs with the exact engine (\"exact\") "
         "or Dormand-Prince with located events (\"dopri5\")"));
-  const train::Assembled a = assembled_train(c);
-  TrainRunResult result;
-  result.input = c;
+  a_ = std::make_unique<train::Assembled>(assembled_train(c));
+  if (c.solver.method == Method::kDopri5) {
+    adaptive_ = a_->linear_system();
+  } else {
+    ode::EngineOptions eo;
+    eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
+    try {
+      engine_ = std::make_unique<ode::ExactEngine>(a_->linear_system(), eo);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("the train's exact engine: ") + e.what());
+    }
+  }
+  fastest_period_s_ = shortest_time_scale_s(*a_);
+  for (const train::TrainMode& m : train::modes(*a_))
+    top_frequency_rad_s_ = std::max(top_frequency_rad_s_, kTwoPi * m.frequency_hz);
+  if (!(top_frequency_rad_s_ > 0)) top_frequency_rad_s_ = kTwoPi / fastest_period_s_;
+}
+
+TrainSolver::~TrainSolver() = default;
+
+ode::Vector TrainSolver::initial_state(InitialCondition initial, double t0_s) const {
+  ode::Vector y = ode::Vector::Zero(2 * static_cast<Eigen::Index>(a_->size()));
+  if (initial == InitialCondition::kStatic) {
+    std::string why;
+    const std::optional<Eigen::VectorXd> rest = static_state(*a_, &why, t0_s);
+    if (!rest) throw InputError(with_origins(case_, "solver.initial = \"static\": " + why));
+    y = *rest;
+  }
+  a_->prescribe(t0_s, y);
+  return y;
+}
+
+ode::FlowResult TrainSolver::flow(double t0_s, const ode::Vector& y0, int region, double t1_s,
+                                  const ode::OutputGrid& grid, ode::FlowObserver& observer) const {
+  if (engine_) return engine_->flow(t0_s, y0, region, t1_s, grid, observer);
+  ode::AdaptiveOptions ao;
+  ao.tolerance = case_.solver.tolerance;
+  return ode::adaptive_flow(*adaptive_, t0_s, y0, region, t1_s, grid, observer, ao);
+}
+
+ode::FlowResult TrainSolver::advance(double t0_s, const ode::Vector& y0, double t1_s) const {
+  ode::FlowObserver nothing;
+  return flow(t0_s, y0, a_->classify(t0_s, y0), t1_s, ode::OutputGrid{}, nothing);
+}
+
+TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s,
+                                 const ode::OutputGrid& grid, double final_from_s,
+                                 std::optional<double> watch_period_s,
+                                 const std::function<bool(double)>& progress,
+                                 ode::Vector* end_state) const {
+  const train::Assembled& a = *a_;
   const train::Train& t = a.train();
+  TrainRunResult result;
+  result.input = case_;
   for (int i = 0; i < a.size(); ++i) {
     result.bodies.push_back(t.bodies[static_cast<std::size_t>(i)].name);
     result.body_speed_hz.push_back(t.reference_speed_hz *
@@ -327,84 +376,31 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
     result.meshes.push_back(r);
   }
 
-  const double t0 = 0, t1 = c.solver.duration_s;
-  const double interval = checked_output_interval_s(c, fastest_period_s(a), "train");
-
-  Eigen::VectorXd y0 = Eigen::VectorXd::Zero(2 * static_cast<Eigen::Index>(a.size()));
-  if (c.solver.initial == InitialCondition::kStatic) {
-    if (!rest)
-      throw InputError(with_origins(c, "solver.initial = \"static\": " + result.static_note));
-    y0 = *static_state(a, nullptr, t0);
-  }
-  a.prescribe(t0, y0);
-
-  const int region = a.classify(t0, y0);
-  const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
-  const ode::OutputGrid grid = ode::make_output_grid(t0, t1, interval);
-  std::unique_ptr<ode::ExactEngine> engine;
-  std::optional<ode::LinearSwitchedSystem> adaptive_system;
-  ode::AdaptiveOptions ao;
-  if (c.solver.method == Method::kDopri5) {
-    adaptive_system = a.linear_system();
-    ao.tolerance = c.solver.tolerance;
-  } else {
-    ode::EngineOptions eo;
-    eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
-    try {
-      engine = std::make_unique<ode::ExactEngine>(a.linear_system(), eo);
-    } catch (const std::invalid_argument& e) {
-      throw InputError(std::string("the train's exact engine: ") + e.what());
-    }
-  }
-  const ode::LinearSwitchedSystem& sys = engine ? engine->system() : *adaptive_system;
-  TrainObserver observer(a, sys, result, t0, t1, final_from, region, options.progress);
-
-  // The steady part is judged on the section by every mesh's d - e and every shaft's twist,
-  // with their rates (SectionSeries: in b and b w, w the highest natural frequency in contact).
-  double w_top = 0;
-  for (const train::TrainMode& m : train::modes(a))
-    w_top = std::max(w_top, kTwoPi * m.frequency_hz);
-  if (!(w_top > 0)) w_top = kTwoPi / fastest_period_s(a);
-  std::vector<SectionSeries> sections;
-  std::vector<HarmonicSeries> errors;
-  double angle_scale = kInf;  // the smallest b / (cos beta_b R) of the meshes, rad
-  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
-    const train::Mesh& x = t.meshes[m];
-    sections.emplace_back(x.backlash_m, w_top, c.solver.tolerance);
-    errors.push_back(a.error_series(static_cast<int>(m)));
-    for (const double r : {x.base_radius_driving_m, x.base_radius_driven_m})
-      angle_scale = std::min(angle_scale, x.backlash_m / (std::cos(x.base_helix_angle_rad) * r));
-  }
-  for (std::size_t k = 0; k < t.shafts.size(); ++k)
-    sections.emplace_back(angle_scale, w_top, c.solver.tolerance);
-  const Eigen::Index n = a.size();
+  const int region = a.classify(t0_s, y0);
+  const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : *adaptive_;
+  TrainObserver observer(a, sys, result, t0_s, t1_s, final_from_s, region, progress);
   FlowPieces pieces(
-      t0, y0, region, t1, grid,
+      t0_s, y0, region, t1_s, grid,
       [&](double from, const ode::Vector& y, int r, double to, const ode::OutputGrid& piece) {
-        return engine ? engine->flow(from, y, r, to, piece, observer)
-                      : ode::adaptive_flow(*adaptive_system, from, y, r, to, piece, observer, ao);
+        return flow(from, y, r, to, piece, observer);
       },
-      options.progress);
-  const auto judge = [&] {
-    const double now = pieces.t_s();
-    const ode::Vector& y = pieces.state();
-    for (std::size_t m = 0; m < t.meshes.size(); ++m) {
-      const Eigen::RowVectorXd v = a.mesh_vector(static_cast<int>(m));
-      sections[m].add(
-          {now, v.dot(y.head(n)) - errors[m](now), v.dot(y.tail(n)) - errors[m].rate(now), 0.0, 0});
-    }
-    for (std::size_t k = 0; k < t.shafts.size(); ++k) {
-      const int i = a.index(t.shafts[k].a), j = a.index(t.shafts[k].b);
-      sections[t.meshes.size() + k].add({now, y(i) - y(j), y(n + i) - y(n + j), 0.0, 0});
-    }
-    return judge_together(sections, kSteadyTolerance);
-  };
-  result.steady = integrate_watching(t0, t1, result.system_period_s.value_or(0), judge,
-                                     std::ref(pieces), [&](double at) { observer.mark(at); });
+      progress);
+  if (watch_period_s) {
+    TrainSections sections(a, top_frequency_rad_s_, case_.solver.tolerance);
+    const auto judge = [&] {
+      sections.add(pieces.t_s(), pieces.state());
+      return sections.judge(kSteadyTolerance);
+    };
+    result.steady = integrate_watching(t0_s, t1_s, *watch_period_s, judge, std::ref(pieces),
+                                       [&](double at) { observer.mark(at); });
+  } else {
+    pieces(t1_s);
+  }
   result.termination = pieces.total().termination;
   result.message = pieces.total().message;
   result.cells = pieces.total().cells;
   result.events = pieces.total().events;
+  if (end_state) *end_state = pieces.state();
   observer.finish();
   for (TrainMeshReading& r : result.meshes) {
     if (r.static_force_n && *r.static_force_n > 0) {
@@ -416,6 +412,53 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
       result.message = fmt::format("mesh '{}': non-finite readings (an overflow)", r.name);
     }
   }
+  return result;
+}
+
+TrainSections::TrainSections(const train::Assembled& a, double top_frequency_rad_s,
+                             double integration_tolerance)
+    : a_(a) {
+  const train::Train& t = a.train();
+  double angle_scale = kInf;  // the smallest b / (cos beta_b R) of the meshes, rad
+  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
+    const train::Mesh& x = t.meshes[m];
+    series_.emplace_back(x.backlash_m, top_frequency_rad_s, integration_tolerance);
+    errors_.push_back(a.error_series(static_cast<int>(m)));
+    for (const double r : {x.base_radius_driving_m, x.base_radius_driven_m})
+      angle_scale = std::min(angle_scale, x.backlash_m / (std::cos(x.base_helix_angle_rad) * r));
+  }
+  for (std::size_t k = 0; k < t.shafts.size(); ++k)
+    series_.emplace_back(angle_scale, top_frequency_rad_s, integration_tolerance);
+}
+
+ode::State TrainSections::mesh(int m, double t_s, const ode::Vector& y) const {
+  const Eigen::Index n = a_.size();
+  const Eigen::RowVectorXd v = a_.mesh_vector(m);
+  const HarmonicSeries& e = errors_[static_cast<std::size_t>(m)];
+  return {t_s, v.dot(y.head(n)) - e(t_s), v.dot(y.tail(n)) - e.rate(t_s), 0.0, 0};
+}
+
+void TrainSections::add(double t_s, const ode::Vector& y) {
+  const train::Train& t = a_.train();
+  const Eigen::Index n = a_.size();
+  for (std::size_t m = 0; m < t.meshes.size(); ++m)
+    series_[m].add(mesh(static_cast<int>(m), t_s, y));
+  for (std::size_t k = 0; k < t.shafts.size(); ++k) {
+    const int i = a_.index(t.shafts[k].a), j = a_.index(t.shafts[k].b);
+    series_[t.meshes.size() + k].add({t_s, y(i) - y(j), y(n + i) - y(n + j), 0.0, 0});
+  }
+}
+
+TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  const TrainSolver solver(c);
+  const double t0 = 0, t1 = c.solver.duration_s;
+  const double interval = checked_output_interval_s(c, solver.fastest_period_s(), "train");
+  const ode::Vector y0 = solver.initial_state(c.solver.initial, t0);
+  const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
+  TrainRunResult result =
+      solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval), final_from,
+                  solver.assembled().system_period_s().value_or(0), options.progress);
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

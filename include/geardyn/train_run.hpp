@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <iosfwd>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -86,6 +87,69 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
                                             std::optional<double> at_s = std::nullopt);
 // Each mesh's force k_m (V theta - b) in such a state.
 std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen::VectorXd& y);
+
+// A train case's integrator (the exact engine with solver.method = "exact", the adaptive one of
+// adaptive.hpp with "dopri5", at solver.tolerance) and its readings over any stretch: a run's
+// window, a sweep point's settling and measurement.
+class TrainSolver {
+ public:
+  // Throws InputError for a case that is no train, "newmark", or a system the exact engine
+  // cannot take.
+  explicit TrainSolver(const Case& c);
+  ~TrainSolver();
+  TrainSolver(const TrainSolver&) = delete;
+  TrainSolver& operator=(const TrainSolver&) = delete;
+
+  const train::Assembled& assembled() const { return *a_; }
+  // The train's shortest time scale (s): its fastest mode in contact or excitation.
+  double fastest_period_s() const { return fastest_period_s_; }
+  // The highest natural frequency in contact (rad/s; the fastest time scale's when no mode
+  // moves): the rate scale of the section's judgement.
+  double top_frequency_rad_s() const { return top_frequency_rad_s_; }
+  // The state solver.initial gives at t0_s, the prescribed bodies as prescribed: "center" at
+  // rest in the middle of every backlash, "static" the static state (static_state; InputError
+  // when there is none).
+  ode::Vector initial_state(InitialCondition initial, double t0_s = 0) const;
+  // From (t0, y0) to t1 with nothing read.
+  ode::FlowResult advance(double t0_s, const ode::Vector& y0, double t1_s) const;
+  // From (t0, y0) to t1, sampled on `grid` and read per mesh (contact separated after
+  // final_from is "sustained"); with watch_period_s (> 0, or 0: no common period) integrated
+  // once while the steady part is sought on the section t0 + k period (integrate_watching),
+  // read beside the whole and giving the dynamic factors. The end state into *end_state when
+  // given; wall_time_s is left 0.
+  TrainRunResult read(double t0_s, const ode::Vector& y0, double t1_s, const ode::OutputGrid& grid,
+                      double final_from_s, std::optional<double> watch_period_s,
+                      const std::function<bool(double)>& progress = {},
+                      ode::Vector* end_state = nullptr) const;
+
+ private:
+  ode::FlowResult flow(double t0_s, const ode::Vector& y0, int region, double t1_s,
+                       const ode::OutputGrid& grid, ode::FlowObserver& observer) const;
+  Case case_;
+  std::unique_ptr<train::Assembled> a_;
+  std::unique_ptr<ode::ExactEngine> engine_;           // "exact"
+  std::optional<ode::LinearSwitchedSystem> adaptive_;  // "dopri5"
+  double fastest_period_s_ = 0, top_frequency_rad_s_ = 0;
+};
+
+// A train's state as the section judges it (steady.hpp): every mesh's d - e and every shaft's
+// twist, with their rates, in the mesh's b (a shaft's: in the smallest b / (cos beta_b R) of the
+// meshes) and b times the highest natural frequency in contact.
+class TrainSections {
+ public:
+  TrainSections(const train::Assembled& a, double top_frequency_rad_s,
+                double integration_tolerance);
+  // The state at the next section time.
+  void add(double t_s, const ode::Vector& y);
+  SteadyVerdict judge(double tolerance) const { return judge_together(series_, tolerance); }
+  // Mesh m's d - e (m) and its rate (m/s) at (t, y).
+  ode::State mesh(int m, double t_s, const ode::Vector& y) const;
+
+ private:
+  const train::Assembled& a_;
+  std::vector<HarmonicSeries> errors_;
+  std::vector<SectionSeries> series_;
+};
 
 // Runs a train case over [0, solver.duration_s] with the exact engine (solver.method = "exact")
 // or the adaptive integrator of adaptive.hpp ("dopri5", at solver.tolerance) from solver.initial
