@@ -658,6 +658,14 @@ void set_element(toml::table& root, const Override& o, const std::string& origin
     }
     if (!member.empty()) {
       toml::table* element = arr->get(index[k])->as_table();
+      // An entry of an array in that table: train.speed[0].acceleration_harmonics[0][0].
+      if (element && member.find('.') == std::string::npos &&
+          member.find('[') != std::string::npos) {
+        Override inner = o;
+        inner.key = member;
+        set_element(*element, inner, origin);
+        return;
+      }
       if (!element || member.find_first_of(".[") != std::string::npos)
         throw InputError(fmt::format(
             "{}: {}[{}] is no table of keys; write e.g. --set train.mesh[0].backlash_um=50", origin,

@@ -609,13 +609,33 @@ const std::vector<TrainKeyInfo>& train_key_list() {
 
 namespace {
 
-// Whether `leaf` is a real number of an element of kind `keys`; nullopt when it is no key.
+// Whether `leaf` is a real number of an element of kind `keys`: a number, or one entry of a
+// list of harmonics (`harmonics[i][j]`, i the harmonic and j its entry, each a real the model
+// reads); nullopt when it is no key.
 template <class E>
 std::optional<bool> real_leaf(const std::vector<ElementKey<E>>& keys, std::string_view leaf) {
-  for (const ElementKey<E>& k : keys)
-    if (k.leaf == leaf)
+  const std::size_t open = leaf.find('[');
+  const std::string_view name = leaf.substr(0, open);
+  for (const ElementKey<E>& k : keys) {
+    if (k.leaf != name) continue;
+    const bool list = std::holds_alternative<std::vector<StiffnessHarmonic> E::*>(k.field) ||
+                      std::holds_alternative<std::vector<ErrorHarmonic> E::*>(k.field) ||
+                      std::holds_alternative<std::vector<OrderHarmonic> E::*>(k.field);
+    if (open == std::string_view::npos)
       return std::holds_alternative<double E::*>(k.field) ||
              std::holds_alternative<std::optional<double> E::*>(k.field);
+    // [i][j]: two indices of digits.
+    std::string_view rest = leaf.substr(open);
+    for (int n = 0; n < 2; ++n) {
+      const std::size_t close = rest.find(']');
+      if (!rest.starts_with('[') || close == std::string_view::npos || close == 1 ||
+          rest.substr(1, close - 1).find_first_not_of("0123456789") != std::string_view::npos)
+        return std::nullopt;
+      rest = rest.substr(close + 1);
+    }
+    if (!rest.empty()) return std::nullopt;
+    return list;
+  }
   return std::nullopt;
 }
 
@@ -639,8 +659,8 @@ std::string train_key_not_sweepable(std::string_view dotted) {
   if (kind == "speed") real = real_leaf(speed_keys(), leaf);
   if (!real) return "unknown key";
   if (!*real)
-    return "not a real number the model reads (names, counts and harmonics' lists are not varied "
-           "by a study)";
+    return "not a real number the model reads (names and counts are not varied by a study; a "
+           "harmonic's entry is, as key[i][j])";
   return {};
 }
 

@@ -170,6 +170,22 @@ TEST(CaseKeys, AStudyTakesTheRealNumbersTheModelReads) {
                           "mesh.stiffness_table", "description"})
     EXPECT_NE(check_sweepable(key).find("not a real number the model reads"), std::string::npos)
         << key;
+  // A train's: its reference speed, an element's real number, one entry of its harmonics.
+  for (const char* key :
+       {"train.reference_speed_hz", "train.mesh[1].backlash_um",
+        "train.speed[0].acceleration_harmonics[0][0]", "train.torque[2].harmonics[1][1]",
+        "train.mesh[0].stiffness_harmonics[0][1]"})
+    EXPECT_EQ(check_sweepable(key), "") << key;
+  for (const char* key : {"train.speed[0].acceleration_harmonics", "train.body[0].name",
+                          "train.body[0].teeth", "train.body[0].name[0][0]"})
+    EXPECT_NE(check_sweepable(key).find("not a real number the model reads"), std::string::npos)
+        << key;
+  for (const char* key :
+       {"train.speed[0].acceleration_harmonics[0]",
+        "train.speed[0].acceleration_harmonics[0][0][0]",
+        "train.speed[0].acceleration_harmonics[a][0]", "train.speed[0].acceleration_harmonics[0][]",
+        "train.mesh[0].shape[0][0]"})
+    EXPECT_NE(check_sweepable(key).find("unknown key"), std::string::npos) << key;
   // Every sweepable key is a number, a pair or harmonics.
   for (const CaseKey& k : case_keys())
     if (k.sweepable) EXPECT_TRUE(numeric(k) && !k.integer()) << k.name;
