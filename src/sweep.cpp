@@ -1,6 +1,7 @@
 #include "geardyn/sweep.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <array>
@@ -9,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -22,6 +24,8 @@
 #include "geardyn/run.hpp"
 #include "geardyn/steady.hpp"
 #include "geardyn/stiffness.hpp"
+#include "geardyn/train_case.hpp"
+#include "geardyn/train_run.hpp"
 #include "shooting.hpp"
 
 namespace geardyn {
@@ -64,12 +68,28 @@ std::optional<RegionResponse> region_response(const CoupledSolver& solver, doubl
   return RegionResponse{r->state, error};
 }
 
-// The state a point hands to the next one of its sequence: the one-degree model's or the
-// coupled model's.
+// The state a point hands to the next one of its sequence: the one-degree model's, or the
+// coordinates and rates of the coupled model or a train.
 struct Carry {
   std::optional<ode::State> state;
-  std::optional<ode::Vector> coupled;
+  std::optional<ode::Vector> coordinates;
 };
+
+// A train's section period: its system period; when nothing varies, its fastest natural period
+// in contact (any period shows rest); when its excitations have no common period
+// (quasi-periodic), its reference body's turn, with *quasi saying why.
+double train_section_period_s(const TrainSolver& solver, std::string* quasi) {
+  std::string why;
+  const std::optional<double> t0 = solver.assembled().system_period_s(&why);
+  if (t0 && *t0 > 0) return *t0;
+  if (t0) return 2 * std::numbers::pi / solver.top_frequency_rad_s();
+  if (quasi)
+    *quasi = fmt::format(
+        "{}: each point runs --max-settle-periods turns of the reference body and is measured "
+        "as it is (not judged steady)",
+        why);
+  return 1.0 / solver.assembled().train().reference_speed_hz;
+}
 
 struct PointJob {
   std::size_t slot;  // index into the result's points
@@ -82,9 +102,39 @@ class PointRunner {
   // Unless a swept key changes the mesh stiffness curve, the stiffness is computed once for the
   // whole sweep (shared_stiffness).
   PointRunner(const Case& base, const SweepOptions& o) : base_(base), o_(o) {
+    if (base.model.form == ModelForm::kTrain) {
+      // A train's meshes come from its own stiffness sources; the mesh read is named.
+      const train::Assembled a = assembled_train(base);
+      for (const train::Mesh& m : a.train().meshes) meshes_.push_back(m.name);
+      const auto it = std::find(meshes_.begin(), meshes_.end(), o.mesh);
+      if (!o.mesh.empty() && it == meshes_.end())
+        throw InputError(
+            fmt::format("--mesh = \"{}\": the train has no mesh of that name; its meshes are {}",
+                        o.mesh, fmt::join(meshes_, ", ")));
+      mesh_ = o.mesh.empty() ? 0 : static_cast<std::size_t>(it - meshes_.begin());
+      return;
+    }
+    if (!o.mesh.empty())
+      throw InputError(fmt::format(
+          "--mesh = \"{}\": names a gear train's mesh; this case (model.form = \"{}\") has "
+          "one mesh",
+          o.mesh, to_string(base.model.form)));
     std::vector<std::string> keys{o.axis.key};
     if (o.axis2) keys.push_back(o.axis2->key);
     stiffness_ = shared_stiffness(base, keys);
+  }
+
+  const std::vector<std::string>& meshes() const { return meshes_; }
+  const std::string& mesh_read() const {
+    static const std::string none;
+    return meshes_.empty() ? none : meshes_[mesh_];
+  }
+  // Why a train's points at these values are not judged steady ("" when they are).
+  std::string period_note_at(double value, double value2) const {
+    std::string note;
+    const Case c = case_at(value, value2);
+    if (c.model.form == ModelForm::kTrain) train_section_period_s(TrainSolver(c), &note);
+    return note;
   }
 
   Case case_at(double value, double value2) const {
@@ -103,6 +153,7 @@ class PointRunner {
   double period_at(double value, double value2) const {
     const Case c = case_at(value, value2);
     if (c.model.form == ModelForm::kCoupled) return coupled_period_s(c);
+    if (c.model.form == ModelForm::kTrain) return train_section_period_s(TrainSolver(c), nullptr);
     return period_s(build_model(c, nullptr, stiffness()));
   }
 
@@ -115,9 +166,19 @@ class PointRunner {
     set(c, o_.axis.key, value, where);
     if (o_.axis2) set(c, o_.axis2->key, value2, where2);
     const std::string both = where2.empty() ? where : where + " with " + where2;
-    const GearPairModel model = build_model(
-        c.model.form == ModelForm::kCoupled ? gear_pair_of(c) : c, nullptr, stiffness());
-    const double period = period_s(model), fastest = fastest_period_s(model.parameters());
+    double period = 0, fastest = 0;
+    if (c.model.form == ModelForm::kTrain) {
+      const TrainSolver solver(c);
+      period = train_section_period_s(solver, nullptr);
+      fastest = solver.fastest_period_s();
+      if (o_.start_static)  // every sequence starts from the static state
+        (void)solver.initial_state(InitialCondition::kStatic);
+    } else {
+      const GearPairModel model = build_model(
+          c.model.form == ModelForm::kCoupled ? gear_pair_of(c) : c, nullptr, stiffness());
+      period = period_s(model);
+      fastest = fastest_period_s(model.parameters());
+    }
     const double periods =
         (static_cast<double>(o_.max_settle_periods) + o_.measure_periods) * period / fastest;
     if (!(periods <= kMaxFastestPeriods))
@@ -140,6 +201,7 @@ class PointRunner {
   SweepPoint run(const PointJob& job, Carry& carry) const {
     const Case c = case_at(job.value, job.value2);
     if (c.model.form == ModelForm::kCoupled) return run_coupled_point(c, job, carry);
+    if (c.model.form == ModelForm::kTrain) return run_train_point(c, job, carry);
     const GearPairModel model = build_model(c, nullptr, stiffness());
     const double period = period_s(model);
     // With Newmark, a whole number of steps per period: block ends fall on period ends.
@@ -224,6 +286,32 @@ class PointRunner {
     return k;
   }
 
+  // settle() for a model whose state is a vector (the coupled model, a train): from (t, y) to
+  // the section times k period (k T0 from the point's start, as the one-degree point's), each a
+  // flow of solver.advance(t, y, t_next) after which seen(flow) hears it with (t, y) moved on;
+  // a numerical failure into `failure`, which ends the settling. The periods run.
+  template <class FlowSolver, class Judge, class Seen>
+  int settle_flows(const FlowSolver& solver, double period, double& t, ode::Vector& y,
+                   Judge&& judge, SteadyVerdict& verdict, std::optional<ode::FlowResult>& failure,
+                   Seen&& seen) const {
+    int sections = 0;
+    const auto to_section = [&](int periods) {
+      sections += periods;
+      const double t_next = sections * period;
+      ode::FlowResult f = solver.advance(t, y, t_next);
+      if (!f.ok()) {
+        failure = std::move(f);
+        return false;
+      }
+      y = f.state;
+      t = t_next;
+      seen(f);
+      return true;
+    };
+    return settle(
+        judge, verdict, [&] { return to_section(1); }, to_section);
+  }
+
   // A numerical failure is the point's result: kept with its reason, the sequence goes on
   // from the initial condition.
   static SweepPoint failed(const PointJob& job, Carry& carry, const char* termination,
@@ -249,9 +337,9 @@ class PointRunner {
     const double period = coupled_period_s(c);
     // The previous point's end state, unless a shaft came or went (another set of coordinates).
     const bool same =
-        carry.coupled && carry.coupled->size() == 2 * solver.model().parameters().size();
+        carry.coordinates && carry.coordinates->size() == 2 * solver.model().parameters().size();
     ode::Vector y =
-        same ? *carry.coupled
+        same ? *carry.coordinates
              : solver.initial_state(o_.start_static ? InitialCondition::kStatic : c.solver.initial);
     const double b = p.backlash_m;
     const double w_n = std::sqrt(p.cos_base_helix * p.cos_base_helix * p.stiffness_n_per_m.offset /
@@ -280,24 +368,12 @@ class PointRunner {
     };
     SteadyVerdict verdict;
     std::optional<ode::FlowResult> failure;
-    int sections = 0;  // section times k T0, as the one-degree point's
-    const auto to_section = [&](int periods) {
-      sections += periods;
-      const double t_next = sections * period;
-      ode::FlowResult f = solver.advance(t, y, t_next);
-      if (!f.ok()) {
-        failure = std::move(f);
-        return false;
-      }
-      // Without events over the flow, its last period had none.
-      steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
-      y = f.state;
-      t = t_next;
-      add();
-      return true;
-    };
-    const int k = settle(
-        judge, verdict, [&] { return to_section(1); }, to_section);
+    const int k =
+        settle_flows(solver, period, t, y, judge, verdict, failure, [&](const ode::FlowResult& f) {
+          // Without events over the flow, its last period had none.
+          steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
+          add();
+        });
     // A failed coupled point keeps its bearing columns, as NaN.
     const auto failed_coupled = [&](const char* termination, const std::string& message) {
       SweepPoint pt = failed(job, carry, termination, message);
@@ -364,7 +440,128 @@ class PointRunner {
       (*pt.bearings)[i] = {
           r.max_bearing_force_n[i], r.bearing_factor[i], r.max_axial_force_n[i], r.axial_factor[i],
           r.bearing[i].present ? static_cast<double>(r.bearing[i].impacts) / m : kNaN};
-    carry.coupled = end;
+    carry.coordinates = end;
+    return pt;
+  }
+
+  // A point of a gear train: settled on the section by every mesh's d - e and every shaft's
+  // twist with their rates (TrainSections), measured by the train's reading (train_run.hpp),
+  // each mesh into SweepPoint::meshes and the mesh read (SweepOptions::mesh) into the point's
+  // own statistics, as the one-degree point's (F / (b k_m) with the mesh's mean stiffness).
+  SweepPoint run_train_point(const Case& c, const PointJob& job, Carry& carry) const {
+    const TrainSolver solver(c);
+    const train::Assembled& a = solver.assembled();
+    std::string quasi;
+    const double period = train_section_period_s(solver, &quasi);
+    const auto failed_train = [&](const char* termination, const std::string& message) {
+      SweepPoint pt = failed(job, carry, termination, message);
+      MeshReading nan;
+      for (const MeshColumn& col : kMeshColumns) nan.*col.member = kNaN;
+      pt.meshes.assign(meshes_.size(), nan);
+      return pt;
+    };
+    // The previous point's end state at a section time (every excitation back at its phase 0),
+    // its prescribed bodies as this point prescribes them.
+    ode::Vector y;
+    if (carry.coordinates && carry.coordinates->size() == 2 * static_cast<Eigen::Index>(a.size())) {
+      y = *carry.coordinates;
+      a.prescribe(0.0, y);
+    } else {
+      try {
+        y = solver.initial_state(o_.start_static ? InitialCondition::kStatic : c.solver.initial);
+      } catch (const InputError& e) {
+        return failed_train("no start", e.what());
+      }
+    }
+    TrainSections section(a, solver.top_frequency_rad_s(), c.solver.tolerance);
+    double t = 0;
+    section.add(t, y);
+    // Without a common period there is no section to be steady on.
+    const auto judge = [&] {
+      return quasi.empty() ? section.judge(o_.steady_tolerance)
+                           : SteadyVerdict{0, std::numeric_limits<double>::infinity()};
+    };
+    SteadyVerdict verdict;
+    std::optional<ode::FlowResult> failure;
+    const int k = settle_flows(solver, period, t, y, judge, verdict, failure,
+                               [&](const ode::FlowResult&) { section.add(t, y); });
+    if (failure) return failed_train(ode::to_string(failure->termination), failure->message);
+    const int q = std::max(verdict.period_multiple, 1);
+    const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
+    const double t1 = t + m * period;
+    ode::Vector end;
+    const TrainRunResult r =
+        solver.read(t, y, t1, ode::OutputGrid{t, period / spp, static_cast<std::int64_t>(m) * spp},
+                    t1 - period, std::nullopt, {}, &end);
+    if (!r.ok()) return failed_train(ode::to_string(r.termination), r.message);
+    SweepPoint pt;
+    pt.direction = job.direction;
+    pt.value = job.value;
+    pt.value2 = job.value2;
+    const TrainSamples& smp = r.samples;
+    const double count = static_cast<double>(smp.t_s.size());
+    bool contact_only = true;  // every mesh in contact throughout: the train is linear there
+    for (std::size_t i = 0; i < r.meshes.size(); ++i) {
+      const TrainMeshReading& x = r.meshes[i];
+      const double b = x.backlash_m;
+      MeshReading mr;
+      double sd = 0, sd2 = 0;
+      for (const std::vector<double>& d : smp.deflection_bar) {
+        sd += d[i];
+        sd2 += d[i] * d[i];
+      }
+      mr.mean_delta_bar = sd / count;
+      mr.rms_delta_bar = std::sqrt(sd2 / count);
+      mr.pp_delta_bar = (x.max_deflection_m - x.min_deflection_m) / b;
+      mr.min_delta_bar = x.min_deflection_m / b;
+      mr.max_force_n = x.max_force_n;
+      mr.dynamic_factor = x.dynamic_factor_with_startup.value_or(kNaN);
+      mr.separated_fraction = x.separated_fraction;
+      mr.impacts_per_period = static_cast<double>(x.impacts) / m;
+      mr.backside_impacts_per_period = static_cast<double>(x.backside_impacts) / m;
+      mr.regime = x.regime;
+      mr.double_sided = x.double_sided;
+      pt.meshes.push_back(mr);
+      contact_only =
+          contact_only && x.impacts == 0 && x.separations == 0 && x.separated_fraction == 0;
+    }
+    // The mesh read, as the one-degree point reads its mesh.
+    const MeshReading& read = pt.meshes[mesh_];
+    const TrainMeshReading& x = r.meshes[mesh_];
+    const double force_scale = x.backlash_m * a.train().meshes[mesh_].mean_stiffness_n_per_m;
+    double sf = 0, sf2 = 0;
+    for (std::size_t i = 0; i < smp.t_s.size(); ++i) {
+      const double f = smp.force_n[i][mesh_] / force_scale;
+      sf += f;
+      sf2 += f * f;
+      if (i % static_cast<std::size_t>(spp) == 0) {
+        pt.strobe_delta_bar.push_back(smp.deflection_bar[i][mesh_]);
+        pt.strobe_velocity_m_s.push_back(
+            section.mesh(static_cast<int>(mesh_), smp.t_s[i], smp.state[i]).v);
+        pt.strobe_force_bar.push_back(f);
+      }
+    }
+    pt.mean_delta_bar = read.mean_delta_bar;
+    pt.rms_delta_bar = read.rms_delta_bar;
+    pt.pp_delta_bar = read.pp_delta_bar;
+    pt.min_delta_bar = read.min_delta_bar;
+    pt.mean_force_bar = sf / count;
+    pt.rms_force_bar = std::sqrt(sf2 / count);
+    pt.pp_force_bar = (x.max_force_n - x.min_force_n) / force_scale;
+    pt.max_force_bar = x.max_force_n / force_scale;
+    if (x.dynamic_factor_with_startup) pt.dynamic_factor = x.dynamic_factor_with_startup;
+    pt.separated_fraction = read.separated_fraction;
+    pt.impacts_per_period = read.impacts_per_period;
+    pt.regime = read.regime;
+    pt.double_sided = read.double_sided;
+    pt.settle_periods = k;
+    pt.settled = verdict.settled();
+    pt.period_multiple = verdict.period_multiple;
+    // Every mesh in contact throughout: linear with coefficients of period T0, its one steady
+    // response of period T0 (as the coupled point's).
+    if (pt.settled && contact_only) pt.period_multiple = 1;
+    pt.steady_error = verdict.error;
+    carry.coordinates = end;
     return pt;
   }
 
@@ -415,6 +612,8 @@ class PointRunner {
   // The shared stiffness, or null (each point computes its own).
   const MeshStiffness* stiffness() const { return stiffness_ ? &*stiffness_ : nullptr; }
   std::optional<MeshStiffness> stiffness_;
+  std::vector<std::string> meshes_;  // a train's
+  std::size_t mesh_ = 0;             // the one the points' statistics read
 };
 
 // Jumps and hysteresis of one row (all points of a 1-D sweep; one value of the second key of
@@ -593,7 +792,11 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   for (const AxisValue& y : rows2)
     for (const AxisValue& x : axis_ends(o.axis, ""))
       runner.check_work_at(x.value, x.origin, y.value, y.origin);
-  r.period_s = runner.period_at(o.axis.values().front(), o.axis2 ? o.axis2->values().front() : 0.0);
+  const double first2 = o.axis2 ? o.axis2->values().front() : 0.0;
+  r.period_s = runner.period_at(o.axis.values().front(), first2);
+  r.period_note = runner.period_note_at(o.axis.values().front(), first2);
+  r.meshes = runner.meshes();
+  r.mesh = runner.mesh_read();
 
   // The sequences: for each row, the up sweep and/or the down sweep.
   std::vector<std::vector<PointJob>> sequences;
@@ -661,8 +864,9 @@ std::string csv_text(const std::string& s) {
 }
 
 // sweep.csv's header (no newline); the coupled model's bearings add ten columns before
-// `failure`.
-std::string sweep_csv_header(ModelForm form) {
+// `failure`, a train's meshes ten each.
+std::string sweep_csv_header(const SweepResult& r) {
+  const ModelForm form = r.form;
   std::string out =
       "direction,param,value,param2,value2,settled,settle_periods,mean_delta_bar,rms_delta_bar,"
       "pp_delta_bar,min_delta_bar,mean_force_bar,rms_force_bar,pp_force_bar,max_force_bar,"
@@ -672,12 +876,17 @@ std::string sweep_csv_header(ModelForm form) {
     for (int gear = 1; gear <= 2; ++gear)
       for (const BearingColumn& col : kBearingColumns)
         fmt::format_to(std::back_inserter(out), "bearing{}_{},", gear, col.name);
+  for (const std::string& mesh : r.meshes) {
+    for (const MeshColumn& col : kMeshColumns)
+      fmt::format_to(std::back_inserter(out), "{}_{},", mesh, col.name);
+    fmt::format_to(std::back_inserter(out), "{}_regime,", mesh);
+  }
   return out + "failure";
 }
 
 // The 1-based column of `name` in sweep.csv (gnuplot's $N); 0 when there is none.
-int sweep_csv_column(ModelForm form, const std::string& name) {
-  std::istringstream header(sweep_csv_header(form));
+int sweep_csv_column(const SweepResult& r, const std::string& name) {
+  std::istringstream header(sweep_csv_header(r));
   int k = 0;
   for (std::string cell; std::getline(header, cell, ',');) {
     ++k;
@@ -691,7 +900,7 @@ int sweep_csv_column(ModelForm form, const std::string& name) {
 std::string sweep_csv(const SweepResult& r) {
   const SweepOptions& o = r.options;
   const bool bearings = r.form == ModelForm::kCoupled;
-  std::string out = sweep_csv_header(r.form) + "\n";
+  std::string out = sweep_csv_header(r) + "\n";
   for (const SweepPoint& p : r.points) {
     fmt::format_to(
         std::back_inserter(out),
@@ -707,6 +916,13 @@ std::string sweep_csv(const SweepResult& r) {
         for (const BearingColumn& col : kBearingColumns)
           fmt::format_to(std::back_inserter(out), "{},",
                          p.bearings ? (*p.bearings)[i].*col.member : kNaN);
+    for (std::size_t i = 0; i < r.meshes.size(); ++i) {
+      const bool read = i < p.meshes.size() && p.failure.empty();
+      for (const MeshColumn& col : kMeshColumns)
+        fmt::format_to(std::back_inserter(out), "{},", read ? p.meshes[i].*col.member : kNaN);
+      fmt::format_to(std::back_inserter(out), "{},",
+                     read ? to_string(p.meshes[i].regime) : "failed");
+    }
     out += csv_text(p.failure) + "\n";
   }
   return out;
@@ -740,6 +956,11 @@ std::string summary(const SweepResult& r) {
     j["points2"] = o.axis2->points;
   }
   j["direction"] = to_string(o.direction);
+  if (!r.meshes.empty()) {
+    j["meshes"] = r.meshes;
+    j["mesh"] = r.mesh;
+  }
+  if (!r.period_note.empty()) j["period_note"] = r.period_note;
   j["settle_periods"] = o.settle_periods;
   j["measure_periods"] = o.measure_periods;
   j["max_settle_periods"] = o.max_settle_periods;
@@ -870,6 +1091,51 @@ std::string regime_map_body(const SweepResult& r) {
   return s;
 }
 
+// A train's meshes along the key, each a curve, up and down: the peak-to-peak (d - e) / b, the
+// dynamic factor, and in a third panel the impacts per system period where any occurred.
+std::string mesh_responses_body(const SweepResult& r) {
+  struct Panel {
+    const char* column;
+    const char* ylabel;
+  };
+  std::vector<Panel> panels{{"pp_delta_bar", "peak-to-peak (d - e) / b"},
+                            {"dynamic_factor", "dynamic factor"}};
+  const bool impacts = std::any_of(r.points.begin(), r.points.end(), [](const SweepPoint& p) {
+    return std::any_of(p.meshes.begin(), p.meshes.end(),
+                       [](const MeshReading& m) { return m.impacts_per_period > 0; });
+  });
+  if (impacts) panels.push_back({"impacts_per_period", "impacts per system period"});
+  static constexpr std::array<const char*, 6> kColours{"#1f3b73", "#b5532b", "#2e7d32",
+                                                       "#6a1b9a", "#00838f", "#5d4037"};
+  std::string s = fmt::format(
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top left font ',9'\n{}set multiplot layout {},1 title \"each mesh along {}\"\n",
+      r.options.axis.log ? "set logscale x\n" : "", panels.size(), r.options.axis.key);
+  for (std::size_t k = 0; k < panels.size(); ++k) {
+    fmt::format_to(std::back_inserter(s), "set xlabel '{}'\nset ylabel '{}'\nplot ",
+                   k + 1 == panels.size() ? r.options.axis.key : "", panels[k].ylabel);
+    bool first = true;
+    for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
+      if (std::none_of(r.points.begin(), r.points.end(),
+                       [&](const SweepPoint& p) { return p.direction == d; }))
+        continue;
+      const bool up = d == SweepDirection::kUp;
+      for (std::size_t m = 0; m < r.meshes.size(); ++m) {
+        fmt::format_to(std::back_inserter(s),
+                       "{}'sweep.csv' every ::1 using {}:(strcol({}) eq '{}' ? ${} : NaN) with "
+                       "linespoints dt {} pt {} ps 0.4 lc rgb '{}' title '{}: {}'",
+                       first ? "" : ", \\\n     ", sweep_csv_column(r, "value"),
+                       sweep_csv_column(r, "direction"), to_string(d),
+                       sweep_csv_column(r, r.meshes[m] + "_" + panels[k].column), up ? 1 : 2,
+                       up ? 7 : 6, kColours[m % kColours.size()], to_string(d), r.meshes[m]);
+        first = false;
+      }
+    }
+    s += "\n";
+  }
+  return s + "unset multiplot\n";
+}
+
 // The coupled model's bearings along the key: the largest line-of-action force per gear, up
 // and down, and in further panels only what occurred: the axial forces of a helical pair, the
 // impacts in a bearing's clearance.
@@ -898,7 +1164,7 @@ std::string bearing_forces_body(const SweepResult& r) {
   const auto column_of = [&](int gear, Member member) {
     const auto* col = std::find_if(kBearingColumns.begin(), kBearingColumns.end(),
                                    [&](const BearingColumn& c) { return c.member == member; });
-    return sweep_csv_column(r.form, fmt::format("bearing{}_{}", gear, col->name));
+    return sweep_csv_column(r, fmt::format("bearing{}_{}", gear, col->name));
   };
   std::string s = fmt::format(
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
@@ -921,8 +1187,8 @@ std::string bearing_forces_body(const SweepResult& r) {
         fmt::format_to(std::back_inserter(s),
                        "{}'sweep.csv' every ::1 using {}:(strcol({}) eq '{}' ? ${} : NaN) with "
                        "linespoints dt {} pt {} ps {} lc rgb '{}' title '{}: gear {}'",
-                       first ? "" : ", \\\n     ", sweep_csv_column(r.form, "value"),
-                       sweep_csv_column(r.form, "direction"), to_string(d),
+                       first ? "" : ", \\\n     ", sweep_csv_column(r, "value"),
+                       sweep_csv_column(r, "direction"), to_string(d),
                        column_of(gear, panel.member), gear == 1 ? 1 : 2, up ? 7 : 6, up ? 0.4 : 0.5,
                        up ? "#1f3b73" : "#b5532b", to_string(d), gear);
         first = false;
@@ -948,8 +1214,8 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
   // Frequency response: rms F_bar and peak-to-peak delta_bar, up and down overlaid; the
   // unsettled points, the jumps and the hysteresis intervals marked where they occur.
   std::string fr = preamble + "set grid lc rgb '#dddddd'\nset key top left font ',9'\n" + xlog;
-  fmt::format_to(std::back_inserter(fr), "set multiplot layout 2,1 title \"sweep of {}\"\n",
-                 o.axis.key);
+  fmt::format_to(std::back_inserter(fr), "set multiplot layout 2,1 title \"sweep of {}{}\"\n",
+                 o.axis.key, r.mesh.empty() ? "" : ", mesh " + r.mesh);
   if (!o.axis2) {
     for (const Hysteresis& h : r.hysteresis)
       fmt::format_to(std::back_inserter(fr),
@@ -957,7 +1223,7 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
                      "fs solid 1.0 noborder\n",
                      h.from_value, h.to_value);
   }
-  const auto col = [&](const char* name) { return sweep_csv_column(r.form, name); };
+  const auto col = [&](const char* name) { return sweep_csv_column(r, name); };
   const int c_direction = col("direction"), c_value = col("value"), c_settled = col("settled"),
             c_regime = col("regime");
   const auto curves = [&](int column, const char* label, bool arrows) {
@@ -1032,6 +1298,10 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
   if (r.form == ModelForm::kCoupled && !o.axis2) {
     render_figure(dir, "bearing_forces", bearing_forces_body(r), 1000, 750);
     drawn.emplace_back("bearing_forces");
+  }
+  if (!r.meshes.empty() && !o.axis2) {
+    render_figure(dir, "mesh_responses", mesh_responses_body(r), 1000, 900);
+    drawn.emplace_back("mesh_responses");
   }
   return drawn;
 }

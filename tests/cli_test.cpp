@@ -542,6 +542,7 @@ TEST(Cli, EveryWritingCommandKeepsTheUsersFilesAndWritesIntoTheCurrentFolder) {
   const std::string nd = "--set model.form=nondimensional ";
   const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
   const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string idler = std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml";
   const std::vector<std::pair<std::string, std::string>> commands = {
       {"run --set solver.duration_s=0.005 --plot", "run_time.png"},
       {"run " + coupled + " --set solver.duration_s=0.002 --plot", "coupled_time.png"},
@@ -555,6 +556,8 @@ TEST(Cli, EveryWritingCommandKeepsTheUsersFilesAndWritesIntoTheCurrentFolder) {
       {"modes " + coupled, "modes.json"},
       {"run " + reducer + " --set solver.duration_s=0.002 --plot", "train_time.png"},
       {"modes " + reducer, "campbell.png"},
+      {"sweep " + idler + " --param train.reference_speed_hz --from 40 --to 50 --points 2",
+       "mesh_responses.png"},
       {"stiffness", "stiffness.csv"},
       {"reproduce park2010 --no-figures", "report.html"},
   };
@@ -981,8 +984,7 @@ TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
   const fs::path d = fresh("train_refused");
   const std::string out = " --out " + d.string();
   for (const std::string args :
-       {"sweep " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8 --points 2" + out,
-        "continue " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8" + out,
+       {"continue " + reducer + " --param solver.tolerance --from 1e-9 --to 1e-8" + out,
         "reproduce park2010 --case " + reducer + out, "stiffness " + reducer + out}) {
     const Outcome o = cli(args);
     EXPECT_EQ(o.code, 2) << args << "\n" << o.err;
@@ -1002,6 +1004,46 @@ TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
             std::string::npos)
       << bad.err;
   EXPECT_FALSE(fs::exists(d / "out"));
+  fs::remove_all(d);
+}
+
+TEST(Cli, ATrainsSweepReadsEveryMeshAndNamesTheOneItReads) {
+  // The loose gear swept in its input's acceleration amplitude (an entry of its harmonics)
+  // across the rattle onset (about 241 rad/s^2): the terminal names the meshes and the one
+  // read, sweep.csv has its columns, the figure of every mesh is drawn; a mesh that is not
+  // there is refused before any work, exit 2, nothing written.
+  const std::string loose = std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml";
+  const std::string args = "sweep " + loose +
+                           " --param 'train.speed[0].acceleration_harmonics[0][0]' --from 200 "
+                           "--to 300 --points 3 --direction up";
+  const fs::path d = fresh("train_sweep");
+  const Outcome o = cli(args + " --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("each of the train's meshes read (rattle); the statistics and jumps "
+                       "below: mesh rattle"),
+            std::string::npos)
+      << o.out;
+  const std::string csv = slurp(d / "sweep.csv");
+  EXPECT_NE(csv.find("rattle_impacts_per_period"), std::string::npos);
+  EXPECT_NE(csv.find(",none,\n"), std::string::npos) << csv;       // 200: in contact
+  EXPECT_NE(csv.find(",sustained,\n"), std::string::npos) << csv;  // 300: rattles
+  // The figure draws the mesh's own column of sweep.csv.
+  const std::string header = csv.substr(0, csv.find('\n'));
+  const std::string before = header.substr(0, header.find("rattle_pp_delta_bar"));
+  const auto column = std::count(before.begin(), before.end(), ',') + 1;
+  EXPECT_NE(slurp(d / "mesh_responses_body.gp").find(fmt::format("? ${} : NaN", column)),
+            std::string::npos);
+  EXPECT_GT(fs::file_size(d / "mesh_responses.png"), 100u);
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  EXPECT_EQ(j["meshes"], nlohmann::json::array({"rattle"}));
+  const fs::path e = fresh("train_sweep_bad");
+  const Outcome bad = cli(args + " --mesh gear --out " + e.string());
+  EXPECT_EQ(bad.code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("--mesh = \"gear\": the train has no mesh of that name; its meshes are "
+                         "rattle"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_FALSE(fs::exists(e));
   fs::remove_all(d);
 }
 

@@ -150,14 +150,14 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 
 // The case a model command works on; every setting it gives that the model does not use is
 // said (case_keys.hpp, unused_settings), never dropped silently.
-// A gear train (model.form = "train") is taken by `run`, `modes`, `orbit` and `stability` so
-// far; every other command says so.
+// A gear train (model.form = "train") is taken by `run`, `sweep`, `modes`, `orbit` and
+// `stability` so far; every other command says so.
 void check_command_takes(const geardyn::Case& c, std::string_view command) {
-  if (c.model.form == geardyn::ModelForm::kTrain && command != "run" && command != "modes" &&
-      command != "orbit" && command != "stability")
+  if (c.model.form == geardyn::ModelForm::kTrain && command != "run" && command != "sweep" &&
+      command != "modes" && command != "orbit" && command != "stability")
     throw geardyn::InputError(geardyn::with_origins(
         c, fmt::format("model.form = \"train\": `geardyn {}` does not take gear trains yet; "
-                       "`geardyn run`, `modes`, `orbit` and `stability` do",
+                       "`geardyn run`, `sweep`, `modes`, `orbit` and `stability` do",
                        command)));
 }
 
@@ -600,6 +600,10 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
       "(steady: predicted distance to the periodic response under {:g} b)\n",
       r.period_s, r.form == geardyn::ModelForm::kNondimensional ? " (tau)" : " s", r.points.size(),
       r.unsettled, o.steady_tolerance);
+  if (!r.mesh.empty())
+    fmt::print("  each of the train's meshes read ({}); the statistics and jumps below: mesh {}\n",
+               fmt::join(r.meshes, ", "), r.mesh);
+  if (!r.period_note.empty()) fmt::print("  {}\n", r.period_note);
   if (r.failed > 0) {
     const auto first = std::find_if(r.points.begin(), r.points.end(),
                                     [](const auto& p) { return !p.failure.empty(); });
@@ -1098,6 +1102,9 @@ int main(int argc, char** argv) {
                    "where each up and down sweep starts: static (contact, the default) or case "
                    "(the case's solver.initial)")
       ->check(CLI::IsMember({"static", "case"}));
+  sweep_cmd->add_option("--mesh", so.mesh,
+                        "a gear train's mesh that the statistics, jumps and figures read "
+                        "(default: the first; every mesh has its own columns)");
   sweep_cmd->add_option("--threads", so.threads, "worker threads (default: all cores)");
   sweep_cmd->add_option("--out", sweep_out, "output directory (default out/sweep)");
   sweep_cmd->add_flag("--no-figures", sweep_no_figures, "write the data without figures");

@@ -73,6 +73,9 @@ struct SweepOptions {
   // sweep descends it, so the jumps and the hysteresis between them show) or from the case's
   // solver.initial.
   bool start_static = true;
+  // A gear train's mesh that the point's statistics, strobe, jumps and figures read (its name;
+  // "" the first); every mesh is read beside it (SweepPoint::meshes). Only a train has one.
+  std::string mesh;
   int samples_per_period = 64;  // for the statistics; the strobe takes one per period
   unsigned threads = 0;         // 0: all cores
   // Called after each point with (done, total); returning false stops the sweep after the
@@ -107,6 +110,36 @@ inline constexpr std::array<BearingColumn, 5> kBearingColumns{{
     {"impacts_per_period", &BearingReading::impacts_per_period},
 }};
 
+// One mesh of a train's sweep point over the measurement, as the point's own statistics read
+// the mesh that SweepOptions::mesh names: (d - e) / b, its largest force (N, exact extremes),
+// the dynamic factor (that force over the static one: NaN without a static force) and the
+// contact history per system period.
+struct MeshReading {
+  double mean_delta_bar = 0, rms_delta_bar = 0, pp_delta_bar = 0, min_delta_bar = 0;
+  double max_force_n = 0, dynamic_factor = 0;
+  double separated_fraction = 0, impacts_per_period = 0, backside_impacts_per_period = 0;
+  Regime regime = Regime::kNone;
+  bool double_sided = false;
+};
+
+// The per-mesh columns of a train's sweep, in order: sweep.csv's <mesh>_<name> (and
+// <mesh>_regime after them) and the Python result's mesh_<name> arrays.
+struct MeshColumn {
+  const char* name;
+  double MeshReading::*member;
+};
+inline constexpr std::array<MeshColumn, 9> kMeshColumns{{
+    {"mean_delta_bar", &MeshReading::mean_delta_bar},
+    {"rms_delta_bar", &MeshReading::rms_delta_bar},
+    {"pp_delta_bar", &MeshReading::pp_delta_bar},
+    {"min_delta_bar", &MeshReading::min_delta_bar},
+    {"max_force_n", &MeshReading::max_force_n},
+    {"dynamic_factor", &MeshReading::dynamic_factor},
+    {"separated_fraction", &MeshReading::separated_fraction},
+    {"impacts_per_period", &MeshReading::impacts_per_period},
+    {"backside_impacts_per_period", &MeshReading::backside_impacts_per_period},
+}};
+
 struct SweepPoint {
   SweepDirection direction = SweepDirection::kUp;  // kUp or kDown
   double value = 0;
@@ -134,6 +167,9 @@ struct SweepPoint {
   // The coupled model's bearings over the measurement, per gear (1, 2); empty for the other
   // forms, NaN for a failed point.
   std::optional<std::array<BearingReading, 2>> bearings;
+  // A train's meshes over the measurement, in SweepResult::meshes' order (NaN for a failed
+  // point); empty for the other forms.
+  std::vector<MeshReading> meshes;
 };
 
 // Where the up and the down sweep part: the parameter interval over which their responses
@@ -154,7 +190,14 @@ struct SweepResult {
   SweepOptions options;
   double period_s = 0;                    // the system period at the first point (tau: non-dim.)
   ModelForm form = ModelForm::kGearPair;  // the units of the files (output.hpp's form_key)
-  std::vector<SweepPoint> points;         // in sweep order: up (each row), then down
+  // A train's meshes, and the one the points' own statistics read (SweepOptions::mesh).
+  std::vector<std::string> meshes;
+  std::string mesh;
+  // Why the points were not judged steady, when a train has no common period (quasi-periodic:
+  // each point runs max_settle_periods periods of its reference body's turn before it is
+  // measured, flagged not settled).
+  std::string period_note;
+  std::vector<SweepPoint> points;  // in sweep order: up (each row), then down
   std::vector<Hysteresis> hysteresis;
   std::vector<Jump> jumps;
   std::size_t unsettled = 0;

@@ -609,7 +609,7 @@ _SWEEP_NAMES = {"points": "len(values)", "from": "values", "to": "values",
 @_pythonic(_SWEEP_NAMES)
 def sweep(case, param, values, direction="both", settle_periods=0, measure_periods=10,
           max_settle_periods=200, steady_tolerance=1e-6, start="static", threads=0,
-          progress=None, param2=None, values2=(), executor=None):
+          progress=None, param2=None, values2=(), executor=None, mesh=None):
     """Sweeps a case key up and down, as `geardyn sweep`; with `param2`, a map.
 
     Each point continues from the previous one's end state, settles period by period until
@@ -648,6 +648,9 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         scheduler address, one task a row (each row's up and down sweeps are sequences, so a
         row is the unit of work). The result equals the in-process map bit for bit; a lost
         worker's row is run again elsewhere. A one-dimensional sweep runs as one task.
+    mesh : str, optional
+        A gear train's mesh (its name) that the point's own statistics, strobe and jumps read;
+        None: the first. Every mesh is read beside it (the ``mesh_*`` arrays).
 
     Returns
     -------
@@ -659,7 +662,12 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         ``steady_error`` (its predicted distance, b), ``dynamic_factor``; for a coupled case
         also the bearings' ``bearing1_max_line_force_n``, ``bearing1_line_force_factor``,
         ``bearing1_max_axial_force_n``, ``bearing1_axial_force_factor``,
-        ``bearing1_impacts_per_period`` and the same for ``bearing2``, as in sweep.csv),
+        ``bearing1_impacts_per_period`` and the same for ``bearing2``, as in sweep.csv; for
+        a gear train ``meshes`` (their names), ``mesh`` (the one read) and one (points,
+        meshes) array per mesh column of sweep.csv: ``mesh_pp_delta_bar``,
+        ``mesh_max_force_n``, ``mesh_dynamic_factor``, ``mesh_impacts_per_period``, ... and
+        ``mesh_regime`` (a list per point); ``period_note`` when the train is
+        quasi-periodic),
         ``direction``, ``regime`` and ``failure`` (why a point failed,
         else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
         sample belongs to), ``delta_bar``, ``velocity_m_s`` (m/s), ``force_bar``, one sample
@@ -676,13 +684,13 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
     """
     options = dict(direction=direction, settle_periods=settle_periods,
                    measure_periods=measure_periods, max_settle_periods=max_settle_periods,
-                   steady_tolerance=steady_tolerance, start=start)
+                   steady_tolerance=steady_tolerance, start=start, mesh=mesh)
     if executor is not None:
         return _sweep_on(executor, case, param, values, options, param2, values2, progress)
     r = _geardyn._sweep(case, param, _floats("values", values), direction, settle_periods,
                         measure_periods, max_settle_periods, steady_tolerance, start, threads,
                         _progress(progress, unit="point"), param2 or "",
-                        _floats("values2", values2))
+                        _floats("values2", values2), mesh or "")
     r = SweepResult(r, param=param)
     if param2:
         r["param2"] = param2
@@ -709,6 +717,8 @@ def _merged_rows(parts, param, param2):
                     strobe.setdefault(k, []).append(a + offset if k == "point" else a)
                 offset += len(p["value"])
             out[key] = {k: _numpy.concatenate(a) for k, a in strobe.items()}
+        elif key == "meshes":
+            out[key] = v  # the train's mesh names, the same in every row
         elif isinstance(v, _numpy.ndarray):
             out[key] = _numpy.concatenate([p[key] for p in parts])
         elif isinstance(v, list):

@@ -42,6 +42,18 @@ _COLUMNS = {
     "velocity": ("m/s", "delta', the velocity along the line of action"),
     "contact": ("1", "1 drive side, 0 separated, -1 back side"),
 }
+# A gear train sweep's columns per mesh (sweep.hpp's kMeshColumns), over the dimension mesh.
+_MESH_COLUMNS = {
+    "mean_delta_bar": ("1", "mean of (d - e) / b"),
+    "rms_delta_bar": ("1", "RMS of (d - e) / b"),
+    "pp_delta_bar": ("1", "peak-to-peak (d - e) / b"),
+    "min_delta_bar": ("1", "minimum of (d - e) / b"),
+    "max_force_n": ("N", "largest mesh force"),
+    "dynamic_factor": ("1", "largest mesh force over the static one (NaN: none)"),
+    "separated_fraction": ("1", "fraction of the time separated"),
+    "impacts_per_period": ("1/period", "impacts per system period"),
+    "backside_impacts_per_period": ("1/period", "back-side impacts per system period"),
+}
 _UNIT_SUFFIXES = {"_hz": "Hz", "_um": "um", "_mm": "mm", "_deg": "deg", "_s": "s", "_nm": "N m",
                   "_n_per_m": "N/m", "_kg_m3": "kg/m^3", "_gpa": "GPa"}
 
@@ -76,6 +88,22 @@ def _sweep_dataset(s, param, param2=None):
         for i, at in enumerate(index):
             a[at] = s[name][i]
         data[name] = (dims, a, {"units": units, "long_name": long_name})
+    meshes = s.get("meshes")
+    if meshes:
+        # A gear train: each mesh's column over a further dimension `mesh`.
+        for name, (units, long_name) in _MESH_COLUMNS.items():
+            key = "mesh_" + name
+            if key not in s:
+                continue
+            a = np.full(shape + [len(meshes)], np.nan)
+            for i, at in enumerate(index):
+                a[at] = s[key][i]
+            data[key] = (dims + ["mesh"], a, {"units": units, "long_name": long_name})
+        per_mesh = np.full(shape + [len(meshes)], "", dtype=object)
+        for i, at in enumerate(index):
+            per_mesh[at] = s["mesh_regime"][i]
+        data["mesh_regime"] = (dims + ["mesh"], per_mesh.astype(str),
+                               {"long_name": "each mesh's none, transient or sustained"})
     regime = np.full(shape, "", dtype=object)
     for i, at in enumerate(index):
         regime[at] = s["regime"][i]
@@ -105,6 +133,8 @@ def _sweep_dataset(s, param, param2=None):
               "param": ("param", values, {"units": _key_units(param), "long_name": param})}
     if param2:
         coords["param2"] = ("param2", values2, {"units": _key_units(param2), "long_name": param2})
+    if meshes:
+        coords["mesh"] = ("mesh", list(meshes), {"long_name": "the train's meshes"})
     attrs = {"geardyn": "sweep", "param": param, "jumps": json.dumps(s.get("jumps", [])),
              "hysteresis": json.dumps(s.get("hysteresis", [])),
              "period_s": s.get("period_s", np.nan),
@@ -112,6 +142,10 @@ def _sweep_dataset(s, param, param2=None):
              "cancelled": int(bool(s.get("cancelled", False)))}
     if param2:
         attrs["param2"] = param2
+    if meshes:
+        attrs["mesh_read"] = s.get("mesh", meshes[0])
+    if s.get("period_note"):
+        attrs["period_note"] = s["period_note"]
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -160,11 +194,18 @@ class SweepResult(dict):
         Returns
         -------
         pandas.DataFrame
-            Indexed by direction, (param2,) and param; a column per statistic (the strobe
-            samples stay in `to_xarray()`).
+            Indexed by direction, (param2,) and param; a column per statistic, and for a
+            gear train each mesh's as ``<mesh>_<statistic>`` (sweep.csv's names); the strobe
+            samples stay in `to_xarray()`.
         """
         ds = self.to_xarray()
-        return (ds.drop_dims("strobe") if "strobe" in ds.dims else ds).to_dataframe()
+        df = ds.drop_dims([d for d in ("strobe", "mesh") if d in ds.dims]).to_dataframe()
+        if "mesh" in ds.dims:
+            for name, v in ds.data_vars.items():
+                if "mesh" in v.dims:
+                    for m in ds["mesh"].values:
+                        df[f"{m}_{name[len('mesh_'):]}"] = v.sel(mesh=m).to_series()
+        return df
 
     def __reduce__(self):
         return (SweepResult, (dict(self),))

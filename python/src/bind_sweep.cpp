@@ -20,7 +20,7 @@ void bind_sweep(py::module_& m) {
          const std::string& direction, int settle_periods, int measure_periods,
          int max_settle_periods, double steady_tolerance, const std::string& start,
          unsigned threads, const py::object& progress, const std::string& param2,
-         std::vector<double> values2) {
+         std::vector<double> values2, const std::string& mesh) {
         SweepOptions o;
         o.axis.key = param;
         o.axis.explicit_values = std::move(values);
@@ -50,6 +50,7 @@ void bind_sweep(py::module_& m) {
           throw InputError("start = \"" + start + "\": must be \"static\" or \"case\"");
         o.start_static = start == "static";
         o.threads = threads;
+        o.mesh = mesh;
         Hook hook(progress);
         o.progress = [&hook](std::size_t done, std::size_t total) { return hook(done, total); };
         SweepResult r;
@@ -100,6 +101,35 @@ void bind_sweep(py::module_& m) {
                     return p.bearings ? (*p.bearings)[i].*c.member
                                       : std::numeric_limits<double>::quiet_NaN();
                   });
+        // A train's meshes: each column as a (points, meshes) array, mesh_<name>.
+        if (!r.meshes.empty()) {
+          out["meshes"] = r.meshes;
+          out["mesh"] = r.mesh;
+          const std::size_t k = r.meshes.size();
+          const auto per_mesh = [&](auto get) {
+            py::array_t<double> a({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(k)});
+            auto w = a.mutable_unchecked<2>();
+            for (std::size_t i = 0; i < n; ++i)
+              for (std::size_t j = 0; j < k; ++j)
+                w(i, j) = j < r.points[i].meshes.size() && r.points[i].failure.empty()
+                              ? get(r.points[i].meshes[j])
+                              : std::numeric_limits<double>::quiet_NaN();
+            return a;
+          };
+          for (const MeshColumn& c : kMeshColumns)
+            out[py::str(std::string("mesh_") + c.name)] =
+                per_mesh([&](const MeshReading& x) { return x.*c.member; });
+          py::list regimes_per_mesh;
+          for (const SweepPoint& p : r.points) {
+            py::list row;
+            for (std::size_t j = 0; j < k; ++j)
+              row.append(j < p.meshes.size() && p.failure.empty() ? to_string(p.meshes[j].regime)
+                                                                  : "failed");
+            regimes_per_mesh.append(row);
+          }
+          out["mesh_regime"] = regimes_per_mesh;
+        }
+        if (!r.period_note.empty()) out["period_note"] = r.period_note;
         // The strobe (one sample per system period of each point's measurement), flat:
         // sample i belongs to point strobe["point"][i].
         std::vector<std::int64_t> owner;
@@ -147,7 +177,7 @@ void bind_sweep(py::module_& m) {
       py::arg("settle_periods") = 0, py::arg("measure_periods") = 10,
       py::arg("max_settle_periods") = 200, py::arg("steady_tolerance") = 1e-6,
       py::arg("start") = "static", py::arg("threads") = 0, py::arg("progress") = py::none(),
-      py::arg("param2") = "", py::arg("values2") = std::vector<double>{});
+      py::arg("param2") = "", py::arg("values2") = std::vector<double>{}, py::arg("mesh") = "");
 }
 
 }  // namespace geardyn::python

@@ -173,6 +173,35 @@ def test_a_maps_rows_as_dask_tasks_give_the_in_process_map_bit_for_bit(cluster):
                             executor=cluster.scheduler.address)), dict(one))
 
 
+def test_a_trains_map_reads_every_mesh_on_a_mesh_dimension_in_process_and_on_dask(cluster):
+    # The idler train's two meshes swept in speed at two backlashes of the second: each mesh's columns are a
+    # (points, meshes) array, the point's own statistics are the mesh read's, the Dataset has a
+    # mesh dimension and the table each mesh's columns; the rows on Dask give the same map bit
+    # for bit.
+    c = geardyn.Case.from_toml(os.path.join(os.environ.get("GEARDYN_SOURCE_DIR", "."), "cases",
+                                            "idler_train.toml"))
+    kw = dict(direction="up", param2="train.mesh[1].backlash_um", values2=[30, 50], mesh="out")
+    local = geardyn.sweep(c, "train.reference_speed_hz", [30, 50], threads=1, **kw)
+    assert local["meshes"] == ["in", "out"] and local["mesh"] == "out"
+    assert local["mesh_pp_delta_bar"].shape == (4, 2)
+    np.testing.assert_array_equal(local["pp_delta_bar"], local["mesh_pp_delta_bar"][:, 1])
+    assert np.all(local["mesh_pp_delta_bar"][:, 0] != local["mesh_pp_delta_bar"][:, 1])
+    ds = local.to_xarray()
+    assert ds["mesh_max_force_n"].dims == ("direction", "param2", "param", "mesh")
+    assert ds["mesh_max_force_n"].attrs["units"] == "N"
+    assert list(ds["mesh"].values) == ["in", "out"] and ds.attrs["mesh_read"] == "out"
+    assert float(ds["mesh_max_force_n"].sel(mesh="in", param=50, param2=50)[0]) == \
+        local["mesh_max_force_n"][3, 0]
+    table = local.to_pandas()
+    np.testing.assert_array_equal(table["out_pp_delta_bar"].values, table["pp_delta_bar"].values)
+    dask = geardyn.sweep(c, "train.reference_speed_hz", [30, 50], executor=cluster, **kw)
+    assert dask["meshes"] == local["meshes"] and dask["mesh_regime"] == local["mesh_regime"]
+    for key in ("mesh_pp_delta_bar", "mesh_max_force_n", "mesh_impacts_per_period"):
+        np.testing.assert_array_equal(dask[key], local[key], err_msg=key)
+    with pytest.raises(geardyn.InputError, match='mesh = "middle": the train has no mesh'):
+        geardyn.sweep(c, "train.reference_speed_hz", [30], mesh="middle")
+
+
 def test_a_worker_killed_mid_study_has_its_samples_computed_elsewhere(cluster, tmp_path):
     local = geardyn.study(CASE, INPUTS, samples=40, seed=5)
     killed = []

@@ -1,0 +1,198 @@
+// Sweeps of gear trains (sweep.hpp on a train case): a one-mesh train's sweep against the gear
+// pair's, a loose gear's rattle along its fluctuation against the closed-form onset, every
+// mesh's columns and the mesh read, a quasi-periodic train, and the messages.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "geardyn/case.hpp"
+#include "geardyn/sweep.hpp"
+#include "geardyn/train_case.hpp"
+#include "geardyn/validation.hpp"
+
+namespace geardyn {
+namespace {
+
+SweepOptions speed_sweep(const std::string& key, double from, double to, int points) {
+  SweepOptions o;
+  o.axis = {key, from, to, points, false};
+  o.direction = SweepDirection::kBoth;
+  o.threads = 2;
+  return o;
+}
+
+Case shipped(const std::string& name) {
+  return load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / name);
+}
+
+TEST(TrainSweep, ATwoGearTrainsSweepIsThePairs) {
+  // The paper's pair at a light load whose torque falls to zero once a turn (one impact a
+  // period), swept in speed up and down: as a train it settles as the pair settles and reads
+  // what the pair reads, point by point, to the integration's accuracy (forces to 1e-8 b k_m
+  // in the run test). A mutant that reads another mesh's backlash, counts impacts over another
+  // number of periods or takes the force scale of the wrong stiffness fails by far more.
+  Case pair = park2010_pair_case();
+  Case train = park2010_pair_as_train();
+  set_case_value(pair, {"load.torque_nm", "5"});
+  set_case_value(pair, {"load.fluctuation_ratio", "1"});
+  set_case_value(train, {"train.torque",
+                         "[{body = \"pinion\", mean_nm = 5, harmonics = "
+                         "[[5, 1, 0]]}, {body = \"wheel\", mean_nm = -5, "
+                         "harmonics = [[5, 1, 180]]}]"});
+  const SweepResult one = sweep(pair, speed_sweep("speed.shaft_frequency_hz", 40, 160, 5));
+  const SweepResult as_train = sweep(train, speed_sweep("train.reference_speed_hz", 40, 160, 5));
+  ASSERT_EQ(one.points.size(), 10u);
+  ASSERT_EQ(as_train.points.size(), one.points.size());
+  EXPECT_EQ(as_train.meshes, std::vector<std::string>{"mesh1"});
+  EXPECT_EQ(as_train.mesh, "mesh1");
+  EXPECT_NEAR(as_train.period_s, one.period_s, 1e-15);
+  EXPECT_TRUE(as_train.period_note.empty());
+  for (std::size_t i = 0; i < one.points.size(); ++i) {
+    const SweepPoint &p = one.points[i], &q = as_train.points[i];
+    SCOPED_TRACE(i);
+    ASSERT_TRUE(p.failure.empty() && q.failure.empty()) << p.failure << q.failure;
+    EXPECT_EQ(q.direction, p.direction);
+    EXPECT_EQ(q.value, p.value);
+    EXPECT_TRUE(p.settled && q.settled);
+    EXPECT_EQ(q.period_multiple, p.period_multiple);
+    EXPECT_EQ(q.impacts_per_period, p.impacts_per_period);
+    EXPECT_EQ(p.impacts_per_period, 1);
+    EXPECT_EQ(q.regime, p.regime);
+    EXPECT_NEAR(q.mean_delta_bar, p.mean_delta_bar, 1e-7);
+    EXPECT_NEAR(q.rms_delta_bar, p.rms_delta_bar, 1e-7);
+    EXPECT_NEAR(q.pp_delta_bar, p.pp_delta_bar, 1e-7);
+    EXPECT_NEAR(q.min_delta_bar, p.min_delta_bar, 1e-7);
+    EXPECT_NEAR(q.mean_force_bar, p.mean_force_bar, 1e-7);
+    EXPECT_NEAR(q.rms_force_bar, p.rms_force_bar, 1e-7);
+    EXPECT_NEAR(q.max_force_bar, p.max_force_bar, 1e-7);
+    EXPECT_NEAR(q.separated_fraction, p.separated_fraction, 1e-6);
+    ASSERT_TRUE(p.dynamic_factor && q.dynamic_factor);
+    EXPECT_NEAR(*q.dynamic_factor / *p.dynamic_factor, 1.0, 1e-6);
+    ASSERT_EQ(q.strobe_delta_bar.size(), p.strobe_delta_bar.size());
+    for (std::size_t k = 0; k < p.strobe_delta_bar.size(); ++k) {
+      EXPECT_NEAR(q.strobe_delta_bar[k], p.strobe_delta_bar[k], 1e-7);
+      EXPECT_NEAR(q.strobe_force_bar[k], p.strobe_force_bar[k], 1e-7);
+    }
+    // The one mesh's own columns are the point's.
+    ASSERT_EQ(q.meshes.size(), 1u);
+    EXPECT_EQ(q.meshes[0].pp_delta_bar, q.pp_delta_bar);
+    EXPECT_EQ(q.meshes[0].impacts_per_period, q.impacts_per_period);
+    EXPECT_EQ(q.meshes[0].dynamic_factor, *q.dynamic_factor);
+  }
+}
+
+TEST(TrainSweep, ALooseGearRattlesAlongItsFluctuationFromItsClosedFormOnset) {
+  // The loose gear leaves its drive flank once J (R_in / R_loose) a > T_drag: swept in the
+  // amplitude a of the input's acceleration (an entry of its harmonics, key[i][j]) up and down
+  // from 0.9 to 1.1 times that onset, the points below it stay in contact and those above it
+  // separate and impact every period, in either direction (the rattle of a loose gear has no
+  // coexisting quiet branch above the onset).
+  const Case c = shipped("loose_gear_rattle.toml");
+  const train::Assembled a = assembled_train(c);
+  const double onset = 0.2 / (a.mass()(1, 1) * 30.0 / 40.0);
+  SweepOptions o =
+      speed_sweep("train.speed[0].acceleration_harmonics[0][0]", 0.9 * onset, 1.1 * onset, 5);
+  const SweepResult r = sweep(c, o);
+  ASSERT_EQ(r.points.size(), 10u);
+  for (const SweepPoint& p : r.points) {
+    SCOPED_TRACE(p.value / onset);
+    ASSERT_TRUE(p.failure.empty()) << p.failure;
+    if (p.value < 0.99 * onset) {
+      EXPECT_EQ(p.separated_fraction, 0);
+      EXPECT_EQ(p.impacts_per_period, 0);
+      EXPECT_EQ(p.regime, Regime::kNone);
+    } else if (p.value > 1.01 * onset) {
+      EXPECT_GT(p.separated_fraction, 0);
+      EXPECT_GE(p.impacts_per_period, 1);
+      EXPECT_EQ(p.regime, Regime::kSustained);
+    }
+  }
+  // An entry that the list does not have is named.
+  Case bad = c;
+  try {
+    set_case_value(bad, {"train.speed[0].acceleration_harmonics[3][0]", "1"});
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("index 3 is out of range: the array has 1 element"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(TrainSweep, EveryMeshHasItsColumnsAndTheMeshReadIsNamed) {
+  // The idler train's two meshes, the second read: the point's statistics are its mesh's,
+  // sweep.csv has each mesh's columns with the same numbers, and summary.json names them.
+  const Case c = shipped("idler_train.toml");
+  SweepOptions o = speed_sweep("train.reference_speed_hz", 30, 50, 3);
+  o.direction = SweepDirection::kUp;
+  o.mesh = "out";
+  const SweepResult r = sweep(c, o);
+  ASSERT_EQ(r.points.size(), 3u);
+  EXPECT_EQ(r.meshes, (std::vector<std::string>{"in", "out"}));
+  EXPECT_EQ(r.mesh, "out");
+  for (const SweepPoint& p : r.points) {
+    ASSERT_EQ(p.meshes.size(), 2u);
+    EXPECT_EQ(p.pp_delta_bar, p.meshes[1].pp_delta_bar);
+    EXPECT_EQ(p.min_delta_bar, p.meshes[1].min_delta_bar);
+    EXPECT_NE(p.meshes[0].pp_delta_bar, p.meshes[1].pp_delta_bar);
+    EXPECT_TRUE(p.settled);
+  }
+  std::istringstream csv(sweep_csv(r));
+  std::string header, row;
+  std::getline(csv, header);
+  std::getline(csv, row);
+  const auto cell = [&](const std::string& name) {
+    std::istringstream h(header), v(row);
+    for (std::string a, b; std::getline(h, a, ',') && std::getline(v, b, ',');)
+      if (a == name) return b;
+    return std::string("(none)");
+  };
+  EXPECT_EQ(std::stod(cell("in_pp_delta_bar")), r.points[0].meshes[0].pp_delta_bar);
+  EXPECT_EQ(std::stod(cell("out_pp_delta_bar")), r.points[0].meshes[1].pp_delta_bar);
+  EXPECT_EQ(std::stod(cell("out_max_force_n")), r.points[0].meshes[1].max_force_n);
+  EXPECT_EQ(cell("in_regime"), "none");
+  EXPECT_TRUE(header.ends_with("out_regime,failure")) << header;
+  EXPECT_TRUE(row.ends_with("none,")) << row;  // the second mesh's regime, no failure
+
+  // A mesh that is not there, or a mesh named for a gear pair: said, naming what there is.
+  o.mesh = "middle";
+  try {
+    sweep(c, o);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--mesh = \"middle\""), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("in, out"), std::string::npos) << e.what();
+  }
+  o.mesh = "in";
+  o.axis.key = "speed.shaft_frequency_hz";
+  EXPECT_THROW(sweep(park2010_pair_case(), o), InputError);
+}
+
+TEST(TrainSweep, AQuasiPeriodicTrainIsMeasuredUnsettledAndSaysWhy) {
+  // A torque at order sqrt(2) of the input: no common period, so no section to be steady on.
+  // Each point runs max_settle_periods turns of the reference body and is measured as it is,
+  // flagged not settled, and the result says why.
+  Case c = shipped("idler_train.toml");
+  set_case_value(c, {"train.torque[0].harmonics", "[[2, 1.4142135623730951, 0]]"});
+  SweepOptions o = speed_sweep("train.reference_speed_hz", 40, 50, 2);
+  o.direction = SweepDirection::kUp;
+  o.max_settle_periods = 12;
+  const SweepResult r = sweep(c, o);
+  EXPECT_NE(r.period_note.find("quasi-periodic"), std::string::npos) << r.period_note;
+  EXPECT_NEAR(r.period_s, 1.0 / 40, 1e-15);
+  ASSERT_EQ(r.points.size(), 2u);
+  for (const SweepPoint& p : r.points) {
+    EXPECT_TRUE(p.failure.empty()) << p.failure;
+    EXPECT_FALSE(p.settled);
+    EXPECT_EQ(p.settle_periods, 12);
+    EXPECT_EQ(p.steady_error, std::numeric_limits<double>::infinity());
+  }
+  EXPECT_EQ(r.unsettled, 2u);
+}
+
+}  // namespace
+}  // namespace geardyn
