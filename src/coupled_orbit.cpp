@@ -24,16 +24,12 @@ ode::Vector coupled_orbit_scale(const CoupledParameters& p, double natural_rad_s
   return scale;
 }
 
-namespace {
-
 Case exact_case(const Case& c, double engine_tolerance) {
   Case e = c;
   e.solver.method = Method::kExact;
-  e.solver.tolerance = engine_tolerance;
+  e.solver.tolerance = std::max(engine_tolerance, kFinestEngineCaseTolerance);
   return e;
 }
-
-}  // namespace
 
 CoupledShooting::CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
                                  double engine_tolerance, const MeshStiffness* stiffness)

@@ -1,7 +1,7 @@
 // geardyn internal: the multiple-shooting residual of periodic orbits and Newton's method on
-// it, for any flow of the exact engine (the one-degree model's and the coupled model's), shared
-// by find_orbit, find_coupled_orbit and the continuation (orbit.hpp, coupled_orbit.hpp,
-// continuation.hpp).
+// it, for any flow of the exact engine (the one-degree model's, the coupled model's and a gear
+// train's), shared by find_orbit, find_coupled_orbit, find_train_orbit and the continuation
+// (orbit.hpp, coupled_orbit.hpp, train_orbit.hpp, continuation.hpp).
 #pragma once
 
 #include <Eigen/Core>
@@ -15,12 +15,21 @@
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/train_orbit.hpp"
+#include "geardyn/train_run.hpp"
 
 namespace geardyn::detail {
 
 // The engine's tolerance as a fraction of the orbit's Newton tolerance, so that the Jacobian
 // and the residual are exact to well below what Newton is asked for (orbits, continuation).
 constexpr double kEngineToleranceFraction = 1e-4;
+
+// Below this solver.tolerance the exact engine's own tolerance is the rounding limit
+// (run.hpp's kExactToleranceFraction of it): exact_case gives no finer one, and the case stays
+// one that validate() accepts.
+constexpr double kFinestEngineCaseTolerance = ode::kRoundingLimit / kExactToleranceFraction;
+// The case as a shooting integrates it: the exact engine at engine_tolerance.
+Case exact_case(const Case& c, double engine_tolerance);
 
 // The Newton iteration's unknowns are scaled: delta by b, delta' by b w_n: (b, b w_n).
 ode::Vector orbit_scale(const GearPairModel& model);
@@ -160,6 +169,48 @@ class CoupledShooting {
   CoupledSolver solver_;
   int periods_;
   double system_period_s_, period_s_;
+  Segments segments_;
+};
+
+// A gear train's counterpart (train_orbit.hpp): its unknowns are the coordinates and rates of
+// the bodies whose speed is not prescribed (a prescribed body's state at any time is its
+// prescription's). Not copyable (the flow refers to the solver).
+class TrainShooting {
+ public:
+  // `scale` as for Shooting (empty: each free coordinate by the backlash over the base radius
+  // of its body's first mesh, each rate by that times the train's highest natural frequency in
+  // contact). Throws InputError for a case that is no train, a train with no prescribed speed
+  // (it turns freely), one with no common period (quasi-periodic) or in which nothing varies.
+  // `stiffness` is not used (a train's meshes carry their own).
+  TrainShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                double engine_tolerance, const MeshStiffness* stiffness = nullptr);
+  TrainShooting(const TrainShooting&) = delete;
+  TrainShooting& operator=(const TrainShooting&) = delete;
+
+  const TrainSolver& solver() const { return solver_; }
+  double system_period_s() const { return system_period_s_; }
+  double period_s() const { return period_s_; }
+  const Segments& shooting() const { return segments_; }
+  // The unknowns' names: each free body's <name>_rad, then its <name>_rad_s.
+  const std::vector<std::string>& coordinates() const { return names_; }
+  // Every body's (theta, theta') at t_s from the unknowns z (physical), and back.
+  ode::Vector full(double t_s, const ode::Vector& z) const;
+  ode::Vector reduce(const ode::Vector& y) const;
+
+  // Fills an orbit's coordinates, section state (the unknowns' and every body's), monodromy,
+  // multipliers, stability and each mesh's reading over one period (flown and read). False with
+  // `why` when that flow fails.
+  bool read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
+            TrainOrbit& orbit, std::string& why) const;
+
+ private:
+  // Segment i's flow from the unknowns z, with their Jacobian.
+  ode::FlowResult flow(int i, const ode::Vector& z) const;
+  TrainSolver solver_;
+  std::vector<Eigen::Index> free_;  // indices into (theta, theta') of the unknowns
+  std::vector<std::string> names_;
+  int periods_;
+  double system_period_s_ = 0, period_s_ = 0;
   Segments segments_;
 };
 

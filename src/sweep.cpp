@@ -528,7 +528,7 @@ class PointRunner {
     // The mesh read, as the one-degree point reads its mesh.
     const MeshReading& read = pt.meshes[mesh_];
     const TrainMeshReading& x = r.meshes[mesh_];
-    const double force_scale = x.backlash_m * a.train().meshes[mesh_].mean_stiffness_n_per_m;
+    const double force_scale = x.backlash_m * x.mean_stiffness_n_per_m;
     double sf = 0, sf2 = 0;
     for (std::size_t i = 0; i < smp.t_s.size(); ++i) {
       const double f = smp.force_n[i][mesh_] / force_scale;

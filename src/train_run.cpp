@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <ostream>
+#include <stdexcept>
 
 #include "contact_tracker.hpp"
 #include "geardyn/adaptive.hpp"
@@ -349,6 +350,13 @@ ode::FlowResult TrainSolver::advance(double t0_s, const ode::Vector& y0, double 
   return flow(t0_s, y0, a_->classify(t0_s, y0), t1_s, ode::OutputGrid{}, nothing);
 }
 
+ode::FlowResult TrainSolver::advance_with_jacobian(double t0_s, const ode::Vector& y0,
+                                                   double t1_s) const {
+  if (!engine_) throw std::logic_error("TrainSolver: a Jacobian needs the exact engine");
+  ode::FlowObserver nothing;
+  return engine_->flow(t0_s, y0, a_->classify(t0_s, y0), t1_s, ode::OutputGrid{}, nothing, true);
+}
+
 TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s,
                                  const ode::OutputGrid& grid, double final_from_s,
                                  std::optional<double> watch_period_s,
@@ -372,6 +380,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     r.name = t.meshes[m].name;
     r.mesh_frequency_hz = a.mesh_frequency_hz(static_cast<int>(m));
     r.backlash_m = t.meshes[m].backlash_m;
+    r.mean_stiffness_n_per_m = t.meshes[m].mean_stiffness_n_per_m;
     if (rest) r.static_force_n = static_forces[m];
     result.meshes.push_back(r);
   }

@@ -10,19 +10,24 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "geardyn/case.hpp"
 #include "geardyn/orbit.hpp"
+#include "geardyn/train_run.hpp"
 
 namespace geardyn {
 
 struct TrainOrbit : PeriodicSolution {
   std::vector<std::string> coordinates;  // the unknowns: each free body's theta, then its rate
+  Eigen::VectorXd unknowns;              // theirs at the section t = 0, in that order
   Eigen::VectorXd state;                 // every body's (theta, theta') at the section t = 0
   std::vector<std::string> meshes;       // the meshes' names
   std::vector<std::int64_t> impacts_per_period, backside_impacts_per_period;  // per mesh
+  // Each mesh over one period of the orbit: its contact history and exact extremes.
+  std::vector<TrainMeshReading> readings;
 };
 
 // The orbit of N system periods (options.periods) of a train case: from a first guess settled
@@ -33,7 +38,10 @@ struct TrainOrbit : PeriodicSolution {
 // no train, a train without a prescribed speed, a train whose excitations have no common
 // period (quasi-periodic: there is no orbit to find) or none at all, bad options; a Newton
 // that does not converge is reported in the result.
-TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options);
+// With `start` (the unknowns at the section, in `coordinates` order, SI) Newton starts there in
+// place of the settled run.
+TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
+                            const std::optional<ode::Vector>& start = std::nullopt);
 
 // `geardyn orbit --json` of a train: the keys every orbit has (orbit.hpp's periodic JSON),
 // "model": "train", the coordinates, the section state and per mesh its impacts per period.

@@ -33,7 +33,8 @@ struct TrainMeshReading : TrainMeshPart {
   std::string name;
   double mesh_frequency_hz = 0;
   double backlash_m = 0;
-  TrainMeshPart steady;  // its regime: separated anywhere in the part or not
+  double mean_stiffness_n_per_m = 0;  // k_m: F / (b k_m) is the one-degree run's F_bar
+  TrainMeshPart steady;               // its regime: separated anywhere in the part or not
   // The mesh force in drive contact at the mean torques and drags, the prescribed bodies held
   // (static_mesh_forces_n); absent when there is none (the train's mean torques do not balance).
   std::optional<double> static_force_n;
@@ -112,6 +113,9 @@ class TrainSolver {
   ode::Vector initial_state(InitialCondition initial, double t0_s = 0) const;
   // From (t0, y0) to t1 with nothing read.
   ode::FlowResult advance(double t0_s, const ode::Vector& y0, double t1_s) const;
+  // The same with dy(t1)/dy(t0) in the result's jacobian (saltation at every event); the exact
+  // engine only (std::logic_error with "dopri5").
+  ode::FlowResult advance_with_jacobian(double t0_s, const ode::Vector& y0, double t1_s) const;
   // From (t0, y0) to t1, sampled on `grid` and read per mesh (contact separated after
   // final_from is "sustained"); with watch_period_s (> 0, or 0: no common period) integrated
   // once while the steady part is sought on the section t0 + k period (integrate_watching),
