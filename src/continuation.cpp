@@ -102,8 +102,32 @@ void to_branch(const CoupledOrbit& orbit, BranchOrbit& o) {
   }
 }
 
+// A train's orbit as the continuation keeps it: the unknowns (its free bodies' state), the
+// first mesh's reading in the one-degree units (its b and mean stiffness), and every mesh's
+// counts (its grazing is a change in any).
+void to_branch(const TrainOrbit& orbit, BranchOrbit& o) {
+  o.state = orbit.unknowns;
+  o.reading = RunReading{};
+  o.signature.clear();
+  o.contacts.clear();
+  for (std::size_t m = 0; m < orbit.readings.size(); ++m) {
+    const TrainMeshReading& r = orbit.readings[m];
+    if (m == 0) {
+      const double b = r.backlash_m, bk = b * r.mean_stiffness_n_per_m;
+      static_cast<ContactCounts&>(o.reading) = r;
+      o.reading.min_delta_bar = r.min_deflection_m / b;
+      o.reading.max_delta_bar = r.max_deflection_m / b;
+      o.reading.min_force_bar = r.min_force_n / bk;
+      o.reading.max_force_bar = r.max_force_n / bk;
+    }
+    o.signature.insert(o.signature.end(), {r.impacts, r.backside_impacts, r.separations});
+    o.contacts.push_back({"mesh " + r.name, r.impacts, r.separations});
+  }
+}
+
 std::string json_of(const Orbit& o) { return orbit_json(o, -1); }
 std::string json_of(const CoupledOrbit& o) { return coupled_orbit_json(o, -1); }
+std::string json_of(const TrainOrbit& o) { return train_orbit_json(o, -1); }
 
 // The family of one model: its shooting (detail::Shooting or detail::CoupledShooting) and its
 // orbit record (Orbit or CoupledOrbit).
@@ -138,12 +162,17 @@ std::unique_ptr<Family> family(const Case& c, int periods, int segments, const o
   if (c.model.form == ModelForm::kCoupled)
     return std::make_unique<FamilyOf<detail::CoupledShooting, CoupledOrbit>>(
         c, periods, segments, scale, engine_tolerance, stiffness);
+  if (c.model.form == ModelForm::kTrain)
+    return std::make_unique<FamilyOf<detail::TrainShooting, TrainOrbit>>(
+        c, periods, segments, scale, engine_tolerance, stiffness);
   return std::make_unique<FamilyOf<detail::Shooting, Orbit>>(c, periods, segments, scale,
                                                              engine_tolerance, stiffness);
 }
 
 // The names of a case's state entries (ContinuationResult::state_names).
 std::vector<std::string> state_names(const Case& c) {
+  if (c.model.form == ModelForm::kTrain)
+    return detail::TrainShooting(c, 1, 1, ode::Vector{}, c.solver.tolerance).coordinates();
   if (c.model.form != ModelForm::kCoupled) return {"delta_m", "velocity_m_s"};
   const std::vector<Coordinate> coords = coupled_parameters(c).coordinates;
   std::vector<std::string> names;
@@ -215,7 +244,8 @@ class Continuer {
   Continuer(const Case& base, const ContinuationOptions& o, double lo, double hi)
       : base_(base),
         o_(o),
-        stiffness_(shared_stiffness(base, {o.key})),
+        stiffness_(base.model.form == ModelForm::kTrain ? std::nullopt  // its meshes' own
+                                                        : shared_stiffness(base, {o.key})),
         p_scale_(hi - lo),
         lo_(lo),
         hi_(hi) {
@@ -251,7 +281,14 @@ class Continuer {
     OrbitOptions oo = o_.orbit;
     oo.segments = segments_;
     ode::Vector y0;
-    if (c0.model.form == ModelForm::kCoupled) {
+    if (c0.model.form == ModelForm::kTrain) {
+      const TrainOrbit first = find_train_orbit(c0, oo, o_.start);
+      if (!first.converged) {
+        why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
+        return false;
+      }
+      y0 = first.unknowns;
+    } else if (c0.model.form == ModelForm::kCoupled) {
       const CoupledOrbit first = find_coupled_orbit(c0, oo, o_.start);
       if (!first.converged) {
         why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);

@@ -150,15 +150,17 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 
 // The case a model command works on; every setting it gives that the model does not use is
 // said (case_keys.hpp, unused_settings), never dropped silently.
-// A gear train (model.form = "train") is taken by `run`, `sweep`, `modes`, `orbit` and
-// `stability` so far; every other command says so.
+// A gear train (model.form = "train") is taken by `run`, `sweep`, `continue`, `modes`, `orbit`
+// and `stability` so far; every other command says so.
 void check_command_takes(const geardyn::Case& c, std::string_view command) {
-  if (c.model.form == geardyn::ModelForm::kTrain && command != "run" && command != "sweep" &&
-      command != "modes" && command != "orbit" && command != "stability")
+  static constexpr std::array<std::string_view, 6> kTakeTrains{"run",   "sweep", "continue",
+                                                               "modes", "orbit", "stability"};
+  if (c.model.form == geardyn::ModelForm::kTrain &&
+      std::find(kTakeTrains.begin(), kTakeTrains.end(), command) == kTakeTrains.end())
     throw geardyn::InputError(geardyn::with_origins(
         c, fmt::format("model.form = \"train\": `geardyn {}` does not take gear trains yet; "
-                       "`geardyn run`, `sweep`, `modes`, `orbit` and `stability` do",
-                       command)));
+                       "`geardyn {}` do",
+                       command, fmt::join(kTakeTrains, "`, `"))));
 }
 
 geardyn::Case load_model_case(const std::string& file,

@@ -23,10 +23,12 @@
 // M the monodromy. Each is located by bisection along the branch, re-correcting at every
 // trial point, to a width in p of kLocateWidth p_scale.
 //
-// Both models are continued: the one-degree forms on the shooting of orbit.hpp, the coupled
+// Every model is continued: the one-degree forms on the shooting of orbit.hpp, the coupled
 // model (model.form = "coupled") on that of coupled_orbit.hpp, its unknowns all its
-// coordinates and their rates. A coupled orbit's grazing is a change in the impacts or
-// separations per period of the mesh or of a clearance bearing.
+// coordinates and their rates, and a gear train with a prescribed speed on that of
+// train_orbit.hpp, its unknowns its free bodies' angles and rates. A coupled orbit's grazing is
+// a change in the impacts or separations per period of the mesh or of a clearance bearing; a
+// train's, of any mesh (its readings are its first mesh's).
 #pragma once
 
 #include <complex>
@@ -103,7 +105,7 @@ struct ContinuationOptions {
   double min_step = 1e-8;
   int max_points = 5000;  // on each branch
   // A state on the section at `from` to start Newton from, in place of the settled simulation:
-  // (delta, delta'), or a coupled case's (q, q'), SI.
+  // (delta, delta'), a coupled case's (q, q'), or a train's unknowns (state_names), SI.
   std::optional<ode::Vector> start;
   // At each period doubling of the first branch (up to kMaxBranchSwitches), switch to the
   // period-doubled branch and follow it to the end of the range it heads for.
@@ -117,7 +119,8 @@ struct ContinuationOptions {
 
 struct ContinuationResult {
   // The names of the state's entries, as branch.csv heads their columns: delta_m,
-  // velocity_m_s; or each coupled coordinate (u_m, y1_m, ...), then its rate (u_m_s, ...).
+  // velocity_m_s; or each coupled coordinate (u_m, y1_m, ...), then its rate (u_m_s, ...); or
+  // a train's free bodies' <body>_rad, then their <body>_rad_s.
   std::vector<std::string> state_names;
   std::vector<BranchPoint> points;
   std::vector<Bifurcation> bifurcations;

@@ -83,6 +83,29 @@ def test_a_coupled_continuation_matches_the_command_line(tmp_path):
     assert orbit["monodromy"].shape == (6, 6)
 
 
+def test_a_trains_continuation_is_the_command_lines_and_grazes_at_the_rattle_onset(tmp_path):
+    # The loose gear along its input's acceleration amplitude: the branch and its bifurcations
+    # as `geardyn continue` writes them, the state columns its free body's, the first grazing
+    # at the closed-form onset J (R_in / R_loose) a = T_drag, about 240.5 rad/s^2.
+    path = os.path.join(os.environ["GEARDYN_SOURCE_DIR"], "cases", "loose_gear_rattle.toml")
+    key = "train.speed[0].acceleration_harmonics[0][0]"
+    subprocess.run([CLI, "continue", path, "--param", key, "--from", "230", "--to", "245",
+                    "--out", str(tmp_path), "--no-figures"], capture_output=True, text=True,
+                   check=True)
+    rows = np.genfromtxt(tmp_path / "branch.csv", delimiter=",", names=True)
+    from_cli = json.loads((tmp_path / "bifurcations.json").read_text())
+    b = geardyn.continuation(geardyn.Case.from_toml(path), key, 230, 245)
+    assert b["completed"], b["message"]
+    for name in ["param", "x_a", "loose_rad", "loose_rad_s", "max_multiplier"]:
+        assert np.array_equal(b[name], rows[name]), name
+    assert [f["param"] for f in b["bifurcations"]] == [f["param"] for f in from_cli]
+    first = b["bifurcations"][0]
+    assert first["type"] == "grazing" and first["detail"].startswith("mesh rattle impacts 0 -> ")
+    assert abs(first["param"] / 240.5 - 1) < 1e-3
+    assert first["orbit"]["model"] == "train" and first["orbit"]["coordinates"] == [
+        "loose_rad", "loose_rad_s"]
+
+
 def test_progress_stops_and_ctrl_c_raises_with_the_points_kept():
     seen = []
     b = geardyn.continuation(ks(), "model.omega", 0.5, 1.5,
