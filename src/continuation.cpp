@@ -129,8 +129,8 @@ std::string json_of(const Orbit& o) { return orbit_json(o, -1); }
 std::string json_of(const CoupledOrbit& o) { return coupled_orbit_json(o, -1); }
 std::string json_of(const TrainOrbit& o) { return train_orbit_json(o, -1); }
 
-// The family of one model: its shooting (detail::Shooting or detail::CoupledShooting) and its
-// orbit record (Orbit or CoupledOrbit).
+// The family of one model: its shooting (detail::Shooting, CoupledShooting or TrainShooting)
+// and its orbit record (Orbit, CoupledOrbit or TrainOrbit).
 template <class ShootingT, class OrbitT>
 class FamilyOf final : public Family {
  public:
