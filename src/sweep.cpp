@@ -243,15 +243,12 @@ class PointRunner {
     if (failure) return fail(*failure);
     const int q_settled = verdict.period_multiple;
     const double error = verdict.error;
-    // Measure whole response periods: at least --measure-periods, a multiple of q.
-    const int q = std::max(q_settled, 1);
-    const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
-    const double t0 = s.t, t1 = t0 + m * period;
-    RunReader reader(model, t0, t1, 1.0 / m, /*keep_events=*/false, /*keep_samples=*/true);
-    const ode::OutputGrid grid{t0, period / spp, static_cast<std::int64_t>(m) * spp};
-    const auto sum = solver.run(s, t1, grid, reader);
+    const Measurement w = measurement(verdict, s.t, period);
+    RunReader reader(model, s.t, w.t1_s, 1.0 / w.periods, /*keep_events=*/false,
+                     /*keep_samples=*/true);
+    const auto sum = solver.run(s, w.t1_s, w.grid, reader);
     if (!sum.ok()) return fail(sum);
-    SweepPoint pt = read_block(reader, job, m, spp);
+    SweepPoint pt = read_block(reader, job, w.periods, w.samples_per_period);
     pt.settle_periods = k;
     pt.settled = q_settled > 0;
     pt.period_multiple = q_settled;
@@ -286,6 +283,21 @@ class PointRunner {
     return k;
   }
 
+  // A point's measurement after its settling: whole response periods from t0_s, at least
+  // --measure-periods and a multiple of the response's period q T0 (q = 1 when not settled),
+  // sampled samples_per_period times a system period.
+  struct Measurement {
+    int periods, samples_per_period;
+    double t1_s;
+    ode::OutputGrid grid;
+  };
+  Measurement measurement(const SteadyVerdict& verdict, double t0_s, double period) const {
+    const int q = std::max(verdict.period_multiple, 1);
+    const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
+    return {m, spp, t0_s + m * period,
+            ode::OutputGrid{t0_s, period / spp, static_cast<std::int64_t>(m) * spp}};
+  }
+
   // settle() for a model whose state is a vector (the coupled model, a train): from (t, y) to
   // the section times k period (k T0 from the point's start, as the one-degree point's), each a
   // flow of solver.advance(t, y, t_next) after which seen(flow) hears it with (t, y) moved on;
@@ -312,14 +324,20 @@ class PointRunner {
         judge, verdict, [&] { return to_section(1); }, to_section);
   }
 
-  // A numerical failure is the point's result: kept with its reason, the sequence goes on
-  // from the initial condition.
-  static SweepPoint failed(const PointJob& job, Carry& carry, const char* termination,
-                           const std::string& message) {
+  // A point of the job, its readings yet to come.
+  static SweepPoint point_of(const PointJob& job) {
     SweepPoint pt;
     pt.direction = job.direction;
     pt.value = job.value;
     pt.value2 = job.value2;
+    return pt;
+  }
+
+  // A numerical failure is the point's result: kept with its reason, the sequence goes on
+  // from the initial condition.
+  static SweepPoint failed(const PointJob& job, Carry& carry, const char* termination,
+                           const std::string& message) {
+    SweepPoint pt = point_of(job);
     pt.mean_delta_bar = pt.rms_delta_bar = pt.pp_delta_bar = pt.min_delta_bar = kNaN;
     pt.mean_force_bar = pt.rms_force_bar = pt.pp_force_bar = pt.max_force_bar = kNaN;
     pt.separated_fraction = pt.impacts_per_period = kNaN;
@@ -384,18 +402,12 @@ class PointRunner {
       return pt;
     };
     if (failure) return failed_coupled(ode::to_string(failure->termination), failure->message);
-    const int q = std::max(verdict.period_multiple, 1);
-    const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
-    const double t1 = t + m * period;
+    const Measurement w = measurement(verdict, t, period);
+    const int m = w.periods, spp = w.samples_per_period;
     ode::Vector end;
-    const CoupledRunResult r =
-        solver.read(t, y, t1, ode::OutputGrid{t, period / spp, static_cast<std::int64_t>(m) * spp},
-                    t1 - period, {}, &end);
+    const CoupledRunResult r = solver.read(t, y, w.t1_s, w.grid, w.t1_s - period, {}, &end);
     if (!r.ok()) return failed_coupled(ode::to_string(r.termination), r.message);
-    SweepPoint pt;
-    pt.direction = job.direction;
-    pt.value = job.value;
-    pt.value2 = job.value2;
+    SweepPoint pt = point_of(job);
     const CoupledSamples& smp = r.samples;
     const double count = static_cast<double>(smp.t_s.size());
     double sd = 0, sd2 = 0, sf = 0, sf2 = 0;
@@ -486,18 +498,13 @@ class PointRunner {
     const int k = settle_flows(solver, period, t, y, judge, verdict, failure,
                                [&](const ode::FlowResult&) { section.add(t, y); });
     if (failure) return failed_train(ode::to_string(failure->termination), failure->message);
-    const int q = std::max(verdict.period_multiple, 1);
-    const int m = q * ((o_.measure_periods + q - 1) / q), spp = o_.samples_per_period;
-    const double t1 = t + m * period;
+    const Measurement w = measurement(verdict, t, period);
+    const int m = w.periods, spp = w.samples_per_period;
     ode::Vector end;
     const TrainRunResult r =
-        solver.read(t, y, t1, ode::OutputGrid{t, period / spp, static_cast<std::int64_t>(m) * spp},
-                    t1 - period, std::nullopt, {}, &end);
+        solver.read(t, y, w.t1_s, w.grid, w.t1_s - period, std::nullopt, {}, &end);
     if (!r.ok()) return failed_train(ode::to_string(r.termination), r.message);
-    SweepPoint pt;
-    pt.direction = job.direction;
-    pt.value = job.value;
-    pt.value2 = job.value2;
+    SweepPoint pt = point_of(job);
     const TrainSamples& smp = r.samples;
     const double count = static_cast<double>(smp.t_s.size());
     bool contact_only = true;  // every mesh in contact throughout: the train is linear there
@@ -581,10 +588,7 @@ class PointRunner {
 
   static SweepPoint read_block(RunReader& reader, const PointJob& job, int m, int spp) {
     const RunReading x = reader.reading();
-    SweepPoint pt;
-    pt.direction = job.direction;
-    pt.value = job.value;
-    pt.value2 = job.value2;
+    SweepPoint pt = point_of(job);
     pt.mean_delta_bar = x.mean_delta_bar;
     pt.rms_delta_bar = x.rms_delta_bar;
     pt.pp_delta_bar = x.max_delta_bar - x.min_delta_bar;

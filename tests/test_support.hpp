@@ -1,9 +1,14 @@
 // Helpers shared by the tests.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <string>
+#include <vector>
 
 #include "geardyn/case.hpp"
+#include "geardyn/engine.hpp"
+#include "geardyn/train.hpp"
 
 namespace geardyn::testing {
 
@@ -24,6 +29,34 @@ inline Case coupled(int dof) {
   c.model.form = ModelForm::kCoupled;
   c.model.dof = dof;
   return c;
+}
+
+// A train's period map on its free bodies (those without a prescribed speed): their angles
+// then their rates, z, at t = 0, the prescribed bodies as prescribed, flown over `period` by
+// `engine` (the test's own); the free bodies' state at its end.
+inline Eigen::VectorXd free_period_map(const train::Assembled& a, const ode::ExactEngine& engine,
+                                       double period, const Eigen::VectorXd& z) {
+  const int n = a.size();
+  std::vector<int> free;
+  for (int i = 0; i < n; ++i)
+    if (!a.prescribed(i)) free.push_back(i);
+  const auto f = static_cast<Eigen::Index>(free.size());
+  ode::Vector y = ode::Vector::Zero(2 * n);
+  for (Eigen::Index k = 0; k < f; ++k) {
+    y(free[static_cast<std::size_t>(k)]) = z(k);
+    y(n + free[static_cast<std::size_t>(k)]) = z(f + k);
+  }
+  a.prescribe(0.0, y);
+  ode::FlowObserver nothing;
+  const ode::FlowResult r =
+      engine.flow(0.0, y, a.classify(0.0, y), period, ode::OutputGrid{}, nothing);
+  EXPECT_TRUE(r.ok()) << r.message;
+  Eigen::VectorXd out(2 * f);
+  for (Eigen::Index k = 0; k < f; ++k) {
+    out(k) = r.state(free[static_cast<std::size_t>(k)]);
+    out(f + k) = r.state(n + free[static_cast<std::size_t>(k)]);
+  }
+  return out;
 }
 
 }  // namespace geardyn::testing

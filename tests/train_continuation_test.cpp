@@ -16,6 +16,7 @@
 #include "geardyn/engine.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_orbit.hpp"
+#include "test_support.hpp"
 
 namespace geardyn {
 namespace {
@@ -78,21 +79,20 @@ constexpr const char* kAmplitude = "train.speed[0].acceleration_harmonics[0][0]"
 // the input as prescribed; flown by an engine of the test's own at 1e-15.
 Eigen::Vector4d period_map(const train::Assembled& a, const ode::ExactEngine& engine, double period,
                            const Eigen::Vector4d& z) {
-  ode::Vector y = ode::Vector::Zero(6);
-  y(1) = z(0);
-  y(2) = z(1);
-  y(4) = z(2);
-  y(5) = z(3);
-  a.prescribe(0.0, y);
-  ode::FlowObserver nothing;
-  const ode::FlowResult r =
-      engine.flow(0.0, y, a.classify(0.0, y), period, ode::OutputGrid{}, nothing);
-  EXPECT_TRUE(r.ok()) << r.message;
-  return {r.state(1), r.state(2), r.state(4), r.state(5)};
+  return testing::free_period_map(a, engine, period, z);
 }
 
 Case two_loose_gears(double damping_ratio) {
   return parse_case(fmt::format(kTwoLooseGears, damping_ratio), "two loose gears");
+}
+
+// The branch of `base` along the input's acceleration amplitude from `from` to `to`.
+ContinuationResult continued(const Case& base, double from, double to) {
+  ContinuationOptions o;
+  o.key = kAmplitude;
+  o.from = from;
+  o.to = to;
+  return continuation(base, o);
 }
 
 // Central differences (step 1e-7 of the scale) of the period map at the free bodies' state z,
@@ -133,11 +133,7 @@ Eigen::Matrix4d scaled_central_differences(const Case& c, const Eigen::Vector4d&
 TEST(TrainContinuation, EachLooseGearGrazesAtItsClosedFormOnset) {
   // Well damped meshes: each onset of rattle is one clean grazing, 0 -> 1 impact a period.
   const Case base = two_loose_gears(0.5);
-  ContinuationOptions o;
-  o.key = kAmplitude;
-  o.from = 230;
-  o.to = 250;
-  const ContinuationResult r = continuation(base, o);
+  const ContinuationResult r = continued(base, 230, 250);
   ASSERT_TRUE(r.completed) << r.message;
   EXPECT_EQ(r.state_names,
             (std::vector<std::string>{"loose1_rad", "loose2_rad", "loose1_rad_s", "loose2_rad_s"}));
@@ -180,11 +176,7 @@ TEST(TrainContinuation, ItsMultipliersAreThePeriodMapsAndItsPeriodDoublingIsWher
   // rounding takes over below (1e-5 at 1e-8); hence 1e-7 and 1e-4. Their multiplier nearest -1
   // is within 1e-3 of it (it moves by 30 per unit of the amplitude there).
   const Case base = two_loose_gears(0.1);
-  ContinuationOptions o;
-  o.key = kAmplitude;
-  o.from = 285.9;
-  o.to = 286.19;
-  const ContinuationResult r = continuation(base, o);
+  const ContinuationResult r = continued(base, 285.9, 286.19);
   ASSERT_TRUE(r.completed) << r.message;
   const auto at = [&](double p) {
     Case c = base;

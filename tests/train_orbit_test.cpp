@@ -14,6 +14,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/train_case.hpp"
+#include "test_support.hpp"
 
 namespace geardyn {
 namespace {
@@ -30,15 +31,7 @@ Case loose_gear(double acceleration_rad_s2) {
 // prescribed.
 Eigen::Vector2d period_map(const train::Assembled& a, const ode::ExactEngine& engine, double period,
                            const Eigen::Vector2d& z) {
-  ode::Vector y = ode::Vector::Zero(4);
-  y(1) = z(0);
-  y(3) = z(1);
-  a.prescribe(0.0, y);
-  ode::FlowObserver nothing;
-  const ode::FlowResult r =
-      engine.flow(0.0, y, a.classify(0.0, y), period, ode::OutputGrid{}, nothing);
-  EXPECT_TRUE(r.ok()) << r.message;
-  return {r.state(1), r.state(3)};
+  return testing::free_period_map(a, engine, period, z);
 }
 
 TEST(TrainOrbit, ALooseGearsRattlingOrbitClosesAndItsMultipliersAreItsPeriodMaps) {
