@@ -572,6 +572,8 @@ std::vector<std::string> unused_settings(const Case& c) {
       out.push_back(
           fmt::format("{} = {} ({}): not used: {}", k.name, k.value_text(c), given->second, why));
   }
+  if (c.train)
+    for (std::string& x : train_unused_settings(*c.train)) out.push_back(std::move(x));
   return out;
 }
 

@@ -102,23 +102,13 @@ class PointRunner {
   // Unless a swept key changes the mesh stiffness curve, the stiffness is computed once for the
   // whole sweep (shared_stiffness).
   PointRunner(const Case& base, const SweepOptions& o) : base_(base), o_(o) {
+    mesh_ = mesh_to_read(base, o.mesh);
     if (base.model.form == ModelForm::kTrain) {
       // A train's meshes come from its own stiffness sources; the mesh read is named.
       const train::Assembled a = assembled_train(base);
       for (const train::Mesh& m : a.train().meshes) meshes_.push_back(m.name);
-      const auto it = std::find(meshes_.begin(), meshes_.end(), o.mesh);
-      if (!o.mesh.empty() && it == meshes_.end())
-        throw InputError(
-            fmt::format("--mesh = \"{}\": the train has no mesh of that name; its meshes are {}",
-                        o.mesh, fmt::join(meshes_, ", ")));
-      mesh_ = o.mesh.empty() ? 0 : static_cast<std::size_t>(it - meshes_.begin());
       return;
     }
-    if (!o.mesh.empty())
-      throw InputError(fmt::format(
-          "--mesh = \"{}\": names a gear train's mesh; this case (model.form = \"{}\") has "
-          "one mesh",
-          o.mesh, to_string(base.model.form)));
     std::vector<std::string> keys{o.axis.key};
     if (o.axis2) keys.push_back(o.axis2->key);
     stiffness_ = shared_stiffness(base, keys);

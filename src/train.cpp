@@ -130,6 +130,9 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (!(b.inertia_kg_m2 > 0 && std::isfinite(b.inertia_kg_m2)))
       bad(fmt::format("body '{}'", b.name),
           fmt::format("inertia_kg_m2 = {}: must be a finite inertia > 0 kg m^2", b.inertia_kg_m2));
+    if (b.planar && !(b.mass_kg > 0 && std::isfinite(b.mass_kg)))
+      bad(fmt::format("body '{}'", b.name),
+          fmt::format("mass_kg = {}: a planar body needs a finite mass > 0 kg", b.mass_kg));
   }
   if (t_.meshes.empty()) bad("the train", "has no mesh: a gear train needs at least one");
   const auto body = [&](const std::string& element, const char* key, const std::string& name) {
@@ -161,6 +164,23 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (body(e, "a", s.a) == body(e, "b", s.b)) bad(e, "a shaft joins two bodies");
     if (!(s.stiffness_n_m_per_rad > 0)) bad(e, "stiffness must be > 0 N m/rad");
   }
+  std::set<int> supported;
+  for (const Bearing& x : t_.bearings) {
+    const std::string e = fmt::format("bearing '{}'", x.name);
+    const int i = body(e, "body", x.body);
+    if (!t_.bodies[i].planar)
+      bad(e, fmt::format("body = \"{}\" keeps torsion only (dof = \"torsion\"): a bearing "
+                         "carries a planar body (dof = \"planar\")",
+                         x.body));
+    if (!(x.stiffness_n_per_m > 0 && std::isfinite(x.stiffness_n_per_m)))
+      bad(e, fmt::format("stiffness = {} N/m: must be finite and > 0", x.stiffness_n_per_m));
+    supported.insert(i);
+  }
+  for (std::size_t i = 0; i < t_.bodies.size(); ++i)
+    if (t_.bodies[i].planar && !supported.count(static_cast<int>(i)))
+      bad(fmt::format("body '{}'", t_.bodies[i].name),
+          "is planar (dof = \"planar\") but no bearing carries it: its centre would be free; "
+          "add a [[train.bearing]] with body = its name");
   std::set<int> prescribed_bodies;
   for (const Speed& v : t_.speeds) {
     const std::string e = fmt::format("speed '{}'", v.name);
@@ -183,18 +203,20 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
   if (!(t_.reference_speed_hz > 0)) bad("the train", "reference_speed_hz must be > 0");
 
   // Speeds over the reference's, from the mesh and shaft graph: a loop whose ratios disagree
-  // locks the train.
-  const int n = size();
+  // locks the train. Each external mesh reverses the sense of rotation, a shaft keeps it.
+  const int n = body_count();
   std::vector<std::optional<Ratio>> speed(n);
+  sense_.assign(static_cast<std::size_t>(n), 1);
   speed[ref] = Ratio{1, 1};
   std::queue<int> open;
   open.push(ref);
   while (!open.empty()) {
     const int i = open.front();
     open.pop();
-    const auto visit = [&](int j, Ratio r, const std::string& element) {
+    const auto visit = [&](int j, Ratio r, const std::string& element, int sense) {
       if (!speed[j]) {
         speed[j] = r;
+        sense_[static_cast<std::size_t>(j)] = sense;
         open.push(j);
       } else if (!same(*speed[j], r)) {
         bad(element, fmt::format("closes a loop whose speed ratios disagree ({} against {} for "
@@ -205,14 +227,15 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     for (const Mesh& m : t_.meshes) {
       const int a = index(m.driving), b = index(m.driven);
       const std::string e = fmt::format("mesh '{}'", m.name);
-      if (a == i) visit(b, times(*speed[i], m.teeth_driving, m.teeth_driven), e);
-      if (b == i) visit(a, times(*speed[i], m.teeth_driven, m.teeth_driving), e);
+      const int reversed = -sense_[static_cast<std::size_t>(i)];
+      if (a == i) visit(b, times(*speed[i], m.teeth_driving, m.teeth_driven), e, reversed);
+      if (b == i) visit(a, times(*speed[i], m.teeth_driven, m.teeth_driving), e, reversed);
     }
     for (const Shaft& s : t_.shafts) {
       const int a = index(s.a), b = index(s.b);
       const std::string e = fmt::format("shaft '{}'", s.name);
-      if (a == i) visit(b, *speed[i], e);
-      if (b == i) visit(a, *speed[i], e);
+      if (a == i) visit(b, *speed[i], e, sense_[static_cast<std::size_t>(i)]);
+      if (b == i) visit(a, *speed[i], e, sense_[static_cast<std::size_t>(i)]);
     }
   }
   for (int i = 0; i < n; ++i) {
@@ -221,8 +244,26 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
           fmt::format("is joined to the reference '{}' by no mesh or shaft", t_.reference));
     speed_.push_back(*speed[i]);
   }
-  m_ = Eigen::MatrixXd::Zero(n, n);
-  for (int i = 0; i < n; ++i) m_(i, i) = t_.bodies[i].inertia_kg_m2;
+  // The coordinates: every rotation, then each planar body's x and y.
+  for (const Body& b : t_.bodies) names_.push_back(b.name + "_rad");
+  for (const Body& b : t_.bodies) {
+    translation_.push_back(b.planar ? static_cast<int>(names_.size()) : -1);
+    if (b.planar) {
+      names_.push_back(b.name + "_x_m");
+      names_.push_back(b.name + "_y_m");
+    }
+  }
+  m_ = Eigen::MatrixXd::Zero(size(), size());
+  for (int i = 0; i < n; ++i) {
+    m_(i, i) = t_.bodies[i].inertia_kg_m2;
+    if (const int x = translation(i); x >= 0) m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].mass_kg;
+  }
+}
+
+Eigen::VectorXd Assembled::rigid_rotation() const {
+  Eigen::VectorXd r = Eigen::VectorXd::Zero(size());
+  for (int i = 0; i < body_count(); ++i) r(i) = value(speed_[static_cast<std::size_t>(i)]);
+  return r;
 }
 
 int Assembled::index(const std::string& body) const {
@@ -253,7 +294,7 @@ Eigen::MatrixXd Assembled::reduced_basis() const {
   // The rigid rotation (r, 0), r the speed ratios; Q the rest of an orthonormal basis whose
   // first column is it (Householder).
   Eigen::VectorXd rigid = Eigen::VectorXd::Zero(2 * n);
-  for (Eigen::Index i = 0; i < n; ++i) rigid(i) = value(speed_[static_cast<std::size_t>(i)]);
+  rigid.head(n) = rigid_rotation();
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(rigid);
   const Eigen::MatrixXd full = qr.householderQ() * Eigen::MatrixXd::Identity(2 * n, 2 * n);
   return full.rightCols(2 * n - 1);
@@ -390,8 +431,22 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   const Mesh& m = t_.meshes[mesh];
   Eigen::RowVectorXd v = Eigen::RowVectorXd::Zero(size());
   const double cb = std::cos(m.base_helix_angle_rad);
-  v(index(m.driving)) += cb * m.base_radius_driving_m;
-  v(index(m.driven)) -= cb * m.base_radius_driven_m;
+  const int a = index(m.driving), b = index(m.driven);
+  v(a) += cb * m.base_radius_driving_m;
+  v(b) -= cb * m.base_radius_driven_m;
+  // The line of action n = s_a cos(alpha_t) t + sin(alpha_t) e (train.hpp).
+  const double psi = m.position_angle_rad, alpha = m.transverse_pressure_angle_rad;
+  const double s = sense(a) * std::cos(alpha), r = std::sin(alpha);
+  const double nx = -s * std::sin(psi) + r * std::cos(psi),
+               ny = s * std::cos(psi) + r * std::sin(psi);
+  if (const int x = translation(a); x >= 0) {
+    v(x) += cb * nx;
+    v(x + 1) += cb * ny;
+  }
+  if (const int x = translation(b); x >= 0) {
+    v(x) -= cb * nx;
+    v(x + 1) -= cb * ny;
+  }
   return v;
 }
 
@@ -413,6 +468,13 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
       }
   }
   for (const Drag& d : t.drags) c(a.index(d.body), a.index(d.body)) += d.viscous_n_m_s_per_rad;
+  for (const Bearing& b : t.bearings) {
+    const int x = a.translation(a.index(b.body));
+    for (const int i : {x, x + 1}) {
+      k(i, i) += b.stiffness_n_per_m;
+      c(i, i) += b.damping_n_s_per_m;
+    }
+  }
 }
 
 }  // namespace
@@ -704,6 +766,11 @@ std::vector<TrainMode> modes(const Assembled& a) {
       const double d = mode.shape(a.index(s.a)) - mode.shape(a.index(s.b));
       const double e = 0.5 * s.stiffness_n_m_per_rad * d * d;
       mode.shaft_energy.push_back(total > 0 ? e / total : 0.0);
+    }
+    for (const Bearing& b : t.bearings) {
+      const int x = a.translation(a.index(b.body));
+      const double e = 0.5 * b.stiffness_n_per_m * mode.shape.segment(x, 2).squaredNorm();
+      mode.bearing_energy.push_back(total > 0 ? e / total : 0.0);
     }
     out.push_back(std::move(mode));
   }

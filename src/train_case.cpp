@@ -1,8 +1,10 @@
 #include "geardyn/train_case.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -43,6 +45,7 @@ struct ElementKey {
   Range range;
   bool required;
   std::string_view doc;
+  std::string_view choices = "";  // of a name that is one of a few words: "torsion planar"
 };
 
 // The keys of each kind of element: the one table the reader, its messages and the docs use.
@@ -50,9 +53,19 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
   using B = TrainBodyData;
   static const std::vector<ElementKey<B>> keys = {
       {"name", &B::name, "", {}, true, "the body's name, by which meshes and shafts join it"},
+      {"dof",
+       &B::dof,
+       "",
+       {},
+       false,
+       "the degrees of freedom it keeps: its rotation (\"torsion\"), or also its centre's "
+       "displacement in the plane on its bearings (\"planar\")",
+       "torsion planar"},
       {"inertia_kg_m2", &B::inertia_kg_m2, "kg m^2", above(0), false,
        "polar moment of inertia; absent: a cylinder of the reference diameter and face width "
        "(a gear's)"},
+      {"mass_kg", &B::mass_kg, "kg", above(0), false,
+       "a planar body's mass; absent: the cylinder of inertia_kg_m2's rule"},
       {"teeth", &B::teeth, "", closed(0, 10000), false, "number of teeth; 0: not a gear"},
       {"normal_module_mm", &B::normal_module_mm, "mm", closed(0, 100), false,
        "normal module m_n (a gear's)"},
@@ -86,6 +99,10 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        "frequency"},
       {"damping_ratio", &M::damping_ratio, "", closed_open(0, 1), false,
        "of the mesh's contact oscillator (its two gears on their own), acting in contact"},
+      {"position_angle_deg", &M::position_angle_deg, "deg", closed(-360, 360), false,
+       "where the driven gear's centre lies seen from the driving gear's, counterclockwise "
+       "from x (the reference turns counterclockwise): the line of action's direction, read "
+       "when a gear of the mesh is planar"},
   };
   return keys;
 }
@@ -100,6 +117,18 @@ const std::vector<ElementKey<TrainShaftData>>& shaft_keys() {
        "torsional stiffness"},
       {"damping_ratio", &S::damping_ratio, "", closed_open(0, 1), false,
        "against the reduced inertia of the two bodies"},
+  };
+  return keys;
+}
+
+const std::vector<ElementKey<TrainBearingData>>& bearing_keys() {
+  using G = TrainBearingData;
+  static const std::vector<ElementKey<G>> keys = {
+      {"name", &G::name, "", {}, false, "the bearing's name"},
+      {"body", &G::body, "", {}, true, "the planar body it carries"},
+      {"stiffness_n_per_m", &G::stiffness_n_per_m, "N/m", above(0), true,
+       "radial stiffness, the same in x and y"},
+      {"damping_ratio", &G::damping_ratio, "", closed_open(0, 1), false, "against the body's mass"},
   };
   return keys;
 }
@@ -146,6 +175,17 @@ const std::vector<ElementKey<TrainSpeedData>>& speed_keys() {
   return keys;
 }
 
+// The words of a key's choices, "torsion planar".
+std::vector<std::string_view> words_of(std::string_view text) {
+  std::vector<std::string_view> out;
+  for (std::size_t at = 0; at < text.size();) {
+    const std::size_t end = std::min(text.find(' ', at), text.size());
+    out.push_back(text.substr(at, end - at));
+    at = end + 1;
+  }
+  return out;
+}
+
 // What a key takes: "a number > 0 N/m", "an array of [amplitude, order, phase_deg], ...".
 template <class E>
 std::string allowed(const ElementKey<E>& key) {
@@ -155,6 +195,12 @@ std::string allowed(const ElementKey<E>& key) {
         const std::string unit = key.unit.empty() ? "" : fmt::format(" {}", key.unit);
         const std::string bound = key.range.text(std::is_same_v<T, int>);
         if constexpr (std::is_same_v<T, std::string>) {
+          if (!key.choices.empty()) {
+            std::string words;
+            for (const std::string_view w : words_of(key.choices))
+              words += fmt::format("{}\"{}\"", words.empty() ? "" : " or ", w);
+            return words;
+          }
           return "a name in quotes";
         } else if constexpr (std::is_same_v<T, int>) {
           return fmt::format("a whole number {}", bound);
@@ -227,6 +273,10 @@ class ElementReader {
   void set(const toml::node& n, const ElementKey<E>& key, std::string& out) const {
     if (!n.is_string() || n.value<std::string>()->empty()) fail(n, key);
     out = *n.value<std::string>();
+    if (!key.choices.empty()) {
+      const std::vector<std::string_view> words = words_of(key.choices);
+      if (std::find(words.begin(), words.end(), out) == words.end()) fail(n, key);
+    }
   }
   template <class E>
   void set(const toml::node& n, const ElementKey<E>& key, double& out) const {
@@ -301,7 +351,7 @@ void read_array(const toml::table& train, const std::string& source,
 }
 
 constexpr std::string_view kTrainKeys =
-    "reference, reference_speed_hz, body, mesh, shaft, torque, drag, speed";
+    "reference, reference_speed_hz, body, mesh, shaft, bearing, torque, drag, speed";
 
 }  // namespace
 
@@ -313,7 +363,8 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
                                  where(node.source(), source), node_text(node)));
   TrainCase t;
   static const std::set<std::string_view> known = {
-      "reference", "reference_speed_hz", "body", "mesh", "shaft", "torque", "drag", "speed"};
+      "reference", "reference_speed_hz", "body", "mesh", "shaft", "bearing", "torque", "drag",
+      "speed"};
   for (auto&& [k, v] : *train) {
     if (!known.count(k.str()))
       throw InputError(fmt::format("{}: unknown key 'train.{}'; allowed in [train]: {}",
@@ -342,6 +393,7 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
   read_array(*train, source, overrides, "body", body_keys(), t.bodies, t.origins);
   read_array(*train, source, overrides, "mesh", mesh_keys(), t.meshes, t.origins);
   read_array(*train, source, overrides, "shaft", shaft_keys(), t.shafts, t.origins);
+  read_array(*train, source, overrides, "bearing", bearing_keys(), t.bearings, t.origins);
   read_array(*train, source, overrides, "torque", torque_keys(), t.torques, t.origins);
   read_array(*train, source, overrides, "drag", drag_keys(), t.drags, t.origins);
   read_array(*train, source, overrides, "speed", speed_keys(), t.speeds, t.origins);
@@ -370,7 +422,8 @@ namespace {
 }
 
 struct GearGeometry {
-  double base_radius_m = 0, base_helix_rad = 0, inertia_kg_m2 = 0;
+  double base_radius_m = 0, base_helix_rad = 0, transverse_pressure_rad = 0, inertia_kg_m2 = 0,
+         mass_kg = 0;
 };
 
 // A body's base radius, base helix angle and inertia (MODEL.md section 1, as the gear pair's).
@@ -386,21 +439,27 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
   const double d = b.teeth * b.normal_module_mm * kMmToM / std::cos(beta);  // reference
   g.base_radius_m = 0.5 * d * std::cos(alpha_t);
   g.base_helix_rad = std::atan(std::tan(beta) * std::cos(alpha_t));
-  if (b.inertia_kg_m2) {
-    g.inertia_kg_m2 = *b.inertia_kg_m2;
-  } else {
+  g.transverse_pressure_rad = alpha_t;
+  // The blank, a cylinder of the reference diameter: for what is not given.
+  const bool planar = b.dof == "planar";
+  if (!b.inertia_kg_m2 || (planar && !b.mass_kg)) {
     const double di = b.bore_diameter_mm * kMmToM;
     if (!(b.teeth > 0 && b.face_width_mm > 0))
-      rethrow_with_origin(t, fmt::format("{}: has no inertia_kg_m2; give it, or teeth, "
-                                         "normal_module_mm and face_width_mm for a gear's",
-                                         label));
+      rethrow_with_origin(
+          t, fmt::format("{}: has no {}; give it, or teeth, normal_module_mm and face_width_mm "
+                         "for a gear's",
+                         label, b.inertia_kg_m2 ? "mass_kg" : "inertia_kg_m2"));
     if (!(di < d))
       rethrow_with_origin(t, fmt::format("{}: bore_diameter_mm = {} must be below the reference "
                                          "diameter {:.6g} mm",
                                          label, b.bore_diameter_mm, d / kMmToM));
+    // In this order: bit for bit the inertia a train has always had (a rattle depends on it).
     g.inertia_kg_m2 =
         b.density_kg_m3 * kPi * b.face_width_mm * kMmToM * (std::pow(d, 4) - std::pow(di, 4)) / 32;
+    g.mass_kg = b.density_kg_m3 * kPi * b.face_width_mm * kMmToM * (d * d - di * di) / 4;
   }
+  if (b.inertia_kg_m2) g.inertia_kg_m2 = *b.inertia_kg_m2;
+  if (b.mass_kg) g.mass_kg = *b.mass_kg;
   return g;
 }
 
@@ -423,7 +482,11 @@ train::Train train_of(const Case& c) {
     // A body named twice is the assembler's to name; the first of the name is read here.
     gears.emplace(b.name, g);
     bodies.emplace(b.name, &b);
-    out.bodies.push_back({b.name, g.inertia_kg_m2});
+    if (b.mass_kg && b.dof != "planar")
+      rethrow_with_origin(t, fmt::format("body '{}': mass_kg = {} is read only for a planar "
+                                         "body (dof = \"planar\"); this one keeps torsion only",
+                                         b.name, *b.mass_kg));
+    out.bodies.push_back({b.name, g.inertia_kg_m2, b.dof == "planar", g.mass_kg});
   }
   for (const TrainMeshData& m : t.meshes) {
     train::Mesh x;
@@ -453,6 +516,8 @@ train::Train train_of(const Case& c) {
       x.base_radius_driving_m = gears[m.driving].base_radius_m;
       x.base_radius_driven_m = gears[m.driven].base_radius_m;
       x.base_helix_angle_rad = gears[m.driving].base_helix_rad;
+      x.transverse_pressure_angle_rad = gears[m.driving].transverse_pressure_rad;
+      x.position_angle_rad = m.position_angle_deg * kDegToRad;
       // The damping of the mesh's own oscillator: its two gears, m_n = 1 / (V J^-1 V^T).
       const double cb = std::cos(x.base_helix_angle_rad);
       const double ra = cb * x.base_radius_driving_m, rb = cb * x.base_radius_driven_m;
@@ -477,6 +542,13 @@ train::Train train_of(const Case& c) {
           2 * s.damping_ratio * std::sqrt(s.stiffness_n_m_per_rad * ja * jb / (ja + jb));
     }
     out.shafts.push_back(std::move(x));
+  }
+  for (const TrainBearingData& b : t.bearings) {
+    train::Bearing x{b.name, b.body, b.stiffness_n_per_m, 0.0};
+    if (const auto g = gears.find(b.body); g != gears.end())
+      x.damping_n_s_per_m =
+          2 * b.damping_ratio * std::sqrt(b.stiffness_n_per_m * g->second.mass_kg);
+    out.bearings.push_back(std::move(x));
   }
   for (const TrainTorqueData& q : t.torques) {
     train::Torque x{q.name, q.body, q.mean_nm, {}};
@@ -531,7 +603,8 @@ void describe(std::string_view kind, const std::vector<ElementKey<E>>& keys,
           using T = std::remove_cvref_t<decltype(v)>;
           if (k.required) return "(required)";
           if constexpr (std::is_same_v<T, std::string>) {
-            return k.leaf == "name" ? fmt::format("{0}1, {0}2, ...", kind) : "\"\"";
+            return k.leaf == "name" ? fmt::format("{0}1, {0}2, ...", kind)
+                                    : fmt::format("\"{}\"", v);
           } else if constexpr (std::is_same_v<T, std::optional<double>>) {
             return "absent";
           } else if constexpr (std::is_arithmetic_v<T>) {
@@ -599,6 +672,7 @@ const std::vector<TrainKeyInfo>& train_key_list() {
     describe("body", body_keys(), out);
     describe("mesh", mesh_keys(), out);
     describe("shaft", shaft_keys(), out);
+    describe("bearing", bearing_keys(), out);
     describe("torque", torque_keys(), out);
     describe("drag", drag_keys(), out);
     describe("speed", speed_keys(), out);
@@ -654,6 +728,7 @@ std::string train_key_not_sweepable(std::string_view dotted) {
   if (kind == "body") real = real_leaf(body_keys(), leaf);
   if (kind == "mesh") real = real_leaf(mesh_keys(), leaf);
   if (kind == "shaft") real = real_leaf(shaft_keys(), leaf);
+  if (kind == "bearing") real = real_leaf(bearing_keys(), leaf);
   if (kind == "torque") real = real_leaf(torque_keys(), leaf);
   if (kind == "drag") real = real_leaf(drag_keys(), leaf);
   if (kind == "speed") real = real_leaf(speed_keys(), leaf);
@@ -694,12 +769,52 @@ std::string train_keys_listing() {
   return out;
 }
 
+std::size_t mesh_to_read(const Case& c, const std::string& name) {
+  if (c.model.form != ModelForm::kTrain) {
+    if (!name.empty())
+      throw InputError(fmt::format(
+          "--mesh = \"{}\": names a gear train's mesh; this case (model.form = \"{}\") has "
+          "one mesh",
+          name, to_string(c.model.form)));
+    return 0;
+  }
+  if (name.empty()) return 0;
+  std::vector<std::string> names;
+  const train::Assembled a = assembled_train(c);
+  for (const train::Mesh& m : a.train().meshes) names.push_back(m.name);
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it == names.end())
+    throw InputError(
+        fmt::format("--mesh = \"{}\": the train has no mesh of that name; its meshes are {}", name,
+                    fmt::join(names, ", ")));
+  return static_cast<std::size_t>(it - names.begin());
+}
+
+std::vector<std::string> train_unused_settings(const TrainCase& t) {
+  std::vector<std::string> out;
+  std::set<std::string> planar;
+  for (const TrainBodyData& b : t.bodies)
+    if (b.dof == "planar") planar.insert(b.name);
+  for (std::size_t i = 0; i < t.meshes.size(); ++i) {
+    const TrainMeshData& m = t.meshes[i];
+    if (m.position_angle_deg == 0 || planar.count(m.driving) || planar.count(m.driven)) continue;
+    const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
+    out.push_back(fmt::format(
+        "train.mesh[{}].position_angle_deg = {} ({}): not used: neither gear of mesh '{}' is "
+        "planar, so the direction of its line of action moves nothing",
+        i, m.position_angle_deg, where_given == t.origins.end() ? "" : where_given->second,
+        m.name));
+  }
+  return out;
+}
+
 std::string train_toml(const TrainCase& t) {
   std::string out = fmt::format("\n[train]\nreference = \"{}\"\nreference_speed_hz = {}\n",
                                 t.reference, t.reference_speed_hz);
   out += toml_tables("body", body_keys(), t.bodies);
   out += toml_tables("mesh", mesh_keys(), t.meshes);
   out += toml_tables("shaft", shaft_keys(), t.shafts);
+  out += toml_tables("bearing", bearing_keys(), t.bearings);
   out += toml_tables("torque", torque_keys(), t.torques);
   out += toml_tables("drag", drag_keys(), t.drags);
   out += toml_tables("speed", speed_keys(), t.speeds);

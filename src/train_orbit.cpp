@@ -37,9 +37,9 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
         "continuation take trains with a [[train.speed]] (the others not yet)"));
   const std::size_t nf = free_.size();
   for (std::size_t k = 0; k < nf; ++k) free_.push_back(n + free_[k]);
-  for (const char* unit : {"_rad", "_rad_s"})
+  for (const char* rate : {"", "_s"})
     for (std::size_t k = 0; k < nf; ++k)
-      names_.push_back(t.bodies[static_cast<std::size_t>(free_[k])].name + unit);
+      names_.push_back(a.coordinate_names()[static_cast<std::size_t>(free_[k])] + rate);
   std::string why;
   const std::optional<double> t0 = a.system_period_s(&why);
   if (!t0) throw InputError(with_origins(c, "the train has no periodic orbit to find: " + why));
@@ -63,7 +63,12 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
       const double v = std::abs(a.mesh_vector(static_cast<int>(m))(free_[k]));
       if (v > 0) angle = std::min(angle, t.meshes[m].backlash_m / v);
     }
-    if (!std::isfinite(angle)) angle = 1e-3;  // a body joined by shafts alone: a milliradian
+    if (!std::isfinite(angle)) {
+      // A body joined by shafts alone: a milliradian; a centre no mesh moves: the least b.
+      angle = 1e-3;
+      if (free_[k] >= a.body_count())
+        for (const train::Mesh& x : t.meshes) angle = std::min(angle, x.backlash_m);
+    }
     own(static_cast<Eigen::Index>(k)) = angle;
     own(static_cast<Eigen::Index>(nf + k)) = angle * w;
   }

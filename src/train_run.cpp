@@ -265,8 +265,7 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
   }
   // No body held: the rigid rotation r (the speeds) is free, and the torques must do no net
   // work on it.
-  Eigen::VectorXd r(n);
-  for (int i = 0; i < n; ++i) r(i) = ratio_value(a.speed_ratios()[static_cast<std::size_t>(i)]);
+  const Eigen::VectorXd r = a.rigid_rotation();
   const double power = r.dot(q_load);
   const double scale = r.cwiseAbs().dot(q_load.cwiseAbs());
   if (!(std::abs(power) <= kBalanceTolerance * scale)) {
@@ -366,11 +365,12 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   const train::Train& t = a.train();
   TrainRunResult result;
   result.input = case_;
-  for (int i = 0; i < a.size(); ++i) {
+  for (int i = 0; i < a.body_count(); ++i) {
     result.bodies.push_back(t.bodies[static_cast<std::size_t>(i)].name);
     result.body_speed_hz.push_back(t.reference_speed_hz *
                                    ratio_value(a.speed_ratios()[static_cast<std::size_t>(i)]));
   }
+  result.coordinates = a.coordinate_names();
   result.system_period_s = a.system_period_s(&result.system_period_note);
   const std::optional<Eigen::VectorXd> rest = static_state(a, &result.static_note);
   const std::vector<double> static_forces =
@@ -428,16 +428,20 @@ TrainSections::TrainSections(const train::Assembled& a, double top_frequency_rad
                              double integration_tolerance)
     : a_(a) {
   const train::Train& t = a.train();
-  double angle_scale = kInf;  // the smallest b / (cos beta_b R) of the meshes, rad
+  double angle_scale = kInf;   // the smallest b / (cos beta_b R) of the meshes, rad
+  double length_scale = kInf;  // the smallest b, m
   for (std::size_t m = 0; m < t.meshes.size(); ++m) {
     const train::Mesh& x = t.meshes[m];
     series_.emplace_back(x.backlash_m, top_frequency_rad_s, integration_tolerance);
     errors_.push_back(a.error_series(static_cast<int>(m)));
     for (const double r : {x.base_radius_driving_m, x.base_radius_driven_m})
       angle_scale = std::min(angle_scale, x.backlash_m / (std::cos(x.base_helix_angle_rad) * r));
+    length_scale = std::min(length_scale, x.backlash_m);
   }
   for (std::size_t k = 0; k < t.shafts.size(); ++k)
     series_.emplace_back(angle_scale, top_frequency_rad_s, integration_tolerance);
+  for (int k = a.body_count(); k < a.size(); ++k)
+    series_.emplace_back(length_scale, top_frequency_rad_s, integration_tolerance);
 }
 
 ode::State TrainSections::mesh(int m, double t_s, const ode::Vector& y) const {
@@ -456,6 +460,10 @@ void TrainSections::add(double t_s, const ode::Vector& y) {
     const int i = a_.index(t.shafts[k].a), j = a_.index(t.shafts[k].b);
     series_[t.meshes.size() + k].add({t_s, y(i) - y(j), y(n + i) - y(n + j), 0.0, 0});
   }
+  // Each planar body's centre.
+  std::size_t next = t.meshes.size() + t.shafts.size();
+  for (Eigen::Index k = a_.body_count(); k < n; ++k)
+    series_[next++].add({t_s, y(k), y(n + k), 0.0, 0});
 }
 
 TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
@@ -520,6 +528,7 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
   for (std::size_t i = 0; i < r.bodies.size(); ++i)
     bodies.push_back({{"name", r.bodies[i]}, {"speed_hz", r.body_speed_hz[i]}});
   j["bodies"] = bodies;
+  j["coordinates"] = r.coordinates;
   nlohmann::ordered_json meshes = nlohmann::ordered_json::array();
   for (const TrainMeshReading& m : r.meshes) {
     nlohmann::ordered_json x;
@@ -542,8 +551,8 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
 
 void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
   out << "t_s";
-  for (const std::string& b : r.bodies) out << ',' << b << "_rad";
-  for (const std::string& b : r.bodies) out << ',' << b << "_rad_s";
+  for (const std::string& q : r.coordinates) out << ',' << q;
+  for (const std::string& q : r.coordinates) out << ',' << q << "_s";
   for (const TrainMeshReading& m : r.meshes)
     out << ',' << m.name << "_deflection_bar," << m.name << "_force_n," << m.name << "_contact";
   out << '\n';
@@ -566,14 +575,21 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
   for (const train::TrainMode& x : m) {
     nlohmann::ordered_json mode;
     mode["frequency_hz"] = x.frequency_hz;
-    nlohmann::ordered_json shape, mesh, shaft;
-    for (int i = 0; i < a.size(); ++i)
-      shape[t.bodies[static_cast<std::size_t>(i)].name] = x.shape(i);
+    nlohmann::ordered_json shape, mesh, shaft, bearing;
+    // A rotation by its body's name (rad), a centre's displacement by "<body>_x", "<body>_y".
+    for (int i = 0; i < a.size(); ++i) {
+      const std::string& q = a.coordinate_names()[static_cast<std::size_t>(i)];
+      shape[i < a.body_count() ? t.bodies[static_cast<std::size_t>(i)].name
+                               : q.substr(0, q.size() - 2)] = x.shape(i);
+    }
     for (std::size_t k = 0; k < t.meshes.size(); ++k) mesh[t.meshes[k].name] = x.mesh_energy[k];
     for (std::size_t k = 0; k < t.shafts.size(); ++k) shaft[t.shafts[k].name] = x.shaft_energy[k];
+    for (std::size_t k = 0; k < t.bearings.size(); ++k)
+      bearing[t.bearings[k].name] = x.bearing_energy[k];
     mode["shape"] = shape;
     mode["mesh_energy"] = mesh.is_null() ? nlohmann::ordered_json::object() : mesh;
     mode["shaft_energy"] = shaft.is_null() ? nlohmann::ordered_json::object() : shaft;
+    mode["bearing_energy"] = bearing.is_null() ? nlohmann::ordered_json::object() : bearing;
     j.push_back(mode);
   }
   nlohmann::ordered_json out;
@@ -587,11 +603,13 @@ std::string train_modes_table(const train::Assembled& a, const std::vector<train
   std::string out = fmt::format("{:>4}  {:>14}", "mode", "frequency_hz");
   for (const train::Mesh& x : t.meshes) out += fmt::format("  {:>12}", x.name);
   for (const train::Shaft& x : t.shafts) out += fmt::format("  {:>12}", x.name);
+  for (const train::Bearing& x : t.bearings) out += fmt::format("  {:>12}", x.name);
   out += "   (strain energy, %)\n";
   for (std::size_t i = 0; i < m.size(); ++i) {
     out += fmt::format("{:>4}  {:>14.6g}", i + 1, m[i].frequency_hz);
     for (double e : m[i].mesh_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     for (double e : m[i].shaft_energy) out += fmt::format("  {:>12.2f}", 100 * e);
+    for (double e : m[i].bearing_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     out += "\n";
   }
   return out;

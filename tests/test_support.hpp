@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,32 @@ inline Case coupled(int dof) {
   c.model.form = ModelForm::kCoupled;
   c.model.dof = dof;
   return c;
+}
+
+// Central differences of `map` at z, column j by the step steps(j).
+template <class Map>
+Eigen::MatrixXd central_differences(const Map& map, const Eigen::VectorXd& z,
+                                    const Eigen::VectorXd& steps) {
+  Eigen::MatrixXd fd(z.size(), z.size());
+  for (Eigen::Index j = 0; j < z.size(); ++j) {
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(z.size());
+    e(j) = steps(j);
+    fd.col(j) = (map(z + e) - map(z - e)) / (2 * steps(j));
+  }
+  return fd;
+}
+
+// Expects every entry of `approximate` within relative |exact(i, j)| + absolute ||exact|| of
+// exact's (both in units where the entries are of order one), printing both matrices if not.
+inline void expect_matrix_near(const Eigen::MatrixXd& approximate, const Eigen::MatrixXd& exact,
+                               double relative, double absolute) {
+  for (Eigen::Index i = 0; i < exact.rows(); ++i)
+    for (Eigen::Index j = 0; j < exact.cols(); ++j)
+      EXPECT_NEAR(approximate(i, j), exact(i, j),
+                  relative * std::abs(exact(i, j)) + absolute * exact.norm())
+          << i << ", " << j << "\nexact\n"
+          << exact << "\napproximate\n"
+          << approximate;
 }
 
 // A train's period map on its free bodies (those without a prescribed speed): their angles

@@ -12,6 +12,9 @@
 #include <string>
 
 #include "geardyn/case.hpp"
+#include "geardyn/case_keys.hpp"
+#include "geardyn/coupled_model.hpp"
+#include "geardyn/coupled_run.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_run.hpp"
@@ -279,6 +282,130 @@ TEST(TrainCase, AnAdaptiveRunCanBeCancelledAndKeepsWhatItDid) {
   EXPECT_LT(r.samples.t_s.back(), 0.6 * c.solver.duration_s);
 }
 
+// A train of two gears "a" and "b", without its mesh, in two pieces: [model], [train] and
+// body a (lines 1 to 9), then body b (five lines).
+constexpr const char* kBodyA = R"([model]
+form = "train"
+[train]
+reference_speed_hz = 50
+[[train.body]]
+name = "a"
+teeth = 20
+normal_module_mm = 2
+face_width_mm = 10
+)";
+constexpr const char* kBodyB = R"([[train.body]]
+name = "b"
+teeth = 40
+normal_module_mm = 2
+face_width_mm = 10
+)";
+
+// The message of reading `text`, or "" when it reads.
+std::string error_of(const std::string& text) {
+  try {
+    (void)assembled_train(parse_case(text, "t.toml"));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(TrainCase, PlanarGearsOnBearingsRunAsTheCoupledPairWithThreeDegrees) {
+  // The paper's pair as a train (validation.hpp) with both gears planar on bearings, against
+  // the coupled model with dof = 3 of the same pair on the same bearings (whose y is along the
+  // line of action): through every impact of a rattling start, the same d - e, impacts and
+  // forces, and the pinion's centre along the line of action is the coupled y1. The gears'
+  // masses come from their blanks, the bearings' damping from its ratio, in both. A mutant
+  // that drops cos(beta_b) from the centres' entries of V, or damps a bearing against the
+  // inertia, moves d - e by far more than the bound.
+  Case coupled = park2010_pair_case();
+  coupled.model.form = ModelForm::kCoupled;
+  coupled.model.dof = 3;
+  coupled.bearings.radial_stiffness_n_per_m = {1.1e8, 2.3e8};
+  coupled.bearings.damping_ratio = 0.03;
+  const CoupledRunResult one = run_coupled(coupled);
+  ASSERT_TRUE(one.ok()) << one.message;
+  ASSERT_GT(one.mesh.impacts, 3);
+  Case train = park2010_pair_as_train();
+  for (const char* body : {"0", "1"})
+    set_case_value(train, {fmt::format("train.body[{}].dof", body), "\"planar\""});
+  set_case_value(train, {"train.mesh[0].position_angle_deg", "40"});
+  set_case_value(train, {"train.bearing",
+                         "[{body = \"pinion\", stiffness_n_per_m = 1.1e8, damping_ratio = 0.03}, "
+                         "{body = \"wheel\", stiffness_n_per_m = 2.3e8, damping_ratio = 0.03}]"});
+  const TrainRunResult x = run_train(train);
+  ASSERT_TRUE(x.ok()) << x.message;
+  EXPECT_EQ(x.coordinates, (std::vector<std::string>{"pinion_rad", "wheel_rad", "pinion_x_m",
+                                                     "pinion_y_m", "wheel_x_m", "wheel_y_m"}));
+  ASSERT_EQ(x.samples.t_s.size(), one.samples.t_s.size());
+  const train::Assembled a = assembled_train(train);
+  const Eigen::RowVectorXd v = a.mesh_vector(0);
+  const double cb = std::cos(a.train().meshes[0].base_helix_angle_rad);
+  const Eigen::Vector2d n(v(2) / cb, v(3) / cb);
+  EXPECT_NEAR(n.norm(), 1.0, 1e-15);
+  const CoupledParameters p = coupled_parameters(coupled);
+  double worst = 0, worst_centre = 0, scale_centre = 0;
+  for (std::size_t i = 0; i < x.samples.t_s.size(); ++i) {
+    worst =
+        std::max(worst, std::abs(x.samples.deflection_bar[i][0] - one.samples.deflection_bar[i]));
+    const double y1 = one.samples.state[i](p.line[0]);
+    worst_centre = std::max(worst_centre, std::abs(n.dot(x.samples.state[i].segment(2, 2)) - y1));
+    scale_centre = std::max(scale_centre, std::abs(y1));
+  }
+  EXPECT_LT(worst, 1e-8);
+  EXPECT_GT(scale_centre, 1e-7);  // the centre moves by a fraction of the backlash
+  EXPECT_LT(worst_centre, 1e-7 * scale_centre);
+  const TrainMeshReading& m = x.meshes.at(0);
+  EXPECT_EQ(m.impacts, one.mesh.impacts);
+  EXPECT_EQ(m.backside_impacts, one.mesh.backside_impacts);
+  EXPECT_NEAR(m.max_force_n / one.max_force_n, 1.0, 1e-8);
+  ASSERT_TRUE(m.static_force_n);
+  EXPECT_NEAR(*m.static_force_n / p.static_mesh_force_n(), 1.0, 1e-12);
+}
+
+TEST(TrainCase, APlanarBodysKeysAreCheckedAndALayoutNothingReadsIsReported) {
+  const std::string head = kBodyA;
+  const std::string tail = std::string(kBodyB) + R"([[train.mesh]]
+name = "m"
+driving = "a"
+driven = "b"
+mean_stiffness_n_per_m = 2e8
+position_angle_deg = 30
+)";
+  // A word the key does not take, named with its place and the words it does.
+  const std::string wrong = error_of(head + "dof = \"spatial\"\n" + tail);
+  EXPECT_NE(wrong.find("t.toml:10:"), std::string::npos) << wrong;
+  EXPECT_NE(wrong.find("train.body[0].dof = \"spatial\": must be \"torsion\" or \"planar\""),
+            std::string::npos)
+      << wrong;
+  // A mass on a body that keeps torsion only is read by nothing: refused.
+  const std::string mass = error_of(head + "mass_kg = 2\n" + tail);
+  EXPECT_NE(mass.find("body 'a': mass_kg = 2 is read only for a planar body"), std::string::npos)
+      << mass;
+  // A layout read by nothing (neither gear planar) is reported where it was written.
+  const Case torsional = parse_case(head + tail, "t.toml");
+  const std::vector<std::string> unused = unused_settings(torsional);
+  ASSERT_EQ(unused.size(), 1U);
+  EXPECT_NE(unused[0].find("train.mesh[0].position_angle_deg = 30 (t.toml:15"), std::string::npos)
+      << unused[0];
+  EXPECT_NE(unused[0].find("neither gear of mesh 'm' is planar"), std::string::npos);
+  // Planar, it is read; without a bearing the body is refused, with one it assembles, its mass
+  // from the blank (rho pi w d^2 / 4).
+  const std::string planar = head + "dof = \"planar\"\n" + tail;
+  EXPECT_TRUE(unused_settings(parse_case(planar, "t.toml")).empty());
+  EXPECT_NE(error_of(planar).find("body 'a': is planar (dof = \"planar\") but no bearing"),
+            std::string::npos)
+      << error_of(planar);
+  const std::string bearing = "[[train.bearing]]\nbody = \"a\"\nstiffness_n_per_m = 1e8\n";
+  ASSERT_EQ(error_of(planar + bearing), "");
+  const train::Assembled a = assembled_train(parse_case(planar + bearing, "t.toml"));
+  EXPECT_NEAR(a.train().bodies[0].mass_kg / (7850 * kPi * 0.01 * 0.04 * 0.04 / 4), 1.0, 1e-12);
+  EXPECT_NE(
+      error_of(head + tail + bearing).find("bearing 'bearing1': body = \"a\" keeps torsion only"),
+      std::string::npos);
+}
+
 TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {
   // case.toml of a run holds the train as given: read again, it writes the same text.
   for (const char* file :
@@ -293,32 +420,8 @@ TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {
   }
 }
 
-// The message of reading `text`, or "" when it reads.
-std::string error_of(const std::string& text) {
-  try {
-    (void)assembled_train(parse_case(text, "t.toml"));
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(TrainCase, BadArrangementsAreNamedWithTheirElementKeyAndPlace) {
-  const std::string head = R"([model]
-form = "train"
-[train]
-reference_speed_hz = 50
-[[train.body]]
-name = "a"
-teeth = 20
-normal_module_mm = 2
-face_width_mm = 10
-[[train.body]]
-name = "b"
-teeth = 40
-normal_module_mm = 2
-face_width_mm = 10
-)";
+  const std::string head = std::string(kBodyA) + kBodyB;
   const std::string mesh = R"([[train.mesh]]
 name = "m"
 driving = "a"

@@ -5,20 +5,25 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "geardyn/case.hpp"
+#include "geardyn/coupled_model.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/train_run.hpp"
 #include "geardyn/validation.hpp"
+#include "test_support.hpp"
 
 namespace geardyn::train {
 namespace {
@@ -461,6 +466,95 @@ TEST(Train, APrescribedBodyIsHeldInTheModes) {
   EXPECT_EQ(m[0].shape(0), 0.0);
 }
 
+// The coupled model of a case with dof = 3 (test_support.hpp's coupled) as a train of two planar
+// gears on their bearings: the same inertias, radii, base helix, k(t), c and torques as its
+// one-degree pair (pair_train), the gears' masses and their line-of-action bearings', the
+// pinion's centre seen from the wheel's at psi.
+Train planar_pair(const CoupledParameters& p, const Case& c, double psi_rad) {
+  const Case one = gear_pair_of(c);
+  Geometry g;
+  const GearPairModel model = build_model(one, &g);
+  Train t = pair_train(one, g, model.parameters());
+  t.meshes[0].base_helix_angle_rad = g.base_helix_angle_rad;
+  t.meshes[0].transverse_pressure_angle_rad = g.transverse_pressure_angle_rad;
+  t.meshes[0].position_angle_rad = psi_rad;
+  for (int i = 0; i < 2; ++i) {
+    const int line = p.line[static_cast<std::size_t>(i)];
+    t.bodies[i].planar = true;
+    t.bodies[i].mass_kg = p.mass(line, line);
+    t.bearings.push_back({"bearing" + std::to_string(i + 1), t.bodies[i].name,
+                          p.bearing_stiffness(line), p.bearing_damping(line)});
+  }
+  return t;
+}
+
+TEST(Train, APlanarPairsModesAreTheCoupledPairsAndItsBearingsAlone) {
+  // Two planar gears on isotropic bearings: the line of action's direction takes the coupled
+  // model's y (dof 3: u, y1, y2, a test of its own against closed forms), and each centre's
+  // motion across it is its bearing alone, w^2 = k_r / m. With a helix (cos(beta_b) on every
+  // entry of V) and at any psi. A mutant without cos(beta_b) on the centres, or with n not a
+  // unit vector, moves the coupled frequencies by percents.
+  Case c = testing::coupled(3);
+  c.bearings.radial_stiffness_n_per_m = {1.2e8, 3.1e8};
+  const CoupledParameters p = coupled_parameters(c);
+  std::vector<double> expected;
+  for (const Mode& m : modes(CoupledModel(p)).modes) expected.push_back(m.frequency_hz);
+  for (int i = 0; i < 2; ++i) {
+    const int line = p.line[static_cast<std::size_t>(i)];
+    expected.push_back(std::sqrt(p.bearing_stiffness(line) / p.mass(line, line)) / kTwoPi);
+  }
+  std::sort(expected.begin(), expected.end());
+  for (const double psi : {0.0, 0.7, -2.5}) {
+    SCOPED_TRACE(psi);
+    const Assembled a(planar_pair(p, c, psi));
+    ASSERT_EQ(a.size(), 6);
+    EXPECT_EQ(a.coordinate_names(),
+              (std::vector<std::string>{"pinion_rad", "wheel_rad", "pinion_x_m", "pinion_y_m",
+                                        "wheel_x_m", "wheel_y_m"}));
+    const std::vector<TrainMode> m = modes(a);
+    ASSERT_EQ(m.size(), 6U);
+    EXPECT_EQ(m[0].frequency_hz, 0.0);  // the rigid rotation
+    for (std::size_t r = 1; r < 6; ++r) {
+      EXPECT_NEAR(m[r].frequency_hz / expected[r - 1], 1.0, 1e-9) << r;
+      EXPECT_NEAR(m[r].mesh_energy[0] + m[r].bearing_energy[0] + m[r].bearing_energy[1], 1.0,
+                  1e-12);
+    }
+  }
+}
+
+TEST(Train, TheMeshPushesTheDrivenCentreAlongItsLineOfAction) {
+  // The static state of a planar pair under its mean torques: the mesh force F = T1 / (R_1
+  // cos(beta_b)) pushes the wheel's centre by cos(beta_b) F n / k_2 and the pinion's by the
+  // opposite over k_1, n = s cos(alpha_t) t + sin(alpha_t) e (train.hpp): tangent to the base
+  // circles in the driving gear's sense s and away from it. The pinion turns counterclockwise
+  // when it is the reference, clockwise when the wheel is (the mesh reverses the sense). A
+  // mutant with the tangent's sign fixed, or the separating part toward the driver, fails.
+  Case c = testing::coupled(3);
+  const CoupledParameters p = coupled_parameters(c);
+  const double psi = 0.5, alpha = compute_geometry(c.gear).transverse_pressure_angle_rad;
+  const Eigen::Vector2d e(std::cos(psi), std::sin(psi)), t(-std::sin(psi), std::cos(psi));
+  for (const int sense : {1, -1}) {
+    SCOPED_TRACE(sense);
+    Train x = planar_pair(p, c, psi);
+    if (sense < 0) x.reference = "wheel";
+    const Assembled a(x);
+    EXPECT_EQ(a.sense(0), sense);
+    EXPECT_EQ(a.sense(1), -sense);
+    const std::optional<Eigen::VectorXd> y = static_state(a);
+    ASSERT_TRUE(y);
+    const Mesh& m = x.meshes[0];
+    const double cb = std::cos(m.base_helix_angle_rad);
+    const double force = x.torques[0].mean_nm / (m.base_radius_driving_m * cb);
+    EXPECT_NEAR(static_mesh_forces_n(a, *y)[0] / force, 1.0, 1e-9);
+    const Eigen::Vector2d n = sense * std::cos(alpha) * t + std::sin(alpha) * e;
+    const Eigen::Vector2d wheel = y->segment(a.translation(1), 2);
+    const Eigen::Vector2d pinion = y->segment(a.translation(0), 2);
+    const double scale = cb * force / x.bearings[1].stiffness_n_per_m;
+    EXPECT_LT((wheel - scale * n).norm(), 1e-9 * scale);
+    EXPECT_LT((pinion + cb * force / x.bearings[0].stiffness_n_per_m * n).norm(), 1e-9 * scale);
+  }
+}
+
 TEST(Train, ABadArrangementIsRefusedNamingTheElement) {
   const auto refused = [](Train t, const std::string& piece) {
     try {
@@ -496,6 +590,19 @@ TEST(Train, ABadArrangementIsRefusedNamingTheElement) {
   x.torques.clear();
   x.speeds.push_back({"again", "input", {}});
   refused(x, "speed 'again': body = \"input\": its speed is prescribed twice");
+  x = t;
+  x.bearings = {{"b1", "output", 1e8, 0}};
+  refused(x, "bearing 'b1': body = \"output\" keeps torsion only");
+  x.bodies[2].planar = true;
+  x.bodies[2].mass_kg = 3;
+  x.bearings.clear();
+  refused(x, "body 'output': is planar (dof = \"planar\") but no bearing carries it");
+  x.bearings = {{"b1", "output", 1e8, 0}};
+  x.bodies[2].mass_kg = 0;
+  refused(x, "body 'output': mass_kg = 0: a planar body needs a finite mass > 0 kg");
+  x.bodies[2].mass_kg = 3;
+  x.bearings = {{"b1", "output", 0, 0}};
+  refused(x, "bearing 'b1': stiffness = 0 N/m: must be finite and > 0");
 }
 
 }  // namespace

@@ -6,24 +6,41 @@
 // away from the train's nominal rotation at constant speed, counted positive in the body's own
 // nominal direction of rotation (so that one sign rule serves external and internal meshes).
 // The train's rigid rotation is kept as a coordinate: a train whose torques balance on average
-// has it as a free mode (zero frequency), as the gear pair's u leaves it out.
+// has it as a free mode (zero frequency), as the gear pair's u leaves it out. A planar body
+// (Body::planar) also moves in the plane of the gears: its centre's displacement (x_i, y_i) (m)
+// in a frame fixed to the ground, the reference body turning counterclockwise (+z) in it. The
+// coordinates are every body's theta first, in the bodies' order, then (x, y) of each planar
+// body in that order: a torsional train's coordinates are its bodies'.
 //
 // Elements, each stamping itself into M q'' + C_r q' + K_r(t) q = Q_r(t) through the indices of
-// the bodies it joins (the finite-element habit: an element knows its local matrices and its
-// degrees of freedom, the assembler adds them and never asks what it holds):
+// the coordinates it joins (the finite-element habit: an element knows its local matrices and
+// its degrees of freedom, the assembler adds them and never asks what it holds):
 //
-//   Body   J_i on the diagonal of M.
-//   Shaft  k_s, c_s between two bodies: the twist theta_a - theta_b.
-//   Mesh   between a driving gear a and a driven gear b, along the line of action: the normal
-//          deflection d = cos(beta_b) (R_a theta_a - R_b theta_b), its force as the one-degree
-//          model's F = k(t) (d - e(t) -+ b) + c (d' - e'(t)) on the drive (-) or back (+) side, 0
-//          in the backlash (|d - e| < b), entering the bodies by virtual work as V^T F with V =
-//          (R_a at a, -R_b at b); k(t) and e(t) at the mesh's own frequency z_a f_a.
-//   Torque a torque T(t) = T_mean + sum_i T_i cos(i Omega t + phi_i) on a body (a drive
-//          positive, a load negative), Omega the body's own angular speed.
-//   Drag   a drag on a body: -T_drag - c_v theta' (constant and viscous; a loose gear's oil).
-//   Speed  a prescribed rotation of a body (below): its row of the equations is the
-//          prescription's acceleration.
+//   Body    J_i on the diagonal of M; a planar body's mass m_i on its x and y.
+//   Shaft   k_s, c_s between two bodies: the twist theta_a - theta_b.
+//   Bearing k_b, c_b from a planar body's centre to the ground, in x and in y (isotropic).
+//   Mesh    between a driving gear a and a driven gear b, along the line of action: the normal
+//           deflection d = cos(beta_b) (R_a theta_a - R_b theta_b + n . (u_a - u_b)), u a
+//           planar body's (x, y) (absent for a body that keeps torsion only: held on rigid
+//           bearings), n the unit vector of the drive flank's line of action in the transverse
+//           plane (below). Its force is the one-degree model's F = k(t) (d - e(t) -+ b) + c (d'
+//           - e'(t)) on the drive (-) or back (+) side, 0 in the backlash (|d - e| < b),
+//           entering the bodies by virtual work as V^T F with d = V q; k(t) and e(t) at the
+//           mesh's own frequency z_a f_a. As in the lumped models of Kahraman and Singh (1991)
+//           and Lin and Parker (1999), the back side acts along the same line n.
+//   Torque  a torque T(t) = T_mean + sum_i T_i cos(i Omega t + phi_i) on a body (a drive
+//           positive, a load negative), Omega the body's own angular speed.
+//   Drag    a drag on a body: -T_drag - c_v theta' (constant and viscous; a loose gear's oil).
+//   Speed   a prescribed rotation of a body (below): its row of the equations is the
+//           prescription's acceleration.
+//
+// The line of action. With psi the position angle of the driven gear's centre seen from the
+// driving gear's (Mesh::position_angle_rad, counterclockwise from x), e = (cos psi, sin psi)
+// and t = (-sin psi, cos psi), and s_a = +1 when the driving gear turns counterclockwise (the
+// reference does; each external mesh reverses the sense, a shaft keeps it), the drive flank's
+// force on the driven gear is F n with n = s_a cos(alpha_t) t + sin(alpha_t) e: tangent to both
+// base circles, turning the driven gear against the driving one and pushing the two centres
+// apart (alpha_t the transverse pressure angle).
 //
 // Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1); a region
 // is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
@@ -44,6 +61,8 @@ namespace geardyn::train {
 struct Body {
   std::string name;
   double inertia_kg_m2 = 0;  // J > 0
+  bool planar = false;       // also moves in the plane (x, y): needs a bearing
+  double mass_kg = 0;        // m > 0 of a planar body
 };
 
 // k(t) = mean (1 + sum_i ratio_i cos(i w_mesh t + phase_i)) and e(t) = sum_i a_i cos(i w_mesh t
@@ -66,6 +85,9 @@ struct Mesh {
   std::vector<MeshHarmonic> stiffness;           // ratios
   std::vector<MeshHarmonic> transmission_error;  // amplitudes, m
   double damping_n_s_per_m = 0;                  // in contact only
+  // The layout, read only when a planar body is in the mesh: psi and alpha_t (above).
+  double position_angle_rad = 0;
+  double transverse_pressure_angle_rad = 0;
 };
 
 struct Shaft {
@@ -73,6 +95,14 @@ struct Shaft {
   std::string a, b;
   double stiffness_n_m_per_rad = 0;
   double damping_n_m_s_per_rad = 0;
+};
+
+// A bearing from a planar body's centre to the ground, the same in x and y.
+struct Bearing {
+  std::string name;
+  std::string body;
+  double stiffness_n_per_m = 0;
+  double damping_n_s_per_m = 0;
 };
 
 struct TorqueHarmonic {
@@ -116,6 +146,7 @@ struct Train {
   std::vector<Body> bodies;
   std::vector<Mesh> meshes;
   std::vector<Shaft> shafts;
+  std::vector<Bearing> bearings;
   std::vector<Torque> torques;
   std::vector<Drag> drags;
   std::vector<Speed> speeds;
@@ -143,12 +174,26 @@ class Assembled {
   // Throws InputError (case.hpp) naming the element and the key: an unknown body, a body in two
   // places, no mesh, a non-positive inertia or radius, a train that cannot turn (a loop of
   // meshes and shafts whose ratios disagree), a body that no mesh or shaft joins to the
-  // reference.
+  // reference, a bearing on a body that keeps torsion only, a planar body without a bearing
+  // (its centre would be free to wander) or without a mass.
   explicit Assembled(Train t);
 
   const Train& train() const { return t_; }
-  int size() const { return static_cast<int>(t_.bodies.size()); }
-  int index(const std::string& body) const;  // -1 when there is none
+  // The number of coordinates (every body's rotation, then the planar bodies' x and y).
+  int size() const { return static_cast<int>(names_.size()); }
+  int body_count() const { return static_cast<int>(t_.bodies.size()); }
+  // The coordinate of a body's rotation (its index among the bodies), -1 when there is none.
+  int index(const std::string& body) const;
+  // The coordinate of a planar body's x (its y follows), -1 for a body that keeps torsion only.
+  int translation(int body) const { return translation_[static_cast<std::size_t>(body)]; }
+  // Each coordinate's name with its unit, as outputs write it: "<body>_rad" for a rotation,
+  // "<body>_x_m" and "<body>_y_m" for a planar body's centre.
+  const std::vector<std::string>& coordinate_names() const { return names_; }
+  // Each body's sense of rotation in the ground's frame: +1 counterclockwise (the reference's).
+  int sense(int body) const { return sense_[static_cast<std::size_t>(body)]; }
+  // The train's rigid rotation as coordinates: each body's speed ratio on its theta, 0 on every
+  // translation.
+  Eigen::VectorXd rigid_rotation() const;
 
   // Each body's speed over the reference speed, and each mesh's frequency over it.
   const std::vector<Ratio>& speed_ratios() const { return speed_; }
@@ -168,10 +213,10 @@ class Assembled {
   std::optional<double> system_period_s(std::string* why = nullptr) const;
 
   const Eigen::MatrixXd& mass() const { return m_; }
-  // V of mesh m: d = V theta.
+  // V of mesh m: d = V q.
   Eigen::RowVectorXd mesh_vector(int mesh) const;
-  // K and C with every mesh in drive contact at its mean stiffness (the shafts' and drags' terms
-  // included): the linearisation that modes() uses.
+  // K and C with every mesh in drive contact at its mean stiffness (the shafts', bearings' and
+  // drags' terms included): the linearisation that modes() uses.
   Eigen::MatrixXd contact_stiffness() const;
   Eigen::MatrixXd contact_damping() const;
 
@@ -209,6 +254,8 @@ class Assembled {
  private:
   Train t_;
   std::vector<Ratio> speed_;
+  std::vector<int> sense_, translation_;
+  std::vector<std::string> names_;
   Eigen::MatrixXd m_;
 };
 
@@ -216,9 +263,10 @@ class Assembled {
 // prescribed speed held (their shape entries 0).
 struct TrainMode {
   double frequency_hz = 0;
-  Eigen::VectorXd shape;             // mass-normalised
-  std::vector<double> mesh_energy;   // fraction of the strain energy in each mesh
-  std::vector<double> shaft_energy;  // and in each shaft
+  Eigen::VectorXd shape;               // over the coordinates, mass-normalised
+  std::vector<double> mesh_energy;     // fraction of the strain energy in each mesh
+  std::vector<double> shaft_energy;    // and in each shaft
+  std::vector<double> bearing_energy;  // and in each bearing (its x and y together)
 };
 std::vector<TrainMode> modes(const Assembled& a);
 

@@ -11,7 +11,7 @@
 //   reference_speed_hz = 50
 //   [[train.body]]               # name, and inertia_kg_m2 or the gear data it follows from
 //   [[train.mesh]]               # driving, driven, backlash_um, mean_stiffness_n_per_m, ...
-//   [[train.shaft]]  [[train.torque]]  [[train.drag]]  [[train.speed]]
+//   [[train.shaft]]  [[train.bearing]]  [[train.torque]]  [[train.drag]]  [[train.speed]]
 //
 // Every key of an element is declared once in the tables of train_keys() (its unit, bounds,
 // whether it must be given, its meaning): they drive the reader, its messages and the key
@@ -39,10 +39,13 @@ struct OrderHarmonic {
 // [[train.body]]: a rigid body turning about its axis. A gear gives its teeth and module (its
 // base radius follows, and its inertia when inertia_kg_m2 is absent: a solid or bored cylinder
 // of the reference diameter, as the gear pair's); a plain inertia (motor, load) gives
-// inertia_kg_m2 alone.
+// inertia_kg_m2 alone. dof = "planar" lets the body's centre move in the plane on its bearings
+// (its mass from the same cylinder when mass_kg is absent).
 struct TrainBodyData {
   std::string name;
+  std::string dof = "torsion";  // or "planar"
   std::optional<double> inertia_kg_m2;
+  std::optional<double> mass_kg;
   int teeth = 0;  // 0: not a gear
   double normal_module_mm = 0;
   double normal_pressure_angle_deg = 20;
@@ -60,6 +63,9 @@ struct TrainMeshData {
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // of the mesh frequency
   std::vector<ErrorHarmonic> transmission_error_um;    // of the mesh frequency
   double damping_ratio = 0.02;  // of the mesh's own contact oscillator, in contact only
+  // Where the driven gear's centre lies seen from the driving gear's, counterclockwise from x:
+  // the direction of the line of action, read when a body of the mesh is planar.
+  double position_angle_deg = 0;
 };
 
 // [[train.shaft]]: a torsional spring and damper between two bodies.
@@ -67,6 +73,14 @@ struct TrainShaftData {
   std::string name, from, to;
   double stiffness_n_m_per_rad = 0;
   double damping_ratio = 0.02;  // against the reduced inertia of the two bodies
+};
+
+// [[train.bearing]]: a bearing from a planar body's centre to the ground, the same stiffness in
+// x and y.
+struct TrainBearingData {
+  std::string name, body;
+  double stiffness_n_per_m = 0;
+  double damping_ratio = 0.02;  // against the body's mass
 };
 
 // [[train.torque]]: a torque on a body, positive along its rotation (a drive), negative against
@@ -98,6 +112,7 @@ struct TrainCase {
   std::vector<TrainBodyData> bodies;
   std::vector<TrainMeshData> meshes;
   std::vector<TrainShaftData> shafts;
+  std::vector<TrainBearingData> bearings;
   std::vector<TrainTorqueData> torques;
   std::vector<TrainDragData> drags;
   std::vector<TrainSpeedData> speeds;
@@ -131,6 +146,16 @@ std::string train_keys_listing();
 // may vary ("train.reference_speed_hz", "train.mesh[0].damping_ratio"); else why not. Whether
 // the element exists is the case's to say when the value is set.
 std::string train_key_not_sweepable(std::string_view dotted);
+
+// The index of the mesh a study reads (its `--mesh NAME`, `mesh=` in Python): the named mesh
+// of a train, the first when `name` is empty; 0 for a case of another form with no name.
+// Throws InputError "--mesh = "NAME": ..." for a name the train does not have (listing its
+// meshes) and for a name given to a case of another form (which has one mesh).
+std::size_t mesh_to_read(const Case& c, const std::string& name);
+
+// The train's settings that nothing reads, "train.mesh[0].position_angle_deg = 30 (where): not
+// used: why" (a mesh's layout when neither of its gears is planar), for unused_settings.
+std::vector<std::string> train_unused_settings(const TrainCase& t);
 
 // The [train] section written back as TOML (case.toml of a run).
 std::string train_toml(const TrainCase& t);

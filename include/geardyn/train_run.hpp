@@ -45,7 +45,7 @@ struct TrainMeshReading : TrainMeshPart {
 
 struct TrainSamples {
   std::vector<double> t_s;
-  std::vector<Eigen::VectorXd> state;               // (theta, theta'), rad and rad/s
+  std::vector<Eigen::VectorXd> state;               // (q, q'): rad, m and their rates
   std::vector<std::vector<double>> deflection_bar;  // per sample, per mesh: (d - e) / b
   std::vector<std::vector<double>> force_n;         // per sample, per mesh: F
   std::vector<std::vector<int>> contact;            // per sample, per mesh: 1, 0, -1
@@ -53,15 +53,18 @@ struct TrainSamples {
 
 struct TrainRunResult {
   Case input;
-  std::vector<std::string> bodies;  // the coordinates' order
+  std::vector<std::string> bodies;  // in the case's order
   std::vector<double> body_speed_hz;
+  // The coordinates with their units (train::Assembled::coordinate_names): the state's order.
+  std::vector<std::string> coordinates;
   std::optional<double> system_period_s;  // absent: quasi-periodic (system_period_note says why)
   std::string system_period_note;
   std::string static_note;  // why there is no static force, when there is none
   // Where the steady part starts, as the one-degree run's (steady.hpp): the train settled on
-  // the section t = k T0 (judged on every mesh's d - e and every shaft's twist, with their
-  // rates), else the final half; the distance in each mesh's b (a shaft's: in the smallest
-  // b / (cos beta_b R) of the meshes) and b times the highest natural frequency in contact.
+  // the section t = k T0 (judged on every mesh's d - e, every shaft's twist and every planar
+  // body's x and y, with their rates), else the final half; the distance in each mesh's b (a
+  // shaft's: in the smallest b / (cos beta_b R) of the meshes; a centre's: in the smallest b)
+  // and b times the highest natural frequency in contact.
   SteadyStart steady;
   ode::Termination termination = ode::Termination::kCompleted;
   std::string message;

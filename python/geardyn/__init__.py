@@ -480,10 +480,15 @@ class TrainRunResult:
         impacts, forces in N, dynamic factors), ``bodies`` with their speeds.
     bodies, meshes : list of str
         The bodies' and the meshes' names, in the case's order.
+    coordinates : list of str
+        The state's coordinates with their units: each body's rotation (``<body>_rad``), then
+        each planar body's centre (``<body>_x_m``, ``<body>_y_m``).
     t : numpy.ndarray
         Sample times, s.
     theta, rate : numpy.ndarray
         Samples x bodies: each body's rotation about its nominal one (rad) and its rate (rad/s).
+    q, q_rate : numpy.ndarray
+        Samples x coordinates: the whole state (rad and m) and its rates.
     deflection_bar, force, contact : numpy.ndarray
         Samples x meshes: (d - e) / b, the mesh force (N) and the contact state (1 drive side,
         0 separated, -1 back side).
@@ -495,10 +500,13 @@ class TrainRunResult:
         self.summary = summary
         self.bodies = [b["name"] for b in summary["bodies"]]
         self.meshes = [m["name"] for m in summary["meshes"]]
-        n = len(self.bodies)
+        self.coordinates = list(summary["coordinates"])
+        n, nq = len(self.bodies), len(self.coordinates)
         self.t = arrays["t"]
-        self.theta = arrays["state"][:, :n]
-        self.rate = arrays["state"][:, n:]
+        self.q = arrays["state"][:, :nq]
+        self.q_rate = arrays["state"][:, nq:]
+        self.theta = self.q[:, :n]
+        self.rate = self.q_rate[:, :n]
         self.deflection_bar = arrays["deflection_bar"]
         self.force = arrays["force"]
         self.contact = arrays["contact"]
@@ -515,7 +523,8 @@ class TrainRunResult:
         Returns
         -------
         xarray.Dataset
-            Dimensions t (s), body and mesh (their names); theta and rate (t x body),
+            Dimensions t (s), body, coordinate and mesh (their names); theta and rate (t x
+            body), q and q_rate (t x coordinate, rad or m as the name says, and their rates),
             deflection_bar, force (N) and contact (t x mesh); per mesh its readings
             (impacts, separated_fraction, dynamic_factor, ...) and those of its steady part
             (steady_impacts, steady_regime, steady_max_force_n, ...) as variables along mesh;
@@ -536,12 +545,14 @@ class TrainRunResult:
         return xr.Dataset(
             dict({"theta": (("t", "body"), self.theta, {"units": "rad"}),
                   "rate": (("t", "body"), self.rate, {"units": "rad/s"}),
+                  "q": (("t", "coordinate"), self.q),
+                  "q_rate": (("t", "coordinate"), self.q_rate),
                   "deflection_bar": (("t", "mesh"), self.deflection_bar,
                                      {"long_name": "(d - e) / b"}),
                   "force": (("t", "mesh"), self.force, {"units": "N"}),
                   "contact": (("t", "mesh"), self.contact)}, **per_mesh),
             coords={"t": ("t", self.t, {"units": "s"}), "body": self.bodies,
-                    "mesh": self.meshes},
+                    "coordinate": self.coordinates, "mesh": self.meshes},
             attrs={"summary": _json.dumps(self.summary)})
 
 
@@ -557,9 +568,11 @@ def modes(case):
     ----------
     case : Case
         A case with ``model.form = "coupled"`` or ``"train"``. A train's modes are a dict of
-        ``bodies`` (names), ``frequency_hz`` (ascending), ``shape`` (modes x bodies,
-        mass-normalised), ``mesh_energy`` and ``shaft_energy`` (by name: the strain energy
-        fraction in each mode); the coupled model's as below.
+        ``bodies`` (the shape's columns: each body's rotation by its name, then each planar
+        body's centre as ``<body>_x``, ``<body>_y``), ``frequency_hz`` (ascending), ``shape``
+        (modes x those columns, mass-normalised), ``mesh_energy``, ``shaft_energy`` and
+        ``bearing_energy`` (by name: the strain energy fraction in each mode); the coupled
+        model's as below.
 
     Returns
     -------
@@ -585,7 +598,9 @@ def modes(case):
                 "mesh_energy": {k: np.array([m["mesh_energy"][k] for m in ms])
                                 for k in (ms[0]["mesh_energy"] if ms else {})},
                 "shaft_energy": {k: np.array([m["shaft_energy"][k] for m in ms])
-                                 for k in (ms[0]["shaft_energy"] if ms else {})}}
+                                 for k in (ms[0]["shaft_energy"] if ms else {})},
+                "bearing_energy": {k: np.array([m["bearing_energy"][k] for m in ms])
+                                   for k in (ms[0]["bearing_energy"] if ms else {})}}
     if _form(case) != "coupled":
         raise InputError(f"model.form = \"{case['model.form']}\": modes are of the coupled "
                          "model; set model.form = \"coupled\"")

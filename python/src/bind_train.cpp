@@ -24,12 +24,12 @@ py::array_t<T> table(std::size_t rows, std::size_t cols, const At& at) {
   return a;
 }
 
-// The run as (summary.json text, dict of arrays): t, state (samples x 2 bodies),
+// The run as (summary.json text, dict of arrays): t, state (samples x 2 coordinates),
 // deflection_bar, force (N) and contact (samples x meshes).
 py::tuple train_result(const TrainRunResult& r) {
   const TrainSamples& s = r.samples;
   const std::size_t n = s.t_s.size(), meshes = r.meshes.size();
-  const std::size_t width = 2 * r.bodies.size();
+  const std::size_t width = 2 * r.coordinates.size();
   py::dict arrays;
   arrays["t"] = py::array_t<double>(py::ssize_t(n), s.t_s.data());
   arrays["state"] =

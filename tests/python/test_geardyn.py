@@ -700,6 +700,34 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     modes = geardyn.modes(in_code)
     assert modes["bodies"] == ["driver", "idler", "driven"] and modes["frequency_hz"][0] < 1e-6
     assert set(modes["mesh_energy"]) == {"in", "out"}
+    # The idler planar on its bearing: its centre's two coordinates join the state and the
+    # modes, a mode per new coordinate, every mode's strain energy shared by the meshes and the
+    # bearing.
+    planar = geardyn.Case(
+        model={"form": "train"},
+        train={"reference": "driver", "reference_speed_hz": 50,
+               "body": [dict(gear, name="driver", teeth=30),
+                        dict(gear, name="idler", teeth=47, bore_diameter_mm=25, dof="planar"),
+                        dict(gear, name="driven", teeth=60, bore_diameter_mm=30)],
+               "mesh": [dict(mesh, name="in", driving="driver", driven="idler",
+                             position_angle_deg=0),
+                        dict(mesh, name="out", driving="idler", driven="driven",
+                             position_angle_deg=120)],
+               "bearing": [{"body": "idler", "stiffness_n_per_m": 2e8}],
+               "torque": [{"name": "drive", "body": "driver", "mean_nm": 20},
+                          {"name": "load", "body": "driven", "mean_nm": -40}]},
+        solver={"duration_s": 0.01, "initial": "static"})
+    rp = geardyn.run(planar)
+    assert rp.ok and rp.coordinates == ["driver_rad", "idler_rad", "driven_rad", "idler_x_m",
+                                        "idler_y_m"]
+    assert rp.q.shape == (len(rp.t), 5) and rp.theta.shape == (len(rp.t), 3)
+    assert list(rp.to_xarray()["coordinate"].values) == rp.coordinates
+    pm = geardyn.modes(planar)
+    assert pm["bodies"][3:] == ["idler_x", "idler_y"] and len(pm["frequency_hz"]) == 5
+    for k in range(1, 5):
+        total = sum(pm["mesh_energy"][m][k] for m in ("in", "out")) + \
+            pm["bearing_energy"]["bearing1"][k]
+        assert abs(total - 1) < 1e-12
     # Each element's key is checked as in a file, named by its place in its array.
     with pytest.raises(geardyn.InputError, match=r"train\.mesh\[0\]\.backlash_um = -1"):
         geardyn.Case(model={"form": "train"},
