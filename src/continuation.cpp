@@ -19,6 +19,7 @@
 #include "geardyn/figures.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
+#include "geardyn/train_case.hpp"
 #include "shooting.hpp"
 
 namespace geardyn {
@@ -72,7 +73,7 @@ class Family {
 };
 
 // A one-degree orbit as the continuation keeps it: its state, reading and contact sequence.
-void to_branch(const Orbit& orbit, BranchOrbit& o) {
+void to_branch(const Orbit& orbit, BranchOrbit& o, std::size_t /*mesh*/) {
   o.state = (ode::Vector(2) << orbit.state.q, orbit.state.v).finished();
   o.reading = orbit.reading;
   o.signature = signature(orbit.sequence);
@@ -81,7 +82,7 @@ void to_branch(const Orbit& orbit, BranchOrbit& o) {
 
 // A coupled orbit as the continuation keeps it: its state, the mesh's reading in the
 // one-degree units, and the counts of the mesh and each bearing.
-void to_branch(const CoupledOrbit& orbit, BranchOrbit& o) {
+void to_branch(const CoupledOrbit& orbit, BranchOrbit& o, std::size_t /*mesh*/) {
   o.state = orbit.state;
   const CoupledRunResult& r = orbit.reading;
   const double b = r.parameters.backlash_m, bk = b * r.parameters.stiffness_n_per_m.offset;
@@ -102,17 +103,17 @@ void to_branch(const CoupledOrbit& orbit, BranchOrbit& o) {
   }
 }
 
-// A train's orbit as the continuation keeps it: the unknowns (its free bodies' state), the
-// first mesh's reading in the one-degree units (its b and mean stiffness), and every mesh's
-// counts (its grazing is a change in any).
-void to_branch(const TrainOrbit& orbit, BranchOrbit& o) {
+// A train's orbit as the continuation keeps it: the unknowns (its free coordinates' state),
+// the reading of mesh `mesh` (ContinuationOptions::mesh) in the one-degree units (its b and
+// mean stiffness), and every mesh's counts (its grazing is a change in any).
+void to_branch(const TrainOrbit& orbit, BranchOrbit& o, std::size_t mesh) {
   o.state = orbit.unknowns;
   o.reading = RunReading{};
   o.signature.clear();
   o.contacts.clear();
   for (std::size_t m = 0; m < orbit.readings.size(); ++m) {
     const TrainMeshReading& r = orbit.readings[m];
-    if (m == 0) {
+    if (m == mesh) {
       const double b = r.backlash_m, bk = b * r.mean_stiffness_n_per_m;
       static_cast<ContactCounts&>(o.reading) = r;
       o.reading.min_delta_bar = r.min_deflection_m / b;
@@ -135,8 +136,10 @@ template <class ShootingT, class OrbitT>
 class FamilyOf final : public Family {
  public:
   FamilyOf(const Case& c, int periods, int segments, const ode::Vector& scale,
-           double engine_tolerance, const MeshStiffness* stiffness)
-      : s_(c, periods, segments, scale, engine_tolerance, stiffness), periods_(periods) {}
+           double engine_tolerance, const MeshStiffness* stiffness, std::size_t mesh)
+      : s_(c, periods, segments, scale, engine_tolerance, stiffness),
+        periods_(periods),
+        mesh_(mesh) {}
   const detail::Segments& shooting() const override { return s_.shooting(); }
   bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
             std::string* json, std::string& why) const override {
@@ -146,27 +149,29 @@ class FamilyOf final : public Family {
     orbit.periods = periods_;
     if (json) *json = json_of(orbit);
     static_cast<PeriodicSolution&>(o) = orbit;
-    to_branch(orbit, o);
+    to_branch(orbit, o, mesh_);
     return true;
   }
 
  private:
   ShootingT s_;
   int periods_;
+  std::size_t mesh_;  // the train's mesh read
 };
 
 // The family of case c's model; scale and stiffness as for Shooting (empty scale: this
 // case's; no stiffness: this case's).
 std::unique_ptr<Family> family(const Case& c, int periods, int segments, const ode::Vector& scale,
-                               double engine_tolerance, const MeshStiffness* stiffness) {
+                               double engine_tolerance, const MeshStiffness* stiffness,
+                               std::size_t mesh) {
   if (c.model.form == ModelForm::kCoupled)
     return std::make_unique<FamilyOf<detail::CoupledShooting, CoupledOrbit>>(
-        c, periods, segments, scale, engine_tolerance, stiffness);
+        c, periods, segments, scale, engine_tolerance, stiffness, mesh);
   if (c.model.form == ModelForm::kTrain)
     return std::make_unique<FamilyOf<detail::TrainShooting, TrainOrbit>>(
-        c, periods, segments, scale, engine_tolerance, stiffness);
+        c, periods, segments, scale, engine_tolerance, stiffness, mesh);
   return std::make_unique<FamilyOf<detail::Shooting, Orbit>>(c, periods, segments, scale,
-                                                             engine_tolerance, stiffness);
+                                                             engine_tolerance, stiffness, mesh);
 }
 
 // The names of a case's state entries (ContinuationResult::state_names).
@@ -185,11 +190,11 @@ std::vector<std::string> state_names(const Case& c) {
 // The periodic orbit of case c (period and segments of `o`) from a state y0 on the section:
 // Newton on its shooting, read; nullopt when Newton fails.
 std::optional<BranchOrbit> orbit_from(const Case& c, const OrbitOptions& o, const ode::Vector& y0,
-                                      const ode::Vector& scale) {
+                                      const ode::Vector& scale, std::size_t mesh) {
   const int segments = o.segments > 0 ? o.segments : o.periods;
-  const auto f =
-      family(c, o.periods, segments, scale,
-             std::min(c.solver.tolerance, o.tolerance * detail::kEngineToleranceFraction), nullptr);
+  const auto f = family(
+      c, o.periods, segments, scale,
+      std::min(c.solver.tolerance, o.tolerance * detail::kEngineToleranceFraction), nullptr, mesh);
   ode::Vector x;
   std::string why;
   if (!f->shooting().guess(y0, x, why)) return std::nullopt;
@@ -248,7 +253,8 @@ class Continuer {
                                                         : shared_stiffness(base, {o.key})),
         p_scale_(hi - lo),
         lo_(lo),
-        hi_(hi) {
+        hi_(hi),
+        mesh_(mesh_to_read(base, o.mesh)) {
     segments_ = o.orbit.segments > 0 ? o.orbit.segments : o.orbit.periods;
     engine_tolerance_ =
         std::min(base.solver.tolerance, o.orbit.tolerance * detail::kEngineToleranceFraction);
@@ -268,7 +274,7 @@ class Continuer {
   std::unique_ptr<Family> family_at(double p, std::string& why) const {
     try {
       return family(case_at(p), o_.orbit.periods, segments_, scale_, engine_tolerance_,
-                    stiffness_ ? &*stiffness_ : nullptr);
+                    stiffness_ ? &*stiffness_ : nullptr, mesh_);
     } catch (const InputError& e) {
       why = e.what();
       return nullptr;
@@ -310,7 +316,7 @@ class Continuer {
       y0 = (ode::Vector(2) << first.state.q, first.state.v).finished();
     }
     const auto s = family(c0, o_.orbit.periods, segments_, ode::Vector{}, engine_tolerance_,
-                          stiffness_ ? &*stiffness_ : nullptr);
+                          stiffness_ ? &*stiffness_ : nullptr, mesh_);
     scale_ = s->shooting().scale();
     ode::Vector x;
     if (!s->shooting().guess(y0, x, why)) return false;
@@ -441,7 +447,7 @@ class Continuer {
       std::unique_ptr<Family> f;
       try {
         f = family(case_at(p), periods, segments, scale_, engine_tolerance_,
-                   stiffness_ ? &*stiffness_ : nullptr);
+                   stiffness_ ? &*stiffness_ : nullptr, mesh_);
       } catch (const InputError&) {
         return false;
       }
@@ -721,6 +727,7 @@ class Continuer {
   const ContinuationOptions& o_;
   std::optional<MeshStiffness> stiffness_;  // shared_stiffness: when the key leaves it alone
   double p_scale_, lo_, hi_;
+  std::size_t mesh_;  // a train's mesh read (ContinuationOptions::mesh)
   int segments_ = 1;
   bool doubled_ = false;
   double engine_tolerance_ = 1e-14;
@@ -799,6 +806,7 @@ std::string bifurcations_json(const ContinuationResult& r) {
                  {"impacts_per_period", b.orbit.reading.impacts},
                  {"state", std::vector<double>(b.orbit.state.begin(), b.orbit.state.end())},
                  {"floquet_multipliers", mu}});
+    if (!r.mesh.empty()) a.back()["mesh"] = r.mesh;  // whose x_a and impacts these are
   }
   return a.dump(2) + "\n";
 }
@@ -946,7 +954,9 @@ std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions&
     Case c = base;
     set_case_value(c, {o.key, fmt::format("{:.17g}", p)});
     // One period N, one segment: the test that an orbit found is not the period-N one again.
-    const auto single = family(c, o.orbit.periods, 1, ode::Vector{}, c.solver.tolerance, nullptr);
+    const std::size_t mesh = mesh_to_read(c, o.mesh);
+    const auto single =
+        family(c, o.orbit.periods, 1, ode::Vector{}, c.solver.tolerance, nullptr, mesh);
     const ode::Vector& scale = single->shooting().scale();
     const ode::Vector dir = v.cwiseQuotient(scale).normalized();  // in scaled units
     OrbitOptions oo = o.orbit;
@@ -955,7 +965,7 @@ std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions&
     for (const double amount : kSwitchDisplacements)
       for (const double sign : {1.0, -1.0}) {
         const ode::Vector y = pd.orbit.state + sign * amount * dir.cwiseProduct(scale);
-        const std::optional<BranchOrbit> orbit = orbit_from(c, oo, y, scale);
+        const std::optional<BranchOrbit> orbit = orbit_from(c, oo, y, scale, mesh);
         if (!orbit) continue;
         ode::Vector f;
         std::string why;
@@ -982,6 +992,8 @@ ContinuationResult continuation(const Case& c, const ContinuationOptions& option
   Continuer k(c, options, lo, hi);
   ContinuationResult res = k.run();
   res.state_names = state_names(c);
+  if (c.model.form == ModelForm::kTrain)
+    res.mesh = train_of(c).meshes[mesh_to_read(c, options.mesh)].name;
   const auto finish = [&]() -> ContinuationResult& {
     res.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -118,13 +118,8 @@ Eigen::Matrix4d scaled_central_differences(const Case& c, const Eigen::Vector4d&
   // The orbit closes to the Newton tolerance in the scaled state.
   EXPECT_LT(((period_map(a, engine, period, z) - z).cwiseQuotient(scale)).lpNorm<Eigen::Infinity>(),
             1e-8);
-  Eigen::Matrix4d fd;
-  for (int j = 0; j < 4; ++j) {
-    Eigen::Vector4d e = Eigen::Vector4d::Zero();
-    e(j) = 1e-7 * scale(j);
-    fd.col(j) =
-        (period_map(a, engine, period, z + e) - period_map(a, engine, period, z - e)) / (2 * e(j));
-  }
+  const Eigen::Matrix4d fd = testing::central_differences(
+      [&](const Eigen::VectorXd& x) { return period_map(a, engine, period, x); }, z, 1e-7 * scale);
   const Eigen::Matrix4d s = scale.asDiagonal();
   *exact = s.inverse() * monodromy * s;
   return s.inverse() * fd * s;
@@ -166,6 +161,44 @@ TEST(TrainContinuation, EachLooseGearGrazesAtItsClosedFormOnset) {
   EXPECT_GE(last.orbit.contacts[1].impacts, 1);
 }
 
+TEST(TrainContinuation, ItsPointsReadTheMeshNamedAndEveryMeshMarksItsGrazings) {
+  // The same branch read on the second mesh (--mesh second): the same points, whose reading
+  // is now the second mesh's (in contact between the two onsets, rattling after its own),
+  // and the same grazings of both meshes. A mutant that reads the first mesh whatever the
+  // name, or the mesh after the one named, fails at once.
+  const Case base = two_loose_gears(0.5);
+  ContinuationOptions o;
+  o.key = kAmplitude;
+  o.from = 238;
+  o.to = 250;
+  const ContinuationResult first = continuation(base, o);
+  o.mesh = "second";
+  const ContinuationResult second = continuation(base, o);
+  ASSERT_TRUE(first.completed && second.completed) << first.message << second.message;
+  EXPECT_EQ(first.mesh, "first");
+  EXPECT_EQ(second.mesh, "second");
+  ASSERT_EQ(second.points.size(), first.points.size());
+  ASSERT_EQ(second.bifurcations.size(), first.bifurcations.size());
+  for (std::size_t i = 0; i < first.bifurcations.size(); ++i)
+    EXPECT_EQ(second.bifurcations[i].param, first.bifurcations[i].param);
+  bool between = false;
+  for (std::size_t i = 0; i < first.points.size(); ++i) {
+    const BranchPoint &p = first.points[i], &q = second.points[i];
+    EXPECT_EQ(q.param, p.param);
+    ASSERT_EQ(p.orbit.contacts.size(), 2U);
+    EXPECT_EQ(p.orbit.reading.impacts, p.orbit.contacts[0].impacts);
+    EXPECT_EQ(q.orbit.reading.impacts, q.orbit.contacts[1].impacts);
+    between = between || (p.orbit.reading.impacts > 0 && q.orbit.reading.impacts == 0);
+  }
+  EXPECT_TRUE(between);  // the first rattles where the second is still on its flank
+  EXPECT_GE(second.points.back().orbit.reading.impacts, 1);
+  // A name the train does not have, named with the meshes it has.
+  o.mesh = "third";
+  EXPECT_EQ(testing::error_of([&] { (void)continuation(base, o); }),
+            "--mesh = \"third\": the train has no mesh of that name; its meshes are first, "
+            "second");
+}
+
 TEST(TrainContinuation, ItsMultipliersAreThePeriodMapsAndItsPeriodDoublingIsWhereOneIsMinusOne) {
   // Lightly damped meshes, the first loose gear chattering (20 odd impacts a period): the
   // continuation's monodromy at its last point against central differences of the period map,
@@ -189,12 +222,7 @@ TEST(TrainContinuation, ItsMultipliersAreThePeriodMapsAndItsPeriodDoublingIsWher
   Eigen::Matrix4d exact;
   const Eigen::Matrix4d central = scaled_central_differences(
       at(last.param), last.orbit.state, last.orbit.period_s, last.orbit.monodromy, &exact);
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j)
-      EXPECT_NEAR(central(i, j), exact(i, j), 1e-4 * std::abs(exact(i, j)) + 1e-6 * exact.norm())
-          << i << ", " << j << "\nexact\n"
-          << exact << "\ncentral\n"
-          << central;
+  testing::expect_matrix_near(central, exact, 1e-4, 1e-6);
   EXPECT_GT(last.orbit.max_multiplier(), 1);  // unstable past the period doubling
 
   const Bifurcation* pd = nullptr;

@@ -882,6 +882,11 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
   fmt::print("geardyn continue: {} from {} to {}, period {} x the system period\n", o.key, o.from,
              o.to, o.orbit.periods);
   fmt::print("  {} points, {:.2f} s; {}\n", r.points.size(), r.wall_time_s, r.message);
+  if (!r.mesh.empty())
+    fmt::print(
+        "  the branch reads mesh {} (x_a, forces, impacts); every mesh's contacts mark "
+        "grazings\n",
+        r.mesh);
   std::size_t unstable = 0;
   for (const auto& p : r.points) unstable += !p.orbit.stable;
   fmt::print("  {} stable, {} unstable points\n", r.points.size() - unstable, unstable);
@@ -1158,6 +1163,9 @@ int main(int argc, char** argv) {
   cont->add_option("--step", co.initial_step, "first arclength step (default 0.01)");
   cont->add_option("--max-step", co.max_step, "largest arclength step (default 0.02)");
   cont->add_option("--max-points", co.max_points, "points at most (default 5000)");
+  cont->add_option("--mesh", co.mesh,
+                   "a gear train's mesh whose amplitude, force and impacts the branch reads "
+                   "(default: the first; every mesh's contacts mark grazings)");
   cont->add_flag("--follow-period-doubling", co.follow_period_doubling,
                  "switch to the period-doubled branch at each period doubling and follow it");
   cont->add_option("--out", cont_out, "output directory (default out/continue)");

@@ -107,6 +107,10 @@ struct ContinuationOptions {
   // A state on the section at `from` to start Newton from, in place of the settled simulation:
   // (delta, delta'), a coupled case's (q, q'), or a train's unknowns (state_names), SI.
   std::optional<ode::Vector> start;
+  // A gear train's mesh whose reading the branch's points carry (amplitude, force, contact
+  // counts in the one-degree units of its b and mean stiffness): empty for the first. Every
+  // mesh's contact counts mark grazings whichever is read.
+  std::string mesh;
   // At each period doubling of the first branch (up to kMaxBranchSwitches), switch to the
   // period-doubled branch and follow it to the end of the range it heads for.
   bool follow_period_doubling = false;
@@ -120,8 +124,10 @@ struct ContinuationOptions {
 struct ContinuationResult {
   // The names of the state's entries, as branch.csv heads their columns: delta_m,
   // velocity_m_s; or each coupled coordinate (u_m, y1_m, ...), then its rate (u_m_s, ...); or
-  // a train's free bodies' <body>_rad, then their <body>_rad_s.
+  // a train's free coordinates (<body>_rad, a planar body's <body>_x_m, <body>_y_m), then
+  // their rates (the same with _s).
   std::vector<std::string> state_names;
+  std::string mesh;  // a train's mesh read (ContinuationOptions::mesh), empty for other forms
   std::vector<BranchPoint> points;
   std::vector<Bifurcation> bifurcations;
   bool completed = false;  // the branch reached `to`

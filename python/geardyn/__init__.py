@@ -848,7 +848,8 @@ def _orbit_dict(text):
 
 @_pythonic({"from": "from_"})
 def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=100, step=0.01,
-                 max_step=0.02, max_points=5000, follow_period_doubling=False, progress=None):
+                 max_step=0.02, max_points=5000, follow_period_doubling=False, progress=None,
+                 mesh=None):
     """Follows a branch of periodic orbits in a case key, as `geardyn continue`.
 
     Pseudo-arclength continuation from the orbit at `from_`; folds, period doublings,
@@ -872,11 +873,15 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     progress : callable or True, optional
         ``progress(param, points)`` after each point; a false return stops. True: a tqdm bar
         over the range.
+    mesh : str, optional
+        A gear train's mesh whose amplitude, forces and impacts the points read (``--mesh``;
+        default the first); every mesh's contacts mark grazings whichever is read.
 
     Returns
     -------
     dict
-        One NumPy array per point: ``param``, ``stable``, ``x_a`` ((max - min) / 2 of delta / b),
+        ``mesh``: the train's mesh read ("" for another form). One NumPy array per point:
+        ``param``, ``stable``, ``x_a`` ((max - min) / 2 of delta / b),
         ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``, ``impacts_per_period``,
         ``max_multiplier``, the state on the section (``delta_m`` (m) and ``velocity_m_s``
         (m/s); a coupled case's coordinates and their rates, ``u_m``, ``y1_m``, ...,
@@ -899,7 +904,7 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
         callback = _progress(progress)
     r = _geardyn._continuation(case, param, float(from_), float(to), periods, segments,
                                settle_periods, step, max_step, max_points,
-                               follow_period_doubling, callback)
+                               follow_period_doubling, callback, mesh or "")
     for b in r["bifurcations"]:
         # None where the located orbit could not be read again (its flow failed).
         b["orbit"] = _orbit_dict(b["orbit"]) if b["orbit"] else None

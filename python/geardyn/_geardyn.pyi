@@ -72,7 +72,8 @@ def _continuation(case: Case, param: str, from_: float, to: float, periods: int 
                   segments: int = ..., settle_periods: int = ..., step: float = ...,
                   max_step: float = ..., max_points: int = ...,
                   follow_period_doubling: bool = ...,
-                  progress: Optional[Callable[[float, int], Any]] = ...) -> dict[str, Any]: ...
+                  progress: Optional[Callable[[float, int], Any]] = ...,
+                  mesh: str = ...) -> dict[str, Any]: ...
 def _stability(case: Case, param: str, values: Sequence[float], param2: str = ...,
                values2: Sequence[float] = ...,
                progress: Optional[Callable[[int, int], Any]] = ...) -> dict[str, Any]: ...

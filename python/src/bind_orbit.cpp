@@ -86,8 +86,9 @@ void bind_orbit(py::module_& m) {
       "_continuation",
       [](const Case& c, const std::string& param, double from, double to, int periods, int segments,
          int settle_periods, double step, double max_step, int max_points,
-         bool follow_period_doubling, const py::object& progress) {
+         bool follow_period_doubling, const py::object& progress, const std::string& mesh) {
         ContinuationOptions o;
+        o.mesh = mesh;
         o.key = param;
         o.from = from;
         o.to = to;
@@ -143,12 +144,14 @@ void bind_orbit(py::module_& m) {
         d["interrupted"] = hook.interrupted();
         d["message"] = r.message;
         d["wall_time_s"] = r.wall_time_s;
+        d["mesh"] = r.mesh;
         return d;
       },
       py::arg("case"), py::arg("param"), py::arg("from_"), py::arg("to"), py::arg("periods") = 1,
       py::arg("segments") = 0, py::arg("settle_periods") = 100, py::arg("step") = 0.01,
       py::arg("max_step") = 0.02, py::arg("max_points") = 5000,
-      py::arg("follow_period_doubling") = false, py::arg("progress") = py::none());
+      py::arg("follow_period_doubling") = false, py::arg("progress") = py::none(),
+      py::arg("mesh") = "");
 
   m.def(
       "_stability",

@@ -89,13 +89,17 @@ def test_a_trains_continuation_is_the_command_lines_and_grazes_at_the_rattle_ons
     # at the closed-form onset J (R_in / R_loose) a = T_drag, about 240.5 rad/s^2.
     path = os.path.join(os.environ["GEARDYN_SOURCE_DIR"], "cases", "loose_gear_rattle.toml")
     key = "train.speed[0].acceleration_harmonics[0][0]"
-    subprocess.run([CLI, "continue", path, "--param", key, "--from", "230", "--to", "245",
-                    "--out", str(tmp_path), "--no-figures"], capture_output=True, text=True,
-                   check=True)
+    out = subprocess.run([CLI, "continue", path, "--param", key, "--from", "230", "--to", "245",
+                          "--mesh", "rattle", "--out", str(tmp_path), "--no-figures"],
+                         capture_output=True, text=True, check=True).stdout
+    assert "the branch reads mesh rattle" in out
     rows = np.genfromtxt(tmp_path / "branch.csv", delimiter=",", names=True)
     from_cli = json.loads((tmp_path / "bifurcations.json").read_text())
     b = geardyn.continuation(geardyn.Case.from_toml(path), key, 230, 245)
     assert b["completed"], b["message"]
+    assert b["mesh"] == "rattle" and all(f["mesh"] == "rattle" for f in from_cli)
+    with pytest.raises(geardyn.InputError, match=r'^mesh = "gear": the train has no mesh'):
+        geardyn.continuation(geardyn.Case.from_toml(path), key, 230, 245, mesh="gear")
     for name in ["param", "x_a", "loose_rad", "loose_rad_s", "max_multiplier"]:
         assert np.array_equal(b[name], rows[name]), name
     assert [f["param"] for f in b["bifurcations"]] == [f["param"] for f in from_cli]
