@@ -15,10 +15,17 @@ ROOT = pathlib.Path(__file__).resolve().parent
 
 class CMakeBuild(build_ext):
     """Configures and builds the `_geardyn` and `geardyn_cli` targets, then copies the
-    extension and the tool (as geardyn/_bin/geardyn) into the package."""
+    extension and the tool (as geardyn/_bin/geardyn) into the package.
+
+    With GEARDYN_CMAKE_BUILD_DIR set to an existing CMake build of these sources (the Python
+    module on, as the release preset has it), that build's two targets are brought up to date
+    and packaged instead: the test suite's install test packages the build it tests rather than
+    compiling everything a second time (scripts/check_install.sh builds from source)."""
 
     def build_extension(self, ext):
-        build = pathlib.Path(self.build_temp).resolve() / "cmake"
+        given = os.environ.get("GEARDYN_CMAKE_BUILD_DIR")
+        build = pathlib.Path(given).resolve() if given else \
+            pathlib.Path(self.build_temp).resolve() / "cmake"
         build.mkdir(parents=True, exist_ok=True)
         jobs = os.environ.get("CMAKE_BUILD_PARALLEL_LEVEL", str(os.cpu_count() or 2))
         configure = [
@@ -27,7 +34,8 @@ class CMakeBuild(build_ext):
             f"-DPYTHON_EXECUTABLE={sys.executable}",
         ]
         try:
-            subprocess.run(configure, check=True)
+            if not given:
+                subprocess.run(configure, check=True)
             subprocess.run(["cmake", "--build", str(build), "--target", "_geardyn", "geardyn_cli",
                             "-j", jobs], check=True)
         except FileNotFoundError:

@@ -4,9 +4,15 @@
 # package imports from outside the source tree with its metadata, version, type stubs and the
 # `geardyn` and `geardyn-study` commands, and the installed validation passes (as the README
 # shows it). Usage:
-# install_test.sh SOURCE_DIR
+# install_test.sh SOURCE_DIR [BUILD_DIR]
+# With BUILD_DIR (the test suite passes its own build), pip packages that build's extension and
+# tool instead of compiling them again; without it (scripts/check_install.sh), pip builds from
+# the sources as a user's `pip install .` does.
 set -euo pipefail
 src="$1"
+if [[ -n "${2:-}" ]]; then
+  export GEARDYN_CMAKE_BUILD_DIR="$2"
+fi
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 mkdir "$work/src"
