@@ -150,6 +150,10 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (m.teeth_driving < 1 || m.teeth_driven < 1)
       bad(e, fmt::format("teeth = [{}, {}]: must be whole numbers >= 1", m.teeth_driving,
                          m.teeth_driven));
+    if (m.internal && m.teeth_driving == m.teeth_driven)
+      bad(e, fmt::format("internal with teeth = [{}, {}]: a ring gear has more teeth than the "
+                         "pinion inside it",
+                         m.teeth_driving, m.teeth_driven));
     if (!(m.base_radius_driving_m > 0 && m.base_radius_driven_m > 0))
       bad(e, "base radii must be > 0 m");
     if (!(m.backlash_m > 0)) bad(e, fmt::format("backlash = {} m: must be > 0", m.backlash_m));
@@ -227,9 +231,10 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     for (const Mesh& m : t_.meshes) {
       const int a = index(m.driving), b = index(m.driven);
       const std::string e = fmt::format("mesh '{}'", m.name);
-      const int reversed = -sense_[static_cast<std::size_t>(i)];
-      if (a == i) visit(b, times(*speed[i], m.teeth_driving, m.teeth_driven), e, reversed);
-      if (b == i) visit(a, times(*speed[i], m.teeth_driven, m.teeth_driving), e, reversed);
+      // An external mesh reverses the sense of rotation, an internal one keeps it.
+      const int next = (m.internal ? 1 : -1) * sense_[static_cast<std::size_t>(i)];
+      if (a == i) visit(b, times(*speed[i], m.teeth_driving, m.teeth_driven), e, next);
+      if (b == i) visit(a, times(*speed[i], m.teeth_driven, m.teeth_driving), e, next);
     }
     for (const Shaft& s : t_.shafts) {
       const int a = index(s.a), b = index(s.b);
@@ -434,9 +439,12 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   const int a = index(m.driving), b = index(m.driven);
   v(a) += cb * m.base_radius_driving_m;
   v(b) -= cb * m.base_radius_driven_m;
-  // The line of action n = s_a cos(alpha_t) t + sin(alpha_t) e (train.hpp).
-  const double psi = m.position_angle_rad, alpha = m.transverse_pressure_angle_rad;
-  const double s = sense(a) * std::cos(alpha), r = std::sin(alpha);
+  // The line of action n = s_a cos(alpha_t) t + sigma sin(alpha_t) e at the pitch point's angle
+  // psi_P (train.hpp).
+  const bool ring_drives = m.internal && m.teeth_driving > m.teeth_driven;
+  const double psi = m.position_angle_rad + (m.internal && !ring_drives ? std::numbers::pi : 0.0);
+  const double alpha = m.transverse_pressure_angle_rad;
+  const double s = sense(a) * std::cos(alpha), r = (ring_drives ? -1.0 : 1.0) * std::sin(alpha);
   const double nx = -s * std::sin(psi) + r * std::cos(psi),
                ny = s * std::cos(psi) + r * std::sin(psi);
   if (const int x = translation(a); x >= 0) {

@@ -88,6 +88,14 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
       {"name", &M::name, "", {}, false, "the mesh's name in outputs"},
       {"driving", &M::driving, "", {}, true, "the gear whose drive flank pushes"},
       {"driven", &M::driven, "", {}, true, "the gear it drives"},
+      {"kind",
+       &M::kind,
+       "",
+       {},
+       false,
+       "\"external\", or \"internal\" for a pinion and a ring gear (the gear with more teeth, "
+       "turning the same way)",
+       "external internal"},
       {"backlash_um", &M::backlash_um, "um", above(1e-3), false,
        "b, half the total normal backlash 2b"},
       {"mean_stiffness_n_per_m", &M::mean_stiffness_n_per_m, "N/m", above(0), true,
@@ -515,6 +523,16 @@ train::Train train_of(const Case& c) {
       x.teeth_driven = b->second->teeth;
       x.base_radius_driving_m = gears[m.driving].base_radius_m;
       x.base_radius_driven_m = gears[m.driven].base_radius_m;
+      x.internal = m.kind == "internal";
+      if (x.internal) {
+        // The ring's blank is no solid cylinder of its reference diameter: its inertia is given.
+        const TrainBodyData* ring = a->second->teeth > b->second->teeth ? a->second : b->second;
+        if (!ring->inertia_kg_m2 || (ring->dof == "planar" && !ring->mass_kg))
+          rethrow_with_origin(
+              t, fmt::format("body '{}': is the ring gear of internal mesh '{}': give its "
+                             "inertia_kg_m2{} (a ring's blank is no solid cylinder)",
+                             ring->name, m.name, ring->dof == "planar" ? " and mass_kg" : ""));
+      }
       x.base_helix_angle_rad = gears[m.driving].base_helix_rad;
       x.transverse_pressure_angle_rad = gears[m.driving].transverse_pressure_rad;
       x.position_angle_rad = m.position_angle_deg * kDegToRad;

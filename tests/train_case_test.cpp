@@ -429,6 +429,10 @@ driven = "b"
 mean_stiffness_n_per_m = 2e8
 )";
   EXPECT_EQ(error_of(head + mesh), "");
+  // The ring of an internal mesh with its inertia given: the pair turns the same way.
+  const Case internal =
+      parse_case(head + "inertia_kg_m2 = 0.02\n" + mesh + "kind = \"internal\"\n", "t.toml");
+  EXPECT_EQ(assembled_train(internal).sense(1), 1);
   struct Row {
     std::string text;
     std::vector<std::string> pieces;
@@ -472,6 +476,10 @@ oil = 0.1
        {"t.toml:22:", "unknown key 'train.drag[0].oil'", "constant_nm"}},
       {"[train]\nreference_speed_hz = 5\n", {"[train] is read with model.form = \"train\""}},
       {"[model]\nform = \"train\"\n", {"t.toml:2:", "needs a [train] section"}},
+      {head + mesh + "kind = \"internal\"\n",
+       {"t.toml:10:", "body 'b': is the ring gear of internal mesh 'm': give its inertia_kg_m2"}},
+      {head + mesh + "kind = \"inner\"\n",
+       {"t.toml:20:", "train.mesh[0].kind = \"inner\": must be \"external\" or \"internal\""}},
   };
   for (const Row& row : rows) {
     std::string message;

@@ -555,6 +555,66 @@ TEST(Train, TheMeshPushesTheDrivenCentreAlongItsLineOfAction) {
   }
 }
 
+TEST(Train, AnInternalMeshKeepsTheSenseAndPressesThePinionTowardTheRingsCentre) {
+  // A pinion (20 teeth) inside a ring (60), both planar on bearings, the ring's centre at psi
+  // from the pinion's. The ring turns the pinion's way at a third of its speed; in torsion the
+  // pair is the external one's (one mode, w^2 = k (R_p^2 / J_p + R_r^2 / J_r), spur, the
+  // centres held). At rest under the mean torques the separating force presses the
+  // pinion toward the ring's centre and the ring's rim away from the pinion: F n / k on each
+  // centre with n = s cos(alpha_t) t + sigma sin(alpha_t) e at the pitch point's angle
+  // (train.hpp), whichever of the two drives. A mutant that reverses the sense across an
+  // internal mesh, or pushes the pinion away from the ring's centre, fails.
+  const double psi = 1.1, alpha = 0.35, r_p = 0.02, r_r = 0.06, j_p = 1e-4, j_r = 0.05;
+  const double k = 4e8, torque = 30;
+  for (const bool ring_drives : {false, true}) {
+    SCOPED_TRACE(ring_drives);
+    Train t;
+    t.bodies = {{"pinion", j_p, true, 0.3}, {"ring", j_r, true, 2.0}};
+    Mesh m = ring_drives ? mesh("m", "ring", "pinion", {60, 20}, {r_r, r_p}, 5e-5, k)
+                         : mesh("m", "pinion", "ring", {20, 60}, {r_p, r_r}, 5e-5, k);
+    m.internal = true;
+    m.position_angle_rad = ring_drives ? psi + std::numbers::pi : psi;  // driven seen from driving
+    m.transverse_pressure_angle_rad = alpha;
+    t.meshes = {m};
+    t.bearings = {{"bp", "pinion", 1e12, 0}, {"br", "ring", 1e12, 0}};
+    const double drive = ring_drives ? torque * r_r / r_p : torque;
+    t.torques = {{"in", ring_drives ? "ring" : "pinion", drive, {}},
+                 {"out",
+                  ring_drives ? "pinion" : "ring",
+                  -drive * (ring_drives ? r_p / r_r : r_r / r_p),
+                  {}}};
+    t.reference = "pinion";
+    t.reference_speed_hz = 50;
+    const Assembled a(t);
+    EXPECT_EQ(a.sense(1), 1);  // the ring turns the pinion's way
+    EXPECT_EQ(a.speed_ratios()[1].num, 1);
+    EXPECT_EQ(a.speed_ratios()[1].den, 3);
+    Train torsional = t;  // the centres held: the torsional pair alone
+    torsional.bodies[0].planar = torsional.bodies[1].planar = false;
+    torsional.bearings.clear();
+    const std::vector<TrainMode> modes = train::modes(Assembled(torsional));
+    const double w2 = k * (r_p * r_p / j_p + r_r * r_r / j_r);
+    ASSERT_EQ(modes.size(), 2U);
+    EXPECT_NEAR(modes[1].frequency_hz / (std::sqrt(w2) / kTwoPi), 1.0, 1e-12);
+    const std::optional<Eigen::VectorXd> y = static_state(a);
+    ASSERT_TRUE(y);
+    const double force = torque / r_p;  // the pinion's torque over its base radius, both ways
+    EXPECT_NEAR(static_mesh_forces_n(a, *y)[0] / force, 1.0, 1e-9);
+    const Eigen::Vector2d to_ring_centre(std::cos(psi), std::sin(psi));  // from the pinion's
+    const Eigen::Vector2d pinion = y->segment(a.translation(0), 2);
+    const Eigen::Vector2d ring = y->segment(a.translation(1), 2);
+    const double scale = force / 1e12;
+    EXPECT_NEAR(pinion.dot(to_ring_centre), scale * std::sin(alpha), 1e-9 * scale);
+    EXPECT_NEAR(ring.dot(to_ring_centre), -scale * std::sin(alpha), 1e-9 * scale);
+    // Tangentially the ring's tooth goes the pinion's way (counterclockwise) at the pitch
+    // point, which lies opposite the ring's centre from the pinion's.
+    const Eigen::Vector2d tangent(std::sin(psi), -std::cos(psi));  // ccw at the pitch point
+    const double along = ring_drives ? -1.0 : 1.0;  // the driven gear is pushed along the motion
+    EXPECT_NEAR(ring.dot(tangent), along * scale * std::cos(alpha), 1e-9 * scale);
+    EXPECT_NEAR(pinion.dot(tangent), -along * scale * std::cos(alpha), 1e-9 * scale);
+  }
+}
+
 TEST(Train, ABadArrangementIsRefusedNamingTheElement) {
   const auto refused = [](Train t, const std::string& piece) {
     try {
@@ -603,6 +663,10 @@ TEST(Train, ABadArrangementIsRefusedNamingTheElement) {
   x.bodies[2].mass_kg = 3;
   x.bearings = {{"b1", "output", 0, 0}};
   refused(x, "bearing 'b1': stiffness = 0 N/m: must be finite and > 0");
+  x = t;
+  x.meshes[0].internal = true;
+  x.meshes[0].teeth_driven = 20;
+  refused(x, "mesh 'first': internal with teeth = [20, 20]: a ring gear has more teeth");
 }
 
 }  // namespace

@@ -34,13 +34,22 @@
 //   Speed   a prescribed rotation of a body (below): its row of the equations is the
 //           prescription's acceleration.
 //
+// Internal meshes. A mesh between a pinion and a ring gear with internal teeth (Mesh::internal;
+// the ring is the gear with more teeth) turns both the same way: the speed ratio is the
+// external one's, the sense of rotation is kept. d = cos(beta_b) (R_a theta_a - R_b theta_b)
+// holds as it is, each theta counted in its own body's sense.
+//
 // The line of action. With psi the position angle of the driven gear's centre seen from the
-// driving gear's (Mesh::position_angle_rad, counterclockwise from x), e = (cos psi, sin psi)
-// and t = (-sin psi, cos psi), and s_a = +1 when the driving gear turns counterclockwise (the
-// reference does; each external mesh reverses the sense, a shaft keeps it), the drive flank's
-// force on the driven gear is F n with n = s_a cos(alpha_t) t + sin(alpha_t) e: tangent to both
-// base circles, turning the driven gear against the driving one and pushing the two centres
-// apart (alpha_t the transverse pressure angle).
+// driving gear's (Mesh::position_angle_rad, counterclockwise from x), psi_P that of the pitch
+// point seen from the driving gear's centre (psi for an external mesh and for a ring driving
+// its pinion, whose centre lies between the ring's and the pitch point; psi + pi for a pinion
+// driving its ring), e = (cos psi_P, sin psi_P), t = (-sin psi_P, cos psi_P), and s_a = +1
+// when the driving gear turns counterclockwise (the reference does; each external mesh reverses
+// the sense, an internal mesh and a shaft keep it), the drive flank's force on the driven gear
+// is F n with n = s_a cos(alpha_t) t + sigma sin(alpha_t) e: tangent to both base circles along
+// the driving gear's motion, and pressing the driven gear's tooth into its own body (sigma =
+// +1: toward an external gear's centre, outward into a ring's rim; sigma = -1 for a pinion
+// driven by its ring, pressed toward its centre), alpha_t the transverse pressure angle.
 //
 // Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1); a region
 // is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
@@ -88,6 +97,7 @@ struct Mesh {
   // The layout, read only when a planar body is in the mesh: psi and alpha_t (above).
   double position_angle_rad = 0;
   double transverse_pressure_angle_rad = 0;
+  bool internal = false;  // a pinion and a ring gear (the one with more teeth)
 };
 
 struct Shaft {

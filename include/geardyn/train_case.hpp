@@ -55,9 +55,12 @@ struct TrainBodyData {
   double density_kg_m3 = 7850;
 };
 
-// [[train.mesh]]: a mesh between two gears, the driving one (whose drive flank pushes) first.
+// [[train.mesh]]: a mesh between two gears, the driving one (whose drive flank pushes) first;
+// kind "internal" for a pinion and a ring gear (the one with more teeth, whose inertia is
+// given: its blank is no solid cylinder).
 struct TrainMeshData {
   std::string name, driving, driven;
+  std::string kind = "external";  // or "internal"
   double backlash_um = 100;  // b, half the total normal backlash
   double mean_stiffness_n_per_m = 0;
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // of the mesh frequency
