@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <map>
@@ -258,10 +259,110 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
       names_.push_back(b.name + "_y_m");
     }
   }
+  phase_.assign(t_.meshes.size(), 0.0);
+  if (t_.mesh_phase_from_layout) place_teeth();
   m_ = Eigen::MatrixXd::Zero(size(), size());
   for (int i = 0; i < n; ++i) {
     m_(i, i) = t_.bodies[i].inertia_kg_m2;
     if (const int x = translation(i); x >= 0) m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].mass_kg;
+  }
+}
+
+namespace {
+
+// The angle of a mesh's pitch point seen from its driving and from its driven gear's centre
+// (train.hpp): external, the driven centre's direction psi and its opposite; internal, psi + pi
+// from both when the pinion drives (its ring's centre lies at psi), psi from both when the ring
+// drives.
+std::array<double, 2> pitch_point_angles(const Mesh& m) {
+  constexpr double kPi = std::numbers::pi;
+  const double psi = m.position_angle_rad;
+  if (!m.internal) return {psi, psi + kPi};
+  const bool ring_drives = m.teeth_driving > m.teeth_driven;
+  return ring_drives ? std::array<double, 2>{psi, psi}
+                     : std::array<double, 2>{psi + kPi, psi + kPi};
+}
+
+// x mod 1 in [0, 1).
+double cycles(double x) { return x - std::floor(x); }
+
+}  // namespace
+
+void Assembled::place_teeth() {
+  // A gear is a body with a number of teeth; phi its tooth centre's angle at t = 0 (rad), its
+  // pitch p = 2 pi / z, its teeth p / 2 thick at the pitch circle. A flank has passed an angle
+  // psi by the fraction s (flank - psi) / p of a pitch, s the gear's sense: the driving gear's
+  // leading flank is at phi + s p / 4, the driven gear's trailing one at phi - s p / 4, and the
+  // two pass the pitch point together.
+  std::map<std::pair<int, int>, double> phi;
+  const auto passed = [&](int body, int teeth, double flank_offset_pitches, double psi) {
+    const double p = kTwoPi / teeth, s = sense(body);
+    return cycles(s * (phi.at({body, teeth}) + s * flank_offset_pitches * p - psi) / p);
+  };
+  const auto place = [&](int body, int teeth, double flank_offset_pitches, double psi, double u) {
+    const double p = kTwoPi / teeth, s = sense(body);
+    phi[{body, teeth}] = psi - s * flank_offset_pitches * p + s * u * p;
+  };
+  constexpr double kLeading = 0.25, kTrailing = -0.25;  // in pitches from the tooth's centre
+  // A loop closes when the phase from the driven side misses the driving side's by more than
+  // rounding of angles of a few turns.
+  constexpr double kInterlock = 1e-9;
+  std::vector<bool> done(t_.meshes.size(), false);
+  const auto start = [&](int body, int teeth) {
+    if (!phi.count({body, teeth})) phi[{body, teeth}] = 0.0;  // a tooth on +x
+  };
+  // The reference's gear first, else the first mesh's driving gear; then every mesh one of
+  // whose gears is placed, and a part of the train joined to the rest by shafts alone from its
+  // first mesh's driving gear.
+  const int ref = index(t_.reference);
+  for (const Mesh& m : t_.meshes) {
+    if (index(m.driving) == ref || index(m.driven) == ref) {
+      start(ref, index(m.driving) == ref ? m.teeth_driving : m.teeth_driven);
+      break;
+    }
+  }
+  for (;;) {
+    bool progress = false;
+    for (std::size_t j = 0; j < t_.meshes.size(); ++j) {
+      const Mesh& m = t_.meshes[j];
+      const int a = index(m.driving), b = index(m.driven);
+      const std::pair<int, int> ga{a, m.teeth_driving}, gb{b, m.teeth_driven};
+      if (done[j] || (!phi.count(ga) && !phi.count(gb))) continue;
+      const std::array<double, 2> psi = pitch_point_angles(m);
+      if (phi.count(ga)) {
+        phase_[j] = passed(a, m.teeth_driving, kLeading, psi[0]);
+        if (!phi.count(gb)) {
+          place(b, m.teeth_driven, kTrailing, psi[1], phase_[j]);
+        } else {
+          const double miss =
+              cycles(passed(b, m.teeth_driven, kTrailing, psi[1]) - phase_[j] + 0.5) - 0.5;
+          if (std::abs(miss) > kInterlock)
+            bad(fmt::format("mesh '{}'", m.name),
+                fmt::format("closes a loop of meshes whose teeth cannot interlock at this layout "
+                            "(the driven gear's teeth are {:.6g} of a pitch off the driving "
+                            "gear's): the tooth counts do not allow these position angles",
+                            miss));
+        }
+      } else {
+        phase_[j] = passed(b, m.teeth_driven, kTrailing, psi[1]);
+        place(a, m.teeth_driving, kLeading, psi[0], phase_[j]);
+      }
+      done[j] = true;
+      progress = true;
+    }
+    if (progress) continue;
+    const auto next = std::find(done.begin(), done.end(), false);
+    if (next == done.end()) break;
+    const Mesh& m = t_.meshes[static_cast<std::size_t>(next - done.begin())];
+    start(index(m.driving), m.teeth_driving);
+  }
+  // Each mesh's harmonics delayed by its phase: k(t + u T), harmonic i by 2 pi i u.
+  for (std::size_t j = 0; j < t_.meshes.size(); ++j) {
+    Mesh& m = t_.meshes[j];
+    for (std::size_t i = 0; i < m.stiffness.size(); ++i)
+      m.stiffness[i].phase_rad += kTwoPi * static_cast<double>(i + 1) * phase_[j];
+    for (std::size_t i = 0; i < m.transmission_error.size(); ++i)
+      m.transmission_error[i].phase_rad += kTwoPi * static_cast<double>(i + 1) * phase_[j];
   }
 }
 

@@ -370,9 +370,11 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
     throw InputError(fmt::format("{}: train = {}: must be a table [train]",
                                  where(node.source(), source), node_text(node)));
   TrainCase t;
-  static const std::set<std::string_view> known = {
-      "reference", "reference_speed_hz", "body", "mesh", "shaft", "bearing", "torque", "drag",
-      "speed"};
+  static const std::set<std::string_view> known = {"reference",  "reference_speed_hz",
+                                                   "mesh_phase", "body",
+                                                   "mesh",       "shaft",
+                                                   "bearing",    "torque",
+                                                   "drag",       "speed"};
   for (auto&& [k, v] : *train) {
     if (!known.count(k.str()))
       throw InputError(fmt::format("{}: unknown key 'train.{}'; allowed in [train]: {}",
@@ -386,6 +388,15 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
     t.reference = *r->value<std::string>();
     t.origins["the train: reference"] =
         origin_of(overrides, "train.reference", r->source(), source);
+  }
+  if (const toml::node* p = train->get("mesh_phase")) {
+    const std::string where_given = origin_of(overrides, "train.mesh_phase", p->source(), source);
+    if (!p->is_string() ||
+        (*p->value<std::string>() != "given" && *p->value<std::string>() != "layout"))
+      throw InputError(fmt::format("{}: train.mesh_phase = {}: must be \"given\" or \"layout\"",
+                                   where_given, node_text(*p)));
+    t.mesh_phase = *p->value<std::string>();
+    t.origins["the train: mesh_phase"] = where_given;
   }
   const toml::node* f = train->get("reference_speed_hz");
   if (!f)
@@ -483,6 +494,7 @@ train::Train train_of(const Case& c) {
   train::Train out;
   out.reference = t.reference;
   out.reference_speed_hz = t.reference_speed_hz;
+  out.mesh_phase_from_layout = t.mesh_phase == "layout";
   std::map<std::string, GearGeometry> gears;
   std::map<std::string, const TrainBodyData*> bodies;
   for (const TrainBodyData& b : t.bodies) {
@@ -686,7 +698,11 @@ const std::vector<TrainKeyInfo>& train_key_list() {
     std::vector<TrainKeyInfo> out = {
         {"", "reference", "", "the first body", "a body's name in quotes",
          "the body whose speed is given"},
-        {"", "reference_speed_hz", "Hz", "(required)", "a number > 0", "its rotation frequency"}};
+        {"", "reference_speed_hz", "Hz", "(required)", "a number > 0", "its rotation frequency"},
+        {"", "mesh_phase", "", "\"given\"", "\"given\" or \"layout\"",
+         "\"given\": each mesh's harmonic phases about t = 0 as written; \"layout\": about a "
+         "tooth pair passing the mesh's pitch point, each mesh delayed by where the position "
+         "angles put its gears' teeth"}};
     describe("body", body_keys(), out);
     describe("mesh", mesh_keys(), out);
     describe("shaft", shaft_keys(), out);
@@ -815,11 +831,13 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
     if (b.dof == "planar") planar.insert(b.name);
   for (std::size_t i = 0; i < t.meshes.size(); ++i) {
     const TrainMeshData& m = t.meshes[i];
-    if (m.position_angle_deg == 0 || planar.count(m.driving) || planar.count(m.driven)) continue;
+    if (m.position_angle_deg == 0 || planar.count(m.driving) || planar.count(m.driven) ||
+        t.mesh_phase == "layout")
+      continue;
     const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
     out.push_back(fmt::format(
         "train.mesh[{}].position_angle_deg = {} ({}): not used: neither gear of mesh '{}' is "
-        "planar, so the direction of its line of action moves nothing",
+        "planar and train.mesh_phase is not \"layout\", so its layout moves nothing",
         i, m.position_angle_deg, where_given == t.origins.end() ? "" : where_given->second,
         m.name));
   }
@@ -827,8 +845,9 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
 }
 
 std::string train_toml(const TrainCase& t) {
-  std::string out = fmt::format("\n[train]\nreference = \"{}\"\nreference_speed_hz = {}\n",
-                                t.reference, t.reference_speed_hz);
+  std::string out =
+      fmt::format("\n[train]\nreference = \"{}\"\nreference_speed_hz = {}\nmesh_phase = \"{}\"\n",
+                  t.reference, t.reference_speed_hz, t.mesh_phase);
   out += toml_tables("body", body_keys(), t.bodies);
   out += toml_tables("mesh", mesh_keys(), t.meshes);
   out += toml_tables("shaft", shaft_keys(), t.shafts);

@@ -381,6 +381,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     r.mesh_frequency_hz = a.mesh_frequency_hz(static_cast<int>(m));
     r.backlash_m = t.meshes[m].backlash_m;
     r.mean_stiffness_n_per_m = t.meshes[m].mean_stiffness_n_per_m;
+    if (t.mesh_phase_from_layout) r.layout_phase = a.mesh_phases()[m];
     if (rest) r.static_force_n = static_forces[m];
     result.meshes.push_back(r);
   }
@@ -534,6 +535,7 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     nlohmann::ordered_json x;
     x["name"] = m.name;
     x["mesh_frequency_hz"] = m.mesh_frequency_hz;
+    if (m.layout_phase) x["layout_phase"] = *m.layout_phase;
     part_json(x, m, m.backlash_m);
     nlohmann::ordered_json steady;
     part_json(steady, m.steady, m.backlash_m);

@@ -390,6 +390,10 @@ position_angle_deg = 30
   EXPECT_NE(unused[0].find("train.mesh[0].position_angle_deg = 30 (t.toml:15"), std::string::npos)
       << unused[0];
   EXPECT_NE(unused[0].find("neither gear of mesh 'm' is planar"), std::string::npos);
+  // Read for the mesh phase from the layout.
+  Case phased = torsional;
+  set_case_value(phased, {"train.mesh_phase", "\"layout\""});
+  EXPECT_TRUE(unused_settings(phased).empty());
   // Planar, it is read; without a bearing the body is refused, with one it assembles, its mass
   // from the blank (rho pi w d^2 / 4).
   const std::string planar = head + "dof = \"planar\"\n" + tail;
@@ -478,6 +482,10 @@ oil = 0.1
       {"[model]\nform = \"train\"\n", {"t.toml:2:", "needs a [train] section"}},
       {head + mesh + "kind = \"internal\"\n",
        {"t.toml:10:", "body 'b': is the ring gear of internal mesh 'm': give its inertia_kg_m2"}},
+      {std::string(kBodyA).replace(std::string(kBodyA).find("[[train.body]]"), 0,
+                                   "mesh_phase = \"auto\"\n") +
+           kBodyB + mesh,
+       {"t.toml:5:", "train.mesh_phase = \"auto\": must be \"given\" or \"layout\""}},
       {head + mesh + "kind = \"inner\"\n",
        {"t.toml:20:", "train.mesh[0].kind = \"inner\": must be \"external\" or \"internal\""}},
   };

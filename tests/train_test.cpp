@@ -2,6 +2,7 @@
 // closed forms of geared shaft lines, energy, and the checks on the arrangement.
 #include "geardyn/train.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -612,6 +613,115 @@ TEST(Train, AnInternalMeshKeepsTheSenseAndPressesThePinionTowardTheRingsCentre) 
     const double along = ring_drives ? -1.0 : 1.0;  // the driven gear is pushed along the motion
     EXPECT_NEAR(ring.dot(tangent), along * scale * std::cos(alpha), 1e-9 * scale);
     EXPECT_NEAR(pinion.dot(tangent), -along * scale * std::cos(alpha), 1e-9 * scale);
+  }
+}
+
+// x mod 1 in [0, 1).
+double cycles(double x) { return x - std::floor(x); }
+
+TEST(Train, AnIdlersTwoMeshesArePhasedByTheTravelOfItsTeethBetweenThem) {
+  // Driver -> idler -> driven, the phase from the layout. An idler tooth driven at the first
+  // pitch point on its trailing flank drives at the second on its leading flank, half a pitch
+  // ahead, after turning through the angle Delta between the two pitch points in its own sense
+  // (clockwise here): the second mesh's cycle lags the first's by z Delta / 2 pi - 1/2, so
+  // u_out = u_in - (z Delta / 2 pi - 1/2) mod 1 (a diametral idler: in phase for an odd z, half
+  // a cycle apart for an even one). Each mesh's stiffness is its given curve delayed by u.
+  for (const int z : {47, 48}) {
+    for (const double theta : {0.0, 0.3, 2.0, -1.2}) {
+      SCOPED_TRACE(fmt::format("z {} theta {}", z, theta));
+      Train t;
+      t.bodies = {{"driver", 0.01}, {"idler", 0.02}, {"driven", 0.03}};
+      Mesh in = mesh("in", "driver", "idler", {30, z}, {0.03, 0.047}, 5e-5, 4e8);
+      Mesh out = mesh("out", "idler", "driven", {z, 60}, {0.047, 0.06}, 5e-5, 4e8);
+      in.position_angle_rad = 0;
+      out.position_angle_rad = theta;
+      in.stiffness = out.stiffness = {{0.1, 0.4}, {0.02, -1.0}};
+      t.meshes = {in, out};
+      t.reference = "driver";
+      t.reference_speed_hz = 20;
+      t.mesh_phase_from_layout = true;
+      const Assembled a(t);
+      const std::vector<double>& u = a.mesh_phases();
+      // The idler (clockwise) turns from its first pitch point (at pi) to its second (theta).
+      const double delta = cycles((std::numbers::pi - theta) / kTwoPi) * kTwoPi;
+      const double lag = cycles(z * delta / kTwoPi - 0.5);
+      const double miss = cycles(u[1] - (u[0] - lag) + 0.5) - 0.5;
+      EXPECT_NEAR(miss, 0.0, 1e-12);
+      if (theta == 0.0)
+        EXPECT_NEAR(cycles(u[1] - u[0] - (z % 2 == 1 ? 0.0 : 0.5) + 0.5) - 0.5, 0.0, 1e-12);
+      // The stiffness of each mesh: the given curve k_g(tau) at tau = t + u T.
+      t.mesh_phase_from_layout = false;
+      const Assembled given(t);
+      for (int j = 0; j < 2; ++j) {
+        const double period = 1.0 / a.mesh_frequency_hz(j);
+        for (const double time : {0.0, 1e-4, 7e-4})
+          EXPECT_NEAR(a.stiffness_series(j)(time),
+                      given.stiffness_series(j)(time + u[static_cast<std::size_t>(j)] * period),
+                      1e-6);  // N/m of 4e8
+      }
+    }
+  }
+}
+
+// A star gear set (the carrier held): a sun, n planets at equal spacing and a ring, every axis
+// fixed, the phase from the layout.
+Train star(int sun, int planet, int ring, int planets) {
+  Train t;
+  t.bodies = {{"sun", 1e-3}, {"ring", 0.2}};
+  for (int n = 0; n < planets; ++n) {
+    const std::string p = fmt::format("planet{}", n + 1);
+    const double psi = kTwoPi * n / planets;
+    t.bodies.push_back({p, 5e-4});
+    Mesh sp = mesh("sun-" + p, "sun", p, {sun, planet}, {0.01 * sun, 0.01 * planet}, 5e-5, 4e8);
+    sp.position_angle_rad = psi;
+    Mesh rp = mesh("ring-" + p, p, "ring", {planet, ring}, {0.01 * planet, 0.01 * ring}, 5e-5, 4e8);
+    rp.internal = true;
+    rp.position_angle_rad = psi + std::numbers::pi;  // the ring's centre, seen from the planet's
+    t.meshes.push_back(sp);
+    t.meshes.push_back(rp);
+  }
+  t.reference = "sun";
+  t.reference_speed_hz = 50;
+  t.mesh_phase_from_layout = true;
+  return t;
+}
+
+TEST(Train, AStarSetAssemblesWhenItsTeethAllowAndItsSunMeshesArePhasedByTheSunsTeeth) {
+  // Equally spaced planets assemble when (z_s + z_r) / N is whole (the classical condition): a
+  // layout that breaks it is refused at the mesh that closes the loop. A planet's ring mesh
+  // follows its sun mesh as an idler's second mesh its first. The sun-planet meshes
+  // follow one another by the sun's teeth over the spacing: u_n = u_1 - z_s psi_n / 2 pi mod 1
+  // (Parker and Lin's sun-planet phasing, the sun turning counterclockwise).
+  for (const auto& [sun, planet, planets] :
+       {std::array<int, 3>{20, 25, 3}, std::array<int, 3>{20, 26, 4},
+        std::array<int, 3>{21, 24, 5}}) {
+    const int ring = sun + 2 * planet;
+    SCOPED_TRACE(fmt::format("{} {} {} x{}", sun, planet, ring, planets));
+    ASSERT_EQ((sun + ring) % planets, 0);
+    const Assembled a(star(sun, planet, ring, planets));
+    const std::vector<double>& u = a.mesh_phases();
+    // A planet is an idler turned half a turn between its two pitch points: its ring mesh lags
+    // its sun mesh by z_p / 2 - 1/2 cycles (in phase for an odd z_p, half a cycle for an even).
+    for (int n = 0; n < planets; ++n) {
+      const double lag = cycles(planet / 2.0 - 0.5);
+      const auto j = static_cast<std::size_t>(2 * n);
+      EXPECT_NEAR(cycles(u[j + 1] - (u[j] - lag) + 0.5) - 0.5, 0.0, 1e-9) << n;
+    }
+    for (int n = 1; n < planets; ++n) {
+      const double expected = u[0] - static_cast<double>(sun * n) / planets;
+      EXPECT_NEAR(cycles(u[static_cast<std::size_t>(2 * n)] - expected + 0.5) - 0.5, 0.0, 1e-9)
+          << n;
+    }
+    // One tooth more on the sun and the ring (the planets unchanged): (z_s + z_r) / N is no
+    // longer whole.
+    try {
+      Assembled bad(star(sun + 1, planet, ring + 1, planets));
+      ADD_FAILURE() << "a set that cannot assemble was taken";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("closes a loop of meshes whose teeth cannot interlock"),
+                std::string::npos)
+          << e.what();
+    }
   }
 }
 

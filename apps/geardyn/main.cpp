@@ -372,6 +372,9 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
     fmt::print("  {:<17} steady part: {}, {} impacts, force {:.6g} to {:.6g} N\n", "",
                geardyn::to_string(m.steady.regime), m.steady.impacts, m.steady.min_force_n,
                m.steady.max_force_n);
+    if (m.layout_phase)
+      fmt::print("  {:<17} phase from the layout: {:.6g} of a mesh cycle at t = 0\n", "",
+                 *m.layout_phase);
   }
   if (!r.static_note.empty()) fmt::print("  no static state:  {}\n", r.static_note);
   fmt::print("  {:<17} {} ({} events located), {:.3g} s wall\n",

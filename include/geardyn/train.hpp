@@ -51,6 +51,17 @@
 // +1: toward an external gear's centre, outward into a ring's rim; sigma = -1 for a pinion
 // driven by its ring, pressed toward its centre), alpha_t the transverse pressure angle.
 //
+// Mesh phase from the layout (Train::mesh_phase_from_layout). Each gear's teeth are placed at
+// t = 0 by the layout: the reference's (or, in a part of the train joined to it by shafts
+// alone, the first gear's) tooth centred on +x, and every other gear's so that the teeth of
+// each mesh interlock at its pitch point (standard teeth: half a pitch thick at the pitch
+// circle). A mesh's phase u in [0, 1) is the fraction of its cycle the driving gear's leading
+// flank has passed the pitch point at t = 0, so that its stiffness and transmission error,
+// given over a cycle that starts as a tooth pair passes the pitch point, are delayed to
+// k(t + u T_mesh): each harmonic i's phase grows by 2 pi i u. A loop of meshes whose teeth
+// cannot all interlock (planets whose spacing the tooth counts do not allow) is refused naming
+// the mesh that closes it. Without it, each mesh's harmonics are taken as given, about t = 0.
+//
 // Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1); a region
 // is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
 // Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N).
@@ -160,8 +171,9 @@ struct Train {
   std::vector<Torque> torques;
   std::vector<Drag> drags;
   std::vector<Speed> speeds;
-  std::string reference;          // the body whose speed is given
-  double reference_speed_hz = 0;  // its rotation frequency
+  std::string reference;                // the body whose speed is given
+  double reference_speed_hz = 0;        // its rotation frequency
+  bool mesh_phase_from_layout = false;  // (above); false: each mesh's phases as given
 };
 
 // A ratio of whole numbers, for speeds and mesh frequencies over the reference speed: trains
@@ -185,7 +197,8 @@ class Assembled {
   // places, no mesh, a non-positive inertia or radius, a train that cannot turn (a loop of
   // meshes and shafts whose ratios disagree), a body that no mesh or shaft joins to the
   // reference, a bearing on a body that keeps torsion only, a planar body without a bearing
-  // (its centre would be free to wander) or without a mass.
+  // (its centre would be free to wander) or without a mass, a layout whose teeth cannot
+  // interlock around a loop (with the phase from the layout).
   explicit Assembled(Train t);
 
   const Train& train() const { return t_; }
@@ -212,6 +225,8 @@ class Assembled {
   // The common period of every mesh's stiffness and transmission error: 1 / (f_ref g), g the
   // greatest common divisor of the mesh frequency ratios; 0 when every mesh is constant.
   double coefficient_period_s() const;
+  // Each mesh's phase u from the layout (above), in cycles; 0 for every mesh without it.
+  const std::vector<double>& mesh_phases() const { return phase_; }
   // The period of every excitation together (each mesh's stiffness and transmission error,
   // every torque's and prescribed speed's harmonics): 1 / (f_ref g), g the greatest common
   // divisor of their frequencies over the reference speed, each a ratio of whole numbers (an
@@ -262,9 +277,13 @@ class Assembled {
   HarmonicSeries torque_series(int torque) const;
 
  private:
+  // Places every gear's teeth from the layout and delays each mesh's harmonics by its phase.
+  void place_teeth();
+
   Train t_;
   std::vector<Ratio> speed_;
   std::vector<int> sense_, translation_;
+  std::vector<double> phase_;  // each mesh's, in cycles
   std::vector<std::string> names_;
   Eigen::MatrixXd m_;
 };

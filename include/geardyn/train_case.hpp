@@ -61,7 +61,7 @@ struct TrainBodyData {
 struct TrainMeshData {
   std::string name, driving, driven;
   std::string kind = "external";  // or "internal"
-  double backlash_um = 100;  // b, half the total normal backlash
+  double backlash_um = 100;       // b, half the total normal backlash
   double mean_stiffness_n_per_m = 0;
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // of the mesh frequency
   std::vector<ErrorHarmonic> transmission_error_um;    // of the mesh frequency
@@ -112,6 +112,9 @@ struct TrainSpeedData {
 struct TrainCase {
   std::string reference;  // empty: the first body
   double reference_speed_hz = 0;
+  // "given": each mesh's harmonic phases about t = 0 as written; "layout": about a tooth pair
+  // passing its pitch point, each mesh delayed by where the layout puts its teeth (train.hpp).
+  std::string mesh_phase = "given";
   std::vector<TrainBodyData> bodies;
   std::vector<TrainMeshData> meshes;
   std::vector<TrainShaftData> shafts;

@@ -34,7 +34,9 @@ struct TrainMeshReading : TrainMeshPart {
   double mesh_frequency_hz = 0;
   double backlash_m = 0;
   double mean_stiffness_n_per_m = 0;  // k_m: F / (b k_m) is the one-degree run's F_bar
-  TrainMeshPart steady;               // its regime: separated anywhere in the part or not
+  // Its phase from the layout (train.hpp), in cycles; absent with train.mesh_phase = "given".
+  std::optional<double> layout_phase;
+  TrainMeshPart steady;  // its regime: separated anywhere in the part or not
   // The mesh force in drive contact at the mean torques and drags, the prescribed bodies held
   // (static_mesh_forces_n); absent when there is none (the train's mean torques do not balance).
   std::optional<double> static_force_n;
