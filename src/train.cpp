@@ -223,6 +223,11 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
         speed[j] = r;
         sense_[static_cast<std::size_t>(j)] = sense;
         open.push(j);
+      } else if (sense_[static_cast<std::size_t>(j)] != sense) {
+        bad(element, fmt::format("closes a loop whose senses of rotation disagree (body '{}' "
+                                 "would turn both ways; an odd loop of external meshes): the "
+                                 "train is locked and cannot turn",
+                                 t_.bodies[j].name));
       } else if (!same(*speed[j], r)) {
         bad(element, fmt::format("closes a loop whose speed ratios disagree ({} against {} for "
                                  "body '{}'): the train is locked and cannot turn",
@@ -543,7 +548,7 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   // The line of action n = s_a cos(alpha_t) t + sigma sin(alpha_t) e at the pitch point's angle
   // psi_P (train.hpp).
   const bool ring_drives = m.internal && m.teeth_driving > m.teeth_driven;
-  const double psi = m.position_angle_rad + (m.internal && !ring_drives ? std::numbers::pi : 0.0);
+  const double psi = pitch_point_angles(m)[0];
   const double alpha = m.transverse_pressure_angle_rad;
   const double s = sense(a) * std::cos(alpha), r = (ring_drives ? -1.0 : 1.0) * std::sin(alpha);
   const double nx = -s * std::sin(psi) + r * std::cos(psi),

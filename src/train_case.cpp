@@ -110,7 +110,8 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
       {"position_angle_deg", &M::position_angle_deg, "deg", closed(-360, 360), false,
        "where the driven gear's centre lies seen from the driving gear's, counterclockwise "
        "from x (the reference turns counterclockwise): the line of action's direction, read "
-       "when a gear of the mesh is planar"},
+       "when a gear of the mesh is planar, and where its teeth meet with train.mesh_phase = "
+       "\"layout\""},
   };
   return keys;
 }

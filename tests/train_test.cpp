@@ -773,6 +773,10 @@ TEST(Train, ABadArrangementIsRefusedNamingTheElement) {
   x.bodies[2].mass_kg = 3;
   x.bearings = {{"b1", "output", 0, 0}};
   refused(x, "bearing 'b1': stiffness = 0 N/m: must be finite and > 0");
+  x = t;  // a third external mesh closing a triangle: the speeds agree, the senses cannot
+  x.meshes.push_back(mesh("back", "output", "input", {61, 20}, {0.0861, 0.0235}, 5e-5, 3e8));
+  x.meshes[1].teeth_driving = 50;  // input 20 -> 50 -> 61 -> 20: the speeds close
+  refused(x, "closes a loop whose senses of rotation disagree");
   x = t;
   x.meshes[0].internal = true;
   x.meshes[0].teeth_driven = 20;

@@ -529,7 +529,7 @@ class TrainRunResult:
             (impacts, separated_fraction, dynamic_factor, ...) and those of its steady part
             (steady_impacts, steady_regime, steady_max_force_n, ...) as variables along mesh;
             the summary (JSON) as an attribute, where "steady" says where the part starts and
-            why.
+            why; ``layout_phase`` (cycles) along mesh with ``train.mesh_phase = "layout"``.
         """
         import xarray as xr
         meshes = self.summary["meshes"]
@@ -538,6 +538,9 @@ class TrainRunResult:
                               "separated_fraction", "max_force_n", "min_force_n",
                               "static_force_n", "dynamic_factor", "dynamic_factor_with_startup")}
         per_mesh["regime"] = ("mesh", [m["regime"] for m in meshes])
+        if meshes and "layout_phase" in meshes[0]:  # train.mesh_phase = "layout"
+            per_mesh["layout_phase"] = ("mesh", [m["layout_phase"] for m in meshes],
+                                        {"units": "cycles"})
         # The steady part (summary "steady": where it starts and why) per mesh.
         for k in ("impacts", "separated_fraction", "max_force_n", "min_force_n"):
             per_mesh["steady_" + k] = ("mesh", [m["steady"][k] for m in meshes])

@@ -722,6 +722,11 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
                                         "idler_y_m"]
     assert rp.q.shape == (len(rp.t), 5) and rp.theta.shape == (len(rp.t), 3)
     assert list(rp.to_xarray()["coordinate"].values) == rp.coordinates
+    assert "layout_phase" not in rp.to_xarray()
+    # The phase from the layout: each mesh's along mesh, as summary.json gives it.
+    phased = geardyn.run(planar.with_({"train.mesh_phase": "layout"}))
+    assert [float(x) for x in phased.to_xarray()["layout_phase"].values] == \
+        [m["layout_phase"] for m in phased.summary["meshes"]]
     pm = geardyn.modes(planar)
     assert pm["bodies"][3:] == ["idler_x", "idler_y"] and len(pm["frequency_hz"]) == 5
     for k in range(1, 5):
