@@ -371,6 +371,14 @@ void Assembled::place_teeth() {
   }
 }
 
+int Assembled::shaft_observable(int shaft) const {
+  return 2 * static_cast<int>(t_.meshes.size()) + shaft;
+}
+
+int Assembled::bearing_observable(int bearing) const {
+  return 2 * static_cast<int>(t_.meshes.size()) + static_cast<int>(t_.shafts.size()) + 2 * bearing;
+}
+
 Eigen::VectorXd Assembled::rigid_rotation() const {
   Eigen::VectorXd r = Eigen::VectorXd::Zero(size());
   for (int i = 0; i < body_count(); ++i) r(i) = value(speed_[static_cast<std::size_t>(i)]);
@@ -822,6 +830,25 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
       }
       f.scale = t_.meshes[m].backlash_m * t_.meshes[m].mean_stiffness_n_per_m;
       lr.observables.push_back(f);
+    }
+    // Each shaft's torque and each bearing's force on the ground, the same in every region.
+    for (const Shaft& x : t_.shafts) {
+      ode::LinearGuard g = functional();
+      const int i = index(x.a), j = index(x.b);
+      g.row.constant(i) += x.stiffness_n_m_per_rad;
+      g.row.constant(j) -= x.stiffness_n_m_per_rad;
+      g.row.constant(n + i) += x.damping_n_m_s_per_rad;
+      g.row.constant(n + j) -= x.damping_n_m_s_per_rad;
+      lr.observables.push_back(g);
+    }
+    for (const Bearing& x : t_.bearings) {
+      const int q = translation(index(x.body));
+      for (const int axis : {q, q + 1}) {
+        ode::LinearGuard g = functional();
+        g.row.constant(axis) = x.stiffness_n_per_m;
+        g.row.constant(n + axis) = x.damping_n_s_per_m;
+        lr.observables.push_back(g);
+      }
     }
     // A prescribed body's row is its prescription's acceleration, nothing of the train's.
     for (const Speed& v : t_.speeds) {

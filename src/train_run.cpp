@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -46,15 +47,17 @@ class TrainObserver : public ode::FlowObserver {
         t0_(t0),
         t1_(t1),
         states_(a.states(region)),
-        whole_(states_.size()) {
+        whole_(states_.size()),
+        first_part_(2 * states_.size()),
+        whole_parts_(sys.regions.front().observables.size() - first_part_, kNoExtremes) {
     for (const int state : states_) trackers_.emplace_back(t0, t1, final_from, state);
     for (const ode::LinearRegion& reg : sys.regions) {
       ranges_.emplace_back();
       for (const ode::LinearGuard& g : reg.observables) ranges_.back().emplace_back(g);
       readers_.emplace_back(sys, reg.observables);
     }
-    low_.resize(2 * states_.size());
-    high_.resize(2 * states_.size());
+    low_.resize(sys.regions.front().observables.size());
+    high_.resize(low_.size());
   }
 
   // From t on (a time a flow ended at), each mesh's steady part is read beside the whole: its
@@ -64,6 +67,7 @@ class TrainObserver : public ode::FlowObserver {
     part_trackers_.clear();
     for (const int state : states_) part_trackers_.emplace_back(t, t1_, t, state);
     part_.assign(states_.size(), Extremes{});
+    part_parts_.assign(whole_parts_.size(), kNoExtremes);
   }
 
   bool needs_detail(const ode::CellView& span) override {
@@ -82,6 +86,10 @@ class TrainObserver : public ode::FlowObserver {
       search(cell, m, d, true);
       search(cell, m, d, false);
     }
+    for (std::size_t k = 0; k < whole_parts_.size(); ++k) {
+      search_part(cell, k, true);
+      search_part(cell, k, false);
+    }
   }
 
   // A step's end is a point of the window (the adaptive integrator's only ones besides events
@@ -89,6 +97,7 @@ class TrainObserver : public ode::FlowObserver {
   void on_step(double t, const ode::Vector& y, int region) override {
     readers_[static_cast<std::size_t>(region)](t, y, values_);
     for (std::size_t m = 0; m < states_.size(); ++m) point(m, values_[2 * m], values_[2 * m + 1]);
+    for (std::size_t k = 0; k < whole_parts_.size(); ++k) point_part(k, values_[first_part_ + k]);
   }
 
   void on_event(double t, const ode::Vector&, int from, int to) override {
@@ -116,6 +125,12 @@ class TrainObserver : public ode::FlowObserver {
     s.deflection_bar.push_back(std::move(d));
     s.force_n.push_back(std::move(f));
     s.contact.push_back(states);
+    std::vector<double> parts(whole_parts_.size());
+    for (std::size_t k = 0; k < parts.size(); ++k) {
+      parts[k] = values_[first_part_ + k];
+      point_part(k, parts[k]);
+    }
+    s.parts.push_back(std::move(parts));
   }
 
   bool on_progress(double t) override { return !progress_ || progress_((t - t0_) / (t1_ - t0_)); }
@@ -126,6 +141,26 @@ class TrainObserver : public ode::FlowObserver {
       TrainMeshReading& r = out_.meshes[m];
       static_cast<TrainMeshPart&>(r) = reading(trackers_[m], whole_[m]);
       if (!part_trackers_.empty()) r.steady = reading(part_trackers_[m], part_[m]);
+    }
+    // The shafts' and bearings' extremes, in the order of their observables.
+    const auto extremes = [&](const std::vector<std::array<double, 2>>& x, std::size_t k) {
+      return TrainExtremes{x[k][0], x[k][1]};
+    };
+    const bool steady = !part_parts_.empty();
+    std::size_t k = 0;
+    for (TrainShaftReading& r : out_.shafts) {
+      r.torque_nm = extremes(whole_parts_, k);
+      if (steady) r.steady_torque_nm = extremes(part_parts_, k);
+      ++k;
+    }
+    for (TrainBearingReading& r : out_.bearings) {
+      r.force_x_n = extremes(whole_parts_, k);
+      r.force_y_n = extremes(whole_parts_, k + 1);
+      if (steady) {
+        r.steady_force_x_n = extremes(part_parts_, k);
+        r.steady_force_y_n = extremes(part_parts_, k + 1);
+      }
+      k += 2;
     }
   }
 
@@ -178,7 +213,32 @@ class TrainObserver : public ode::FlowObserver {
       if (high_[f] > x.max_force || low_[f] < x.min_force) return true;
       if (high_[d] > x.max_deflection || low_[d] < x.min_deflection) return true;
     }
+    const std::vector<std::array<double, 2>>& parts =
+        part_parts_.empty() ? whole_parts_ : part_parts_;
+    for (std::size_t k = 0; k < parts.size(); ++k)
+      if (high_[first_part_ + k] > parts[k][0] || low_[first_part_ + k] < parts[k][1]) return true;
     return false;
+  }
+  // A shaft's or bearing's observable k (after the meshes'): its extremes {max, min}.
+  void note_part(std::size_t k, bool maximum, double v) {
+    for (std::vector<std::array<double, 2>>* x : {&whole_parts_, &part_parts_}) {
+      if (x->empty()) continue;
+      double& w = (*x)[k][maximum ? 0 : 1];
+      w = maximum ? std::max(w, v) : std::min(w, v);
+    }
+  }
+  void point_part(std::size_t k, double v) {
+    note_part(k, true, v);
+    note_part(k, false, v);
+  }
+  void search_part(const ode::CellView& cell, std::size_t k, bool maximum) {
+    const std::vector<std::array<double, 2>>& parts =
+        part_parts_.empty() ? whole_parts_ : part_parts_;
+    const double seen = parts[k][maximum ? 0 : 1];
+    const std::size_t i = first_part_ + k;
+    if (maximum ? !(high_[i] > seen) : !(low_[i] < seen)) return;
+    double v = 0, t = 0;
+    if (cell.extreme(static_cast<int>(i), maximum, seen, v, t)) note_part(k, maximum, v);
   }
   void search(const ode::CellView& cell, std::size_t m, int k, bool maximum) {
     const double seen = latest(m).at(k, maximum);
@@ -194,7 +254,11 @@ class TrainObserver : public ode::FlowObserver {
   double t0_, t1_;
   std::vector<int> states_;  // each mesh's contact state now
   std::vector<ContactTracker> trackers_, part_trackers_;
-  std::vector<Extremes> whole_, part_;                      // part_ empty until marked
+  std::vector<Extremes> whole_, part_;  // part_ empty until marked
+  // The shafts' and bearings' observables, from first_part_ on: {max, min} of each.
+  static constexpr std::array<double, 2> kNoExtremes = {-kInf, kInf};
+  std::size_t first_part_;
+  std::vector<std::array<double, 2>> whole_parts_, part_parts_;
   std::vector<std::vector<ode::FunctionalBounds>> ranges_;  // per region, per observable
   std::vector<double> low_, high_;                          // the last bound_all's
   std::vector<ode::FunctionalValues> readers_;              // per region, of its observables
@@ -385,6 +449,24 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     if (rest) r.static_force_n = static_forces[m];
     result.meshes.push_back(r);
   }
+  for (const train::Shaft& x : t.shafts) {
+    TrainShaftReading r;
+    r.name = x.name;
+    if (rest)
+      r.static_torque_nm =
+          x.stiffness_n_m_per_rad * ((*rest)(a.index(x.a)) - (*rest)(a.index(x.b)));
+    result.shafts.push_back(r);
+  }
+  for (const train::Bearing& x : t.bearings) {
+    TrainBearingReading r;
+    r.name = x.name;
+    if (rest) {
+      const int q = a.translation(a.index(x.body));
+      r.static_force_x_n = x.stiffness_n_per_m * (*rest)(q);
+      r.static_force_y_n = x.stiffness_n_per_m * (*rest)(q + 1);
+    }
+    result.bearings.push_back(r);
+  }
 
   const int region = a.classify(t0_s, y0);
   const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : *adaptive_;
@@ -546,6 +628,35 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     meshes.push_back(x);
   }
   j["meshes"] = meshes;
+  const auto extremes = [](nlohmann::ordered_json& x, const char* what, const TrainExtremes& e) {
+    x[fmt::format("max_{}", what)] = finite_json(e.max);
+    x[fmt::format("min_{}", what)] = finite_json(e.min);
+  };
+  nlohmann::ordered_json shafts = nlohmann::ordered_json::array();
+  for (const TrainShaftReading& m : r.shafts) {
+    nlohmann::ordered_json x, steady;
+    x["name"] = m.name;
+    extremes(x, "torque_nm", m.torque_nm);
+    extremes(steady, "torque_nm", m.steady_torque_nm);
+    x["steady"] = steady;
+    x["static_torque_nm"] = optional_json(m.static_torque_nm);
+    shafts.push_back(x);
+  }
+  j["shafts"] = shafts;
+  nlohmann::ordered_json bearings = nlohmann::ordered_json::array();
+  for (const TrainBearingReading& m : r.bearings) {
+    nlohmann::ordered_json x, steady;
+    x["name"] = m.name;
+    extremes(x, "force_x_n", m.force_x_n);
+    extremes(x, "force_y_n", m.force_y_n);
+    extremes(steady, "force_x_n", m.steady_force_x_n);
+    extremes(steady, "force_y_n", m.steady_force_y_n);
+    x["steady"] = steady;
+    x["static_force_x_n"] = optional_json(m.static_force_x_n);
+    x["static_force_y_n"] = optional_json(m.static_force_y_n);
+    bearings.push_back(x);
+  }
+  j["bearings"] = bearings;
   j["unused_settings"] = unused;
   j["wall_time_s"] = r.wall_time_s;
   return j.dump(indent);
@@ -557,6 +668,9 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
   for (const std::string& q : r.coordinates) out << ',' << q << "_s";
   for (const TrainMeshReading& m : r.meshes)
     out << ',' << m.name << "_deflection_bar," << m.name << "_force_n," << m.name << "_contact";
+  for (const TrainShaftReading& m : r.shafts) out << ',' << m.name << "_torque_nm";
+  for (const TrainBearingReading& m : r.bearings)
+    out << ',' << m.name << "_force_x_n," << m.name << "_force_y_n";
   out << '\n';
   const TrainSamples& s = r.samples;
   CsvWriter csv(out);
@@ -565,6 +679,7 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
     for (Eigen::Index k = 0; k < s.state[i].size(); ++k) csv.number(s.state[i](k));
     for (std::size_t m = 0; m < r.meshes.size(); ++m)
       csv.number(s.deflection_bar[i][m]).number(s.force_n[i][m]).integer(s.contact[i][m]);
+    for (const double x : s.parts[i]) csv.number(x);
     csv.end_row();
   }
   csv.finish();

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 #include <string>
 
@@ -24,6 +25,7 @@ namespace geardyn {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+constexpr double kInf = std::numeric_limits<double>::infinity();
 
 TEST(TrainCase, ATwoGearTrainFromAFileIsTheHelicalGearPair) {
   // Through every impact of a rattling start (from the middle of the backlash), the file's
@@ -166,6 +168,74 @@ TEST(TrainCase, TheReducersStaticMeshForcesAreItsTorquesOverTheBaseRadii) {
   set_case_value(unbalanced, {"train.torque[1].mean_nm", "-1000"});
   EXPECT_FALSE(static_state(assembled_train(unbalanced), &why));
   EXPECT_NE(why.find("do not balance"), std::string::npos) << why;
+}
+
+TEST(TrainCase, ShaftTorquesAndBearingForcesAreReadExactlyWithTheirStaticValues) {
+  // The shipped reducer: at rest each shaft carries the torque that reaches it (the motor's,
+  // times z_w1 / z_p1 on the intermediate shaft, times z_w2 / z_p2 again on the half shafts);
+  // running with the exact engine, their extremes are its exact ones, the same whatever the
+  // output grid
+  // (to 1e-9) and beyond every sample. A mutant that reads a shaft's twist the other way, or
+  // takes the extremes from the samples, fails.
+  Case c =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml");
+  set_case_value(c, {"solver.duration_s", "0.004"});
+  set_case_value(c, {"solver.method", "\"exact\""});  // the case's own is dopri5's
+  const TrainRunResult coarse = run_train(c);
+  set_case_value(c, {"solver.output_interval_s", "2e-6"});
+  const TrainRunResult fine = run_train(c);
+  ASSERT_TRUE(coarse.ok() && fine.ok()) << coarse.message << fine.message;
+  ASSERT_EQ(fine.shafts.size(), 3U);
+  const std::vector<double> statics = {150, 150.0 * 61 / 23, 150.0 * 61 / 23 * 65 / 19};
+  for (std::size_t k = 0; k < 3; ++k) {
+    SCOPED_TRACE(fine.shafts[k].name);
+    ASSERT_TRUE(fine.shafts[k].static_torque_nm);
+    EXPECT_NEAR(*fine.shafts[k].static_torque_nm / statics[k], 1.0, 1e-9);
+    const TrainExtremes &a = coarse.shafts[k].torque_nm, &b = fine.shafts[k].torque_nm;
+    EXPECT_NEAR(a.max / b.max, 1.0, 1e-9);
+    EXPECT_NEAR(a.min / b.min, 1.0, 1e-9);
+    double lo = kInf, hi = -kInf;
+    for (const std::vector<double>& x : fine.samples.parts) {
+      lo = std::min(lo, x[k]);
+      hi = std::max(hi, x[k]);
+    }
+    EXPECT_GE(b.max, hi);
+    EXPECT_LE(b.min, lo);
+    EXPECT_LT(b.max - hi, 1e-3 * (b.max - b.min));  // a fine grid comes close
+    EXPECT_GT(b.max - b.min, 1.0);                  // the torque does fluctuate
+  }
+}
+
+TEST(TrainCase, APlanarIdlersBearingCarriesBothMeshForcesAtRest) {
+  // The shipped idler planar on a bearing, its second mesh at theta: at rest the bearing takes
+  // F (n_in - n_out), the force of the first mesh on the idler and the reaction of the second
+  // (train.hpp's n; F = T / R_driver in both, spur gears): along y alone, 2 F cos(alpha), when
+  // the three gears are in line.
+  for (const double theta_deg : {0.0, 40.0}) {
+    SCOPED_TRACE(theta_deg);
+    Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "idler_train.toml");
+    set_case_value(c, {"train.body[1].dof", "\"planar\""});
+    set_case_value(c, {"train.mesh[1].position_angle_deg", fmt::format("{}", theta_deg)});
+    set_case_value(c, {"train.bearing", "[{body = \"idler\", stiffness_n_per_m = 2e8}]"});
+    set_case_value(c, {"solver.duration_s", "0.002"});
+    const TrainRunResult r = run_train(c);
+    ASSERT_TRUE(r.ok()) << r.message;
+    ASSERT_EQ(r.bearings.size(), 1U);
+    const double alpha = 20 * kPi / 180, theta = theta_deg * kPi / 180;
+    const double force = 20 / (0.5 * 30 * 2e-3 * std::cos(alpha));
+    const Eigen::Vector2d n_in(std::sin(alpha), std::cos(alpha));  // driver ccw, idler at +x
+    const Eigen::Vector2d t(-std::sin(theta), std::cos(theta)), e(std::cos(theta), std::sin(theta));
+    const Eigen::Vector2d n_out = -std::cos(alpha) * t + std::sin(alpha) * e;  // idler cw
+    const Eigen::Vector2d expected = force * (n_in - n_out);
+    const TrainBearingReading& b = r.bearings[0];
+    ASSERT_TRUE(b.static_force_x_n && b.static_force_y_n);
+    EXPECT_NEAR(*b.static_force_x_n, expected.x(), 1e-9 * force);
+    EXPECT_NEAR(*b.static_force_y_n, expected.y(), 1e-9 * force);
+    if (theta_deg == 0.0) EXPECT_NEAR(expected.y(), 2 * force * std::cos(alpha), 1e-9 * force);
+    // The run's extremes hold the static value between them (it starts from rest).
+    EXPECT_LE(b.force_y_n.min, *b.static_force_y_n + 1e-9 * force);
+    EXPECT_GE(b.force_y_n.max, *b.static_force_y_n - 1e-9 * force);
+  }
 }
 
 TEST(TrainCase, APrescribedSpeedFollowsItsAccelerationHarmonics) {

@@ -377,6 +377,14 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
       fmt::print("  {:<17} phase from the layout: {:.6g} of a mesh cycle at t = 0\n", "",
                  *m.layout_phase);
   }
+  for (const geardyn::TrainShaftReading& x : r.shafts)
+    fmt::print("  shaft {:<11} torque {:.6g} to {:.6g} N m, static {}\n", x.name, x.torque_nm.min,
+               x.torque_nm.max, fmt_optional(x.static_torque_nm, " N m"));
+  for (const geardyn::TrainBearingReading& x : r.bearings)
+    fmt::print(
+        "  bearing {:<9} force x {:.6g} to {:.6g} N, y {:.6g} to {:.6g} N, static ({}, {})\n",
+        x.name, x.force_x_n.min, x.force_x_n.max, x.force_y_n.min, x.force_y_n.max,
+        fmt_optional(x.static_force_x_n, " N"), fmt_optional(x.static_force_y_n, " N"));
   if (!r.static_note.empty()) fmt::print("  no static state:  {}\n", r.static_note);
   fmt::print("  {:<17} {} ({} events located), {:.3g} s wall\n",
              c.solver.method == geardyn::Method::kDopri5 ? "steps" : "cells", r.cells, r.events,

@@ -64,7 +64,10 @@
 //
 // Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1); a region
 // is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
-// Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N).
+// Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N); then, the same in
+// every region, each shaft's torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m,
+// positive when a leads b), then each bearing's force on the ground k u + c u' in x and in y
+// (N): Assembled::part_observable gives their index.
 #pragma once
 
 #include <Eigen/Core>
@@ -225,6 +228,10 @@ class Assembled {
   // The common period of every mesh's stiffness and transmission error: 1 / (f_ref g), g the
   // greatest common divisor of the mesh frequency ratios; 0 when every mesh is constant.
   double coefficient_period_s() const;
+  // The index among the observables of shaft k's torque, and of bearing k's force in x (its y
+  // follows).
+  int shaft_observable(int shaft) const;
+  int bearing_observable(int bearing) const;
   // Each mesh's phase u from the layout (above), in cycles; 0 for every mesh without it.
   const std::vector<double>& mesh_phases() const { return phase_; }
   // The period of every excitation together (each mesh's stiffness and transmission error,

@@ -45,12 +45,37 @@ struct TrainMeshReading : TrainMeshPart {
   std::optional<double> dynamic_factor, dynamic_factor_with_startup;
 };
 
+// The largest and smallest value of a shaft's torque or a bearing's force component over a
+// stretch (exact as a mesh's extremes).
+struct TrainExtremes {
+  double max = 0, min = 0;
+};
+
+// A shaft of a train run: its torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m,
+// positive when its first body leads), over the whole window and its steady part, and at the
+// static state (absent without one).
+struct TrainShaftReading {
+  std::string name;
+  TrainExtremes torque_nm, steady_torque_nm;
+  std::optional<double> static_torque_nm;
+};
+
+// A bearing of a train run: its force on the ground k u + c u' in x and y (N), over the whole
+// window and its steady part, and at the static state.
+struct TrainBearingReading {
+  std::string name;
+  TrainExtremes force_x_n, force_y_n, steady_force_x_n, steady_force_y_n;
+  std::optional<double> static_force_x_n, static_force_y_n;
+};
+
 struct TrainSamples {
   std::vector<double> t_s;
   std::vector<Eigen::VectorXd> state;               // (q, q'): rad, m and their rates
   std::vector<std::vector<double>> deflection_bar;  // per sample, per mesh: (d - e) / b
   std::vector<std::vector<double>> force_n;         // per sample, per mesh: F
   std::vector<std::vector<int>> contact;            // per sample, per mesh: 1, 0, -1
+  // Per sample: each shaft's torque (N m), then each bearing's force in x and y (N).
+  std::vector<std::vector<double>> parts;
 };
 
 struct TrainRunResult {
@@ -72,6 +97,8 @@ struct TrainRunResult {
   std::string message;
   std::int64_t cells = 0, events = 0;
   std::vector<TrainMeshReading> meshes;
+  std::vector<TrainShaftReading> shafts;
+  std::vector<TrainBearingReading> bearings;
   TrainSamples samples;
   double wall_time_s = 0;
   bool ok() const { return termination == ode::Termination::kCompleted; }

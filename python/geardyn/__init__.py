@@ -492,6 +492,12 @@ class TrainRunResult:
     deflection_bar, force, contact : numpy.ndarray
         Samples x meshes: (d - e) / b, the mesh force (N) and the contact state (1 drive side,
         0 separated, -1 back side).
+    shafts, bearings : list of str
+        The shafts' and the bearings' names.
+    shaft_torque : numpy.ndarray
+        Samples x shafts: each shaft's torque (N m, positive when its first body leads).
+    bearing_force : numpy.ndarray
+        Samples x bearings x 2: each bearing's force on the ground in x and y (N).
     ok : bool
         Whether the run completed.
     """
@@ -510,6 +516,11 @@ class TrainRunResult:
         self.deflection_bar = arrays["deflection_bar"]
         self.force = arrays["force"]
         self.contact = arrays["contact"]
+        self.shafts = [x["name"] for x in summary["shafts"]]
+        self.bearings = [x["name"] for x in summary["bearings"]]
+        ns = len(self.shafts)
+        self.shaft_torque = arrays["parts"][:, :ns]
+        self.bearing_force = arrays["parts"][:, ns:].reshape(len(self.t), len(self.bearings), 2)
         self.ok = summary["termination"] == "completed"
 
     def __repr__(self):

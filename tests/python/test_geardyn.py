@@ -723,6 +723,11 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert rp.q.shape == (len(rp.t), 5) and rp.theta.shape == (len(rp.t), 3)
     assert list(rp.to_xarray()["coordinate"].values) == rp.coordinates
     assert "layout_phase" not in rp.to_xarray()
+    # Its bearing's force on the ground, x and y, from the static state it starts at.
+    b = rp.summary["bearings"][0]
+    assert rp.bearings == ["bearing1"] and rp.bearing_force.shape == (len(rp.t), 1, 2)
+    assert abs(rp.bearing_force[0, 0, 1] - b["static_force_y_n"]) < 1e-6 * abs(b["static_force_y_n"])
+    assert b["min_force_y_n"] <= rp.bearing_force[:, 0, 1].min() <= b["max_force_y_n"]
     # The phase from the layout: each mesh's along mesh, as summary.json gives it.
     phased = geardyn.run(planar.with_({"train.mesh_phase": "layout"}))
     assert [float(x) for x in phased.to_xarray()["layout_phase"].values] == \
