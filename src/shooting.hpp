@@ -172,16 +172,27 @@ class CoupledShooting {
   Segments segments_;
 };
 
-// A gear train's counterpart (train_orbit.hpp): its unknowns are the coordinates and rates of
-// the bodies whose speed is not prescribed (a prescribed body's state at any time is its
-// prescription's). Not copyable (the flow refers to the solver).
+// A gear train's counterpart (train_orbit.hpp). Its unknowns z are coordinates and rates of
+// the state y, which z gives as y = F z + g(t) and takes back as z = R y (R F = I, R g = 0):
+// - with a prescribed speed, those of the bodies whose speed is not prescribed (a prescribed
+//   body's state at any time is its prescription's, g);
+// - turning freely (no prescribed speed), the train's orbits are periodic modulo its rigid
+//   rotation, which no force of the train changes: the reference's angle is taken as 0 (each
+//   other angle counted from the rigid turn that keeps it so, theta_i - r_i theta_ref), and,
+//   when no viscous drag acts, the rigid momentum p = r^T J theta' is not an unknown either:
+//   the torques alone change it, p' = r^T T(t), and the phase condition that the train turns at
+//   its nominal speed on average (the mean of p over the period 0) fixes it, p(t) = sum r_q
+//   (A / w) sin(w t + phi) over the torques' harmonics, carried by the reference's rate. With a
+//   viscous drag the reference's rate stays an unknown (the drag damps the rigid rate).
+// Not copyable (the flow refers to the solver).
 class TrainShooting {
  public:
   // `scale` as for Shooting (empty: each free coordinate by the backlash over the base radius
   // of its body's first mesh, each rate by that times the train's highest natural frequency in
-  // contact). Throws InputError for a case that is no train, a train with no prescribed speed
-  // (it turns freely), one with no common period (quasi-periodic) or in which nothing varies.
-  // `stiffness` is not used (a train's meshes carry their own).
+  // contact). Throws InputError for a case that is no train, a freely turning one whose mean
+  // torques do not balance (it speeds up or slows down), one with no common period
+  // (quasi-periodic) or in which nothing varies. `stiffness` is not used (a train's meshes
+  // carry their own).
   TrainShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
                 double engine_tolerance, const MeshStiffness* stiffness = nullptr);
   TrainShooting(const TrainShooting&) = delete;
@@ -191,11 +202,14 @@ class TrainShooting {
   double system_period_s() const { return system_period_s_; }
   double period_s() const { return period_s_; }
   const Segments& shooting() const { return segments_; }
-  // The unknowns' names: each free body's <name>_rad, then its <name>_rad_s.
+  // The unknowns' names: each free coordinate's (<body>_rad, <body>_x_m, ...), then its rate's
+  // (the same with _s).
   const std::vector<std::string>& coordinates() const { return names_; }
-  // Every body's (theta, theta') at t_s from the unknowns z (physical), and back.
+  // The whole state (q, q') at t_s from the unknowns z (physical), and back.
   ode::Vector full(double t_s, const ode::Vector& z) const;
   ode::Vector reduce(const ode::Vector& y) const;
+  // Whether the train turns freely (its unknowns taken modulo the rigid rotation).
+  bool turns_freely() const { return free_turning_; }
 
   // Fills an orbit's coordinates, section state (the unknowns' and every body's), monodromy,
   // multipliers, stability and each mesh's reading over one period (flown and read). False with
@@ -207,7 +221,11 @@ class TrainShooting {
   // Segment i's flow from the unknowns z, with their Jacobian.
   ode::FlowResult flow(int i, const ode::Vector& z) const;
   TrainSolver solver_;
-  std::vector<Eigen::Index> free_;  // indices into (theta, theta') of the unknowns
+  std::vector<Eigen::Index> free_;  // indices into (q, q') of the unknowns
+  ode::Matrix lift_, project_;      // F and R above
+  bool free_turning_ = false;
+  int momentum_row_ = -1;         // the state's index that carries p(t) (the reference's rate)
+  HarmonicSeries momentum_rate_;  // p(t) / J_ref: the reference's rate at z' = 0
   std::vector<std::string> names_;
   int periods_;
   double system_period_s_ = 0, period_s_ = 0;

@@ -29,17 +29,57 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
   const int n = a.size();
   for (int i = 0; i < n; ++i)
     if (!a.prescribed(i)) free_.push_back(i);
-  if (static_cast<int>(free_.size()) == n)
-    throw InputError(with_origins(
-        c,
-        "model.form = \"train\": no body of this train has a prescribed speed, so the train "
-        "turns freely and its periodic orbits form a family along that rotation; orbits and "
-        "continuation take trains with a [[train.speed]] (the others not yet)"));
+  free_turning_ = static_cast<int>(free_.size()) == n;
+  const int ref = a.index(t.reference);
+  const Eigen::VectorXd r = a.rigid_rotation();
+  bool viscous = false;
+  for (const train::Drag& d : t.drags) viscous = viscous || d.viscous_n_m_s_per_rad > 0;
+  if (free_turning_) {
+    // Modulo the rigid rotation: the reference's angle is 0, and its rate follows the momentum
+    // unless a viscous drag damps it (the class's comment).
+    std::string why;
+    if (!static_state(a, &why))
+      throw InputError(with_origins(c, "the train turns freely and has no periodic orbit: " + why));
+    free_.erase(std::find(free_.begin(), free_.end(), ref));
+  }
+  // The rates: those of the free coordinates, and the reference's when a viscous drag makes the
+  // rigid rate an unknown of a freely turning train.
   const std::size_t nf = free_.size();
+  if (free_turning_ && viscous) free_.push_back(n + ref);
   for (std::size_t k = 0; k < nf; ++k) free_.push_back(n + free_[k]);
-  for (const char* rate : {"", "_s"})
-    for (std::size_t k = 0; k < nf; ++k)
-      names_.push_back(a.coordinate_names()[static_cast<std::size_t>(free_[k])] + rate);
+  // F and R: a selection, but for the rigid rotation of a freely turning train.
+  const auto k = static_cast<Eigen::Index>(free_.size());
+  const Eigen::Index dim = 2 * static_cast<Eigen::Index>(n);
+  lift_ = ode::Matrix::Zero(dim, k);
+  project_ = ode::Matrix::Zero(k, dim);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    lift_(free_[static_cast<std::size_t>(j)], j) = 1;
+    project_(j, free_[static_cast<std::size_t>(j)]) = 1;
+    // An angle counted from the rigid turn that keeps the reference's at 0.
+    if (free_turning_ && free_[static_cast<std::size_t>(j)] < n)
+      project_(j, ref) -= r(free_[static_cast<std::size_t>(j)]) / r(ref);
+  }
+  if (free_turning_ && !viscous) {
+    // The reference's rate carries the momentum: r_ref J_ref theta'_ref = p(t) - sum_i r_i J_i
+    // theta'_i over the others (the mass matrix is diagonal).
+    momentum_row_ = n + ref;
+    const Eigen::MatrixXd& m = a.mass();
+    const double own = r(ref) * m(ref, ref);
+    for (Eigen::Index j = 0; j < k; ++j) {
+      const Eigen::Index i = free_[static_cast<std::size_t>(j)];
+      if (i >= n) lift_(momentum_row_, j) = -r(i - n) * m(i - n, i - n) / own;
+    }
+    for (std::size_t q = 0; q < t.torques.size(); ++q) {
+      const double rq = r(a.index(t.torques[q].body));
+      for (const Harmonic& h : a.torque_series(static_cast<int>(q)).terms)
+        if (h.amplitude != 0)
+          momentum_rate_.terms.push_back({rq * h.amplitude / h.angular_frequency_rad_s / own,
+                                          h.angular_frequency_rad_s,
+                                          h.phase_rad - std::numbers::pi / 2});
+    }
+  }
+  for (const Eigen::Index i : free_)
+    names_.push_back(a.coordinate_names()[static_cast<std::size_t>(i % n)] + (i < n ? "" : "_s"));
   std::string why;
   const std::optional<double> t0 = a.system_period_s(&why);
   if (!t0) throw InputError(with_origins(c, "the train has no periodic orbit to find: " + why));
@@ -57,57 +97,47 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
   // highest natural frequency in contact.
   const double w = solver_.top_frequency_rad_s();
   ode::Vector own(static_cast<Eigen::Index>(free_.size()));
-  for (std::size_t k = 0; k < nf; ++k) {
+  for (std::size_t k = 0; k < free_.size(); ++k) {
+    const Eigen::Index i = free_[k] % n;
     double angle = std::numeric_limits<double>::infinity();
     for (std::size_t m = 0; m < t.meshes.size(); ++m) {
-      const double v = std::abs(a.mesh_vector(static_cast<int>(m))(free_[k]));
+      const double v = std::abs(a.mesh_vector(static_cast<int>(m))(i));
       if (v > 0) angle = std::min(angle, t.meshes[m].backlash_m / v);
     }
     if (!std::isfinite(angle)) {
       // A body joined by shafts alone: a milliradian; a centre no mesh moves: the least b.
       angle = 1e-3;
-      if (free_[k] >= a.body_count())
+      if (i >= a.body_count())
         for (const train::Mesh& x : t.meshes) angle = std::min(angle, x.backlash_m);
     }
-    own(static_cast<Eigen::Index>(k)) = angle;
-    own(static_cast<Eigen::Index>(nf + k)) = angle * w;
+    own(static_cast<Eigen::Index>(k)) = free_[k] < n ? angle : angle * w;
   }
   segments_ = Segments([this](int i, const ode::Vector& z) { return flow(i, z); }, segments, own);
 }
 
 ode::Vector TrainShooting::full(double t_s, const ode::Vector& z) const {
-  ode::Vector y = ode::Vector::Zero(2 * static_cast<Eigen::Index>(solver_.assembled().size()));
-  for (std::size_t k = 0; k < free_.size(); ++k) y(free_[k]) = z(static_cast<Eigen::Index>(k));
+  ode::Vector y = lift_ * z;
+  if (momentum_row_ >= 0) y(momentum_row_) += momentum_rate_(t_s);
   solver_.assembled().prescribe(t_s, y);
   return y;
 }
 
-ode::Vector TrainShooting::reduce(const ode::Vector& y) const {
-  ode::Vector z(static_cast<Eigen::Index>(free_.size()));
-  for (std::size_t k = 0; k < free_.size(); ++k) z(static_cast<Eigen::Index>(k)) = y(free_[k]);
-  return z;
-}
+ode::Vector TrainShooting::reduce(const ode::Vector& y) const { return project_ * y; }
 
 ode::FlowResult TrainShooting::flow(int i, const ode::Vector& z) const {
   const double h = period_s_ / segments_.segments(), ts = i * h;
   ode::FlowResult r = solver_.advance_with_jacobian(ts, full(ts, z), ts + h);
-  // The free bodies' part: the prescribed ones' states do not depend on them.
+  // The unknowns' part: R J F (a prescribed body's state does not depend on them; a freely
+  // turning train's rigid rotation is taken out).
   r.state = reduce(r.state);
-  if (r.jacobian) {
-    const auto f = static_cast<Eigen::Index>(free_.size());
-    ode::Matrix j(f, f);
-    for (Eigen::Index p = 0; p < f; ++p)
-      for (Eigen::Index q = 0; q < f; ++q)
-        j(p, q) =
-            (*r.jacobian)(free_[static_cast<std::size_t>(p)], free_[static_cast<std::size_t>(q)]);
-    r.jacobian = j;
-  }
+  if (r.jacobian) r.jacobian = ode::Matrix(project_ * *r.jacobian * lift_);
   return r;
 }
 
 bool TrainShooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
                          TrainOrbit& orbit, std::string& why) const {
   orbit.coordinates = names_;
+  orbit.modulo_rotation = free_turning_;
   orbit.periods = periods_;
   orbit.segments = segments_.segments();
   orbit.system_period_s = system_period_s_;
@@ -159,12 +189,15 @@ TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
     const auto n = static_cast<Eigen::Index>(orbit.coordinates.size());
     if (start->size() != n)
       throw InputError(fmt::format(
-          "the start state has {} values; this train takes {} (its free bodies' angles, then "
+          "the start state has {} values; this train takes {} (its free coordinates, then "
           "their rates, SI: {})",
           start->size(), n, fmt::join(orbit.coordinates, ", ")));
     z0 = *start;
   } else {
-    ode::Vector y0 = shooting.solver().initial_state(c.solver.initial, 0.0);
+    // The case's start, on the orbits' side of the phase condition (a freely turning train's
+    // rigid momentum; a prescribed train's start is already its lift).
+    ode::Vector y0 =
+        shooting.full(0.0, shooting.reduce(shooting.solver().initial_state(c.solver.initial, 0.0)));
     if (options.settle_periods > 0) {
       const ode::FlowResult settled =
           shooting.solver().advance(0.0, y0, options.settle_periods * orbit.system_period_s);
@@ -200,6 +233,7 @@ std::string train_orbit_json(const TrainOrbit& o, int indent) {
   nlohmann::json j = detail::periodic_json(o);
   j["model"] = "train";
   j["coordinates"] = o.coordinates;
+  j["modulo_rotation"] = o.modulo_rotation;
   j["state"] = std::vector<double>(o.state.data(), o.state.data() + o.state.size());
   nlohmann::json meshes = nlohmann::json::array();
   for (std::size_t m = 0; m < o.meshes.size(); ++m) {

@@ -995,11 +995,14 @@ TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
                                                                               << o.err;
     EXPECT_FALSE(fs::exists(d)) << args;
   }
-  // A train that turns freely has no isolated orbit to continue: said, nothing written.
-  const Outcome free =
-      cli("continue " + reducer + " --param train.reference_speed_hz --from 50 --to 60" + out);
+  // A train that turns freely whose mean torques do not balance has no orbit to continue:
+  // said, nothing written.
+  const Outcome free = cli("continue " + reducer +
+                           " --set train.torque[1].mean_nm=-1000 --param train.reference_speed_hz "
+                           "--from 50 --to 60" +
+                           out);
   EXPECT_EQ(free.code, 2) << free.err;
-  EXPECT_NE(free.err.find("turns freely"), std::string::npos) << free.err;
+  EXPECT_NE(free.err.find("turns freely and has no periodic orbit"), std::string::npos) << free.err;
   EXPECT_FALSE(fs::exists(d));
   // A mesh to a body that is not there: its name, key and line, exit 2, nothing written.
   fs::create_directories(d);
@@ -1058,7 +1061,7 @@ TEST(Cli, ATrainsSweepReadsEveryMeshAndNamesTheOneItReads) {
 
 TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
   // `geardyn orbit` of a train with a prescribed speed: its JSON as every orbit's, with the
-  // meshes' impacts per period; a train that turns freely is refused, saying why.
+  // meshes' impacts per period; a train that turns freely is taken modulo its rotation.
   const std::string loose = std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml";
   const Outcome o = cli("orbit " + loose +
                         " --set 'train.speed[0].acceleration_harmonics=[[290, 2, 0]]' "
@@ -1075,9 +1078,13 @@ TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
                            "--segments 4 --settle-periods 200");
   EXPECT_NE(text.out.find("mesh rattle"), std::string::npos) << text.out;
   const Outcome free =
-      cli("orbit " + std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml");
-  EXPECT_EQ(free.code, 2) << free.err;
-  EXPECT_NE(free.err.find("turns freely"), std::string::npos) << free.err;
+      cli("orbit " + std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml --json");
+  ASSERT_EQ(free.code, 0) << free.err;
+  const nlohmann::json f = nlohmann::json::parse(free.out);
+  EXPECT_TRUE(f["modulo_rotation"].get<bool>());
+  EXPECT_EQ(f["coordinates"],
+            (nlohmann::json{"idler_rad", "driven_rad", "idler_rad_s", "driven_rad_s"}));
+  EXPECT_TRUE(f["stable"].get<bool>());
 }
 
 TEST(Cli, ATrainsStabilityChartFromTheCommandLine) {

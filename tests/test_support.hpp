@@ -46,14 +46,15 @@ Eigen::MatrixXd central_differences(const Map& map, const Eigen::VectorXd& z,
   return fd;
 }
 
-// Expects every entry of `approximate` within relative |exact(i, j)| + absolute ||exact|| of
-// exact's (both in units where the entries are of order one), printing both matrices if not.
+// Expects every entry of `approximate` within relative |exact(i, j)| + absolute ||exact|| +
+// floor of exact's (in units where the state's entries are of order one; floor for a matrix
+// whose entries are all far below one), printing both matrices if not.
 inline void expect_matrix_near(const Eigen::MatrixXd& approximate, const Eigen::MatrixXd& exact,
-                               double relative, double absolute) {
+                               double relative, double absolute, double floor = 0) {
   for (Eigen::Index i = 0; i < exact.rows(); ++i)
     for (Eigen::Index j = 0; j < exact.cols(); ++j)
       EXPECT_NEAR(approximate(i, j), exact(i, j),
-                  relative * std::abs(exact(i, j)) + absolute * exact.norm())
+                  relative * std::abs(exact(i, j)) + absolute * exact.norm() + floor)
           << i << ", " << j << "\nexact\n"
           << exact << "\napproximate\n"
           << approximate;

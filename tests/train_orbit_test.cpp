@@ -13,11 +13,15 @@
 
 #include "geardyn/case.hpp"
 #include "geardyn/engine.hpp"
+#include "geardyn/orbit.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/validation.hpp"
 #include "test_support.hpp"
 
 namespace geardyn {
 namespace {
+
+constexpr double kPi = std::numbers::pi;
 
 Case loose_gear(double acceleration_rad_s2) {
   Case c =
@@ -146,17 +150,138 @@ TEST(TrainOrbit, AStableOrbitIsWhereTheRattleSettles) {
   EXPECT_GT(distance(x), 1e-6 * start);  // not at once: the largest multiplier is near 1
 }
 
+TEST(TrainOrbit, AFreelyTurningPairsRattlingOrbitIsTheOneDegreeModels) {
+  // The paper's pair as a train turning freely (a torque on each gear), at a light load whose
+  // torque falls to zero once a turn: one impact a period. Taken modulo its rigid rotation, its
+  // orbit is the one-degree model's: the same d and d' on the section to 1e-8 b (and b w), and
+  // the same two multipliers to 1e-6 (its unknowns, the wheel's angle and rate with the
+  // pinion's angle at 0 and the momentum fixed, leave out the rigid rotation's two neutral
+  // ones). The whole state returns after a period, angles included: the train turns at its
+  // nominal speed on average (the phase condition). A mutant that keeps the momentum of the
+  // settled start, or forgets the rigid turn in the wheel's angle, fails.
+  Case pair = park2010_pair_case();
+  Case train = park2010_pair_as_train();
+  set_case_value(pair, {"load.torque_nm", "5"});
+  set_case_value(pair, {"load.fluctuation_ratio", "1"});
+  set_case_value(train, {"train.torque",
+                         "[{body = \"pinion\", mean_nm = 5, harmonics = [[5, 1, 0]]}, "
+                         "{body = \"wheel\", mean_nm = -5, harmonics = [[5, 1, 180]]}]"});
+  OrbitOptions o;
+  o.settle_periods = 200;
+  const Orbit one = find_orbit(pair, o);
+  const TrainOrbit two = find_train_orbit(train, o);
+  ASSERT_TRUE(one.converged) << one.message;
+  ASSERT_TRUE(two.converged) << two.message;
+  EXPECT_TRUE(two.modulo_rotation);
+  EXPECT_EQ(two.coordinates, (std::vector<std::string>{"wheel_rad", "wheel_rad_s"}));
+  EXPECT_EQ(two.impacts_per_period[0], 1);
+  const train::Assembled a = assembled_train(train);
+  const Eigen::RowVectorXd v = a.mesh_vector(0);
+  const double b = a.train().meshes[0].backlash_m;
+  double w = 0;
+  for (const train::TrainMode& m : train::modes(a)) w = std::max(w, 2 * kPi * m.frequency_hz);
+  EXPECT_NEAR(v.dot(two.state.head(2)) / b, one.state.q / b, 1e-8);
+  EXPECT_NEAR(v.dot(two.state.tail(2)) / (b * w), one.state.v / (b * w), 1e-8);
+  ASSERT_EQ(two.multipliers.size(), 2U);
+  ASSERT_EQ(one.multipliers.size(), 2U);
+  for (std::size_t k = 0; k < 2; ++k)
+    EXPECT_LT(std::abs(two.multipliers[k] - one.multipliers[k]), 1e-6) << k;
+  // A period later the whole state is back: no drift of the rigid rotation.
+  ode::EngineOptions eo;
+  eo.tolerance = 1e-15;
+  const ode::ExactEngine engine(a.linear_system(), eo);
+  ode::FlowObserver nothing;
+  const ode::FlowResult r = engine.flow(0.0, two.state, a.classify(0.0, two.state), two.period_s,
+                                        ode::OutputGrid{}, nothing);
+  ASSERT_TRUE(r.ok()) << r.message;
+  const double angle = b / std::abs(v(0));
+  EXPECT_LT((r.state.head(2) - two.state.head(2)).lpNorm<Eigen::Infinity>() / angle, 1e-7);
+  EXPECT_LT((r.state.tail(2) - two.state.tail(2)).lpNorm<Eigen::Infinity>() / (angle * w), 1e-7);
+  EXPECT_EQ(two.state(0), 0.0);  // the pinion's angle is the reference's 0
+}
+
+TEST(TrainOrbit, AFreelyTurningTrainsMeanRigidSpeedIsItsNominalOne) {
+  // The shipped idler with a fluctuating drive torque alone (the load steady): the torques
+  // accelerate the whole train, p' = T_1(t) - mean, so its rigid momentum p = r^T J theta'
+  // swings; the orbit holds it at zero on average over the period (trapezoids on 4000 samples,
+  // to 1e-6 of its swing), and its monodromy is the period map's central differences. A mutant
+  // that drops the torques' part of the momentum, or forgets the rigid turn, fails.
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "idler_train.toml");
+  set_case_value(c, {"train.torque[0].harmonics", "[[10, 1, 30]]"});
+  OrbitOptions o;
+  o.settle_periods = 30;
+  const TrainOrbit orbit = find_train_orbit(c, o);
+  ASSERT_TRUE(orbit.converged) << orbit.message;
+  const train::Assembled a = assembled_train(c);
+  const Eigen::VectorXd r = a.rigid_rotation();
+  const Eigen::RowVectorXd momentum = r.transpose() * a.mass();
+  ode::EngineOptions eo;
+  eo.tolerance = 1e-15;
+  const ode::ExactEngine engine(a.linear_system(), eo);
+  struct Momentum : ode::FlowObserver {
+    Eigen::RowVectorXd row;
+    std::vector<double> p;
+    void on_sample(double, const ode::Vector& y, int) override {
+      p.push_back(row.dot(y.tail(row.size())));
+    }
+  } seen;
+  seen.row = momentum;
+  const int samples = 4000;
+  (void)engine.flow(0.0, orbit.state, a.classify(0.0, orbit.state), orbit.period_s,
+                    ode::make_output_grid(0.0, orbit.period_s, orbit.period_s / samples), seen);
+  ASSERT_EQ(seen.p.size(), static_cast<std::size_t>(samples + 1));
+  double mean = 0;
+  for (std::size_t k = 0; k + 1 < seen.p.size(); ++k) mean += 0.5 * (seen.p[k] + seen.p[k + 1]);
+  mean /= samples;
+  const auto [lo, hi] = std::minmax_element(seen.p.begin(), seen.p.end());
+  EXPECT_GT(*hi - *lo, 0);
+  EXPECT_LT(std::abs(mean), 1e-6 * (*hi - *lo));
+  // The multipliers against central differences of the period map of the unknowns (the idler's
+  // and the driven gear's angles with the driver's at 0, and their rates, the driver's rate
+  // from the momentum the orbit holds at the section), built here from the state.
+  const double p0 = momentum.dot(orbit.state.tail(3));
+  const auto lift = [&](const Eigen::VectorXd& z) {
+    ode::Vector y = ode::Vector::Zero(6);
+    y << 0, z(0), z(1), 0, z(2), z(3);
+    y(3) = (p0 - momentum(1) * z(2) - momentum(2) * z(3)) / momentum(0);
+    return y;
+  };
+  const auto map = [&](const Eigen::VectorXd& z) {
+    ode::FlowObserver nothing;
+    const ode::Vector y = lift(z);
+    const ode::Vector e =
+        engine.flow(0.0, y, a.classify(0.0, y), orbit.period_s, ode::OutputGrid{}, nothing).state;
+    return Eigen::Vector4d(e(1) - r(1) * e(0), e(2) - r(2) * e(0), e(4), e(5));
+  };
+  EXPECT_LT((lift(orbit.unknowns) - orbit.state).norm(), 1e-12 * orbit.state.norm());
+  double w = 0;
+  for (const train::TrainMode& m : train::modes(a)) w = std::max(w, 2 * kPi * m.frequency_hz);
+  const double angle = 40e-6 / std::abs(a.mesh_vector(1)(1));
+  const Eigen::Vector4d scale(angle, angle, angle * w, angle * w);
+  // In contact all period long the map is affine: a step of 1e-3 of the scale keeps it so. The
+  // monodromy's entries are some 1e-7 (the response decays by that much over the 30 mesh cycles
+  // of a period), and the shooting's engine (at its own tolerance) has them to some 1e-11 of
+  // the scaled unit: compared to 1e-9 of it, or 1e-3 of each.
+  const Eigen::MatrixXd fd = testing::central_differences(map, orbit.unknowns, 1e-3 * scale);
+  const Eigen::MatrixXd d = Eigen::VectorXd(scale).asDiagonal();
+  testing::expect_matrix_near(d.inverse() * fd * d, d.inverse() * orbit.monodromy * d, 1e-3, 0,
+                              1e-9);
+  EXPECT_GT((d.inverse() * orbit.monodromy * d).norm(), 1e-8);  // not nothing
+}
+
 TEST(TrainOrbit, WhatHasNoOrbitSaysWhy) {
-  // A train that turns freely (no prescribed speed): its orbits form a family.
-  const Case reducer =
+  // A train that turns freely with mean torques that do not balance speeds up: no orbit.
+  Case reducer =
       load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml");
+  set_case_value(reducer, {"train.torque[1].mean_nm", "-1000"});
   try {
     (void)find_train_orbit(reducer, OrbitOptions{});
-    ADD_FAILURE() << "an orbit of a freely turning train was sought";
+    ADD_FAILURE() << "an orbit of a train that speeds up was sought";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("no body of this train has a prescribed speed"),
+    EXPECT_NE(std::string(e.what()).find("turns freely and has no periodic orbit"),
               std::string::npos)
         << e.what();
+    EXPECT_NE(std::string(e.what()).find("do not balance"), std::string::npos) << e.what();
   }
   // Quasi-periodic: an order of sqrt(2) has no common period with the firing order.
   Case quasi = loose_gear(300);

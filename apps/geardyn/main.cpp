@@ -796,9 +796,9 @@ int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
       r.period_s, r.periods, r.system_period_s, r.segments, r.segments == 1 ? "" : "s");
   fmt::print("  Newton            {}\n", r.message);
   fmt::print(
-      "  unknowns          {} (the free bodies' rotations and rates; --json prints the "
-      "state)\n",
-      r.coordinates.size());
+      "  unknowns          {} (the free coordinates and rates{}; --json prints the state)\n",
+      r.coordinates.size(),
+      r.modulo_rotation ? ", modulo the train's free rotation at its nominal mean speed" : "");
   print_multipliers(r);
   for (std::size_t m = 0; m < r.meshes.size(); ++m)
     fmt::print("  mesh {:<12} {} impacts/period ({} back side)\n", r.meshes[m],

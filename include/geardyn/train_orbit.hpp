@@ -5,8 +5,14 @@
 // The unknowns are the coordinates and rates of the bodies whose speed is not prescribed: a
 // prescribed body follows its prescription whatever the train does, so its state at the
 // section is the prescription's and no unknown (its own multipliers would be 1 and 1). A train
-// with no prescribed body turns freely: its orbits come in a family along the free rotation
-// (a multiplier 1 that no damping moves), which this does not take yet; it says so.
+// with no prescribed body turns freely: its orbits are periodic modulo its rigid rotation,
+// which no force of the train changes (a multiplier 1 that no damping moves) and which the
+// torques alone accelerate. They are taken with the reference's angle at 0 (every other angle
+// counted from the rigid turn that keeps it so) and, without a viscous drag, with the rigid
+// momentum fixed by the phase condition that the train turns at its nominal speed on average
+// (shooting.hpp, TrainShooting): the two neutral multipliers of the rigid rotation are then
+// not among the multipliers. With a viscous drag the reference's rate is an unknown and its
+// multiplier, which the drag makes less than 1, is among them.
 #pragma once
 
 #include <Eigen/Core>
@@ -21,9 +27,10 @@
 namespace geardyn {
 
 struct TrainOrbit : PeriodicSolution {
-  std::vector<std::string> coordinates;  // the unknowns: each free body's theta, then its rate
+  std::vector<std::string> coordinates;  // the unknowns: free coordinates, then rates
   Eigen::VectorXd unknowns;              // theirs at the section t = 0, in that order
-  Eigen::VectorXd state;                 // every body's (theta, theta') at the section t = 0
+  Eigen::VectorXd state;                 // the whole (q, q') at the section t = 0
+  bool modulo_rotation = false;          // a freely turning train's (above)
   std::vector<std::string> meshes;       // the meshes' names
   std::vector<std::int64_t> impacts_per_period, backside_impacts_per_period;  // per mesh
   // Each mesh over one period of the orbit: its contact history and exact extremes.
@@ -35,7 +42,8 @@ struct TrainOrbit : PeriodicSolution {
 // segments (options.segments; 0: N) to options.tolerance on the scaled residual (each
 // coordinate by the backlash over the base radius of its body's first mesh, each rate by that
 // times the train's highest natural frequency in contact). Throws InputError for a case that is
-// no train, a train without a prescribed speed, a train whose excitations have no common
+// no train, a freely turning train whose mean torques do not balance, a train whose excitations
+// have no common
 // period (quasi-periodic: there is no orbit to find) or none at all, bad options; a Newton
 // that does not converge is reported in the result.
 // With `start` (the unknowns at the section, in `coordinates` order, SI) Newton starts there in
