@@ -6,11 +6,13 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "geardyn/case.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/train.hpp"
+#include "geardyn/validation.hpp"
 
 namespace geardyn::testing {
 
@@ -31,6 +33,20 @@ inline Case coupled(int dof) {
   c.model.form = ModelForm::kCoupled;
   c.model.dof = dof;
   return c;
+}
+
+// The paper's pair at a light load whose torque falls to zero once a turn (5 N m, fluctuating
+// fully: one impact a period), as the one-degree model (first) and as a train turning freely
+// with a torque on each gear (second).
+inline std::pair<Case, Case> light_pair() {
+  Case pair = park2010_pair_case();
+  Case train = park2010_pair_as_train();
+  set_case_value(pair, {"load.torque_nm", "5"});
+  set_case_value(pair, {"load.fluctuation_ratio", "1"});
+  set_case_value(train, {"train.torque",
+                         "[{body = \"pinion\", mean_nm = 5, harmonics = [[5, 1, 0]]}, "
+                         "{body = \"wheel\", mean_nm = -5, harmonics = [[5, 1, 180]]}]"});
+  return {pair, train};
 }
 
 // Central differences of `map` at z, column j by the step steps(j).

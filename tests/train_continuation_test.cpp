@@ -244,13 +244,7 @@ TEST(TrainContinuation, AFreelyTurningPairContinuesAsTheOneDegreeModel) {
   // impact a period, continued in speed: taken modulo its rigid rotation (train_orbit.hpp),
   // each point's orbit is the one-degree model's at that speed, its amplitude and impacts to
   // 1e-7 b. A mutant that keeps the rigid rotation among the unknowns makes Newton singular.
-  Case pair = park2010_pair_case();
-  Case train = park2010_pair_as_train();
-  set_case_value(pair, {"load.torque_nm", "5"});
-  set_case_value(pair, {"load.fluctuation_ratio", "1"});
-  set_case_value(train, {"train.torque",
-                         "[{body = \"pinion\", mean_nm = 5, harmonics = [[5, 1, 0]]}, "
-                         "{body = \"wheel\", mean_nm = -5, harmonics = [[5, 1, 180]]}]"});
+  const auto [pair, train] = testing::light_pair();
   ContinuationOptions o;
   o.key = "train.reference_speed_hz";
   o.from = 100;

@@ -159,13 +159,7 @@ TEST(TrainOrbit, AFreelyTurningPairsRattlingOrbitIsTheOneDegreeModels) {
   // ones). The whole state returns after a period, angles included: the train turns at its
   // nominal speed on average (the phase condition). A mutant that keeps the momentum of the
   // settled start, or forgets the rigid turn in the wheel's angle, fails.
-  Case pair = park2010_pair_case();
-  Case train = park2010_pair_as_train();
-  set_case_value(pair, {"load.torque_nm", "5"});
-  set_case_value(pair, {"load.fluctuation_ratio", "1"});
-  set_case_value(train, {"train.torque",
-                         "[{body = \"pinion\", mean_nm = 5, harmonics = [[5, 1, 0]]}, "
-                         "{body = \"wheel\", mean_nm = -5, harmonics = [[5, 1, 180]]}]"});
+  const auto [pair, train] = testing::light_pair();
   OrbitOptions o;
   o.settle_periods = 200;
   const Orbit one = find_orbit(pair, o);

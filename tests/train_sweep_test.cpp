@@ -13,6 +13,7 @@
 #include "geardyn/sweep.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/validation.hpp"
+#include "test_support.hpp"
 
 namespace geardyn {
 namespace {
@@ -35,14 +36,7 @@ TEST(TrainSweep, ATwoGearTrainsSweepIsThePairs) {
   // what the pair reads, point by point, to the integration's accuracy (forces to 1e-8 b k_m
   // in the run test). A mutant that reads another mesh's backlash, counts impacts over another
   // number of periods or takes the force scale of the wrong stiffness fails by far more.
-  Case pair = park2010_pair_case();
-  Case train = park2010_pair_as_train();
-  set_case_value(pair, {"load.torque_nm", "5"});
-  set_case_value(pair, {"load.fluctuation_ratio", "1"});
-  set_case_value(train, {"train.torque",
-                         "[{body = \"pinion\", mean_nm = 5, harmonics = "
-                         "[[5, 1, 0]]}, {body = \"wheel\", mean_nm = -5, "
-                         "harmonics = [[5, 1, 180]]}]"});
+  const auto [pair, train] = testing::light_pair();
   const SweepResult one = sweep(pair, speed_sweep("speed.shaft_frequency_hz", 40, 160, 5));
   const SweepResult as_train = sweep(train, speed_sweep("train.reference_speed_hz", 40, 160, 5));
   ASSERT_EQ(one.points.size(), 10u);
