@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -35,29 +36,40 @@ std::string quoted(const std::string& name) {
 
 void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
   const TrainSamples& s = r.samples;
-  const std::size_t meshes = r.meshes.size();
+  const std::size_t meshes = r.meshes.size(), shafts = r.shafts.size(),
+                    bearings = r.bearings.size();
+  // A last row for the shafts' torques and the bearings' radial forces, when there are any.
+  const bool parts = shafts + bearings > 0;
   std::string header = "t_ms";
   for (const TrainMeshReading& m : r.meshes)
     header += fmt::format(",{0}_deflection_bar,{0}_force_n", m.name);
+  for (const TrainShaftReading& x : r.shafts) header += fmt::format(",{}_torque_nm", x.name);
+  for (const TrainBearingReading& x : r.bearings)
+    header += fmt::format(",{}_radial_force_n", x.name);
   header += "\n";
-  write_files_atomically(dir, {{"train_plot.csv", decimated_csv(
-                                                      header, s.t_s.size(),
-                                                      [&](std::size_t k) { return s.t_s[k] * 1e3; },
-                                                      [&](std::size_t k) {
-                                                        std::vector<double> v;
-                                                        for (std::size_t m = 0; m < meshes; ++m) {
-                                                          v.push_back(s.deflection_bar[k][m]);
-                                                          v.push_back(s.force_n[k][m]);
-                                                        }
-                                                        return v;
-                                                      })}});
+  write_files_atomically(
+      dir,
+      {{"train_plot.csv", decimated_csv(
+                              header, s.t_s.size(), [&](std::size_t k) { return s.t_s[k] * 1e3; },
+                              [&](std::size_t k) {
+                                std::vector<double> v;
+                                for (std::size_t m = 0; m < meshes; ++m) {
+                                  v.push_back(s.deflection_bar[k][m]);
+                                  v.push_back(s.force_n[k][m]);
+                                }
+                                const std::vector<double>& p = s.parts[k];
+                                for (std::size_t q = 0; q < shafts; ++q) v.push_back(p[q]);
+                                for (std::size_t q = 0; q < bearings; ++q)
+                                  v.push_back(std::hypot(p[shafts + 2 * q], p[shafts + 2 * q + 1]));
+                                return v;
+                              })}});
   std::string g =
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set key top right font ',9' opaque\nset ytics nomirror\nset y2tics\n";
   fmt::format_to(std::back_inserter(g),
                  "set multiplot layout {},1 title \"{}: gear train, {} bodies, {} meshes\"\n"
                  "set xrange [0:{}]\n",
-                 meshes, quoted(r.input.name), r.bodies.size(), meshes,
+                 meshes + (parts ? 1 : 0), quoted(r.input.name), r.bodies.size(), meshes,
                  r.input.solver.duration_s * 1e3);
   for (std::size_t m = 0; m < meshes; ++m) {
     const TrainMeshReading& x = r.meshes[m];
@@ -70,17 +82,43 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
         "'gray40' title 'force (N)', 1 axes x1y1 with lines dt 2 lc rgb 'gray60' title "
         "'contact edge'{}\n",
         quoted(x.name), x.mesh_frequency_hz, to_string(x.regime), x.impacts,
-        m + 1 == meshes ? "set xlabel 't (ms)'\n" : "unset xlabel\n", 2 + 2 * m, colour(m),
-        3 + 2 * m,
+        m + 1 == meshes && !parts ? "set xlabel 't (ms)'\n" : "unset xlabel\n", 2 + 2 * m,
+        colour(m), 3 + 2 * m,
         // The back side's edge where the mesh left its drive side (in permanent
         // contact it would squeeze the deflection's ripple into a line).
         x.separations > 0 || x.double_sided
             ? ", -1 axes x1y1 with lines dt 2 lc rgb 'gray60' notitle"
             : "");
   }
+  if (parts) {
+    // Each shaft's torque (left axis, solid) and each bearing's radial force (right, dashed).
+    std::string plots;
+    std::size_t column = 2 + 2 * meshes;
+    for (std::size_t q = 0; q < shafts; ++q, ++column)
+      plots += fmt::format(
+          "{}'train_plot.csv' using 1:{} skip 1 axes x1y1 with lines lw 1.2 lc "
+          "rgb '{}' title 'shaft {} (N m)'",
+          plots.empty() ? "" : ", ", column, colour(q), quoted(r.shafts[q].name));
+    // The bearings on the right axis beside shafts, on the left without any.
+    for (std::size_t q = 0; q < bearings; ++q, ++column)
+      plots += fmt::format(
+          "{}'train_plot.csv' using 1:{} skip 1 axes x1y{} with lines dt 2 lw 1.2 lc rgb '{}' "
+          "title 'bearing {} |F| (N)'",
+          plots.empty() ? "" : ", ", column, shafts > 0 ? 2 : 1, colour(shafts + q),
+          quoted(r.bearings[q].name));
+    const bool both = shafts > 0 && bearings > 0;
+    fmt::format_to(std::back_inserter(g),
+                   "set title \"{}\" font ',10'\nset ylabel '{}'\nset y2label '{}'\n{}"
+                   "set xlabel 't (ms)'\nplot {}\n",
+                   both         ? "shafts and bearings"
+                   : shafts > 0 ? "shafts"
+                                : "bearings",
+                   shafts > 0 ? "shaft torque (N m)" : "bearing force (N)",
+                   both ? "bearing force (N)" : "", both ? "" : "unset y2tics\n", plots);
+  }
   g += "unset multiplot\n";
   render_figure(dir, "train_time", g, 1000,
-                260 * static_cast<int>(std::max<std::size_t>(meshes, 1)));
+                260 * static_cast<int>(std::max<std::size_t>(meshes + (parts ? 1 : 0), 1)));
 }
 
 void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,

@@ -935,14 +935,20 @@ TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
   EXPECT_NE(o.out.find("not reached in the window (no decay seen over its system periods"),
             std::string::npos)
       << o.out;
-  // The figure has a row per mesh, each drawing its own columns of train_plot.csv.
+  // The figure has a row per mesh, each drawing its own columns of train_plot.csv, and a row
+  // for the shafts' torques.
   const std::string body = slurp(d / "train_time_body.gp");
-  EXPECT_NE(body.find("layout 2,1"), std::string::npos) << body;
+  EXPECT_NE(body.find("layout 3,1"), std::string::npos) << body;
   EXPECT_NE(body.find("mesh stage2 (716.393 Hz)"), std::string::npos) << body;
   EXPECT_NE(body.find("using 1:4 skip 1 axes x1y1"), std::string::npos) << body;
+  EXPECT_NE(body.find("using 1:8 skip 1 axes x1y1 with lines lw 1.2 lc rgb '#2e8b57' title "
+                      "'shaft half_shafts (N m)'"),
+            std::string::npos)
+      << body;
   EXPECT_EQ(slurp(d / "train_plot.csv")
                 .rfind("t_ms,stage1_deflection_bar,stage1_force_n,stage2_deflection_bar,"
-                       "stage2_force_n\n0,",
+                       "stage2_force_n,rotor_shaft_torque_nm,intermediate_torque_nm,"
+                       "half_shafts_torque_nm\n0,",
                        0),
             0U);
   const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
