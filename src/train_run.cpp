@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <initializer_list>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -585,6 +586,32 @@ void part_json(nlohmann::ordered_json& x, const TrainMeshPart& m, double backlas
   x["max_deflection_bar"] = m.max_deflection_m / backlash_m;
   x["min_deflection_bar"] = m.min_deflection_m / backlash_m;
 }
+// One quantity of a shaft or bearing: its extremes over the window and the steady part, and its
+// static value.
+struct PartQuantity {
+  const char* what;  // "torque_nm", "force_x_n", ...
+  const TrainExtremes& whole;
+  const TrainExtremes& steady;
+  const std::optional<double>& at_rest;
+};
+
+// A shaft's or bearing's reading (summary.json, docs/outputs.md): its name, each quantity's
+// max_ and min_, the same over the steady part, then each one's static_.
+nlohmann::ordered_json part_reading_json(const std::string& name,
+                                         std::initializer_list<PartQuantity> quantities) {
+  nlohmann::ordered_json x, steady;
+  x["name"] = name;
+  for (const PartQuantity& q : quantities) {
+    x[fmt::format("max_{}", q.what)] = finite_json(q.whole.max);
+    x[fmt::format("min_{}", q.what)] = finite_json(q.whole.min);
+    steady[fmt::format("max_{}", q.what)] = finite_json(q.steady.max);
+    steady[fmt::format("min_{}", q.what)] = finite_json(q.steady.min);
+  }
+  x["steady"] = steady;
+  for (const PartQuantity& q : quantities)
+    x[fmt::format("static_{}", q.what)] = optional_json(q.at_rest);
+  return x;
+}
 }  // namespace
 
 std::string train_summary_json(const TrainRunResult& r, const std::vector<std::string>& unused,
@@ -628,34 +655,16 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     meshes.push_back(x);
   }
   j["meshes"] = meshes;
-  const auto extremes = [](nlohmann::ordered_json& x, const char* what, const TrainExtremes& e) {
-    x[fmt::format("max_{}", what)] = finite_json(e.max);
-    x[fmt::format("min_{}", what)] = finite_json(e.min);
-  };
   nlohmann::ordered_json shafts = nlohmann::ordered_json::array();
-  for (const TrainShaftReading& m : r.shafts) {
-    nlohmann::ordered_json x, steady;
-    x["name"] = m.name;
-    extremes(x, "torque_nm", m.torque_nm);
-    extremes(steady, "torque_nm", m.steady_torque_nm);
-    x["steady"] = steady;
-    x["static_torque_nm"] = optional_json(m.static_torque_nm);
-    shafts.push_back(x);
-  }
+  for (const TrainShaftReading& m : r.shafts)
+    shafts.push_back(part_reading_json(
+        m.name, {{"torque_nm", m.torque_nm, m.steady_torque_nm, m.static_torque_nm}}));
   j["shafts"] = shafts;
   nlohmann::ordered_json bearings = nlohmann::ordered_json::array();
-  for (const TrainBearingReading& m : r.bearings) {
-    nlohmann::ordered_json x, steady;
-    x["name"] = m.name;
-    extremes(x, "force_x_n", m.force_x_n);
-    extremes(x, "force_y_n", m.force_y_n);
-    extremes(steady, "force_x_n", m.steady_force_x_n);
-    extremes(steady, "force_y_n", m.steady_force_y_n);
-    x["steady"] = steady;
-    x["static_force_x_n"] = optional_json(m.static_force_x_n);
-    x["static_force_y_n"] = optional_json(m.static_force_y_n);
-    bearings.push_back(x);
-  }
+  for (const TrainBearingReading& m : r.bearings)
+    bearings.push_back(part_reading_json(
+        m.name, {{"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
+                 {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n}}));
   j["bearings"] = bearings;
   j["unused_settings"] = unused;
   j["wall_time_s"] = r.wall_time_s;
