@@ -126,6 +126,9 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
   std::set<std::string> names;
   for (const Body& b : t_.bodies) {
     if (b.name.empty()) bad("a body", "needs a name");
+    if (b.name == kGround)
+      bad(fmt::format("body '{}'", b.name),
+          fmt::format("the name \"{}\" is the ground's, to which shafts hold bodies", kGround));
     if (!names.insert(b.name).second)
       bad(fmt::format("body '{}'", b.name), "is named twice (a body is in one place only)");
     if (!(b.inertia_kg_m2 > 0 && std::isfinite(b.inertia_kg_m2)))
@@ -166,7 +169,9 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
   }
   for (const Shaft& s : t_.shafts) {
     const std::string e = fmt::format("shaft '{}'", s.name);
-    if (body(e, "a", s.a) == body(e, "b", s.b)) bad(e, "a shaft joins two bodies");
+    if (s.b != kGround && body(e, "a", s.a) == body(e, "b", s.b))
+      bad(e, "a shaft joins two bodies");
+    if (s.b == kGround) body(e, "a", s.a);
     if (!(s.stiffness_n_m_per_rad > 0)) bad(e, "stiffness must be > 0 N m/rad");
   }
   std::set<int> supported;
@@ -179,6 +184,12 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
                          x.body));
     if (!(x.stiffness_n_per_m > 0 && std::isfinite(x.stiffness_n_per_m)))
       bad(e, fmt::format("stiffness = {} N/m: must be finite and > 0", x.stiffness_n_per_m));
+    if (!x.on.empty()) {
+      if (body(e, "on", x.on) == i)
+        bad(e, fmt::format("on = \"{}\": a body's pin carries another body", x.on));
+      if (!(x.pin_radius_m >= 0 && std::isfinite(x.pin_radius_m) && std::isfinite(x.pin_angle_rad)))
+        bad(e, fmt::format("pin radius = {} m: must be finite and >= 0", x.pin_radius_m));
+    }
     supported.insert(i);
   }
   for (std::size_t i = 0; i < t_.bodies.size(); ++i)
@@ -219,6 +230,14 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     const int i = open.front();
     open.pop();
     const auto visit = [&](int j, Ratio r, const std::string& element, int sense) {
+      if (r.num == 0) sense = 1;  // a body at rest counts its rotation counterclockwise
+      if (speed[j] && (r.num == 0) != (speed[j]->num == 0))
+        bad(element,
+            fmt::format("body '{}' carries bodies on pins, so it is at rest in the train's frame "
+                        "(its carrier's), but {}: a carrier neither meshes nor is the reference, "
+                        "and shafts join it to bodies at rest only",
+                        t_.bodies[j].name,
+                        j == ref ? "it is the reference" : "meshes or shafts turn it"));
       if (!speed[j]) {
         speed[j] = r;
         sense_[static_cast<std::size_t>(j)] = sense;
@@ -243,18 +262,45 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
       if (b == i) visit(a, times(*speed[i], m.teeth_driven, m.teeth_driving), e, next);
     }
     for (const Shaft& s : t_.shafts) {
+      if (s.b == kGround) continue;  // a support: it holds the deviation, not the speed
       const int a = index(s.a), b = index(s.b);
       const std::string e = fmt::format("shaft '{}'", s.name);
       if (a == i) visit(b, *speed[i], e, sense_[static_cast<std::size_t>(i)]);
       if (b == i) visit(a, *speed[i], e, sense_[static_cast<std::size_t>(i)]);
     }
+    // A pin's carrier is at rest in the train's frame; the body on the pin turns freely on it.
+    for (const Bearing& x : t_.bearings) {
+      if (x.on.empty()) continue;
+      const int carried = index(x.body), carrier = index(x.on);
+      const std::string e = fmt::format("bearing '{}'", x.name);
+      if (carried == i) visit(carrier, Ratio{0, 1}, e, 1);
+    }
   }
   for (int i = 0; i < n; ++i) {
     if (!speed[i])
       bad(fmt::format("body '{}'", t_.bodies[i].name),
-          fmt::format("is joined to the reference '{}' by no mesh or shaft", t_.reference));
+          fmt::format("is joined to the reference '{}' by no mesh, shaft or pin", t_.reference));
     speed_.push_back(*speed[i]);
   }
+  // Orders of a body at rest have no frequency: a fluctuation there is refused, not dropped.
+  for (const Torque& q : t_.torques)
+    if (speed_[static_cast<std::size_t>(index(q.body))].num == 0 && !q.harmonics.empty())
+      bad(fmt::format("torque '{}'", q.name),
+          fmt::format("body = \"{}\" is at rest in the train's frame: harmonics at orders of "
+                      "its speed have no frequency (give its mean torque only)",
+                      q.body));
+  for (const Drag& d : t_.drags)
+    if (speed_[static_cast<std::size_t>(index(d.body))].num == 0 && d.constant_nm != 0)
+      bad(fmt::format("drag '{}'", d.name),
+          fmt::format("body = \"{}\" is at rest in the train's frame: a constant drag has no "
+                      "rotation to oppose (give its viscous part only)",
+                      d.body));
+  for (const Speed& v : t_.speeds)
+    if (speed_[static_cast<std::size_t>(index(v.body))].num == 0)
+      bad(fmt::format("speed '{}'", v.name),
+          fmt::format("body = \"{}\" is at rest in the train's frame: its speed cannot be "
+                      "prescribed at orders of its speed",
+                      v.body));
   // The coordinates: every rotation, then each planar body's x and y.
   for (const Body& b : t_.bodies) names_.push_back(b.name + "_rad");
   for (const Body& b : t_.bodies) {
@@ -396,27 +442,64 @@ bool Assembled::prescribed(int body) const {
                      [&](const Speed& v) { return index(v.body) == body; });
 }
 
+Eigen::MatrixXd Assembled::rigid_motions() const {
+  const bool supported = std::any_of(t_.shafts.begin(), t_.shafts.end(),
+                                     [](const Shaft& s) { return s.b == kGround; });
+  const bool pinned = std::any_of(t_.bearings.begin(), t_.bearings.end(),
+                                  [](const Bearing& b) { return !b.on.empty(); });
+  if (!supported && !pinned) {
+    if (!t_.speeds.empty()) return Eigen::MatrixXd::Zero(size(), 0);
+    return rigid_rotation();
+  }
+  // The null space of K over the free coordinates, from K phi = w^2 M phi as modes() reads it.
+  std::vector<Eigen::Index> free;
+  for (int i = 0; i < size(); ++i)
+    if (!prescribed(i)) free.push_back(i);
+  const auto nf = static_cast<Eigen::Index>(free.size());
+  Eigen::MatrixXd select = Eigen::MatrixXd::Zero(size(), nf);
+  for (Eigen::Index j = 0; j < nf; ++j) select(free[static_cast<std::size_t>(j)], j) = 1;
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(
+      select.transpose() * contact_stiffness() * select, select.transpose() * m_ * select);
+  const Eigen::VectorXd& w2 = solver.eigenvalues();
+  Eigen::Index rigid = 0;
+  while (rigid < w2.size() && w2(rigid) <= kRigidEigenvalueFraction * w2.maxCoeff()) ++rigid;
+  Eigen::MatrixXd out = select * solver.eigenvectors().leftCols(rigid);
+  const int ref = index(t_.reference);
+  for (Eigen::Index c = 0; c < rigid; ++c)
+    if (std::abs(out(ref, c)) > kRigidEigenvalueFraction * out.col(c).cwiseAbs().maxCoeff())
+      out.col(c) /= out(ref, c);
+  return out;
+}
+
 Eigen::MatrixXd Assembled::reduced_basis() const {
   const Eigen::Index n = size();
-  if (!t_.speeds.empty()) {
+  const Eigen::MatrixXd rigid_q = rigid_motions();
+  const Eigen::Index k = rigid_q.cols();
+  if (!t_.speeds.empty() || k == 0) {
     std::vector<Eigen::Index> free;
     for (Eigen::Index i = 0; i < n; ++i)
       if (!prescribed(static_cast<int>(i))) free.push_back(i);
     const auto m = static_cast<Eigen::Index>(free.size());
     Eigen::MatrixXd q = Eigen::MatrixXd::Zero(2 * n, 2 * m);
-    for (Eigen::Index k = 0; k < m; ++k) {
-      q(free[static_cast<std::size_t>(k)], k) = 1;
-      q(n + free[static_cast<std::size_t>(k)], m + k) = 1;
+    for (Eigen::Index j = 0; j < m; ++j) {
+      q(free[static_cast<std::size_t>(j)], j) = 1;
+      q(n + free[static_cast<std::size_t>(j)], m + j) = 1;
     }
-    return q;
+    if (k == 0) return q;
+    // The rigid motions left among the free coordinates: their complement there.
+    Eigen::MatrixXd rigid = Eigen::MatrixXd::Zero(2 * m, k);
+    rigid.topRows(m) = q.topLeftCorner(n, m).transpose() * rigid_q;
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(rigid);
+    const Eigen::MatrixXd full = qr.householderQ() * Eigen::MatrixXd::Identity(2 * m, 2 * m);
+    return q * full.rightCols(2 * m - k);
   }
-  // The rigid rotation (r, 0), r the speed ratios; Q the rest of an orthonormal basis whose
-  // first column is it (Householder).
-  Eigen::VectorXd rigid = Eigen::VectorXd::Zero(2 * n);
-  rigid.head(n) = rigid_rotation();
+  // The rigid motions (r, 0), r the speed ratios in a train of meshes and shafts; Q the rest of
+  // an orthonormal basis whose first columns are them (Householder).
+  Eigen::MatrixXd rigid = Eigen::MatrixXd::Zero(2 * n, k);
+  rigid.topRows(n) = rigid_q;
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(rigid);
   const Eigen::MatrixXd full = qr.householderQ() * Eigen::MatrixXd::Identity(2 * n, 2 * n);
-  return full.rightCols(2 * n - 1);
+  return full.rightCols(2 * n - k);
 }
 
 namespace {
@@ -572,30 +655,46 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   return v;
 }
 
+Eigen::MatrixXd Assembled::bearing_matrix(int bearing) const {
+  const Bearing& x = t_.bearings[static_cast<std::size_t>(bearing)];
+  Eigen::MatrixXd b = Eigen::MatrixXd::Zero(2, size());
+  b.block(0, translation(index(x.body)), 2, 2) = Eigen::Matrix2d::Identity();
+  if (!x.on.empty()) {
+    const int j = index(x.on);
+    if (const int u = translation(j); u >= 0) b.block(0, u, 2, 2) -= Eigen::Matrix2d::Identity();
+    // The pin's point turns with j: theta_j s_j z x r, r = R (cos psi, sin psi).
+    const double s = sense(j) * x.pin_radius_m;
+    b(0, j) += s * std::sin(x.pin_angle_rad);
+    b(1, j) -= s * std::cos(x.pin_angle_rad);
+  }
+  return b;
+}
+
+RowVector Assembled::shaft_vector(int shaft) const {
+  const Shaft& s = t_.shafts[static_cast<std::size_t>(shaft)];
+  RowVector v = RowVector::Zero(size());
+  v(index(s.a)) = 1;
+  if (s.b != kGround) v(index(s.b)) = -1;
+  return v;
+}
+
 namespace {
 
-// The shafts' and drags' K and C, which every region shares.
+// The shafts', bearings' and drags' K and C, which every region shares.
 void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
   const Train& t = a.train();
   k = Eigen::MatrixXd::Zero(a.size(), a.size());
   c = k;
-  for (const Shaft& s : t.shafts) {
-    const int i = a.index(s.a), j = a.index(s.b);
-    const Eigen::Matrix2d pattern{{1, -1}, {-1, 1}};
-    const int at[2] = {i, j};
-    for (int x = 0; x < 2; ++x)
-      for (int y = 0; y < 2; ++y) {
-        k(at[x], at[y]) += pattern(x, y) * s.stiffness_n_m_per_rad;
-        c(at[x], at[y]) += pattern(x, y) * s.damping_n_m_s_per_rad;
-      }
+  for (std::size_t i = 0; i < t.shafts.size(); ++i) {
+    const RowVector v = a.shaft_vector(static_cast<int>(i));
+    k += t.shafts[i].stiffness_n_m_per_rad * v.transpose() * v;
+    c += t.shafts[i].damping_n_m_s_per_rad * v.transpose() * v;
   }
   for (const Drag& d : t.drags) c(a.index(d.body), a.index(d.body)) += d.viscous_n_m_s_per_rad;
-  for (const Bearing& b : t.bearings) {
-    const int x = a.translation(a.index(b.body));
-    for (const int i : {x, x + 1}) {
-      k(i, i) += b.stiffness_n_per_m;
-      c(i, i) += b.damping_n_s_per_m;
-    }
+  for (std::size_t i = 0; i < t.bearings.size(); ++i) {
+    const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(i));
+    k += t.bearings[i].stiffness_n_per_m * b.transpose() * b;
+    c += t.bearings[i].damping_n_s_per_m * b.transpose() * b;
   }
 }
 
@@ -832,21 +931,21 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
       lr.observables.push_back(f);
     }
     // Each shaft's torque and each bearing's force on the ground, the same in every region.
-    for (const Shaft& x : t_.shafts) {
+    for (std::size_t k = 0; k < t_.shafts.size(); ++k) {
+      const Shaft& x = t_.shafts[k];
+      const RowVector v = shaft_vector(static_cast<int>(k));
       ode::LinearGuard g = functional();
-      const int i = index(x.a), j = index(x.b);
-      g.row.constant(i) += x.stiffness_n_m_per_rad;
-      g.row.constant(j) -= x.stiffness_n_m_per_rad;
-      g.row.constant(n + i) += x.damping_n_m_s_per_rad;
-      g.row.constant(n + j) -= x.damping_n_m_s_per_rad;
+      g.row.constant.head(n) = x.stiffness_n_m_per_rad * v;
+      g.row.constant.tail(n) = x.damping_n_m_s_per_rad * v;
       lr.observables.push_back(g);
     }
-    for (const Bearing& x : t_.bearings) {
-      const int q = translation(index(x.body));
-      for (const int axis : {q, q + 1}) {
+    for (std::size_t k = 0; k < t_.bearings.size(); ++k) {
+      const Bearing& x = t_.bearings[k];
+      const Eigen::MatrixXd b = bearing_matrix(static_cast<int>(k));
+      for (const int axis : {0, 1}) {
         ode::LinearGuard g = functional();
-        g.row.constant(axis) = x.stiffness_n_per_m;
-        g.row.constant(n + axis) = x.damping_n_s_per_m;
+        g.row.constant.head(n) = x.stiffness_n_per_m * b.row(axis);
+        g.row.constant.tail(n) = x.damping_n_s_per_m * b.row(axis);
         lr.observables.push_back(g);
       }
     }
@@ -903,17 +1002,48 @@ std::vector<TrainMode> modes(const Assembled& a) {
       const double e = 0.5 * t.meshes[m].mean_stiffness_n_per_m * d * d;
       mode.mesh_energy.push_back(total > 0 ? e / total : 0.0);
     }
-    for (const Shaft& s : t.shafts) {
-      const double d = mode.shape(a.index(s.a)) - mode.shape(a.index(s.b));
-      const double e = 0.5 * s.stiffness_n_m_per_rad * d * d;
+    for (std::size_t s = 0; s < t.shafts.size(); ++s) {
+      const double d = a.shaft_vector(static_cast<int>(s)).dot(mode.shape);
+      const double e = 0.5 * t.shafts[s].stiffness_n_m_per_rad * d * d;
       mode.shaft_energy.push_back(total > 0 ? e / total : 0.0);
     }
-    for (const Bearing& b : t.bearings) {
-      const int x = a.translation(a.index(b.body));
-      const double e = 0.5 * b.stiffness_n_per_m * mode.shape.segment(x, 2).squaredNorm();
+    for (std::size_t b = 0; b < t.bearings.size(); ++b) {
+      const Eigen::VectorXd w = a.bearing_matrix(static_cast<int>(b)) * mode.shape;
+      const double e = 0.5 * t.bearings[b].stiffness_n_per_m * w.squaredNorm();
       mode.bearing_energy.push_back(total > 0 ? e / total : 0.0);
     }
     out.push_back(std::move(mode));
+  }
+  // Repeated frequencies, and the planetary type from the shape's kinetic shares.
+  for (TrainMode& m : out)
+    m.multiplicity =
+        static_cast<int>(std::count_if(out.begin(), out.end(), [&](const TrainMode& x) {
+          return std::abs(x.frequency_hz - m.frequency_hz) <=
+                 kSameModeFrequency * std::max(x.frequency_hz, m.frequency_hz);
+        }));
+  std::vector<bool> central(static_cast<std::size_t>(a.body_count()), true);
+  bool pinned = false;
+  for (const Bearing& b : t.bearings)
+    if (!b.on.empty()) {
+      central[static_cast<std::size_t>(a.index(b.body))] = false;
+      pinned = true;
+    }
+  if (pinned) {
+    const Eigen::MatrixXd& mass = a.mass();
+    for (TrainMode& m : out) {
+      double turn = 0, shift = 0;  // the central members' kinetic shares (the shape's is 1)
+      for (int i = 0; i < a.body_count(); ++i) {
+        if (!central[static_cast<std::size_t>(i)]) continue;
+        turn += mass(i, i) * m.shape(i) * m.shape(i);
+        if (const int x = a.translation(i); x >= 0)
+          shift += mass(x, x) * m.shape.segment(x, 2).squaredNorm();
+      }
+      const bool turns = turn > kStillShare, shifts = shift > kStillShare;
+      m.type = turns && shifts ? "mixed"
+               : turns         ? "rotational"
+               : shifts        ? "translational"
+                               : "planet";
+    }
   }
   return out;
 }

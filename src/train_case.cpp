@@ -121,11 +121,17 @@ const std::vector<ElementKey<TrainShaftData>>& shaft_keys() {
   static const std::vector<ElementKey<S>> keys = {
       {"name", &S::name, "", {}, false, "the shaft's name"},
       {"from", &S::from, "", {}, true, "one body it joins"},
-      {"to", &S::to, "", {}, true, "the other"},
+      {"to",
+       &S::to,
+       "",
+       {},
+       true,
+       "the other, or \"ground\": a torsional support holding the body's rotation (a ring "
+       "gear in its housing)"},
       {"stiffness_n_m_per_rad", &S::stiffness_n_m_per_rad, "N m/rad", above(0), true,
        "torsional stiffness"},
       {"damping_ratio", &S::damping_ratio, "", closed_open(0, 1), false,
-       "against the reduced inertia of the two bodies"},
+       "against the reduced inertia of the two bodies (the body's own, to the ground)"},
   };
   return keys;
 }
@@ -138,6 +144,17 @@ const std::vector<ElementKey<TrainBearingData>>& bearing_keys() {
       {"stiffness_n_per_m", &G::stiffness_n_per_m, "N/m", above(0), true,
        "radial stiffness, the same in x and y"},
       {"damping_ratio", &G::damping_ratio, "", closed_open(0, 1), false, "against the body's mass"},
+      {"on",
+       &G::on,
+       "",
+       {},
+       false,
+       "the body whose pin carries it (a planet's carrier, at rest in the train's frame); "
+       "absent: the ground"},
+      {"pin_radius_mm", &G::pin_radius_mm, "mm", at_least(0), false,
+       "where the pin is on that body: its distance from the body's centre"},
+      {"pin_angle_deg", &G::pin_angle_deg, "deg", closed(-360, 360), false,
+       "and its direction, counterclockwise from x"},
   };
   return keys;
 }
@@ -360,7 +377,11 @@ void read_array(const toml::table& train, const std::string& source,
 }
 
 constexpr std::string_view kTrainKeys =
-    "reference, reference_speed_hz, body, mesh, shaft, bearing, torque, drag, speed";
+    "reference, reference_speed_hz, mesh_phase, planet, planets, planet_angles_deg, body, mesh, "
+    "shaft, bearing, torque, drag, speed";
+// At most this many planets: sets are built with 3 to 7, and the regions of 2 N meshes grow
+// as 3^(2 N).
+constexpr int kMaxPlanets = 12;
 
 }  // namespace
 
@@ -372,10 +393,12 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
                                  where(node.source(), source), node_text(node)));
   TrainCase t;
   static const std::set<std::string_view> known = {"reference",  "reference_speed_hz",
-                                                   "mesh_phase", "body",
-                                                   "mesh",       "shaft",
-                                                   "bearing",    "torque",
-                                                   "drag",       "speed"};
+                                                   "mesh_phase", "planet",
+                                                   "planets",    "planet_angles_deg",
+                                                   "body",       "mesh",
+                                                   "shaft",      "bearing",
+                                                   "torque",     "drag",
+                                                   "speed"};
   for (auto&& [k, v] : *train) {
     if (!known.count(k.str()))
       throw InputError(fmt::format("{}: unknown key 'train.{}'; allowed in [train]: {}",
@@ -398,6 +421,40 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
                                    where_given, node_text(*p)));
     t.mesh_phase = *p->value<std::string>();
     t.origins["the train: mesh_phase"] = where_given;
+  }
+  if (const toml::node* p = train->get("planet")) {
+    const std::string where_given = origin_of(overrides, "train.planet", p->source(), source);
+    if (!p->is_string() || p->value<std::string>()->empty())
+      throw InputError(fmt::format("{}: train.planet = {}: must be a body's name in quotes",
+                                   where_given, node_text(*p)));
+    t.planet = *p->value<std::string>();
+    t.origins["the train: planet"] = where_given;
+  }
+  if (const toml::node* p = train->get("planets")) {
+    const std::string where_given = origin_of(overrides, "train.planets", p->source(), source);
+    if (!p->is_integer() || *p->value<std::int64_t>() < 1 ||
+        *p->value<std::int64_t>() > kMaxPlanets)
+      throw InputError(fmt::format("{}: train.planets = {}: must be a whole number from 1 to {}",
+                                   where_given, node_text(*p), kMaxPlanets));
+    t.planets = static_cast<int>(*p->value<std::int64_t>());
+    t.origins["the train: planets"] = where_given;
+  }
+  if (const toml::node* p = train->get("planet_angles_deg")) {
+    const std::string where_given =
+        origin_of(overrides, "train.planet_angles_deg", p->source(), source);
+    const toml::array* angles = p->as_array();
+    const auto bad_angles = [&] {
+      return InputError(fmt::format(
+          "{}: train.planet_angles_deg = {}: must be an array of angles in deg, each in "
+          "[-360, 360]",
+          where_given, node_text(*p)));
+    };
+    if (!angles) throw bad_angles();
+    for (const toml::node& a : *angles) {
+      if (!a.is_number() || !(std::abs(*a.value<double>()) <= 360)) throw bad_angles();
+      t.planet_angles_deg.push_back(*a.value<double>());
+    }
+    t.origins["the train: planet_angles_deg"] = where_given;
   }
   const toml::node* f = train->get("reference_speed_hz");
   if (!f)
@@ -485,13 +542,95 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
 
 }  // namespace
 
+TrainCase expand_planets(const TrainCase& written) {
+  if (written.planet.empty() && written.planets == 0 && written.planet_angles_deg.empty())
+    return written;
+  const TrainCase& w = written;
+  if (w.planet.empty())
+    rethrow_with_origin(w, fmt::format("the train: planets{}: a count of planets needs "
+                                       "train.planet, the body written once for them all",
+                                       w.planets ? "" : "_angles_deg"));
+  if (w.planets == 0)
+    rethrow_with_origin(w, fmt::format("the train: planet = \"{}\": give train.planets, how "
+                                       "many copies of it the set has",
+                                       w.planet));
+  if (std::none_of(w.bodies.begin(), w.bodies.end(),
+                   [&](const TrainBodyData& b) { return b.name == w.planet; }))
+    rethrow_with_origin(w,
+                        fmt::format("the train: planet = \"{}\": no body of that name", w.planet));
+  if (!w.planet_angles_deg.empty() && static_cast<int>(w.planet_angles_deg.size()) != w.planets)
+    rethrow_with_origin(
+        w, fmt::format("the train: planet_angles_deg has {} angles for planets = {}: give one "
+                       "per planet, or none for equal spacing",
+                       w.planet_angles_deg.size(), w.planets));
+  TrainCase t = w;
+  const auto copy_name = [](const std::string& name, int n) {
+    return fmt::format("{}{}", name, n + 1);
+  };
+  const auto angle = [&](int n) {
+    return w.planet_angles_deg.empty() ? 360.0 * n / w.planets
+                                       : w.planet_angles_deg[static_cast<std::size_t>(n)];
+  };
+  // Each element that names the planet: its copies in its place, renamed, with the origin of
+  // the template; turn(x, n) makes x copy n (its angles, the bodies it joins), false for an
+  // element that does not name the planet (kept as written).
+  const auto expand = [&](const char* kind, auto& elements, auto turn) {
+    using E = typename std::decay_t<decltype(elements)>::value_type;
+    std::vector<E> out;
+    for (const E& e : elements) {
+      E first = e;
+      if (!turn(first, 0)) {
+        out.push_back(e);
+        continue;
+      }
+      const auto origin = t.origins.find(fmt::format("{} '{}'", kind, e.name));
+      for (int n = 0; n < w.planets; ++n) {
+        E x = e;
+        turn(x, n);
+        x.name = copy_name(e.name, n);
+        if (origin != t.origins.end())
+          t.origins[fmt::format("{} '{}'", kind, x.name)] = origin->second;
+        out.push_back(std::move(x));
+      }
+    }
+    elements = std::move(out);
+  };
+  // Renames the planet among `fields` to its copy n; true when one of them was it.
+  const auto rename = [&](int n, std::initializer_list<std::string*> fields) {
+    bool named = false;
+    for (std::string* f : fields)
+      if (*f == w.planet) {
+        *f = copy_name(w.planet, n);
+        named = true;
+      }
+    return named;
+  };
+  expand("body", t.bodies, [&](TrainBodyData& b, int) { return b.name == w.planet; });
+  expand("mesh", t.meshes, [&](TrainMeshData& m, int n) {
+    if (!rename(n, {&m.driving, &m.driven})) return false;
+    m.position_angle_deg += angle(n);
+    return true;
+  });
+  expand("shaft", t.shafts, [&](TrainShaftData& x, int n) { return rename(n, {&x.from, &x.to}); });
+  expand("bearing", t.bearings, [&](TrainBearingData& x, int n) {
+    if (!rename(n, {&x.body, &x.on})) return false;
+    x.pin_angle_deg += angle(n);
+    return true;
+  });
+  expand("torque", t.torques, [&](TrainTorqueData& x, int n) { return rename(n, {&x.body}); });
+  expand("drag", t.drags, [&](TrainDragData& x, int n) { return rename(n, {&x.body}); });
+  expand("speed", t.speeds, [&](TrainSpeedData& x, int n) { return rename(n, {&x.body}); });
+  if (t.reference == w.planet) t.reference = copy_name(w.planet, 0);
+  return t;
+}
+
 train::Train train_of(const Case& c) {
   if (c.model.form != ModelForm::kTrain || !c.train)
     throw InputError(
         fmt::format("model.form = \"{}\": this is no gear train (model.form = "
                     "\"train\" with its [train] elements)",
                     to_string(c.model.form)));
-  const TrainCase& t = *c.train;
+  const TrainCase t = expand_planets(*c.train);
   train::Train out;
   out.reference = t.reference;
   out.reference_speed_hz = t.reference_speed_hz;
@@ -571,11 +710,20 @@ train::Train train_of(const Case& c) {
       const double ja = a->second.inertia_kg_m2, jb = b->second.inertia_kg_m2;
       x.damping_n_m_s_per_rad =
           2 * s.damping_ratio * std::sqrt(s.stiffness_n_m_per_rad * ja * jb / (ja + jb));
+    } else if (a != gears.end() && s.to == train::kGround) {
+      x.damping_n_m_s_per_rad =
+          2 * s.damping_ratio * std::sqrt(s.stiffness_n_m_per_rad * a->second.inertia_kg_m2);
     }
     out.shafts.push_back(std::move(x));
   }
   for (const TrainBearingData& b : t.bearings) {
-    train::Bearing x{b.name, b.body, b.stiffness_n_per_m, 0.0};
+    train::Bearing x{b.name,
+                     b.body,
+                     b.stiffness_n_per_m,
+                     0.0,
+                     b.on,
+                     b.pin_radius_mm * kMmToM,
+                     b.pin_angle_deg * kDegToRad};
     if (const auto g = gears.find(b.body); g != gears.end())
       x.damping_n_s_per_m =
           2 * b.damping_ratio * std::sqrt(b.stiffness_n_per_m * g->second.mass_kg);
@@ -616,7 +764,7 @@ train::Assembled assembled_train(const Case& c) {
   try {
     return train::Assembled(std::move(t));
   } catch (const InputError& e) {
-    rethrow_with_origin(*c.train, e.what());
+    rethrow_with_origin(expand_planets(*c.train), e.what());
   }
 }
 
@@ -634,8 +782,8 @@ void describe(std::string_view kind, const std::vector<ElementKey<E>>& keys,
           using T = std::remove_cvref_t<decltype(v)>;
           if (k.required) return "(required)";
           if constexpr (std::is_same_v<T, std::string>) {
-            return k.leaf == "name" ? fmt::format("{0}1, {0}2, ...", kind)
-                                    : fmt::format("\"{}\"", v);
+            if (k.leaf == "name") return fmt::format("{0}1, {0}2, ...", kind);
+            return v.empty() ? std::string("absent") : fmt::format("\"{}\"", v);
           } else if constexpr (std::is_same_v<T, std::optional<double>>) {
             return "absent";
           } else if constexpr (std::is_arithmetic_v<T>) {
@@ -650,8 +798,10 @@ void describe(std::string_view kind, const std::vector<ElementKey<E>>& keys,
   }
 }
 
-// A value as TOML text.
-std::string toml_value(const std::string& v) { return fmt::format("\"{}\"", v); }
+// A value as TOML text; an empty name is a key left out (a bearing on the ground has no `on`).
+std::string toml_value(const std::string& v) {
+  return v.empty() ? std::string() : fmt::format("\"{}\"", v);
+}
 std::string toml_value(double v) { return fmt::format("{}", v); }
 std::string toml_value(int v) { return fmt::format("{}", v); }
 std::string toml_value(const std::optional<double>& v) { return v ? toml_value(*v) : ""; }
@@ -703,7 +853,15 @@ const std::vector<TrainKeyInfo>& train_key_list() {
         {"", "mesh_phase", "", "\"given\"", "\"given\" or \"layout\"",
          "\"given\": each mesh's harmonic phases about t = 0 as written; \"layout\": about a "
          "tooth pair passing the mesh's pitch point, each mesh delayed by where the position "
-         "angles put its gears' teeth"}};
+         "angles put its gears' teeth"},
+        {"", "planet", "", "(none)", "a body's name in quotes",
+         "a planetary set's planet, written once: it and every element naming it stand for "
+         "train.planets copies, named <name>1 ... <name>N"},
+        {"", "planets", "", "(none)", fmt::format("a whole number from 1 to {}", kMaxPlanets),
+         "how many copies of train.planet the set has"},
+        {"", "planet_angles_deg", "deg", "equally spaced", "one angle per planet, in [-360, 360]",
+         "each copy's angle about the set's axis, added to its meshes' position_angle_deg and "
+         "its bearings' pin_angle_deg (the template is written at 0)"}};
     describe("body", body_keys(), out);
     describe("mesh", mesh_keys(), out);
     describe("shaft", shaft_keys(), out);
@@ -842,6 +1000,18 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
         i, m.position_angle_deg, where_given == t.origins.end() ? "" : where_given->second,
         m.name));
   }
+  for (std::size_t i = 0; i < t.bearings.size(); ++i) {
+    const TrainBearingData& b = t.bearings[i];
+    if (!b.on.empty()) continue;
+    const auto where_given = t.origins.find(fmt::format("bearing '{}'", b.name));
+    for (const auto& [leaf, value] :
+         {std::pair{"pin_radius_mm", b.pin_radius_mm}, std::pair{"pin_angle_deg", b.pin_angle_deg}})
+      if (value != 0)
+        out.push_back(fmt::format(
+            "train.bearing[{}].{} = {} ({}): not used: bearing '{}' has no `on` (it sits on the "
+            "ground), so it has no pin",
+            i, leaf, value, where_given == t.origins.end() ? "" : where_given->second, b.name));
+  }
   return out;
 }
 
@@ -849,6 +1019,10 @@ std::string train_toml(const TrainCase& t) {
   std::string out =
       fmt::format("\n[train]\nreference = \"{}\"\nreference_speed_hz = {}\nmesh_phase = \"{}\"\n",
                   t.reference, t.reference_speed_hz, t.mesh_phase);
+  if (!t.planet.empty()) out += fmt::format("planet = \"{}\"\n", t.planet);
+  if (t.planets > 0) out += fmt::format("planets = {}\n", t.planets);
+  if (!t.planet_angles_deg.empty())
+    out += fmt::format("planet_angles_deg = [{}]\n", fmt::join(t.planet_angles_deg, ", "));
   out += toml_tables("body", body_keys(), t.bodies);
   out += toml_tables("mesh", mesh_keys(), t.meshes);
   out += toml_tables("shaft", shaft_keys(), t.shafts);

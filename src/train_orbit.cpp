@@ -29,9 +29,22 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
   const int n = a.size();
   for (int i = 0; i < n; ++i)
     if (!a.prescribed(i)) free_.push_back(i);
-  free_turning_ = static_cast<int>(free_.size()) == n;
+  // A train turns freely when one motion no element resists is left (rigid_motions(): the
+  // rigid rotation of a train of meshes and shafts, a planetary set about its held ring).
+  const Eigen::MatrixXd rigid = a.rigid_motions();
+  if (rigid.cols() > 1)
+    throw InputError(with_origins(
+        c, fmt::format("the train has {} rigid motions no element resists (a planetary set with "
+                       "no member held): its orbits are defined modulo one at most; hold a "
+                       "member (a shaft to the ground) or prescribe a speed",
+                       rigid.cols())));
+  free_turning_ = rigid.cols() == 1;
   const int ref = a.index(t.reference);
-  const Eigen::VectorXd r = a.rigid_rotation();
+  const Eigen::VectorXd r = free_turning_ ? Eigen::VectorXd(rigid.col(0)) : Eigen::VectorXd();
+  if (free_turning_ && !(std::abs(r(ref)) > 0))
+    throw InputError(with_origins(c,
+                                  "the train's rigid motion leaves its reference at rest: "
+                                  "choose a reference that turns with it"));
   bool viscous = false;
   for (const train::Drag& d : t.drags) viscous = viscous || d.viscous_n_m_s_per_rad > 0;
   if (free_turning_) {

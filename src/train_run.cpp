@@ -305,7 +305,8 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
   std::vector<int> free;
   for (int i = 0; i < n; ++i)
     if (!a.prescribed(i)) free.push_back(i);
-  if (static_cast<int>(free.size()) < n) {
+  const Eigen::MatrixXd rigid = a.rigid_motions();
+  if (static_cast<int>(free.size()) < n && rigid.cols() == 0) {
     // The free bodies follow the held ones: K_ff q_f = Q_f - K_fp q_p, and its rate.
     const int f = static_cast<int>(free.size());
     Eigen::MatrixXd kff(f, f);
@@ -328,24 +329,36 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
     }
     return y;
   }
-  // No body held: the rigid rotation r (the speeds) is free, and the torques must do no net
-  // work on it.
-  const Eigen::VectorXd r = a.rigid_rotation();
-  const double power = r.dot(q_load);
-  const double scale = r.cwiseAbs().dot(q_load.cwiseAbs());
-  if (!(std::abs(power) <= kBalanceTolerance * scale)) {
+  if (static_cast<int>(free.size()) < n) {
     if (why)
-      *why = fmt::format(
-          "the mean torques do not balance (their net power is {:.6g} W at the train's speeds): "
-          "the train speeds up or slows down, so it has no static state",
-          power * kTwoPi * t.reference_speed_hz);
+      *why =
+          "a prescribed speed leaves part of the train free to turn (a rigid motion no element "
+          "resists), so it has no static state: hold that part (a shaft to the ground)";
     return std::nullopt;
   }
-  Eigen::MatrixXd bordered = Eigen::MatrixXd::Zero(n + 1, n + 1);
+  // Some motions no element resists (rigid_motions(): the rigid rotation of a train of meshes
+  // and shafts): the mean torques must do no net work on them, which then stay at 0.
+  if (rigid.cols() > 0) {
+    const Eigen::VectorXd power = rigid.transpose() * q_load;
+    const Eigen::VectorXd scale = rigid.cwiseAbs().transpose() * q_load.cwiseAbs();
+    for (Eigen::Index c = 0; c < rigid.cols(); ++c) {
+      if (std::abs(power(c)) <= kBalanceTolerance * scale(c)) continue;
+      if (why)
+        *why = fmt::format(
+            "the mean torques do not balance (their net power is {:.6g} W at the train's "
+            "speeds{}): the train speeds up or slows down, so it has no static state",
+            power(c) * kTwoPi * t.reference_speed_hz,
+            rigid.cols() > 1 ? fmt::format(", on its rigid motion {} of {}", c + 1, rigid.cols())
+                             : "");
+      return std::nullopt;
+    }
+  }
+  const Eigen::Index r = rigid.cols();
+  Eigen::MatrixXd bordered = Eigen::MatrixXd::Zero(n + r, n + r);
   bordered.topLeftCorner(n, n) = k;
-  bordered.block(0, n, n, 1) = r;
-  bordered.block(n, 0, 1, n) = r.transpose();
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + 1);
+  bordered.block(0, n, n, r) = rigid;
+  bordered.block(n, 0, r, n) = rigid.transpose();
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + r);
   rhs.head(n) = q_load;
   const Eigen::VectorXd x = bordered.fullPivLu().solve(rhs);
   y.head(n) = x.head(n);
@@ -450,21 +463,21 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     if (rest) r.static_force_n = static_forces[m];
     result.meshes.push_back(r);
   }
-  for (const train::Shaft& x : t.shafts) {
+  for (std::size_t k = 0; k < t.shafts.size(); ++k) {
     TrainShaftReading r;
-    r.name = x.name;
+    r.name = t.shafts[k].name;
     if (rest)
-      r.static_torque_nm =
-          x.stiffness_n_m_per_rad * ((*rest)(a.index(x.a)) - (*rest)(a.index(x.b)));
+      r.static_torque_nm = t.shafts[k].stiffness_n_m_per_rad *
+                           a.shaft_vector(static_cast<int>(k)).dot(rest->head(a.size()));
     result.shafts.push_back(r);
   }
-  for (const train::Bearing& x : t.bearings) {
+  for (std::size_t k = 0; k < t.bearings.size(); ++k) {
     TrainBearingReading r;
-    r.name = x.name;
+    r.name = t.bearings[k].name;
     if (rest) {
-      const int q = a.translation(a.index(x.body));
-      r.static_force_x_n = x.stiffness_n_per_m * (*rest)(q);
-      r.static_force_y_n = x.stiffness_n_per_m * (*rest)(q + 1);
+      const Eigen::Vector2d w = a.bearing_matrix(static_cast<int>(k)) * rest->head(a.size());
+      r.static_force_x_n = t.bearings[k].stiffness_n_per_m * w(0);
+      r.static_force_y_n = t.bearings[k].stiffness_n_per_m * w(1);
     }
     result.bearings.push_back(r);
   }
@@ -541,8 +554,8 @@ void TrainSections::add(double t_s, const ode::Vector& y) {
   for (std::size_t m = 0; m < t.meshes.size(); ++m)
     series_[m].add(mesh(static_cast<int>(m), t_s, y));
   for (std::size_t k = 0; k < t.shafts.size(); ++k) {
-    const int i = a_.index(t.shafts[k].a), j = a_.index(t.shafts[k].b);
-    series_[t.meshes.size() + k].add({t_s, y(i) - y(j), y(n + i) - y(n + j), 0.0, 0});
+    const Eigen::RowVectorXd v = a_.shaft_vector(static_cast<int>(k));
+    series_[t.meshes.size() + k].add({t_s, v.dot(y.head(n)), v.dot(y.tail(n)), 0.0, 0});
   }
   // Each planar body's centre.
   std::size_t next = t.meshes.size() + t.shafts.size();
@@ -701,6 +714,8 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
   for (const train::TrainMode& x : m) {
     nlohmann::ordered_json mode;
     mode["frequency_hz"] = x.frequency_hz;
+    mode["multiplicity"] = x.multiplicity;
+    if (!x.type.empty()) mode["type"] = x.type;
     nlohmann::ordered_json shape, mesh, shaft, bearing;
     // A rotation by its body's name (rad), a centre's displacement by "<body>_x", "<body>_y".
     for (int i = 0; i < a.size(); ++i) {
@@ -726,13 +741,17 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
 
 std::string train_modes_table(const train::Assembled& a, const std::vector<train::TrainMode>& m) {
   const train::Train& t = a.train();
-  std::string out = fmt::format("{:>4}  {:>14}", "mode", "frequency_hz");
+  // A planetary set's modes with their type (train::TrainMode::type).
+  const bool typed = !m.empty() && !m.front().type.empty();
+  std::string out = fmt::format("{:>4}  {:>14}  {:>4}", "mode", "frequency_hz", "mult");
+  if (typed) out += fmt::format("  {:<13}", "type");
   for (const train::Mesh& x : t.meshes) out += fmt::format("  {:>12}", x.name);
   for (const train::Shaft& x : t.shafts) out += fmt::format("  {:>12}", x.name);
   for (const train::Bearing& x : t.bearings) out += fmt::format("  {:>12}", x.name);
   out += "   (strain energy, %)\n";
   for (std::size_t i = 0; i < m.size(); ++i) {
-    out += fmt::format("{:>4}  {:>14.6g}", i + 1, m[i].frequency_hz);
+    out += fmt::format("{:>4}  {:>14.6g}  {:>4}", i + 1, m[i].frequency_hz, m[i].multiplicity);
+    if (typed) out += fmt::format("  {:<13}", m[i].type);
     for (double e : m[i].mesh_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     for (double e : m[i].shaft_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     for (double e : m[i].bearing_energy) out += fmt::format("  {:>12.2f}", 100 * e);

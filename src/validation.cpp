@@ -803,6 +803,138 @@ void train_loose_gear(Rows& rows, bool) {
   }
 }
 
+// ---- planetary_lin_parker ----------------------------------------------------------------
+
+// Lin and Parker's (1999) planetary set, Table 1, as cases/lin_parker_1999.toml writes it: each
+// inertia their I / r^2 times this gear's r_b^2 (the carrier's with its pin radius), the ring
+// held by 1e9 N/m on u_r = r_b theta_r.
+constexpr const char* kLinParker = R"(
+[model]
+form = "train"
+[train]
+reference = "sun"
+reference_speed_hz = 10
+planet = "planet"
+planets = 3
+[[train.body]]
+name = "sun"
+dof = "planar"
+teeth = 85
+normal_module_mm = 1
+normal_pressure_angle_deg = 24.6
+inertia_kg_m2 = 0.000582366
+mass_kg = 0.4
+[[train.body]]
+name = "ring"
+dof = "planar"
+teeth = 305
+normal_module_mm = 1
+normal_pressure_angle_deg = 24.6
+inertia_kg_m2 = 0.0576785
+mass_kg = 2.35
+[[train.body]]
+name = "carrier"
+dof = "planar"
+inertia_kg_m2 = 0.0491536
+mass_kg = 5.43
+[[train.body]]
+name = "planet"
+dof = "planar"
+teeth = 110
+normal_module_mm = 1
+normal_pressure_angle_deg = 24.6
+inertia_kg_m2 = 0.00152549
+mass_kg = 0.66
+[[train.mesh]]
+name = "sun_planet"
+driving = "sun"
+driven = "planet"
+mean_stiffness_n_per_m = 5e8
+[[train.mesh]]
+name = "planet_ring"
+driving = "planet"
+driven = "ring"
+kind = "internal"
+mean_stiffness_n_per_m = 5e8
+position_angle_deg = 180
+[[train.shaft]]
+from = "ring"
+to = "ground"
+stiffness_n_m_per_rad = 1.92262e7
+[[train.bearing]]
+body = "sun"
+stiffness_n_per_m = 1e8
+[[train.bearing]]
+body = "ring"
+stiffness_n_per_m = 1e8
+[[train.bearing]]
+body = "carrier"
+stiffness_n_per_m = 1e8
+[[train.bearing]]
+body = "planet"
+on = "carrier"
+pin_radius_mm = 88.4
+stiffness_n_per_m = 1e8
+)";
+
+// Table 2: the distinct natural frequencies (Hz) for N = 3, 4, 5 planets, with each one's type
+// (r rotational, t translational, p planet); multiplicities 1, 2 and N - 3.
+struct TableFrequency {
+  double hz;
+  char type;
+};
+const std::vector<TableFrequency>& lin_parker_table2(int planets) {
+  static const std::vector<TableFrequency> three = {
+      {0, 'r'},      {743.2, 't'},  {1102.4, 't'}, {1475.7, 'r'}, {1896.0, 't'}, {1930.3, 'r'},
+      {2276.4, 't'}, {2658.3, 'r'}, {6986.3, 't'}, {7462.8, 'r'}, {9647.9, 't'}, {11775.3, 'r'}};
+  static const std::vector<TableFrequency> four = {
+      {0, 'r'},      {727.0, 't'},  {1091.0, 't'}, {1536.6, 'r'},  {1808.2, 'p'},
+      {1892.8, 't'}, {1970.6, 'r'}, {2342.5, 't'}, {2625.7, 'r'},  {5963.8, 'p'},
+      {6981.7, 'p'}, {7189.9, 't'}, {7773.6, 'r'}, {10437.6, 't'}, {13071.1, 'r'}};
+  static const std::vector<TableFrequency> five = {
+      {0, 'r'},      {710.0, 't'},  {1072.0, 't'}, {1567.4, 'r'},  {1808.2, 'p'},
+      {1888.1, 't'}, {2006.1, 'r'}, {2425.3, 't'}, {2614.8, 'r'},  {5963.8, 'p'},
+      {6981.7, 'p'}, {7382.4, 't'}, {8065.4, 'r'}, {11172.3, 't'}, {14253.1, 'r'}};
+  return planets == 3 ? three : planets == 4 ? four : five;
+}
+
+void planetary_lin_parker(Rows& rows, bool quick) {
+  // Every frequency within 0.05 % (the paper's N = 4 column is printed up to 0.3 Hz off its own
+  // computation), its multiplicity and its type read from the shape.
+  const std::string source = "Lin and Parker (1999), Table 2";
+  for (const int planets : quick ? std::vector<int>{3} : std::vector<int>{3, 4, 5}) {
+    Case c = parse_case(kLinParker, "Lin and Parker's set");
+    set_case_value(c, {"train.planets", std::to_string(planets)});
+    const std::vector<train::TrainMode> modes = train::modes(assembled_train(c));
+    std::vector<const train::TrainMode*> distinct;
+    for (const train::TrainMode& m : modes)
+      if (distinct.empty() || m.frequency_hz - distinct.back()->frequency_hz >
+                                  train::kSameModeFrequency * m.frequency_hz)
+        distinct.push_back(&m);
+    const std::vector<TableFrequency>& table = lin_parker_table2(planets);
+    if (distinct.size() != table.size())
+      throw std::runtime_error(fmt::format("N = {}: {} distinct frequencies, the table has {}",
+                                           planets, distinct.size(), table.size()));
+    for (std::size_t i = 0; i < table.size(); ++i) {
+      const train::TrainMode& m = *distinct[i];
+      const std::string type = table[i].type == 'r'   ? "rotational"
+                               : table[i].type == 't' ? "translational"
+                                                      : "planet";
+      const int multiplicity = table[i].type == 'r' ? 1 : table[i].type == 't' ? 2 : planets - 3;
+      const std::string what = fmt::format("N = {}, {} mode", planets, type);
+      if (table[i].hz == 0)
+        rows.compare(what + " (rigid)", m.frequency_hz, 0.0, 1.0, 0.0, "Hz", source, "absolute",
+                     true);
+      else
+        rows.relative(what, m.frequency_hz, table[i].hz, 5e-4, "Hz", source, true);
+      rows.agree(fmt::format("{} at {:g} Hz: type and multiplicity", what, table[i].hz),
+                 fmt::format("{} x{}", m.type, m.multiplicity),
+                 fmt::format("{} x{}", type, multiplicity),
+                 m.type == type && m.multiplicity == multiplicity, source, true);
+    }
+  }
+}
+
 // ---- the table of checks -----------------------------------------------------------------
 
 struct CheckEntry {
@@ -837,6 +969,9 @@ const std::vector<CheckEntry>& entries() {
       {{"train_pair", "A two-gear train is the gear pair", true}, train_pair},
       {{"train_loose_gear", "A loose gear rattles where the drag can no longer hold it", true},
        train_loose_gear},
+      {{"planetary_lin_parker", "A planetary set's natural frequencies: Lin and Parker's table",
+        true},
+       planetary_lin_parker},
   };
   return e;
 }

@@ -683,7 +683,7 @@ TEST(Cli, ASettingTheMethodDoesNotUseIsReported) {
   // The shipped cases give nothing they do not use.
   for (const char* file :
        {"park2010.toml", "park2010_coupled.toml", "kahraman_singh.toml", "two_stage_reducer.toml",
-        "idler_train.toml", "loose_gear_rattle.toml"}) {
+        "idler_train.toml", "loose_gear_rattle.toml", "lin_parker_1999.toml"}) {
     const Outcome shipped = cli("run " + std::string(GEARDYN_SOURCE_DIR) + "/cases/" + file +
                                 " --set solver.duration_s=0.001");
     EXPECT_EQ(shipped.err.find("not used"), std::string::npos) << file << shipped.err;
@@ -1124,6 +1124,45 @@ TEST(Cli, ATrainsStabilityChartFromTheCommandLine) {
   EXPECT_NE(bad.err.find("train.mesh[1].name: not a real number"), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(none));
   fs::remove_all(d);
+}
+
+TEST(Cli, TheShippedPlanetarySetIsLinAndParkersForThreeFourAndFivePlanets) {
+  // cases/lin_parker_1999.toml's modes: three planets as written, four and five by one key,
+  // each with Table 2's planet modes (validation.cpp's planetary_lin_parker compares every
+  // frequency); the planets written once are copied, each mesh and pin named by its copy.
+  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/lin_parker_1999.toml";
+  for (const int planets : {3, 4, 5}) {
+    SCOPED_TRACE(planets);
+    const Outcome o = cli(fmt::format("modes {} --json --set train.planets={}", set, planets));
+    ASSERT_EQ(o.code, 0) << o.err;
+    const nlohmann::json modes = nlohmann::json::parse(o.out)["modes"];
+    ASSERT_EQ(modes.size(), static_cast<std::size_t>(3 * (3 + planets)));
+    int planet_modes = 0;
+    for (const auto& m : modes) {
+      planet_modes += m["type"] == "planet";
+      if (m["type"] == "planet") EXPECT_EQ(m["multiplicity"], planets - 3);
+    }
+    EXPECT_EQ(planet_modes, 3 * (planets - 3));
+    EXPECT_TRUE(modes[0]["mesh_energy"].contains(fmt::format("sun_planet{}", planets)));
+    EXPECT_TRUE(modes[0]["bearing_energy"].contains(fmt::format("pin{}", planets)));
+    // The lowest translational pair: 743.2, 727.0 and 710.0 Hz in the table.
+    const double table = planets == 3 ? 743.2 : planets == 4 ? 727.0 : 710.0;
+    EXPECT_NEAR(modes[1]["frequency_hz"].get<double>(), table, 5e-4 * table);
+    EXPECT_EQ(modes[1]["type"], "translational");
+  }
+  // With the phase from the layout, 85 + 305 teeth allow 3 and 5 equally spaced planets, not 4:
+  // refused naming a copied mesh and the line of its template, exit 2.
+  const Outcome five = cli("modes " + set + " --set train.mesh_phase=layout --set train.planets=5");
+  EXPECT_EQ(five.code, 0) << five.err;
+  const Outcome four = cli("modes " + set + " --set train.mesh_phase=layout --set train.planets=4");
+  EXPECT_EQ(four.code, 2);
+  EXPECT_NE(four.err.find("lin_parker_1999.toml:"), std::string::npos) << four.err;
+  EXPECT_NE(four.err.find("teeth cannot interlock"), std::string::npos) << four.err;
+  // A count of planets with no angle for one of them is refused naming the key.
+  const Outcome angles = cli("modes " + set + " --set 'train.planet_angles_deg=[0, 120]'");
+  EXPECT_EQ(angles.code, 2);
+  EXPECT_NE(angles.err.find("planet_angles_deg has 2 angles for planets = 3"), std::string::npos)
+      << angles.err;
 }
 
 TEST(Cli, TheLooseGearRattles) {

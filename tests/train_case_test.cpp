@@ -370,6 +370,13 @@ teeth = 40
 normal_module_mm = 2
 face_width_mm = 10
 )";
+// A mesh of the two bodies above.
+constexpr const char* kMeshAB = R"([[train.mesh]]
+name = "m"
+driving = "a"
+driven = "b"
+mean_stiffness_n_per_m = 2e8
+)";
 
 // The message of reading `text`, or "" when it reads.
 std::string error_of(const std::string& text) {
@@ -482,8 +489,8 @@ position_angle_deg = 30
 
 TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {
   // case.toml of a run holds the train as given: read again, it writes the same text.
-  for (const char* file :
-       {"two_stage_reducer.toml", "idler_train.toml", "loose_gear_rattle.toml"}) {
+  for (const char* file : {"two_stage_reducer.toml", "idler_train.toml", "loose_gear_rattle.toml",
+                           "lin_parker_1999.toml"}) {
     const Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / file);
     ASSERT_TRUE(c.train) << file;
     const std::string text = to_toml(c);
@@ -494,14 +501,73 @@ TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {
   }
 }
 
+TEST(TrainCase, PlanetsWrittenOnceAreCopiedTurnedAboutTheSetsAxis) {
+  // cases/lin_parker_1999.toml names its planet once: train.planets copies it and every element
+  // that names it, in their places, each turned by its angle (equally spaced, or given).
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "lin_parker_1999.toml");
+  const train::Train t = train_of(c);
+  std::vector<std::string> bodies, meshes;
+  for (const train::Body& b : t.bodies) bodies.push_back(b.name);
+  for (const train::Mesh& m : t.meshes) meshes.push_back(m.name);
+  EXPECT_EQ(bodies,
+            (std::vector<std::string>{"sun", "ring", "carrier", "planet1", "planet2", "planet3"}));
+  EXPECT_EQ(meshes, (std::vector<std::string>{"sun_planet1", "sun_planet2", "sun_planet3",
+                                              "planet_ring1", "planet_ring2", "planet_ring3"}));
+  constexpr double kDeg = kPi / 180;
+  for (int n = 0; n < 3; ++n) {
+    EXPECT_EQ(t.meshes[static_cast<std::size_t>(n)].driven, fmt::format("planet{}", n + 1));
+    EXPECT_NEAR(t.meshes[static_cast<std::size_t>(n)].position_angle_rad, 120 * n * kDeg, 1e-15);
+    EXPECT_EQ(t.meshes[static_cast<std::size_t>(3 + n)].driving, fmt::format("planet{}", n + 1));
+    EXPECT_NEAR(t.meshes[static_cast<std::size_t>(3 + n)].position_angle_rad,
+                (180 + 120 * n) * kDeg, 1e-15);
+    const train::Bearing& pin = t.bearings[static_cast<std::size_t>(3 + n)];
+    EXPECT_EQ(pin.name, fmt::format("pin{}", n + 1));
+    EXPECT_EQ(pin.body, fmt::format("planet{}", n + 1));
+    EXPECT_EQ(pin.on, "carrier");
+    EXPECT_NEAR(pin.pin_radius_m, 0.0884, 1e-15);
+    EXPECT_NEAR(pin.pin_angle_rad, 120 * n * kDeg, 1e-15);
+  }
+  EXPECT_EQ(t.shafts.size(), 1U);  // the ring's support names no planet: kept once
+  // Angles given, one per planet.
+  set_case_value(c, {"train.planet_angles_deg", "[0, 100, 250]"});
+  EXPECT_NEAR(train_of(c).bearings[4].pin_angle_rad, 100 * kDeg, 1e-15);
+  // A copy's error names the copy and where its template was written (here the --set that
+  // changed it; cli_test shows a file's line).
+  set_case_value(c, {"train.bearing[3].on", "\"sun\""});
+  try {
+    assembled_train(c);
+    ADD_FAILURE() << "a pin on the sun assembled";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--set train.bearing[3].on"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("bearing 'pin1'"), std::string::npos) << e.what();
+  }
+  // A count without its planet, a planet that is no body.
+  const std::string head = std::string(kBodyA) + kBodyB;
+  const std::string mesh = kMeshAB;
+  const auto with = [&](const std::string& keys) {
+    std::string text = head + mesh;
+    return text.replace(text.find("[[train.body]]"), 0, keys);
+  };
+  EXPECT_NE(error_of(with("planets = 3\n")).find("train.planet, the body written once"),
+            std::string::npos);
+  EXPECT_NE(
+      error_of(with("planet = \"p\"\nplanets = 3\n")).find("planet = \"p\": no body of that name"),
+      std::string::npos);
+  EXPECT_NE(error_of(with("planets = 0\n")).find("train.planets = 0: must be a whole number"),
+            std::string::npos);
+  // A pin's place on a bearing on the ground is read by nothing: reported.
+  const std::vector<std::string> unused = unused_settings(parse_case(
+      with("") + "[[train.bearing]]\nbody = \"a\"\nstiffness_n_per_m = 1e8\npin_radius_mm = 5\n",
+      "t.toml"));
+  ASSERT_EQ(unused.size(), 1U);
+  EXPECT_NE(unused[0].find("train.bearing[0].pin_radius_mm = 5 (t.toml:"), std::string::npos)
+      << unused[0];
+}
+
 TEST(TrainCase, BadArrangementsAreNamedWithTheirElementKeyAndPlace) {
   const std::string head = std::string(kBodyA) + kBodyB;
-  const std::string mesh = R"([[train.mesh]]
-name = "m"
-driving = "a"
-driven = "b"
-mean_stiffness_n_per_m = 2e8
-)";
+  const std::string mesh = kMeshAB;
   EXPECT_EQ(error_of(head + mesh), "");
   // The ring of an internal mesh with its inertia given: the pair turns the same way.
   const Case internal =

@@ -750,7 +750,7 @@ TEST(Train, ABadArrangementIsRefusedNamingTheElement) {
   refused(x, "the train is locked and cannot turn");
   x = t;
   x.bodies.push_back({"loose", 0.1});
-  refused(x, "body 'loose': is joined to the reference 'input' by no mesh or shaft");
+  refused(x, "body 'loose': is joined to the reference 'input' by no mesh, shaft or pin");
   x = t;
   x.meshes[0].teeth_driven = 0;
   refused(x, "mesh 'first': teeth = [20, 0]");

@@ -12,13 +12,27 @@
 // coordinates are every body's theta first, in the bodies' order, then (x, y) of each planar
 // body in that order: a torsional train's coordinates are its bodies'.
 //
+// The train's frame. A train whose bodies carry others on pins (a planetary set's carrier) is
+// written in the frame of its carrier, turning uniformly at the carrier's nominal speed: the
+// carrier is at rest in it (speed ratio 0), every speed is relative to it (the reference's
+// speed too), and the planets' centres stay put, so that the meshes' lines of action keep their
+// directions. The deviations theta are the same in either frame; the translations are read in
+// the carrier's. The frame's rotation terms (gyroscopic and centripetal) are left out, as in
+// Lin and Parker (1999): they scale with the carrier's speed squared over the lowest elastic
+// frequency squared.
+//
 // Elements, each stamping itself into M q'' + C_r q' + K_r(t) q = Q_r(t) through the indices of
 // the coordinates it joins (the finite-element habit: an element knows its local matrices and
 // its degrees of freedom, the assembler adds them and never asks what it holds):
 //
 //   Body    J_i on the diagonal of M; a planar body's mass m_i on its x and y.
-//   Shaft   k_s, c_s between two bodies: the twist theta_a - theta_b.
-//   Bearing k_b, c_b from a planar body's centre to the ground, in x and in y (isotropic).
+//   Shaft   k_s, c_s between two bodies: the twist theta_a - theta_b; to the ground (kGround):
+//           theta_a.
+//   Bearing k_b, c_b on the displacement w = B q (2 rows, x and y) of a planar body's centre
+//           from its seat (isotropic): w = u_i on the ground; on a pin of body j at r (pin
+//           radius and angle), w = u_i - u_j - theta_j s_j z x r, the pin's point moving with
+//           j's centre (u_j, when j is planar) and turning with j (s_j its sense, z x r =
+//           (-r_y, r_x)): Lin and Parker's planet bearing.
 //   Mesh    between a driving gear a and a driven gear b, along the line of action: the normal
 //           deflection d = cos(beta_b) (R_a theta_a - R_b theta_b + n . (u_a - u_b)), u a
 //           planar body's (x, y) (absent for a body that keeps torsion only: held on rigid
@@ -66,8 +80,8 @@
 // is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
 // Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N); then, the same in
 // every region, each shaft's torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m,
-// positive when a leads b), then each bearing's force on the ground k u + c u' in x and in y
-// (N): Assembled::part_observable gives their index.
+// positive when a leads b), then each bearing's force on its seat k w + c w' in x and in y
+// (N): shaft_observable and bearing_observable give their index.
 #pragma once
 
 #include <Eigen/Core>
@@ -114,19 +128,29 @@ struct Mesh {
   bool internal = false;  // a pinion and a ring gear (the one with more teeth)
 };
 
+// A shaft whose b is kGround holds body a's rotation against the ground: a torsional support
+// (a ring gear held in its housing), acting on a's deviation theta_a whatever a's nominal speed.
+inline constexpr const char* kGround = "ground";
+
 struct Shaft {
   std::string name;
-  std::string a, b;
+  std::string a, b;  // b may be kGround
   double stiffness_n_m_per_rad = 0;
   double damping_n_m_s_per_rad = 0;
 };
 
-// A bearing from a planar body's centre to the ground, the same in x and y.
+// A bearing carrying a planar body's centre, the same in x and y: on the ground (`on` empty),
+// or on a pin of another body (`on`: a planet on its carrier), the pin's centre at
+// pin_radius_m from that body's centre in the direction pin_angle_rad (counterclockwise from
+// x). A body that carries pins is at rest in the train's frame (below).
 struct Bearing {
   std::string name;
   std::string body;
   double stiffness_n_per_m = 0;
   double damping_n_s_per_m = 0;
+  std::string on;  // the carrying body; "": the ground
+  double pin_radius_m = 0;
+  double pin_angle_rad = 0;
 };
 
 struct TorqueHarmonic {
@@ -201,7 +225,9 @@ class Assembled {
   // meshes and shafts whose ratios disagree), a body that no mesh or shaft joins to the
   // reference, a bearing on a body that keeps torsion only, a planar body without a bearing
   // (its centre would be free to wander) or without a mass, a layout whose teeth cannot
-  // interlock around a loop (with the phase from the layout).
+  // interlock around a loop (with the phase from the layout), a pin on a body that meshes or
+  // shafts turn (a carrier is at rest in the train's frame), a body named kGround, a torque's
+  // harmonic or a prescribed speed on a body at rest (its orders have no frequency).
   explicit Assembled(Train t);
 
   const Train& train() const { return t_; }
@@ -215,11 +241,23 @@ class Assembled {
   // Each coordinate's name with its unit, as outputs write it: "<body>_rad" for a rotation,
   // "<body>_x_m" and "<body>_y_m" for a planar body's centre.
   const std::vector<std::string>& coordinate_names() const { return names_; }
-  // Each body's sense of rotation in the ground's frame: +1 counterclockwise (the reference's).
+  // Each body's sense of rotation in the train's frame: +1 counterclockwise (the reference's,
+  // and a body at rest's).
   int sense(int body) const { return sense_[static_cast<std::size_t>(body)]; }
+  // B of bearing k: its body's centre's displacement from its seat, w = B q (x and y rows).
+  Eigen::MatrixXd bearing_matrix(int bearing) const;
+  // The twist of shaft k, theta_a - theta_b (theta_a to the ground) = v q.
+  Eigen::RowVectorXd shaft_vector(int shaft) const;
   // The train's rigid rotation as coordinates: each body's speed ratio on its theta, 0 on every
   // translation.
   Eigen::VectorXd rigid_rotation() const;
+  // The motions no element resists (the null space of contact_stiffness() over the bodies whose
+  // speed is not prescribed), as columns, each scaled to 1 on the reference where it moves it:
+  // - a train with neither pins nor shafts to the ground: rigid_rotation() exactly when no
+  //   speed is prescribed (the speeds are the ratios of the teeth), none when one is;
+  // - otherwise computed: a planetary set whose ring is held keeps one (the set turning about
+  //   the held ring), a set with no member held two, a train a support holds none.
+  Eigen::MatrixXd rigid_motions() const;
 
   // Each body's speed over the reference speed, and each mesh's frequency over it.
   const std::vector<Ratio>& speed_ratios() const { return speed_; }
@@ -275,6 +313,8 @@ class Assembled {
   //   (multiplier 1, with the rate's a Jordan block that rounding splits by about 1e-8), so the
   //   motion is read modulo it. The rate of the rigid rotation stays among the coordinates: its
   //   multiplier is 1 (neutral) unless a viscous drag damps it.
+  // - Either way, the complement of every rigid motion (rigid_motions()) among them: a train a
+  //   support holds has none and is read whole.
   Eigen::MatrixXd reduced_basis() const;
 
   // Each mesh's stiffness and transmission error in time.
@@ -295,6 +335,13 @@ class Assembled {
   Eigen::MatrixXd m_;
 };
 
+// Two natural frequencies within this relative distance are one, repeated (a planetary set's
+// degenerate pairs: equal in exact arithmetic, to some 1e-10 in the eigensolver's).
+constexpr double kSameModeFrequency = 1e-6;
+// A part of a mass-normalised shape whose kinetic share is below this moves not at all in it
+// (the eigensolver leaves some 1e-12 there, a mode of another type at least 1e-3).
+constexpr double kStillShare = 1e-8;
+
 // Natural modes of the train in drive contact at every mesh's mean stiffness, the bodies with a
 // prescribed speed held (their shape entries 0).
 struct TrainMode {
@@ -303,6 +350,13 @@ struct TrainMode {
   std::vector<double> mesh_energy;     // fraction of the strain energy in each mesh
   std::vector<double> shaft_energy;    // and in each shaft
   std::vector<double> bearing_energy;  // and in each bearing (its x and y together)
+  // How many modes share its frequency (within kSameModeFrequency), itself included.
+  int multiplicity = 1;
+  // In a train with pins (a planetary set), Lin and Parker's type, read from the shape: the
+  // central members (the bodies no pin carries: sun, ring, carrier) only turn ("rotational"),
+  // only translate ("translational"), or stay still while the planets move ("planet"); a shape
+  // that fits none is "mixed" (planets not equally spaced). Empty in a train without pins.
+  std::string type;
 };
 std::vector<TrainMode> modes(const Assembled& a);
 

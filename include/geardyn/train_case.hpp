@@ -71,19 +71,24 @@ struct TrainMeshData {
   double position_angle_deg = 0;
 };
 
-// [[train.shaft]]: a torsional spring and damper between two bodies.
+// [[train.shaft]]: a torsional spring and damper between two bodies, or from a body to the
+// ground (to = "ground": a torsional support, such as a ring gear's in its housing).
 struct TrainShaftData {
   std::string name, from, to;
   double stiffness_n_m_per_rad = 0;
   double damping_ratio = 0.02;  // against the reduced inertia of the two bodies
 };
 
-// [[train.bearing]]: a bearing from a planar body's centre to the ground, the same stiffness in
-// x and y.
+// [[train.bearing]]: a bearing carrying a planar body's centre, the same stiffness in x and y:
+// on the ground, or on a pin of another body (`on`, a planet's carrier) at pin_radius_mm from
+// its centre in the direction pin_angle_deg.
 struct TrainBearingData {
   std::string name, body;
   double stiffness_n_per_m = 0;
   double damping_ratio = 0.02;  // against the body's mass
+  std::string on;               // "": the ground
+  double pin_radius_mm = 0;
+  double pin_angle_deg = 0;
 };
 
 // [[train.torque]]: a torque on a body, positive along its rotation (a drive), negative against
@@ -115,6 +120,12 @@ struct TrainCase {
   // "given": each mesh's harmonic phases about t = 0 as written; "layout": about a tooth pair
   // passing its pitch point, each mesh delayed by where the layout puts its teeth (train.hpp).
   std::string mesh_phase = "given";
+  // A planetary set's planets from one (expand_planets): the body written once as `planet`,
+  // and every element that names it, stand for `planets` copies at the carrier angles
+  // planet_angles_deg (equally spaced when empty).
+  std::string planet;  // empty: no copies
+  int planets = 0;
+  std::vector<double> planet_angles_deg;
   std::vector<TrainBodyData> bodies;
   std::vector<TrainMeshData> meshes;
   std::vector<TrainShaftData> shafts;
@@ -127,6 +138,16 @@ struct TrainCase {
   // key): the assembler's messages name the element, the reader adds where.
   std::map<std::string, std::string> origins;
 };
+
+// The train with its planets copied (a planetary set's preset; the train as written when it
+// names no planet): the body `planet` becomes planet1 ... planetN, each element that names it
+// (meshes, shafts, bearings, torques, drags, speeds) one copy per planet named <name>1 ...
+// <name>N, turned about the set's axis by the planet's angle psi_n: its meshes' position angles
+// and its bearings' pin angles plus psi_n (the template is written for a planet at 0 deg, on +x
+// from the carrier's centre). Each copy keeps its template's origin for messages. Throws
+// InputError naming the key for a planet that is no body, a count without a planet (or the
+// reverse), and angles that are not one per planet.
+TrainCase expand_planets(const TrainCase& t);
 
 // The train of a case with model.form = "train", in SI: base radii and inertias from the gear
 // data, each mesh's damping from its ratio. Throws InputError naming the element, its key and

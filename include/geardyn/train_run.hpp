@@ -113,9 +113,11 @@ struct TrainRunOptions {
 // stiffness under the mean torques and constant drags. The bodies with a prescribed speed are
 // held at their nominal place, or with `at_s` at their prescription's place and rate at that
 // time, the free bodies following them quasi-statically (their rates too: a start at t0 without
-// a jolt). With no prescribed body the train's rigid rotation is left out (r . theta = 0, r the
-// speed ratios) and the rates are 0. Absent, with `why`, when the mean torques do not
-// balance (the train would speed up or slow down: there is no static state).
+// a jolt). The motions no element resists (Assembled::rigid_motions(): with no prescribed body
+// and no support, the train's rigid rotation, r the speed ratios) are left out (R^T theta = 0)
+// and the rates are 0. Absent, with `why`, when the mean torques do work on such a motion (the
+// train would speed up or slow down: there is no static state), or when a prescribed speed
+// leaves one.
 std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why = nullptr,
                                             std::optional<double> at_s = std::nullopt);
 // Each mesh's force k_m (V theta - b) in such a state.
@@ -202,8 +204,8 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
 // timeseries.csv: t_s, each body's theta and rate, then per mesh (d - e)/b, F and contact.
 void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r);
 
-// The modes of a train as JSON and as a table for the terminal: frequency and the strain
-// energy in each mesh and shaft.
+// The modes of a train as JSON and as a table for the terminal: frequency, multiplicity, a
+// planetary set's mode type, and the strain energy in each mesh, shaft and bearing.
 std::string train_modes_json(const train::Assembled& a, const std::vector<train::TrainMode>& m,
                              int indent = 2);
 std::string train_modes_table(const train::Assembled& a, const std::vector<train::TrainMode>& m);

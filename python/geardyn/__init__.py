@@ -583,10 +583,12 @@ def modes(case):
     case : Case
         A case with ``model.form = "coupled"`` or ``"train"``. A train's modes are a dict of
         ``bodies`` (the shape's columns: each body's rotation by its name, then each planar
-        body's centre as ``<body>_x``, ``<body>_y``), ``frequency_hz`` (ascending), ``shape``
-        (modes x those columns, mass-normalised), ``mesh_energy``, ``shaft_energy`` and
-        ``bearing_energy`` (by name: the strain energy fraction in each mode); the coupled
-        model's as below.
+        body's centre as ``<body>_x``, ``<body>_y``), ``frequency_hz`` (ascending),
+        ``multiplicity`` (how many modes share each frequency), ``type`` (a planetary set's
+        "rotational", "translational", "planet" or "mixed", read from the shape; "" in a train
+        without pins), ``shape`` (modes x those columns, mass-normalised), ``mesh_energy``,
+        ``shaft_energy`` and ``bearing_energy`` (by name: the strain energy fraction in each
+        mode); the coupled model's as below.
 
     Returns
     -------
@@ -608,6 +610,8 @@ def modes(case):
         ms = _json.loads(_geardyn._train_modes(case))["modes"]
         return {"bodies": list(ms[0]["shape"]) if ms else [],
                 "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
+                "multiplicity": np.array([m["multiplicity"] for m in ms]),
+                "type": [m.get("type", "") for m in ms],
                 "shape": np.array([list(m["shape"].values()) for m in ms]),
                 "mesh_energy": {k: np.array([m["mesh_energy"][k] for m in ms])
                                 for k in (ms[0]["mesh_energy"] if ms else {})},

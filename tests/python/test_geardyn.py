@@ -738,6 +738,13 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
         total = sum(pm["mesh_energy"][m][k] for m in ("in", "out")) + \
             pm["bearing_energy"]["bearing1"][k]
         assert abs(total - 1) < 1e-12
+    assert set(pm["type"]) == {""} and list(pm["multiplicity"]) == [1] * 5
+    # A planetary set: each mode's type and multiplicity, four planets by one key.
+    lp = geardyn.Case.from_toml(SOURCE / "cases/lin_parker_1999.toml")
+    lm = geardyn.modes(lp.with_({"train.planets": 4}))
+    assert len(lm["frequency_hz"]) == 21 and lm["type"].count("planet") == 3
+    assert all(m == 2 for m, t in zip(lm["multiplicity"], lm["type"]) if t == "translational")
+    assert "pin4" in lm["bearing_energy"] and "sun_planet4" in lm["mesh_energy"]
     # Each element's key is checked as in a file, named by its place in its array.
     with pytest.raises(geardyn.InputError, match=r"train\.mesh\[0\]\.backlash_um = -1"):
         geardyn.Case(model={"form": "train"},
