@@ -670,6 +670,13 @@ Eigen::MatrixXd Assembled::bearing_matrix(int bearing) const {
   return b;
 }
 
+Eigen::Vector2d Assembled::bearing_offset(int bearing) const {
+  const Bearing& x = t_.bearings[static_cast<std::size_t>(bearing)];
+  const double c = std::cos(x.pin_angle_rad), s = std::sin(x.pin_angle_rad);
+  return {x.pin_error_radial_m * c - x.pin_error_tangential_m * s,
+          x.pin_error_radial_m * s + x.pin_error_tangential_m * c};
+}
+
 RowVector Assembled::shaft_vector(int shaft) const {
   const Shaft& s = t_.shafts[static_cast<std::size_t>(shaft)];
   RowVector v = RowVector::Zero(size());
@@ -837,8 +844,12 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
   const Eigen::MatrixXd m_inv = m_.inverse();
   Eigen::MatrixXd k_common, c_common;
   stamp_common(*this, k_common, c_common);
-  Eigen::VectorXd q_common = Eigen::VectorXd::Zero(n);  // the torques' means and the drags
+  // The drags, and the loads of the bearings' seat errors k B^T o.
+  Eigen::VectorXd q_common = Eigen::VectorXd::Zero(n);
   for (const Drag& d : t_.drags) q_common(index(d.body)) -= d.constant_nm;
+  for (std::size_t k = 0; k < t_.bearings.size(); ++k)
+    q_common += t_.bearings[k].stiffness_n_per_m * bearing_matrix(static_cast<int>(k)).transpose() *
+                bearing_offset(static_cast<int>(k));
 
   const auto functional = [&] {
     ode::LinearGuard g;
@@ -942,10 +953,12 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
     for (std::size_t k = 0; k < t_.bearings.size(); ++k) {
       const Bearing& x = t_.bearings[k];
       const Eigen::MatrixXd b = bearing_matrix(static_cast<int>(k));
+      const Eigen::Vector2d o = bearing_offset(static_cast<int>(k));
       for (const int axis : {0, 1}) {
         ode::LinearGuard g = functional();
         g.row.constant.head(n) = x.stiffness_n_per_m * b.row(axis);
         g.row.constant.tail(n) = x.damping_n_s_per_m * b.row(axis);
+        g.offset.constant = -x.stiffness_n_per_m * o(axis);
         lr.observables.push_back(g);
       }
     }

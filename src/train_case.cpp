@@ -10,6 +10,7 @@
 #include <numbers>
 #include <set>
 #include <string_view>
+#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <variant>
@@ -154,7 +155,20 @@ const std::vector<ElementKey<TrainBearingData>>& bearing_keys() {
       {"pin_radius_mm", &G::pin_radius_mm, "mm", at_least(0), false,
        "where the pin is on that body: its distance from the body's centre"},
       {"pin_angle_deg", &G::pin_angle_deg, "deg", closed(-360, 360), false,
-       "and its direction, counterclockwise from x"},
+       "and its direction, counterclockwise from x (on the ground: the direction its errors "
+       "are read in)"},
+      {"pin_error_radial_um",
+       &G::pin_error_radial_um,
+       "um",
+       {},
+       false,
+       "the seat's position error along the pin's direction (a planet pin's radial error)"},
+      {"pin_error_tangential_um",
+       &G::pin_error_tangential_um,
+       "um",
+       {},
+       false,
+       "and across it, counterclockwise (a planet pin's tangential error)"},
   };
   return keys;
 }
@@ -377,8 +391,8 @@ void read_array(const toml::table& train, const std::string& source,
 }
 
 constexpr std::string_view kTrainKeys =
-    "reference, reference_speed_hz, mesh_phase, planet, planets, planet_angles_deg, body, mesh, "
-    "shaft, bearing, torque, drag, speed";
+    "reference, reference_speed_hz, mesh_phase, planet, planets, planet_angles_deg, "
+    "planet_pin_errors_um, body, mesh, shaft, bearing, torque, drag, speed";
 // At most this many planets: sets are built with 3 to 7, and the regions of 2 N meshes grow
 // as 3^(2 N).
 constexpr int kMaxPlanets = 12;
@@ -392,12 +406,19 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
     throw InputError(fmt::format("{}: train = {}: must be a table [train]",
                                  where(node.source(), source), node_text(node)));
   TrainCase t;
-  static const std::set<std::string_view> known = {"reference",  "reference_speed_hz",
-                                                   "mesh_phase", "planet",
-                                                   "planets",    "planet_angles_deg",
-                                                   "body",       "mesh",
-                                                   "shaft",      "bearing",
-                                                   "torque",     "drag",
+  static const std::set<std::string_view> known = {"reference",
+                                                   "reference_speed_hz",
+                                                   "mesh_phase",
+                                                   "planet",
+                                                   "planets",
+                                                   "planet_angles_deg",
+                                                   "planet_pin_errors_um",
+                                                   "body",
+                                                   "mesh",
+                                                   "shaft",
+                                                   "bearing",
+                                                   "torque",
+                                                   "drag",
                                                    "speed"};
   for (auto&& [k, v] : *train) {
     if (!known.count(k.str()))
@@ -455,6 +476,26 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
       t.planet_angles_deg.push_back(*a.value<double>());
     }
     t.origins["the train: planet_angles_deg"] = where_given;
+  }
+  if (const toml::node* p = train->get("planet_pin_errors_um")) {
+    const std::string where_given =
+        origin_of(overrides, "train.planet_pin_errors_um", p->source(), source);
+    const auto bad_errors = [&] {
+      return InputError(fmt::format(
+          "{}: train.planet_pin_errors_um = {}: must be an array of [radial, tangential] pairs "
+          "in um, one per planet",
+          where_given, node_text(*p)));
+    };
+    const toml::array* pairs = p->as_array();
+    if (!pairs) throw bad_errors();
+    for (const toml::node& pair : *pairs) {
+      const toml::array* e = pair.as_array();
+      if (!e || e->size() != 2 || !(*e)[0].is_number() || !(*e)[1].is_number() ||
+          !std::isfinite(*(*e)[0].value<double>()) || !std::isfinite(*(*e)[1].value<double>()))
+        throw bad_errors();
+      t.planet_pin_errors_um.push_back({*(*e)[0].value<double>(), *(*e)[1].value<double>()});
+    }
+    t.origins["the train: planet_pin_errors_um"] = where_given;
   }
   const toml::node* f = train->get("reference_speed_hz");
   if (!f)
@@ -543,13 +584,16 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
 }  // namespace
 
 TrainCase expand_planets(const TrainCase& written) {
-  if (written.planet.empty() && written.planets == 0 && written.planet_angles_deg.empty())
+  if (written.planet.empty() && written.planets == 0 && written.planet_angles_deg.empty() &&
+      written.planet_pin_errors_um.empty())
     return written;
   const TrainCase& w = written;
   if (w.planet.empty())
-    rethrow_with_origin(w, fmt::format("the train: planets{}: a count of planets needs "
-                                       "train.planet, the body written once for them all",
-                                       w.planets ? "" : "_angles_deg"));
+    rethrow_with_origin(w, fmt::format("the train: {}: planets need train.planet, the body "
+                                       "written once for them all",
+                                       w.planets                      ? "planets"
+                                       : !w.planet_angles_deg.empty() ? "planet_angles_deg"
+                                                                      : "planet_pin_errors_um"));
   if (w.planets == 0)
     rethrow_with_origin(w, fmt::format("the train: planet = \"{}\": give train.planets, how "
                                        "many copies of it the set has",
@@ -563,6 +607,12 @@ TrainCase expand_planets(const TrainCase& written) {
         w, fmt::format("the train: planet_angles_deg has {} angles for planets = {}: give one "
                        "per planet, or none for equal spacing",
                        w.planet_angles_deg.size(), w.planets));
+  if (!w.planet_pin_errors_um.empty() &&
+      static_cast<int>(w.planet_pin_errors_um.size()) != w.planets)
+    rethrow_with_origin(
+        w, fmt::format("the train: planet_pin_errors_um has {} pairs for planets = {}: give one "
+                       "[radial, tangential] pair per planet",
+                       w.planet_pin_errors_um.size(), w.planets));
   TrainCase t = w;
   const auto copy_name = [](const std::string& name, int n) {
     return fmt::format("{}{}", name, n + 1);
@@ -613,8 +663,13 @@ TrainCase expand_planets(const TrainCase& written) {
   });
   expand("shaft", t.shafts, [&](TrainShaftData& x, int n) { return rename(n, {&x.from, &x.to}); });
   expand("bearing", t.bearings, [&](TrainBearingData& x, int n) {
+    const bool carries = x.body == w.planet;
     if (!rename(n, {&x.body, &x.on})) return false;
     x.pin_angle_deg += angle(n);
+    if (carries && !w.planet_pin_errors_um.empty()) {
+      x.pin_error_radial_um += w.planet_pin_errors_um[static_cast<std::size_t>(n)][0];
+      x.pin_error_tangential_um += w.planet_pin_errors_um[static_cast<std::size_t>(n)][1];
+    }
     return true;
   });
   expand("torque", t.torques, [&](TrainTorqueData& x, int n) { return rename(n, {&x.body}); });
@@ -723,7 +778,9 @@ train::Train train_of(const Case& c) {
                      0.0,
                      b.on,
                      b.pin_radius_mm * kMmToM,
-                     b.pin_angle_deg * kDegToRad};
+                     b.pin_angle_deg * kDegToRad,
+                     b.pin_error_radial_um * kUmToM,
+                     b.pin_error_tangential_um * kUmToM};
     if (const auto g = gears.find(b.body); g != gears.end())
       x.damping_n_s_per_m =
           2 * b.damping_ratio * std::sqrt(b.stiffness_n_per_m * g->second.mass_kg);
@@ -861,7 +918,10 @@ const std::vector<TrainKeyInfo>& train_key_list() {
          "how many copies of train.planet the set has"},
         {"", "planet_angles_deg", "deg", "equally spaced", "one angle per planet, in [-360, 360]",
          "each copy's angle about the set's axis, added to its meshes' position_angle_deg and "
-         "its bearings' pin_angle_deg (the template is written at 0)"}};
+         "its bearings' pin_angle_deg (the template is written at 0)"},
+        {"", "planet_pin_errors_um", "um", "none", "one [radial, tangential] pair per planet",
+         "each copy's pin position error, added to the pin errors of the bearings that carry "
+         "it (planet load sharing)"}};
     describe("body", body_keys(), out);
     describe("mesh", mesh_keys(), out);
     describe("shaft", shaft_keys(), out);
@@ -1004,13 +1064,18 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
     const TrainBearingData& b = t.bearings[i];
     if (!b.on.empty()) continue;
     const auto where_given = t.origins.find(fmt::format("bearing '{}'", b.name));
-    for (const auto& [leaf, value] :
-         {std::pair{"pin_radius_mm", b.pin_radius_mm}, std::pair{"pin_angle_deg", b.pin_angle_deg}})
+    // On the ground its pin angle is read only as the direction of its errors.
+    const bool errors = b.pin_error_radial_um != 0 || b.pin_error_tangential_um != 0;
+    for (const auto& [leaf, value, why] :
+         {std::tuple{"pin_radius_mm", b.pin_radius_mm, "so it has no pin"},
+          std::tuple{"pin_angle_deg", errors ? 0.0 : b.pin_angle_deg,
+                     "and no pin error to direct"}})
       if (value != 0)
         out.push_back(fmt::format(
             "train.bearing[{}].{} = {} ({}): not used: bearing '{}' has no `on` (it sits on the "
-            "ground), so it has no pin",
-            i, leaf, value, where_given == t.origins.end() ? "" : where_given->second, b.name));
+            "ground), {}",
+            i, leaf, value, where_given == t.origins.end() ? "" : where_given->second, b.name,
+            why));
   }
   return out;
 }
@@ -1023,6 +1088,12 @@ std::string train_toml(const TrainCase& t) {
   if (t.planets > 0) out += fmt::format("planets = {}\n", t.planets);
   if (!t.planet_angles_deg.empty())
     out += fmt::format("planet_angles_deg = [{}]\n", fmt::join(t.planet_angles_deg, ", "));
+  if (!t.planet_pin_errors_um.empty()) {
+    std::vector<std::string> pairs;
+    for (const auto& e : t.planet_pin_errors_um)
+      pairs.push_back(fmt::format("[{}, {}]", e[0], e[1]));
+    out += fmt::format("planet_pin_errors_um = [{}]\n", fmt::join(pairs, ", "));
+  }
   out += toml_tables("body", body_keys(), t.bodies);
   out += toml_tables("mesh", mesh_keys(), t.meshes);
   out += toml_tables("shaft", shaft_keys(), t.shafts);

@@ -286,6 +286,58 @@ double shortest_time_scale_s(const train::Assembled& a) {
   return kTwoPi / w;
 }
 
+// n max_i F_i / sum_i F_i of the forces of one group of meshes; absent when they sum to <= 0.
+std::optional<double> sharing_factor(const std::vector<double>& forces) {
+  double sum = 0, most = -kInf;
+  for (const double f : forces) {
+    sum += f;
+    most = std::max(most, f);
+  }
+  if (!(sum > 0)) return std::nullopt;
+  return static_cast<double>(forces.size()) * most / sum;
+}
+
+// The load-sharing groups of a train (TrainLoadSharing) read from a run's meshes and samples.
+std::vector<TrainLoadSharing> read_load_sharing(const train::Assembled& a,
+                                                const TrainRunResult& r) {
+  const train::Train& t = a.train();
+  std::vector<TrainLoadSharing> out;
+  for (int g = 0; g < a.body_count(); ++g)
+    for (const bool driving : {true, false}) {
+      std::vector<std::size_t> group;
+      for (std::size_t m = 0; m < t.meshes.size(); ++m)
+        if (a.index(driving ? t.meshes[m].driving : t.meshes[m].driven) == g) group.push_back(m);
+      if (group.size() < 2) continue;
+      TrainLoadSharing x;
+      x.gear = t.bodies[static_cast<std::size_t>(g)].name;
+      std::vector<double> at_rest;
+      for (const std::size_t m : group) {
+        const TrainMeshReading& mesh = r.meshes[m];
+        x.meshes.push_back(mesh.name);
+        if (mesh.static_force_n) {
+          at_rest.push_back(*mesh.static_force_n);
+          if (!(*mesh.static_force_n > 0)) x.unloaded_at_rest.push_back(mesh.name);
+        }
+        // Off its drive flank: separated, or pushed onto its back flank (a negative force).
+        const TrainMeshPart& part = r.steady.marked ? mesh.steady : mesh;
+        if (part.separations > 0 || part.separated_fraction > 0 || part.min_force_n < 0)
+          x.lost_contact.push_back(mesh.name);
+      }
+      if (at_rest.size() == group.size()) x.static_factor = sharing_factor(at_rest);
+      std::vector<double> forces(group.size());
+      for (std::size_t i = 0; i < r.samples.t_s.size(); ++i) {
+        for (std::size_t k = 0; k < group.size(); ++k) forces[k] = r.samples.force_n[i][group[k]];
+        const std::optional<double> f = sharing_factor(forces);
+        if (!f) continue;
+        x.factor_with_startup = std::max(x.factor_with_startup.value_or(0.0), *f);
+        if (r.steady.marked && r.samples.t_s[i] >= r.steady.from_s)
+          x.factor = std::max(x.factor.value_or(0.0), *f);
+      }
+      out.push_back(std::move(x));
+    }
+  return out;
+}
+
 }  // namespace
 
 std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why,
@@ -295,6 +347,9 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
   Eigen::VectorXd q_load = Eigen::VectorXd::Zero(n);
   for (const train::Torque& q : t.torques) q_load(a.index(q.body)) += q.mean_nm;
   for (const train::Drag& d : t.drags) q_load(a.index(d.body)) -= d.constant_nm;
+  for (std::size_t b = 0; b < t.bearings.size(); ++b)
+    q_load += t.bearings[b].stiffness_n_per_m * a.bearing_matrix(static_cast<int>(b)).transpose() *
+              a.bearing_offset(static_cast<int>(b));
   const Eigen::MatrixXd k = a.contact_stiffness();
   // In drive contact a mesh pushes with k_m (V q - b): its b is a load k_m b V^T.
   for (std::size_t m = 0; m < t.meshes.size(); ++m)
@@ -475,7 +530,8 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     TrainBearingReading r;
     r.name = t.bearings[k].name;
     if (rest) {
-      const Eigen::Vector2d w = a.bearing_matrix(static_cast<int>(k)) * rest->head(a.size());
+      const Eigen::Vector2d w = a.bearing_matrix(static_cast<int>(k)) * rest->head(a.size()) -
+                                a.bearing_offset(static_cast<int>(k));
       r.static_force_x_n = t.bearings[k].stiffness_n_per_m * w(0);
       r.static_force_y_n = t.bearings[k].stiffness_n_per_m * w(1);
     }
@@ -518,6 +574,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
       result.message = fmt::format("mesh '{}': non-finite readings (an overflow)", r.name);
     }
   }
+  result.load_sharing = read_load_sharing(a, result);
   return result;
 }
 
@@ -679,6 +736,22 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
         m.name, {{"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
                  {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n}}));
   j["bearings"] = bearings;
+  nlohmann::ordered_json sharing = nlohmann::ordered_json::array();
+  const auto optional = [](const std::optional<double>& x) {
+    return x ? nlohmann::ordered_json(*x) : nlohmann::ordered_json();
+  };
+  for (const TrainLoadSharing& x : r.load_sharing) {
+    nlohmann::ordered_json g;
+    g["gear"] = x.gear;
+    g["meshes"] = x.meshes;
+    g["static_factor"] = optional(x.static_factor);
+    g["unloaded_at_rest"] = x.unloaded_at_rest;
+    g["factor"] = optional(x.factor);
+    g["factor_with_startup"] = optional(x.factor_with_startup);
+    g["lost_contact"] = x.lost_contact;
+    sharing.push_back(g);
+  }
+  j["load_sharing"] = sharing;
   j["unused_settings"] = unused;
   j["wall_time_s"] = r.wall_time_s;
   return j.dump(indent);

@@ -681,9 +681,9 @@ TEST(Cli, ASettingTheMethodDoesNotUseIsReported) {
   EXPECT_EQ(used.err.find("not used"), std::string::npos) << used.err;
   EXPECT_TRUE(nlohmann::json::parse(slurp(d / "summary.json"))["unused_settings"].empty());
   // The shipped cases give nothing they do not use.
-  for (const char* file :
-       {"park2010.toml", "park2010_coupled.toml", "kahraman_singh.toml", "two_stage_reducer.toml",
-        "idler_train.toml", "loose_gear_rattle.toml", "lin_parker_1999.toml"}) {
+  for (const char* file : {"park2010.toml", "park2010_coupled.toml", "kahraman_singh.toml",
+                           "two_stage_reducer.toml", "idler_train.toml", "loose_gear_rattle.toml",
+                           "lin_parker_1999.toml", "planetary_set.toml"}) {
     const Outcome shipped = cli("run " + std::string(GEARDYN_SOURCE_DIR) + "/cases/" + file +
                                 " --set solver.duration_s=0.001");
     EXPECT_EQ(shipped.err.find("not used"), std::string::npos) << file << shipped.err;
@@ -1163,6 +1163,31 @@ TEST(Cli, TheShippedPlanetarySetIsLinAndParkersForThreeFourAndFivePlanets) {
   EXPECT_EQ(angles.code, 2);
   EXPECT_NE(angles.err.find("planet_angles_deg has 2 angles for planets = 3"), std::string::npos)
       << angles.err;
+}
+
+TEST(Cli, TheShippedPlanetaryStageRattlesAtLightLoadAndSharesItsLoad) {
+  // cases/planetary_set.toml at the light load and transmission error its comment gives: the
+  // planets rattle (their meshes separate in the steady part); its summary's load sharing, and
+  // a file of the user's kept beside ours.
+  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/planetary_set.toml";
+  const fs::path d = fresh("planetary");
+  fs::create_directories(d);
+  std::ofstream(d / "notes.txt") << "mine";
+  const Outcome o =
+      cli("run " + set +
+          " --set solver.duration_s=0.05 --set 'train.torque[0].mean_nm=5' --set "
+          "'train.torque[1].mean_nm=-21.25' --set 'train.mesh[0].transmission_error_um=[[8, 0]]' "
+          "--set 'train.mesh[1].transmission_error_um=[[8, 0]]' --out " +
+          d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  for (const auto& m : j["meshes"]) EXPECT_EQ(m["regime"], "sustained") << m["name"];
+  ASSERT_EQ(j["load_sharing"].size(), 2U);
+  EXPECT_EQ(j["load_sharing"][0]["gear"], "sun");
+  EXPECT_EQ(j["load_sharing"][0]["lost_contact"].size(), 3U);
+  EXPECT_NE(o.out.find("load sharing sun  over 3 meshes"), std::string::npos) << o.out;
+  EXPECT_EQ(slurp(d / "notes.txt"), "mine");
+  fs::remove_all(d);
 }
 
 TEST(Cli, TheLooseGearRattles) {

@@ -7,12 +7,14 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <string>
 #include <vector>
 
 #include "geardyn/case.hpp"
 #include "geardyn/train.hpp"
+#include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
 #include "test_support.hpp"
 
@@ -36,6 +38,36 @@ constexpr Member kPlanet{"planet", 0.66, 0.61, 0.5 * 100.3e-3};
 constexpr double kBearing = 1e8, kRingSupport = 1e9, kMeshStiffness = 5e8;
 constexpr double kPressureAngle = 24.6 * kDeg;
 
+// A planet p's two meshes at its angle psi: the sun (30 teeth) driving it (39), it driving the
+// ring (108, internal), base radii {sun, planet, ring}, stiffness k at alpha.
+void add_planet_meshes(Train& t, const std::string& p, double psi, const double (&radii_m)[3],
+                       double k, double alpha, double backlash_m) {
+  Mesh sp;
+  sp.name = "s" + p;
+  sp.driving = "sun";
+  sp.driven = p;
+  sp.teeth_driving = 30;
+  sp.teeth_driven = 39;
+  sp.base_radius_driving_m = radii_m[0];
+  sp.base_radius_driven_m = radii_m[1];
+  sp.backlash_m = backlash_m;
+  sp.mean_stiffness_n_per_m = k;
+  sp.position_angle_rad = psi;
+  sp.transverse_pressure_angle_rad = alpha;
+  Mesh rp = sp;
+  rp.name = "r" + p;
+  rp.driving = p;
+  rp.driven = "ring";
+  rp.internal = true;
+  rp.teeth_driving = 39;
+  rp.teeth_driven = 108;
+  rp.base_radius_driving_m = radii_m[1];
+  rp.base_radius_driven_m = radii_m[2];
+  rp.position_angle_rad = psi + kPi;  // the ring's centre seen from the planet's
+  t.meshes.push_back(sp);
+  t.meshes.push_back(rp);
+}
+
 // The set with `planets` planets at the angles given (equally spaced when empty). Teeth only set
 // the speeds, which the modes do not read.
 Train lin_parker(int planets, std::vector<double> angles_rad = {}) {
@@ -58,30 +90,8 @@ Train lin_parker(int planets, std::vector<double> angles_rad = {}) {
     body(kPlanet, p);
     Bearing pin{p + "_pin", p, kBearing, 0.0, "carrier", kCarrier.base_radius_m, psi};
     t.bearings.push_back(pin);
-    Mesh sp;
-    sp.name = "s" + p;
-    sp.driving = "sun";
-    sp.driven = p;
-    sp.teeth_driving = 30;
-    sp.teeth_driven = 39;
-    sp.base_radius_driving_m = kSun.base_radius_m;
-    sp.base_radius_driven_m = kPlanet.base_radius_m;
-    sp.backlash_m = 1e-4;
-    sp.mean_stiffness_n_per_m = kMeshStiffness;
-    sp.position_angle_rad = psi;
-    sp.transverse_pressure_angle_rad = kPressureAngle;
-    Mesh rp = sp;
-    rp.name = "r" + p;
-    rp.driving = p;
-    rp.driven = "ring";
-    rp.internal = true;
-    rp.teeth_driving = 39;
-    rp.teeth_driven = 108;
-    rp.base_radius_driving_m = kPlanet.base_radius_m;
-    rp.base_radius_driven_m = kRing.base_radius_m;
-    rp.position_angle_rad = psi + kPi;  // the ring's centre seen from the planet's
-    t.meshes.push_back(sp);
-    t.meshes.push_back(rp);
+    add_planet_meshes(t, p, psi, {kSun.base_radius_m, kPlanet.base_radius_m, kRing.base_radius_m},
+                      kMeshStiffness, kPressureAngle, 1e-4);
   }
   t.reference = "sun";
   t.reference_speed_hz = 10;
@@ -110,6 +120,7 @@ std::vector<Expected> table2(int planets) {
     planet = {1808.2, 5963.8, 6981.7};
   }
   std::vector<Expected> out;
+  out.reserve(rotational.size() + translational.size() + planet.size());
   for (double f : rotational) out.push_back({f, 1, "rotational"});
   for (double f : translational) out.push_back({f, 2, "translational"});
   for (double f : planet) out.push_back({f, planets - 3, "planet"});
@@ -260,3 +271,129 @@ TEST(Planetary, PinsAndSupportsAreChecked) {
 
 }  // namespace
 }  // namespace geardyn::train
+
+namespace geardyn::train {
+namespace {
+
+// A star set (the carrier held: each planet on a bearing k_p on the ground at its angle), sun
+// and ring on rigid bearings, meshes of stiffness k at alpha, spur: the sun's torque T shared by
+// N planets. A planet's pin moved by e_n across its radius (counterclockwise) unloads it: each
+// planet's two mesh forces are equal (it has no torsional support), their radial parts cancel,
+// and its pin carries 2 F cos(alpha) across; so F_n (2 / k + 4 cos^2(alpha) / k_p) = U - 2
+// cos(alpha) e_n with U the same for all, and sum F_n = T / R_s:
+//   F_n = T / (N R_s) + 2 cos(alpha) (mean(e) - e_n) / c,  c = 2 / k + 4 cos^2(alpha) / k_p.
+// A radial error moves the planet along its radius and changes no force.
+struct StarSet {
+  static constexpr int kPlanets = 4;
+  static constexpr double kModule = 2e-3, kAlpha = 20 * kDeg, kK = 4e8, kKp = 2e8, kT = 120;
+  static double base_radius(int teeth) { return 0.5 * teeth * kModule * std::cos(kAlpha); }
+  static double compliance() { return 2 / kK + 4 * std::cos(kAlpha) * std::cos(kAlpha) / kKp; }
+  static double mean_force() { return kT / (kPlanets * base_radius(30)); }
+  // The train with tangential and radial pin errors per planet (m).
+  static Train train(const std::vector<double>& tangential, const std::vector<double>& radial) {
+    Train t;
+    t.bodies.push_back({"sun", 2e-3, false, 0});
+    t.bodies.push_back({"ring", 5e-2, false, 0});
+    for (int n = 0; n < kPlanets; ++n) {
+      const std::string p = fmt::format("p{}", n + 1);
+      const double psi = 2 * kPi * n / kPlanets;
+      t.bodies.push_back({p, 3e-4, true, 0.5});
+      Bearing pin{p + "_pin", p, kKp, 0.0, "", 0.0, psi};
+      pin.pin_error_tangential_m = tangential[static_cast<std::size_t>(n)];
+      pin.pin_error_radial_m = radial[static_cast<std::size_t>(n)];
+      t.bearings.push_back(pin);
+      add_planet_meshes(t, p, psi, {base_radius(30), base_radius(39), base_radius(108)}, kK, kAlpha,
+                        5e-5);
+    }
+    t.torques.push_back({"drive", "sun", kT, {}});
+    t.torques.push_back({"load", "ring", -kT * 108.0 / 30.0, {}});
+    t.reference = "sun";
+    t.reference_speed_hz = 20;
+    return t;
+  }
+  // The static sun-planet mesh forces.
+  static std::vector<double> sun_forces(const Train& t) {
+    const Assembled a(t);
+    std::string why;
+    const std::optional<Eigen::VectorXd> rest = static_state(a, &why);
+    EXPECT_TRUE(rest) << why;
+    const std::vector<double> all = static_mesh_forces_n(a, rest.value_or(Eigen::VectorXd()));
+    std::vector<double> out;
+    out.reserve(kPlanets);
+    for (std::size_t n = 0; n < kPlanets; ++n) out.push_back(all[2 * n]);
+    return out;
+  }
+};
+
+TEST(PlanetaryLoadSharing, OnePinErrorAgainstItsClosedForm) {
+  const std::vector<double> none(StarSet::kPlanets, 0.0);
+  const double f = StarSet::mean_force(), c = StarSet::compliance();
+  const double ca = std::cos(StarSet::kAlpha);
+  // Without errors every planet carries T / (N R_s).
+  for (double x : StarSet::sun_forces(StarSet::train(none, none))) EXPECT_NEAR(x / f, 1.0, 1e-9);
+  // One tangential error: the closed form, each planet, to 1e-6.
+  std::vector<double> e = none;
+  e[0] = 20e-6;
+  const std::vector<double> forces = StarSet::sun_forces(StarSet::train(e, none));
+  const double mean = e[0] / StarSet::kPlanets;
+  for (int n = 0; n < StarSet::kPlanets; ++n) {
+    const double expected = f + 2 * ca * (mean - e[static_cast<std::size_t>(n)]) / c;
+    EXPECT_NEAR(forces[static_cast<std::size_t>(n)] / expected, 1.0, 1e-6) << n;
+  }
+  // A radial error changes no force.
+  std::vector<double> radial = none;
+  radial[1] = 50e-6;
+  for (double x : StarSet::sun_forces(StarSet::train(none, radial))) EXPECT_NEAR(x / f, 1.0, 1e-9);
+  // The planet unloads at e* = N c F / (2 cos(alpha) (N - 1)).
+  e[0] = StarSet::kPlanets * c * f / (2 * ca * (StarSet::kPlanets - 1));
+  EXPECT_NEAR(StarSet::sun_forces(StarSet::train(e, none))[0] / f, 0.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace geardyn::train
+
+namespace geardyn {
+namespace {
+
+// The shipped set's run reads its load sharing: with constant mesh stiffness and no
+// fluctuation, a run from the static state stays there (the pin errors' loads enter the run as
+// they enter the static state), so the steady factor is the static one; one planet's pin 20 um
+// off loads the others; 300 um (six backlashes) unloads it: the static state says so, and the
+// run shows it off its drive flank (it ends on its back flank).
+TEST(PlanetaryLoadSharing, TheShippedSetsRunReadsItsLoadSharing) {
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "planetary_set.toml");
+  set_case_value(c, {"train.mesh[0].stiffness_harmonics", "[]"});
+  set_case_value(c, {"train.mesh[1].stiffness_harmonics", "[]"});
+  set_case_value(c, {"solver.initial", "\"static\""});
+  set_case_value(c, {"solver.duration_s", "0.005"});
+  const TrainRunResult even = run_train(c);
+  ASSERT_TRUE(even.ok()) << even.message;
+  ASSERT_EQ(even.load_sharing.size(), 2U);  // the sun's planets and the ring's
+  EXPECT_EQ(even.load_sharing[0].gear, "sun");
+  EXPECT_EQ(even.load_sharing[0].meshes,
+            (std::vector<std::string>{"sun_planet1", "sun_planet2", "sun_planet3"}));
+  EXPECT_NEAR(*even.load_sharing[0].static_factor, 1.0, 1e-12);
+  set_case_value(c, {"train.planet_pin_errors_um", "[[0, 20], [0, 0], [0, 0]]"});
+  const TrainRunResult off = run_train(c);
+  ASSERT_TRUE(off.ok()) << off.message;
+  const TrainLoadSharing& sun = off.load_sharing[0];
+  ASSERT_TRUE(sun.static_factor && sun.factor && sun.factor_with_startup);
+  EXPECT_GT(*sun.static_factor, 1.05);
+  EXPECT_NEAR(*sun.factor / *sun.static_factor, 1.0, 1e-9);
+  EXPECT_NEAR(*sun.factor_with_startup / *sun.static_factor, 1.0, 1e-9);
+  // The factor is the other planets' share: 3 F_2 / sum F, from the meshes' static forces.
+  const double f1 = *off.meshes[0].static_force_n, f2 = *off.meshes[1].static_force_n;
+  EXPECT_LT(f1, f2);
+  EXPECT_NEAR(*sun.static_factor, 3 * f2 / (f1 + 2 * f2), 1e-12);
+  EXPECT_TRUE(sun.lost_contact.empty() && sun.unloaded_at_rest.empty());
+  set_case_value(c, {"train.planet_pin_errors_um", "[[0, 300], [0, 0], [0, 0]]"});
+  const TrainRunResult lost = run_train(c);
+  ASSERT_TRUE(lost.ok()) << lost.message;
+  EXPECT_EQ(lost.load_sharing[0].unloaded_at_rest, std::vector<std::string>{"sun_planet1"});
+  EXPECT_NE(std::find(lost.load_sharing[0].lost_contact.begin(),
+                      lost.load_sharing[0].lost_contact.end(), "sun_planet1"),
+            lost.load_sharing[0].lost_contact.end());
+}
+
+}  // namespace
+}  // namespace geardyn

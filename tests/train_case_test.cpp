@@ -490,7 +490,7 @@ position_angle_deg = 30
 TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {
   // case.toml of a run holds the train as given: read again, it writes the same text.
   for (const char* file : {"two_stage_reducer.toml", "idler_train.toml", "loose_gear_rattle.toml",
-                           "lin_parker_1999.toml"}) {
+                           "lin_parker_1999.toml", "planetary_set.toml"}) {
     const Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / file);
     ASSERT_TRUE(c.train) << file;
     const std::string text = to_toml(c);

@@ -385,6 +385,18 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
         "  bearing {:<9} force x {:.6g} to {:.6g} N, y {:.6g} to {:.6g} N, static ({}, {})\n",
         x.name, x.force_x_n.min, x.force_x_n.max, x.force_y_n.min, x.force_y_n.max,
         fmt_optional(x.static_force_x_n, " N"), fmt_optional(x.static_force_y_n, " N"));
+  for (const geardyn::TrainLoadSharing& x : r.load_sharing)
+    fmt::print(
+        "  load sharing {:<4} over {} meshes: factor {} (steady part; with the start-up {}), "
+        "static {}{}{}\n",
+        x.gear, x.meshes.size(), fmt_optional(x.factor, ""),
+        fmt_optional(x.factor_with_startup, ""), fmt_optional(x.static_factor, ""),
+        x.unloaded_at_rest.empty()
+            ? ""
+            : fmt::format("; unloaded at rest: {}", fmt::join(x.unloaded_at_rest, ", ")),
+        x.lost_contact.empty()
+            ? ""
+            : fmt::format("; lost contact: {}", fmt::join(x.lost_contact, ", ")));
   if (!r.static_note.empty()) fmt::print("  no static state:  {}\n", r.static_note);
   fmt::print("  {:<17} {} ({} events located), {:.3g} s wall\n",
              c.solver.method == geardyn::Method::kDopri5 ? "steps" : "cells", r.cells, r.events,

@@ -32,7 +32,9 @@
 //           from its seat (isotropic): w = u_i on the ground; on a pin of body j at r (pin
 //           radius and angle), w = u_i - u_j - theta_j s_j z x r, the pin's point moving with
 //           j's centre (u_j, when j is planar) and turning with j (s_j its sense, z x r =
-//           (-r_y, r_x)): Lin and Parker's planet bearing.
+//           (-r_y, r_x)): Lin and Parker's planet bearing. Its force k_b (w - o) + c_b w', o
+//           the seat's position error (a pin's radial and tangential error): a constant load
+//           k_b B^T o on the bodies.
 //   Mesh    between a driving gear a and a driven gear b, along the line of action: the normal
 //           deflection d = cos(beta_b) (R_a theta_a - R_b theta_b + n . (u_a - u_b)), u a
 //           planar body's (x, y) (absent for a body that keeps torsion only: held on rigid
@@ -151,6 +153,10 @@ struct Bearing {
   std::string on;  // the carrying body; "": the ground
   double pin_radius_m = 0;
   double pin_angle_rad = 0;
+  // The seat's position error (a planet pin's): the seat lies at e_r (cos psi, sin psi) + e_t
+  // (-sin psi, cos psi) from its nominal place, psi = pin_angle_rad (a bearing on the ground
+  // too), so that the bearing's force is k (w - o) + c w'.
+  double pin_error_radial_m = 0, pin_error_tangential_m = 0;
 };
 
 struct TorqueHarmonic {
@@ -246,6 +252,8 @@ class Assembled {
   int sense(int body) const { return sense_[static_cast<std::size_t>(body)]; }
   // B of bearing k: its body's centre's displacement from its seat, w = B q (x and y rows).
   Eigen::MatrixXd bearing_matrix(int bearing) const;
+  // o of bearing k: its seat's error in x and y (Bearing's pin errors), 0 without one.
+  Eigen::Vector2d bearing_offset(int bearing) const;
   // The twist of shaft k, theta_a - theta_b (theta_a to the ground) = v q.
   Eigen::RowVectorXd shaft_vector(int shaft) const;
   // The train's rigid rotation as coordinates: each body's speed ratio on its theta, 0 on every

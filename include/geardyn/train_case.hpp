@@ -18,6 +18,7 @@
 // tables of the docs. Values keep the case file's units here; train_of converts to SI.
 #pragma once
 
+#include <array>
 #include <map>
 #include <optional>
 #include <string>
@@ -89,6 +90,7 @@ struct TrainBearingData {
   std::string on;               // "": the ground
   double pin_radius_mm = 0;
   double pin_angle_deg = 0;
+  double pin_error_radial_um = 0, pin_error_tangential_um = 0;  // the seat's position error
 };
 
 // [[train.torque]]: a torque on a body, positive along its rotation (a drive), negative against
@@ -126,6 +128,8 @@ struct TrainCase {
   std::string planet;  // empty: no copies
   int planets = 0;
   std::vector<double> planet_angles_deg;
+  // Each copy's pin errors [radial, tangential] (um), added to its bearings' (empty: none).
+  std::vector<std::array<double, 2>> planet_pin_errors_um;
   std::vector<TrainBodyData> bodies;
   std::vector<TrainMeshData> meshes;
   std::vector<TrainShaftData> shafts;
@@ -144,9 +148,9 @@ struct TrainCase {
 // (meshes, shafts, bearings, torques, drags, speeds) one copy per planet named <name>1 ...
 // <name>N, turned about the set's axis by the planet's angle psi_n: its meshes' position angles
 // and its bearings' pin angles plus psi_n (the template is written for a planet at 0 deg, on +x
-// from the carrier's centre). Each copy keeps its template's origin for messages. Throws
-// InputError naming the key for a planet that is no body, a count without a planet (or the
-// reverse), and angles that are not one per planet.
+// from the carrier's centre), and the bearings of planet n given its planet_pin_errors_um. Each
+// copy keeps its template's origin for messages. Throws InputError naming the key for a planet that
+// is no body, a count without a planet (or the reverse), and angles that are not one per planet.
 TrainCase expand_planets(const TrainCase& t);
 
 // The train of a case with model.form = "train", in SI: base radii and inertias from the gear

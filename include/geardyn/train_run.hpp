@@ -68,6 +68,26 @@ struct TrainBearingReading {
   std::optional<double> static_force_x_n, static_force_y_n;
 };
 
+// A gear's load shared among the meshes it drives, or among those that drive it, when there
+// are two or more (a sun's planets, a ring's, a split-torque drive): the load-sharing factor
+// n max_i F_i / sum_i F_i over its n meshes (ISO 6336-1's K_gamma, AGMA 6123's mesh load
+// factor), 1 when they share equally.
+struct TrainLoadSharing {
+  std::string gear;
+  std::vector<std::string> meshes;
+  // At the static state (absent without one); the meshes whose static force is <= 0 (a planet
+  // that the linear static state unloads: the run then shows it separate).
+  std::optional<double> static_factor;
+  std::vector<std::string> unloaded_at_rest;
+  // The largest factor over the output samples of the steady part (absent when it was not
+  // reached) and of the whole window, at the samples where sum_i F_i > 0.
+  std::optional<double> factor, factor_with_startup;
+  // The meshes of the group that left their drive flank in the steady part (the whole window
+  // when it was not reached): separated, or pushed onto the back flank (a negative force): a
+  // planet losing its load, where the factor no longer describes it.
+  std::vector<std::string> lost_contact;
+};
+
 struct TrainSamples {
   std::vector<double> t_s;
   std::vector<Eigen::VectorXd> state;               // (q, q'): rad, m and their rates
@@ -99,6 +119,7 @@ struct TrainRunResult {
   std::vector<TrainMeshReading> meshes;
   std::vector<TrainShaftReading> shafts;
   std::vector<TrainBearingReading> bearings;
+  std::vector<TrainLoadSharing> load_sharing;
   TrainSamples samples;
   double wall_time_s = 0;
   bool ok() const { return termination == ode::Termination::kCompleted; }
