@@ -397,3 +397,179 @@ TEST(PlanetaryLoadSharing, TheShippedSetsRunReadsItsLoadSharing) {
 
 }  // namespace
 }  // namespace geardyn
+
+namespace geardyn::train {
+namespace {
+
+// Planet mesh phasing (docs/model.md, "Mesh phasing of planets"): with N equally spaced
+// planets phased from the layout, sun-planet mesh n lags the first by z_s psi_n / 2 pi cycles,
+// so harmonic l of the sun meshes' transmission error puts on the sun a net torque sum_n
+// e^(i l z_s psi_n), zero unless l z_s / N is whole, and a net transverse force sum_n
+// e^(i (l z_s +- 1) psi_n), zero unless l z_s / N +- 1 is. Read from the computed forced
+// response, not asserted: the sun's rotation and its centre's motion at l times the mesh
+// frequency, against the planets' (which always move).
+struct PhasingResponse {
+  double sun_rotation, sun_translation, planet_rotation;  // amplitudes, rad and m
+};
+
+PhasingResponse phasing_response(int z_sun, int z_planet, int planets, int harmonic,
+                                 double moved_rad = 0) {
+  constexpr double kModule = 2e-3, kAlpha = 20 * kDeg;
+  const int z_ring = z_sun + 2 * z_planet;
+  const auto radius = [&](int z) { return 0.5 * z * kModule * std::cos(kAlpha); };
+  Train t;
+  t.mesh_phase_from_layout = true;
+  t.bodies.push_back({"sun", 5e-4, true, 0.5});
+  t.bodies.push_back({"ring", 5e-2, true, 2.0});
+  t.bodies.push_back({"carrier", 2e-2, true, 3.0});
+  for (const char* c : {"sun", "ring", "carrier"})
+    t.bearings.push_back({fmt::format("{}_bearing", c), c, 1e8, 200.0});
+  t.shafts.push_back({"ring_support", "ring", kGround, 1e6, 10.0});
+  for (int n = 0; n < planets; ++n) {
+    const std::string p = fmt::format("p{}", n + 1);
+    const double psi = 2 * kPi * n / planets + (n == 1 ? moved_rad : 0.0);
+    t.bodies.push_back({p, 3e-4, true, 0.4});
+    t.bearings.push_back(
+        {p + "_pin", p, 2e8, 200.0, "carrier", 0.5 * kModule * (z_sun + z_planet), psi});
+    add_planet_meshes(t, p, psi, {radius(z_sun), radius(z_planet), radius(z_ring)}, 4e8, kAlpha,
+                      5e-5);
+    for (Mesh* m : {&t.meshes[t.meshes.size() - 2], &t.meshes.back()}) {
+      m->teeth_driving = m == &t.meshes.back() ? z_planet : z_sun;
+      m->teeth_driven = m == &t.meshes.back() ? z_ring : z_planet;
+      m->damping_n_s_per_m = 500;
+    }
+    // The sun mesh's transmission error: harmonic `harmonic` alone, phase 0 at its pitch point.
+    std::vector<MeshHarmonic>& te = t.meshes[t.meshes.size() - 2].transmission_error;
+    te.assign(static_cast<std::size_t>(harmonic), {0.0, 0.0});
+    te.back().value = 1e-6;
+  }
+  t.reference = "sun";
+  t.reference_speed_hz = 30;
+  const Assembled a(t);
+  const Eigen::MatrixXd k = a.contact_stiffness(), c = a.contact_damping();
+  const Eigen::MatrixXd& m = a.mass();
+  const double w = harmonic * 2 * kPi * a.mesh_frequency_hz(0);
+  using Cd = std::complex<double>;
+  const Eigen::MatrixXcd d = k.cast<Cd>() - w * w * m.cast<Cd>() + Cd(0, w) * c.cast<Cd>();
+  Eigen::VectorXcd rhs = Eigen::VectorXcd::Zero(a.size());
+  for (int j = 0; j < a.train().meshes.size(); ++j) {
+    const Mesh& x = a.train().meshes[static_cast<std::size_t>(j)];
+    if (x.transmission_error.empty()) continue;
+    // The phase the layout gave it (Assembled::place_teeth delays each harmonic).
+    const Cd e =
+        std::polar(x.transmission_error.back().value, x.transmission_error.back().phase_rad);
+    rhs += a.mesh_vector(j).transpose().cast<Cd>() *
+           (Cd(x.mean_stiffness_n_per_m, w * x.damping_n_s_per_m) * e);
+  }
+  const Eigen::VectorXcd theta = d.partialPivLu().solve(rhs);
+  const int sun = a.index("sun"), xs = a.translation(sun);
+  return {std::abs(theta(sun)), theta.segment(xs, 2).norm(), std::abs(theta(a.index("p1")))};
+}
+
+TEST(PlanetaryPhasing, TheSunFeelsAHarmonicAsTheToothCountsSay) {
+  // Four planets: 24 + 76 teeth, l = 1: l z_s / N = 6, a torque and no force; 25 + 75: 24 / 4
+  // = 6 whole, a force and no torque; 26 + 74: 26, 25, 27 over 4 none whole, the sun still.
+  // l = 2 with 26 teeth: 52 / 4 = 13, a torque.
+  constexpr double kStill = 1e-9;  // of the planets' motion, in its units
+  const PhasingResponse torque = phasing_response(24, 26, 4, 1);
+  EXPECT_GT(torque.sun_rotation, 1e-3 * torque.planet_rotation);
+  EXPECT_LT(torque.sun_translation, kStill * torque.planet_rotation * 0.03);
+  const PhasingResponse force = phasing_response(25, 25, 4, 1);
+  EXPECT_LT(force.sun_rotation, kStill * force.planet_rotation);
+  EXPECT_GT(force.sun_translation, 1e-3 * force.planet_rotation * 0.03);
+  const PhasingResponse still = phasing_response(26, 24, 4, 1);
+  EXPECT_LT(still.sun_rotation, kStill * still.planet_rotation);
+  EXPECT_LT(still.sun_translation, kStill * still.planet_rotation * 0.03);
+  const PhasingResponse second = phasing_response(26, 24, 4, 2);
+  EXPECT_GT(second.sun_rotation, 1e-3 * second.planet_rotation);
+  // Three planets (25 + 77 teeth): 25 / 3 is not whole, 24 / 3 is: a force, no torque.
+  const PhasingResponse three = phasing_response(25, 26, 3, 1);
+  EXPECT_LT(three.sun_rotation, kStill * three.planet_rotation);
+  EXPECT_GT(three.sun_translation, 1e-3 * three.planet_rotation * 0.03);
+  // A planet moved off equal spacing by 7.2 deg, two of the angles 360 / (z_s + z_r) at which
+  // it still assembles: the cancellation breaks, and the still sun turns and moves.
+  const PhasingResponse moved = phasing_response(26, 24, 4, 1, 2 * 2 * kPi / 100);
+  EXPECT_GT(moved.sun_rotation, 1e-4 * moved.planet_rotation);
+  EXPECT_GT(moved.sun_translation, 1e-4 * moved.planet_rotation * 0.03);
+}
+
+}  // namespace
+}  // namespace geardyn::train
+
+namespace geardyn::train {
+namespace {
+
+// The rigid-bearing limit: sun, ring and carrier on rigid bearings (torsion only), each planet on
+// a pin of stiffness k_pin, is Lin and Parker's purely rotational model as k_pin grows. That
+// model, written by hand with u = r theta: planet modes (the central members still, the planets
+// turning against one another) at w^2 = (k_s + k_r) / (I_p / r_p^2), N - 1 times; and the modes
+// where every planet moves alike, from the four coordinates (u_s, u_r, u_c, u_p) with the
+// planets' centres carried by the carrier (eta = u_c):
+//   delta_s = u_s + u_p - u_c cos(alpha), delta_r = u_r - u_p - u_c cos(alpha),
+//   2 V = N (k_s delta_s^2 + k_r delta_r^2) + k_ru u_r^2,
+//   M = diag(I_s / r_s^2, I_r / r_r^2, I_c / r_c^2 + N m_p, N I_p / r_p^2).
+std::vector<double> rotational_model_hz(int planets) {
+  const double ca = std::cos(kPressureAngle), k = kMeshStiffness;
+  Eigen::Matrix4d stiffness = Eigen::Matrix4d::Zero();
+  const Eigen::RowVector4d ds(1, 0, -ca, 1), dr(0, 1, -ca, -1);
+  stiffness += planets * k * (ds.transpose() * ds + dr.transpose() * dr);
+  stiffness(1, 1) += kRingSupport;
+  const Eigen::Vector4d mass(kSun.i_over_r2_kg, kRing.i_over_r2_kg,
+                             kCarrier.i_over_r2_kg + planets * kPlanet.mass_kg,
+                             planets * kPlanet.i_over_r2_kg);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix4d> solver(
+      stiffness, Eigen::Matrix4d(mass.asDiagonal()));
+  std::vector<double> hz;
+  hz.reserve(3 + static_cast<std::size_t>(planets));
+  // The set turning about its held ring: a zero eigenvalue, to rounding.
+  for (int i = 0; i < 4; ++i)
+    hz.push_back(solver.eigenvalues()(i) > 1e-12 * solver.eigenvalues()(3)
+                     ? std::sqrt(solver.eigenvalues()(i)) / (2 * kPi)
+                     : 0.0);
+  const double planet = std::sqrt(2 * k / kPlanet.i_over_r2_kg) / (2 * kPi);
+  for (int n = 1; n < planets; ++n) hz.push_back(planet);
+  std::sort(hz.begin(), hz.end());
+  return hz;
+}
+
+// The lowest 3 + N frequencies of the set with rigid central bearings and pins of stiffness
+// k_pin (the other 2 N are the planets on their pins, far above).
+std::vector<double> rigid_bearing_set_hz(int planets, double pin_stiffness) {
+  Train t = lin_parker(planets);
+  for (Body& b : t.bodies)
+    if (b.name == "sun" || b.name == "ring" || b.name == "carrier") b.planar = false;
+  std::vector<Bearing> pins;
+  for (Bearing& b : t.bearings)
+    if (!b.on.empty()) {
+      b.stiffness_n_per_m = pin_stiffness;
+      pins.push_back(b);
+    }
+  t.bearings = pins;
+  std::vector<double> hz;
+  for (const TrainMode& m : modes(Assembled(t))) hz.push_back(m.frequency_hz);
+  hz.resize(3 + static_cast<std::size_t>(planets));
+  return hz;
+}
+
+TEST(Planetary, RigidBearingsAndPinsGiveTheRotationalModel) {
+  for (const int planets : {3, 4}) {
+    SCOPED_TRACE(planets);
+    const std::vector<double> exact = rotational_model_hz(planets);
+    double error[2] = {0, 0};
+    for (int i = 0; i < 2; ++i) {
+      const std::vector<double> hz = rigid_bearing_set_hz(planets, i == 0 ? 1e12 : 1e13);
+      ASSERT_EQ(hz.size(), exact.size());
+      EXPECT_EQ(hz[0], 0.0);
+      EXPECT_EQ(exact[0], 0.0);
+      for (std::size_t j = 1; j < hz.size(); ++j)
+        error[i] = std::max(error[i], std::abs(hz[j] / exact[j] - 1));
+    }
+    // Within k_mesh / k_pin, and shrinking with it (first order).
+    EXPECT_LT(error[0], 2e-4);
+    EXPECT_LT(error[1], 2e-5);
+    EXPECT_NEAR(error[0] / error[1], 10.0, 2.0);
+  }
+}
+
+}  // namespace
+}  // namespace geardyn::train
