@@ -73,16 +73,23 @@ UserTrain user_train(const geardyn::train::Assembled& a) {
   u.minv = a.mass().inverse();
   u.ks = Eigen::MatrixXd::Zero(u.n, u.n);
   u.cs = Eigen::MatrixXd::Zero(u.n, u.n);
-  for (const auto& s : t.shafts) {
-    const int i = a.index(s.a), j = a.index(s.b);
-    for (auto [m, x] :
-         {std::pair{&u.ks, s.stiffness_n_m_per_rad}, std::pair{&u.cs, s.damping_n_m_s_per_rad}}) {
-      (*m)(i, i) += x;
-      (*m)(j, j) += x;
-      (*m)(i, j) -= x;
-      (*m)(j, i) -= x;
-    }
+  // Shafts (to the ground too) and bearings (on the ground or a carrier's pin) as geardyn's
+  // elements place them, as the meshes' vectors below.
+  for (std::size_t k = 0; k < t.shafts.size(); ++k) {
+    const Eigen::RowVectorXd v = a.shaft_vector(static_cast<int>(k));
+    u.ks += t.shafts[k].stiffness_n_m_per_rad * v.transpose() * v;
+    u.cs += t.shafts[k].damping_n_m_s_per_rad * v.transpose() * v;
   }
+  Eigen::VectorXd seat_loads = Eigen::VectorXd::Zero(u.n);
+  for (std::size_t k = 0; k < t.bearings.size(); ++k) {
+    const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(k));
+    u.ks += t.bearings[k].stiffness_n_per_m * b.transpose() * b;
+    u.cs += t.bearings[k].damping_n_s_per_m * b.transpose() * b;
+    seat_loads += t.bearings[k].stiffness_n_per_m * b.transpose() *
+                  a.bearing_offset(static_cast<int>(k));
+  }
+  for (int i = 0; i < u.n; ++i)
+    if (seat_loads(i) != 0) u.torques.push_back({i, {seat_loads(i), {}}});
   for (const auto& d : t.drags) u.cs(a.index(d.body), a.index(d.body)) += d.viscous_n_m_s_per_rad;
   for (std::size_t m = 0; m < t.meshes.size(); ++m) {
     const int i = static_cast<int>(m);
