@@ -7,6 +7,7 @@
 #include <boost/numeric/odeint.hpp>
 #include <cassert>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 namespace geardyn::ode {
@@ -19,8 +20,7 @@ using Values = std::vector<double>;  // the stepper's state type
 // coefficients, and the cosines and sines are computed once per call per frequency.
 class Derivative {
  public:
-  Derivative(const LinearSwitchedSystem& s, int region)
-      : r_(s.regions[static_cast<std::size_t>(region)]), n_(s.dimension) {
+  Derivative(const LinearSwitchedSystem& s, int region) : r_(s.region(region)), n_(s.dimension) {
     const std::size_t nf = s.frequencies_rad_s.size();
     for (std::size_t f = 0; f < nf; ++f) {
       Terms t{s.frequencies_rad_s[f], {}, {}};
@@ -74,12 +74,21 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
   namespace odeint = boost::numeric::odeint;
   assert(system.validate().empty() && t1 >= t0 && y0.size() == system.dimension);
   const Eigen::Index n = system.dimension;
-  std::vector<Derivative> rhs;
-  std::vector<FunctionalValues> guards;
-  for (int r = 0; r < static_cast<int>(system.regions.size()); ++r) {
-    rhs.emplace_back(system, r);
-    guards.emplace_back(system, system.regions[static_cast<std::size_t>(r)].guards);
-  }
+  // Each region's right-hand side and guards, made when the flow first enters it (a train's
+  // 3^meshes regions are mostly never visited).
+  const auto count = static_cast<std::size_t>(system.region_count());
+  std::vector<std::unique_ptr<Derivative>> rhs(count);
+  std::vector<std::unique_ptr<FunctionalValues>> guards(count);
+  const auto rhs_of = [&](int r) -> const Derivative& {
+    auto& d = rhs[static_cast<std::size_t>(r)];
+    if (!d) d = std::make_unique<Derivative>(system, r);
+    return *d;
+  };
+  const auto guards_of = [&](int r) -> const FunctionalValues& {
+    auto& g = guards[static_cast<std::size_t>(r)];
+    if (!g) g = std::make_unique<FunctionalValues>(system, system.region(r).guards);
+    return *g;
+  };
   FlowResult result;
   Values x(y0.data(), y0.data() + n), xe(x), xs(x);
   Vector y(n);
@@ -89,7 +98,7 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
   };
   std::vector<double> values;
   const auto guard_values = [&](double t, const Values& s) {
-    guards[static_cast<std::size_t>(region)](t, as_vector(s), values);
+    guards_of(region)(t, as_vector(s), values);
   };
   auto stepper = odeint::make_dense_output(options.tolerance, options.tolerance,
                                            odeint::runge_kutta_dopri5<Values>());
@@ -129,7 +138,7 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
     if (steps > options.max_steps)
       return finish(Termination::kStepUnderflow,
                     fmt::format("more than {} steps by t = {:.6g} s", options.max_steps, t));
-    const Derivative& f = rhs[static_cast<std::size_t>(region)];
+    const Derivative& f = rhs_of(region);
     stepper.do_step([&f](const Values& s, Values& ds, double tt) { f(s, ds, tt); });
     double te = std::min(stepper.current_time(), t1);
     stepper.calc_state(te, xe);
@@ -140,7 +149,7 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
       return finish(Termination::kStepUnderflow,
                     fmt::format("the step fell below what t = {:.6g} s can resolve", t));
     guard_values(te, xe);
-    const std::vector<LinearGuard>& gs = system.regions[static_cast<std::size_t>(region)].guards;
+    const std::vector<LinearGuard>& gs = system.region(region).guards;
     // The earliest crossing among the guards that ended the step below their slack.
     int crossed = -1;
     double tc = te;

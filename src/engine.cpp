@@ -64,14 +64,13 @@ T evaluate(const FourierTerms<T>& x, const std::vector<double>& w, double t) {
 
 }  // namespace
 
-std::string LinearSwitchedSystem::validate() const {
-  const int n = dimension;
-  const auto F = frequencies_rad_s.size();
-  if (n <= 0) return fmt::format("dimension = {}: must be >= 1", n);
-  if (regions.empty()) return "no regions";
-  for (double w : frequencies_rad_s)
-    if (!(w > 0) || !std::isfinite(w))
-      return fmt::format("frequency {} rad/s: must be finite and > 0", w);
+namespace {
+
+// What is wrong with region r of a system of R regions (validate()), "" when nothing.
+std::string check_region(const LinearSwitchedSystem& sys, int r, const LinearRegion& g,
+                         const LinearRegion& first) {
+  const int n = sys.dimension, R = sys.region_count();
+  const auto F = sys.frequencies_rad_s.size();
   auto terms_ok = [&](const auto& x, auto rows, auto cols) {
     auto fits = [&](const auto& m) { return m.rows() == rows && m.cols() == cols; };
     if (!fits(x.constant)) return false;
@@ -82,75 +81,125 @@ std::string LinearSwitchedSystem::validate() const {
       if (!fits(m)) return false;
     return true;
   };
-  const int R = static_cast<int>(regions.size());
-  for (int r = 0; r < R; ++r) {
-    const LinearRegion& g = regions[r];
-    if (!terms_ok(g.a, n, n)) return fmt::format("region {}: A is not {} x {} per term", r, n, n);
-    if (!terms_ok(g.u, n, 1)) return fmt::format("region {}: u is not of size {} per term", r, n);
-    if (g.a.varies() && !(coefficient_period_s > 0))
-      return fmt::format("region {}: A varies but coefficient_period_s = {}", r,
-                         coefficient_period_s);
-    if (g.observables.size() != regions[0].observables.size())
-      return fmt::format("region {}: {} observables, region 0 has {}", r, g.observables.size(),
-                         regions[0].observables.size());
-    for (std::size_t i = 0; i < g.observables.size(); ++i) {
-      const LinearGuard& q = g.observables[i];
-      if (!terms_ok(q.row, 1, n) ||
-          (!q.offset.cos.empty() && (q.offset.cos.size() != F || q.offset.sin.size() != F)))
-        return fmt::format("region {} observable {}: terms do not fit 1 x {}", r, i, n);
-      if (q.row.varies() && !(coefficient_period_s > 0))
-        return fmt::format("region {} observable {}: row varies but coefficient_period_s = {}", r,
-                           i, coefficient_period_s);
-    }
-    for (std::size_t i = 0; i < g.guards.size(); ++i) {
-      const LinearGuard& q = g.guards[i];
-      if (!terms_ok(q.row, 1, n))
-        return fmt::format("region {} guard {}: row is not 1 x {}", r, i, n);
-      if (!q.offset.cos.empty() && (q.offset.cos.size() != F || q.offset.sin.size() != F))
-        return fmt::format("region {} guard {}: offset terms do not match the frequencies", r, i);
-      if (q.row.varies() && !(coefficient_period_s > 0))
-        return fmt::format("region {} guard {}: row varies but coefficient_period_s = {}", r, i,
-                           coefficient_period_s);
-      if (q.target < 0 || q.target >= R || q.target == r)
-        return fmt::format("region {} guard {}: target {} is not another region in [0, {})", r, i,
-                           q.target, R);
-      if (!(q.scale > 0))
-        return fmt::format("region {} guard {}: scale {} must be > 0", r, i, q.scale);
-    }
+  const double period = sys.coefficient_period_s;
+  if (!terms_ok(g.a, n, n)) return fmt::format("region {}: A is not {} x {} per term", r, n, n);
+  if (!terms_ok(g.u, n, 1)) return fmt::format("region {}: u is not of size {} per term", r, n);
+  if (g.a.varies() && !(period > 0))
+    return fmt::format("region {}: A varies but coefficient_period_s = {}", r, period);
+  if (g.observables.size() != first.observables.size())
+    return fmt::format("region {}: {} observables, region 0 has {}", r, g.observables.size(),
+                       first.observables.size());
+  for (std::size_t i = 0; i < g.observables.size(); ++i) {
+    const LinearGuard& q = g.observables[i];
+    if (!terms_ok(q.row, 1, n) ||
+        (!q.offset.cos.empty() && (q.offset.cos.size() != F || q.offset.sin.size() != F)))
+      return fmt::format("region {} observable {}: terms do not fit 1 x {}", r, i, n);
+    if (q.row.varies() && !(period > 0))
+      return fmt::format("region {} observable {}: row varies but coefficient_period_s = {}", r, i,
+                         period);
+  }
+  for (std::size_t i = 0; i < g.guards.size(); ++i) {
+    const LinearGuard& q = g.guards[i];
+    if (!terms_ok(q.row, 1, n))
+      return fmt::format("region {} guard {}: row is not 1 x {}", r, i, n);
+    if (!q.offset.cos.empty() && (q.offset.cos.size() != F || q.offset.sin.size() != F))
+      return fmt::format("region {} guard {}: offset terms do not match the frequencies", r, i);
+    if (q.row.varies() && !(period > 0))
+      return fmt::format("region {} guard {}: row varies but coefficient_period_s = {}", r, i,
+                         period);
+    if (q.target < 0 || q.target >= R || q.target == r)
+      return fmt::format("region {} guard {}: target {} is not another region in [0, {})", r, i,
+                         q.target, R);
+    if (!(q.scale > 0))
+      return fmt::format("region {} guard {}: scale {} must be > 0", r, i, q.scale);
   }
   // Every frequency that enters a coefficient must fit the coefficient period.
-  if (coefficient_period_s > 0) {
+  if (period > 0) {
     for (std::size_t f = 0; f < F; ++f) {
-      bool used = false;
-      for (const LinearRegion& g : regions) {
-        if (g.a.varies() && (g.a.cos[f].any() || g.a.sin[f].any())) used = true;
-        for (const LinearGuard& q : g.guards)
-          if (q.row.varies() && (q.row.cos[f].any() || q.row.sin[f].any())) used = true;
-      }
-      if (!used) continue;
-      if (!harmonic_of(frequencies_rad_s[f], coefficient_period_s, kHarmonicFit))
+      bool used = g.a.varies() && (g.a.cos[f].any() || g.a.sin[f].any());
+      for (const LinearGuard& q : g.guards)
+        if (q.row.varies() && (q.row.cos[f].any() || q.row.sin[f].any())) used = true;
+      if (used && !harmonic_of(sys.frequencies_rad_s[f], period, kHarmonicFit))
         return fmt::format("frequency {} rad/s is not a multiple of 2 pi / {} s",
-                           frequencies_rad_s[f], coefficient_period_s);
+                           sys.frequencies_rad_s[f], period);
     }
   }
   return {};
 }
 
+}  // namespace
+
+struct LazyRegionStore {
+  int count = 0;
+  std::function<LinearRegion(int)> build;
+  std::vector<std::unique_ptr<LinearRegion>> built;
+  std::unique_ptr<std::once_flag[]> once;
+};
+
+void LinearSwitchedSystem::make_lazy(int count, std::function<LinearRegion(int)> build) {
+  regions.clear();
+  lazy_ = std::make_shared<LazyRegionStore>();
+  lazy_->count = count;
+  lazy_->build = std::move(build);
+  lazy_->built.resize(static_cast<std::size_t>(count));
+  lazy_->once = std::make_unique<std::once_flag[]>(static_cast<std::size_t>(count));
+}
+
+int LinearSwitchedSystem::region_count() const {
+  return lazy_ ? lazy_->count : static_cast<int>(regions.size());
+}
+
+const LinearRegion& LinearSwitchedSystem::region(int r) const {
+  if (!lazy_) return regions[static_cast<std::size_t>(r)];
+  LazyRegionStore& store = *lazy_;
+  std::call_once(store.once[static_cast<std::size_t>(r)], [&] {
+    auto made = std::make_unique<LinearRegion>(store.build(r));
+    // Region 0 sets the count of observables every region has (checked against itself first).
+    const LinearRegion& first = r == 0 ? *made : region(0);
+    if (const std::string e = check_region(*this, r, *made, first); !e.empty())
+      throw std::logic_error("linear system, built on demand: " + e);
+    store.built[static_cast<std::size_t>(r)] = std::move(made);
+  });
+  return *store.built[static_cast<std::size_t>(r)];
+}
+
+std::string LinearSwitchedSystem::validate() const {
+  const int n = dimension;
+  if (n <= 0) return fmt::format("dimension = {}: must be >= 1", n);
+  if (region_count() == 0) return "no regions";
+  for (double w : frequencies_rad_s)
+    if (!(w > 0) || !std::isfinite(w))
+      return fmt::format("frequency {} rad/s: must be finite and > 0", w);
+  if (lazy_) {
+    try {
+      region(0);  // built and checked; the others as they are asked for
+    } catch (const std::logic_error& e) {
+      return e.what();
+    }
+    return {};
+  }
+  for (int r = 0; r < region_count(); ++r)
+    if (std::string e = check_region(*this, r, regions[static_cast<std::size_t>(r)], regions[0]);
+        !e.empty())
+      return e;
+  return {};
+}
+
 Vector derivative(const LinearSwitchedSystem& s, int region, double t_s, const Vector& y) {
-  assert(region >= 0 && region < static_cast<int>(s.regions.size()) && y.size() == s.dimension);
-  const LinearRegion& g = s.regions[region];
+  assert(region >= 0 && region < s.region_count() && y.size() == s.dimension);
+  const LinearRegion& g = s.region(region);
   return evaluate(g.a, s.frequencies_rad_s, t_s) * y + evaluate(g.u, s.frequencies_rad_s, t_s);
 }
 
 RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double t_s) {
-  assert(region >= 0 && region < static_cast<int>(s.regions.size()) && guard >= 0 &&
-         guard < static_cast<int>(s.regions[region].guards.size()));
-  return evaluate(s.regions[region].guards[guard].row, s.frequencies_rad_s, t_s);
+  assert(region >= 0 && region < s.region_count() && guard >= 0 &&
+         guard < static_cast<int>(s.region(region).guards.size()));
+  return evaluate(s.region(region).guards[guard].row, s.frequencies_rad_s, t_s);
 }
 
 double guard_value(const LinearSwitchedSystem& s, int region, int guard, double t_s,
                    const Vector& y) {
-  return functional_value(s, s.regions[region].guards[guard], t_s, y);
+  return functional_value(s, s.region(region).guards[guard], t_s, y);
 }
 
 double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, double t_s,
@@ -1220,7 +1269,7 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
   const int n = sys.dimension;
   const auto& w = sys.frequencies_rad_s;
   {
-    const LinearRegion& reg = sys.regions[r];
+    const LinearRegion& reg = sys.region(r);
     RegionCells<D> rc;
     for (std::size_t f = 0; f < w.size(); ++f)
       if (reg.u.varies() && (reg.u.cos[f].any() || reg.u.sin[f].any()))
@@ -1329,10 +1378,10 @@ class LazyRegions {
   LazyRegions(const LinearSwitchedSystem& sys, const EngineOptions& opt)
       : sys_(&sys),
         opt_(opt),
-        cells_(sys.regions.size()),
-        once_(std::make_unique<std::once_flag[]>(sys.regions.size())),
-        observables_once_(std::make_unique<std::once_flag[]>(sys.regions.size())),
-        weights_once_(std::make_unique<std::once_flag[]>(sys.regions.size())) {}
+        cells_(sys.region_count()),
+        once_(std::make_unique<std::once_flag[]>(sys.region_count())),
+        observables_once_(std::make_unique<std::once_flag[]>(sys.region_count())),
+        weights_once_(std::make_unique<std::once_flag[]>(sys.region_count())) {}
   // Throws std::invalid_argument when the region's series do not converge.
   const RegionCells<D>& get(int r) const {
     std::call_once(once_[r], [&] { cells_[r] = build_region<D>(*sys_, r, rate(r), opt_); });
@@ -1345,7 +1394,7 @@ class LazyRegions {
       std::call_once(observables_once_[r], [&] {
         RegionCells<D>& w = cells_[r];
         for (int k = 0; k < w.K; ++k)
-          cache_functionals(*sys_, sys_->regions[r].observables, w, k, w.cells[k].observable_fn);
+          cache_functionals(*sys_, sys_->region(r).observables, w, k, w.cells[k].observable_fn);
       });
     return rc;
   }
@@ -1367,9 +1416,10 @@ class LazyRegions {
  private:
   // A region with no rate of its own (free flight with constant forcing) takes the system's.
   double rate(int r) const {
-    double rho = region_rate(*sys_, sys_->regions[r]);
-    for (const LinearRegion& reg : sys_->regions)
-      if (!(rho > 0)) rho = std::max(rho, region_rate(*sys_, reg));
+    double rho = region_rate(*sys_, sys_->region(r));
+    // The first region with a rate, in their order (a lazy system builds only up to it).
+    for (int i = 0; i < sys_->region_count() && !(rho > 0); ++i)
+      rho = std::max(rho, region_rate(*sys_, sys_->region(i)));
     if (!(rho > 0)) rho = 1.0 / std::max(sys_->coefficient_period_s, 1.0);
     return rho;
   }
@@ -1582,7 +1632,7 @@ class Flow final : public CellView {
       // The earliest guard crossing in [x_start, x_stop].
       double x_end = x_stop;
       int crossed = -1;
-      const LinearRegion& reg = sys_.regions[cur_.region];
+      const LinearRegion& reg = sys_.region(cur_.region);
       for (int i = 0; i < static_cast<int>(reg.guards.size()); ++i) {
         const LinearGuard& q = reg.guards[i];
         const double slack = kGuardSlack * q.scale;
@@ -1705,7 +1755,7 @@ class Flow final : public CellView {
   bool extreme(int observable, bool maximum, double beyond, double& value,
                double& t_s) const override {
     const RegionCells<D>& rc = *rc_;
-    const int id = static_cast<int>(sys_.regions[cur_.region].guards.size()) + observable;
+    const int id = static_cast<int>(sys_.region(cur_.region).guards.size()) + observable;
     if (rc.functionals_cached) {
       // The cell's range first: most cells cannot hold a new extreme.
       observables_ready();
@@ -1933,7 +1983,7 @@ class Flow final : public CellView {
     dev_ = (cur_.z - rc.y_ref).cwiseAbs();
     delta_.noalias() = rc.alpha_T * dev_;
     delta_ += rc.beta_T;
-    const LinearRegion& reg = sys_.regions[cur_.region];
+    const LinearRegion& reg = sys_.region(cur_.region);
     for (int i = 0; i < static_cast<int>(reg.guards.size()); ++i) {
       const LinearGuard& q = reg.guards[i];
       double g0 = q.row.constant.dot(cur_.z) + q.offset.constant;
@@ -1985,7 +2035,7 @@ class Flow final : public CellView {
     for (std::size_t j = 0; j < nf; ++j) out_ += cur_.C[j] * rc.pc[j] + cur_.S[j] * rc.ps[j];
     dev_ = cur_.z - out_;
     delta_.noalias() = rc.alpha_T * dev_.cwiseAbs();
-    const LinearRegion& reg = sys_.regions[cur_.region];
+    const LinearRegion& reg = sys_.region(cur_.region);
     for (std::size_t i = 0; i < reg.guards.size(); ++i)
       if (!(rc.guard_floor[i] + kGuardSlack * reg.guards[i].scale -
                 rc.guard_abs_row[i].dot(delta_) >
@@ -2102,7 +2152,7 @@ class Flow final : public CellView {
   void functional_range(int id, double& low, double& high) const {
     const RegionCells<D>& rc = *rc_;
     const Cell<D>& cell = rc.cells[cur_.k];
-    const int guards = static_cast<int>(sys_.regions[cur_.region].guards.size());
+    const int guards = static_cast<int>(sys_.region(cur_.region).guards.size());
     const typename Cell<D>::Functional& f =
         id < guards ? cell.fn[id] : cell.observable_fn[id - guards];
     double g0 = f.phi[0].dot(cur_.z) + f.r0[0];
@@ -2150,7 +2200,7 @@ class Flow final : public CellView {
   // The current region's observable forms built (LazyRegions::with_observables), asked of the
   // regions once per region and flow.
   void observables_ready() const {
-    if (observables_ready_.empty()) observables_ready_.assign(sys_.regions.size(), 0);
+    if (observables_ready_.empty()) observables_ready_.assign(sys_.region_count(), 0);
     char& ready = observables_ready_[static_cast<std::size_t>(cur_.region)];
     if (!ready) {
       regions_.with_observables(cur_.region);
@@ -2168,7 +2218,7 @@ class Flow final : public CellView {
     const Cell<D>& cell = rc.cells[cur_.k];
     const int p = cell.order;
     gc.resize(p + 1);
-    const LinearRegion& reg = sys_.regions[cur_.region];
+    const LinearRegion& reg = sys_.region(cur_.region);
     const int guards = static_cast<int>(reg.guards.size());
     if (rc.functionals_cached && id >= guards) observables_ready();
     if (rc.functionals_cached) {
@@ -2239,7 +2289,7 @@ FlowResult ExactEngine::flow(double t0_s, const Vector& y0, int region, double t
                              const OutputGrid& output, FlowObserver& observer,
                              bool jacobian) const {
   const Impl& I = *impl_;
-  assert(region >= 0 && region < static_cast<int>(I.sys.regions.size()));
+  assert(region >= 0 && region < static_cast<int>(I.sys.region_count()));
   assert(y0.size() == I.sys.dimension);
   assert(t1_s >= t0_s);
   if (I.fixed) {

@@ -98,6 +98,16 @@ ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s,
     contact = kDriveContact - GearPairModel::kFirstRegion;
     system_period = system_period_s(model.parameters());
   }
+  if (sys.lazy()) {
+    // The one region read, held on its own (a lazy system builds its regions on demand).
+    ode::LinearSwitchedSystem one;
+    one.dimension = sys.dimension;
+    one.frequencies_rad_s = sys.frequencies_rad_s;
+    one.coefficient_period_s = sys.coefficient_period_s;
+    one.regions = {sys.region(contact)};
+    sys = std::move(one);
+    contact = 0;
+  }
   sys.regions[contact].guards.clear();  // permanent contact
   const double T = period_s > 0                   ? period_s
                    : sys.coefficient_period_s > 0 ? sys.coefficient_period_s

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <complex>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -791,7 +792,7 @@ int Assembled::classify(double t_s, const Eigen::VectorXd& y) const {
   return region(s);
 }
 
-ode::LinearSwitchedSystem Assembled::linear_system() const {
+ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
   const int n = size(), dim = 2 * n;
   const int meshes = static_cast<int>(t_.meshes.size());
   ode::LinearSwitchedSystem sys;
@@ -829,18 +830,6 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
   // period); the forcing and the guards' offsets may hold any frequency.
   const std::size_t n_coefficient = sys.coefficient_period_s > 0 ? nf : 0;
 
-  // x(t) = scale * spectrum into FourierTerms, each value placed by put(T&, double).
-  const auto add = [&](auto& terms, const Spectrum& s, double w, double scale, auto put) {
-    for (const auto& [h, c] : s) {
-      if (h == 0) {
-        put(terms.constant, scale * c.real());
-      } else if (std::abs(c) > 0) {
-        const int f = frequency_index(sys.frequencies_rad_s, h * w);
-        put(terms.cos[f], scale * c.real());
-        put(terms.sin[f], -scale * c.imag());
-      }
-    }
-  };
   const Eigen::MatrixXd m_inv = m_.inverse();
   Eigen::MatrixXd k_common, c_common;
   stamp_common(*this, k_common, c_common);
@@ -851,28 +840,47 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
     q_common += t_.bearings[k].stiffness_n_per_m * bearing_matrix(static_cast<int>(k)).transpose() *
                 bearing_offset(static_cast<int>(k));
 
-  const auto functional = [&] {
-    ode::LinearGuard g;
-    g.row.constant = RowVector::Zero(dim);
-    g.row.cos.assign(n_coefficient, RowVector::Zero(dim));
-    g.row.sin.assign(n_coefficient, RowVector::Zero(dim));
-    g.offset.constant = 0;
-    g.offset.cos.assign(nf, 0.0);
-    g.offset.sin.assign(nf, 0.0);
-    return g;
-  };
-  // d - e of mesh m, times `sign`, minus `edge`.
-  const auto deflection = [&](int m, double sign, double edge) {
-    ode::LinearGuard g = functional();
-    g.row.constant.head(n) = sign * mesh_vector(m);
-    add(g.offset, sig[m].e, sig[m].w, -sign, [](double& x, double v) { x += v; });
-    g.offset.constant -= edge;
-    g.scale = t_.meshes[m].backlash_m;
-    return g;
-  };
+  // Region r from what every region shares: built here for a train of few meshes, on demand
+  // (ode::LinearSwitchedSystem::make_lazy) past kEagerRegions, from a copy of the train.
+  auto build = [self = std::make_shared<const Assembled>(*this), sig, freqs = sys.frequencies_rad_s,
+                nf, n_coefficient, m_inv, k_common, c_common, q_common, n, dim,
+                meshes](int r) -> ode::LinearRegion {
+    const Assembled& a = *self;
+    const Train& t = a.train();
+    std::vector<double> table = freqs;  // complete: each lookup below finds its frequency
+    // x(t) = scale * spectrum into FourierTerms, each value placed by put(T&, double).
+    const auto add = [&](auto& terms, const Spectrum& s, double w, double scale, auto put) {
+      for (const auto& [h, c] : s) {
+        if (h == 0) {
+          put(terms.constant, scale * c.real());
+        } else if (std::abs(c) > 0) {
+          const int f = frequency_index(table, h * w);
+          put(terms.cos[f], scale * c.real());
+          put(terms.sin[f], -scale * c.imag());
+        }
+      }
+    };
+    const auto functional = [&] {
+      ode::LinearGuard g;
+      g.row.constant = RowVector::Zero(dim);
+      g.row.cos.assign(n_coefficient, RowVector::Zero(dim));
+      g.row.sin.assign(n_coefficient, RowVector::Zero(dim));
+      g.offset.constant = 0;
+      g.offset.cos.assign(nf, 0.0);
+      g.offset.sin.assign(nf, 0.0);
+      return g;
+    };
+    // d - e of mesh m, times `sign`, minus `edge`.
+    const auto deflection = [&](int m, double sign, double edge) {
+      ode::LinearGuard g = functional();
+      g.row.constant.head(n) = sign * a.mesh_vector(m);
+      add(g.offset, sig[m].e, sig[m].w, -sign, [](double& x, double v) { x += v; });
+      g.offset.constant -= edge;
+      g.scale = t.meshes[m].backlash_m;
+      return g;
+    };
 
-  for (int r = 0; r < region_count(); ++r) {
-    const std::vector<int> st = states(r);
+    const std::vector<int> st = a.states(r);
     ode::LinearRegion lr;
     lr.a.constant = Matrix::Zero(dim, dim);
     lr.a.constant.topRightCorner(n, n) = Matrix::Identity(n, n);
@@ -884,22 +892,22 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
     lr.a.constant.bottomLeftCorner(n, n) -= m_inv * k_common;
     lr.a.constant.bottomRightCorner(n, n) -= m_inv * c_common;
     lr.u.constant.tail(n) += m_inv * q_common;
-    for (int q = 0; q < static_cast<int>(t_.torques.size()); ++q) {
-      const HarmonicSeries s = torque_series(q);
-      const Vector col = m_inv.col(index(t_.torques[q].body));
+    for (int q = 0; q < static_cast<int>(t.torques.size()); ++q) {
+      const HarmonicSeries s = a.torque_series(q);
+      const Vector col = m_inv.col(a.index(t.torques[q].body));
       lr.u.constant.tail(n) += s.offset * col;
       for (const Harmonic& h : s.terms) {
         if (h.amplitude == 0) continue;
-        const int f = frequency_index(sys.frequencies_rad_s, h.angular_frequency_rad_s);
+        const int f = frequency_index(table, h.angular_frequency_rad_s);
         lr.u.cos[f].tail(n) += h.amplitude * std::cos(h.phase_rad) * col;
         lr.u.sin[f].tail(n) -= h.amplitude * std::sin(h.phase_rad) * col;
       }
     }
     for (int m = 0; m < meshes; ++m) {
-      const Eigen::RowVectorXd v = mesh_vector(m);
+      const Eigen::RowVectorXd v = a.mesh_vector(m);
       const Eigen::MatrixXd vtv = v.transpose() * v;
       const Vector mv = m_inv * v.transpose();
-      const double b = t_.meshes[m].backlash_m, c = t_.meshes[m].damping_n_s_per_m;
+      const double b = t.meshes[m].backlash_m, c = t.meshes[m].damping_n_s_per_m;
       if (st[m] != 0) {
         // J theta'' += -V^T (k (V theta - e -+ b) + c (V theta' - e')).
         const double edge = st[m] > 0 ? b : -b;
@@ -915,16 +923,16 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
       if (st[m] == 0) {
         to[m] = 1;
         ode::LinearGuard up = deflection(m, -1.0, -b);  // b - (d - e)
-        up.target = region(to);
+        up.target = a.region(to);
         to[m] = -1;
         ode::LinearGuard down = deflection(m, 1.0, -b);  // (d - e) + b
-        down.target = region(to);
+        down.target = a.region(to);
         lr.guards.push_back(up);
         lr.guards.push_back(down);
       } else {
         to[m] = 0;
         ode::LinearGuard out = deflection(m, st[m] > 0 ? 1.0 : -1.0, b);
-        out.target = region(to);
+        out.target = a.region(to);
         lr.guards.push_back(out);
       }
       // Observables: d - e, and the force.
@@ -938,22 +946,22 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
         add(f.offset, plus(plus(sig[m].ke, scaled(sig[m].k, edge)), scaled(sig[m].de, c)), sig[m].w,
             -1.0, [](double& x, double y) { x += y; });
       }
-      f.scale = t_.meshes[m].backlash_m * t_.meshes[m].mean_stiffness_n_per_m;
+      f.scale = t.meshes[m].backlash_m * t.meshes[m].mean_stiffness_n_per_m;
       lr.observables.push_back(f);
     }
     // Each shaft's torque and each bearing's force on the ground, the same in every region.
-    for (std::size_t k = 0; k < t_.shafts.size(); ++k) {
-      const Shaft& x = t_.shafts[k];
-      const RowVector v = shaft_vector(static_cast<int>(k));
+    for (std::size_t k = 0; k < t.shafts.size(); ++k) {
+      const Shaft& x = t.shafts[k];
+      const RowVector v = a.shaft_vector(static_cast<int>(k));
       ode::LinearGuard g = functional();
       g.row.constant.head(n) = x.stiffness_n_m_per_rad * v;
       g.row.constant.tail(n) = x.damping_n_m_s_per_rad * v;
       lr.observables.push_back(g);
     }
-    for (std::size_t k = 0; k < t_.bearings.size(); ++k) {
-      const Bearing& x = t_.bearings[k];
-      const Eigen::MatrixXd b = bearing_matrix(static_cast<int>(k));
-      const Eigen::Vector2d o = bearing_offset(static_cast<int>(k));
+    for (std::size_t k = 0; k < t.bearings.size(); ++k) {
+      const Bearing& x = t.bearings[k];
+      const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(k));
+      const Eigen::Vector2d o = a.bearing_offset(static_cast<int>(k));
       for (const int axis : {0, 1}) {
         ode::LinearGuard g = functional();
         g.row.constant.head(n) = x.stiffness_n_per_m * b.row(axis);
@@ -963,8 +971,8 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
       }
     }
     // A prescribed body's row is its prescription's acceleration, nothing of the train's.
-    for (const Speed& v : t_.speeds) {
-      const int row = n + index(v.body);
+    for (const Speed& v : t.speeds) {
+      const int row = n + a.index(v.body);
       lr.a.constant.row(row).setZero();
       lr.u.constant(row) = 0;
       for (std::size_t f = 0; f < nf; ++f) {
@@ -975,15 +983,22 @@ ode::LinearSwitchedSystem Assembled::linear_system() const {
         lr.u.cos[f](row) = 0;
         lr.u.sin[f](row) = 0;
       }
-      for (const Harmonic& h : rotation_series(*this, v).terms) {
+      for (const Harmonic& h : rotation_series(a, v).terms) {
         if (h.amplitude == 0) continue;
         const double w = h.angular_frequency_rad_s;
-        const int f = frequency_index(sys.frequencies_rad_s, w);
+        const int f = frequency_index(table, w);
         lr.u.cos[f](row) -= h.amplitude * w * w * std::cos(h.phase_rad);
         lr.u.sin[f](row) += h.amplitude * w * w * std::sin(h.phase_rad);
       }
     }
-    sys.regions.push_back(std::move(lr));
+    return lr;
+  };
+  const bool lazy =
+      how == RegionBuild::kLazy || (how == RegionBuild::kAuto && region_count() > kEagerRegions);
+  if (lazy) {
+    sys.make_lazy(region_count(), std::move(build));
+  } else {
+    for (int r = 0; r < region_count(); ++r) sys.regions.push_back(build(r));
   }
   return sys;
 }

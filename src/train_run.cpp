@@ -50,14 +50,13 @@ class TrainObserver : public ode::FlowObserver {
         states_(a.states(region)),
         whole_(states_.size()),
         first_part_(2 * states_.size()),
-        whole_parts_(sys.regions.front().observables.size() - first_part_, kNoExtremes) {
+        whole_parts_(sys.region(0).observables.size() - first_part_, kNoExtremes),
+        sys_(sys) {
     for (const int state : states_) trackers_.emplace_back(t0, t1, final_from, state);
-    for (const ode::LinearRegion& reg : sys.regions) {
-      ranges_.emplace_back();
-      for (const ode::LinearGuard& g : reg.observables) ranges_.back().emplace_back(g);
-      readers_.emplace_back(sys, reg.observables);
-    }
-    low_.resize(sys.regions.front().observables.size());
+    // Each region's readers, made when the flow first enters it (region()).
+    ranges_.resize(static_cast<std::size_t>(sys.region_count()));
+    readers_.resize(ranges_.size());
+    low_.resize(sys.region(0).observables.size());
     high_.resize(low_.size());
   }
 
@@ -96,7 +95,7 @@ class TrainObserver : public ode::FlowObserver {
   // A step's end is a point of the window (the adaptive integrator's only ones besides events
   // and samples; inside the exact engine's cells on_cell has seen it already).
   void on_step(double t, const ode::Vector& y, int region) override {
-    readers_[static_cast<std::size_t>(region)](t, y, values_);
+    reader(region)(t, y, values_);
     for (std::size_t m = 0; m < states_.size(); ++m) point(m, values_[2 * m], values_[2 * m + 1]);
     for (std::size_t k = 0; k < whole_parts_.size(); ++k) point_part(k, values_[first_part_ + k]);
   }
@@ -113,7 +112,7 @@ class TrainObserver : public ode::FlowObserver {
 
   void on_sample(double t, const ode::Vector& y, int region) override {
     TrainSamples& s = out_.samples;
-    readers_[static_cast<std::size_t>(region)](t, y, values_);
+    reader(region)(t, y, values_);
     const std::vector<int> states = a_.states(region);
     s.t_s.push_back(t);
     s.state.push_back(y);
@@ -204,8 +203,7 @@ class TrainObserver : public ode::FlowObserver {
   }
   void bound_all(const ode::CellView& cell) {
     for (std::size_t k = 0; k < low_.size(); ++k)
-      ranges_[static_cast<std::size_t>(cell.region)][k].bounds(*cell.lower, *cell.upper, low_[k],
-                                                               high_[k]);
+      ranges(cell.region)[k].bounds(*cell.lower, *cell.upper, low_[k], high_[k]);
   }
   bool any_room() const {
     for (std::size_t m = 0; m < states_.size(); ++m) {
@@ -260,9 +258,25 @@ class TrainObserver : public ode::FlowObserver {
   static constexpr std::array<double, 2> kNoExtremes = {-kInf, kInf};
   std::size_t first_part_;
   std::vector<std::array<double, 2>> whole_parts_, part_parts_;
-  std::vector<std::vector<ode::FunctionalBounds>> ranges_;  // per region, per observable
-  std::vector<double> low_, high_;                          // the last bound_all's
-  std::vector<ode::FunctionalValues> readers_;              // per region, of its observables
+  const ode::LinearSwitchedSystem& sys_;
+  // Region r's readers of its observables, made on first use.
+  const ode::FunctionalValues& reader(int r) {
+    auto& x = readers_[static_cast<std::size_t>(r)];
+    if (!x) x = std::make_unique<ode::FunctionalValues>(sys_, sys_.region(r).observables);
+    return *x;
+  }
+  const std::vector<ode::FunctionalBounds>& ranges(int r) {
+    auto& x = ranges_[static_cast<std::size_t>(r)];
+    if (!x) {
+      x.emplace();
+      for (const ode::LinearGuard& g : sys_.region(r).observables) x->emplace_back(g);
+    }
+    return *x;
+  }
+
+  std::vector<std::optional<std::vector<ode::FunctionalBounds>>> ranges_;  // per region
+  std::vector<double> low_, high_;                                         // the last bound_all's
+  std::vector<std::unique_ptr<ode::FunctionalValues>> readers_;            // per region
   std::vector<double> values_;
 };
 

@@ -573,3 +573,33 @@ TEST(Planetary, RigidBearingsAndPinsGiveTheRotationalModel) {
 
 }  // namespace
 }  // namespace geardyn::train
+
+namespace geardyn {
+namespace {
+
+// Five planets: 3^10 = 59049 contact regions, built as the flow enters them (past
+// kEagerRegions). The shipped stage with five planets (their phases as given: 24 + 78 teeth do
+// not assemble five equally spaced, and the meshes in phase keep the planets alike) runs from its
+// static state, its planets sharing equally throughout; with one pin off the others carry more,
+// and more still as the meshes' stiffness varies.
+TEST(PlanetaryLoadSharing, FivePlanetsRunWithTheirRegionsBuiltOnDemand) {
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "planetary_set.toml");
+  set_case_value(c, {"train.planets", "5"});
+  set_case_value(c, {"train.mesh_phase", "\"given\""});
+  set_case_value(c, {"train.planet_pin_errors_um", "[[0, 0], [0, 0], [0, 0], [0, 0], [0, 0]]"});
+  set_case_value(c, {"solver.duration_s", "0.002"});
+  ASSERT_TRUE(assembled_train(c).linear_system().lazy());
+  const TrainRunResult even = run_train(c);
+  ASSERT_TRUE(even.ok()) << even.message;
+  ASSERT_EQ(even.meshes.size(), 10U);
+  EXPECT_NEAR(*even.load_sharing[0].static_factor, 1.0, 1e-12);
+  EXPECT_NEAR(*even.load_sharing[0].factor_with_startup, 1.0, 1e-9);
+  set_case_value(c, {"train.planet_pin_errors_um", "[[0, 10], [0, 0], [0, 0], [0, 0], [0, 0]]"});
+  const TrainRunResult off = run_train(c);
+  ASSERT_TRUE(off.ok()) << off.message;
+  EXPECT_GT(*off.load_sharing[0].static_factor, 1.01);
+  EXPECT_GT(*off.load_sharing[0].factor_with_startup, *off.load_sharing[0].static_factor);
+}
+
+}  // namespace
+}  // namespace geardyn

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/adaptive.hpp"
 #include "geardyn/case.hpp"
 #include "geardyn/coupled_model.hpp"
 #include "geardyn/engine.hpp"
@@ -378,6 +379,57 @@ TEST(Train, AnUndampedTrainKeepsItsEnergyThroughImpacts) {
     for (int st : a.states(s.regions[i])) seen.insert(st);
   }
   EXPECT_EQ(seen.size(), 3U);  // each contact state was visited
+}
+
+TEST(Train, RegionsBuiltOnDemandFlowAsRegionsBuiltUpFront) {
+  // The rattling two-stage train of the test above, its regions built up front and on demand
+  // (LinearSwitchedSystem::make_lazy, used past kEagerRegions): the same regions, and the same
+  // flow bit for bit through every event, with the exact engine and with dopri5; the lazy system
+  // builds only the regions the flow enters.
+  Train t = two_stage(2e8);
+  for (Mesh& m : t.meshes) m.damping_n_s_per_m = 0;
+  const Assembled a(t);
+  const ode::LinearSwitchedSystem eager = a.linear_system(Assembled::RegionBuild::kEager),
+                                  lazy = a.linear_system(Assembled::RegionBuild::kLazy);
+  ASSERT_FALSE(eager.lazy());
+  ASSERT_TRUE(lazy.lazy());
+  EXPECT_EQ(lazy.region_count(), 9);
+  EXPECT_TRUE(lazy.regions.empty());
+  EXPECT_EQ(lazy.validate(), "");
+  for (const int r : {0, 4, 8}) {
+    EXPECT_EQ(lazy.region(r).a.constant, eager.regions[static_cast<std::size_t>(r)].a.constant);
+    EXPECT_EQ(lazy.region(r).u.constant, eager.regions[static_cast<std::size_t>(r)].u.constant);
+    EXPECT_EQ(lazy.region(r).guards.size(),
+              eager.regions[static_cast<std::size_t>(r)].guards.size());
+  }
+  ode::Vector y0 = ode::Vector::Zero(8);
+  y0(4) = 2.0;
+  const auto run = [&](const ode::LinearSwitchedSystem& sys, bool adaptive) {
+    Samples s;
+    const ode::OutputGrid grid = ode::make_output_grid(0.0, 0.05, 1e-5);
+    ode::FlowResult r;
+    if (adaptive) {
+      ode::AdaptiveOptions o;
+      o.tolerance = 1e-10;
+      r = ode::adaptive_flow(sys, 0.0, y0, a.classify(0.0, y0), 0.05, grid, s, o);
+    } else {
+      ode::EngineOptions o;
+      o.tolerance = 1e-12;
+      r = ode::ExactEngine(sys, o).flow(0.0, y0, a.classify(0.0, y0), 0.05, grid, s);
+    }
+    EXPECT_TRUE(r.ok()) << r.message;
+    EXPECT_GT(r.events, 20);
+    return s;
+  };
+  for (const bool adaptive : {false, true}) {
+    SCOPED_TRACE(adaptive ? "dopri5" : "exact");
+    const Samples e = run(eager, adaptive), l = run(lazy, adaptive);
+    ASSERT_EQ(e.t.size(), l.t.size());
+    for (std::size_t i = 0; i < e.t.size(); ++i) {
+      ASSERT_EQ(e.regions[i], l.regions[i]) << e.t[i];
+      ASSERT_EQ(e.states[i], l.states[i]) << e.t[i];
+    }
+  }
 }
 
 // Samples and contact changes of a flow.

@@ -20,6 +20,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
+#include <memory>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -58,15 +60,34 @@ struct LinearRegion {
   std::vector<LinearGuard> observables;
 };
 
+// The regions of a system built on demand (LinearSwitchedSystem::make_lazy), shared by its
+// copies.
+struct LazyRegionStore;
+
 struct LinearSwitchedSystem {
   int dimension = 0;                      // n
   std::vector<double> frequencies_rad_s;  // w_f, each > 0
   double coefficient_period_s = 0;        // T of every A_r(t) and G(t); 0: all constant
-  std::vector<LinearRegion> regions;      // region r is regions[r]
+  // Region r is regions[r]; or, for a system with too many regions to hold (a train's 3^meshes),
+  // regions is empty and region r is built the first time region(r) is asked for (make_lazy).
+  std::vector<LinearRegion> regions;
+
+  // Region r, either way (a lazy one built, checked as validate() checks it, and kept: safe
+  // from several threads; a builder's inconsistent region throws std::logic_error).
+  const LinearRegion& region(int r) const;
+  int region_count() const;
+  bool lazy() const { return lazy_ != nullptr; }
+  // Makes the system's `count` regions lazy: region r is build(r). `build` must not touch the
+  // system (it may run from any thread, once per region).
+  void make_lazy(int count, std::function<LinearRegion(int)> build);
 
   // Empty when the description is consistent; otherwise what is wrong (sizes, frequencies,
-  // targets, a period that the coefficient frequencies do not fit).
+  // targets, a period that the coefficient frequencies do not fit). A lazy system's regions are
+  // checked as they are built, the first one here.
   std::string validate() const;
+
+ private:
+  std::shared_ptr<LazyRegionStore> lazy_;
 };
 
 // y' in region r at (t, y). Requires a region of s and y of its dimension (asserted in debug

@@ -223,6 +223,10 @@ constexpr std::int64_t kMaxOrderDenominator = 10000;
 // can use (it would be run period by period): the excitations count as quasi-periodic.
 constexpr double kMaxPeriodMultiple = 1e4;
 
+// A train's system holds every region when it has at most this many (six meshes: three
+// planets), and builds them on demand past it.
+constexpr int kEagerRegions = 729;
+
 // The train assembled: matrices at the mean stiffness, speeds, frequencies and the system.
 class Assembled {
  public:
@@ -298,8 +302,11 @@ class Assembled {
   Eigen::MatrixXd contact_stiffness() const;
   Eigen::MatrixXd contact_damping() const;
 
-  // The system for the exact engine (state (theta, theta'), regions as above).
-  ode::LinearSwitchedSystem linear_system() const;
+  // The system for the exact engine (state (theta, theta'), regions as above): its regions
+  // built here up to kEagerRegions of them, past that on demand (a set of four planets has
+  // 3^8 = 6561, most never visited), or as asked.
+  enum class RegionBuild { kAuto, kEager, kLazy };
+  ode::LinearSwitchedSystem linear_system(RegionBuild how = RegionBuild::kAuto) const;
   // The region of a mesh-state vector, and back.
   int region(const std::vector<int>& states) const;
   std::vector<int> states(int region) const;
