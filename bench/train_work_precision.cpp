@@ -85,8 +85,8 @@ UserTrain user_train(const geardyn::train::Assembled& a) {
     const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(k));
     u.ks += t.bearings[k].stiffness_n_per_m * b.transpose() * b;
     u.cs += t.bearings[k].damping_n_s_per_m * b.transpose() * b;
-    seat_loads += t.bearings[k].stiffness_n_per_m * b.transpose() *
-                  a.bearing_offset(static_cast<int>(k));
+    seat_loads +=
+        t.bearings[k].stiffness_n_per_m * b.transpose() * a.bearing_offset(static_cast<int>(k));
   }
   for (int i = 0; i < u.n; ++i)
     if (seat_loads(i) != 0) u.torques.push_back({i, {seat_loads(i), {}}});
