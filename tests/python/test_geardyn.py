@@ -745,6 +745,12 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert len(lm["frequency_hz"]) == 21 and lm["type"].count("planet") == 3
     assert all(m == 2 for m, t in zip(lm["multiplicity"], lm["type"]) if t == "translational")
     assert "pin4" in lm["bearing_energy"] and "sun_planet4" in lm["mesh_energy"]
+    # A loaded stage's run reads each sun's and ring's load sharing.
+    ps = geardyn.Case.from_toml(SOURCE / "cases/planetary_set.toml").with_(
+        {"solver.duration_s": 0.002, "train.planet_pin_errors_um": [[0, 20], [0, 0], [0, 0]]})
+    sharing = geardyn.run(ps).summary["load_sharing"]
+    assert [g["gear"] for g in sharing] == ["sun", "ring"]
+    assert sharing[0]["static_factor"] > 1.05 and sharing[0]["lost_contact"] == []
     # Each element's key is checked as in a file, named by its place in its array.
     with pytest.raises(geardyn.InputError, match=r"train\.mesh\[0\]\.backlash_um = -1"):
         geardyn.Case(model={"form": "train"},
