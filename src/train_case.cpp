@@ -425,15 +425,19 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
       throw InputError(fmt::format("{}: unknown key 'train.{}'; allowed in [train]: {}",
                                    where(k.source(), source), k.str(), kTrainKeys));
   }
-  if (const toml::node* r = train->get("reference")) {
-    if (!r->is_string() || r->value<std::string>()->empty())
-      throw InputError(fmt::format("{}: train.reference = {}: must be a body's name in quotes",
-                                   origin_of(overrides, "train.reference", r->source(), source),
-                                   node_text(*r)));
-    t.reference = *r->value<std::string>();
-    t.origins["the train: reference"] =
-        origin_of(overrides, "train.reference", r->source(), source);
-  }
+  // A body's name given in [train] (its reference, its planet), with where it was given.
+  const auto body_name = [&](std::string_view leaf, std::string& out) {
+    const toml::node* p = train->get(leaf);
+    if (!p) return;
+    const std::string where_given =
+        origin_of(overrides, fmt::format("train.{}", leaf), p->source(), source);
+    if (!p->is_string() || p->value<std::string>()->empty())
+      throw InputError(fmt::format("{}: train.{} = {}: must be a body's name in quotes",
+                                   where_given, leaf, node_text(*p)));
+    out = *p->value<std::string>();
+    t.origins[fmt::format("the train: {}", leaf)] = where_given;
+  };
+  body_name("reference", t.reference);
   if (const toml::node* p = train->get("mesh_phase")) {
     const std::string where_given = origin_of(overrides, "train.mesh_phase", p->source(), source);
     if (!p->is_string() ||
@@ -443,14 +447,7 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
     t.mesh_phase = *p->value<std::string>();
     t.origins["the train: mesh_phase"] = where_given;
   }
-  if (const toml::node* p = train->get("planet")) {
-    const std::string where_given = origin_of(overrides, "train.planet", p->source(), source);
-    if (!p->is_string() || p->value<std::string>()->empty())
-      throw InputError(fmt::format("{}: train.planet = {}: must be a body's name in quotes",
-                                   where_given, node_text(*p)));
-    t.planet = *p->value<std::string>();
-    t.origins["the train: planet"] = where_given;
-  }
+  body_name("planet", t.planet);
   if (const toml::node* p = train->get("planets")) {
     const std::string where_given = origin_of(overrides, "train.planets", p->source(), source);
     if (!p->is_integer() || *p->value<std::int64_t>() < 1 ||

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <numbers>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "geardyn/case.hpp"
@@ -355,17 +356,22 @@ TEST(PlanetaryLoadSharing, OnePinErrorAgainstItsClosedForm) {
 namespace geardyn {
 namespace {
 
+// cases/planetary_set.toml (which starts from its static state) with the keys set as given.
+Case shipped_stage(const std::vector<std::pair<std::string, std::string>>& sets) {
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "planetary_set.toml");
+  for (const auto& [key, value] : sets) set_case_value(c, {key, value});
+  return c;
+}
+
 // The shipped set's run reads its load sharing: with constant mesh stiffness and no
 // fluctuation, a run from the static state stays there (the pin errors' loads enter the run as
 // they enter the static state), so the steady factor is the static one; one planet's pin 20 um
 // off loads the others; 300 um (six backlashes) unloads it: the static state says so, and the
 // run shows it off its drive flank (it ends on its back flank).
 TEST(PlanetaryLoadSharing, TheShippedSetsRunReadsItsLoadSharing) {
-  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "planetary_set.toml");
-  set_case_value(c, {"train.mesh[0].stiffness_harmonics", "[]"});
-  set_case_value(c, {"train.mesh[1].stiffness_harmonics", "[]"});
-  set_case_value(c, {"solver.initial", "\"static\""});
-  set_case_value(c, {"solver.duration_s", "0.005"});
+  Case c = shipped_stage({{"train.mesh[0].stiffness_harmonics", "[]"},
+                          {"train.mesh[1].stiffness_harmonics", "[]"},
+                          {"solver.duration_s", "0.005"}});
   const TrainRunResult even = run_train(c);
   ASSERT_TRUE(even.ok()) << even.message;
   ASSERT_EQ(even.load_sharing.size(), 2U);  // the sun's planets and the ring's
@@ -583,11 +589,11 @@ namespace {
 // static state, its planets sharing equally throughout; with one pin off the others carry more,
 // and more still as the meshes' stiffness varies.
 TEST(PlanetaryLoadSharing, FivePlanetsRunWithTheirRegionsBuiltOnDemand) {
-  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "planetary_set.toml");
-  set_case_value(c, {"train.planets", "5"});
-  set_case_value(c, {"train.mesh_phase", "\"given\""});
-  set_case_value(c, {"train.planet_pin_errors_um", "[[0, 0], [0, 0], [0, 0], [0, 0], [0, 0]]"});
-  set_case_value(c, {"solver.duration_s", "0.002"});
+  Case c =
+      shipped_stage({{"train.planets", "5"},
+                     {"train.mesh_phase", "\"given\""},
+                     {"train.planet_pin_errors_um", "[[0, 0], [0, 0], [0, 0], [0, 0], [0, 0]]"},
+                     {"solver.duration_s", "0.002"}});
   ASSERT_TRUE(assembled_train(c).linear_system().lazy());
   const TrainRunResult even = run_train(c);
   ASSERT_TRUE(even.ok()) << even.message;
