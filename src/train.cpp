@@ -90,11 +90,13 @@ Spectrum plus(Spectrum a, const Spectrum& b) {
   return a;
 }
 
-Spectrum from_harmonics(double mean, const std::vector<MeshHarmonic>& h, double scale) {
+// Harmonic i of the mesh frequency at index stride i (the base frequency its stride-th part).
+Spectrum from_harmonics(double mean, const std::vector<MeshHarmonic>& h, double scale,
+                        int stride) {
   Spectrum s;
   s[0] = mean;
   for (std::size_t i = 0; i < h.size(); ++i)
-    s[static_cast<int>(i) + 1] += scale * std::polar(h[i].value, h[i].phase_rad);
+    s[stride * (static_cast<int>(i) + 1)] += scale * std::polar(h[i].value, h[i].phase_rad);
   return s;
 }
 
@@ -138,6 +140,11 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (b.planar && !(b.mass_kg > 0 && std::isfinite(b.mass_kg)))
       bad(fmt::format("body '{}'", b.name),
           fmt::format("mass_kg = {}: a planar body needs a finite mass > 0 kg", b.mass_kg));
+    if (!(b.eccentricity_m >= 0 && std::isfinite(b.eccentricity_m) &&
+          std::isfinite(b.eccentricity_angle_rad)))
+      bad(fmt::format("body '{}'", b.name),
+          fmt::format("eccentricity = {} m at {} rad: must be finite and >= 0", b.eccentricity_m,
+                      b.eccentricity_angle_rad));
   }
   if (t_.meshes.empty()) bad("the train", "has no mesh: a gear train needs at least one");
   const auto body = [&](const std::string& element, const char* key, const std::string& name) {
@@ -609,6 +616,12 @@ std::optional<double> Assembled::system_period_s(std::string* why) const {
     for (const SpeedHarmonic& h : v.harmonics)
       if (!orders(fmt::format("speed '{}'", v.name), v.body, h.order, h.amplitude_rad))
         return std::nullopt;
+  // A turning gear's runout, once per its turn.
+  for (const Mesh& m : t_.meshes)
+    for (const std::string& gear : {m.driving, m.driven})
+      if (t_.bodies[static_cast<std::size_t>(index(gear))].eccentricity_m > 0)
+        ratios.emplace_back(speed_[static_cast<std::size_t>(index(gear))],
+                            fmt::format("body '{}' (its runout)", gear));
   if (ratios.empty()) return 0.0;
   // gcd of p_i / q_i = gcd(p_i) / lcm(q_i); past the bound, the excitations are quasi-periodic.
   std::int64_t num = 0, den = 1;
@@ -630,6 +643,17 @@ std::optional<double> Assembled::system_period_s(std::string* why) const {
   return 1.0 / (base * t_.reference_speed_hz);
 }
 
+Eigen::Vector2d Assembled::line_of_action(int mesh) const {
+  // n = s_a cos(alpha_t) t + sigma sin(alpha_t) e at the pitch point's angle psi_P (train.hpp).
+  const Mesh& m = t_.meshes[static_cast<std::size_t>(mesh)];
+  const bool ring_drives = m.internal && m.teeth_driving > m.teeth_driven;
+  const double psi = pitch_point_angles(m)[0];
+  const double alpha = m.transverse_pressure_angle_rad;
+  const double s = sense(index(m.driving)) * std::cos(alpha),
+               r = (ring_drives ? -1.0 : 1.0) * std::sin(alpha);
+  return {-s * std::sin(psi) + r * std::cos(psi), s * std::cos(psi) + r * std::sin(psi)};
+}
+
 Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   const Mesh& m = t_.meshes[mesh];
   Eigen::RowVectorXd v = Eigen::RowVectorXd::Zero(size());
@@ -637,14 +661,8 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   const int a = index(m.driving), b = index(m.driven);
   v(a) += cb * m.base_radius_driving_m;
   v(b) -= cb * m.base_radius_driven_m;
-  // The line of action n = s_a cos(alpha_t) t + sigma sin(alpha_t) e at the pitch point's angle
-  // psi_P (train.hpp).
-  const bool ring_drives = m.internal && m.teeth_driving > m.teeth_driven;
-  const double psi = pitch_point_angles(m)[0];
-  const double alpha = m.transverse_pressure_angle_rad;
-  const double s = sense(a) * std::cos(alpha), r = (ring_drives ? -1.0 : 1.0) * std::sin(alpha);
-  const double nx = -s * std::sin(psi) + r * std::cos(psi),
-               ny = s * std::cos(psi) + r * std::sin(psi);
+  const Eigen::Vector2d n = line_of_action(mesh);
+  const double nx = n.x(), ny = n.y();
   if (const int x = translation(a); x >= 0) {
     v(x) += cb * nx;
     v(x + 1) += cb * ny;
@@ -674,8 +692,16 @@ Eigen::MatrixXd Assembled::bearing_matrix(int bearing) const {
 Eigen::Vector2d Assembled::bearing_offset(int bearing) const {
   const Bearing& x = t_.bearings[static_cast<std::size_t>(bearing)];
   const double c = std::cos(x.pin_angle_rad), s = std::sin(x.pin_angle_rad);
-  return {x.pin_error_radial_m * c - x.pin_error_tangential_m * s,
-          x.pin_error_radial_m * s + x.pin_error_tangential_m * c};
+  Eigen::Vector2d o(x.pin_error_radial_m * c - x.pin_error_tangential_m * s,
+                    x.pin_error_radial_m * s + x.pin_error_tangential_m * c);
+  // A pin turns with its carrier's centre of pins: the carrier, at rest, shifts it by its
+  // eccentricity.
+  if (!x.on.empty()) {
+    const Body& carrier = t_.bodies[static_cast<std::size_t>(index(x.on))];
+    o += carrier.eccentricity_m * Eigen::Vector2d(std::cos(carrier.eccentricity_angle_rad),
+                                                  std::sin(carrier.eccentricity_angle_rad));
+  }
+  return o;
 }
 
 RowVector Assembled::shaft_vector(int shaft) const {
@@ -760,16 +786,54 @@ std::vector<int> Assembled::states(int region) const {
   return s;
 }
 
+namespace {
+
+// A mesh's stiffness k(t) and error e(t) (its transmission error, less its gears' runouts) as
+// harmonics of one base frequency w: the mesh frequency w_m = z_a w_a = z_b w_b, or with a
+// runout w_m / lcm(z_a, z_b), of which each gear's speed is a whole multiple.
+struct MeshSignals {
+  double w = 0;
+  Spectrum k, e;
+};
+
+MeshSignals mesh_signals(const Assembled& a, int mesh) {
+  const Train& t = a.train();
+  const Mesh& x = t.meshes[static_cast<std::size_t>(mesh)];
+  const int ia = a.index(x.driving), ib = a.index(x.driven);
+  const auto eccentric = [&](int body) {
+    return t.bodies[static_cast<std::size_t>(body)].eccentricity_m > 0;
+  };
+  const int stride = eccentric(ia) || eccentric(ib) ? std::lcm(x.teeth_driving, x.teeth_driven) : 1;
+  MeshSignals s;
+  s.w = kTwoPi * a.mesh_frequency_hz(mesh) / stride;
+  s.k = from_harmonics(x.mean_stiffness_n_per_m, x.stiffness, x.mean_stiffness_n_per_m, stride);
+  s.e = from_harmonics(0.0, x.transmission_error, 1.0, stride);
+  const Eigen::Vector2d n = a.line_of_action(mesh);
+  const double cb = std::cos(x.base_helix_angle_rad);
+  // e -= sign cb n . epsilon(t), epsilon = e (cos(s w_g t + phi), sin(s w_g t + phi)) at the
+  // gear's speed w_g = w_m / z: Re[cb e (n_x - i s n_y) e^(i s phi) e^(i w_g t)].
+  const auto runout = [&](int body, int teeth, double sign) {
+    const Body& b = t.bodies[static_cast<std::size_t>(body)];
+    if (!(b.eccentricity_m > 0)) return;
+    const double turn = a.sense(body);
+    s.e[stride / teeth] -= sign * cb * b.eccentricity_m * Complex(n.x(), -turn * n.y()) *
+                           std::polar(1.0, turn * b.eccentricity_angle_rad);
+  };
+  runout(ia, x.teeth_driving, 1.0);
+  runout(ib, x.teeth_driven, -1.0);
+  return s;
+}
+
+}  // namespace
+
 HarmonicSeries Assembled::stiffness_series(int mesh) const {
-  const Mesh& m = t_.meshes[mesh];
-  return series_of(from_harmonics(m.mean_stiffness_n_per_m, m.stiffness, m.mean_stiffness_n_per_m),
-                   kTwoPi * mesh_frequency_hz(mesh));
+  const MeshSignals s = mesh_signals(*this, mesh);
+  return series_of(s.k, s.w);
 }
 
 HarmonicSeries Assembled::error_series(int mesh) const {
-  const Mesh& m = t_.meshes[mesh];
-  return series_of(from_harmonics(0.0, m.transmission_error, 1.0),
-                   kTwoPi * mesh_frequency_hz(mesh));
+  const MeshSignals s = mesh_signals(*this, mesh);
+  return series_of(s.e, s.w);
 }
 
 HarmonicSeries Assembled::torque_series(int torque) const {
@@ -799,18 +863,15 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
   sys.dimension = dim;
   sys.coefficient_period_s = coefficient_period_s();
 
-  // Per mesh, in harmonics of its own frequency w: k(t), k(t) e(t), e(t) and e'(t).
-  struct MeshSignals {
-    double w = 0;
-    Spectrum k, ke, e, de;
+  // Per mesh, in harmonics of its base frequency w (mesh_signals): k(t), k(t) e(t), e(t) and
+  // e'(t).
+  struct Signals : MeshSignals {
+    Spectrum ke, de;
   };
-  std::vector<MeshSignals> sig(meshes);
+  std::vector<Signals> sig(meshes);
   for (int m = 0; m < meshes; ++m) {
-    const Mesh& x = t_.meshes[m];
-    MeshSignals& s = sig[m];
-    s.w = kTwoPi * mesh_frequency_hz(m);
-    s.k = from_harmonics(x.mean_stiffness_n_per_m, x.stiffness, x.mean_stiffness_n_per_m);
-    s.e = from_harmonics(0.0, x.transmission_error, 1.0);
+    Signals& s = sig[m];
+    static_cast<MeshSignals&>(s) = mesh_signals(*this, m);
     s.ke = product(s.k, s.e);
     s.de = derivative(s.e, s.w);
   }

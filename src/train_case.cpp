@@ -79,6 +79,11 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
       {"bore_diameter_mm", &B::bore_diameter_mm, "mm", at_least(0), false,
        "bore of the blank, for the inertia (0: solid)"},
       {"density_kg_m3", &B::density_kg_m3, "kg/m^3", above(0), false, "for the inertia"},
+      {"eccentricity_um", &B::eccentricity_um, "um", closed(0, 1e4), false,
+       "runout: the centre of its teeth (and of a carrier's pins) lies this far from its axis "
+       "and turns with it, its mass centred (a sun's or a carrier's eccentricity)"},
+      {"eccentricity_angle_deg", &B::eccentricity_angle_deg, "deg", closed(-360, 360), false,
+       "where that centre lies at t = 0, counterclockwise from x in the train's frame"},
   };
   return keys;
 }
@@ -698,7 +703,8 @@ train::Train train_of(const Case& c) {
       rethrow_with_origin(t, fmt::format("body '{}': mass_kg = {} is read only for a planar "
                                          "body (dof = \"planar\"); this one keeps torsion only",
                                          b.name, *b.mass_kg));
-    out.bodies.push_back({b.name, g.inertia_kg_m2, b.dof == "planar", g.mass_kg});
+    out.bodies.push_back({b.name, g.inertia_kg_m2, b.dof == "planar", g.mass_kg,
+                          b.eccentricity_um * kUmToM, b.eccentricity_angle_deg * kDegToRad});
   }
   for (const TrainMeshData& m : t.meshes) {
     train::Mesh x;
@@ -1056,6 +1062,27 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
         "planar and train.mesh_phase is not \"layout\", so its layout moves nothing",
         i, m.position_angle_deg, where_given == t.origins.end() ? "" : where_given->second,
         m.name));
+  }
+  // A runout moves a gear's teeth or a carrier's pins: on a body with neither it moves nothing.
+  for (std::size_t i = 0; i < t.bodies.size(); ++i) {
+    const TrainBodyData& b = t.bodies[i];
+    const bool meshes = std::any_of(t.meshes.begin(), t.meshes.end(), [&](const auto& m) {
+      return m.driving == b.name || m.driven == b.name;
+    });
+    const bool pins = std::any_of(t.bearings.begin(), t.bearings.end(),
+                                  [&](const TrainBearingData& x) { return x.on == b.name; });
+    const auto where_given = t.origins.find(fmt::format("body '{}'", b.name));
+    const std::string where = where_given == t.origins.end() ? "" : where_given->second;
+    if (b.eccentricity_um != 0 && !meshes && !pins)
+      out.push_back(fmt::format(
+          "train.body[{}].eccentricity_um = {} ({}): not used: body '{}' has no teeth in a mesh "
+          "and carries no pins, so its runout moves nothing",
+          i, b.eccentricity_um, where, b.name));
+    if (b.eccentricity_angle_deg != 0 && b.eccentricity_um == 0)
+      out.push_back(fmt::format(
+          "train.body[{}].eccentricity_angle_deg = {} ({}): not used: body '{}' has no "
+          "eccentricity_um to direct",
+          i, b.eccentricity_angle_deg, where, b.name));
   }
   for (std::size_t i = 0; i < t.bearings.size(); ++i) {
     const TrainBearingData& b = t.bearings[i];

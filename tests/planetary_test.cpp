@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "geardyn/case.hpp"
+#include "geardyn/case_keys.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
@@ -605,6 +606,180 @@ TEST(PlanetaryLoadSharing, FivePlanetsRunWithTheirRegionsBuiltOnDemand) {
   ASSERT_TRUE(off.ok()) << off.message;
   EXPECT_GT(*off.load_sharing[0].static_factor, 1.01);
   EXPECT_GT(*off.load_sharing[0].factor_with_startup, *off.load_sharing[0].static_factor);
+}
+
+}  // namespace
+}  // namespace geardyn
+
+namespace geardyn {
+namespace {
+
+// A least-squares fit of x(t) ~ x0 + Re[X e^(i w t)] over the samples from `from_s` on: X.
+std::complex<double> harmonic_of(const std::vector<double>& t_s, const std::vector<double>& x,
+                                 double w, double from_s) {
+  Eigen::MatrixXd a(0, 3);
+  Eigen::VectorXd b(0);
+  for (std::size_t k = 0; k < t_s.size(); ++k) {
+    if (t_s[k] < from_s) continue;
+    a.conservativeResize(a.rows() + 1, 3);
+    b.conservativeResize(b.size() + 1);
+    a.row(a.rows() - 1) << 1.0, std::cos(w * t_s[k]), std::sin(w * t_s[k]);
+    b(b.size() - 1) = x[k];
+  }
+  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(b);
+  return {c(1), -c(2)};
+}
+
+// A gear's runout (train.hpp, "Eccentricity") forces its mesh once a turn of that gear. With the
+// mesh in contact at constant stiffness k and damping c, the pair's reduced mass m_e (1 / m_e =
+// V M^-1 V^T) and p(t) = cos(beta_b) n . epsilon_a(t) the runout's share of the deflection,
+// m_e d'' = -F + const, F = k (d + p - b) + c (d' + p'), so the force's part at the gear's speed
+// w is F = -m_e w^2 P (k + i c w) / (k - m_e w^2 + i c w), P = cos(beta_b) e e^(i (phi - angle
+// n)) for the pinion (turning counterclockwise) and -cos(beta_b) e e^(i (angle n - phi)) for the
+// wheel (turning clockwise, and on the other side of d). Read from a run, amplitude and phase.
+TEST(Eccentricity, ARunoutForcesItsMeshAsTheClosedFormSays) {
+  const std::string text = R"(
+[model]
+form = "train"
+[train]
+reference = "pinion"
+reference_speed_hz = 300
+[[train.body]]
+name = "pinion"
+teeth = 20
+normal_module_mm = 2
+helix_angle_deg = 15
+face_width_mm = 20
+[[train.body]]
+name = "wheel"
+teeth = 36
+normal_module_mm = 2
+helix_angle_deg = 15
+face_width_mm = 20
+[[train.mesh]]
+driving = "pinion"
+driven = "wheel"
+mean_stiffness_n_per_m = 2e8
+damping_ratio = 0.1
+backlash_um = 50
+position_angle_deg = 40
+[[train.torque]]
+body = "pinion"
+mean_nm = 50
+[[train.torque]]
+body = "wheel"
+mean_nm = -90
+[solver]
+duration_s = 0.05
+output_interval_s = 2e-5
+tolerance = 1e-10
+initial = "static"
+)";
+  for (const bool on_pinion : {true, false}) {
+    Case c = parse_case(text, "pair.toml");
+    const std::string body = on_pinion ? "train.body[0]" : "train.body[1]";
+    constexpr double kE = 5e-6, kPhi = 30 * std::numbers::pi / 180;
+    set_case_value(c, {body + ".eccentricity_um", "5"});
+    set_case_value(c, {body + ".eccentricity_angle_deg", "30"});
+    const train::Assembled a = assembled_train(c);
+    const TrainRunResult r = run_train(c);
+    ASSERT_TRUE(r.ok()) << r.message;
+    const double cb = std::cos(a.train().meshes[0].base_helix_angle_rad);
+    const double k = a.train().meshes[0].mean_stiffness_n_per_m,
+                 damping = a.train().meshes[0].damping_n_s_per_m;
+    const Eigen::RowVectorXd v = a.mesh_vector(0);
+    const double me = 1.0 / (v * a.mass().inverse() * v.transpose())(0, 0);
+    const Eigen::Vector2d n = a.line_of_action(0);
+    const double angle_n = std::atan2(n.y(), n.x());
+    const double w = 2 * std::numbers::pi * (on_pinion ? 300.0 : 300.0 * 20 / 36);
+    using Cd = std::complex<double>;
+    const Cd p = on_pinion ? cb * kE * std::polar(1.0, kPhi - angle_n)
+                           : -cb * kE * std::polar(1.0, angle_n - kPhi);
+    const Cd expected = -me * w * w * p * Cd(k, damping * w) / Cd(k - me * w * w, damping * w);
+    std::vector<double> force;
+    for (const auto& f : r.samples.force_n) force.push_back(f[0]);
+    const Cd got = harmonic_of(r.samples.t_s, force, w, 0.02);
+    EXPECT_NEAR(std::abs(got) / std::abs(expected), 1.0, 1e-6) << on_pinion;
+    EXPECT_NEAR(std::arg(got / expected), 0.0, 1e-6) << on_pinion;
+    EXPECT_LT(r.meshes[0].min_force_n, r.meshes[0].max_force_n);
+    EXPECT_GT(r.meshes[0].min_force_n, 0.0);  // in contact throughout
+  }
+}
+
+// A carrier's eccentricity shifts every pin alike: the same as pin errors of its projections on
+// each planet's radial and tangential directions, to rounding, in the static state and the run.
+TEST(Eccentricity, ACarriersEccentricityIsItsPinsErrors) {
+  Case eccentric = shipped_stage({{"train.body[3].eccentricity_um", "20"},
+                                  {"train.body[3].eccentricity_angle_deg", "30"},
+                                  {"solver.duration_s", "0.003"}});
+  std::vector<std::string> pairs;
+  for (int n = 0; n < 3; ++n) {
+    const double psi = 2 * std::numbers::pi * n / 3, phi = 30 * std::numbers::pi / 180;
+    pairs.push_back(fmt::format("[{:.17g}, {:.17g}]", 20 * std::cos(phi - psi),
+                                20 * std::sin(phi - psi)));
+  }
+  Case errors = shipped_stage(
+      {{"train.planet_pin_errors_um", fmt::format("[{}]", fmt::join(pairs, ", "))},
+       {"solver.duration_s", "0.003"}});
+  const TrainRunResult x = run_train(eccentric), y = run_train(errors);
+  ASSERT_TRUE(x.ok() && y.ok()) << x.message << y.message;
+  ASSERT_TRUE(x.load_sharing[0].static_factor && y.load_sharing[0].static_factor);
+  EXPECT_GT(*x.load_sharing[0].static_factor, 1.001);  // it unloads a planet
+  EXPECT_TRUE(unused_settings(eccentric).empty());
+  // An angle with no eccentricity to direct is reported, not dropped.
+  const std::vector<std::string> unused =
+      unused_settings(shipped_stage({{"train.body[3].eccentricity_angle_deg", "30"}}));
+  ASSERT_EQ(unused.size(), 1U);
+  EXPECT_NE(unused[0].find("train.body[3].eccentricity_angle_deg = 30"), std::string::npos)
+      << unused[0];
+  EXPECT_NEAR(*x.load_sharing[0].static_factor, *y.load_sharing[0].static_factor, 1e-12);
+  for (std::size_t m = 0; m < x.meshes.size(); ++m) {
+    EXPECT_NEAR(*x.meshes[m].static_force_n, *y.meshes[m].static_force_n,
+                1e-9 * std::abs(*y.meshes[m].static_force_n));
+    EXPECT_NEAR(x.meshes[m].max_force_n, y.meshes[m].max_force_n,
+                1e-8 * std::abs(y.meshes[m].max_force_n));
+  }
+}
+
+// A sun's runout, read quasi-statically: turning slowly (2 Hz against the floating sun's
+// lowest mode), the sun's meshes at each instant carry what they carry at rest with the sun's
+// bearing seat moved by its runout there, epsilon(t) = e (cos w t, sin w t) (its centre of
+// teeth and its seat play the same part at rest), up to the inertia's share (f / f_n)^2.
+TEST(Eccentricity, ASunsRunoutIsQuasiStaticallyAMovedSeat) {
+  constexpr double kSpeedHz = 2, kE = 20e-6;
+  Case c = shipped_stage({{"train.mesh[0].stiffness_harmonics", "[]"},
+                          {"train.mesh[1].stiffness_harmonics", "[]"},
+                          {"train.reference_speed_hz", "2"},
+                          {"train.body[0].eccentricity_um", "20"},
+                          {"solver.duration_s", "1"},
+                          {"solver.output_interval_s", "0.01"}});
+  const TrainRunResult r = run_train(c);
+  ASSERT_TRUE(r.ok()) << r.message;
+  const train::Assembled a = assembled_train(c);
+  int sun_bearing = -1;
+  for (std::size_t b = 0; b < a.train().bearings.size(); ++b)
+    if (a.train().bearings[b].body == "sun") sun_bearing = static_cast<int>(b);
+  ASSERT_GE(sun_bearing, 0);
+  double largest_swing = 0, largest_miss = 0;
+  for (std::size_t k = 0; k < r.samples.t_s.size(); k += 7) {
+    const double t = r.samples.t_s[k];
+    if (t < 0.5) continue;  // the start's transient decayed
+    train::Train moved = a.train();
+    for (train::Body& b : moved.bodies) b.eccentricity_m = 0;
+    moved.bearings[static_cast<std::size_t>(sun_bearing)].pin_error_radial_m = kE;
+    moved.bearings[static_cast<std::size_t>(sun_bearing)].pin_angle_rad =
+        2 * std::numbers::pi * kSpeedHz * t;
+    const train::Assembled b(moved);
+    const std::optional<Eigen::VectorXd> rest = static_state(b);
+    ASSERT_TRUE(rest);
+    const std::vector<double> f = static_mesh_forces_n(b, *rest);
+    for (std::size_t m = 0; m < f.size(); ++m) {
+      largest_swing = std::max(largest_swing, std::abs(f[m] - *r.meshes[m].static_force_n));
+      largest_miss = std::max(largest_miss, std::abs(r.samples.force_n[k][m] - f[m]));
+    }
+  }
+  EXPECT_GT(largest_swing, 10.0);  // N: the runout moves the loads
+  EXPECT_LT(largest_miss, 1e-3 * largest_swing);
 }
 
 }  // namespace

@@ -78,6 +78,14 @@
 // cannot all interlock (planets whose spacing the tooth counts do not allow) is refused naming
 // the mesh that closes it. Without it, each mesh's harmonics are taken as given, about t = 0.
 //
+// Eccentricity (Body::eccentricity_m). A gear's teeth turn about a centre that is not its
+// axis: each mesh's deflection gains cos(beta_b) n . (epsilon_a(t) - epsilon_b(t)), its gears'
+// runouts along the line of action as a translation of their centres would (a gear that keeps
+// torsion only too: its runout still moves its teeth), taken into the mesh's error e(t) as
+// -cos(beta_b) n . (epsilon_a - epsilon_b), at each gear's speed in the train's frame. A body
+// at rest (a carrier) shifts its pins: each bearing on them has its seat moved by epsilon, a
+// load like a pin error's.
+//
 // Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1); a region
 // is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
 // Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N); then, the same in
@@ -102,6 +110,13 @@ struct Body {
   double inertia_kg_m2 = 0;  // J > 0
   bool planar = false;       // also moves in the plane (x, y): needs a bearing
   double mass_kg = 0;        // m > 0 of a planar body
+  // Runout: the centre of the body's teeth and pins lies eccentricity_m from its axis (its
+  // bearing's seat), at eccentricity_angle_rad counterclockwise from x at t = 0, and turns with
+  // the body: epsilon(t) = e (cos(s w t + phi), sin(s w t + phi)), s w its rotation in the
+  // train's frame (constant on a body at rest: a carrier's pins all shifted). Its mass stays
+  // centred on the axis (no unbalance). Below, "Eccentricity".
+  double eccentricity_m = 0;
+  double eccentricity_angle_rad = 0;
 };
 
 // k(t) = mean (1 + sum_i ratio_i cos(i w_mesh t + phase_i)) and e(t) = sum_i a_i cos(i w_mesh t
@@ -256,8 +271,12 @@ class Assembled {
   int sense(int body) const { return sense_[static_cast<std::size_t>(body)]; }
   // B of bearing k: its body's centre's displacement from its seat, w = B q (x and y rows).
   Eigen::MatrixXd bearing_matrix(int bearing) const;
-  // o of bearing k: its seat's error in x and y (Bearing's pin errors), 0 without one.
+  // o of bearing k: its seat's error in x and y (Bearing's pin errors, and its carrier's
+  // eccentricity), 0 without one.
   Eigen::Vector2d bearing_offset(int bearing) const;
+  // n of mesh m: the unit vector of its drive flank's line of action in the transverse plane
+  // (above), whether or not its gears are planar.
+  Eigen::Vector2d line_of_action(int mesh) const;
   // The twist of shaft k, theta_a - theta_b (theta_a to the ground) = v q.
   Eigen::RowVectorXd shaft_vector(int shaft) const;
   // The train's rigid rotation as coordinates: each body's speed ratio on its theta, 0 on every
@@ -285,10 +304,10 @@ class Assembled {
   // Each mesh's phase u from the layout (above), in cycles; 0 for every mesh without it.
   const std::vector<double>& mesh_phases() const { return phase_; }
   // The period of every excitation together (each mesh's stiffness and transmission error,
-  // every torque's and prescribed speed's harmonics): 1 / (f_ref g), g the greatest common
-  // divisor of their frequencies over the reference speed, each a ratio of whole numbers (an
-  // order counts as one when it is within kOrderTolerance of a fraction whose denominator is at
-  // most kMaxOrderDenominator). Empty, with `why` saying which excitation, when there is no
+  // every torque's and prescribed speed's harmonics, every turning gear's runout): 1 / (f_ref
+  // g), g the greatest common divisor of their frequencies over the reference speed, each a
+  // ratio of whole numbers (an order counts as one when it is within kOrderTolerance of a
+  // fraction whose denominator is at most kMaxOrderDenominator). Empty, with `why` saying which excitation, when there is no
   // such period within kMaxPeriodMultiple of the slowest excitation's own period: the train is
   // driven quasi-periodically, and a study that needs a period must say so. 0 when nothing
   // varies.
@@ -332,7 +351,8 @@ class Assembled {
   //   support holds has none and is read whole.
   Eigen::MatrixXd reduced_basis() const;
 
-  // Each mesh's stiffness and transmission error in time.
+  // Each mesh's stiffness and transmission error in time (the error with its gears' runouts,
+  // "Eccentricity" above).
   HarmonicSeries stiffness_series(int mesh) const;
   HarmonicSeries error_series(int mesh) const;
   // Each torque's T(t) on its body.

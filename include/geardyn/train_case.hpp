@@ -54,6 +54,8 @@ struct TrainBodyData {
   double face_width_mm = 0;
   double bore_diameter_mm = 0;
   double density_kg_m3 = 7850;
+  double eccentricity_um = 0;  // runout of its teeth and pins (train::Body)
+  double eccentricity_angle_deg = 0;
 };
 
 // [[train.mesh]]: a mesh between two gears, the driving one (whose drive flank pushes) first;
