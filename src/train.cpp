@@ -91,8 +91,7 @@ Spectrum plus(Spectrum a, const Spectrum& b) {
 }
 
 // Harmonic i of the mesh frequency at index stride i (the base frequency its stride-th part).
-Spectrum from_harmonics(double mean, const std::vector<MeshHarmonic>& h, double scale,
-                        int stride) {
+Spectrum from_harmonics(double mean, const std::vector<MeshHarmonic>& h, double scale, int stride) {
   Spectrum s;
   s[0] = mean;
   for (std::size_t i = 0; i < h.size(); ++i)

@@ -1079,10 +1079,10 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
           "and carries no pins, so its runout moves nothing",
           i, b.eccentricity_um, where, b.name));
     if (b.eccentricity_angle_deg != 0 && b.eccentricity_um == 0)
-      out.push_back(fmt::format(
-          "train.body[{}].eccentricity_angle_deg = {} ({}): not used: body '{}' has no "
-          "eccentricity_um to direct",
-          i, b.eccentricity_angle_deg, where, b.name));
+      out.push_back(
+          fmt::format("train.body[{}].eccentricity_angle_deg = {} ({}): not used: body '{}' has no "
+                      "eccentricity_um to direct",
+                      i, b.eccentricity_angle_deg, where, b.name));
   }
   for (std::size_t i = 0; i < t.bearings.size(); ++i) {
     const TrainBearingData& b = t.bearings[i];

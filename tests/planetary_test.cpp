@@ -715,12 +715,12 @@ TEST(Eccentricity, ACarriersEccentricityIsItsPinsErrors) {
   std::vector<std::string> pairs;
   for (int n = 0; n < 3; ++n) {
     const double psi = 2 * std::numbers::pi * n / 3, phi = 30 * std::numbers::pi / 180;
-    pairs.push_back(fmt::format("[{:.17g}, {:.17g}]", 20 * std::cos(phi - psi),
-                                20 * std::sin(phi - psi)));
+    pairs.push_back(
+        fmt::format("[{:.17g}, {:.17g}]", 20 * std::cos(phi - psi), 20 * std::sin(phi - psi)));
   }
-  Case errors = shipped_stage(
-      {{"train.planet_pin_errors_um", fmt::format("[{}]", fmt::join(pairs, ", "))},
-       {"solver.duration_s", "0.003"}});
+  Case errors =
+      shipped_stage({{"train.planet_pin_errors_um", fmt::format("[{}]", fmt::join(pairs, ", "))},
+                     {"solver.duration_s", "0.003"}});
   const TrainRunResult x = run_train(eccentric), y = run_train(errors);
   ASSERT_TRUE(x.ok() && y.ok()) << x.message << y.message;
   ASSERT_TRUE(x.load_sharing[0].static_factor && y.load_sharing[0].static_factor);

@@ -307,10 +307,10 @@ class Assembled {
   // every torque's and prescribed speed's harmonics, every turning gear's runout): 1 / (f_ref
   // g), g the greatest common divisor of their frequencies over the reference speed, each a
   // ratio of whole numbers (an order counts as one when it is within kOrderTolerance of a
-  // fraction whose denominator is at most kMaxOrderDenominator). Empty, with `why` saying which excitation, when there is no
-  // such period within kMaxPeriodMultiple of the slowest excitation's own period: the train is
-  // driven quasi-periodically, and a study that needs a period must say so. 0 when nothing
-  // varies.
+  // fraction whose denominator is at most kMaxOrderDenominator). Empty, with `why` saying which
+  // excitation, when there is no such period within kMaxPeriodMultiple of the slowest excitation's
+  // own period: the train is driven quasi-periodically, and a study that needs a period must say
+  // so. 0 when nothing varies.
   std::optional<double> system_period_s(std::string* why = nullptr) const;
 
   const Eigen::MatrixXd& mass() const { return m_; }
