@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+#include <Eigen/QR>
 #include <algorithm>
 #include <boost/math/tools/toms748_solve.hpp>
 #include <cmath>
@@ -29,6 +30,10 @@ constexpr std::uintmax_t kMaxBoundaryIterations = 200;
 // A complex pair's boundary is where its modulus crosses 1 + kNeutralMargin, so that an
 // undamped system's pair, which leaves the circle without crossing it, is located too.
 constexpr double kNeutralMargin = 1e-9;
+// A rigid motion's rate counts as kept by the flow (multiplier exactly 1) when M v - v is
+// within this of M's size: rounding leaves some 1e-12 there, a drag of a millionth of the
+// mesh damping some 1e-6.
+constexpr double kNeutralRate = 1e-9;
 
 Case case_at(const Case& base, const SweepAxis& axis, double value) {
   Case c = base;
@@ -51,15 +56,25 @@ std::optional<double> complex_pair_test(const std::vector<std::complex<double>>&
 
 }  // namespace
 
-ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s,
-                              const MeshStiffness* stiffness) {
+namespace {
+
+// The monodromy as contact_monodromy gives it, or with `elastic` its rigid rates' exact
+// multipliers of 1 deflated (train.hpp, reduced_basis: a rate no drag damps maps to itself).
+ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_s,
+                                 const MeshStiffness* stiffness, bool elastic) {
   ode::LinearSwitchedSystem sys;
   int contact = 0;
   double system_period = 0;
   std::optional<ode::Matrix> reduce;  // Q of the coordinates read (train::Assembled)
+  ode::Matrix rates;                  // each rigid motion's rate (0, r), in the full state
   if (c.model.form == ModelForm::kTrain) {
     // Every mesh in drive contact, read in the train's own coordinates (reduced_basis).
     const train::Assembled a = assembled_train(c);
+    if (elastic && a.train().speeds.empty()) {
+      const Eigen::MatrixXd rigid = a.rigid_motions();
+      rates = ode::Matrix::Zero(2 * a.size(), rigid.cols());
+      rates.bottomRows(a.size()) = rigid;
+    }
     sys = a.linear_system();
     contact = a.region(std::vector<int>(a.train().meshes.size(), 1));
     // The system period is needed only where the meshes' stiffness is constant: the forcing
@@ -121,8 +136,30 @@ ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s,
   if (!r.ok() || !r.jacobian)
     throw std::runtime_error(fmt::format("the contact monodromy's flow failed ({}): {}",
                                          ode::to_string(r.termination), r.message));
-  if (reduce) return reduce->transpose() * *r.jacobian * *reduce;
-  return *r.jacobian;
+  if (!reduce) return *r.jacobian;
+  const ode::Matrix m = reduce->transpose() * *r.jacobian * *reduce;
+  if (rates.cols() == 0) return m;
+  // A rate v the flow keeps (M v = v: nothing damps it) is a right eigenvector of 1; in an
+  // orthonormal basis (V, W) M is block triangular, and W^T M W holds the other multipliers.
+  const ode::Matrix v = reduce->transpose() * rates;
+  const Eigen::HouseholderQR<ode::Matrix> qr(v);
+  const ode::Matrix basis = qr.householderQ() * ode::Matrix::Identity(m.rows(), m.rows());
+  const ode::Matrix kept = basis.leftCols(v.cols());
+  if ((m * kept - kept).norm() > kNeutralRate * std::max(1.0, m.norm())) return m;
+  const ode::Matrix w = basis.rightCols(m.rows() - v.cols());
+  return w.transpose() * m * w;
+}
+
+}  // namespace
+
+ode::Matrix contact_monodromy(const Case& c, double tolerance, double period_s,
+                              const MeshStiffness* stiffness) {
+  return monodromy_in_contact(c, tolerance, period_s, stiffness, false);
+}
+
+ode::Matrix elastic_contact_monodromy(const Case& c, double tolerance, double period_s,
+                                      const MeshStiffness* stiffness) {
+  return monodromy_in_contact(c, tolerance, period_s, stiffness, true);
 }
 
 std::string StabilityOptions::validate() const {
@@ -173,8 +210,8 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
   for (const double row : rows) {
     const Case base = o.axis2 ? case_at(c, *o.axis2, row) : c;
     auto monodromy = [&](double p) {
-      return contact_monodromy(case_at(base, o.axis, p), o.tolerance, 0,
-                               shared ? &*shared : nullptr);
+      return elastic_contact_monodromy(case_at(base, o.axis, p), o.tolerance, 0,
+                                       shared ? &*shared : nullptr);
     };
     auto locate = [&](double a, double b, double fa, double fb, BifurcationType type,
                       const std::function<double(const ode::Matrix&)>& test) {

@@ -15,6 +15,7 @@
 
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
+#include "geardyn/stability.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
@@ -780,6 +781,42 @@ TEST(Eccentricity, ASunsRunoutIsQuasiStaticallyAMovedSeat) {
   }
   EXPECT_GT(largest_swing, 10.0);  // N: the runout moves the loads
   EXPECT_LT(largest_miss, 1e-3 * largest_swing);
+}
+
+}  // namespace
+}  // namespace geardyn
+
+namespace geardyn {
+namespace {
+
+// The many-mesh Mathieu-Hill problem (docs/model.md, "Phasing and parametric instability"):
+// Lin and Parker's set, each mesh's stiffness varying by 20 % at the mesh frequency, its
+// Floquet multipliers in permanent contact. Harmonic l couples modes i and j through
+// sum_n e^(i l z_s psi_n) times what planet n's shapes hold: for two rotational modes nothing
+// that depends on n, so sum_n e^(i l z_s psi_n), zero unless l z_s / N is whole; for a
+// rotational and a translational one e^(+-i psi_n), so sum_n e^(i (l z_s +- 1) psi_n). With the
+// meshes in phase ("given": every phase 0) the first sum is N and the second 0; phased from the
+// layout with 85 teeth and three planets (85 / 3 not whole, 84 / 3 whole) the reverse. So the
+// rotational sun mode (11775 Hz, 99 % of its energy in the sun meshes) goes unstable at a mesh
+// frequency of twice its own only in phase, and its combination with the translational pair at
+// 9648 Hz (sum 21423 Hz) only phased from the layout.
+TEST(PlanetaryPhasing, PhasingSuppressesTheInstabilitiesItsRulesSay) {
+  const auto largest_multiplier = [](const std::string& phase, double speed_hz) {
+    Case c =
+        load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "lin_parker_1999.toml");
+    set_case_value(c, {"train.mesh[0].stiffness_harmonics", "[[0.2, 0]]"});
+    set_case_value(c, {"train.mesh[1].stiffness_harmonics", "[[0.2, 0]]"});
+    set_case_value(c, {"train.mesh_phase", "\"" + phase + "\""});
+    set_case_value(c, {"train.reference_speed_hz", fmt::format("{}", speed_hz)});
+    return contact_monodromy(c).eigenvalues().cwiseAbs().maxCoeff();
+  };
+  // Mesh frequencies over the sun's 85 teeth: 2 x 11775.3 Hz, and 11775.3 + 9647.9 Hz.
+  const double primary_hz = 2 * 11775.3 / 85, combination_hz = (11775.3 + 9647.9) / 85;
+  constexpr double kNeutral = 1e-9;  // the rigid rotation's rate keeps a multiplier of 1
+  EXPECT_GT(largest_multiplier("given", primary_hz), 1.04);
+  EXPECT_LT(largest_multiplier("layout", primary_hz), 1 + kNeutral);
+  EXPECT_LT(largest_multiplier("given", combination_hz), 1 + kNeutral);
+  EXPECT_GT(largest_multiplier("layout", combination_hz), 1.04);
 }
 
 }  // namespace

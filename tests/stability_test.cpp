@@ -386,6 +386,55 @@ TEST(Stability, AFreelyTurningTrainHasItsMeshsMultipliersAndANeutralRate) {
         << rest[i] << " against " << mf[i];
 }
 
+TEST(Stability, TheStudyReadsAFreeTrainWithoutItsNeutralRate) {
+  // The idler train turns freely: elastic_contact_monodromy is contact_monodromy with its rate's
+  // multiplier of 1 deflated, the others the same to rounding. Lin and Parker's set, its meshes
+  // in phase and varying by 20 %, is unstable where the mesh frequency is near twice its
+  // rotational sun mode's (11775 Hz over the sun's 85 teeth, mu = -1: period doubling); along
+  // the speed the study finds that region's two ends and no other boundary (with the neutral 1
+  // kept, det(M - I) takes rounding's sign at every sample and boundaries appear everywhere).
+  const Case idler =
+      geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml");
+  const geardyn::ode::Matrix full = geardyn::contact_monodromy(idler),
+                             elastic = geardyn::elastic_contact_monodromy(idler);
+  ASSERT_EQ(elastic.rows(), full.rows() - 1);
+  std::vector<std::complex<double>> kept = sorted_multipliers(full);
+  kept.erase(std::min_element(kept.begin(), kept.end(), [](auto x, auto y) {
+    return std::abs(x - 1.0) < std::abs(y - 1.0);
+  }));
+  const std::vector<std::complex<double>> deflated = sorted_multipliers(elastic);
+  ASSERT_EQ(deflated.size(), kept.size());
+  // Each to 1e-9 of itself, and the smallest (some 3e-7, the fast contact modes decayed over a
+  // period) to 1e-7 of the largest: a small eigenvalue of this far from normal matrix moves by
+  // that much under rounding of its entries.
+  for (std::size_t i = 0; i < kept.size(); ++i)
+    EXPECT_LT(std::abs(deflated[i] - kept[i]),
+              1e-9 * std::abs(kept[i]) + 1e-7 * std::abs(kept.back()))
+        << deflated[i] << " against " << kept[i];
+  // A train with a prescribed speed has no rate to deflate.
+  const Case loose =
+      geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml");
+  EXPECT_EQ(geardyn::elastic_contact_monodromy(loose), geardyn::contact_monodromy(loose));
+
+  Case set = geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/lin_parker_1999.toml");
+  geardyn::set_case_value(set, {"train.mesh[0].stiffness_harmonics", "[[0.2, 0]]"});
+  geardyn::set_case_value(set, {"train.mesh[1].stiffness_harmonics", "[[0.2, 0]]"});
+  StabilityOptions o;
+  o.axis = {"train.reference_speed_hz", 250, 300, 11};
+  const geardyn::StabilityResult r = geardyn::stability(set, o);
+  ASSERT_EQ(r.boundaries.size(), 2U);
+  const double centre_hz = 2 * 11775.3 / 85;
+  EXPECT_EQ(r.boundaries[0].type, geardyn::BifurcationType::kPeriodDoubling);
+  EXPECT_EQ(r.boundaries[1].type, geardyn::BifurcationType::kPeriodDoubling);
+  EXPECT_LT(r.boundaries[0].param, centre_hz);
+  EXPECT_GT(r.boundaries[1].param, centre_hz);
+  for (const geardyn::StabilitySample& x : r.samples) {
+    const bool inside = x.param > r.boundaries[0].param && x.param < r.boundaries[1].param;
+    EXPECT_EQ(x.stable, !inside) << x.param;
+    if (!inside) EXPECT_LT(x.max_multiplier, 1.0) << x.param;  // damped: no neutral 1 left
+  }
+}
+
 TEST(Stability, APrescribedTrainIsReadInItsFreeBodysCoordinates) {
   // The shipped loose gear, its input's speed prescribed: the monodromy is the loose gear's
   // (theta, theta') alone. In permanent contact at constant stiffness it is exp(A T) of

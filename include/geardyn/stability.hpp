@@ -40,6 +40,14 @@ constexpr double kBoundaryWidth = 1e-13;
 ode::Matrix contact_monodromy(const Case& c, double tolerance = 1e-12, double period_s = 0,
                               const MeshStiffness* stiffness = nullptr);
 
+// The same without the multipliers every freely turning train has whatever its meshes do: the
+// rate of each rigid motion that nothing damps maps to itself (a multiplier of exactly 1, whose
+// det(M - I) rounding leaves of either sign), deflated: the other multipliers, which the
+// stability study reads (its boundaries would otherwise be rounding's). The same matrix as
+// contact_monodromy where there is no such rate.
+ode::Matrix elastic_contact_monodromy(const Case& c, double tolerance = 1e-12, double period_s = 0,
+                                      const MeshStiffness* stiffness = nullptr);
+
 struct StabilityOptions {
   SweepAxis axis;                  // key, from, to, points (log allowed)
   std::optional<SweepAxis> axis2;  // a chart: each value of axis2 is a row along axis
