@@ -1,9 +1,11 @@
 // The figures of a gear train: a run's time histories, one row per mesh, and the Campbell
 // diagram of its modes against every mesh's orders.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -34,7 +36,85 @@ std::string quoted(const std::string& name) {
 
 }  // namespace
 
+namespace {
+
+// Each load-sharing group of a run (a sun and its planets, a ring and its planets) in a row:
+// every mesh's force over time, a line per planet, and the group's factor n max F / sum F on
+// the right axis, its static value dashed.
+void write_load_sharing_figure(const fs::path& dir, const TrainRunResult& r) {
+  const TrainSamples& s = r.samples;
+  // The meshes of every group (a mesh may be in two: its driving and its driven gear's), then
+  // each group's factor.
+  std::vector<std::size_t> meshes;
+  for (const TrainLoadSharing& g : r.load_sharing)
+    for (const std::string& name : g.meshes)
+      for (std::size_t m = 0; m < r.meshes.size(); ++m)
+        if (r.meshes[m].name == name && std::find(meshes.begin(), meshes.end(), m) == meshes.end())
+          meshes.push_back(m);
+  const auto column = [&](const std::string& name) {
+    for (std::size_t i = 0; i < meshes.size(); ++i)
+      if (r.meshes[meshes[i]].name == name) return 2 + i;
+    return std::size_t{0};
+  };
+  std::string header = "t_ms";
+  for (const std::size_t m : meshes) header += fmt::format(",{}_force_n", r.meshes[m].name);
+  for (const TrainLoadSharing& g : r.load_sharing) header += fmt::format(",{}_factor", g.gear);
+  header += "\n";
+  constexpr double kUndefined = std::numeric_limits<double>::quiet_NaN();
+  write_files_atomically(dir,
+                         {{"load_sharing_plot.csv",
+                           decimated_csv(
+                               header, s.t_s.size(), [&](std::size_t k) { return s.t_s[k] * 1e3; },
+                               [&](std::size_t k) {
+                                 std::vector<double> v;
+                                 for (const std::size_t m : meshes) v.push_back(s.force_n[k][m]);
+                                 for (const TrainLoadSharing& g : r.load_sharing) {
+                                   std::vector<double> forces;
+                                   for (const std::string& name : g.meshes)
+                                     forces.push_back(v[column(name) - 2]);
+                                   v.push_back(load_sharing_factor(forces).value_or(kUndefined));
+                                 }
+                                 return v;
+                               })}});
+  std::string g =
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top right font ',9' opaque\nset ytics nomirror\nset y2tics\n"
+      "set ylabel 'mesh force (N)'\nset y2label 'load-sharing factor'\n";
+  fmt::format_to(std::back_inserter(g),
+                 "set multiplot layout {},1 title \"{}: load sharing\"\nset xrange [0:{}]\n",
+                 r.load_sharing.size(), quoted(r.input.name), r.input.solver.duration_s * 1e3);
+  for (std::size_t i = 0; i < r.load_sharing.size(); ++i) {
+    const TrainLoadSharing& x = r.load_sharing[i];
+    std::string plots;
+    for (std::size_t k = 0; k < x.meshes.size(); ++k)
+      plots += fmt::format(
+          "{}'load_sharing_plot.csv' using 1:{} skip 1 axes x1y1 with lines lw 1.2 lc rgb '{}' "
+          "title '{}'",
+          k ? ", " : "", column(x.meshes[k]), colour(k), quoted(x.meshes[k]));
+    plots += fmt::format(
+        ", '' using 1:{} skip 1 axes x1y2 with lines lw 1.5 lc rgb 'black' title 'factor'",
+        2 + meshes.size() + i);
+    if (x.static_factor)
+      plots += fmt::format(", {} axes x1y2 with lines dt 2 lc rgb 'gray40' title 'at rest'",
+                           *x.static_factor);
+    const auto worst = x.factor ? x.factor : x.factor_with_startup;
+    fmt::format_to(
+        std::back_inserter(g), "set title \"gear {}: {} meshes{}{}\" font ',10'\n{}plot {}\n",
+        quoted(x.gear), x.meshes.size(),
+        worst ? fmt::format(", factor up to {:.4g}", *worst) : std::string(),
+        x.lost_contact.empty() ? std::string()
+                               : fmt::format(", lost contact: {}", fmt::join(x.lost_contact, " ")),
+        i + 1 == r.load_sharing.size() ? "set xlabel 't (ms)'\n" : "unset xlabel\n", plots);
+  }
+  g += "unset multiplot\n";
+  render_figure(dir, "load_sharing", g, 1000,
+                300 * static_cast<int>(std::max<std::size_t>(r.load_sharing.size(), 1)));
+}
+
+}  // namespace
+
 void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
+  if (!r.load_sharing.empty()) write_load_sharing_figure(dir, r);
   const TrainSamples& s = r.samples;
   const std::size_t meshes = r.meshes.size(), shafts = r.shafts.size(),
                     bearings = r.bearings.size();

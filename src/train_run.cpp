@@ -300,17 +300,6 @@ double shortest_time_scale_s(const train::Assembled& a) {
   return kTwoPi / w;
 }
 
-// n max_i F_i / sum_i F_i of the forces of one group of meshes; absent when they sum to <= 0.
-std::optional<double> sharing_factor(const std::vector<double>& forces) {
-  double sum = 0, most = -kInf;
-  for (const double f : forces) {
-    sum += f;
-    most = std::max(most, f);
-  }
-  if (!(sum > 0)) return std::nullopt;
-  return static_cast<double>(forces.size()) * most / sum;
-}
-
 // The load-sharing groups of a train (TrainLoadSharing) read from a run's meshes and samples.
 std::vector<TrainLoadSharing> read_load_sharing(const train::Assembled& a,
                                                 const TrainRunResult& r) {
@@ -337,11 +326,11 @@ std::vector<TrainLoadSharing> read_load_sharing(const train::Assembled& a,
         if (part.separations > 0 || part.separated_fraction > 0 || part.min_force_n < 0)
           x.lost_contact.push_back(mesh.name);
       }
-      if (at_rest.size() == group.size()) x.static_factor = sharing_factor(at_rest);
+      if (at_rest.size() == group.size()) x.static_factor = load_sharing_factor(at_rest);
       std::vector<double> forces(group.size());
       for (std::size_t i = 0; i < r.samples.t_s.size(); ++i) {
         for (std::size_t k = 0; k < group.size(); ++k) forces[k] = r.samples.force_n[i][group[k]];
-        const std::optional<double> f = sharing_factor(forces);
+        const std::optional<double> f = load_sharing_factor(forces);
         if (!f) continue;
         x.factor_with_startup = std::max(x.factor_with_startup.value_or(0.0), *f);
         if (r.steady.marked && r.samples.t_s[i] >= r.steady.from_s)
@@ -353,6 +342,16 @@ std::vector<TrainLoadSharing> read_load_sharing(const train::Assembled& a,
 }
 
 }  // namespace
+
+std::optional<double> load_sharing_factor(const std::vector<double>& forces_n) {
+  double sum = 0, most = -kInf;
+  for (const double f : forces_n) {
+    sum += f;
+    most = std::max(most, f);
+  }
+  if (!(sum > 0)) return std::nullopt;
+  return static_cast<double>(forces_n.size()) * most / sum;
+}
 
 std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why,
                                             std::optional<double> at_s) {

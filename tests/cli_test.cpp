@@ -1175,9 +1175,10 @@ TEST(Cli, TheShippedPlanetaryStageRattlesAtLightLoadAndSharesItsLoad) {
   std::ofstream(d / "notes.txt") << "mine";
   const Outcome o =
       cli("run " + set +
-          " --set solver.duration_s=0.05 --set 'train.torque[0].mean_nm=5' --set "
+          " --set solver.duration_s=0.05 --set solver.output_interval_s=5e-5 --set "
+          "'train.torque[0].mean_nm=5' --set "
           "'train.torque[1].mean_nm=-21.25' --set 'train.mesh[0].transmission_error_um=[[8, 0]]' "
-          "--set 'train.mesh[1].transmission_error_um=[[8, 0]]' --out " +
+          "--set 'train.mesh[1].transmission_error_um=[[8, 0]]' --plot --out " +
           d.string());
   ASSERT_EQ(o.code, 0) << o.err;
   const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
@@ -1186,6 +1187,40 @@ TEST(Cli, TheShippedPlanetaryStageRattlesAtLightLoadAndSharesItsLoad) {
   EXPECT_EQ(j["load_sharing"][0]["gear"], "sun");
   EXPECT_EQ(j["load_sharing"][0]["lost_contact"].size(), 3U);
   EXPECT_NE(o.out.find("load sharing sun  over 3 meshes"), std::string::npos) << o.out;
+  // The per-planet figure: a row per group, a line per planet's mesh, and the factor, each
+  // sample's factor the group's n max F / sum F (undefined where the planets carry nothing).
+  const std::string body = slurp(d / "load_sharing_body.gp");
+  EXPECT_NE(body.find("layout 2,1"), std::string::npos) << body;
+  EXPECT_NE(body.find("using 1:4 skip 1 axes x1y1 with lines lw 1.2 lc rgb '#2e8b57' title "
+                      "'sun_planet3'"),
+            std::string::npos)
+      << body;
+  EXPECT_NE(body.find("using 1:9 skip 1 axes x1y2"), std::string::npos) << body;
+  EXPECT_NE(body.find("lost contact: sun_planet1 sun_planet2 sun_planet3"), std::string::npos)
+      << body;
+  EXPECT_TRUE(fs::exists(d / "load_sharing.png"));
+  std::istringstream csv(slurp(d / "load_sharing_plot.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line,
+            "t_ms,sun_planet1_force_n,sun_planet2_force_n,sun_planet3_force_n,"
+            "planet_ring1_force_n,planet_ring2_force_n,planet_ring3_force_n,sun_factor,"
+            "ring_factor");
+  int rows = 0;
+  while (std::getline(csv, line)) {
+    std::vector<double> v;
+    std::istringstream fields(line);
+    for (std::string f; std::getline(fields, f, ',');) v.push_back(std::stod(f));
+    ASSERT_EQ(v.size(), 9U) << line;
+    const double sum = v[1] + v[2] + v[3];
+    if (sum > 0) {
+      EXPECT_NEAR(v[7], 3 * std::max({v[1], v[2], v[3]}) / sum, 1e-6 * v[7]) << line;
+      ++rows;
+    } else {
+      EXPECT_TRUE(std::isnan(v[7])) << line;
+    }
+  }
+  EXPECT_GT(rows, 100);
   EXPECT_EQ(slurp(d / "notes.txt"), "mine");
   fs::remove_all(d);
 }

@@ -413,7 +413,9 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
       if (plot) geardyn::write_train_run_figures(d, r);
     });
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, case.toml)\n", out_dir);
-    if (plot) fmt::print("  figure            {}/train_time (.png, .svg, .gp)\n", out_dir);
+    if (plot)
+      fmt::print("  figure            {}/train_time{} (.png, .svg, .gp)\n", out_dir,
+                 r.load_sharing.empty() ? "" : ", load_sharing");
   }
   return interrupted ? kExitInterrupted : 0;
 }

@@ -99,7 +99,9 @@ std::string campbell_csv(const Case& c, const ModeSet& m);
 void write_campbell_figure(const std::filesystem::path& dir, const Case& c, const ModeSet& m);
 
 // The figure of a gear train's run, into a directory: train_time, one row per mesh with its
-// deflection (d - e) / b and its force (N), with train_plot.csv beside it.
+// deflection (d - e) / b and its force (N), with train_plot.csv beside it; with load-sharing
+// groups (a planetary set), load_sharing too: a row per group with each planet's mesh force
+// and the factor over time, with load_sharing_plot.csv.
 void write_train_run_figures(const std::filesystem::path& dir, const TrainRunResult& r);
 
 // The Campbell diagram of a train (campbell .png .svg .gp, campbell.csv): its modes in contact

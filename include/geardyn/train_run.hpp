@@ -88,6 +88,10 @@ struct TrainLoadSharing {
   std::vector<std::string> lost_contact;
 };
 
+// The load-sharing factor of one group's mesh forces, n max_i F_i / sum_i F_i; absent when they
+// sum to <= 0.
+std::optional<double> load_sharing_factor(const std::vector<double>& forces_n);
+
 struct TrainSamples {
   std::vector<double> t_s;
   std::vector<Eigen::VectorXd> state;               // (q, q'): rad, m and their rates
