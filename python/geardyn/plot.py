@@ -169,6 +169,65 @@ def train_run(r, title=None):
     return fig
 
 
+def load_sharing(r, title=None):
+    """A planetary set's load sharing over a run, as `geardyn run --plot` draws it: one panel
+    per load-sharing group (a sun's planets, a ring's), each planet's mesh force in N and the
+    group's factor n max F / sum F at each sample on a second axis (its static value dashed;
+    no value where the forces sum to 0 or less).
+
+    Parameters
+    ----------
+    r : TrainRunResult
+        a run of a train with load-sharing groups (its summary's "load_sharing").
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    groups = r.summary.get("load_sharing", [])
+    if not groups:
+        raise ValueError("this run has no load-sharing group: no gear drives or is driven by "
+                         "two or more meshes")
+    t_ms = r.t * 1e3
+    colours = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad", "#d35400", "#16a085"]
+    fig, ax = plt.subplots(len(groups), 1, sharex=True, figsize=(9, 2.8 * len(groups)),
+                           squeeze=False)
+    for g, group in enumerate(groups):
+        a = ax[g][0]
+        forces = np.column_stack([r.force[:, r.meshes.index(m)] for m in group["meshes"]])
+        for k, name in enumerate(group["meshes"]):
+            a.plot(t_ms, forces[:, k], color=colours[k % len(colours)], linewidth=0.9,
+                   label=name)
+        a.set_ylabel("mesh force (N)")
+        total = forces.sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            factor = np.where(total > 0, len(group["meshes"]) * forces.max(axis=1) / total,
+                              np.nan)
+        f = a.twinx()
+        f.plot(t_ms, factor, color="black", linewidth=1.2, label="factor")
+        if group["static_factor"] is not None:
+            f.axhline(group["static_factor"], color="gray", linestyle="--", linewidth=0.8,
+                      label="at rest")
+        f.set_ylabel("load-sharing factor")
+        worst = group["factor"] if group["factor"] is not None else group["factor_with_startup"]
+        lost = f", lost contact: {' '.join(group['lost_contact'])}" if group["lost_contact"] else ""
+        a.set_title(f"gear {group['gear']}: {len(group['meshes'])} meshes"
+                    + (f", factor up to {worst:.4g}" if worst is not None else "") + lost,
+                    fontsize=9)
+        a.grid(color="#dddddd")
+        a.legend(loc="upper left", fontsize=8)
+        f.legend(loc="upper right", fontsize=8)
+    ax[-1][0].set_xlabel("t (ms)")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
 def frequency_response(s, param="parameter", ax=None, column="rms_force_bar"):
     """A sweep's response against the swept key, the up and down sweeps overlaid.
 

@@ -748,9 +748,23 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     # A loaded stage's run reads each sun's and ring's load sharing.
     ps = geardyn.Case.from_toml(SOURCE / "cases/planetary_set.toml").with_(
         {"solver.duration_s": 0.002, "train.planet_pin_errors_um": [[0, 20], [0, 0], [0, 0]]})
-    sharing = geardyn.run(ps).summary["load_sharing"]
+    pr = geardyn.run(ps)
+    sharing = pr.summary["load_sharing"]
     assert [g["gear"] for g in sharing] == ["sun", "ring"]
     assert sharing[0]["static_factor"] > 1.05 and sharing[0]["lost_contact"] == []
+    # Its figure: a panel per group, a line per planet's mesh, the factor at each sample.
+    fig = geardyn.plot.load_sharing(pr)
+    sun = fig.axes[0]
+    assert [line.get_label() for line in sun.get_lines()] == \
+        ["sun_planet1", "sun_planet2", "sun_planet3"]
+    forces = np.column_stack([pr.force[:, pr.meshes.index(m)] for m in sharing[0]["meshes"]])
+    factor = [a for a in fig.axes if a is not sun and a.bbox.bounds == sun.bbox.bounds][0]
+    drawn = factor.get_lines()[0].get_ydata()
+    assert np.allclose(drawn, 3 * forces.max(axis=1) / forces.sum(axis=1), rtol=1e-12)
+    assert abs(max(drawn) - sharing[0]["factor_with_startup"]) < 1e-9
+    with pytest.raises(ValueError, match="no load-sharing group"):
+        geardyn.plot.load_sharing(geardyn.run(geardyn.Case.from_toml(
+            SOURCE / "cases/two_stage_reducer.toml").with_({"solver.duration_s": 0.001})))
     # Each element's key is checked as in a file, named by its place in its array.
     with pytest.raises(geardyn.InputError, match=r"train\.mesh\[0\]\.backlash_um = -1"):
         geardyn.Case(model={"form": "train"},
