@@ -270,3 +270,125 @@ TEST(TrainContinuation, AFreelyTurningPairContinuesAsTheOneDegreeModel) {
 
 }  // namespace
 }  // namespace geardyn
+
+namespace geardyn {
+namespace {
+
+// The multipliers of a freely turning train's orbit from central differences of its period map
+// in the whole state (q, q') at the section state y, step 1e-7 of each entry's scale (a
+// coordinate by the backlash b over its largest entry in a mesh vector or bearing matrix, a
+// rate by that times the highest natural frequency in contact): with the rigid rotation's
+// angle and rate, an invariant plane the phase condition leaves out (train_orbit.hpp),
+// deflated: the multipliers of the map on its orthonormal complement.
+std::vector<std::complex<double>> central_multipliers(const Case& c, const Eigen::VectorXd& y,
+                                                      double period) {
+  const train::Assembled a = assembled_train(c);
+  ode::EngineOptions eo;
+  eo.tolerance = 1e-15;
+  const ode::ExactEngine engine(a.linear_system(), eo);
+  const Eigen::Index n = a.size();
+  double w = 0;
+  for (const train::TrainMode& m : train::modes(a))
+    w = std::max(w, 2 * std::numbers::pi * m.frequency_hz);
+  const double b = a.train().meshes[0].backlash_m;
+  Eigen::VectorXd reach = Eigen::VectorXd::Zero(n);
+  for (int m = 0; m < static_cast<int>(a.train().meshes.size()); ++m)
+    reach = reach.cwiseMax(a.mesh_vector(m).transpose().cwiseAbs());
+  for (int k = 0; k < static_cast<int>(a.train().bearings.size()); ++k)
+    reach = reach.cwiseMax(a.bearing_matrix(k).colwise().norm().transpose());
+  Eigen::VectorXd scale(2 * n);
+  scale.head(n) = b * reach.cwiseInverse();
+  scale.tail(n) = w * scale.head(n);
+  const Eigen::MatrixXd fd = testing::central_differences(
+      [&](const Eigen::VectorXd& z) { return testing::free_period_map(a, engine, period, z); }, y,
+      1e-7 * scale);
+  const Eigen::MatrixXd s = scale.asDiagonal();
+  const Eigen::MatrixXd m = s.inverse() * fd * s;
+  const Eigen::MatrixXd rigid = a.rigid_motions();
+  EXPECT_EQ(rigid.cols(), 1);
+  Eigen::MatrixXd plane = Eigen::MatrixXd::Zero(2 * n, 2);
+  plane.col(0).head(n) = rigid.col(0);
+  plane.col(1).tail(n) = rigid.col(0);
+  plane = s.inverse() * plane;
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(plane);
+  const Eigen::MatrixXd basis = qr.householderQ() * Eigen::MatrixXd::Identity(2 * n, 2 * n);
+  const Eigen::MatrixXd rest = basis.rightCols(2 * n - 2);
+  const Eigen::VectorXcd mu = (rest.transpose() * m * rest).eigenvalues();
+  return {mu.data(), mu.data() + mu.size()};
+}
+
+// The largest distance from each of `exact` to its nearest unmatched one of `approximate`.
+double farthest_match(const std::vector<std::complex<double>>& exact,
+                      std::vector<std::complex<double>> approximate) {
+  double worst = 0;
+  for (const std::complex<double>& x : exact) {
+    const auto nearest =
+        std::min_element(approximate.begin(), approximate.end(),
+                         [&](auto p, auto q) { return std::abs(p - x) < std::abs(q - x); });
+    worst = std::max(worst, std::abs(*nearest - x));
+    approximate.erase(nearest);
+  }
+  return worst;
+}
+
+TEST(TrainContinuation, ALightlyLoadedPlanetarySetGrazesAndFolds) {
+  // The shipped planetary stage at a twentieth of its load with 0.1 um of transmission error on
+  // every mesh, turning freely (its ring held), continued in the sun's speed near its resonance
+  // (docs/orbits.md, "A planetary set's rattle"): its three sun meshes start to strike together
+  // once a period (a grazing, 0 -> 1 impact) and the branch folds back just past it. The
+  // multipliers of the fold's orbit, its sun meshes striking, modulo the set's rigid rotation,
+  // against central differences of the whole state's period map through the impacts (to 1e-4:
+  // the largest is about 1), their nearest +1 within 1e-3.
+  Case base = load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/planetary_set.toml");
+  for (const auto& [key, value] :
+       {std::pair{"train.torque[0].mean_nm", "5"}, std::pair{"train.torque[1].mean_nm", "-21.25"},
+        std::pair{"train.mesh[0].transmission_error_um", "[[0.1, 0]]"},
+        std::pair{"train.mesh[1].transmission_error_um", "[[0.1, 0]]"}})
+    set_case_value(base, {key, value});
+  ContinuationOptions o;
+  o.key = "train.reference_speed_hz";
+  o.from = 600;
+  o.to = 616;
+  o.initial_step = 0.05;
+  o.max_step = 0.1;
+  o.max_points = 23;
+  o.orbit.settle_periods = 200;
+  const ContinuationResult r = continuation(base, o);
+  ASSERT_EQ(r.points.size(), 23U) << r.message;
+  const Bifurcation *grazing = nullptr, *fold = nullptr;
+  for (const Bifurcation& x : r.bifurcations) {
+    if (x.type == BifurcationType::kGrazing) grazing = &x;
+    if (x.type == BifurcationType::kFold) fold = &x;
+  }
+  ASSERT_TRUE(grazing && fold);
+  for (const char* mesh : {"sun_planet1", "sun_planet2", "sun_planet3"})
+    EXPECT_NE(grazing->detail.find(fmt::format("mesh {} impacts 0 -> 1", mesh)), std::string::npos)
+        << grazing->detail;
+  EXPECT_GT(grazing->param, 610);
+  EXPECT_LT(grazing->param, fold->param);
+  EXPECT_LT(fold->param, 615);
+  EXPECT_LT(r.points.back().param, fold->param);  // turned back
+  EXPECT_FALSE(r.points.back().orbit.stable);
+
+  const auto at = [&](double p) {
+    Case c = base;
+    set_case_value(c, {o.key, fmt::format("{:.17g}", p)});
+    return c;
+  };
+  // The fold's orbit in the whole state (its section state, from its unknowns by Newton).
+  const TrainOrbit t = find_train_orbit(at(fold->param), OrbitOptions{}, fold->orbit.state);
+  ASSERT_TRUE(t.converged) << t.message;
+  ASSERT_TRUE(t.modulo_rotation);
+  EXPECT_LT(farthest_match(fold->orbit.multipliers, t.multipliers), 1e-9);
+  EXPECT_EQ(t.impacts_per_period[0], 1);
+  const std::vector<std::complex<double>> fd =
+      central_multipliers(at(fold->param), t.state, t.period_s);
+  ASSERT_EQ(fd.size(), t.multipliers.size());
+  EXPECT_LT(farthest_match(t.multipliers, fd), 1e-4);
+  double nearest = 1e9;
+  for (const std::complex<double>& x : fd) nearest = std::min(nearest, std::abs(x - 1.0));
+  EXPECT_LT(nearest, 1e-3);
+}
+
+}  // namespace
+}  // namespace geardyn
