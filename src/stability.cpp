@@ -72,7 +72,7 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
     const train::Assembled a = assembled_train(c);
     if (elastic && a.train().speeds.empty()) {
       const Eigen::MatrixXd rigid = a.rigid_motions();
-      rates = ode::Matrix::Zero(2 * a.size(), rigid.cols());
+      rates = ode::Matrix::Zero(2 * static_cast<Eigen::Index>(a.size()), rigid.cols());
       rates.bottomRows(a.size()) = rigid;
     }
     sys = a.linear_system();
@@ -137,7 +137,7 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
     throw std::runtime_error(fmt::format("the contact monodromy's flow failed ({}): {}",
                                          ode::to_string(r.termination), r.message));
   if (!reduce) return *r.jacobian;
-  const ode::Matrix m = reduce->transpose() * *r.jacobian * *reduce;
+  ode::Matrix m = reduce->transpose() * *r.jacobian * *reduce;
   if (rates.cols() == 0) return m;
   // A rate v the flow keeps (M v = v: nothing damps it) is a right eigenvector of 1; in an
   // orthonormal basis (V, W) M is block triangular, and W^T M W holds the other multipliers.

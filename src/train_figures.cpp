@@ -67,9 +67,11 @@ void write_load_sharing_figure(const fs::path& dir, const TrainRunResult& r) {
                                header, s.t_s.size(), [&](std::size_t k) { return s.t_s[k] * 1e3; },
                                [&](std::size_t k) {
                                  std::vector<double> v;
+                                 v.reserve(meshes.size() + r.load_sharing.size());
                                  for (const std::size_t m : meshes) v.push_back(s.force_n[k][m]);
                                  for (const TrainLoadSharing& g : r.load_sharing) {
                                    std::vector<double> forces;
+                                   forces.reserve(g.meshes.size());
                                    for (const std::string& name : g.meshes)
                                      forces.push_back(v[column(name) - 2]);
                                    v.push_back(load_sharing_factor(forces).value_or(kUndefined));
