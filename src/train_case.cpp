@@ -116,8 +116,8 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
       {"position_angle_deg", &M::position_angle_deg, "deg", closed(-360, 360), false,
        "where the driven gear's centre lies seen from the driving gear's, counterclockwise "
        "from x (the reference turns counterclockwise): the line of action's direction, read "
-       "when a gear of the mesh is planar, and where its teeth meet with train.mesh_phase = "
-       "\"layout\""},
+       "when a gear of the mesh is planar or eccentric, and where its teeth meet with "
+       "train.mesh_phase = \"layout\""},
   };
   return keys;
 }
@@ -1048,18 +1048,20 @@ std::size_t mesh_to_read(const Case& c, const std::string& name) {
 
 std::vector<std::string> train_unused_settings(const TrainCase& t) {
   std::vector<std::string> out;
-  std::set<std::string> planar;
+  // The gears whose layout a mesh's line of action reaches: planar, or with a runout.
+  std::set<std::string> placed;
   for (const TrainBodyData& b : t.bodies)
-    if (b.dof == "planar") planar.insert(b.name);
+    if (b.dof == "planar" || b.eccentricity_um != 0) placed.insert(b.name);
   for (std::size_t i = 0; i < t.meshes.size(); ++i) {
     const TrainMeshData& m = t.meshes[i];
-    if (m.position_angle_deg == 0 || planar.count(m.driving) || planar.count(m.driven) ||
+    if (m.position_angle_deg == 0 || placed.count(m.driving) || placed.count(m.driven) ||
         t.mesh_phase == "layout")
       continue;
     const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
     out.push_back(fmt::format(
         "train.mesh[{}].position_angle_deg = {} ({}): not used: neither gear of mesh '{}' is "
-        "planar and train.mesh_phase is not \"layout\", so its layout moves nothing",
+        "planar or eccentric and train.mesh_phase is not \"layout\", so its layout moves "
+        "nothing",
         i, m.position_angle_deg, where_given == t.origins.end() ? "" : where_given->second,
         m.name));
   }

@@ -34,10 +34,6 @@ std::string quoted(const std::string& name) {
   return out;
 }
 
-}  // namespace
-
-namespace {
-
 // Each load-sharing group of a run (a sun and its planets, a ring and its planets) in a row:
 // every mesh's force over time, a line per planet, and the group's factor n max F / sum F on
 // the right axis, its static value dashed.

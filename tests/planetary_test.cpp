@@ -682,6 +682,8 @@ initial = "static"
     constexpr double kE = 5e-6, kPhi = 30 * std::numbers::pi / 180;
     set_case_value(c, {body + ".eccentricity_um", "5"});
     set_case_value(c, {body + ".eccentricity_angle_deg", "30"});
+    // The layout is read: it directs the runout along the line of action.
+    EXPECT_TRUE(unused_settings(c).empty()) << unused_settings(c).front();
     const train::Assembled a = assembled_train(c);
     const TrainRunResult r = run_train(c);
     ASSERT_TRUE(r.ok()) << r.message;

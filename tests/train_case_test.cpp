@@ -466,7 +466,7 @@ position_angle_deg = 30
   ASSERT_EQ(unused.size(), 1U);
   EXPECT_NE(unused[0].find("train.mesh[0].position_angle_deg = 30 (t.toml:15"), std::string::npos)
       << unused[0];
-  EXPECT_NE(unused[0].find("neither gear of mesh 'm' is planar"), std::string::npos);
+  EXPECT_NE(unused[0].find("neither gear of mesh 'm' is planar or eccentric"), std::string::npos);
   // Read for the mesh phase from the layout.
   Case phased = torsional;
   set_case_value(phased, {"train.mesh_phase", "\"layout\""});
