@@ -125,6 +125,26 @@ def coupled_run(r, title=None):
     return fig
 
 
+def _panel_stack(rows, height):
+    """A figure of `rows` panels over a shared time axis, each `height` inches: (fig, axes)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(rows, 1, sharex=True, figsize=(9, height * rows), squeeze=False)
+    return fig, [row[0] for row in ax]
+
+
+def _finish_stack(fig, axes, title):
+    """Each panel's grid and legend, the time label under the last, the title over all."""
+    for a in axes:
+        a.grid(color="#dddddd")
+        a.legend(loc="upper left", fontsize=8)
+    axes[-1].set_xlabel("t (ms)")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
 def train_run(r, title=None):
     """A gear train's run, one panel per mesh, as `geardyn run --plot` draws it: the mesh's
     (d - e) / b (separation shaded where it occurs, the contact edges dashed) and its force in
@@ -139,13 +159,10 @@ def train_run(r, title=None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
-
     t_ms = r.t * 1e3
-    fig, ax = plt.subplots(len(r.meshes), 1, sharex=True, figsize=(9, 2.4 * len(r.meshes)),
-                           squeeze=False)
+    fig, ax = _panel_stack(len(r.meshes), 2.4)
     for m, (name, reading) in enumerate(zip(r.meshes, r.summary["meshes"])):
-        a = ax[m][0]
+        a = ax[m]
         separated = r.contact[:, m] == 0
         if separated.any():
             a.fill_between(t_ms, 0, 1, where=separated, transform=a.get_xaxis_transform(),
@@ -160,13 +177,7 @@ def train_run(r, title=None):
         f.set_ylabel("force (N)")
         a.set_title(f"mesh {name} ({reading['mesh_frequency_hz']:.6g} Hz): {reading['regime']}, "
                     f"{reading['impacts']} impacts", fontsize=9)
-        a.grid(color="#dddddd")
-        a.legend(loc="upper left", fontsize=8)
-    ax[-1][0].set_xlabel("t (ms)")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return _finish_stack(fig, ax, title)
 
 
 def load_sharing(r, title=None):
@@ -185,7 +196,6 @@ def load_sharing(r, title=None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
     import numpy as np
 
     groups = r.summary.get("load_sharing", [])
@@ -194,10 +204,9 @@ def load_sharing(r, title=None):
                          "two or more meshes")
     t_ms = r.t * 1e3
     colours = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad", "#d35400", "#16a085"]
-    fig, ax = plt.subplots(len(groups), 1, sharex=True, figsize=(9, 2.8 * len(groups)),
-                           squeeze=False)
+    fig, ax = _panel_stack(len(groups), 2.8)
     for g, group in enumerate(groups):
-        a = ax[g][0]
+        a = ax[g]
         forces = np.column_stack([r.force[:, r.meshes.index(m)] for m in group["meshes"]])
         for k, name in enumerate(group["meshes"]):
             a.plot(t_ms, forces[:, k], color=colours[k % len(colours)], linewidth=0.9,
@@ -218,14 +227,8 @@ def load_sharing(r, title=None):
         a.set_title(f"gear {group['gear']}: {len(group['meshes'])} meshes"
                     + (f", factor up to {worst:.4g}" if worst is not None else "") + lost,
                     fontsize=9)
-        a.grid(color="#dddddd")
-        a.legend(loc="upper left", fontsize=8)
         f.legend(loc="upper right", fontsize=8)
-    ax[-1][0].set_xlabel("t (ms)")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return _finish_stack(fig, ax, title)
 
 
 def frequency_response(s, param="parameter", ax=None, column="rms_force_bar"):
