@@ -107,6 +107,7 @@ class PointRunner {
       // A train's meshes come from its own stiffness sources; the mesh read is named.
       const train::Assembled a = assembled_train(base);
       for (const train::Mesh& m : a.train().meshes) meshes_.push_back(m.name);
+      groups_ = load_sharing_groups(a);
       return;
     }
     std::vector<std::string> keys{o.axis.key};
@@ -115,6 +116,7 @@ class PointRunner {
   }
 
   const std::vector<std::string>& meshes() const { return meshes_; }
+  const std::vector<LoadSharingGroup>& load_sharing() const { return groups_; }
   const std::string& mesh_read() const {
     static const std::string none;
     return meshes_.empty() ? none : meshes_[mesh_];
@@ -460,6 +462,7 @@ class PointRunner {
       MeshReading nan;
       for (const MeshColumn& col : kMeshColumns) nan.*col.member = kNaN;
       pt.meshes.assign(meshes_.size(), nan);
+      pt.load_sharing.assign(groups_.size(), {kNaN, kNaN});
       return pt;
     };
     // The previous point's end state at a section time (every excitation back at its phase 0),
@@ -521,6 +524,15 @@ class PointRunner {
       pt.meshes.push_back(mr);
       contact_only =
           contact_only && x.impacts == 0 && x.separations == 0 && x.separated_fraction == 0;
+    }
+    // Each load-sharing group over the whole measurement.
+    for (const TrainLoadSharing& x : r.load_sharing) {
+      const LoadSharingGroup& g = groups_[pt.load_sharing.size()];
+      const double lost =
+          static_cast<double>(std::count_if(g.meshes.begin(), g.meshes.end(), [&](std::size_t m) {
+            return left_drive_flank(r.meshes[m]);
+          }));
+      pt.load_sharing.push_back({x.factor_with_startup.value_or(kNaN), lost});
     }
     // The mesh read, as the one-degree point reads its mesh.
     const MeshReading& read = pt.meshes[mesh_];
@@ -607,7 +619,8 @@ class PointRunner {
   const MeshStiffness* stiffness() const { return stiffness_ ? &*stiffness_ : nullptr; }
   std::optional<MeshStiffness> stiffness_;
   std::vector<std::string> meshes_;  // a train's
-  std::size_t mesh_ = 0;             // the one the points' statistics read
+  std::vector<LoadSharingGroup> groups_;
+  std::size_t mesh_ = 0;  // the one the points' statistics read
 };
 
 // Jumps and hysteresis of one row (all points of a 1-D sweep; one value of the second key of
@@ -790,6 +803,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   r.period_s = runner.period_at(o.axis.values().front(), first2);
   r.period_note = runner.period_note_at(o.axis.values().front(), first2);
   r.meshes = runner.meshes();
+  r.load_sharing = runner.load_sharing();
   r.mesh = runner.mesh_read();
 
   // The sequences: for each row, the up sweep and/or the down sweep.
@@ -858,7 +872,7 @@ std::string csv_text(const std::string& s) {
 }
 
 // sweep.csv's header (no newline); the coupled model's bearings add ten columns before
-// `failure`, a train's meshes ten each.
+// `failure`, a train's meshes ten each, its load-sharing groups two each.
 std::string sweep_csv_header(const SweepResult& r) {
   const ModelForm form = r.form;
   std::string out =
@@ -875,6 +889,8 @@ std::string sweep_csv_header(const SweepResult& r) {
       fmt::format_to(std::back_inserter(out), "{}_{},", mesh, col.name);
     fmt::format_to(std::back_inserter(out), "{}_regime,", mesh);
   }
+  for (const LoadSharingGroup& g : r.load_sharing)
+    fmt::format_to(std::back_inserter(out), "{0}_load_sharing_factor,{0}_lost_contact,", g.label);
   return out + "failure";
 }
 
@@ -917,6 +933,11 @@ std::string sweep_csv(const SweepResult& r) {
       fmt::format_to(std::back_inserter(out), "{},",
                      read ? to_string(p.meshes[i].regime) : "failed");
     }
+    for (std::size_t i = 0; i < r.load_sharing.size(); ++i) {
+      const bool read = i < p.load_sharing.size() && p.failure.empty();
+      fmt::format_to(std::back_inserter(out), "{},{},", read ? p.load_sharing[i].factor : kNaN,
+                     read ? p.load_sharing[i].lost_contact : kNaN);
+    }
     out += csv_text(p.failure) + "\n";
   }
   return out;
@@ -953,6 +974,15 @@ std::string summary(const SweepResult& r) {
   if (!r.meshes.empty()) {
     j["meshes"] = r.meshes;
     j["mesh"] = r.mesh;
+  }
+  if (!r.load_sharing.empty()) {
+    nlohmann::json groups = nlohmann::json::array();
+    for (const LoadSharingGroup& g : r.load_sharing) {
+      std::vector<std::string> names;
+      for (const std::size_t m : g.meshes) names.push_back(r.meshes[m]);
+      groups.push_back({{"label", g.label}, {"gear", g.gear}, {"meshes", names}});
+    }
+    j["load_sharing"] = groups;
   }
   if (!r.period_note.empty()) j["period_note"] = r.period_note;
   j["settle_periods"] = o.settle_periods;
@@ -1088,17 +1118,29 @@ std::string regime_map_body(const SweepResult& r) {
 // A train's meshes along the key, each a curve, up and down: the peak-to-peak (d - e) / b, the
 // dynamic factor, and in a third panel the impacts per system period where any occurred.
 std::string mesh_responses_body(const SweepResult& r) {
+  // A panel draws a curve per series: sweep.csv's column and its legend.
   struct Panel {
-    const char* column;
     const char* ylabel;
+    std::vector<std::pair<std::string, std::string>> series;
   };
-  std::vector<Panel> panels{{"pp_delta_bar", "peak-to-peak (d - e) / b"},
-                            {"dynamic_factor", "dynamic factor"}};
+  const auto per_mesh = [&](const char* ylabel, const char* column) {
+    Panel p{ylabel, {}};
+    for (const std::string& m : r.meshes) p.series.emplace_back(m + "_" + column, m);
+    return p;
+  };
+  std::vector<Panel> panels{per_mesh("peak-to-peak (d - e) / b", "pp_delta_bar"),
+                            per_mesh("dynamic factor", "dynamic_factor")};
   const bool impacts = std::any_of(r.points.begin(), r.points.end(), [](const SweepPoint& p) {
     return std::any_of(p.meshes.begin(), p.meshes.end(),
                        [](const MeshReading& m) { return m.impacts_per_period > 0; });
   });
-  if (impacts) panels.push_back({"impacts_per_period", "impacts per system period"});
+  if (impacts) panels.push_back(per_mesh("impacts per system period", "impacts_per_period"));
+  if (!r.load_sharing.empty()) {
+    Panel p{"load-sharing factor", {}};
+    for (const LoadSharingGroup& g : r.load_sharing)
+      p.series.emplace_back(g.label + "_load_sharing_factor", g.label);
+    panels.push_back(std::move(p));
+  }
   static constexpr std::array<const char*, 6> kColours{"#1f3b73", "#b5532b", "#2e7d32",
                                                        "#6a1b9a", "#00838f", "#5d4037"};
   std::string s = fmt::format(
@@ -1114,14 +1156,14 @@ std::string mesh_responses_body(const SweepResult& r) {
                        [&](const SweepPoint& p) { return p.direction == d; }))
         continue;
       const bool up = d == SweepDirection::kUp;
-      for (std::size_t m = 0; m < r.meshes.size(); ++m) {
+      for (std::size_t m = 0; m < panels[k].series.size(); ++m) {
+        const auto& [column, label] = panels[k].series[m];
         fmt::format_to(std::back_inserter(s),
                        "{}'sweep.csv' every ::1 using {}:(strcol({}) eq '{}' ? ${} : NaN) with "
                        "linespoints dt {} pt {} ps 0.4 lc rgb '{}' title '{}: {}'",
                        first ? "" : ", \\\n     ", sweep_csv_column(r, "value"),
-                       sweep_csv_column(r, "direction"), to_string(d),
-                       sweep_csv_column(r, r.meshes[m] + "_" + panels[k].column), up ? 1 : 2,
-                       up ? 7 : 6, kColours[m % kColours.size()], to_string(d), r.meshes[m]);
+                       sweep_csv_column(r, "direction"), to_string(d), sweep_csv_column(r, column),
+                       up ? 1 : 2, up ? 7 : 6, kColours[m % kColours.size()], to_string(d), label);
         first = false;
       }
     }

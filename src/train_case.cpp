@@ -973,6 +973,17 @@ std::optional<bool> real_leaf(const std::vector<ElementKey<E>>& keys, std::strin
 
 std::string train_key_not_sweepable(std::string_view dotted) {
   if (dotted == "train.reference_speed_hz") return {};
+  // A copied planet's pin error, [i][0] radial or [i][1] tangential.
+  if (dotted.starts_with("train.planet_pin_errors_um[")) {
+    const std::string_view rest = dotted.substr(dotted.find('['));
+    const std::size_t close = rest.find("][");
+    if (close == std::string_view::npos || close == 1 ||
+        rest.substr(1, close - 1).find_first_not_of("0123456789") != std::string_view::npos ||
+        (rest.substr(close) != "][0]" && rest.substr(close) != "][1]"))
+      return "unknown key (a planet's pin error is train.planet_pin_errors_um[i][0] radial or "
+             "[i][1] tangential)";
+    return {};
+  }
   // train.<kind>[<i>].<leaf>
   const std::size_t open = dotted.find('['), close = dotted.find("].");
   if (!dotted.starts_with("train.") || open == std::string_view::npos ||

@@ -303,45 +303,65 @@ double shortest_time_scale_s(const train::Assembled& a) {
 // The load-sharing groups of a train (TrainLoadSharing) read from a run's meshes and samples.
 std::vector<TrainLoadSharing> read_load_sharing(const train::Assembled& a,
                                                 const TrainRunResult& r) {
-  const train::Train& t = a.train();
   std::vector<TrainLoadSharing> out;
-  for (int g = 0; g < a.body_count(); ++g)
-    for (const bool driving : {true, false}) {
-      std::vector<std::size_t> group;
-      for (std::size_t m = 0; m < t.meshes.size(); ++m)
-        if (a.index(driving ? t.meshes[m].driving : t.meshes[m].driven) == g) group.push_back(m);
-      if (group.size() < 2) continue;
-      TrainLoadSharing x;
-      x.gear = t.bodies[static_cast<std::size_t>(g)].name;
-      std::vector<double> at_rest;
-      for (const std::size_t m : group) {
-        const TrainMeshReading& mesh = r.meshes[m];
-        x.meshes.push_back(mesh.name);
-        if (mesh.static_force_n) {
-          at_rest.push_back(*mesh.static_force_n);
-          if (!(*mesh.static_force_n > 0)) x.unloaded_at_rest.push_back(mesh.name);
-        }
-        // Off its drive flank: separated, or pushed onto its back flank (a negative force).
-        const TrainMeshPart& part = r.steady.marked ? mesh.steady : mesh;
-        if (part.separations > 0 || part.separated_fraction > 0 || part.min_force_n < 0)
-          x.lost_contact.push_back(mesh.name);
+  for (const LoadSharingGroup& group : load_sharing_groups(a)) {
+    TrainLoadSharing x;
+    x.gear = group.gear;
+    x.label = group.label;
+    std::vector<double> at_rest;
+    for (const std::size_t m : group.meshes) {
+      const TrainMeshReading& mesh = r.meshes[m];
+      x.meshes.push_back(mesh.name);
+      if (mesh.static_force_n) {
+        at_rest.push_back(*mesh.static_force_n);
+        if (!(*mesh.static_force_n > 0)) x.unloaded_at_rest.push_back(mesh.name);
       }
-      if (at_rest.size() == group.size()) x.static_factor = load_sharing_factor(at_rest);
-      std::vector<double> forces(group.size());
-      for (std::size_t i = 0; i < r.samples.t_s.size(); ++i) {
-        for (std::size_t k = 0; k < group.size(); ++k) forces[k] = r.samples.force_n[i][group[k]];
-        const std::optional<double> f = load_sharing_factor(forces);
-        if (!f) continue;
-        x.factor_with_startup = std::max(x.factor_with_startup.value_or(0.0), *f);
-        if (r.steady.marked && r.samples.t_s[i] >= r.steady.from_s)
-          x.factor = std::max(x.factor.value_or(0.0), *f);
-      }
-      out.push_back(std::move(x));
+      if (left_drive_flank(r.steady.marked ? mesh.steady : mesh))
+        x.lost_contact.push_back(mesh.name);
     }
+    if (at_rest.size() == group.meshes.size()) x.static_factor = load_sharing_factor(at_rest);
+    std::vector<double> forces(group.meshes.size());
+    for (std::size_t i = 0; i < r.samples.t_s.size(); ++i) {
+      for (std::size_t k = 0; k < group.meshes.size(); ++k)
+        forces[k] = r.samples.force_n[i][group.meshes[k]];
+      const std::optional<double> f = load_sharing_factor(forces);
+      if (!f) continue;
+      x.factor_with_startup = std::max(x.factor_with_startup.value_or(0.0), *f);
+      if (r.steady.marked && r.samples.t_s[i] >= r.steady.from_s)
+        x.factor = std::max(x.factor.value_or(0.0), *f);
+    }
+    out.push_back(std::move(x));
+  }
   return out;
 }
 
 }  // namespace
+
+std::vector<LoadSharingGroup> load_sharing_groups(const train::Assembled& a) {
+  const train::Train& t = a.train();
+  std::vector<LoadSharingGroup> out;
+  for (int g = 0; g < a.body_count(); ++g) {
+    const std::size_t first = out.size();
+    for (const bool driving : {true, false}) {
+      LoadSharingGroup group;
+      for (std::size_t m = 0; m < t.meshes.size(); ++m)
+        if (a.index(driving ? t.meshes[m].driving : t.meshes[m].driven) == g)
+          group.meshes.push_back(m);
+      if (group.meshes.size() < 2) continue;
+      group.gear = group.label = t.bodies[static_cast<std::size_t>(g)].name;
+      out.push_back(std::move(group));
+    }
+    if (out.size() - first == 2) {
+      out[first].label += "_driving";
+      out[first + 1].label += "_driven";
+    }
+  }
+  return out;
+}
+
+bool left_drive_flank(const TrainMeshPart& part) {
+  return part.separations > 0 || part.separated_fraction > 0 || part.min_force_n < 0;
+}
 
 std::optional<double> load_sharing_factor(const std::vector<double>& forces_n) {
   double sum = 0, most = -kInf;
@@ -756,6 +776,7 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
   for (const TrainLoadSharing& x : r.load_sharing) {
     nlohmann::ordered_json g;
     g["gear"] = x.gear;
+    g["label"] = x.label;
     g["meshes"] = x.meshes;
     g["static_factor"] = optional(x.static_factor);
     g["unloaded_at_rest"] = x.unloaded_at_rest;

@@ -1225,6 +1225,53 @@ TEST(Cli, TheShippedPlanetaryStageRattlesAtLightLoadAndSharesItsLoad) {
   fs::remove_all(d);
 }
 
+TEST(Cli, APlanetarySweepReadsItsLoadSharingPerPoint) {
+  // The shipped stage with one pin 20 um off, swept in speed: the terminal gives each group's
+  // factor over the points, sweep.csv two columns per group, summary.json the groups, and the
+  // mesh figure a panel of the factor drawn from its columns.
+  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/planetary_set.toml";
+  const fs::path d = fresh("planetary_sweep");
+  const Outcome o = cli("sweep " + set +
+                        " --param train.reference_speed_hz --from 10 --to 20 --points 2 "
+                        "--direction up --measure-periods 2 --set "
+                        "'train.planet_pin_errors_um=[[0, 20], [0, 0], [0, 0]]' --out " +
+                        d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("load-sharing factor of sun's meshes from 1.087"), std::string::npos)
+      << o.out;
+  EXPECT_NE(o.out.find("load-sharing factor of ring's meshes from"), std::string::npos) << o.out;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  ASSERT_EQ(j["load_sharing"].size(), 2U) << j;
+  EXPECT_EQ(j["load_sharing"][0]["label"], "sun");
+  EXPECT_EQ(j["load_sharing"][1]["meshes"],
+            nlohmann::json::array({"planet_ring1", "planet_ring2", "planet_ring3"}));
+  const std::string csv = slurp(d / "sweep.csv");
+  const std::string header = csv.substr(0, csv.find('\n'));
+  const std::string before = header.substr(0, header.find("sun_load_sharing_factor"));
+  ASSERT_NE(before, header);
+  const auto column = std::count(before.begin(), before.end(), ',') + 1;
+  const std::string body = slurp(d / "mesh_responses_body.gp");
+  EXPECT_NE(body.find("set ylabel 'load-sharing factor'"), std::string::npos) << body;
+  EXPECT_NE(body.find(fmt::format("? ${} : NaN) with linespoints dt 1 pt 7 ps 0.4 lc rgb "
+                                  "'#1f3b73' title 'up: sun'",
+                                  column)),
+            std::string::npos)
+      << body;
+  // A planet's pin error is swept by its entry, [i][0] radial or [i][1] tangential; another
+  // entry is refused before any work.
+  const Outcome bad = cli("sweep " + set +
+                          " --param 'train.planet_pin_errors_um[0][2]' --from 0 --to 20 --points 2 "
+                          "--out " +
+                          (d / "bad").string());
+  EXPECT_EQ(bad.code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("--param train.planet_pin_errors_um[0][2]: unknown key (a planet's pin "
+                         "error is train.planet_pin_errors_um[i][0] radial or [i][1] tangential)"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_FALSE(fs::exists(d / "bad"));
+  fs::remove_all(d);
+}
+
 TEST(Cli, TheLooseGearRattles) {
   // The shipped loose-gear case is above its onset of rattle: the loose gear leaves its flank
   // and strikes again in every period of the engine's firing order.

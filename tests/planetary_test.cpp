@@ -16,6 +16,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/stability.hpp"
+#include "geardyn/sweep.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
@@ -401,6 +402,80 @@ TEST(PlanetaryLoadSharing, TheShippedSetsRunReadsItsLoadSharing) {
   EXPECT_NE(std::find(lost.load_sharing[0].lost_contact.begin(),
                       lost.load_sharing[0].lost_contact.end(), "sun_planet1"),
             lost.load_sharing[0].lost_contact.end());
+}
+
+// A sweep reads each load-sharing group per point: the shipped set with constant stiffness
+// settles at every speed on its static state, so each point's factor is the run's static one
+// (to the settling tolerance, 1e-6 b); with one pin 300 um off, planet 1 leaves its drive flank
+// at every speed (its lightly damped start has not settled in 200 periods), and the point counts
+// that one mesh in each group, the more loaded of the other two carrying over half the load.
+TEST(PlanetaryLoadSharing, ASweepReadsEachGroupPerPoint) {
+  Case c = shipped_stage({{"train.mesh[0].stiffness_harmonics", "[]"},
+                          {"train.mesh[1].stiffness_harmonics", "[]"},
+                          {"train.planet_pin_errors_um", "[[0, 20], [0, 0], [0, 0]]"},
+                          {"solver.duration_s", "0.01"}});
+  SweepOptions o;
+  o.axis = {"train.reference_speed_hz", 10, 30, 2};
+  o.direction = SweepDirection::kUp;
+  o.measure_periods = 2;
+  o.threads = 1;
+  const auto swept = [&] {
+    const SweepResult r = sweep(c, o);
+    EXPECT_EQ(r.failed, 0U);
+    return r;
+  };
+  const SweepResult off = swept();
+  ASSERT_EQ(off.load_sharing.size(), 2U);
+  EXPECT_EQ(off.load_sharing[0].label, "sun");
+  EXPECT_EQ(off.load_sharing[1].label, "ring");
+  EXPECT_EQ(off.load_sharing[0].meshes, (std::vector<std::size_t>{0, 1, 2}));
+  EXPECT_EQ(off.load_sharing[1].meshes, (std::vector<std::size_t>{3, 4, 5}));
+  const TrainRunResult at_rest = run_train(c);
+  ASSERT_TRUE(at_rest.ok()) << at_rest.message;
+  for (const SweepPoint& p : off.points) {
+    ASSERT_EQ(p.load_sharing.size(), 2U);
+    for (std::size_t g = 0; g < 2; ++g) {
+      EXPECT_NEAR(p.load_sharing[g].factor / *at_rest.load_sharing[g].static_factor, 1.0, 1e-6)
+          << p.value;
+      EXPECT_EQ(p.load_sharing[g].lost_contact, 0.0);
+    }
+    EXPECT_GT(p.load_sharing[0].factor, 1.05);
+  }
+  const std::string csv = sweep_csv(off);
+  EXPECT_NE(csv.find(",sun_load_sharing_factor,sun_lost_contact,ring_load_sharing_factor,"
+                     "ring_lost_contact,failure\n"),
+            std::string::npos);
+
+  // The shipped varying stiffness at 40 Hz: a point reads the factor the run reads in its
+  // steady part (the same periodic response at the same phases: the run samples 64 times a
+  // system period, 1 / 960 s, as the point does), above the static one.
+  Case varying = shipped_stage({{"train.planet_pin_errors_um", "[[0, 20], [0, 0], [0, 0]]"},
+                                {"train.reference_speed_hz", "40"},
+                                {"solver.duration_s", "0.05"},
+                                {"solver.output_interval_s", fmt::format("{}", 1.0 / 960 / 64)}});
+  const TrainRunResult run = run_train(varying);
+  ASSERT_TRUE(run.ok() && run.steady.marked) << run.message;
+  o.axis = {"train.reference_speed_hz", 40, 40, 1};
+  const SweepResult dynamic = sweep(varying, o);
+  ASSERT_TRUE(dynamic.points[0].settled);
+  for (std::size_t g = 0; g < 2; ++g) {
+    const double factor = dynamic.points[0].load_sharing[g].factor;
+    EXPECT_NEAR(factor / *run.load_sharing[g].factor, 1.0, 1e-6);
+    EXPECT_GT(factor, *run.load_sharing[g].static_factor + 2e-3);
+  }
+
+  set_case_value(c, {"train.planet_pin_errors_um", "[[0, 300], [0, 0], [0, 0]]"});
+  o.axis = {"train.reference_speed_hz", 10, 30, 2};
+  const SweepResult lost = swept();
+  for (const SweepPoint& p : lost.points)
+    for (std::size_t g = 0; g < 2; ++g) {
+      // Planet 1's mesh of the group, and it alone, off its drive flank (d - e < 0).
+      for (std::size_t i = 0; i < 3; ++i)
+        EXPECT_EQ(p.meshes[off.load_sharing[g].meshes[i]].min_delta_bar < 0, i == 0) << p.value;
+      EXPECT_EQ(p.load_sharing[g].lost_contact, 1.0) << p.value;
+      EXPECT_GT(p.load_sharing[g].factor, 1.5);  // planet 1 pushed back: the others carry more
+      EXPECT_LT(p.load_sharing[g].factor, 3.0);
+    }
 }
 
 }  // namespace

@@ -631,6 +631,25 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
   if (!r.mesh.empty())
     fmt::print("  each of the train's meshes read ({}); the statistics and jumps below: mesh {}\n",
                fmt::join(r.meshes, ", "), r.mesh);
+  // Each load-sharing group: its factor's range over the points, and where a mesh of it left
+  // its drive flank.
+  for (std::size_t g = 0; g < r.load_sharing.size(); ++g) {
+    const geardyn::SweepPoint *low = nullptr, *high = nullptr;
+    std::size_t lost = 0;
+    for (const geardyn::SweepPoint& p : r.points) {
+      if (g >= p.load_sharing.size() || !std::isfinite(p.load_sharing[g].factor)) continue;
+      if (!low || p.load_sharing[g].factor < low->load_sharing[g].factor) low = &p;
+      if (!high || p.load_sharing[g].factor > high->load_sharing[g].factor) high = &p;
+      if (p.load_sharing[g].lost_contact > 0) ++lost;
+    }
+    if (!low) continue;
+    fmt::print("  load-sharing factor of {}'s meshes from {:.5g} (at {:.6g}) to {:.5g} (at {:.6g})",
+               r.load_sharing[g].label, low->load_sharing[g].factor, low->value,
+               high->load_sharing[g].factor, high->value);
+    fmt::print("{}\n", lost > 0 ? fmt::format("; a mesh left its drive flank at {} point{}", lost,
+                                              lost == 1 ? "" : "s")
+                                : std::string{});
+  }
   if (!r.period_note.empty()) fmt::print("  {}\n", r.period_note);
   if (r.failed > 0) {
     const auto first = std::find_if(r.points.begin(), r.points.end(),

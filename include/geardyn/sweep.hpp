@@ -18,6 +18,7 @@
 #include "geardyn/analysis.hpp"
 #include "geardyn/case.hpp"
 #include "geardyn/steady.hpp"
+#include "geardyn/train_run.hpp"
 
 namespace geardyn {
 
@@ -140,6 +141,14 @@ inline constexpr std::array<MeshColumn, 9> kMeshColumns{{
     {"backside_impacts_per_period", &MeshReading::backside_impacts_per_period},
 }};
 
+// A train's load-sharing group (LoadSharingGroup) over a point's measurement: its largest factor
+// n max_i F_i / sum_i F_i over the samples where sum_i F_i > 0 (NaN when there is none: the
+// group carried no load), and how many of its meshes left their drive flank (left_drive_flank).
+struct LoadSharingReading {
+  double factor = 0;
+  double lost_contact = 0;
+};
+
 struct SweepPoint {
   SweepDirection direction = SweepDirection::kUp;  // kUp or kDown
   double value = 0;
@@ -170,6 +179,8 @@ struct SweepPoint {
   // A train's meshes over the measurement, in SweepResult::meshes' order (NaN for a failed
   // point); empty for the other forms.
   std::vector<MeshReading> meshes;
+  // A train's load-sharing groups, in SweepResult::load_sharing's order (NaN for a failed point).
+  std::vector<LoadSharingReading> load_sharing;
 };
 
 // Where the up and the down sweep part: the parameter interval over which their responses
@@ -193,6 +204,9 @@ struct SweepResult {
   // A train's meshes, and the one the points' own statistics read (SweepOptions::mesh).
   std::vector<std::string> meshes;
   std::string mesh;
+  // A train's load-sharing groups (a sun's planets, a ring's): sweep.csv's
+  // <label>_load_sharing_factor and <label>_lost_contact.
+  std::vector<LoadSharingGroup> load_sharing;
   // Why the points were not judged steady, when a train has no common period (quasi-periodic:
   // each point runs max_settle_periods periods of its reference body's turn before it is
   // measured, flagged not settled).

@@ -73,7 +73,7 @@ struct TrainBearingReading {
 // n max_i F_i / sum_i F_i over its n meshes (ISO 6336-1's K_gamma, AGMA 6123's mesh load
 // factor), 1 when they share equally.
 struct TrainLoadSharing {
-  std::string gear;
+  std::string gear, label;  // LoadSharingGroup's
   std::vector<std::string> meshes;
   // At the static state (absent without one); the meshes whose static force is <= 0 (a planet
   // that the linear static state unloads: the run then shows it separate).
@@ -91,6 +91,20 @@ struct TrainLoadSharing {
 // The load-sharing factor of one group's mesh forces, n max_i F_i / sum_i F_i; absent when they
 // sum to <= 0.
 std::optional<double> load_sharing_factor(const std::vector<double>& forces_n);
+
+// A load-sharing group of a train: a gear and the two or more meshes (indices in the train's
+// order) it drives, or that drive it, in the order TrainRunResult::load_sharing reads them.
+// `label` names it in files: the gear's name, with "_driving" or "_driven" appended when the
+// gear heads both kinds of group.
+struct LoadSharingGroup {
+  std::string gear, label;
+  std::vector<std::size_t> meshes;
+};
+std::vector<LoadSharingGroup> load_sharing_groups(const train::Assembled& a);
+
+// Whether a mesh left its drive flank over a stretch: separated, or pushed onto its back flank
+// (a negative force): a planet losing its load, where the factor no longer describes it.
+bool left_drive_flank(const TrainMeshPart& part);
 
 struct TrainSamples {
   std::vector<double> t_s;

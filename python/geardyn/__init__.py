@@ -540,7 +540,10 @@ class TrainRunResult:
             (impacts, separated_fraction, dynamic_factor, ...) and those of its steady part
             (steady_impacts, steady_regime, steady_max_force_n, ...) as variables along mesh;
             the summary (JSON) as an attribute, where "steady" says where the part starts and
-            why; ``layout_phase`` (cycles) along mesh with ``train.mesh_phase = "layout"``.
+            why; ``layout_phase`` (cycles) along mesh with ``train.mesh_phase = "layout"``;
+            where gears share their load among two or more meshes, a dimension group (the
+            summary's labels) with ``load_sharing_static_factor``, ``load_sharing_factor``
+            (steady part) and ``load_sharing_factor_with_startup``.
         """
         import xarray as xr
         meshes = self.summary["meshes"]
@@ -556,6 +559,10 @@ class TrainRunResult:
         for k in ("impacts", "separated_fraction", "max_force_n", "min_force_n"):
             per_mesh["steady_" + k] = ("mesh", [m["steady"][k] for m in meshes])
         per_mesh["steady_regime"] = ("mesh", [m["steady"]["regime"] for m in meshes])
+        # The load-sharing groups (a sun's planets, a ring's) along group.
+        groups = self.summary.get("load_sharing", [])
+        per_group = {"load_sharing_" + k: ("group", [_nan_if_none(g[k]) for g in groups])
+                     for k in ("static_factor", "factor", "factor_with_startup")}
         return xr.Dataset(
             dict({"theta": (("t", "body"), self.theta, {"units": "rad"}),
                   "rate": (("t", "body"), self.rate, {"units": "rad/s"}),
@@ -564,9 +571,11 @@ class TrainRunResult:
                   "deflection_bar": (("t", "mesh"), self.deflection_bar,
                                      {"long_name": "(d - e) / b"}),
                   "force": (("t", "mesh"), self.force, {"units": "N"}),
-                  "contact": (("t", "mesh"), self.contact)}, **per_mesh),
+                  "contact": (("t", "mesh"), self.contact)}, **per_mesh,
+                 **(per_group if groups else {})),
             coords={"t": ("t", self.t, {"units": "s"}), "body": self.bodies,
-                    "coordinate": self.coordinates, "mesh": self.meshes},
+                    "coordinate": self.coordinates, "mesh": self.meshes,
+                    **({"group": [g["label"] for g in groups]} if groups else {})},
             attrs={"summary": _json.dumps(self.summary)})
 
 
@@ -699,8 +708,11 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         a gear train ``meshes`` (their names), ``mesh`` (the one read) and one (points,
         meshes) array per mesh column of sweep.csv: ``mesh_pp_delta_bar``,
         ``mesh_max_force_n``, ``mesh_dynamic_factor``, ``mesh_impacts_per_period``, ... and
-        ``mesh_regime`` (a list per point); ``period_note`` when the train is
-        quasi-periodic),
+        ``mesh_regime`` (a list per point); where gears share their load among two or
+        more meshes (a planetary set), ``load_sharing`` (the groups' labels) and (points,
+        groups) arrays ``load_sharing_factor`` (n max F / sum F over the measurement) and
+        ``lost_contact`` (the group's meshes that left their drive flank); ``period_note``
+        when the train is quasi-periodic),
         ``direction``, ``regime`` and ``failure`` (why a point failed,
         else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
         sample belongs to), ``delta_bar``, ``velocity_m_s`` (m/s), ``force_bar``, one sample
@@ -750,8 +762,8 @@ def _merged_rows(parts, param, param2):
                     strobe.setdefault(k, []).append(a + offset if k == "point" else a)
                 offset += len(p["value"])
             out[key] = {k: _numpy.concatenate(a) for k, a in strobe.items()}
-        elif key == "meshes":
-            out[key] = v  # the train's mesh names, the same in every row
+        elif key in ("meshes", "load_sharing"):
+            out[key] = v  # the train's mesh and group names, the same in every row
         elif isinstance(v, _numpy.ndarray):
             out[key] = _numpy.concatenate([p[key] for p in parts])
         elif isinstance(v, list):

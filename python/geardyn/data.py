@@ -54,6 +54,11 @@ _MESH_COLUMNS = {
     "impacts_per_period": ("1/period", "impacts per system period"),
     "backside_impacts_per_period": ("1/period", "back-side impacts per system period"),
 }
+# A train's load-sharing groups' columns (sweep.csv's <group>_<name>).
+_GROUP_COLUMNS = {
+    "load_sharing_factor": ("1", "n max F / sum F over the measurement (NaN: no load)"),
+    "lost_contact": ("1", "the group's meshes that left their drive flank"),
+}
 _UNIT_SUFFIXES = {"_hz": "Hz", "_um": "um", "_mm": "mm", "_deg": "deg", "_s": "s", "_nm": "N m",
                   "_n_per_m": "N/m", "_kg_m3": "kg/m^3", "_gpa": "GPa"}
 
@@ -104,6 +109,14 @@ def _sweep_dataset(s, param, param2=None):
             per_mesh[at] = s["mesh_regime"][i]
         data["mesh_regime"] = (dims + ["mesh"], per_mesh.astype(str),
                                {"long_name": "each mesh's none, transient or sustained"})
+    groups = s.get("load_sharing")
+    if groups:
+        # The load-sharing groups (a sun's planets, a ring's) over a dimension `group`.
+        for name, (units, long_name) in _GROUP_COLUMNS.items():
+            a = np.full(shape + [len(groups)], np.nan)
+            for i, at in enumerate(index):
+                a[at] = s[name][i]
+            data[name] = (dims + ["group"], a, {"units": units, "long_name": long_name})
     regime = np.full(shape, "", dtype=object)
     for i, at in enumerate(index):
         regime[at] = s["regime"][i]
@@ -135,6 +148,9 @@ def _sweep_dataset(s, param, param2=None):
         coords["param2"] = ("param2", values2, {"units": _key_units(param2), "long_name": param2})
     if meshes:
         coords["mesh"] = ("mesh", list(meshes), {"long_name": "the train's meshes"})
+    if groups:
+        coords["group"] = ("group", list(groups),
+                           {"long_name": "a gear sharing its load among two or more meshes"})
     attrs = {"geardyn": "sweep", "param": param, "jumps": json.dumps(s.get("jumps", [])),
              "hysteresis": json.dumps(s.get("hysteresis", [])),
              "period_s": s.get("period_s", np.nan),
@@ -195,16 +211,19 @@ class SweepResult(dict):
         -------
         pandas.DataFrame
             Indexed by direction, (param2,) and param; a column per statistic, and for a
-            gear train each mesh's as ``<mesh>_<statistic>`` (sweep.csv's names); the strobe
+            gear train each mesh's as ``<mesh>_<statistic>`` and each load-sharing group's
+            as ``<group>_load_sharing_factor`` (sweep.csv's names); the strobe
             samples stay in `to_xarray()`.
         """
         ds = self.to_xarray()
-        df = ds.drop_dims([d for d in ("strobe", "mesh") if d in ds.dims]).to_dataframe()
-        if "mesh" in ds.dims:
-            for name, v in ds.data_vars.items():
-                if "mesh" in v.dims:
-                    for m in ds["mesh"].values:
-                        df[f"{m}_{name[len('mesh_'):]}"] = v.sel(mesh=m).to_series()
+        df = ds.drop_dims([d for d in ("strobe", "mesh", "group") if d in ds.dims]).to_dataframe()
+        for name, v in ds.data_vars.items():
+            if "mesh" in v.dims:
+                for m in ds["mesh"].values:
+                    df[f"{m}_{name[len('mesh_'):]}"] = v.sel(mesh=m).to_series()
+            if "group" in v.dims:
+                for g in ds["group"].values:
+                    df[f"{g}_{name}"] = v.sel(group=g).to_series()
         return df
 
     def __reduce__(self):

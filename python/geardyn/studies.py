@@ -264,6 +264,10 @@ _MESH_OUTPUTS = ("impacts", "backside_impacts", "separations", "separated_fracti
                  "max_force_n", "dynamic_factor", "dynamic_factor_with_startup", "rattle")
 
 
+# A train's load-sharing group (a sun's planets): "<label>.load_sharing_<reading>".
+_GROUP_OUTPUTS = ("static_factor", "factor", "factor_with_startup")
+
+
 def _readings(d, names, prefix=""):
     out = {}
     for k in names:
@@ -278,11 +282,14 @@ def _readings(d, names, prefix=""):
 
 def _run_outputs(summary):
     """A run's readings: the one-degree run's (_RUN_OUTPUTS); each mesh of a train as
-    "<mesh name>.<reading>"; the coupled model's mesh as "mesh.<reading>"."""
+    "<mesh name>.<reading>" and each load-sharing group as "<label>.load_sharing_<reading>";
+    the coupled model's mesh as "mesh.<reading>"."""
     if "meshes" in summary:
         out = {}
         for m in summary["meshes"]:
             out.update(_readings(m, _MESH_OUTPUTS, m["name"] + "."))
+        for g in summary.get("load_sharing", []):
+            out.update(_readings(g, _GROUP_OUTPUTS, g["label"] + ".load_sharing_"))
         return out
     if isinstance(summary.get("mesh"), dict):
         return _readings(summary["mesh"], _MESH_OUTPUTS, "mesh.")
@@ -433,6 +440,9 @@ _OUTPUT_UNITS = {
     "max_force_n": ("N", "largest mesh force"),
     "rattle": ("1", "1 when the regime is sustained rattle"),
     "natural_frequency_hz": ("Hz", "the contact natural frequency at the mean stiffness"),
+    "load_sharing_static_factor": ("1", "n max F / sum F at the static state"),
+    "load_sharing_factor": ("1", "largest n max F / sum F, steady part"),
+    "load_sharing_factor_with_startup": ("1", "largest n max F / sum F, whole window"),
     "converged": ("1", "1 when the orbit was found"),
     "stable": ("1", "1 when the orbit is stable"),
     "max_multiplier": ("1", "largest Floquet multiplier modulus"),

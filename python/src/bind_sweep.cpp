@@ -129,6 +129,25 @@ void bind_sweep(py::module_& m) {
           }
           out["mesh_regime"] = regimes_per_mesh;
         }
+        // A train's load-sharing groups: (points, groups) arrays under sweep.csv's names.
+        if (!r.load_sharing.empty()) {
+          py::list labels;
+          for (const LoadSharingGroup& g : r.load_sharing) labels.append(g.label);
+          out["load_sharing"] = labels;
+          const std::size_t k = r.load_sharing.size();
+          const auto per_group = [&](double LoadSharingReading::*member) {
+            py::array_t<double> a({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(k)});
+            auto w = a.mutable_unchecked<2>();
+            for (std::size_t i = 0; i < n; ++i)
+              for (std::size_t j = 0; j < k; ++j)
+                w(i, j) = j < r.points[i].load_sharing.size() && r.points[i].failure.empty()
+                              ? r.points[i].load_sharing[j].*member
+                              : std::numeric_limits<double>::quiet_NaN();
+            return a;
+          };
+          out["load_sharing_factor"] = per_group(&LoadSharingReading::factor);
+          out["lost_contact"] = per_group(&LoadSharingReading::lost_contact);
+        }
         if (!r.period_note.empty()) out["period_note"] = r.period_note;
         // The strobe (one sample per system period of each point's measurement), flat:
         // sample i belongs to point strobe["point"][i].

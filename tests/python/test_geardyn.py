@@ -752,6 +752,11 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     sharing = pr.summary["load_sharing"]
     assert [g["gear"] for g in sharing] == ["sun", "ring"]
     assert sharing[0]["static_factor"] > 1.05 and sharing[0]["lost_contact"] == []
+    ds = pr.to_xarray()
+    assert list(ds["group"].values) == ["sun", "ring"]
+    assert float(ds["load_sharing_static_factor"].sel(group="sun")) == sharing[0]["static_factor"]
+    assert float(ds["load_sharing_factor_with_startup"].sel(group="ring")) == \
+        sharing[1]["factor_with_startup"]
     # Its figure: a panel per group, a line per planet's mesh, the factor at each sample.
     fig = geardyn.plot.load_sharing(pr)
     sun = fig.axes[0]

@@ -202,6 +202,45 @@ def test_a_trains_map_reads_every_mesh_on_a_mesh_dimension_in_process_and_on_das
         geardyn.sweep(c, "train.reference_speed_hz", [30], mesh="middle")
 
 
+def test_a_planetary_sets_load_sharing_per_point_and_per_sample(cluster):
+    # The shipped stage swept in speed at two pin errors of planet 1: each load-sharing group's
+    # factor is a (points, groups) array, on a group dimension of the Dataset and as
+    # sweep.csv's columns in the table; the rows on Dask give the same bit for bit. A study over
+    # the pin error keeps each group's factor per sample, the run's own reading.
+    c = geardyn.Case.from_toml(os.path.join(os.environ.get("GEARDYN_SOURCE_DIR", "."), "cases",
+                                            "planetary_set.toml"))
+    kw = dict(direction="up", param2="train.planet_pin_errors_um[0][1]", values2=[0, 20],
+              measure_periods=2)
+    local = geardyn.sweep(c, "train.reference_speed_hz", [10, 20], threads=1, **kw)
+    assert local["load_sharing"] == ["sun", "ring"]
+    assert local["load_sharing_factor"].shape == (4, 2)
+    even, off = local["load_sharing_factor"][:2], local["load_sharing_factor"][2:]
+    assert np.all(np.abs(even - 1) < 2e-3) and np.all(off > 1.08)
+    assert np.all(local["lost_contact"] == 0)
+    ds = local.to_xarray()
+    assert ds["load_sharing_factor"].dims == ("direction", "param2", "param", "group")
+    assert list(ds["group"].values) == ["sun", "ring"]
+    assert float(ds["load_sharing_factor"].sel(group="ring", param=20, param2=20)[0]) == \
+        local["load_sharing_factor"][3, 1]
+    table = local.to_pandas()
+    np.testing.assert_array_equal(table["sun_load_sharing_factor"].values,
+                                  local["load_sharing_factor"][:, 0])
+    dask = geardyn.sweep(c, "train.reference_speed_hz", [10, 20], executor=cluster, **kw)
+    assert dask["load_sharing"] == local["load_sharing"]
+    np.testing.assert_array_equal(dask["load_sharing_factor"], local["load_sharing_factor"])
+    short = c.with_({"solver.duration_s": 0.002})
+    st = geardyn.study(short, {"train.planet_pin_errors_um[0][1]": {
+                           "distribution": "uniform", "lower": 0, "upper": 30}},
+                       samples=3, seed=1, outputs=["sun.load_sharing_static_factor",
+                                                   "sun.load_sharing_factor_with_startup"])
+    for i in range(3):
+        err = float(st["train.planet_pin_errors_um[0][1]"][i])
+        r = geardyn.run(short.with_({"train.planet_pin_errors_um[0][1]": err}))
+        assert float(st["sun.load_sharing_static_factor"][i]) == \
+            r.summary["load_sharing"][0]["static_factor"]
+    assert st["sun.load_sharing_static_factor"].attrs["units"] == "1"
+
+
 def test_a_worker_killed_mid_study_has_its_samples_computed_elsewhere(cluster, tmp_path):
     local = geardyn.study(CASE, INPUTS, samples=40, seed=5)
     killed = []
