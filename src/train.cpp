@@ -32,6 +32,9 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // rounding leaves some 1e-15 of the largest there, and only an elastic mode below a millionth of
 // the fastest mode's frequency would be taken for rigid.
 constexpr double kRigidEigenvalueFraction = 1e-12;
+// An eigenvalue of the gyroscopic problem whose imaginary part is below this fraction of the
+// largest eigenvalue modulus is real (a divergence): rounding leaves some 1e-14 there.
+constexpr double kRealEigenvalueFraction = 1e-10;
 // Two frequencies of the table within this relative distance are one (they come from ratios of
 // whole numbers, equal to rounding).
 constexpr double kSameFrequency = 1e-12;
@@ -324,6 +327,81 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     m_(i, i) = t_.bodies[i].inertia_kg_m2;
     if (const int x = translation(i); x >= 0) m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].mass_kg;
   }
+  // The frame's speed from the bodies held to the ground (the housing at rest).
+  // (Without a planar body the terms act on nothing: case_keys reports the key unused.)
+  if (t_.frame_terms &&
+      std::any_of(t_.bodies.begin(), t_.bodies.end(), [](const Body& b) { return b.planar; })) {
+    std::optional<double> omega;
+    std::string first;
+    for (const Shaft& s : t_.shafts) {
+      if (s.b != kGround) continue;
+      const int i = index(s.a);
+      const double w =
+          -sense(i) * value(speed_[static_cast<std::size_t>(i)]) * kTwoPi * t_.reference_speed_hz;
+      if (omega && std::abs(w - *omega) > kSameFrequency * std::max(std::abs(w), 1.0))
+        bad("the train",
+            fmt::format("frame_terms = true: shafts '{}' and '{}' hold bodies turning at "
+                        "different speeds in the frame to the ground, which has one speed",
+                        first, s.name));
+      if (!omega) first = s.name;
+      omega = w;
+    }
+    if (!omega)
+      bad("the train",
+          "frame_terms = true: no shaft holds a body to the ground (its housing), from whose "
+          "speed in the frame the frame's own is read");
+    frame_rate_ = *omega;
+  }
+}
+
+Eigen::MatrixXd Assembled::frame_stiffness() const {
+  Eigen::MatrixXd k = Eigen::MatrixXd::Zero(size(), size());
+  if (frame_rate_ == 0) return k;
+  const double w2 = frame_rate_ * frame_rate_;
+  for (int i = 0; i < body_count(); ++i)
+    if (const int x = translation(i); x >= 0)
+      k.block(x, x, 2, 2) -=
+          w2 * t_.bodies[static_cast<std::size_t>(i)].mass_kg * Eigen::Matrix2d::Identity();
+  // A carried body's softening on its displacement from its pin's turned place, v = u - theta_c
+  // d_c (d_c = -B's column of theta_c: w = u - ... - theta_c d_c): -m Omega^2 v v^T adds to the
+  // -m Omega^2 u u^T above the cross terms m Omega^2 (d_c e_c^T + e_c d_c^T) and
+  // -m Omega^2 |d_c|^2 on theta_c.
+  for (std::size_t k_b = 0; k_b < t_.bearings.size(); ++k_b) {
+    const Bearing& b = t_.bearings[k_b];
+    if (b.on.empty()) continue;
+    const int carried = index(b.body), carrier = index(b.on), x = translation(carried);
+    const double mw2 = w2 * t_.bodies[static_cast<std::size_t>(carried)].mass_kg;
+    const Eigen::Vector2d d = -bearing_matrix(static_cast<int>(k_b)).block(0, carrier, 2, 1);
+    k.block(x, carrier, 2, 1) += mw2 * d;
+    k.block(carrier, x, 1, 2) += mw2 * d.transpose();
+    k(carrier, carrier) -= mw2 * d.squaredNorm();
+  }
+  return k;
+}
+
+Eigen::MatrixXd Assembled::frame_damping() const {
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(size(), size());
+  if (frame_rate_ == 0) return c;
+  for (int i = 0; i < body_count(); ++i)
+    if (const int x = translation(i); x >= 0) {
+      const double g = 2 * frame_rate_ * t_.bodies[static_cast<std::size_t>(i)].mass_kg;
+      c(x, x + 1) -= g;
+      c(x + 1, x) += g;
+    }
+  return c;
+}
+
+Eigen::VectorXd Assembled::frame_load() const {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(size());
+  if (frame_rate_ == 0) return q;
+  for (const Bearing& b : t_.bearings) {
+    if (b.on.empty()) continue;
+    const int carried = index(b.body);
+    q.segment(translation(carried), 2) +=
+        frame_rate_ * frame_rate_ * t_.bodies[static_cast<std::size_t>(carried)].mass_kg *
+        b.pin_radius_m * Eigen::Vector2d(std::cos(b.pin_angle_rad), std::sin(b.pin_angle_rad));
+  }
+  return q;
 }
 
 namespace {
@@ -729,6 +807,10 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
     k += t.bearings[i].stiffness_n_per_m * b.transpose() * b;
     c += t.bearings[i].damping_n_s_per_m * b.transpose() * b;
   }
+  if (a.frame_rate_rad_s() != 0) {
+    k += a.frame_stiffness();
+    c += a.frame_damping();
+  }
 }
 
 }  // namespace
@@ -899,6 +981,7 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
   for (std::size_t k = 0; k < t_.bearings.size(); ++k)
     q_common += t_.bearings[k].stiffness_n_per_m * bearing_matrix(static_cast<int>(k)).transpose() *
                 bearing_offset(static_cast<int>(k));
+  if (frame_rate_ != 0) q_common += frame_load();
 
   // Region r from what every region shares: built here for a train of few meshes, on demand
   // (ode::LinearSwitchedSystem::make_lazy) past kEagerRegions, from a copy of the train.
@@ -1063,6 +1146,101 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
   return sys;
 }
 
+namespace {
+
+// 1/2 k |d|^2 of a deflection d, real or complex (a whirl's).
+double strain(double k, double d) { return 0.5 * k * d * d; }
+double strain(double k, Complex d) { return 0.5 * k * std::norm(d); }
+
+// A mode's strain energy in each mesh, shaft and bearing, as fractions of `total`.
+template <class Shape>
+void strain_energies(const Assembled& a, const Shape& shape, double total, TrainMode& mode) {
+  using Scalar = typename Shape::Scalar;
+  const Train& t = a.train();
+  const auto share = [&](double e) { return total > 0 ? e / total : 0.0; };
+  for (int m = 0; m < static_cast<int>(t.meshes.size()); ++m)
+    mode.mesh_energy.push_back(share(strain(t.meshes[m].mean_stiffness_n_per_m,
+                                            a.mesh_vector(m).template cast<Scalar>().dot(shape))));
+  for (std::size_t s = 0; s < t.shafts.size(); ++s)
+    mode.shaft_energy.push_back(
+        share(strain(t.shafts[s].stiffness_n_m_per_rad,
+                     a.shaft_vector(static_cast<int>(s)).template cast<Scalar>().dot(shape))));
+  for (std::size_t b = 0; b < t.bearings.size(); ++b)
+    mode.bearing_energy.push_back(share(
+        0.5 * t.bearings[b].stiffness_n_per_m *
+        (a.bearing_matrix(static_cast<int>(b)).template cast<Scalar>() * shape).squaredNorm()));
+}
+
+// The modes of a train in a turning frame (Train::frame_terms): M q'' + G q' + K q = 0 with G
+// the frame's skew Coriolis matrix, as the first-order eigenproblem of (q, q'); each
+// oscillating mode's eigenvalue pair +-i w read once (i w), the rigid motions' zeros once each
+// (their shapes rigid_motions()'). A frame fast enough to make a mode diverge (a real pair +-s)
+// gives it frequency 0.
+std::vector<TrainMode> gyroscopic_modes(const Assembled& a, const Eigen::MatrixXd& select) {
+  const Eigen::Index nf = select.cols();
+  const Eigen::MatrixXd m = select.transpose() * a.mass() * select;
+  const Eigen::MatrixXd k = select.transpose() * a.contact_stiffness() * select;
+  const Eigen::MatrixXd g = select.transpose() * a.frame_damping() * select;
+  const Eigen::MatrixXd m_inv = m.inverse();
+  // The state (q, q' / s), s the fastest rate: its blocks of one size, which the nonsymmetric
+  // eigensolver (unbalanced) needs for its accuracy; the eigenvalues are the same.
+  const Eigen::MatrixXd m_inv_k = m_inv * k;
+  const double s = std::sqrt(std::max(m_inv_k.cwiseAbs().maxCoeff(), 1.0));
+  Eigen::MatrixXd state = Eigen::MatrixXd::Zero(2 * nf, 2 * nf);
+  state.topRightCorner(nf, nf) = s * Eigen::MatrixXd::Identity(nf, nf);
+  state.bottomLeftCorner(nf, nf) = -m_inv_k / s;
+  state.bottomRightCorner(nf, nf) = -m_inv * g;
+  const Eigen::EigenSolver<Eigen::MatrixXd> solver(state);
+  const Eigen::VectorXcd& lambda = solver.eigenvalues();
+  const double scale = lambda.cwiseAbs().maxCoeff();
+  // The rigid motions' zeros (a Jordan pair each, which rounding splits by about sqrt(eps)
+  // scale): the 2 r eigenvalues nearest 0. Of the others each +-i w once (i w), and of a pair
+  // +-s a fast frame makes diverge, +s.
+  const Eigen::MatrixXd rigid = a.rigid_motions();
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(lambda.size()));
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](Eigen::Index x, Eigen::Index y) {
+    return std::abs(lambda(x)) < std::abs(lambda(y));
+  });
+  const auto r = static_cast<std::size_t>(rigid.cols());
+  std::vector<Eigen::Index> kept;
+  for (std::size_t j = 2 * r; j < order.size(); ++j) {
+    const Complex l = lambda(order[j]);
+    const bool real = std::abs(l.imag()) <= kRealEigenvalueFraction * scale;
+    if (real ? l.real() > 0 : l.imag() > 0) kept.push_back(order[j]);
+  }
+  std::vector<TrainMode> out;
+  for (std::size_t j = 0; j < r + kept.size(); ++j) {
+    TrainMode mode;
+    Eigen::VectorXcd shape;
+    if (j < r) {
+      shape = rigid.col(static_cast<Eigen::Index>(j)).cast<Complex>();
+    } else {
+      const Eigen::Index i = kept[j - r];
+      mode.frequency_hz = std::max(lambda(i).imag(), 0.0) / kTwoPi;
+      shape = select * solver.eigenvectors().col(i).head(nf);
+    }
+    // Mass-normalised, its largest entry real and positive.
+    shape /= std::sqrt(std::abs(shape.dot(a.mass().cast<Complex>() * shape)));
+    Eigen::Index top = 0;
+    shape.cwiseAbs().maxCoeff(&top);
+    shape *= std::polar(1.0, -std::arg(shape(top)));
+    mode.shape = shape.real();
+    mode.shape_imag = shape.imag();
+    strain_energies(a, shape,
+                    0.5 * shape.dot(a.contact_stiffness().cast<Complex>() * shape).real() +
+                        0.5 * shape.dot(-a.frame_stiffness().cast<Complex>() * shape).real(),
+                    mode);
+    out.push_back(std::move(mode));
+  }
+  std::stable_sort(out.begin(), out.end(), [](const TrainMode& x, const TrainMode& y) {
+    return x.frequency_hz < y.frequency_hz;
+  });
+  return out;
+}
+
+}  // namespace
+
 std::vector<TrainMode> modes(const Assembled& a) {
   // The free bodies only: a prescribed one is held.
   std::vector<int> free;
@@ -1071,36 +1249,25 @@ std::vector<TrainMode> modes(const Assembled& a) {
   const auto nf = static_cast<Eigen::Index>(free.size());
   Eigen::MatrixXd select = Eigen::MatrixXd::Zero(a.size(), nf);
   for (Eigen::Index j = 0; j < nf; ++j) select(free[j], j) = 1;
-  const Eigen::MatrixXd k = a.contact_stiffness();
-  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(
-      select.transpose() * k * select, select.transpose() * a.mass() * select);
   std::vector<TrainMode> out;
   const Train& t = a.train();
-  for (Eigen::Index r = 0; r < solver.eigenvalues().size(); ++r) {
-    TrainMode mode;
-    const double w2 = solver.eigenvalues()(r);
-    // A rigid rotation's eigenvalue is zero to the rounding of the largest: its frequency is 0.
-    mode.frequency_hz = w2 > kRigidEigenvalueFraction * solver.eigenvalues().maxCoeff()
-                            ? std::sqrt(w2) / kTwoPi
-                            : 0.0;
-    mode.shape = select * solver.eigenvectors().col(r);
-    const double total = 0.5 * mode.shape.dot(k * mode.shape);
-    for (int m = 0; m < static_cast<int>(t.meshes.size()); ++m) {
-      const double d = a.mesh_vector(m).dot(mode.shape);
-      const double e = 0.5 * t.meshes[m].mean_stiffness_n_per_m * d * d;
-      mode.mesh_energy.push_back(total > 0 ? e / total : 0.0);
+  if (a.frame_rate_rad_s() != 0) {
+    out = gyroscopic_modes(a, select);
+  } else {
+    const Eigen::MatrixXd k = a.contact_stiffness();
+    const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(
+        select.transpose() * k * select, select.transpose() * a.mass() * select);
+    for (Eigen::Index r = 0; r < solver.eigenvalues().size(); ++r) {
+      TrainMode mode;
+      const double w2 = solver.eigenvalues()(r);
+      // A rigid rotation's eigenvalue is zero to the rounding of the largest: its frequency is 0.
+      mode.frequency_hz = w2 > kRigidEigenvalueFraction * solver.eigenvalues().maxCoeff()
+                              ? std::sqrt(w2) / kTwoPi
+                              : 0.0;
+      mode.shape = select * solver.eigenvectors().col(r);
+      strain_energies(a, mode.shape, 0.5 * mode.shape.dot(k * mode.shape), mode);
+      out.push_back(std::move(mode));
     }
-    for (std::size_t s = 0; s < t.shafts.size(); ++s) {
-      const double d = a.shaft_vector(static_cast<int>(s)).dot(mode.shape);
-      const double e = 0.5 * t.shafts[s].stiffness_n_m_per_rad * d * d;
-      mode.shaft_energy.push_back(total > 0 ? e / total : 0.0);
-    }
-    for (std::size_t b = 0; b < t.bearings.size(); ++b) {
-      const Eigen::VectorXd w = a.bearing_matrix(static_cast<int>(b)) * mode.shape;
-      const double e = 0.5 * t.bearings[b].stiffness_n_per_m * w.squaredNorm();
-      mode.bearing_energy.push_back(total > 0 ? e / total : 0.0);
-    }
-    out.push_back(std::move(mode));
   }
   // Repeated frequencies, and the planetary type from the shape's kinetic shares.
   for (TrainMode& m : out)
@@ -1120,11 +1287,15 @@ std::vector<TrainMode> modes(const Assembled& a) {
     const Eigen::MatrixXd& mass = a.mass();
     for (TrainMode& m : out) {
       double turn = 0, shift = 0;  // the central members' kinetic shares (the shape's is 1)
+      const bool whirl = m.shape_imag.size() > 0;
+      const auto square = [&](int i) {
+        return m.shape(i) * m.shape(i) + (whirl ? m.shape_imag(i) * m.shape_imag(i) : 0.0);
+      };
       for (int i = 0; i < a.body_count(); ++i) {
         if (!central[static_cast<std::size_t>(i)]) continue;
-        turn += mass(i, i) * m.shape(i) * m.shape(i);
+        turn += mass(i, i) * square(i);
         if (const int x = a.translation(i); x >= 0)
-          shift += mass(x, x) * m.shape.segment(x, 2).squaredNorm();
+          shift += mass(x, x) * (square(x) + square(x + 1));
       }
       const bool turns = turn > kStillShare, shifts = shift > kStillShare;
       m.type = turns && shifts ? "mixed"

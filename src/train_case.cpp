@@ -396,7 +396,7 @@ void read_array(const toml::table& train, const std::string& source,
 }
 
 constexpr std::string_view kTrainKeys =
-    "reference, reference_speed_hz, mesh_phase, planet, planets, planet_angles_deg, "
+    "reference, reference_speed_hz, mesh_phase, frame_terms, planet, planets, planet_angles_deg, "
     "planet_pin_errors_um, body, mesh, shaft, bearing, torque, drag, speed";
 // At most this many planets: sets are built with 3 to 7, and the regions of 2 N meshes grow
 // as 3^(2 N).
@@ -414,6 +414,7 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
   static const std::set<std::string_view> known = {"reference",
                                                    "reference_speed_hz",
                                                    "mesh_phase",
+                                                   "frame_terms",
                                                    "planet",
                                                    "planets",
                                                    "planet_angles_deg",
@@ -451,6 +452,14 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
                                    where_given, node_text(*p)));
     t.mesh_phase = *p->value<std::string>();
     t.origins["the train: mesh_phase"] = where_given;
+  }
+  if (const toml::node* p = train->get("frame_terms")) {
+    const std::string where_given = origin_of(overrides, "train.frame_terms", p->source(), source);
+    if (!p->is_boolean())
+      throw InputError(fmt::format("{}: train.frame_terms = {}: must be true or false", where_given,
+                                   node_text(*p)));
+    t.frame_terms = *p->value<bool>();
+    t.origins["the train: frame_terms"] = where_given;
   }
   body_name("planet", t.planet);
   if (const toml::node* p = train->get("planets")) {
@@ -692,6 +701,7 @@ train::Train train_of(const Case& c) {
   out.reference = t.reference;
   out.reference_speed_hz = t.reference_speed_hz;
   out.mesh_phase_from_layout = t.mesh_phase == "layout";
+  out.frame_terms = t.frame_terms;
   std::map<std::string, GearGeometry> gears;
   std::map<std::string, const TrainBodyData*> bodies;
   for (const TrainBodyData& b : t.bodies) {
@@ -914,6 +924,11 @@ const std::vector<TrainKeyInfo>& train_key_list() {
          "\"given\": each mesh's harmonic phases about t = 0 as written; \"layout\": about a "
          "tooth pair passing the mesh's pitch point, each mesh delayed by where the position "
          "angles put its gears' teeth"},
+        {"", "frame_terms", "", "false", "true or false",
+         "the frame's rotation terms on the planar bodies (a planetary set's carrier frame): "
+         "Coriolis and centripetal forces and the planets' centrifugal load, at the frame's "
+         "speed read from the bodies held to the ground (docs/model.md, \"The carrier's "
+         "rotation\")"},
         {"", "planet", "", "(none)", "a body's name in quotes",
          "a planetary set's planet, written once: it and every element naming it stand for "
          "train.planets copies, named <name>1 ... <name>N"},
@@ -1059,6 +1074,14 @@ std::size_t mesh_to_read(const Case& c, const std::string& name) {
 
 std::vector<std::string> train_unused_settings(const TrainCase& t) {
   std::vector<std::string> out;
+  if (t.frame_terms && std::none_of(t.bodies.begin(), t.bodies.end(),
+                                    [](const TrainBodyData& b) { return b.dof == "planar"; })) {
+    const auto where_given = t.origins.find("the train: frame_terms");
+    out.push_back(fmt::format(
+        "train.frame_terms = true ({}): not used: no body is planar, and the frame's terms act on "
+        "the planar bodies' centres",
+        where_given == t.origins.end() ? "" : where_given->second));
+  }
   // The gears whose layout a mesh's line of action reaches: planar, or with a runout.
   std::set<std::string> placed;
   for (const TrainBodyData& b : t.bodies)
@@ -1121,6 +1144,7 @@ std::string train_toml(const TrainCase& t) {
   std::string out =
       fmt::format("\n[train]\nreference = \"{}\"\nreference_speed_hz = {}\nmesh_phase = \"{}\"\n",
                   t.reference, t.reference_speed_hz, t.mesh_phase);
+  if (t.frame_terms) out += "frame_terms = true\n";
   if (!t.planet.empty()) out += fmt::format("planet = \"{}\"\n", t.planet);
   if (t.planets > 0) out += fmt::format("planets = {}\n", t.planets);
   if (!t.planet_angles_deg.empty())

@@ -21,6 +21,8 @@ namespace {
 // mesh excites: drawn bold, their resonance speeds marked (as the coupled model's diagram).
 constexpr double kMeshCritical = 0.05;
 constexpr int kMeshOrders = 3;
+// The speeds at which a Campbell diagram in a turning frame (train.frame_terms) reads the modes.
+constexpr int kCampbellSpeeds = 48;
 // Distinct colours for the meshes, in turn.
 constexpr const char* kColours[] = {"#1f4e9c", "#c0392b", "#2e8b57",
                                     "#8e44ad", "#d35400", "#16a085"};
@@ -206,48 +208,102 @@ void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
   std::vector<double> per_hz;
   for (std::size_t m = 0; m < t.meshes.size(); ++m)
     per_hz.push_back(a.mesh_frequency_hz(static_cast<int>(m)) / t.reference_speed_hz);
-  std::string csv = "mode,frequency_hz,largest_mesh_energy,mesh,mesh_order,resonance_speed_hz\n";
+  const auto largest_mesh_energy = [](const train::TrainMode& x) {
+    return x.mesh_energy.empty() ? 0.0
+                                 : *std::max_element(x.mesh_energy.begin(), x.mesh_energy.end());
+  };
   double top = 0;
-  for (std::size_t r = 0; r < modes.size(); ++r) {
-    const train::TrainMode& x = modes[r];
-    const double e =
-        x.mesh_energy.empty() ? 0 : *std::max_element(x.mesh_energy.begin(), x.mesh_energy.end());
-    if (e >= kMeshCritical) top = std::max(top, x.frequency_hz);
-    for (std::size_t m = 0; m < per_hz.size(); ++m)
-      for (int i = 1; i <= kMeshOrders; ++i)
-        fmt::format_to(std::back_inserter(csv), "{},{:.10g},{:.6g},{},{},{:.10g}\n", r + 1,
-                       x.frequency_hz, e, t.meshes[m].name, i, x.frequency_hz / (i * per_hz[m]));
-  }
+  for (const train::TrainMode& x : modes)
+    if (largest_mesh_energy(x) >= kMeshCritical) top = std::max(top, x.frequency_hz);
   if (top == 0 && !modes.empty()) top = modes.back().frequency_hz;
   const double slowest = *std::min_element(per_hz.begin(), per_hz.end());
   const double x_max = std::max(1.5 * top / slowest, 1.2 * t.reference_speed_hz);
   const double y_max = 1.15 * std::max(top, modes.empty() ? 1.0 : modes.back().frequency_hz);
-  write_files_atomically(dir, {{"campbell.csv", csv}});
+  // With the frame's rotation terms the frequencies move with the speed: each mode (by rank)
+  // over kCampbellSpeeds speeds up to x_max, the train assembled again at each.
+  const bool turning = a.frame_rate_rad_s() != 0;
+  std::vector<double> speeds;
+  std::vector<std::vector<double>> curves;  // per speed, per mode
+  if (turning)
+    for (int k = 0; k <= kCampbellSpeeds; ++k) {
+      train::Train at = t;
+      at.frame_terms = k > 0;  // at speed 0 the frame is still: the modes at rest
+      if (k > 0) at.reference_speed_hz = x_max * k / kCampbellSpeeds;
+      speeds.push_back(x_max * k / kCampbellSpeeds);
+      std::vector<double> f;
+      for (const train::TrainMode& x : train::modes(train::Assembled(at)))
+        f.push_back(x.frequency_hz);
+      curves.push_back(std::move(f));
+    }
+  // Where mode r meets order i of a mesh of per_hz p: f / (i p) at a fixed frequency, else the
+  // first crossing of its curve (linear between speeds; NaN when it meets none below x_max).
+  const auto resonance = [&](std::size_t r, double line) {
+    if (!turning) return modes[r].frequency_hz / line;
+    double s0 = 0, g0 = curves[0][r];
+    for (std::size_t k = 1; k < speeds.size(); ++k) {
+      if (r >= curves[k].size()) break;
+      const double g1 = curves[k][r] - line * speeds[k];
+      if (g0 > 0 && g1 <= 0) return s0 + (speeds[k] - s0) * g0 / (g0 - g1);
+      s0 = speeds[k];
+      g0 = g1;
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  std::string csv = "mode,frequency_hz,largest_mesh_energy,mesh,mesh_order,resonance_speed_hz\n";
+  for (std::size_t r = 0; r < modes.size(); ++r) {
+    const train::TrainMode& x = modes[r];
+    for (std::size_t m = 0; m < per_hz.size(); ++m)
+      for (int i = 1; i <= kMeshOrders; ++i)
+        fmt::format_to(std::back_inserter(csv), "{},{:.10g},{:.6g},{},{},{:.10g}\n", r + 1,
+                       x.frequency_hz, largest_mesh_energy(x), t.meshes[m].name, i,
+                       resonance(r, i * per_hz[m]));
+  }
+  std::vector<std::pair<std::string, std::string>> files{{"campbell.csv", csv}};
+  std::string table;
+  if (turning) {
+    table = "speed_hz";
+    for (std::size_t r = 0; r < modes.size(); ++r)
+      fmt::format_to(std::back_inserter(table), ",mode{}_hz", r + 1);
+    table += "\n";
+    for (std::size_t k = 0; k < speeds.size(); ++k) {
+      fmt::format_to(std::back_inserter(table), "{:.10g}", speeds[k]);
+      for (const double f : curves[k]) fmt::format_to(std::back_inserter(table), ",{:.10g}", f);
+      table += "\n";
+    }
+    files.emplace_back("campbell_modes.csv", table);
+  }
+  write_files_atomically(dir, files);
   std::string g =
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set key outside right top font ',9'\n";
   fmt::format_to(std::back_inserter(g),
-                 "set title \"gear train: modes in contact and mesh orders (speed of '{}')\"\n"
+                 "set title \"gear train: modes in contact{} and mesh orders (speed of '{}')\"\n"
                  "set xlabel 'speed of {} (Hz)'\nset ylabel 'frequency (Hz)'\n"
                  "set xrange [0:{}]\nset yrange [0:{}]\n",
-                 quoted(t.reference), quoted(t.reference), x_max, y_max);
+                 turning ? ", in the turning frame," : "", quoted(t.reference), quoted(t.reference),
+                 x_max, y_max);
   std::vector<std::string> plots;
   std::string points;
   bool critical = false, other = false;
-  for (const train::TrainMode& x : modes) {
+  if (turning) g += "$modes << EOD\n" + table + "EOD\n";
+  for (std::size_t r = 0; r < modes.size(); ++r) {
+    const train::TrainMode& x = modes[r];
     if (x.frequency_hz <= 0) continue;  // the free rotation
-    const double e =
-        x.mesh_energy.empty() ? 0 : *std::max_element(x.mesh_energy.begin(), x.mesh_energy.end());
-    const bool excited = e >= kMeshCritical;
+    const bool excited = largest_mesh_energy(x) >= kMeshCritical;
     (excited ? critical : other) = true;
-    fmt::format_to(std::back_inserter(g), "set arrow from 0, {0} to {1}, {0} nohead {2}\n",
-                   x.frequency_hz, x_max,
-                   excited ? "lw 2 lc rgb '#1f4e9c'" : "lw 1 dt 3 lc rgb 'gray60'");
+    const char* style = excited ? "lw 2 lc rgb '#1f4e9c'" : "lw 1 dt 3 lc rgb 'gray60'";
+    if (turning)
+      plots.push_back(
+          fmt::format("$modes every ::1 using 1:{} with lines {} notitle", r + 2, style));
+    else
+      fmt::format_to(std::back_inserter(g), "set arrow from 0, {0} to {1}, {0} nohead {2}\n",
+                     x.frequency_hz, x_max, style);
     for (std::size_t m = 0; excited && m < per_hz.size(); ++m)
       for (int i = 1; i <= kMeshOrders; ++i) {
-        const double speed = x.frequency_hz / (i * per_hz[m]);
+        const double speed = resonance(r, i * per_hz[m]);
         if (speed <= x_max)
-          fmt::format_to(std::back_inserter(points), "{},{}\n", speed, x.frequency_hz);
+          fmt::format_to(std::back_inserter(points), "{},{}\n", speed,
+                         turning ? speed * i * per_hz[m] : x.frequency_hz);
       }
   }
   for (std::size_t m = 0; m < per_hz.size(); ++m)

@@ -383,6 +383,7 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
   for (std::size_t b = 0; b < t.bearings.size(); ++b)
     q_load += t.bearings[b].stiffness_n_per_m * a.bearing_matrix(static_cast<int>(b)).transpose() *
               a.bearing_offset(static_cast<int>(b));
+  q_load += a.frame_load();
   const Eigen::MatrixXd k = a.contact_stiffness();
   // In drive contact a mesh pushes with k_m (V q - b): its b is a load k_m b V^T.
   for (std::size_t m = 0; m < t.meshes.size(); ++m)
@@ -823,18 +824,21 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
     mode["frequency_hz"] = x.frequency_hz;
     mode["multiplicity"] = x.multiplicity;
     if (!x.type.empty()) mode["type"] = x.type;
-    nlohmann::ordered_json shape, mesh, shaft, bearing;
+    nlohmann::ordered_json shape, shape_imag, mesh, shaft, bearing;
     // A rotation by its body's name (rad), a centre's displacement by "<body>_x", "<body>_y".
     for (int i = 0; i < a.size(); ++i) {
       const std::string& q = a.coordinate_names()[static_cast<std::size_t>(i)];
-      shape[i < a.body_count() ? t.bodies[static_cast<std::size_t>(i)].name
-                               : q.substr(0, q.size() - 2)] = x.shape(i);
+      const std::string name = i < a.body_count() ? t.bodies[static_cast<std::size_t>(i)].name
+                                                  : q.substr(0, q.size() - 2);
+      shape[name] = x.shape(i);
+      if (x.shape_imag.size() > 0) shape_imag[name] = x.shape_imag(i);
     }
     for (std::size_t k = 0; k < t.meshes.size(); ++k) mesh[t.meshes[k].name] = x.mesh_energy[k];
     for (std::size_t k = 0; k < t.shafts.size(); ++k) shaft[t.shafts[k].name] = x.shaft_energy[k];
     for (std::size_t k = 0; k < t.bearings.size(); ++k)
       bearing[t.bearings[k].name] = x.bearing_energy[k];
     mode["shape"] = shape;
+    if (!shape_imag.is_null()) mode["shape_imag"] = shape_imag;  // a whirl (frame terms)
     mode["mesh_energy"] = mesh.is_null() ? nlohmann::ordered_json::object() : mesh;
     mode["shaft_energy"] = shaft.is_null() ? nlohmann::ordered_json::object() : shaft;
     mode["bearing_energy"] = bearing.is_null() ? nlohmann::ordered_json::object() : bearing;

@@ -1272,6 +1272,42 @@ TEST(Cli, APlanetarySweepReadsItsLoadSharingPerPoint) {
   fs::remove_all(d);
 }
 
+TEST(Cli, APlanetarySetInItsTurningFrameWhirlsAndDrawsItsModesAgainstSpeed) {
+  // Lin and Parker's set with the frame's rotation terms: modes.json gives each mode's
+  // imaginary part, the first translational pair split; the Campbell diagram reads the modes at
+  // 49 speeds from 0 (at 0, the modes at rest: the pair one frequency) and draws each as a
+  // curve.
+  const std::string lp = std::string(GEARDYN_SOURCE_DIR) + "/cases/lin_parker_1999.toml";
+  const fs::path d = fresh("frame_terms");
+  const Outcome o =
+      cli("modes " + lp +
+          " --set train.frame_terms=true --set train.reference_speed_hz=100 --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "modes.json"));
+  ASSERT_TRUE(j["modes"][1].contains("shape_imag")) << j["modes"][1];
+  const double f1 = j["modes"][1]["frequency_hz"], f2 = j["modes"][2]["frequency_hz"];
+  EXPECT_GT(f2 - f1, 10.0);  // 743.2 Hz at rest, split by the frame's 27.8 Hz
+  EXPECT_EQ(j["modes"][1]["multiplicity"], 1);
+  std::istringstream table(slurp(d / "campbell_modes.csv"));
+  std::string line;
+  std::getline(table, line);
+  EXPECT_EQ(line.substr(0, 28), "speed_hz,mode1_hz,mode2_hz,m");
+  std::getline(table, line);
+  std::vector<double> rest;
+  std::istringstream fields(line);
+  for (std::string f; std::getline(fields, f, ',');) rest.push_back(std::stod(f));
+  ASSERT_GE(rest.size(), 4U);
+  EXPECT_EQ(rest[0], 0.0);
+  EXPECT_NEAR(rest[2] / 743.2, 1.0, 5e-4);
+  EXPECT_NEAR(rest[3] / rest[2], 1.0, 1e-9);
+  int rows = 1;
+  while (std::getline(table, line)) ++rows;
+  EXPECT_EQ(rows, 49);
+  EXPECT_NE(slurp(d / "campbell_body.gp").find("$modes every ::1 using 1:3 with lines"),
+            std::string::npos);
+  fs::remove_all(d);
+}
+
 TEST(Cli, TheLooseGearRattles) {
   // The shipped loose-gear case is above its onset of rattle: the loose gear leaves its flank
   // and strikes again in every period of the engine's firing order.

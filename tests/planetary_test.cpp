@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -237,6 +238,173 @@ TEST(Planetary, RigidMotionsOfTheSet) {
   Train free = lin_parker(3);
   free.shafts.clear();
   EXPECT_EQ(Assembled(free).rigid_motions().cols(), 2);
+}
+
+// The frame's rotation terms on one planar body on an isotropic bearing k, its mesh always in
+// its (wide) backlash: in a frame turning at Omega an isotropic oscillator of w0 = sqrt(k / m)
+// whirls at w0 - Omega and w0 + Omega exactly (its two circular motions, +-w0 in the absolute);
+// released at x0 at rest in the frame, its centre is the absolute motion x0 cos(w0 t) e_x +
+// (Omega x0 / w0) sin(w0 t) e_y turned back by -Omega t. The frame's speed is read from the
+// wheel a shaft holds to the ground: the pinion (20 teeth) turns at 100 Hz in the frame, the
+// wheel (40) at -50 Hz, so the frame turns at +50 Hz.
+Train whirling_centre() {
+  Train t;
+  t.bodies.push_back({"pinion", 1e-3, true, 2.0});
+  t.bodies.push_back({"wheel", 4e-3});
+  t.bearings.push_back({"bearing", "pinion", 8e7, 0.0});
+  t.shafts.push_back({"held", "wheel", kGround, 1e3, 0.0});
+  Mesh m;
+  m.name = "mesh";
+  m.driving = "pinion";
+  m.driven = "wheel";
+  m.teeth_driving = 20;
+  m.teeth_driven = 40;
+  m.base_radius_driving_m = 0.02;
+  m.base_radius_driven_m = 0.04;
+  m.backlash_m = 1.0;
+  m.mean_stiffness_n_per_m = 1e8;
+  m.transverse_pressure_angle_rad = 20 * kDeg;
+  t.meshes.push_back(m);
+  t.reference = "pinion";
+  t.reference_speed_hz = 100;
+  t.frame_terms = true;
+  return t;
+}
+
+TEST(FrameTerms, AnIsotropicCentreWhirlsAtItsFrequencyPlusAndMinusTheFrames) {
+  const Assembled a(whirling_centre());
+  const double omega = 2 * kPi * 50, w0 = std::sqrt(8e7 / 2.0);
+  EXPECT_NEAR(a.frame_rate_rad_s() / omega, 1.0, 1e-15);
+  // The mesh in drive contact (modes read it so) couples the centre to the gears' turning: the
+  // two modes nearest w0 -+ Omega, each within 1e-12 once that coupling is taken out.
+  Train loose = whirling_centre();
+  loose.meshes[0].mean_stiffness_n_per_m = 1e-6;
+  const std::vector<TrainMode> m = modes(Assembled(loose));
+  std::vector<double> hz;
+  for (const TrainMode& x : m) hz.push_back(x.frequency_hz);
+  for (const double expected : {(w0 - omega) / (2 * kPi), (w0 + omega) / (2 * kPi)}) {
+    const auto nearest = std::min_element(hz.begin(), hz.end(), [&](double x, double y) {
+      return std::abs(x - expected) < std::abs(y - expected);
+    });
+    EXPECT_NEAR(*nearest / expected, 1.0, 1e-12) << expected;
+    // A whirl: x and y a quarter period apart, of equal amplitude.
+    const TrainMode& whirl = m[static_cast<std::size_t>(nearest - hz.begin())];
+    const int x = a.translation(0);
+    EXPECT_NEAR(std::hypot(whirl.shape(x), whirl.shape_imag(x)) /
+                    std::hypot(whirl.shape(x + 1), whirl.shape_imag(x + 1)),
+                1.0, 1e-9);
+  }
+  // Without the frame's terms the two are one, twice.
+  loose.frame_terms = false;
+  const std::vector<TrainMode> still = modes(Assembled(loose));
+  EXPECT_EQ(std::count_if(still.begin(), still.end(),
+                          [&](const TrainMode& x) {
+                            return std::abs(x.frequency_hz * 2 * kPi / w0 - 1) < 1e-12 &&
+                                   x.multiplicity == 2;
+                          }),
+            2);
+  // The engine's flow in the frame against the turned absolute motion.
+  ode::EngineOptions o;
+  o.tolerance = 1e-15;
+  const ode::ExactEngine engine(a.linear_system(), o);
+  constexpr double kX0 = 1e-5;
+  ode::Vector y0 = ode::Vector::Zero(2 * a.size());
+  const int x = a.translation(0);
+  y0(x) = kX0;
+  ode::FlowObserver nothing;
+  for (const double t : {1e-4, 7.3e-4, 3.1e-3, 1.2e-2}) {
+    const ode::FlowResult r = engine.flow(0.0, y0, a.classify(0.0, y0), t, {}, nothing);
+    ASSERT_TRUE(r.ok()) << r.message;
+    const Eigen::Vector2d absolute(kX0 * std::cos(w0 * t), omega * kX0 / w0 * std::sin(w0 * t));
+    const Eigen::Vector2d turned = Eigen::Rotation2Dd(-omega * t) * absolute;
+    EXPECT_LE((r.state.segment(x, 2) - turned).norm(), 1e-9 * kX0) << t;
+  }
+}
+
+// Lin and Parker's set in its turning carrier frame keeps its rigid turn free (K's null space,
+// the same motion as without the terms), and the planets' centrifugal load does no work on it;
+// the frame splits each degenerate translational pair by Omega |phi_1^T G phi_2| to first order
+// (G the Coriolis matrix over Omega, phi_1, phi_2 the pair's mass-normalised shapes at rest: the
+// gyroscopic perturbation of a double eigenvalue), and moves the rotational modes only to second
+// order.
+TEST(FrameTerms, TheSetKeepsItsRigidTurnAndSplitsItsTranslationalPairs) {
+  Train t = lin_parker(3);
+  t.frame_terms = true;
+  const Assembled turning(t);
+  const Assembled still(lin_parker(3));
+  // The ring (108 teeth) turns at -10 x 30 / 108 Hz in the frame: the frame at +2.78 Hz.
+  const double omega = 2 * kPi * 10 * 30 / 108.0;
+  ASSERT_NEAR(turning.frame_rate_rad_s() / omega, 1.0, 1e-15);
+  const Eigen::MatrixXd r = turning.rigid_motions();
+  ASSERT_EQ(r.cols(), 1);
+  const Eigen::MatrixXd k = turning.contact_stiffness();
+  EXPECT_LE((k * r).norm(), 1e-12 * k.norm() * r.norm());
+  EXPECT_LE((r - still.rigid_motions()).norm(), 1e-9 * r.norm());
+  EXPECT_LE((k - k.transpose()).norm(), 1e-15 * k.norm());
+  const Eigen::VectorXd load = turning.frame_load();
+  ASSERT_GT(load.norm(), 0);
+  EXPECT_LE(std::abs(r.col(0).dot(load)), 1e-12 * r.norm() * load.norm());
+  // Lin and Parker's term alone (on the planets' translations u, not v = u - theta_c d_c)
+  // gives the rigid turn the stiffness -Omega^2 sum m R^2.
+  Eigen::MatrixXd lp = still.contact_stiffness();
+  for (int i = 0; i < turning.body_count(); ++i)
+    if (const int x = turning.translation(i); x >= 0)
+      lp.block(x, x, 2, 2) -= omega * omega * turning.mass()(x, x) * Eigen::Matrix2d::Identity();
+  EXPECT_NEAR(r.col(0).dot(lp * r.col(0)) /
+                  (-omega * omega * 3 * kPlanet.mass_kg * kCarrier.base_radius_m *
+                   kCarrier.base_radius_m * std::pow(r(turning.index("carrier"), 0), 2)),
+              1.0, 1e-8);  // r from the eigensolver, to some 1e-9
+
+  // The frame's speed needs a held body, and held bodies that agree.
+  Train unheld = t;
+  unheld.shafts.clear();
+  EXPECT_NE(geardyn::testing::error_of([&] {
+              const Assembled x(unheld);
+            }).find("the train: frame_terms = true: no shaft holds a body to the ground"),
+            std::string::npos);
+  Train twice = t;
+  twice.shafts.push_back({"sun_held", "sun", kGround, 1e3, 0.0});
+  EXPECT_NE(geardyn::testing::error_of([&] { const Assembled x(twice); })
+                .find("shafts 'ring_support' and 'sun_held' hold bodies turning at different "
+                      "speeds in the frame"),
+            std::string::npos);
+  // At rest in the frame the centrifugal load moves each planet outward on its pin.
+  const std::optional<Eigen::VectorXd> rest = geardyn::static_state(turning);
+  ASSERT_TRUE(rest);
+  for (int n = 0; n < 3; ++n) {
+    const int p = turning.index(fmt::format("p{}", n + 1));
+    const double psi = 2 * kPi * n / 3;
+    EXPECT_GT(
+        rest->segment(turning.translation(p), 2).dot(Eigen::Vector2d(std::cos(psi), std::sin(psi))),
+        0.1 * kPlanet.mass_kg * omega * omega * kCarrier.base_radius_m / kBearing)
+        << n;
+  }
+  const Eigen::MatrixXd g = turning.frame_damping() / omega;
+  t.reference_speed_hz *= 2;
+  const std::vector<TrainMode> at_rest = modes(still), whirling = modes(turning),
+                               faster = modes(Assembled(t));
+  ASSERT_EQ(at_rest.size(), whirling.size());
+  int pairs = 0;
+  for (std::size_t i = 1; i < at_rest.size(); ++i) {
+    const TrainMode& m = at_rest[i];
+    if (m.type == "rotational") {
+      // Second order: twice the speed, four times the shift.
+      const double shift = whirling[i].frequency_hz - m.frequency_hz;
+      EXPECT_NEAR((faster[i].frequency_hz - m.frequency_hz) / shift, 4.0, 0.02) << m.frequency_hz;
+      EXPECT_EQ(whirling[i].type, "rotational");
+    } else if (m.type == "translational" && i + 1 < at_rest.size() &&
+               at_rest[i + 1].type == "translational" &&
+               std::abs(at_rest[i + 1].frequency_hz / m.frequency_hz - 1) < 1e-9) {
+      const double split_hz = omega * std::abs(m.shape.dot(g * at_rest[i + 1].shape)) / (2 * kPi);
+      EXPECT_NEAR((whirling[i + 1].frequency_hz - whirling[i].frequency_hz) / split_hz, 1.0, 1e-3)
+          << m.frequency_hz;
+      EXPECT_GT(split_hz, 0.05 * omega / (2 * kPi));
+      EXPECT_EQ(whirling[i].type, "translational");
+      EXPECT_EQ(whirling[i].multiplicity, 1);
+      ++pairs;
+    }
+  }
+  EXPECT_EQ(pairs, 6);
 }
 
 // A planet moved off its equal spacing: the types no longer separate (the paper's structure needs

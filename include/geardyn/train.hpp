@@ -17,9 +17,25 @@
 // carrier is at rest in it (speed ratio 0), every speed is relative to it (the reference's
 // speed too), and the planets' centres stay put, so that the meshes' lines of action keep their
 // directions. The deviations theta are the same in either frame; the translations are read in
-// the carrier's. The frame's rotation terms (gyroscopic and centripetal) are left out, as in
-// Lin and Parker (1999): they scale with the carrier's speed squared over the lowest elastic
-// frequency squared.
+// the carrier's. The frame's rotation terms are left out unless Train::frame_terms asks for
+// them (they scale with the carrier's speed over the lowest elastic frequency).
+//
+// The frame's rotation terms (Train::frame_terms; Lin and Parker 1999, eq. 1, with the pins'
+// preloads that keep the set's rigid rotation free). The frame turns at Omega in the absolute
+// (counterclockwise positive), read from the bodies shafts hold to the ground: the housing is
+// at rest, so Omega = -(their angular speed in the frame). Each planar body's translation u then
+// feels its Coriolis and centripetal forces, -2 m Omega z x u' + m Omega^2 u: Lin and Parker's
+// Omega G q' and -Omega^2 K_Omega q, G = 2 m [[0, -1], [1, 0]] and K_Omega = m I on (x, y),
+// with one change: a body carried on a pin at R from its carrier's centre softens on its
+// displacement from its pin's turned place, v = u - theta_c d_c (d_c = s_c z x R, the pin's
+// displacement per unit theta_c), not on u. Lin and Parker's own term gives the set's rigid turn
+// (theta_c, each planet moved by d_c theta_c) the stiffness -Omega^2 sum m R^2: its centripetal
+// force m Omega^2 d_c theta_c meets nothing, because the turning of the pins' centrifugal
+// preloads (a geometric stiffness their linearisation leaves out) is what opposes it. With v,
+// K stays symmetric and keeps the rigid motion in its null space exactly. The planets' constant
+// centrifugal force m Omega^2 R is a load on the bodies (like a seat error's), which moves them
+// outward on their pins at rest. C holds the skew G: modes() solves the gyroscopic
+// eigenproblem.
 //
 // Elements, each stamping itself into M q'' + C_r q' + K_r(t) q = Q_r(t) through the indices of
 // the coordinates it joins (the finite-element habit: an element knows its local matrices and
@@ -222,6 +238,7 @@ struct Train {
   std::string reference;                // the body whose speed is given
   double reference_speed_hz = 0;        // its rotation frequency
   bool mesh_phase_from_layout = false;  // (above); false: each mesh's phases as given
+  bool frame_terms = false;             // the frame's rotation terms (above)
 };
 
 // A ratio of whole numbers, for speeds and mesh frequencies over the reference speed: trains
@@ -269,6 +286,14 @@ class Assembled {
   // Each body's sense of rotation in the train's frame: +1 counterclockwise (the reference's,
   // and a body at rest's).
   int sense(int body) const { return sense_[static_cast<std::size_t>(body)]; }
+  // Omega, the frame's angular speed in the absolute (rad/s, counterclockwise positive) with
+  // Train::frame_terms; 0 without them.
+  double frame_rate_rad_s() const { return frame_rate_; }
+  // K_f, C_f and Q_f: the frame's rotation terms on K, C and the constant load (above); zero
+  // without them.
+  Eigen::MatrixXd frame_stiffness() const;
+  Eigen::MatrixXd frame_damping() const;
+  Eigen::VectorXd frame_load() const;
   // B of bearing k: its body's centre's displacement from its seat, w = B q (x and y rows).
   Eigen::MatrixXd bearing_matrix(int bearing) const;
   // o of bearing k: its seat's error in x and y (Bearing's pin errors, and its carrier's
@@ -366,6 +391,7 @@ class Assembled {
   std::vector<Ratio> speed_;
   std::vector<int> sense_, translation_;
   std::vector<double> phase_;  // each mesh's, in cycles
+  double frame_rate_ = 0;      // Omega, rad/s
   std::vector<std::string> names_;
   Eigen::MatrixXd m_;
 };
@@ -381,7 +407,10 @@ constexpr double kStillShare = 1e-8;
 // prescribed speed held (their shape entries 0).
 struct TrainMode {
   double frequency_hz = 0;
-  Eigen::VectorXd shape;               // over the coordinates, mass-normalised
+  Eigen::VectorXd shape;  // over the coordinates, mass-normalised
+  // With the frame's rotation terms a mode whirls: its shape is complex, shape + i shape_imag
+  // (phased so that its largest entry is real and positive); empty otherwise.
+  Eigen::VectorXd shape_imag;
   std::vector<double> mesh_energy;     // fraction of the strain energy in each mesh
   std::vector<double> shaft_energy;    // and in each shaft
   std::vector<double> bearing_energy;  // and in each bearing (its x and y together)

@@ -124,6 +124,8 @@ struct TrainCase {
   // "given": each mesh's harmonic phases about t = 0 as written; "layout": about a tooth pair
   // passing its pitch point, each mesh delayed by where the layout puts its teeth (train.hpp).
   std::string mesh_phase = "given";
+  // The frame's rotation terms (train.hpp, Train::frame_terms).
+  bool frame_terms = false;
   // A planetary set's planets from one (expand_planets): the body written once as `planet`,
   // and every element that names it, stand for `planets` copies at the carrier angles
   // planet_angles_deg (equally spaced when empty).

@@ -595,7 +595,8 @@ def modes(case):
         body's centre as ``<body>_x``, ``<body>_y``), ``frequency_hz`` (ascending),
         ``multiplicity`` (how many modes share each frequency), ``type`` (a planetary set's
         "rotational", "translational", "planet" or "mixed", read from the shape; "" in a train
-        without pins), ``shape`` (modes x those columns, mass-normalised), ``mesh_energy``,
+        without pins), ``shape`` (modes x those columns, mass-normalised; complex, a whirl,
+        with ``train.frame_terms``), ``mesh_energy``,
         ``shaft_energy`` and ``bearing_energy`` (by name: the strain energy fraction in each
         mode); the coupled model's as below.
 
@@ -621,7 +622,9 @@ def modes(case):
                 "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
                 "multiplicity": np.array([m["multiplicity"] for m in ms]),
                 "type": [m.get("type", "") for m in ms],
-                "shape": np.array([list(m["shape"].values()) for m in ms]),
+                "shape": np.array([list(m["shape"].values()) for m in ms]) +
+                (1j * np.array([list(m["shape_imag"].values()) for m in ms])
+                 if ms and "shape_imag" in ms[0] else 0),
                 "mesh_energy": {k: np.array([m["mesh_energy"][k] for m in ms])
                                 for k in (ms[0]["mesh_energy"] if ms else {})},
                 "shaft_energy": {k: np.array([m["shaft_energy"][k] for m in ms])

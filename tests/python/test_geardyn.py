@@ -745,6 +745,9 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert len(lm["frequency_hz"]) == 21 and lm["type"].count("planet") == 3
     assert all(m == 2 for m, t in zip(lm["multiplicity"], lm["type"]) if t == "translational")
     assert "pin4" in lm["bearing_energy"] and "sun_planet4" in lm["mesh_energy"]
+    # In its turning carrier frame the set whirls: complex shapes, its pairs split.
+    wm = geardyn.modes(lp.with_({"train.frame_terms": True, "train.reference_speed_hz": 100}))
+    assert np.iscomplexobj(wm["shape"]) and wm["frequency_hz"][2] - wm["frequency_hz"][1] > 10
     # A loaded stage's run reads each sun's and ring's load sharing.
     ps = geardyn.Case.from_toml(SOURCE / "cases/planetary_set.toml").with_(
         {"solver.duration_s": 0.002, "train.planet_pin_errors_um": [[0, 20], [0, 0], [0, 0]]})
