@@ -253,16 +253,7 @@ Train whirling_centre() {
   t.bodies.push_back({"wheel", 4e-3});
   t.bearings.push_back({"bearing", "pinion", 8e7, 0.0});
   t.shafts.push_back({"held", "wheel", kGround, 1e3, 0.0});
-  Mesh m;
-  m.name = "mesh";
-  m.driving = "pinion";
-  m.driven = "wheel";
-  m.teeth_driving = 20;
-  m.teeth_driven = 40;
-  m.base_radius_driving_m = 0.02;
-  m.base_radius_driven_m = 0.04;
-  m.backlash_m = 1.0;
-  m.mean_stiffness_n_per_m = 1e8;
+  Mesh m = geardyn::testing::mesh("mesh", "pinion", "wheel", {20, 40}, {0.02, 0.04}, 1.0, 1e8);
   m.transverse_pressure_angle_rad = 20 * kDeg;
   t.meshes.push_back(m);
   t.reference = "pinion";

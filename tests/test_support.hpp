@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -102,6 +103,24 @@ inline Eigen::VectorXd free_period_map(const train::Assembled& a, const ode::Exa
     out(f + k) = r.state(n + free[static_cast<std::size_t>(k)]);
   }
   return out;
+}
+
+// A mesh of constant stiffness and no damping between `driving` and `driven`.
+inline train::Mesh mesh(const std::string& name, const std::string& driving,
+                        const std::string& driven, std::array<int, 2> teeth,
+                        std::array<double, 2> base_radius_m, double backlash_m,
+                        double stiffness_n_per_m) {
+  train::Mesh m;
+  m.name = name;
+  m.driving = driving;
+  m.driven = driven;
+  m.teeth_driving = teeth[0];
+  m.teeth_driven = teeth[1];
+  m.base_radius_driving_m = base_radius_m[0];
+  m.base_radius_driven_m = base_radius_m[1];
+  m.backlash_m = backlash_m;
+  m.mean_stiffness_n_per_m = stiffness_n_per_m;
+  return m;
 }
 
 }  // namespace geardyn::testing

@@ -58,22 +58,7 @@ Samples flow(const Assembled& a, const ode::Vector& y0, double t1_s, double inte
   return s;
 }
 
-// A mesh of constant stiffness and no damping between `driving` and `driven`.
-Mesh mesh(const std::string& name, const std::string& driving, const std::string& driven,
-          std::array<int, 2> teeth, std::array<double, 2> base_radius_m, double backlash_m,
-          double stiffness_n_per_m) {
-  Mesh m;
-  m.name = name;
-  m.driving = driving;
-  m.driven = driven;
-  m.teeth_driving = teeth[0];
-  m.teeth_driven = teeth[1];
-  m.base_radius_driving_m = base_radius_m[0];
-  m.base_radius_driven_m = base_radius_m[1];
-  m.backlash_m = backlash_m;
-  m.mean_stiffness_n_per_m = stiffness_n_per_m;
-  return m;
-}
+using geardyn::testing::mesh;
 
 // The paper's pair as a spur pair with given stiffness harmonics (so that its one-degree model
 // and a two-body train are the same physics), at f1 = 100 Hz.
