@@ -76,7 +76,10 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
       rates.bottomRows(a.size()) = rigid;
     }
     sys = a.linear_system();
-    contact = a.region(std::vector<int>(a.train().meshes.size(), 1));
+    // (A bearing with a clearance engaged, as the modes read it: its stiffness is the same on
+    // either side, and the Floquet multipliers read only the homogeneous flow.)
+    contact = a.region(std::vector<int>(a.train().meshes.size(), 1),
+                       std::vector<int>(a.clearances().size(), 1));
     // The system period is needed only where the meshes' stiffness is constant: the forcing
     // (torques, transmission errors) does not enter the monodromy.
     std::string why;

@@ -194,6 +194,11 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
                          x.body));
     if (!(x.stiffness_n_per_m > 0 && std::isfinite(x.stiffness_n_per_m)))
       bad(e, fmt::format("stiffness = {} N/m: must be finite and > 0", x.stiffness_n_per_m));
+    if (!(x.clearance_m >= 0 && std::isfinite(x.clearance_m)))
+      bad(e, fmt::format("clearance = {} m: must be finite and >= 0", x.clearance_m));
+    if (x.clearance_m > 0)
+      for (const int axis : {0, 1})
+        clearances_.push_back({static_cast<int>(&x - t_.bearings.data()), axis});
     if (!x.on.empty()) {
       if (body(e, "on", x.on) == i)
         bad(e, fmt::format("on = \"{}\": a body's pin carries another body", x.on));
@@ -791,8 +796,10 @@ RowVector Assembled::shaft_vector(int shaft) const {
 
 namespace {
 
-// The shafts', bearings' and drags' K and C, which every region shares.
-void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
+// The shafts', bearings' and drags' K and C, which every region shares; a bearing with a
+// clearance only with `engaged` (as if it had none: the linearisation that modes and the static
+// state read), its region's otherwise.
+void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c, bool engaged) {
   const Train& t = a.train();
   k = Eigen::MatrixXd::Zero(a.size(), a.size());
   c = k;
@@ -803,6 +810,7 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
   }
   for (const Drag& d : t.drags) c(a.index(d.body), a.index(d.body)) += d.viscous_n_m_s_per_rad;
   for (std::size_t i = 0; i < t.bearings.size(); ++i) {
+    if (t.bearings[i].clearance_m > 0 && !engaged) continue;
     const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(i));
     k += t.bearings[i].stiffness_n_per_m * b.transpose() * b;
     c += t.bearings[i].damping_n_s_per_m * b.transpose() * b;
@@ -819,7 +827,7 @@ namespace {
 
 // K and C with every mesh in drive contact at its mean stiffness.
 void stamp_contact(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c) {
-  stamp_common(a, k, c);
+  stamp_common(a, k, c, true);
   const std::vector<Mesh>& meshes = a.train().meshes;
   for (int m = 0; m < static_cast<int>(meshes.size()); ++m) {
     const Eigen::RowVectorXd v = a.mesh_vector(m);
@@ -845,14 +853,19 @@ Eigen::MatrixXd Assembled::contact_damping() const {
 
 int Assembled::region_count() const {
   int n = 1;
-  for (std::size_t m = 0; m < t_.meshes.size(); ++m) n *= 3;
+  for (std::size_t m = 0; m < t_.meshes.size() + clearances_.size(); ++m) n *= 3;
   return n;
 }
 
-int Assembled::region(const std::vector<int>& states) const {
+int Assembled::region(const std::vector<int>& states,
+                      const std::vector<int>& clearance_states) const {
   int r = 0, p = 1;
   for (int s : states) {
     r += (s + 1) * p;
+    p *= 3;
+  }
+  for (std::size_t j = 0; j < clearances_.size(); ++j) {
+    r += ((j < clearance_states.size() ? clearance_states[j] : 0) + 1) * p;
     p *= 3;
   }
   return r;
@@ -861,6 +874,16 @@ int Assembled::region(const std::vector<int>& states) const {
 std::vector<int> Assembled::states(int region) const {
   std::vector<int> s;
   for (std::size_t m = 0; m < t_.meshes.size(); ++m) {
+    s.push_back(region % 3 - 1);
+    region /= 3;
+  }
+  return s;
+}
+
+std::vector<int> Assembled::clearance_states(int region) const {
+  for (std::size_t m = 0; m < t_.meshes.size(); ++m) region /= 3;
+  std::vector<int> s;
+  for (std::size_t j = 0; j < clearances_.size(); ++j) {
     s.push_back(region % 3 - 1);
     region /= 3;
   }
@@ -934,7 +957,13 @@ int Assembled::classify(double t_s, const Eigen::VectorXd& y) const {
     const double b = t_.meshes[m].backlash_m;
     s.push_back(x >= b ? 1 : x <= -b ? -1 : 0);
   }
-  return region(s);
+  std::vector<int> c;
+  for (const auto& [k, axis] : clearances_) {
+    const double w = bearing_matrix(k).row(axis).dot(y.head(size())) - bearing_offset(k)(axis);
+    const double gap = t_.bearings[static_cast<std::size_t>(k)].clearance_m;
+    c.push_back(w >= gap ? 1 : w <= -gap ? -1 : 0);
+  }
+  return region(s, c);
 }
 
 ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
@@ -974,13 +1003,15 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
 
   const Eigen::MatrixXd m_inv = m_.inverse();
   Eigen::MatrixXd k_common, c_common;
-  stamp_common(*this, k_common, c_common);
+  stamp_common(*this, k_common, c_common, false);
   // The drags, and the loads of the bearings' seat errors k B^T o.
   Eigen::VectorXd q_common = Eigen::VectorXd::Zero(n);
   for (const Drag& d : t_.drags) q_common(index(d.body)) -= d.constant_nm;
   for (std::size_t k = 0; k < t_.bearings.size(); ++k)
-    q_common += t_.bearings[k].stiffness_n_per_m * bearing_matrix(static_cast<int>(k)).transpose() *
-                bearing_offset(static_cast<int>(k));
+    if (!(t_.bearings[k].clearance_m > 0))
+      q_common += t_.bearings[k].stiffness_n_per_m *
+                  bearing_matrix(static_cast<int>(k)).transpose() *
+                  bearing_offset(static_cast<int>(k));
   if (frame_rate_ != 0) q_common += frame_load();
 
   // Region r from what every region shares: built here for a train of few meshes, on demand
@@ -1023,7 +1054,7 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
       return g;
     };
 
-    const std::vector<int> st = a.states(r);
+    const std::vector<int> st = a.states(r), cs = a.clearance_states(r);
     ode::LinearRegion lr;
     lr.a.constant = Matrix::Zero(dim, dim);
     lr.a.constant.topRightCorner(n, n) = Matrix::Identity(n, n);
@@ -1066,16 +1097,16 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
       if (st[m] == 0) {
         to[m] = 1;
         ode::LinearGuard up = deflection(m, -1.0, -b);  // b - (d - e)
-        up.target = a.region(to);
+        up.target = a.region(to, cs);
         to[m] = -1;
         ode::LinearGuard down = deflection(m, 1.0, -b);  // (d - e) + b
-        down.target = a.region(to);
+        down.target = a.region(to, cs);
         lr.guards.push_back(up);
         lr.guards.push_back(down);
       } else {
         to[m] = 0;
         ode::LinearGuard out = deflection(m, st[m] > 0 ? 1.0 : -1.0, b);
-        out.target = a.region(to);
+        out.target = a.region(to, cs);
         lr.guards.push_back(out);
       }
       // Observables: d - e, and the force.
@@ -1092,6 +1123,44 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
       f.scale = t.meshes[m].backlash_m * t.meshes[m].mean_stiffness_n_per_m;
       lr.observables.push_back(f);
     }
+    // Each clearance direction j (bearing k's axis): in contact beyond +-c, k (w - o -+ c) +
+    // c_b w' on B_j^T; its guards on w - o against +-c, as a mesh's on d - e against +-b.
+    for (std::size_t j = 0; j < a.clearances().size(); ++j) {
+      const auto [k, axis] = a.clearances()[j];
+      const Bearing& x = t.bearings[static_cast<std::size_t>(k)];
+      const RowVector bj = a.bearing_matrix(k).row(axis);
+      const double o = a.bearing_offset(k)(axis), gap = x.clearance_m;
+      if (cs[j] != 0) {
+        const Matrix block = m_inv * bj.transpose() * bj;
+        lr.a.constant.bottomLeftCorner(n, n) -= x.stiffness_n_per_m * block;
+        lr.a.constant.bottomRightCorner(n, n) -= x.damping_n_s_per_m * block;
+        lr.u.constant.tail(n) += x.stiffness_n_per_m * (o + cs[j] * gap) * (m_inv * bj.transpose());
+      }
+      // sign (w - o) - edge.
+      const auto beyond = [&](double sign, double edge) {
+        ode::LinearGuard g = functional();
+        g.row.constant.head(n) = sign * bj;
+        g.offset.constant = -sign * o - edge;
+        g.scale = gap;
+        return g;
+      };
+      std::vector<int> to = cs;
+      if (cs[j] == 0) {
+        to[j] = 1;
+        ode::LinearGuard up = beyond(-1.0, -gap);  // c - (w - o)
+        up.target = a.region(st, to);
+        to[j] = -1;
+        ode::LinearGuard down = beyond(1.0, -gap);  // (w - o) + c
+        down.target = a.region(st, to);
+        lr.guards.push_back(up);
+        lr.guards.push_back(down);
+      } else {
+        to[j] = 0;
+        ode::LinearGuard out = beyond(cs[j] > 0 ? 1.0 : -1.0, gap);
+        out.target = a.region(st, to);
+        lr.guards.push_back(out);
+      }
+    }
     // Each shaft's torque and each bearing's force on the ground, the same in every region.
     for (std::size_t k = 0; k < t.shafts.size(); ++k) {
       const Shaft& x = t.shafts[k];
@@ -1106,10 +1175,20 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
       const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(k));
       const Eigen::Vector2d o = a.bearing_offset(static_cast<int>(k));
       for (const int axis : {0, 1}) {
+        // With a clearance: its direction's state, 0 (no force) inside.
+        int state = 1;
+        double edge = 0;
+        for (std::size_t j = 0; j < a.clearances().size(); ++j)
+          if (a.clearances()[j] == std::array<int, 2>{static_cast<int>(k), axis}) {
+            state = cs[j];
+            edge = cs[j] * x.clearance_m;
+          }
         ode::LinearGuard g = functional();
-        g.row.constant.head(n) = x.stiffness_n_per_m * b.row(axis);
-        g.row.constant.tail(n) = x.damping_n_s_per_m * b.row(axis);
-        g.offset.constant = -x.stiffness_n_per_m * o(axis);
+        if (state != 0) {
+          g.row.constant.head(n) = x.stiffness_n_per_m * b.row(axis);
+          g.row.constant.tail(n) = x.damping_n_s_per_m * b.row(axis);
+          g.offset.constant = -x.stiffness_n_per_m * (o(axis) + edge);
+        }
         lr.observables.push_back(g);
       }
     }

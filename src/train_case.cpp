@@ -174,6 +174,9 @@ const std::vector<ElementKey<TrainBearingData>>& bearing_keys() {
        {},
        false,
        "and across it, counterclockwise (a planet pin's tangential error)"},
+      {"clearance_um", &G::clearance_um, "um", at_least(0), false,
+       "radial clearance: the bearing acts in x and in y each as a dead zone, nothing within "
+       "+-clearance, its damping in contact only (0: none)"},
   };
   return keys;
 }
@@ -793,7 +796,8 @@ train::Train train_of(const Case& c) {
                      b.pin_radius_mm * kMmToM,
                      b.pin_angle_deg * kDegToRad,
                      b.pin_error_radial_um * kUmToM,
-                     b.pin_error_tangential_um * kUmToM};
+                     b.pin_error_tangential_um * kUmToM,
+                     b.clearance_um * kUmToM};
     if (const auto g = gears.find(b.body); g != gears.end())
       x.damping_n_s_per_m =
           2 * b.damping_ratio * std::sqrt(b.stiffness_n_per_m * g->second.mass_kg);

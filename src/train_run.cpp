@@ -53,6 +53,8 @@ class TrainObserver : public ode::FlowObserver {
         whole_parts_(sys.region(0).observables.size() - first_part_, kNoExtremes),
         sys_(sys) {
     for (const int state : states_) trackers_.emplace_back(t0, t1, final_from, state);
+    clearance_states_ = a.clearance_states(region);
+    for (const int state : clearance_states_) gaps_.emplace_back(t0, t1, final_from, state);
     // Each region's readers, made when the flow first enters it (region()).
     ranges_.resize(static_cast<std::size_t>(sys.region_count()));
     readers_.resize(ranges_.size());
@@ -66,6 +68,8 @@ class TrainObserver : public ode::FlowObserver {
   void mark(double t) {
     part_trackers_.clear();
     for (const int state : states_) part_trackers_.emplace_back(t, t1_, t, state);
+    part_gaps_.clear();
+    for (const int state : clearance_states_) part_gaps_.emplace_back(t, t1_, t, state);
     part_.assign(states_.size(), Extremes{});
     part_parts_.assign(whole_parts_.size(), kNoExtremes);
   }
@@ -108,6 +112,13 @@ class TrainObserver : public ode::FlowObserver {
       if (!part_trackers_.empty()) part_trackers_[m].change(t, b[m]);
     }
     states_ = b;
+    const std::vector<int> c = a_.clearance_states(to);
+    for (std::size_t j = 0; j < c.size(); ++j) {
+      if (c[j] == clearance_states_[j]) continue;
+      gaps_[j].change(t, c[j]);
+      if (!part_gaps_.empty()) part_gaps_[j].change(t, c[j]);
+    }
+    clearance_states_ = c;
   }
 
   void on_sample(double t, const ode::Vector& y, int region) override {
@@ -152,6 +163,13 @@ class TrainObserver : public ode::FlowObserver {
       r.torque_nm = extremes(whole_parts_, k);
       if (steady) r.steady_torque_nm = extremes(part_parts_, k);
       ++k;
+    }
+    for (std::size_t j = 0; j < gaps_.size(); ++j) {
+      const auto [bearing, axis] = a_.clearances()[j];
+      TrainBearingReading& r = out_.bearings[static_cast<std::size_t>(bearing)];
+      (axis == 0 ? r.clearance_x : r.clearance_y) = gaps_[j].reading();
+      if (!part_gaps_.empty())
+        (axis == 0 ? r.steady_clearance_x : r.steady_clearance_y) = part_gaps_[j].reading();
     }
     for (TrainBearingReading& r : out_.bearings) {
       r.force_x_n = extremes(whole_parts_, k);
@@ -253,6 +271,9 @@ class TrainObserver : public ode::FlowObserver {
   double t0_, t1_;
   std::vector<int> states_;  // each mesh's contact state now
   std::vector<ContactTracker> trackers_, part_trackers_;
+  // Each clearance direction's (train::Assembled::clearances()) state now and its trackers.
+  std::vector<int> clearance_states_;
+  std::vector<ContactTracker> gaps_, part_gaps_;
   std::vector<Extremes> whole_, part_;  // part_ empty until marked
   // The shafts' and bearings' observables, from first_part_ on: {max, min} of each.
   static constexpr std::array<double, 2> kNoExtremes = {-kInf, kInf};
@@ -690,6 +711,19 @@ void part_json(nlohmann::ordered_json& x, const TrainMeshPart& m, double backlas
   x["max_deflection_bar"] = m.max_deflection_m / backlash_m;
   x["min_deflection_bar"] = m.min_deflection_m / backlash_m;
 }
+// A bearing clearance direction's contact history (summary.json's "clearance_x", "_y").
+nlohmann::ordered_json clearance_json(const ContactReading& whole, const ContactReading& steady) {
+  const auto one = [](const ContactReading& c) {
+    nlohmann::ordered_json x;
+    x["impacts"] = c.impacts;
+    x["separations"] = c.separations;
+    x["inside_fraction"] = c.separated_fraction;
+    return x;
+  };
+  nlohmann::ordered_json x = one(whole);
+  if (steady.present) x["steady"] = one(steady);
+  return x;
+}
 // One quantity of a shaft or bearing: its extremes over the window and the steady part, and its
 // static value.
 struct PartQuantity {
@@ -765,10 +799,16 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
         m.name, {{"torque_nm", m.torque_nm, m.steady_torque_nm, m.static_torque_nm}}));
   j["shafts"] = shafts;
   nlohmann::ordered_json bearings = nlohmann::ordered_json::array();
-  for (const TrainBearingReading& m : r.bearings)
-    bearings.push_back(part_reading_json(
+  for (const TrainBearingReading& m : r.bearings) {
+    nlohmann::ordered_json x = part_reading_json(
         m.name, {{"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
-                 {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n}}));
+                 {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n}});
+    if (m.clearance_x.present) {
+      x["clearance_x"] = clearance_json(m.clearance_x, m.steady_clearance_x);
+      x["clearance_y"] = clearance_json(m.clearance_y, m.steady_clearance_y);
+    }
+    bearings.push_back(x);
+  }
   j["bearings"] = bearings;
   nlohmann::ordered_json sharing = nlohmann::ordered_json::array();
   const auto optional = [](const std::optional<double>& x) {

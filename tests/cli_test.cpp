@@ -1308,6 +1308,32 @@ TEST(Cli, APlanetarySetInItsTurningFrameWhirlsAndDrawsItsModesAgainstSpeed) {
   fs::remove_all(d);
 }
 
+TEST(Cli, ASunStrikesItsBearingsClearanceUnderItsRunout) {
+  // The shipped stage's floating sun in a bearing with 5 um of radial clearance and 5 um of
+  // runout: its centre strikes the clearance's edges, in x and in y; summary.json counts each
+  // direction's impacts and time inside, the terminal says it; a negative clearance is refused
+  // naming its key, exit 2, nothing written.
+  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/planetary_set.toml";
+  const fs::path d = fresh("clearance");
+  const std::string args = "run " + set +
+                           " --set solver.duration_s=0.02 --set train.body[0].eccentricity_um=5 "
+                           "--set 'train.bearing[0].clearance_um=";
+  const Outcome o = cli(args + "5' --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("clearance: x "), std::string::npos) << o.out;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"))["bearings"];
+  ASSERT_TRUE(j[0].contains("clearance_x")) << j[0];
+  EXPECT_GT(j[0]["clearance_x"]["impacts"].get<int>(), 0);
+  const double inside = j[0]["clearance_y"]["inside_fraction"];
+  EXPECT_TRUE(inside > 0 && inside < 1) << inside;
+  EXPECT_FALSE(j[1].contains("clearance_x"));  // the ring's bearing has none
+  fs::remove_all(d);
+  const Outcome bad = cli(args + "-1' --out " + d.string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("train.bearing[0].clearance_um = -1"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(d));
+}
+
 TEST(Cli, TheLooseGearRattles) {
   // The shipped loose-gear case is above its onset of rattle: the loose gear leaves its flank
   // and strikes again in every period of the engine's firing order.

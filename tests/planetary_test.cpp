@@ -439,6 +439,48 @@ TEST(FrameTerms, AnUndampedSetKeepsItsJacobiIntegral) {
   EXPECT_GT(events, 10);  // through contacts made and lost
 }
 
+// A bearing with a radial clearance c acts in x and y each as a dead zone (Kahraman and Singh):
+// the centre of the isolated body above (its mesh in its wide backlash, no frame terms),
+// released at x0 > c at rest, swings a quarter cycle of w = sqrt(k / m) to +c, crosses the
+// clearance at w (x0 - c), swings half a cycle on -c and back: period 2 pi / w + 4 c / (w (x0 -
+// c)), at its half -x0; each crossing ends in an impact, two a period, and y, never touched,
+// stays inside. The exact engine's flow, and the run's reading.
+TEST(BearingClearance, AnIsolatedCentreRattlesInItsClearanceAsTheClosedFormSays) {
+  Train t = whirling_centre();
+  t.frame_terms = false;
+  constexpr double kGap = 2e-5, kX0 = 5e-5;
+  t.bearings[0].clearance_m = kGap;
+  const Assembled a(t);
+  ASSERT_EQ(a.clearances().size(), 2U);
+  EXPECT_EQ(a.region_count(), 27);
+  const double w = std::sqrt(8e7 / 2.0);
+  const double period = 2 * kPi / w + 4 * kGap / (w * (kX0 - kGap));
+  ode::EngineOptions o;
+  o.tolerance = 1e-15;
+  const ode::ExactEngine engine(a.linear_system(), o);
+  ode::Vector y0 = ode::Vector::Zero(2 * a.size());
+  const int x = a.translation(0);
+  y0(x) = kX0;
+  EXPECT_EQ(a.clearance_states(a.classify(0.0, y0)), (std::vector<int>{1, 0}));
+  ode::FlowObserver nothing;
+  for (const auto& [t1, expected] :
+       {std::pair{0.5 * period, -kX0}, std::pair{period, kX0}, std::pair{3 * period, kX0}}) {
+    const ode::FlowResult r = engine.flow(0.0, y0, a.classify(0.0, y0), t1, {}, nothing);
+    ASSERT_TRUE(r.ok()) << r.message;
+    EXPECT_NEAR(r.state(x), expected, 1e-9 * kX0) << t1;
+    EXPECT_NEAR(r.state(a.size() + x), 0.0, 1e-9 * w * kX0) << t1;
+    EXPECT_EQ(r.state(x + 1), 0.0);
+    EXPECT_EQ(r.events, static_cast<std::int64_t>(std::round(4 * t1 / period)));
+  }
+  // Without the clearance the same release swings at w alone.
+  Train tight = t;
+  tight.bearings[0].clearance_m = 0;
+  const Assembled b(tight);
+  const ode::ExactEngine plain(b.linear_system(), o);
+  const ode::FlowResult r = plain.flow(0.0, y0, b.classify(0.0, y0), kPi / w, {}, nothing);
+  EXPECT_NEAR(r.state(x), -kX0, 1e-9 * kX0);
+}
+
 // A planet moved off its equal spacing: the types no longer separate (the paper's structure needs
 // equally spaced planets), and the reading says "mixed" rather than a wrong type.
 TEST(Planetary, UnequalSpacingMixesTheTypes) {

@@ -380,11 +380,18 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
   for (const geardyn::TrainShaftReading& x : r.shafts)
     fmt::print("  shaft {:<11} torque {:.6g} to {:.6g} N m, static {}\n", x.name, x.torque_nm.min,
                x.torque_nm.max, fmt_optional(x.static_torque_nm, " N m"));
-  for (const geardyn::TrainBearingReading& x : r.bearings)
+  for (const geardyn::TrainBearingReading& x : r.bearings) {
     fmt::print(
         "  bearing {:<9} force x {:.6g} to {:.6g} N, y {:.6g} to {:.6g} N, static ({}, {})\n",
         x.name, x.force_x_n.min, x.force_x_n.max, x.force_y_n.min, x.force_y_n.max,
         fmt_optional(x.static_force_x_n, " N"), fmt_optional(x.static_force_y_n, " N"));
+    if (x.clearance_x.present)
+      fmt::print(
+          "                    clearance: x {} impacts, {:.2f} % inside; y {} impacts, {:.2f} % "
+          "inside\n",
+          x.clearance_x.impacts, 100 * x.clearance_x.separated_fraction, x.clearance_y.impacts,
+          100 * x.clearance_y.separated_fraction);
+  }
   for (const geardyn::TrainLoadSharing& x : r.load_sharing)
     fmt::print(
         "  load sharing {:<4} over {} meshes: factor {} (steady part; with the start-up {}), "

@@ -111,6 +111,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -188,6 +189,10 @@ struct Bearing {
   // (-sin psi, cos psi) from its nominal place, psi = pin_angle_rad (a bearing on the ground
   // too), so that the bearing's force is k (w - o) + c w'.
   double pin_error_radial_m = 0, pin_error_tangential_m = 0;
+  // A radial clearance c: the bearing then acts in x and in y each as a dead zone, k (w - o -+
+  // c) beyond +-c and nothing inside, its damping in contact only (Kahraman and Singh's
+  // clearance, per direction: a round clearance is not piecewise linear). 0: none.
+  double clearance_m = 0;
 };
 
 struct TorqueHarmonic {
@@ -351,11 +356,19 @@ class Assembled {
   // 3^8 = 6561, most never visited), or as asked.
   enum class RegionBuild { kAuto, kEager, kLazy };
   ode::LinearSwitchedSystem linear_system(RegionBuild how = RegionBuild::kAuto) const;
-  // The region of a mesh-state vector, and back.
-  int region(const std::vector<int>& states) const;
+  // The region of a mesh-state vector (and the clearances' states, 0 when not given: inside),
+  // and back. A region is every mesh's state (1 drive, 0 backlash, -1 back) and every clearance
+  // direction's (1 or -1 in contact beyond +c or -c, 0 inside), 3^(meshes + directions) of
+  // them.
+  int region(const std::vector<int>& states, const std::vector<int>& clearance_states = {}) const;
   std::vector<int> states(int region) const;
+  std::vector<int> clearance_states(int region) const;
   int region_count() const;
-  // The region a state belongs to with no history (each mesh by its d - e against +-b).
+  // The clearance directions: bearing k's x then y for each bearing with a clearance, as
+  // (bearing, axis 0 or 1).
+  const std::vector<std::array<int, 2>>& clearances() const { return clearances_; }
+  // The region a state belongs to with no history (each mesh by its d - e against +-b, each
+  // clearance direction by w - o against +-c).
   int classify(double t_s, const Eigen::VectorXd& y) const;
   // Sets the coordinates and rates of the bodies with a prescribed speed in y = (theta,
   // theta') to the prescription's at t; the others are left as they are.
@@ -392,6 +405,7 @@ class Assembled {
   std::vector<int> sense_, translation_;
   std::vector<double> phase_;  // each mesh's, in cycles
   double frame_rate_ = 0;      // Omega, rad/s
+  std::vector<std::array<int, 2>> clearances_;
   std::vector<std::string> names_;
   Eigen::MatrixXd m_;
 };

@@ -93,6 +93,7 @@ struct TrainBearingData {
   double pin_radius_mm = 0;
   double pin_angle_deg = 0;
   double pin_error_radial_um = 0, pin_error_tangential_um = 0;  // the seat's position error
+  double clearance_um = 0;  // a radial clearance (train.hpp's Bearing::clearance_m)
 };
 
 // [[train.torque]]: a torque on a body, positive along its rotation (a drive), negative against

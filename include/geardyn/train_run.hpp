@@ -66,6 +66,10 @@ struct TrainBearingReading {
   std::string name;
   TrainExtremes force_x_n, force_y_n, steady_force_x_n, steady_force_y_n;
   std::optional<double> static_force_x_n, static_force_y_n;
+  // With a clearance, each direction's contact history (impacts on either side, separations,
+  // the time inside the clearance) over the window and its steady part; `present` false
+  // without one.
+  ContactReading clearance_x, clearance_y, steady_clearance_x, steady_clearance_y;
 };
 
 // A gear's load shared among the meshes it drives, or among those that drive it, when there
