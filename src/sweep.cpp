@@ -108,6 +108,9 @@ class PointRunner {
       const train::Assembled a = assembled_train(base);
       for (const train::Mesh& m : a.train().meshes) meshes_.push_back(m.name);
       groups_ = load_sharing_groups(a);
+      for (const auto& [k, axis] : a.clearances())
+        clearances_.push_back(a.train().bearings[static_cast<std::size_t>(k)].name +
+                              (axis == 0 ? "_x" : "_y"));
       return;
     }
     std::vector<std::string> keys{o.axis.key};
@@ -117,6 +120,7 @@ class PointRunner {
 
   const std::vector<std::string>& meshes() const { return meshes_; }
   const std::vector<LoadSharingGroup>& load_sharing() const { return groups_; }
+  const std::vector<std::string>& clearances() const { return clearances_; }
   const std::string& mesh_read() const {
     static const std::string none;
     return meshes_.empty() ? none : meshes_[mesh_];
@@ -463,6 +467,7 @@ class PointRunner {
       for (const MeshColumn& col : kMeshColumns) nan.*col.member = kNaN;
       pt.meshes.assign(meshes_.size(), nan);
       pt.load_sharing.assign(groups_.size(), {kNaN, kNaN});
+      pt.clearances.assign(clearances_.size(), {kNaN, kNaN});
       return pt;
     };
     // The previous point's end state at a section time (every excitation back at its phase 0),
@@ -524,6 +529,12 @@ class PointRunner {
       pt.meshes.push_back(mr);
       contact_only =
           contact_only && x.impacts == 0 && x.separations == 0 && x.separated_fraction == 0;
+    }
+    // Each clearance direction over the whole measurement.
+    for (const auto& [k, axis] : a.clearances()) {
+      const TrainBearingReading& b = r.bearings[static_cast<std::size_t>(k)];
+      const ContactReading& c = axis == 0 ? b.clearance_x : b.clearance_y;
+      pt.clearances.push_back({static_cast<double>(c.impacts) / m, c.separated_fraction});
     }
     // Each load-sharing group over the whole measurement.
     for (const TrainLoadSharing& x : r.load_sharing) {
@@ -620,7 +631,8 @@ class PointRunner {
   std::optional<MeshStiffness> stiffness_;
   std::vector<std::string> meshes_;  // a train's
   std::vector<LoadSharingGroup> groups_;
-  std::size_t mesh_ = 0;  // the one the points' statistics read
+  std::vector<std::string> clearances_;  // a train's clearance directions
+  std::size_t mesh_ = 0;                 // the one the points' statistics read
 };
 
 // Jumps and hysteresis of one row (all points of a 1-D sweep; one value of the second key of
@@ -804,6 +816,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   r.period_note = runner.period_note_at(o.axis.values().front(), first2);
   r.meshes = runner.meshes();
   r.load_sharing = runner.load_sharing();
+  r.clearances = runner.clearances();
   r.mesh = runner.mesh_read();
 
   // The sequences: for each row, the up sweep and/or the down sweep.
@@ -872,7 +885,8 @@ std::string csv_text(const std::string& s) {
 }
 
 // sweep.csv's header (no newline); the coupled model's bearings add ten columns before
-// `failure`, a train's meshes ten each, its load-sharing groups two each.
+// `failure`, a train's meshes ten each, its load-sharing groups two each, its bearing clearance
+// directions two each.
 std::string sweep_csv_header(const SweepResult& r) {
   const ModelForm form = r.form;
   std::string out =
@@ -891,6 +905,8 @@ std::string sweep_csv_header(const SweepResult& r) {
   }
   for (const LoadSharingGroup& g : r.load_sharing)
     fmt::format_to(std::back_inserter(out), "{0}_load_sharing_factor,{0}_lost_contact,", g.label);
+  for (const std::string& c : r.clearances)
+    fmt::format_to(std::back_inserter(out), "{0}_impacts_per_period,{0}_inside_fraction,", c);
   return out + "failure";
 }
 
@@ -938,6 +954,11 @@ std::string sweep_csv(const SweepResult& r) {
       fmt::format_to(std::back_inserter(out), "{},{},", read ? p.load_sharing[i].factor : kNaN,
                      read ? p.load_sharing[i].lost_contact : kNaN);
     }
+    for (std::size_t i = 0; i < r.clearances.size(); ++i) {
+      const bool read = i < p.clearances.size() && p.failure.empty();
+      fmt::format_to(std::back_inserter(out), "{},{},", read ? p.clearances[i][0] : kNaN,
+                     read ? p.clearances[i][1] : kNaN);
+    }
     out += csv_text(p.failure) + "\n";
   }
   return out;
@@ -984,6 +1005,7 @@ std::string summary(const SweepResult& r) {
     }
     j["load_sharing"] = groups;
   }
+  if (!r.clearances.empty()) j["clearances"] = r.clearances;
   if (!r.period_note.empty()) j["period_note"] = r.period_note;
   j["settle_periods"] = o.settle_periods;
   j["measure_periods"] = o.measure_periods;

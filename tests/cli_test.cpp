@@ -1328,6 +1328,45 @@ TEST(Cli, ASunStrikesItsBearingsClearanceUnderItsRunout) {
   EXPECT_TRUE(inside > 0 && inside < 1) << inside;
   EXPECT_FALSE(j[1].contains("clearance_x"));  // the ring's bearing has none
   fs::remove_all(d);
+  // Swept in the runout: each clearance direction's columns; centred (no runout) the sun stays
+  // inside, struck by its runout it hits an edge a whole number of times a period, and leaves
+  // the clearance's inside for part of it.
+  const Outcome sweep = cli("sweep " + set +
+                            " --param 'train.body[0].eccentricity_um' --from 0 --to 10 --points 2 "
+                            "--direction up --measure-periods 2 --set "
+                            "'train.bearing[0].clearance_um=5' --out " +
+                            d.string());
+  ASSERT_EQ(sweep.code, 0) << sweep.err;
+  std::istringstream csv(slurp(d / "sweep.csv"));
+  std::string line;
+  std::getline(csv, line);
+  std::vector<std::string> names;
+  std::istringstream header(line);
+  for (std::string f; std::getline(header, f, ',');) names.push_back(f);
+  const auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+  };
+  const std::size_t impacts = column("sun_bearing_x_impacts_per_period"),
+                    inside_x = column("sun_bearing_x_inside_fraction");
+  ASSERT_LT(inside_x, names.size()) << line;
+  EXPECT_LT(column("sun_bearing_y_impacts_per_period"), names.size());
+  std::vector<std::vector<std::string>> rows;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> cells;
+    std::istringstream fields(line);
+    for (std::string f; std::getline(fields, f, ',');) cells.push_back(f);
+    rows.push_back(cells);
+  }
+  ASSERT_EQ(rows.size(), 2U);
+  EXPECT_EQ(std::stod(rows[0][impacts]), 0.0);
+  EXPECT_EQ(std::stod(rows[0][inside_x]), 1.0);
+  const double struck = std::stod(rows[1][impacts]);
+  EXPECT_GT(struck, 0);
+  EXPECT_EQ(struck, std::round(struck));
+  EXPECT_LT(std::stod(rows[1][inside_x]), 1.0);
+  EXPECT_EQ(nlohmann::json::parse(slurp(d / "summary.json"))["clearances"],
+            nlohmann::json::array({"sun_bearing_x", "sun_bearing_y"}));
+  fs::remove_all(d);
   const Outcome bad = cli(args + "-1' --out " + d.string());
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("train.bearing[0].clearance_um = -1"), std::string::npos) << bad.err;

@@ -181,6 +181,10 @@ struct SweepPoint {
   std::vector<MeshReading> meshes;
   // A train's load-sharing groups, in SweepResult::load_sharing's order (NaN for a failed point).
   std::vector<LoadSharingReading> load_sharing;
+  // A train's bearing clearance directions, in SweepResult::clearances' order, over the
+  // measurement: impacts on either edge per system period, and the fraction of the time inside
+  // (NaN for a failed point).
+  std::vector<std::array<double, 2>> clearances;
 };
 
 // Where the up and the down sweep part: the parameter interval over which their responses
@@ -207,6 +211,9 @@ struct SweepResult {
   // A train's load-sharing groups (a sun's planets, a ring's): sweep.csv's
   // <label>_load_sharing_factor and <label>_lost_contact.
   std::vector<LoadSharingGroup> load_sharing;
+  // A train's bearing clearance directions, "<bearing>_x" and "<bearing>_y" (train::Assembled::
+  // clearances()): sweep.csv's <name>_impacts_per_period and <name>_inside_fraction.
+  std::vector<std::string> clearances;
   // Why the points were not judged steady, when a train has no common period (quasi-periodic:
   // each point runs max_settle_periods periods of its reference body's turn before it is
   // measured, flagged not settled).

@@ -714,7 +714,9 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         ``mesh_regime`` (a list per point); where gears share their load among two or
         more meshes (a planetary set), ``load_sharing`` (the groups' labels) and (points,
         groups) arrays ``load_sharing_factor`` (n max F / sum F over the measurement) and
-        ``lost_contact`` (the group's meshes that left their drive flank); ``period_note``
+        ``lost_contact`` (the group's meshes that left their drive flank); with bearing
+        clearances ``clearances`` (``<bearing>_x``, ``_y``) and (points, clearances) arrays
+        ``clearance_impacts_per_period`` and ``clearance_inside_fraction``; ``period_note``
         when the train is quasi-periodic),
         ``direction``, ``regime`` and ``failure`` (why a point failed,
         else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
@@ -765,7 +767,7 @@ def _merged_rows(parts, param, param2):
                     strobe.setdefault(k, []).append(a + offset if k == "point" else a)
                 offset += len(p["value"])
             out[key] = {k: _numpy.concatenate(a) for k, a in strobe.items()}
-        elif key in ("meshes", "load_sharing"):
+        elif key in ("meshes", "load_sharing", "clearances"):
             out[key] = v  # the train's mesh and group names, the same in every row
         elif isinstance(v, _numpy.ndarray):
             out[key] = _numpy.concatenate([p[key] for p in parts])

@@ -59,6 +59,11 @@ _GROUP_COLUMNS = {
     "load_sharing_factor": ("1", "n max F / sum F over the measurement (NaN: no load)"),
     "lost_contact": ("1", "the group's meshes that left their drive flank"),
 }
+# A train's bearing clearance directions' columns (sweep.csv's <bearing>_<axis>_<name>).
+_CLEARANCE_COLUMNS = {
+    "clearance_impacts_per_period": ("1/period", "impacts on the clearance's edges per period"),
+    "clearance_inside_fraction": ("1", "fraction of the time inside the clearance"),
+}
 _UNIT_SUFFIXES = {"_hz": "Hz", "_um": "um", "_mm": "mm", "_deg": "deg", "_s": "s", "_nm": "N m",
                   "_n_per_m": "N/m", "_kg_m3": "kg/m^3", "_gpa": "GPa"}
 
@@ -109,6 +114,14 @@ def _sweep_dataset(s, param, param2=None):
             per_mesh[at] = s["mesh_regime"][i]
         data["mesh_regime"] = (dims + ["mesh"], per_mesh.astype(str),
                                {"long_name": "each mesh's none, transient or sustained"})
+    clearances = s.get("clearances")
+    if clearances:
+        # The bearing clearance directions over a dimension `clearance`.
+        for name, (units, long_name) in _CLEARANCE_COLUMNS.items():
+            a = np.full(shape + [len(clearances)], np.nan)
+            for i, at in enumerate(index):
+                a[at] = s[name][i]
+            data[name] = (dims + ["clearance"], a, {"units": units, "long_name": long_name})
     groups = s.get("load_sharing")
     if groups:
         # The load-sharing groups (a sun's planets, a ring's) over a dimension `group`.
@@ -148,6 +161,9 @@ def _sweep_dataset(s, param, param2=None):
         coords["param2"] = ("param2", values2, {"units": _key_units(param2), "long_name": param2})
     if meshes:
         coords["mesh"] = ("mesh", list(meshes), {"long_name": "the train's meshes"})
+    if clearances:
+        coords["clearance"] = ("clearance", list(clearances),
+                               {"long_name": "a bearing clearance's direction"})
     if groups:
         coords["group"] = ("group", list(groups),
                            {"long_name": "a gear sharing its load among two or more meshes"})
@@ -216,7 +232,8 @@ class SweepResult(dict):
             samples stay in `to_xarray()`.
         """
         ds = self.to_xarray()
-        df = ds.drop_dims([d for d in ("strobe", "mesh", "group") if d in ds.dims]).to_dataframe()
+        df = ds.drop_dims([d for d in ("strobe", "mesh", "group", "clearance")
+                           if d in ds.dims]).to_dataframe()
         for name, v in ds.data_vars.items():
             if "mesh" in v.dims:
                 for m in ds["mesh"].values:
@@ -224,6 +241,9 @@ class SweepResult(dict):
             if "group" in v.dims:
                 for g in ds["group"].values:
                     df[f"{g}_{name}"] = v.sel(group=g).to_series()
+            if "clearance" in v.dims:
+                for c in ds["clearance"].values:
+                    df[f"{c}_{name[len('clearance_'):]}"] = v.sel(clearance=c).to_series()
         return df
 
     def __reduce__(self):

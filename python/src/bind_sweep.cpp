@@ -148,6 +148,22 @@ void bind_sweep(py::module_& m) {
           out["load_sharing_factor"] = per_group(&LoadSharingReading::factor);
           out["lost_contact"] = per_group(&LoadSharingReading::lost_contact);
         }
+        // A train's bearing clearance directions: (points, clearances) arrays.
+        if (!r.clearances.empty()) {
+          out["clearances"] = r.clearances;
+          const std::size_t k = r.clearances.size();
+          for (const auto& [name, at] : {std::pair{"clearance_impacts_per_period", 0},
+                                         std::pair{"clearance_inside_fraction", 1}}) {
+            py::array_t<double> a({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(k)});
+            auto w = a.mutable_unchecked<2>();
+            for (std::size_t i = 0; i < n; ++i)
+              for (std::size_t j = 0; j < k; ++j)
+                w(i, j) = j < r.points[i].clearances.size() && r.points[i].failure.empty()
+                              ? r.points[i].clearances[j][static_cast<std::size_t>(at)]
+                              : std::numeric_limits<double>::quiet_NaN();
+            out[name] = a;
+          }
+        }
         if (!r.period_note.empty()) out["period_note"] = r.period_note;
         // The strobe (one sample per system period of each point's measurement), flat:
         // sample i belongs to point strobe["point"][i].

@@ -228,6 +228,16 @@ def test_a_planetary_sets_load_sharing_per_point_and_per_sample(cluster):
     dask = geardyn.sweep(c, "train.reference_speed_hz", [10, 20], executor=cluster, **kw)
     assert dask["load_sharing"] == local["load_sharing"]
     np.testing.assert_array_equal(dask["load_sharing_factor"], local["load_sharing_factor"])
+    # A bearing clearance's columns over a dimension `clearance`.
+    loose = geardyn.sweep(c.with_({"train.bearing[0].clearance_um": 5}),
+                          "train.body[0].eccentricity_um", [0, 10], direction="up",
+                          measure_periods=2, threads=1)
+    assert loose["clearances"] == ["sun_bearing_x", "sun_bearing_y"]
+    cd = loose.to_xarray()["clearance_impacts_per_period"]
+    assert cd.dims == ("direction", "param", "clearance")
+    assert float(cd.sel(param=0, clearance="sun_bearing_x")[0]) == 0
+    assert float(cd.sel(param=10, clearance="sun_bearing_x")[0]) > 0
+    assert "sun_bearing_y_inside_fraction" in loose.to_pandas()
     short = c.with_({"solver.duration_s": 0.002})
     st = geardyn.study(short, {"train.planet_pin_errors_um[0][1]": {
                            "distribution": "uniform", "lower": 0, "upper": 30}},
