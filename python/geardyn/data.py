@@ -114,22 +114,16 @@ def _sweep_dataset(s, param, param2=None):
             per_mesh[at] = s["mesh_regime"][i]
         data["mesh_regime"] = (dims + ["mesh"], per_mesh.astype(str),
                                {"long_name": "each mesh's none, transient or sustained"})
-    clearances = s.get("clearances")
-    if clearances:
-        # The bearing clearance directions over a dimension `clearance`.
-        for name, (units, long_name) in _CLEARANCE_COLUMNS.items():
-            a = np.full(shape + [len(clearances)], np.nan)
+    # The bearing clearance directions over a dimension `clearance`, the load-sharing groups
+    # (a sun's planets, a ring's) over `group`.
+    clearances, groups = s.get("clearances"), s.get("load_sharing")
+    for items, columns, dim in ((clearances, _CLEARANCE_COLUMNS, "clearance"),
+                                (groups, _GROUP_COLUMNS, "group")):
+        for name, (units, long_name) in (columns.items() if items else ()):
+            a = np.full(shape + [len(items)], np.nan)
             for i, at in enumerate(index):
                 a[at] = s[name][i]
-            data[name] = (dims + ["clearance"], a, {"units": units, "long_name": long_name})
-    groups = s.get("load_sharing")
-    if groups:
-        # The load-sharing groups (a sun's planets, a ring's) over a dimension `group`.
-        for name, (units, long_name) in _GROUP_COLUMNS.items():
-            a = np.full(shape + [len(groups)], np.nan)
-            for i, at in enumerate(index):
-                a[at] = s[name][i]
-            data[name] = (dims + ["group"], a, {"units": units, "long_name": long_name})
+            data[name] = (dims + [dim], a, {"units": units, "long_name": long_name})
     regime = np.full(shape, "", dtype=object)
     for i, at in enumerate(index):
         regime[at] = s["regime"][i]
