@@ -8,6 +8,8 @@
 #include <cassert>
 #include <cmath>
 #include <memory>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace geardyn::ode {
@@ -72,7 +74,9 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
                          int region, double t1, const OutputGrid& output, FlowObserver& observer,
                          const AdaptiveOptions& options) {
   namespace odeint = boost::numeric::odeint;
-  assert(system.validate().empty() && t1 >= t0 && y0.size() == system.dimension);
+  assert(system.validate().empty());
+  if (std::string e = check_flow_arguments(system, t0, y0, region, t1); !e.empty())
+    throw std::invalid_argument(e);
   const Eigen::Index n = system.dimension;
   // Each region's right-hand side and guards, made when the flow first enters it (a train's
   // 3^meshes regions are mostly never visited).

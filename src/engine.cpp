@@ -185,6 +185,19 @@ std::string LinearSwitchedSystem::validate() const {
   return {};
 }
 
+std::string check_flow_arguments(const LinearSwitchedSystem& s, double t0_s, const Vector& y0,
+                                 int region, double t1_s) {
+  if (region < 0 || region >= s.region_count())
+    return fmt::format("flow: region {} is not one of the system's {}", region, s.region_count());
+  if (y0.size() != s.dimension)
+    return fmt::format("flow: the initial state has {} entries, the system's dimension is {}",
+                       y0.size(), s.dimension);
+  if (!std::isfinite(t0_s) || !std::isfinite(t1_s) || t1_s < t0_s)
+    return fmt::format("flow: from {} s to {} s: the times must be finite and t1 >= t0", t0_s,
+                       t1_s);
+  return {};
+}
+
 Vector derivative(const LinearSwitchedSystem& s, int region, double t_s, const Vector& y) {
   assert(region >= 0 && region < s.region_count() && y.size() == s.dimension);
   const LinearRegion& g = s.region(region);
@@ -2289,9 +2302,8 @@ FlowResult ExactEngine::flow(double t0_s, const Vector& y0, int region, double t
                              const OutputGrid& output, FlowObserver& observer,
                              bool jacobian) const {
   const Impl& I = *impl_;
-  assert(region >= 0 && region < static_cast<int>(I.sys.region_count()));
-  assert(y0.size() == I.sys.dimension);
-  assert(t1_s >= t0_s);
+  if (std::string e = check_flow_arguments(I.sys, t0_s, y0, region, t1_s); !e.empty())
+    throw std::invalid_argument(e);
   if (I.fixed) {
     Flow<2> f(I.sys, *I.fixed, I.opt);
     return f.run(t0_s, y0, region, t1_s, output, observer, jacobian);

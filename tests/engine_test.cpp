@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/adaptive.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
@@ -782,6 +783,32 @@ TEST(ExactEngine, InvalidSystemsAndOptionsAreRejectedWithTheirReason) {
   EngineOptions o;
   o.tolerance = 0.5;
   EXPECT_NE(o.validate().find("tolerance = 0.5"), std::string::npos);
+}
+
+TEST(ExactEngine, AFlowFromAStateOfTheWrongSizeOrABadRegionOrTimeIsRefused) {
+  // Both flows check their arguments in every build: a state longer than the system's dimension
+  // used to be read past the system's rows, silently.
+  const LinearSwitchedSystem s = oscillator(1, 0, 0, 0, 1);
+  const ExactEngine e(s);
+  const auto refused = [&](const Vector& y0, int region, double t1, const std::string& what) {
+    for (const bool adaptive : {false, true}) {
+      SCOPED_TRACE(adaptive ? "dopri5" : "exact");
+      Recorder rec;
+      try {
+        if (adaptive)
+          (void)adaptive_flow(s, 0, y0, region, t1, OutputGrid{0, 0.1, 3}, rec);
+        else
+          (void)e.flow(0, y0, region, t1, OutputGrid{0, 0.1, 3}, rec);
+        ADD_FAILURE() << "accepted: " << what;
+      } catch (const std::invalid_argument& ex) {
+        EXPECT_NE(std::string(ex.what()).find(what), std::string::npos) << ex.what();
+      }
+    }
+  };
+  refused(Vector::Zero(3), 0, 1.0, "the initial state has 3 entries, the system's dimension is 2");
+  refused(Vector::Zero(2), 2, 1.0, "region 2 is not one of the system's 2");
+  refused(Vector::Zero(2), 0, -1.0, "from 0 s to -1 s");
+  EXPECT_EQ(check_flow_arguments(s, 0, Vector::Zero(2), 0, 1.0), "");
 }
 
 TEST(Dopri5, TheNondimensionalCaseThatLoopedForeverEndsAtOnce) {

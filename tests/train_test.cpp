@@ -387,8 +387,9 @@ TEST(Train, RegionsBuiltOnDemandFlowAsRegionsBuiltUpFront) {
     EXPECT_EQ(lazy.region(r).guards.size(),
               eager.regions[static_cast<std::size_t>(r)].guards.size());
   }
-  ode::Vector y0 = ode::Vector::Zero(8);
-  y0(4) = 2.0;
+  ASSERT_EQ(eager.dimension, 6);
+  ode::Vector y0 = ode::Vector::Zero(eager.dimension);
+  y0(4) = 2.0;  // the intermediate shaft's speed
   const auto run = [&](const ode::LinearSwitchedSystem& sys, bool adaptive) {
     Samples s;
     const ode::OutputGrid grid = ode::make_output_grid(0.0, 0.05, 1e-5);

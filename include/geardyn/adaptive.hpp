@@ -35,8 +35,9 @@ struct AdaptiveOptions {
 
 // Flows from (t0, y0) in `region` to t1, as ExactEngine::flow does (the same observer calls but
 // on_cell and needs_detail; FlowResult::cells counts the steps). Requires a valid system
-// (validate() empty), a region of it, y0 of its dimension and t1 >= t0 (asserted in debug
-// builds). A numerical failure or cancellation is reported in the result, never thrown.
+// (validate() empty, asserted in debug builds); throws std::invalid_argument unless
+// check_flow_arguments accepts the other arguments. A numerical failure or cancellation is
+// reported in the result, never thrown.
 FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0_s, const Vector& y0,
                          int region, double t1_s, const OutputGrid& output, FlowObserver& observer,
                          const AdaptiveOptions& options = {});

@@ -176,9 +176,9 @@ class ExactEngine {
   int cells_per_period(int region) const;
   int order(int region) const;
 
-  // Flows from (t0, y0) in `region` to t1. Samples at `output`'s times in [t0, t1]. Requires a
-  // region of the system, y0 of its dimension and t1 >= t0 (asserted in debug builds). A
-  // numerical failure or cancellation is reported in the result, never thrown.
+  // Flows from (t0, y0) in `region` to t1. Samples at `output`'s times in [t0, t1]. Throws
+  // std::invalid_argument unless check_flow_arguments accepts the arguments. A numerical failure
+  // or cancellation is reported in the result, never thrown.
   FlowResult flow(double t0_s, const Vector& y0, int region, double t1_s, const OutputGrid& output,
                   FlowObserver& observer, bool jacobian = false) const;
 

@@ -90,6 +90,13 @@ struct LinearSwitchedSystem {
   std::shared_ptr<LazyRegionStore> lazy_;
 };
 
+// Empty when a flow may start from (t0, y0) in `region` to t1 of s: a region of s, y0 of its
+// dimension, finite times with t1 >= t0; otherwise what is wrong. Both flows (ExactEngine::flow,
+// adaptive_flow) throw std::invalid_argument with it, in every build: a state of the wrong size
+// would otherwise be read past its end.
+std::string check_flow_arguments(const LinearSwitchedSystem& s, double t0_s, const Vector& y0,
+                                 int region, double t1_s);
+
 // y' in region r at (t, y). Requires a region of s and y of its dimension (asserted in debug
 // builds), as do the guard functions for the guard's index.
 Vector derivative(const LinearSwitchedSystem& s, int region, double t_s, const Vector& y);
