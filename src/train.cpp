@@ -142,6 +142,14 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (b.planar && !(b.mass_kg > 0 && std::isfinite(b.mass_kg)))
       bad(fmt::format("body '{}'", b.name),
           fmt::format("mass_kg = {}: a planar body needs a finite mass > 0 kg", b.mass_kg));
+    if (b.spatial && !b.planar)
+      bad(fmt::format("body '{}'", b.name),
+          "is spatial but not planar: a spatial body keeps its centre's x and y too");
+    if (b.spatial && !(b.tilt_inertia_kg_m2 > 0 && std::isfinite(b.tilt_inertia_kg_m2)))
+      bad(fmt::format("body '{}'", b.name),
+          fmt::format("tilt_inertia_kg_m2 = {}: a spatial body needs a finite inertia about a "
+                      "diameter > 0 kg m^2",
+                      b.tilt_inertia_kg_m2));
     if (!(b.eccentricity_m >= 0 && std::isfinite(b.eccentricity_m) &&
           std::isfinite(b.eccentricity_angle_rad)))
       bad(fmt::format("body '{}'", b.name),
@@ -185,9 +193,32 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (!(s.stiffness_n_m_per_rad > 0)) bad(e, "stiffness must be > 0 N m/rad");
   }
   std::set<int> supported;
+  std::vector<double> axial_held(t_.bodies.size(), 0.0), tilt_held(t_.bodies.size(), 0.0);
+  const bool pinned = std::any_of(t_.bearings.begin(), t_.bearings.end(),
+                                  [](const Bearing& x) { return !x.on.empty(); });
+  for (const Body& b : t_.bodies)
+    if (b.spatial && (pinned || t_.frame_terms))
+      bad(fmt::format("body '{}'", b.name),
+          pinned ? "is spatial in a train with pins: a planetary set is planar here (its bodies "
+                   "keep torsion, or x and y too)"
+                 : "is spatial with frame_terms = true: its tilts' gyroscopic terms in the "
+                   "turning frame are not modelled");
   for (const Bearing& x : t_.bearings) {
     const std::string e = fmt::format("bearing '{}'", x.name);
     const int i = body(e, "body", x.body);
+    for (const auto& [key, value] : {std::pair{"axial_stiffness", x.axial_stiffness_n_per_m},
+                                     std::pair{"axial_damping", x.axial_damping_n_s_per_m},
+                                     std::pair{"tilt_stiffness", x.tilt_stiffness_n_m_per_rad},
+                                     std::pair{"tilt_damping", x.tilt_damping_n_m_s_per_rad}}) {
+      if (!(value >= 0 && std::isfinite(value)))
+        bad(e, fmt::format("{} = {}: must be finite and >= 0", key, value));
+      if (value != 0 && !t_.bodies[static_cast<std::size_t>(i)].spatial)
+        bad(e, fmt::format("{} = {} is read only for a spatial body (dof = \"spatial\"); body "
+                           "'{}' is not",
+                           key, value, x.body));
+    }
+    axial_held[static_cast<std::size_t>(i)] += x.axial_stiffness_n_per_m;
+    tilt_held[static_cast<std::size_t>(i)] += x.tilt_stiffness_n_m_per_rad;
     if (!t_.bodies[i].planar)
       bad(e, fmt::format("body = \"{}\" keeps torsion only (dof = \"torsion\"): a bearing "
                          "carries a planar body (dof = \"planar\")",
@@ -207,11 +238,19 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     }
     supported.insert(i);
   }
-  for (std::size_t i = 0; i < t_.bodies.size(); ++i)
+  for (std::size_t i = 0; i < t_.bodies.size(); ++i) {
     if (t_.bodies[i].planar && !supported.count(static_cast<int>(i)))
       bad(fmt::format("body '{}'", t_.bodies[i].name),
-          "is planar (dof = \"planar\") but no bearing carries it: its centre would be free; "
-          "add a [[train.bearing]] with body = its name");
+          fmt::format("is {0} (dof = \"{0}\") but no bearing carries it: its centre would be "
+                      "free; add a [[train.bearing]] with body = its name",
+                      t_.bodies[i].spatial ? "spatial" : "planar"));
+    if (t_.bodies[i].spatial && !(axial_held[i] > 0 && tilt_held[i] > 0))
+      bad(fmt::format("body '{}'", t_.bodies[i].name),
+          fmt::format("is spatial (dof = \"spatial\") but its bearings' {} stiffness is 0: it "
+                      "would be free to {}; give a bearing of it that stiffness",
+                      axial_held[i] > 0 ? "tilt" : "axial",
+                      axial_held[i] > 0 ? "tilt" : "slide along its axis"));
+  }
   std::set<int> prescribed_bodies;
   for (const Speed& v : t_.speeds) {
     const std::string e = fmt::format("speed '{}'", v.name);
@@ -324,6 +363,11 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
       names_.push_back(b.name + "_x_m");
       names_.push_back(b.name + "_y_m");
     }
+    if (b.spatial) {
+      names_.push_back(b.name + "_z_m");
+      names_.push_back(b.name + "_tx_rad");
+      names_.push_back(b.name + "_ty_rad");
+    }
   }
   phase_.assign(t_.meshes.size(), 0.0);
   if (t_.mesh_phase_from_layout) place_teeth();
@@ -331,6 +375,10 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
   for (int i = 0; i < n; ++i) {
     m_(i, i) = t_.bodies[i].inertia_kg_m2;
     if (const int x = translation(i); x >= 0) m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].mass_kg;
+    if (const int z = axial(i); z >= 0) {
+      m_(z, z) = t_.bodies[i].mass_kg;
+      m_(z + 1, z + 1) = m_(z + 2, z + 2) = t_.bodies[i].tilt_inertia_kg_m2;
+    }
   }
   // The frame's speed from the bodies held to the ground (the housing at rest).
   // (Without a planar body the terms act on nothing: case_keys reports the key unused.)
@@ -512,7 +560,10 @@ int Assembled::shaft_observable(int shaft) const {
 }
 
 int Assembled::bearing_observable(int bearing) const {
-  return 2 * static_cast<int>(t_.meshes.size()) + static_cast<int>(t_.shafts.size()) + 2 * bearing;
+  int i = 2 * static_cast<int>(t_.meshes.size()) + static_cast<int>(t_.shafts.size());
+  for (int k = 0; k < bearing; ++k)
+    i += axial(index(t_.bearings[static_cast<std::size_t>(k)].body)) >= 0 ? 5 : 2;
+  return i;
 }
 
 Eigen::VectorXd Assembled::rigid_rotation() const {
@@ -753,6 +804,19 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
     v(x) -= cb * nx;
     v(x + 1) -= cb * ny;
   }
+  // The axial part sin(beta_b) h (w_a - w_b), w = z + tx r_y - ty r_x at the contact point
+  // r = s R (n_y, -n_x).
+  const double sb = m.axial_sense * std::sin(m.base_helix_angle_rad);
+  const auto axial_part = [&](int body, double radius, double sign) {
+    const int z = axial(body);
+    if (z < 0 || sb == 0) return;
+    const double rx = sense(body) * radius * ny, ry = -sense(body) * radius * nx;
+    v(z) += sign * sb;
+    v(z + 1) += sign * sb * ry;
+    v(z + 2) -= sign * sb * rx;
+  };
+  axial_part(a, m.base_radius_driving_m, 1.0);
+  axial_part(b, m.base_radius_driven_m, -1.0);
   return v;
 }
 
@@ -769,6 +833,14 @@ Eigen::MatrixXd Assembled::bearing_matrix(int bearing) const {
     b(1, j) -= s * std::cos(x.pin_angle_rad);
   }
   return b;
+}
+
+Eigen::MatrixXd Assembled::support_matrix(int bearing) const {
+  const int z = axial(index(t_.bearings[static_cast<std::size_t>(bearing)].body));
+  if (z < 0) return Eigen::MatrixXd::Zero(0, size());
+  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(3, size());
+  s.block(0, z, 3, 3) = Eigen::Matrix3d::Identity();
+  return s;
 }
 
 Eigen::Vector2d Assembled::bearing_offset(int bearing) const {
@@ -796,6 +868,14 @@ RowVector Assembled::shaft_vector(int shaft) const {
 
 namespace {
 
+// A spatial body's bearing's stiffnesses (or dampings) on its z, tx and ty.
+Eigen::Vector3d support_diagonal(const Bearing& x, bool damping) {
+  return damping ? Eigen::Vector3d(x.axial_damping_n_s_per_m, x.tilt_damping_n_m_s_per_rad,
+                                   x.tilt_damping_n_m_s_per_rad)
+                 : Eigen::Vector3d(x.axial_stiffness_n_per_m, x.tilt_stiffness_n_m_per_rad,
+                                   x.tilt_stiffness_n_m_per_rad);
+}
+
 // The shafts', bearings' and drags' K and C, which every region shares; a bearing with a
 // clearance only with `engaged` (as if it had none: the linearisation that modes and the static
 // state read), its region's otherwise.
@@ -814,6 +894,13 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c, bo
     const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(i));
     k += t.bearings[i].stiffness_n_per_m * b.transpose() * b;
     c += t.bearings[i].damping_n_s_per_m * b.transpose() * b;
+  }
+  for (std::size_t i = 0; i < t.bearings.size(); ++i) {
+    const Eigen::MatrixXd s = a.support_matrix(static_cast<int>(i));
+    if (s.rows() == 0) continue;
+    const Bearing& x = t.bearings[i];
+    k += s.transpose() * support_diagonal(x, false).asDiagonal() * s;
+    c += s.transpose() * support_diagonal(x, true).asDiagonal() * s;
   }
   if (a.frame_rate_rad_s() != 0) {
     k += a.frame_stiffness();
@@ -1191,6 +1278,15 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
         }
         lr.observables.push_back(g);
       }
+      // A spatial body's axial force and tilt moments.
+      const Eigen::MatrixXd s = a.support_matrix(static_cast<int>(k));
+      const Eigen::Vector3d ks = support_diagonal(x, false), cs_ = support_diagonal(x, true);
+      for (Eigen::Index row = 0; row < s.rows(); ++row) {
+        ode::LinearGuard g = functional();
+        g.row.constant.head(n) = ks(row) * s.row(row);
+        g.row.constant.tail(n) = cs_(row) * s.row(row);
+        lr.observables.push_back(g);
+      }
     }
     // A prescribed body's row is its prescription's acceleration, nothing of the train's.
     for (const Speed& v : t.speeds) {
@@ -1244,10 +1340,16 @@ void strain_energies(const Assembled& a, const Shape& shape, double total, Train
     mode.shaft_energy.push_back(
         share(strain(t.shafts[s].stiffness_n_m_per_rad,
                      a.shaft_vector(static_cast<int>(s)).template cast<Scalar>().dot(shape))));
-  for (std::size_t b = 0; b < t.bearings.size(); ++b)
+  for (std::size_t b = 0; b < t.bearings.size(); ++b) {
+    const auto w_s = (a.support_matrix(static_cast<int>(b)).template cast<Scalar>() * shape).eval();
+    const Eigen::Vector3d k_s = support_diagonal(t.bearings[b], false);
+    double axial_tilt = 0;
+    for (Eigen::Index row = 0; row < w_s.size(); ++row) axial_tilt += strain(k_s(row), w_s(row));
     mode.bearing_energy.push_back(share(
         0.5 * t.bearings[b].stiffness_n_per_m *
-        (a.bearing_matrix(static_cast<int>(b)).template cast<Scalar>() * shape).squaredNorm()));
+            (a.bearing_matrix(static_cast<int>(b)).template cast<Scalar>() * shape).squaredNorm() +
+        axial_tilt));
+  }
 }
 
 // The modes of a train in a turning frame (Train::frame_terms): M q'' + G q' + K q = 0 with G

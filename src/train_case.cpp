@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <set>
 #include <string_view>
@@ -59,14 +60,19 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
        "",
        {},
        false,
-       "the degrees of freedom it keeps: its rotation (\"torsion\"), or also its centre's "
-       "displacement in the plane on its bearings (\"planar\")",
-       "torsion planar"},
+       "the degrees of freedom it keeps: its rotation (\"torsion\"), also its centre's "
+       "displacement in the plane on its bearings (\"planar\"), or all six: also along its "
+       "axis and its tilts about x and y (\"spatial\", a helical gear's axial force and "
+       "moment; not in a planetary set)",
+       "torsion planar spatial"},
       {"inertia_kg_m2", &B::inertia_kg_m2, "kg m^2", above(0), false,
        "polar moment of inertia; absent: a cylinder of the reference diameter and face width "
        "(a gear's)"},
       {"mass_kg", &B::mass_kg, "kg", above(0), false,
-       "a planar body's mass; absent: the cylinder of inertia_kg_m2's rule"},
+       "a planar or spatial body's mass; absent: the cylinder of inertia_kg_m2's rule"},
+      {"tilt_inertia_kg_m2", &B::tilt_inertia_kg_m2, "kg m^2", above(0), false,
+       "a spatial body's moment of inertia about a diameter; absent: the cylinder's, m (3 (r^2 "
+       "+ r_i^2) + w^2) / 12"},
       {"teeth", &B::teeth, "", closed(0, 10000), false, "number of teeth; 0: not a gear"},
       {"normal_module_mm", &B::normal_module_mm, "mm", closed(0, 100), false,
        "normal module m_n (a gear's)"},
@@ -118,6 +124,14 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        "from x (the reference turns counterclockwise): the line of action's direction, read "
        "when a gear of the mesh is planar or eccentric, and where its teeth meet with "
        "train.mesh_phase = \"layout\""},
+      {"thrust",
+       &M::thrust,
+       "",
+       {},
+       false,
+       "where the drive flank pushes the driven gear along the axes (the helix hands and "
+       "senses of rotation set it), read when a gear of a helical mesh is spatial",
+       "+z -z"},
   };
   return keys;
 }
@@ -177,6 +191,12 @@ const std::vector<ElementKey<TrainBearingData>>& bearing_keys() {
       {"clearance_um", &G::clearance_um, "um", at_least(0), false,
        "radial clearance: the bearing acts in x and in y each as a dead zone, nothing within "
        "+-clearance, its damping in contact only (0: none)"},
+      {"axial_stiffness_n_per_m", &G::axial_stiffness_n_per_m, "N/m", at_least(0), false,
+       "along the axis, of a spatial body's bearing (on the ground), damped by damping_ratio "
+       "against the body's mass"},
+      {"tilt_stiffness_n_m_per_rad", &G::tilt_stiffness_n_m_per_rad, "N m/rad", at_least(0), false,
+       "about each diameter, of a spatial body's bearing, damped by damping_ratio against its "
+       "tilt inertia"},
   };
   return keys;
 }
@@ -244,9 +264,15 @@ std::string allowed(const ElementKey<E>& key) {
         const std::string bound = key.range.text(std::is_same_v<T, int>);
         if constexpr (std::is_same_v<T, std::string>) {
           if (!key.choices.empty()) {
+            // "a" or "b"; "a", "b" or "c".
+            const std::vector<std::string_view> all = words_of(key.choices);
             std::string words;
-            for (const std::string_view w : words_of(key.choices))
-              words += fmt::format("{}\"{}\"", words.empty() ? "" : " or ", w);
+            for (std::size_t i = 0; i < all.size(); ++i)
+              words += fmt::format("{}\"{}\"",
+                                   i == 0                ? ""
+                                   : i + 1 == all.size() ? " or "
+                                                         : ", ",
+                                   all[i]);
             return words;
           }
           return "a name in quotes";
@@ -555,8 +581,11 @@ namespace {
 
 struct GearGeometry {
   double base_radius_m = 0, base_helix_rad = 0, transverse_pressure_rad = 0, inertia_kg_m2 = 0,
-         mass_kg = 0;
+         mass_kg = 0, tilt_inertia_kg_m2 = 0;
 };
+
+// A body that keeps its centre's x and y: planar, or spatial (planar too).
+bool keeps_plane(const TrainBodyData& b) { return b.dof == "planar" || b.dof == "spatial"; }
 
 // A body's base radius, base helix angle and inertia (MODEL.md section 1, as the gear pair's).
 GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
@@ -573,14 +602,17 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
   g.base_helix_rad = std::atan(std::tan(beta) * std::cos(alpha_t));
   g.transverse_pressure_rad = alpha_t;
   // The blank, a cylinder of the reference diameter: for what is not given.
-  const bool planar = b.dof == "planar";
-  if (!b.inertia_kg_m2 || (planar && !b.mass_kg)) {
+  const bool planar = keeps_plane(b), spatial = b.dof == "spatial";
+  if (!b.inertia_kg_m2 || (planar && !b.mass_kg) || (spatial && !b.tilt_inertia_kg_m2)) {
     const double di = b.bore_diameter_mm * kMmToM;
     if (!(b.teeth > 0 && b.face_width_mm > 0))
       rethrow_with_origin(
           t, fmt::format("{}: has no {}; give it, or teeth, normal_module_mm and face_width_mm "
                          "for a gear's",
-                         label, b.inertia_kg_m2 ? "mass_kg" : "inertia_kg_m2"));
+                         label,
+                         !b.inertia_kg_m2       ? "inertia_kg_m2"
+                         : planar && !b.mass_kg ? "mass_kg"
+                                                : "tilt_inertia_kg_m2"));
     if (!(di < d))
       rethrow_with_origin(t, fmt::format("{}: bore_diameter_mm = {} must be below the reference "
                                          "diameter {:.6g} mm",
@@ -592,6 +624,11 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
   }
   if (b.inertia_kg_m2) g.inertia_kg_m2 = *b.inertia_kg_m2;
   if (b.mass_kg) g.mass_kg = *b.mass_kg;
+  // About a diameter, the cylinder's of the body's mass (the coupled pair's blank).
+  const double di = b.bore_diameter_mm * kMmToM, w = b.face_width_mm * kMmToM;
+  g.tilt_inertia_kg_m2 = b.tilt_inertia_kg_m2
+                             ? *b.tilt_inertia_kg_m2
+                             : g.mass_kg * (3 * (d * d + di * di) / 4 + w * w) / 12;
   return g;
 }
 
@@ -712,12 +749,17 @@ train::Train train_of(const Case& c) {
     // A body named twice is the assembler's to name; the first of the name is read here.
     gears.emplace(b.name, g);
     bodies.emplace(b.name, &b);
-    if (b.mass_kg && b.dof != "planar")
+    if (b.mass_kg && !keeps_plane(b))
       rethrow_with_origin(t, fmt::format("body '{}': mass_kg = {} is read only for a planar "
                                          "body (dof = \"planar\"); this one keeps torsion only",
                                          b.name, *b.mass_kg));
-    out.bodies.push_back({b.name, g.inertia_kg_m2, b.dof == "planar", g.mass_kg,
-                          b.eccentricity_um * kUmToM, b.eccentricity_angle_deg * kDegToRad});
+    if (b.tilt_inertia_kg_m2 && b.dof != "spatial")
+      rethrow_with_origin(t, fmt::format("body '{}': tilt_inertia_kg_m2 = {} is read only for a "
+                                         "spatial body (dof = \"spatial\"); this one is {}",
+                                         b.name, *b.tilt_inertia_kg_m2, b.dof));
+    out.bodies.push_back({b.name, g.inertia_kg_m2, keeps_plane(b), g.mass_kg,
+                          b.eccentricity_um * kUmToM, b.eccentricity_angle_deg * kDegToRad,
+                          b.dof == "spatial", b.dof == "spatial" ? g.tilt_inertia_kg_m2 : 0.0});
   }
   for (const TrainMeshData& m : t.meshes) {
     train::Mesh x;
@@ -750,15 +792,16 @@ train::Train train_of(const Case& c) {
       if (x.internal) {
         // The ring's blank is no solid cylinder of its reference diameter: its inertia is given.
         const TrainBodyData* ring = a->second->teeth > b->second->teeth ? a->second : b->second;
-        if (!ring->inertia_kg_m2 || (ring->dof == "planar" && !ring->mass_kg))
+        if (!ring->inertia_kg_m2 || (keeps_plane(*ring) && !ring->mass_kg))
           rethrow_with_origin(
               t, fmt::format("body '{}': is the ring gear of internal mesh '{}': give its "
                              "inertia_kg_m2{} (a ring's blank is no solid cylinder)",
-                             ring->name, m.name, ring->dof == "planar" ? " and mass_kg" : ""));
+                             ring->name, m.name, keeps_plane(*ring) ? " and mass_kg" : ""));
       }
       x.base_helix_angle_rad = gears[m.driving].base_helix_rad;
       x.transverse_pressure_angle_rad = gears[m.driving].transverse_pressure_rad;
       x.position_angle_rad = m.position_angle_deg * kDegToRad;
+      x.axial_sense = m.thrust == "-z" ? -1 : 1;
       // The damping of the mesh's own oscillator: its two gears, m_n = 1 / (V J^-1 V^T).
       const double cb = std::cos(x.base_helix_angle_rad);
       const double ra = cb * x.base_radius_driving_m, rb = cb * x.base_radius_driven_m;
@@ -798,9 +841,25 @@ train::Train train_of(const Case& c) {
                      b.pin_error_radial_um * kUmToM,
                      b.pin_error_tangential_um * kUmToM,
                      b.clearance_um * kUmToM};
-    if (const auto g = gears.find(b.body); g != gears.end())
+    const auto carried = bodies.find(b.body);
+    for (const auto& [leaf, value] :
+         {std::pair{"axial_stiffness_n_per_m", b.axial_stiffness_n_per_m},
+          std::pair{"tilt_stiffness_n_m_per_rad", b.tilt_stiffness_n_m_per_rad}})
+      if (value != 0 && carried != bodies.end() && carried->second->dof != "spatial")
+        rethrow_with_origin(t, fmt::format("bearing '{}': {} = {} is read only for a spatial body "
+                                           "(dof = \"spatial\"); body '{}' is {}",
+                                           b.name, leaf, value, b.body, carried->second->dof));
+    x.axial_stiffness_n_per_m = b.axial_stiffness_n_per_m;
+    x.tilt_stiffness_n_m_per_rad = b.tilt_stiffness_n_m_per_rad;
+    if (const auto g = gears.find(b.body); g != gears.end()) {
       x.damping_n_s_per_m =
           2 * b.damping_ratio * std::sqrt(b.stiffness_n_per_m * g->second.mass_kg);
+      x.axial_damping_n_s_per_m =
+          2 * b.damping_ratio * std::sqrt(b.axial_stiffness_n_per_m * g->second.mass_kg);
+      x.tilt_damping_n_m_s_per_rad =
+          2 * b.damping_ratio *
+          std::sqrt(b.tilt_stiffness_n_m_per_rad * g->second.tilt_inertia_kg_m2);
+    }
     out.bearings.push_back(std::move(x));
   }
   for (const TrainTorqueData& q : t.torques) {
@@ -1079,7 +1138,7 @@ std::size_t mesh_to_read(const Case& c, const std::string& name) {
 std::vector<std::string> train_unused_settings(const TrainCase& t) {
   std::vector<std::string> out;
   if (t.frame_terms && std::none_of(t.bodies.begin(), t.bodies.end(),
-                                    [](const TrainBodyData& b) { return b.dof == "planar"; })) {
+                                    [](const TrainBodyData& b) { return keeps_plane(b); })) {
     const auto where_given = t.origins.find("the train: frame_terms");
     out.push_back(fmt::format(
         "train.frame_terms = true ({}): not used: no body is planar, and the frame's terms act on "
@@ -1089,7 +1148,7 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
   // The gears whose layout a mesh's line of action reaches: planar, or with a runout.
   std::set<std::string> placed;
   for (const TrainBodyData& b : t.bodies)
-    if (b.dof == "planar" || b.eccentricity_um != 0) placed.insert(b.name);
+    if (keeps_plane(b) || b.eccentricity_um != 0) placed.insert(b.name);
   for (std::size_t i = 0; i < t.meshes.size(); ++i) {
     const TrainMeshData& m = t.meshes[i];
     if (m.position_angle_deg == 0 || placed.count(m.driving) || placed.count(m.driven) ||
@@ -1102,6 +1161,24 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
         "nothing",
         i, m.position_angle_deg, where_given == t.origins.end() ? "" : where_given->second,
         m.name));
+  }
+  // The thrust's sense moves something only with a spatial gear in a helical mesh.
+  std::map<std::string, const TrainBodyData*> by_name;
+  for (const TrainBodyData& b : t.bodies) by_name.emplace(b.name, &b);
+  for (std::size_t i = 0; i < t.meshes.size(); ++i) {
+    const TrainMeshData& m = t.meshes[i];
+    if (m.thrust == "+z") continue;
+    const auto spatial_helical = [&](const std::string& name) {
+      const auto it = by_name.find(name);
+      return it != by_name.end() && it->second->dof == "spatial" &&
+             it->second->helix_angle_deg != 0;
+    };
+    if (spatial_helical(m.driving) || spatial_helical(m.driven)) continue;
+    const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
+    out.push_back(fmt::format(
+        "train.mesh[{}].thrust = \"{}\" ({}): not used: no gear of mesh '{}' is both spatial "
+        "and helical, so nothing moves along the axes",
+        i, m.thrust, where_given == t.origins.end() ? "" : where_given->second, m.name));
   }
   // A runout moves a gear's teeth or a carrier's pins: on a body with neither it moves nothing.
   for (std::size_t i = 0; i < t.bodies.size(); ++i) {

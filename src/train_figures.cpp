@@ -127,22 +127,29 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
   for (const TrainBearingReading& x : r.bearings)
     header += fmt::format(",{}_radial_force_n", x.name);
   header += "\n";
+  // Each bearing's x force among the parts (a spatial body's has its axial force and moments
+  // after its y).
+  std::vector<std::size_t> bearing_part;
+  for (std::size_t q = 0, k = shafts; q < bearings; ++q) {
+    bearing_part.push_back(k);
+    k += r.bearings[q].spatial ? 5 : 2;
+  }
   write_files_atomically(
-      dir,
-      {{"train_plot.csv", decimated_csv(
-                              header, s.t_s.size(), [&](std::size_t k) { return s.t_s[k] * 1e3; },
-                              [&](std::size_t k) {
-                                std::vector<double> v;
-                                for (std::size_t m = 0; m < meshes; ++m) {
-                                  v.push_back(s.deflection_bar[k][m]);
-                                  v.push_back(s.force_n[k][m]);
-                                }
-                                const std::vector<double>& p = s.parts[k];
-                                for (std::size_t q = 0; q < shafts; ++q) v.push_back(p[q]);
-                                for (std::size_t q = 0; q < bearings; ++q)
-                                  v.push_back(std::hypot(p[shafts + 2 * q], p[shafts + 2 * q + 1]));
-                                return v;
-                              })}});
+      dir, {{"train_plot.csv",
+             decimated_csv(
+                 header, s.t_s.size(), [&](std::size_t k) { return s.t_s[k] * 1e3; },
+                 [&](std::size_t k) {
+                   std::vector<double> v;
+                   for (std::size_t m = 0; m < meshes; ++m) {
+                     v.push_back(s.deflection_bar[k][m]);
+                     v.push_back(s.force_n[k][m]);
+                   }
+                   const std::vector<double>& p = s.parts[k];
+                   for (std::size_t q = 0; q < shafts; ++q) v.push_back(p[q]);
+                   for (std::size_t q = 0; q < bearings; ++q)
+                     v.push_back(std::hypot(p[bearing_part[q]], p[bearing_part[q] + 1]));
+                   return v;
+                 })}});
   std::string g =
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set key top right font ',9' opaque\nset ytics nomirror\nset y2tics\n";

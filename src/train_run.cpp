@@ -179,6 +179,16 @@ class TrainObserver : public ode::FlowObserver {
         r.steady_force_y_n = extremes(part_parts_, k + 1);
       }
       k += 2;
+      if (!r.spatial) continue;
+      r.axial_force_n = extremes(whole_parts_, k);
+      r.moment_x_nm = extremes(whole_parts_, k + 1);
+      r.moment_y_nm = extremes(whole_parts_, k + 2);
+      if (steady) {
+        r.steady_axial_force_n = extremes(part_parts_, k);
+        r.steady_moment_x_nm = extremes(part_parts_, k + 1);
+        r.steady_moment_y_nm = extremes(part_parts_, k + 2);
+      }
+      k += 3;
     }
   }
 
@@ -584,11 +594,19 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   for (std::size_t k = 0; k < t.bearings.size(); ++k) {
     TrainBearingReading r;
     r.name = t.bearings[k].name;
+    const Eigen::MatrixXd support = a.support_matrix(static_cast<int>(k));
+    r.spatial = support.rows() > 0;
     if (rest) {
       const Eigen::Vector2d w = a.bearing_matrix(static_cast<int>(k)) * rest->head(a.size()) -
                                 a.bearing_offset(static_cast<int>(k));
       r.static_force_x_n = t.bearings[k].stiffness_n_per_m * w(0);
       r.static_force_y_n = t.bearings[k].stiffness_n_per_m * w(1);
+      if (r.spatial) {
+        const Eigen::VectorXd s = support * rest->head(a.size());
+        r.static_axial_force_n = t.bearings[k].axial_stiffness_n_per_m * s(0);
+        r.static_moment_x_nm = t.bearings[k].tilt_stiffness_n_m_per_rad * s(1);
+        r.static_moment_y_nm = t.bearings[k].tilt_stiffness_n_m_per_rad * s(2);
+      }
     }
     result.bearings.push_back(r);
   }
@@ -800,9 +818,19 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
   j["shafts"] = shafts;
   nlohmann::ordered_json bearings = nlohmann::ordered_json::array();
   for (const TrainBearingReading& m : r.bearings) {
-    nlohmann::ordered_json x = part_reading_json(
-        m.name, {{"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
-                 {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n}});
+    nlohmann::ordered_json x =
+        m.spatial
+            ? part_reading_json(
+                  m.name,
+                  {{"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
+                   {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n},
+                   {"axial_force_n", m.axial_force_n, m.steady_axial_force_n,
+                    m.static_axial_force_n},
+                   {"moment_x_nm", m.moment_x_nm, m.steady_moment_x_nm, m.static_moment_x_nm},
+                   {"moment_y_nm", m.moment_y_nm, m.steady_moment_y_nm, m.static_moment_y_nm}})
+            : part_reading_json(
+                  m.name, {{"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
+                           {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n}});
     if (m.clearance_x.present) {
       x["clearance_x"] = clearance_json(m.clearance_x, m.steady_clearance_x);
       x["clearance_y"] = clearance_json(m.clearance_y, m.steady_clearance_y);
@@ -839,8 +867,12 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
   for (const TrainMeshReading& m : r.meshes)
     out << ',' << m.name << "_deflection_bar," << m.name << "_force_n," << m.name << "_contact";
   for (const TrainShaftReading& m : r.shafts) out << ',' << m.name << "_torque_nm";
-  for (const TrainBearingReading& m : r.bearings)
+  for (const TrainBearingReading& m : r.bearings) {
     out << ',' << m.name << "_force_x_n," << m.name << "_force_y_n";
+    if (m.spatial)
+      out << ',' << m.name << "_axial_force_n," << m.name << "_moment_x_nm," << m.name
+          << "_moment_y_nm";
+  }
   out << '\n';
   const TrainSamples& s = r.samples;
   CsvWriter csv(out);
@@ -865,11 +897,13 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
     mode["multiplicity"] = x.multiplicity;
     if (!x.type.empty()) mode["type"] = x.type;
     nlohmann::ordered_json shape, shape_imag, mesh, shaft, bearing;
-    // A rotation by its body's name (rad), a centre's displacement by "<body>_x", "<body>_y".
+    // A rotation by its body's name (rad), a centre's displacement by "<body>_x", "<body>_y",
+    // a spatial body's "<body>_z", "<body>_tx", "<body>_ty": the coordinate's name less its
+    // unit.
     for (int i = 0; i < a.size(); ++i) {
       const std::string& q = a.coordinate_names()[static_cast<std::size_t>(i)];
       const std::string name = i < a.body_count() ? t.bodies[static_cast<std::size_t>(i)].name
-                                                  : q.substr(0, q.size() - 2);
+                                                  : q.substr(0, q.rfind('_'));
       shape[name] = x.shape(i);
       if (x.shape_imag.size() > 0) shape_imag[name] = x.shape_imag(i);
     }

@@ -5,11 +5,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <set>
 #include <sstream>
 
@@ -1289,6 +1291,58 @@ TEST(Cli, APlanetarySetInItsTurningFrameWhirlsAndDrawsItsModesAgainstSpeed) {
   EXPECT_EQ(rows, 49);
   EXPECT_NE(slurp(d / "campbell_body.gp").find("$modes every ::1 using 1:3 with lines"),
             std::string::npos);
+  fs::remove_all(d);
+}
+
+TEST(Cli, ASpatialWheelCarriesItsHelixsThrustAndMomentOnItsBearing) {
+  // The shipped reducer's first wheel made spatial on a bearing with axial and tilt
+  // stiffness: at rest its bearing carries the mesh's static force split by the base helix
+  // angle, cos(beta_b) F radially and sin(beta_b) F axially, and the axial force's moment about
+  // the wheel's centre at its base radius, R_b sin(beta_b) F (MODEL.md's geometry: 61 teeth,
+  // m_n 1.75 mm, beta 25 deg, alpha_n 20 deg); the run reads them over time, timeseries.csv
+  // and modes.json name the new coordinates.
+  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string spatial =
+      " --set 'train.body[2].dof=\"spatial\"' --set 'train.bearing=[{name=\"wheel1_bearing\", "
+      "body=\"wheel1\", stiffness_n_per_m=5e8, axial_stiffness_n_per_m=2e8, "
+      "tilt_stiffness_n_m_per_rad=1e6}]'";
+  const fs::path d = fresh("spatial");
+  const Outcome o =
+      cli("run " + set + " --set solver.duration_s=0.01" + spatial + " --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("axial "), std::string::npos) << o.out;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  const double f = j["meshes"][0]["static_force_n"];
+  const nlohmann::json& b = j["bearings"][0];
+  constexpr double kDeg = std::numbers::pi / 180;
+  const double alpha_t = std::atan(std::tan(20 * kDeg) / std::cos(25 * kDeg));
+  const double beta_b = std::atan(std::tan(25 * kDeg) * std::cos(alpha_t));
+  const double r_b = 0.5 * 61 * 1.75e-3 / std::cos(25 * kDeg) * std::cos(alpha_t);
+  EXPECT_NEAR(std::hypot(b["static_force_x_n"].get<double>(), b["static_force_y_n"].get<double>()) /
+                  (std::cos(beta_b) * f),
+              1.0, 1e-9);
+  EXPECT_NEAR(b["static_axial_force_n"].get<double>() / (std::sin(beta_b) * f), 1.0, 1e-9);
+  EXPECT_NEAR(
+      std::hypot(b["static_moment_x_nm"].get<double>(), b["static_moment_y_nm"].get<double>()) /
+          (r_b * std::sin(beta_b) * f),
+      1.0, 1e-9);
+  // Over the run the mesh force varies, and the axial force with it, about its static value.
+  const double low = b["min_axial_force_n"], high = b["max_axial_force_n"];
+  EXPECT_LT(low, b["static_axial_force_n"].get<double>());
+  EXPECT_GT(high, b["static_axial_force_n"].get<double>());
+  std::istringstream csv(slurp(d / "timeseries.csv"));
+  std::string header;
+  std::getline(csv, header);
+  for (const char* column : {",wheel1_z_m,wheel1_tx_rad,wheel1_ty_rad,",
+                             ",wheel1_bearing_axial_force_n,wheel1_bearing_moment_x_nm,"
+                             "wheel1_bearing_moment_y_nm"})
+    EXPECT_NE(header.find(column), std::string::npos) << header;
+  fs::remove_all(d);
+  const Outcome m = cli("modes " + set + spatial + " --out " + d.string());
+  ASSERT_EQ(m.code, 0) << m.err;
+  const nlohmann::json shape = nlohmann::json::parse(slurp(d / "modes.json"))["modes"][0]["shape"];
+  for (const char* q : {"wheel1_x", "wheel1_z", "wheel1_tx", "wheel1_ty"})
+    EXPECT_TRUE(shape.contains(q)) << shape;
   fs::remove_all(d);
 }
 

@@ -388,42 +388,65 @@ std::string error_of(const std::string& text) {
   return "";
 }
 
-// The paper's pair as a train (validation.hpp) with both gears planar on bearings, against the
-// coupled model with dof = 3 of the same pair on the same bearings (whose y is along the line of
-// action), each bearing with the radial clearance given (um; the train's acts in x and y, the
-// coupled model's along its y: the same when the line of action is the train's y, with
-// `position_angle_deg` the transverse pressure angle, and the centres' motion across it, which
-// no force drives, stays 0): through every impact of a rattling start, the same d - e, impacts
-// and forces, and the pinion's centre along the line of action is the coupled y1. The gears'
-// masses come from their blanks, the bearings' damping from its ratio, in both.
-void expect_the_coupled_pair(std::array<double, 2> clearance_um, bool along_y) {
+// The paper's pair as a train (validation.hpp) with both gears planar (dof 3) or spatial (dof
+// 12) on bearings, against the coupled model with that dof of the same pair on the same
+// bearings (whose y is along the line of action), each bearing with the radial clearance given
+// (um; the train's acts in x and y, the coupled model's along its y: the same when the line of
+// action is the train's y, with `position_angle_deg` the transverse pressure angle, and the
+// centres' motion across it, which no force drives, stays 0): through every impact of a
+// rattling start, the same d - e, impacts and forces, and the pinion's centre along the line of
+// action is the coupled y1; with dof 12 its z is the coupled z1 and its tilt about the line of
+// action the coupled ty1. The gears' masses and tilt inertias come from their blanks, the
+// bearings' damping from its ratio, in both.
+struct PairCases {
+  Case coupled, train;
+};
+PairCases the_pair_both_ways(std::array<double, 2> clearance_um, bool along_y, int dof) {
   Case coupled = park2010_pair_case();
   coupled.model.form = ModelForm::kCoupled;
-  coupled.model.dof = 3;
+  coupled.model.dof = dof;
   coupled.bearings.radial_stiffness_n_per_m = {1.1e8, 2.3e8};
+  coupled.bearings.axial_stiffness_n_per_m = {1.6e7, 0.9e7};
+  coupled.bearings.tilt_stiffness_n_m_per_rad = {2.8e5, 4.1e5};
   coupled.bearings.damping_ratio = 0.03;
   coupled.bearings.radial_clearance_um = clearance_um;
-  const CoupledRunResult one = run_coupled(coupled);
-  ASSERT_TRUE(one.ok()) << one.message;
-  ASSERT_GT(one.mesh.impacts, 3);
   Case train = park2010_pair_as_train();
+  const bool spatial = dof == 12;
   for (const char* body : {"0", "1"})
-    set_case_value(train, {fmt::format("train.body[{}].dof", body), "\"planar\""});
+    set_case_value(
+        train, {fmt::format("train.body[{}].dof", body), spatial ? "\"spatial\"" : "\"planar\""});
+  const std::array<std::string, 2> out_of_plane = {
+      spatial ? ", axial_stiffness_n_per_m = 1.6e7, tilt_stiffness_n_m_per_rad = 2.8e5" : "",
+      spatial ? ", axial_stiffness_n_per_m = 0.9e7, tilt_stiffness_n_m_per_rad = 4.1e5" : ""};
   set_case_value(train,
                  {"train.bearing",
                   fmt::format("[{{body = \"pinion\", stiffness_n_per_m = 1.1e8, damping_ratio = "
-                              "0.03, clearance_um = {}}}, {{body = \"wheel\", stiffness_n_per_m = "
-                              "2.3e8, damping_ratio = 0.03, clearance_um = {}}}]",
-                              clearance_um[0], clearance_um[1])});
+                              "0.03, clearance_um = {}{}}}, {{body = \"wheel\", stiffness_n_per_m "
+                              "= 2.3e8, damping_ratio = 0.03, clearance_um = {}{}}}]",
+                              clearance_um[0], out_of_plane[0], clearance_um[1], out_of_plane[1])});
   const double alpha_t_deg =
       assembled_train(train).train().meshes[0].transverse_pressure_angle_rad * 180 /
       std::numbers::pi;
   set_case_value(train, {"train.mesh[0].position_angle_deg",
                          along_y ? fmt::format("{}", alpha_t_deg) : std::string("40")});
+  return {coupled, train};
+}
+
+void expect_the_coupled_pair(std::array<double, 2> clearance_um, bool along_y, int dof = 3) {
+  const auto [coupled, train] = the_pair_both_ways(clearance_um, along_y, dof);
+  const bool spatial = dof == 12;
+  const CoupledRunResult one = run_coupled(coupled);
+  ASSERT_TRUE(one.ok()) << one.message;
+  ASSERT_GT(one.mesh.impacts, 3);
   const TrainRunResult x = run_train(train);
   ASSERT_TRUE(x.ok()) << x.message;
-  EXPECT_EQ(x.coordinates, (std::vector<std::string>{"pinion_rad", "wheel_rad", "pinion_x_m",
-                                                     "pinion_y_m", "wheel_x_m", "wheel_y_m"}));
+  EXPECT_EQ(x.coordinates,
+            spatial ? (std::vector<std::string>{"pinion_rad", "wheel_rad", "pinion_x_m",
+                                                "pinion_y_m", "pinion_z_m", "pinion_tx_rad",
+                                                "pinion_ty_rad", "wheel_x_m", "wheel_y_m",
+                                                "wheel_z_m", "wheel_tx_rad", "wheel_ty_rad"})
+                    : (std::vector<std::string>{"pinion_rad", "wheel_rad", "pinion_x_m",
+                                                "pinion_y_m", "wheel_x_m", "wheel_y_m"}));
   ASSERT_EQ(x.samples.t_s.size(), one.samples.t_s.size());
   const train::Assembled a = assembled_train(train);
   const Eigen::RowVectorXd v = a.mesh_vector(0);
@@ -433,16 +456,54 @@ void expect_the_coupled_pair(std::array<double, 2> clearance_um, bool along_y) {
   if (along_y) EXPECT_NEAR(n.y(), 1.0, 1e-15);
   const CoupledParameters p = coupled_parameters(coupled);
   double worst = 0, worst_centre = 0, scale_centre = 0;
+  // With dof 12, each gear's z and its tilt about the line of action against the coupled ones.
+  std::array<double, 2> worst_axial{}, scale_axial{}, worst_tilt{}, scale_tilt{};
   for (std::size_t i = 0; i < x.samples.t_s.size(); ++i) {
     worst =
         std::max(worst, std::abs(x.samples.deflection_bar[i][0] - one.samples.deflection_bar[i]));
     const double y1 = one.samples.state[i](p.line[0]);
     worst_centre = std::max(worst_centre, std::abs(n.dot(x.samples.state[i].segment(2, 2)) - y1));
     scale_centre = std::max(scale_centre, std::abs(y1));
+    if (!spatial) continue;
+    for (int g = 0; g < 2; ++g) {
+      const int z = a.axial(g);
+      const double z_coupled =
+          one.samples.state[i](p.index(g == 0 ? Coordinate::kAxial1 : Coordinate::kAxial2));
+      const double ty_coupled =
+          one.samples.state[i](p.index(g == 0 ? Coordinate::kTilt1 : Coordinate::kTilt2));
+      worst_axial[g] = std::max(worst_axial[g], std::abs(x.samples.state[i](z) - z_coupled));
+      scale_axial[g] = std::max(scale_axial[g], std::abs(z_coupled));
+      worst_tilt[g] = std::max(worst_tilt[g],
+                               std::abs(n.dot(x.samples.state[i].segment(z + 1, 2)) - ty_coupled));
+      scale_tilt[g] = std::max(scale_tilt[g], std::abs(ty_coupled));
+    }
   }
   EXPECT_LT(worst, 1e-8);
   EXPECT_GT(scale_centre, 1e-7);  // the centre moves by a fraction of the backlash
   EXPECT_LT(worst_centre, 1e-7 * scale_centre);
+  // Each spatial bearing's axial force, sample by sample and at its largest, is the coupled
+  // bearing's, and its moment about the line of action k_t ty.
+  for (int g = 0; spatial && g < 2; ++g) {
+    const TrainBearingReading& b = x.bearings[static_cast<std::size_t>(g)];
+    ASSERT_TRUE(b.spatial);
+    // The parts start where shaft 0 would (there is none), the axial force after x and y.
+    const int part = a.bearing_observable(g) - a.shaft_observable(0) + 2;
+    double worst_force = 0;
+    for (std::size_t i = 0; i < x.samples.t_s.size(); ++i)
+      worst_force = std::max(worst_force,
+                             std::abs(x.samples.parts[i][part] - one.samples.axial_force_n[i][g]));
+    EXPECT_LT(worst_force, 1e-6 * one.max_axial_force_n[g]) << g;
+    EXPECT_NEAR(std::max(b.axial_force_n.max, -b.axial_force_n.min) / one.max_axial_force_n[g], 1.0,
+                1e-6)
+        << g;
+    EXPECT_GT(one.max_axial_force_n[g], 10.0) << g;
+  }
+  for (int g = 0; spatial && g < 2; ++g) {
+    EXPECT_GT(scale_axial[g], 1e-7) << g;  // the helix's thrust moves each gear along its axis
+    EXPECT_LT(worst_axial[g], 1e-7 * scale_axial[g]) << g;
+    EXPECT_GT(scale_tilt[g], 1e-7) << g;  // and its moment tilts it
+    EXPECT_LT(worst_tilt[g], 1e-7 * scale_tilt[g]) << g;
+  }
   const TrainMeshReading& m = x.meshes.at(0);
   EXPECT_EQ(m.impacts, one.mesh.impacts);
   EXPECT_EQ(m.backside_impacts, one.mesh.backside_impacts);
@@ -469,19 +530,59 @@ TEST(TrainCase, BearingClearancesAreTheCoupledPairsDeadZones) {
   expect_the_coupled_pair({0.3, 0.2}, true);
 }
 
-TEST(TrainCase, APlanarBodysKeysAreCheckedAndALayoutNothingReadsIsReported) {
-  const std::string head = kBodyA;
-  const std::string tail = std::string(kBodyB) + R"([[train.mesh]]
+TEST(TrainCase, SpatialGearsOnBearingsRunAsTheCoupledPairWithTwelveDegrees) {
+  // A mutant that flips the tilts' lever arm, drops sin(beta_b) from the axial entries of V, or
+  // damps a tilt against the mass, moves z, the tilt or d - e by far more than the bounds.
+  expect_the_coupled_pair({0, 0}, true, 12);
+  expect_the_coupled_pair({0, 0}, false, 12);
+  expect_the_coupled_pair({0.3, 0.2}, true, 12);
+}
+
+TEST(TrainCase, SpatialGearsModesAreTheCoupledPairsWithTwelveDegrees) {
+  // The train keeps the pair's rigid rotation (frequency 0) beside the coupled model's 11
+  // coordinates: the other 11 frequencies are the coupled ones, and the axial and tilt bearings
+  // hold strain energy in the modes that move them.
+  for (const bool along_y : {true, false}) {
+    const auto [coupled, train] = the_pair_both_ways({0, 0}, along_y, 12);
+    const ModeSet one = modes(CoupledModel(coupled_parameters(coupled)));
+    const std::vector<train::TrainMode> x = train::modes(assembled_train(train));
+    ASSERT_EQ(one.modes.size(), 11U);
+    ASSERT_EQ(x.size(), 12U);
+    EXPECT_EQ(x[0].frequency_hz, 0.0);
+    for (std::size_t k = 0; k < 11; ++k) {
+      EXPECT_NEAR(x[k + 1].frequency_hz / one.modes[k].frequency_hz, 1.0, 1e-9) << k;
+      const Mode& m = one.modes[k];
+      const double bearings = m.line_energy[0] + m.line_energy[1] + m.axial_energy[0] +
+                              m.axial_energy[1] + m.tilt_energy[0] + m.tilt_energy[1] +
+                              m.cross_energy[0] + m.cross_energy[1];
+      // Degenerate pairs (x and the rock about it, which no mesh touches) may mix their shares
+      // within a pair; the sum over both bearings is a mode's own.
+      EXPECT_NEAR(x[k + 1].bearing_energy[0] + x[k + 1].bearing_energy[1], bearings, 1e-6) << k;
+      EXPECT_NEAR(x[k + 1].mesh_energy[0], m.mesh_energy, 1e-6) << k;
+    }
+  }
+}
+
+// kBodyB and a mesh "m" in which a drives b, with one more line of the mesh's: line 15 of a
+// file that kBodyA and one line of body a's head.
+std::string body_b_and_mesh(const std::string& mesh_line) {
+  return std::string(kBodyB) + R"([[train.mesh]]
 name = "m"
 driving = "a"
 driven = "b"
 mean_stiffness_n_per_m = 2e8
-position_angle_deg = 30
-)";
+)" + mesh_line +
+         "\n";
+}
+
+TEST(TrainCase, APlanarBodysKeysAreCheckedAndALayoutNothingReadsIsReported) {
+  const std::string head = kBodyA;
+  const std::string tail = body_b_and_mesh("position_angle_deg = 30");
   // A word the key does not take, named with its place and the words it does.
-  const std::string wrong = error_of(head + "dof = \"spatial\"\n" + tail);
+  const std::string wrong = error_of(head + "dof = \"rigid\"\n" + tail);
   EXPECT_NE(wrong.find("t.toml:10:"), std::string::npos) << wrong;
-  EXPECT_NE(wrong.find("train.body[0].dof = \"spatial\": must be \"torsion\" or \"planar\""),
+  EXPECT_NE(wrong.find("train.body[0].dof = \"rigid\": must be \"torsion\", \"planar\" or "
+                       "\"spatial\""),
             std::string::npos)
       << wrong;
   // A mass on a body that keeps torsion only is read by nothing: refused.
@@ -513,6 +614,76 @@ position_angle_deg = 30
   EXPECT_NE(
       error_of(head + tail + bearing).find("bearing 'bearing1': body = \"a\" keeps torsion only"),
       std::string::npos);
+}
+
+TEST(TrainCase, ASpatialBodysKeysAreCheckedAndAThrustNothingReadsIsReported) {
+  const std::string head = kBodyA;
+  const std::string tail = body_b_and_mesh("thrust = \"-z\"");
+  const std::string bearing = "[[train.bearing]]\nbody = \"a\"\nstiffness_n_per_m = 1e8\n";
+  const std::string held =
+      bearing + "axial_stiffness_n_per_m = 2e7\ntilt_stiffness_n_m_per_rad = 3e5\n";
+  // A tilt inertia on a planar body and an axial stiffness under one are read by nothing:
+  // refused, naming the key as written.
+  const std::string planar = head + "dof = \"planar\"\n" + tail;
+  const std::string tilt =
+      error_of(head + "dof = \"planar\"\ntilt_inertia_kg_m2 = 0.1\n" + tail + bearing);
+  EXPECT_NE(tilt.find("body 'a': tilt_inertia_kg_m2 = 0.1 is read only for a spatial body"),
+            std::string::npos)
+      << tilt;
+  const std::string axial = error_of(planar + held);
+  EXPECT_NE(axial.find("bearing 'bearing1': axial_stiffness_n_per_m = 20000000 is read only for a "
+                       "spatial body (dof = \"spatial\"); body 'a' is planar"),
+            std::string::npos)
+      << axial;
+  // A spatial body whose bearings do not hold it along its axis is refused.
+  const std::string spatial = head + "dof = \"spatial\"\n" + tail;
+  const std::string free = error_of(spatial + bearing);
+  EXPECT_NE(free.find("body 'a': is spatial (dof = \"spatial\") but its bearings' axial stiffness "
+                      "is 0"),
+            std::string::npos)
+      << free;
+  // Held, it assembles: its z and tilts after x and y, its tilt inertia the blank's
+  // m (3 r^2 + w^2) / 12 (a solid cylinder of the reference diameter).
+  ASSERT_EQ(error_of(spatial + held), "");
+  const Case c = parse_case(spatial + held, "t.toml");
+  const train::Assembled a = assembled_train(c);
+  EXPECT_EQ(a.coordinate_names(), (std::vector<std::string>{"a_rad", "b_rad", "a_x_m", "a_y_m",
+                                                            "a_z_m", "a_tx_rad", "a_ty_rad"}));
+  EXPECT_EQ(a.axial(0), 4);
+  EXPECT_EQ(a.axial(1), -1);
+  const double m = a.train().bodies[0].mass_kg, r = 0.02, w = 0.01;
+  EXPECT_NEAR(a.train().bodies[0].tilt_inertia_kg_m2 / (m * (3 * r * r + w * w) / 12), 1.0, 1e-12);
+  EXPECT_EQ(a.mass()(5, 5), a.train().bodies[0].tilt_inertia_kg_m2);
+  // The spur mesh's thrust moves nothing (sin(beta_b) = 0): reported where it was written.
+  const std::vector<std::string> unused = unused_settings(c);
+  ASSERT_EQ(unused.size(), 1U);
+  EXPECT_NE(unused[0].find("train.mesh[0].thrust = \"-z\" (t.toml:"), std::string::npos)
+      << unused[0];
+  EXPECT_NE(unused[0].find("no gear of mesh 'm' is both spatial and helical"), std::string::npos);
+  EXPECT_EQ(a.mesh_vector(0).segment(4, 3).norm(), 0.0);
+  // Helical, the thrust moves the spatial gear along its axis, with the sense asked for.
+  Case helical = c;
+  for (const char* body : {"0", "1"})
+    set_case_value(helical, {fmt::format("train.body[{}].helix_angle_deg", body), "20"});
+  EXPECT_TRUE(unused_settings(helical).empty());
+  const train::Assembled h = assembled_train(helical);
+  const double sb = std::sin(h.train().meshes[0].base_helix_angle_rad);
+  EXPECT_NEAR(h.mesh_vector(0)(4), -sb, 1e-15);  // h = -1 on the driving gear's z
+  set_case_value(helical, {"train.mesh[0].thrust", "\"+z\""});
+  EXPECT_NEAR(assembled_train(helical).mesh_vector(0)(4), sb, 1e-15);
+  // Pins and the frame's terms are refused with a spatial body.
+  Case framed = helical;
+  set_case_value(framed, {"train.frame_terms", "true"});
+  set_case_value(framed,
+                 {"train.shaft", "[{from = \"b\", to = \"ground\", stiffness_n_m_per_rad = 1e5}]"});
+  try {
+    (void)assembled_train(framed);
+    ADD_FAILURE() << "a spatial body with frame_terms assembled";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("body 'a': is spatial with frame_terms = true"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {

@@ -10,7 +10,8 @@
 // (Body::planar) also moves in the plane of the gears: its centre's displacement (x_i, y_i) (m)
 // in a frame fixed to the ground, the reference body turning counterclockwise (+z) in it. The
 // coordinates are every body's theta first, in the bodies' order, then (x, y) of each planar
-// body in that order: a torsional train's coordinates are its bodies'.
+// body in that order, and after (x, y) a spatial body's (Body::spatial) z (m, along the axes)
+// and its tilts tx, ty (rad, about x and y): a torsional train's coordinates are its bodies'.
 //
 // The train's frame. A train whose bodies carry others on pins (a planetary set's carrier) is
 // written in the frame of its carrier, turning uniformly at the carrier's nominal speed: the
@@ -41,7 +42,8 @@
 // the coordinates it joins (the finite-element habit: an element knows its local matrices and
 // its degrees of freedom, the assembler adds them and never asks what it holds):
 //
-//   Body    J_i on the diagonal of M; a planar body's mass m_i on its x and y.
+//   Body    J_i on the diagonal of M; a planar body's mass m_i on its x and y; a spatial body's
+//           m_i on its z and its inertia about a diameter I_d on its tilts.
 //   Shaft   k_s, c_s between two bodies: the twist theta_a - theta_b; to the ground (kGround):
 //           theta_a.
 //   Bearing k_b, c_b on the displacement w = B q (2 rows, x and y) of a planar body's centre
@@ -50,7 +52,8 @@
 //           j's centre (u_j, when j is planar) and turning with j (s_j its sense, z x r =
 //           (-r_y, r_x)): Lin and Parker's planet bearing. Its force k_b (w - o) + c_b w', o
 //           the seat's position error (a pin's radial and tangential error): a constant load
-//           k_b B^T o on the bodies.
+//           k_b B^T o on the bodies. On a spatial body (on the ground) also k_a, c_a on its z and
+//           k_t, c_t on each tilt: w_s = A q = (z_i, tx_i, ty_i) (support_matrix).
 //   Mesh    between a driving gear a and a driven gear b, along the line of action: the normal
 //           deflection d = cos(beta_b) (R_a theta_a - R_b theta_b + n . (u_a - u_b)), u a
 //           planar body's (x, y) (absent for a body that keeps torsion only: held on rigid
@@ -59,7 +62,12 @@
 //           - e'(t)) on the drive (-) or back (+) side, 0 in the backlash (|d - e| < b),
 //           entering the bodies by virtual work as V^T F with d = V q; k(t) and e(t) at the
 //           mesh's own frequency z_a f_a. As in the lumped models of Kahraman and Singh (1991)
-//           and Lin and Parker (1999), the back side acts along the same line n.
+//           and Lin and Parker (1999), the back side acts along the same line n. A helical
+//           mesh's tooth normal also has the axial part sin(beta_b) h z (h = Mesh::axial_sense):
+//           with a spatial gear, d gains sin(beta_b) h (w_a - w_b), w_i = z_i + tx_i r_y - ty_i
+//           r_x the axial displacement of gear i's contact point r = s_i R_i (n_y, -n_x) from
+//           its centre (its base circle's tangent point on the line of action, where the
+//           coupled pair places it: the tilts are the small rotations (tx, ty, 0) of its face).
 //   Torque  a torque T(t) = T_mean + sum_i T_i cos(i Omega t + phi_i) on a body (a drive
 //           positive, a load negative), Omega the body's own angular speed.
 //   Drag    a drag on a body: -T_drag - c_v theta' (constant and viscous; a loose gear's oil).
@@ -107,7 +115,8 @@
 // Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N); then, the same in
 // every region, each shaft's torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m,
 // positive when a leads b), then each bearing's force on its seat k w + c w' in x and in y
-// (N): shaft_observable and bearing_observable give their index.
+// (N), on a spatial body followed by its axial force and tilt moments: shaft_observable and
+// bearing_observable give their index.
 #pragma once
 
 #include <Eigen/Core>
@@ -134,6 +143,13 @@ struct Body {
   // centred on the axis (no unbalance). Below, "Eccentricity".
   double eccentricity_m = 0;
   double eccentricity_angle_rad = 0;
+  // A spatial body is planar and also moves along its axis (z) and tilts about x and y: all six
+  // degrees of freedom of a rigid body. It needs tilt_inertia_kg_m2 > 0 (about a diameter) and
+  // bearings on the ground whose axial and tilt stiffnesses hold it. Not in a train with pins
+  // (a planetary set is planar here) nor with Train::frame_terms (its tilts' gyroscopic terms
+  // are not modelled).
+  bool spatial = false;
+  double tilt_inertia_kg_m2 = 0;
 };
 
 // k(t) = mean (1 + sum_i ratio_i cos(i w_mesh t + phase_i)) and e(t) = sum_i a_i cos(i w_mesh t
@@ -160,6 +176,9 @@ struct Mesh {
   double position_angle_rad = 0;
   double transverse_pressure_angle_rad = 0;
   bool internal = false;  // a pinion and a ring gear (the one with more teeth)
+  // h: the drive flank pushes the driven gear along +z (1) or -z (-1), read with a spatial gear
+  // of a helical mesh (the helix hands and the senses of rotation set it).
+  int axial_sense = 1;
 };
 
 // A shaft whose b is kGround holds body a's rotation against the ground: a torsional support
@@ -193,6 +212,10 @@ struct Bearing {
   // c) beyond +-c and nothing inside, its damping in contact only (Kahraman and Singh's
   // clearance, per direction: a round clearance is not piecewise linear). 0: none.
   double clearance_m = 0;
+  // On a spatial body: its axial stiffness and damping (N/m, N s/m) on z, and its tilt
+  // stiffness and damping (N m/rad, N m s/rad) on each tilt; 0 on any other body.
+  double axial_stiffness_n_per_m = 0, axial_damping_n_s_per_m = 0;
+  double tilt_stiffness_n_m_per_rad = 0, tilt_damping_n_m_s_per_rad = 0;
 };
 
 struct TorqueHarmonic {
@@ -285,6 +308,10 @@ class Assembled {
   int index(const std::string& body) const;
   // The coordinate of a planar body's x (its y follows), -1 for a body that keeps torsion only.
   int translation(int body) const { return translation_[static_cast<std::size_t>(body)]; }
+  // The coordinate of a spatial body's z (its tilts tx, ty follow), -1 for any other body.
+  int axial(int body) const {
+    return t_.bodies[static_cast<std::size_t>(body)].spatial ? translation(body) + 2 : -1;
+  }
   // Each coordinate's name with its unit, as outputs write it: "<body>_rad" for a rotation,
   // "<body>_x_m" and "<body>_y_m" for a planar body's centre.
   const std::vector<std::string>& coordinate_names() const { return names_; }
@@ -301,6 +328,8 @@ class Assembled {
   Eigen::VectorXd frame_load() const;
   // B of bearing k: its body's centre's displacement from its seat, w = B q (x and y rows).
   Eigen::MatrixXd bearing_matrix(int bearing) const;
+  // A of bearing k on a spatial body: w_s = A q, its z, tx and ty (3 rows); 0 rows otherwise.
+  Eigen::MatrixXd support_matrix(int bearing) const;
   // o of bearing k: its seat's error in x and y (Bearing's pin errors, and its carrier's
   // eccentricity), 0 without one.
   Eigen::Vector2d bearing_offset(int bearing) const;
@@ -328,7 +357,8 @@ class Assembled {
   // greatest common divisor of the mesh frequency ratios; 0 when every mesh is constant.
   double coefficient_period_s() const;
   // The index among the observables of shaft k's torque, and of bearing k's force in x (its y
-  // follows).
+  // follows, then on a spatial body its axial force (N) and its moments about x and y (N m),
+  // k w_s + c w_s' each).
   int shaft_observable(int shaft) const;
   int bearing_observable(int bearing) const;
   // Each mesh's phase u from the layout (above), in cycles; 0 for every mesh without it.
@@ -427,7 +457,7 @@ struct TrainMode {
   Eigen::VectorXd shape_imag;
   std::vector<double> mesh_energy;     // fraction of the strain energy in each mesh
   std::vector<double> shaft_energy;    // and in each shaft
-  std::vector<double> bearing_energy;  // and in each bearing (its x and y together)
+  std::vector<double> bearing_energy;  // and in each bearing (all its directions)
   // How many modes share its frequency (within kSameModeFrequency), itself included.
   int multiplicity = 1;
   // In a train with pins (a planetary set), Lin and Parker's type, read from the shape: the

@@ -44,10 +44,11 @@ struct OrderHarmonic {
 // (its mass from the same cylinder when mass_kg is absent).
 struct TrainBodyData {
   std::string name;
-  std::string dof = "torsion";  // or "planar"
+  std::string dof = "torsion";  // or "planar", or "spatial" (planar, with z and the tilts)
   std::optional<double> inertia_kg_m2;
   std::optional<double> mass_kg;
-  int teeth = 0;  // 0: not a gear
+  std::optional<double> tilt_inertia_kg_m2;  // about a diameter, of a spatial body
+  int teeth = 0;                             // 0: not a gear
   double normal_module_mm = 0;
   double normal_pressure_angle_deg = 20;
   double helix_angle_deg = 0;
@@ -72,6 +73,9 @@ struct TrainMeshData {
   // Where the driven gear's centre lies seen from the driving gear's, counterclockwise from x:
   // the direction of the line of action, read when a body of the mesh is planar.
   double position_angle_deg = 0;
+  // "+z" or "-z": where the drive flank pushes the driven gear along the axes, read with a
+  // spatial gear of a helical mesh.
+  std::string thrust = "+z";
 };
 
 // [[train.shaft]]: a torsional spring and damper between two bodies, or from a body to the
@@ -94,6 +98,9 @@ struct TrainBearingData {
   double pin_angle_deg = 0;
   double pin_error_radial_um = 0, pin_error_tangential_um = 0;  // the seat's position error
   double clearance_um = 0;  // a radial clearance (train.hpp's Bearing::clearance_m)
+  // A spatial body's: along its axis and about each diameter (damped by damping_ratio against
+  // its mass and its tilt inertia).
+  double axial_stiffness_n_per_m = 0, tilt_stiffness_n_m_per_rad = 0;
 };
 
 // [[train.torque]]: a torque on a body, positive along its rotation (a drive), negative against

@@ -482,7 +482,8 @@ class TrainRunResult:
         The bodies' and the meshes' names, in the case's order.
     coordinates : list of str
         The state's coordinates with their units: each body's rotation (``<body>_rad``), then
-        each planar body's centre (``<body>_x_m``, ``<body>_y_m``).
+        each planar body's centre (``<body>_x_m``, ``<body>_y_m``), a spatial body's followed by
+        its axial displacement and tilts (``<body>_z_m``, ``<body>_tx_rad``, ``<body>_ty_rad``).
     t : numpy.ndarray
         Sample times, s.
     theta, rate : numpy.ndarray
@@ -498,6 +499,9 @@ class TrainRunResult:
         Samples x shafts: each shaft's torque (N m, positive when its first body leads).
     bearing_force : numpy.ndarray
         Samples x bearings x 2: each bearing's force on the ground in x and y (N).
+    bearing_axial : numpy.ndarray
+        Samples x bearings x 3: a spatial body's bearing's axial force (N) and moments about x
+        and y (N m); nan for a bearing of any other body.
     ok : bool
         Whether the run completed.
     """
@@ -520,7 +524,18 @@ class TrainRunResult:
         self.bearings = [x["name"] for x in summary["bearings"]]
         ns = len(self.shafts)
         self.shaft_torque = arrays["parts"][:, :ns]
-        self.bearing_force = arrays["parts"][:, ns:].reshape(len(self.t), len(self.bearings), 2)
+        # Each bearing's x and y force, then a spatial body's axial force and tilt moments (nan
+        # on the others').
+        nt, nb = len(self.t), len(self.bearings)
+        self.bearing_force = _numpy.empty((nt, nb, 2))
+        self.bearing_axial = _numpy.full((nt, nb, 3), _numpy.nan)
+        k = ns
+        for j, b in enumerate(summary["bearings"]):
+            self.bearing_force[:, j, :] = arrays["parts"][:, k:k + 2]
+            k += 2
+            if "max_axial_force_n" in b:
+                self.bearing_axial[:, j, :] = arrays["parts"][:, k:k + 3]
+                k += 3
         self.ok = summary["termination"] == "completed"
 
     def __repr__(self):
@@ -592,7 +607,8 @@ def modes(case):
     case : Case
         A case with ``model.form = "coupled"`` or ``"train"``. A train's modes are a dict of
         ``bodies`` (the shape's columns: each body's rotation by its name, then each planar
-        body's centre as ``<body>_x``, ``<body>_y``), ``frequency_hz`` (ascending),
+        body's centre as ``<body>_x``, ``<body>_y``, a spatial body's followed by ``<body>_z``,
+        ``<body>_tx``, ``<body>_ty``), ``frequency_hz`` (ascending),
         ``multiplicity`` (how many modes share each frequency), ``type`` (a planetary set's
         "rotational", "translational", "planet" or "mixed", read from the shape; "" in a train
         without pins), ``shape`` (modes x those columns, mass-normalised; complex, a whirl,

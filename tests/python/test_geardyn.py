@@ -1,6 +1,7 @@
 """geardyn from Python: the same results as the command line, zero-copy arrays, errors as
 exceptions, the GIL released, and the example."""
 import json
+import math
 import os
 import pathlib
 import subprocess
@@ -737,6 +738,33 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     for k in range(1, 5):
         total = sum(pm["mesh_energy"][m][k] for m in ("in", "out")) + \
             pm["bearing_energy"]["bearing1"][k]
+        assert abs(total - 1) < 1e-12
+    # Helical and spatial, the idler also slides along its axis and tilts: the two meshes'
+    # thrusts on it cancel at rest (it is driven in one and drives in the other with the same
+    # load), their moments do not; the bearing's axial force and moments read per sample, nan
+    # for no bearing here but spatial ones.
+    helical = {f"train.body[{i}].helix_angle_deg": 15 for i in range(3)}
+    spatial = planar.with_(dict(helical, **{
+        "train.body[1].dof": "spatial",
+        "train.bearing": [{"body": "idler", "stiffness_n_per_m": 2e8,
+                           "axial_stiffness_n_per_m": 1e8, "tilt_stiffness_n_m_per_rad": 5e5}]}))
+    rs = geardyn.run(spatial)
+    assert rs.ok and rs.coordinates[3:] == ["idler_x_m", "idler_y_m", "idler_z_m", "idler_tx_rad",
+                                            "idler_ty_rad"]
+    b = rs.summary["bearings"][0]
+    assert rs.bearing_force.shape == (len(rs.t), 1, 2) and rs.bearing_axial.shape == (len(rs.t), 1, 3)
+    thrust = rs.summary["meshes"][0]["static_force_n"] * math.sin(math.radians(14))
+    assert abs(b["static_axial_force_n"]) < 1e-9 * thrust
+    assert math.hypot(b["static_moment_x_nm"], b["static_moment_y_nm"]) > 1e-3 * thrust
+    assert abs(rs.bearing_axial[0, 0, 1] - b["static_moment_x_nm"]) < 1e-6 * abs(b["static_moment_x_nm"])
+    assert abs(rs.bearing_force[0, 0, 1] - b["static_force_y_n"]) < 1e-6 * abs(b["static_force_y_n"])
+    assert b["min_moment_y_nm"] <= rs.bearing_axial[:, 0, 2].min() <= b["max_moment_y_nm"]
+    assert np.isnan(rp.bearing_axial).all()  # the planar idler's bearing has none
+    sm = geardyn.modes(spatial)
+    assert sm["bodies"][3:] == ["idler_x", "idler_y", "idler_z", "idler_tx", "idler_ty"]
+    for k in range(1, 8):
+        total = sum(sm["mesh_energy"][m][k] for m in ("in", "out")) + \
+            sm["bearing_energy"]["bearing1"][k]
         assert abs(total - 1) < 1e-12
     assert set(pm["type"]) == {""} and list(pm["multiplicity"]) == [1] * 5
     # A planetary set: each mode's type and multiplicity, four planets by one key.
