@@ -1346,6 +1346,37 @@ TEST(Cli, ASpatialWheelCarriesItsHelixsThrustAndMomentOnItsBearing) {
   fs::remove_all(d);
 }
 
+TEST(Cli, TrainFormPrintsACoupledCaseAsATrainThatRunsAsIt) {
+  // `geardyn train-form` prints the shipped coupled case as a train of elements; written to a
+  // file and run, its mesh reads as the coupled run's (impacts, dynamic factor to 1e-6). A form
+  // the train does not model is refused naming its key, exit 2, nothing printed.
+  const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
+  const std::string shorter = " --set solver.duration_s=0.02";
+  const Outcome form = cli("train-form " + coupled + shorter);
+  ASSERT_EQ(form.code, 0) << form.err;
+  for (const char* text : {"form = \"train\"", "dof = \"spatial\"", "name = \"wheel_bearing\"",
+                           "tilt_stiffness_n_m_per_rad = 280000"})
+    EXPECT_NE(form.out.find(text), std::string::npos) << text;
+  const fs::path d = fresh("train_form");
+  fs::create_directories(d);
+  { std::ofstream(d / "train.toml") << form.out; }
+  const Outcome one = cli("run " + coupled + shorter + " --out " + (d / "coupled").string());
+  const Outcome train =
+      cli("run " + (d / "train.toml").string() + " --out " + (d / "train").string());
+  ASSERT_EQ(one.code, 0) << one.err;
+  ASSERT_EQ(train.code, 0) << train.err;
+  const nlohmann::json a = nlohmann::json::parse(slurp(d / "coupled" / "summary.json"));
+  const nlohmann::json b = nlohmann::json::parse(slurp(d / "train" / "summary.json"))["meshes"][0];
+  EXPECT_EQ(b["impacts"], a["mesh"]["impacts"]) << a["mesh"];
+  EXPECT_NEAR(b["dynamic_factor_with_startup"].get<double>() /
+                  a["mesh"]["dynamic_factor_with_startup"].get<double>(),
+              1.0, 1e-6);
+  fs::remove_all(d);
+  const Outcome bad = cli("train-form " + coupled + " --set model.dof=6");
+  expect_refused(bad, "model.dof = 6");
+  EXPECT_EQ(bad.out, "");
+}
+
 TEST(Cli, ASunStrikesItsBearingsClearanceUnderItsRunout) {
   // The shipped stage's floating sun in a bearing with 5 um of radial clearance and 5 um of
   // runout: its centre strikes the clearance's edges, in x and in y; summary.json counts each

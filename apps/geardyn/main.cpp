@@ -574,6 +574,13 @@ int cmd_keys(bool markdown, bool json) {
   return 0;
 }
 
+// Prints the train form of a gear pair's case (train_form_of) as a case file.
+int cmd_train_form(const std::string& case_file, const std::vector<std::string>& sets) {
+  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  fmt::print("{}", geardyn::to_toml(geardyn::train_form_of(c)));
+  return 0;
+}
+
 int cmd_geometry(const std::string& case_file, const std::vector<std::string>& sets, bool json) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
   check_command_takes(c, "geometry");
@@ -1131,6 +1138,10 @@ int main(int argc, char** argv) {
   std::string modes_out;
   modes->add_option("--out", modes_out, "directory for modes.json, campbell.csv and the figure");
 
+  CLI::App* train_form = app.add_subcommand(
+      "train-form", "print a gear pair's or coupled case as a gear train of elements (TOML)");
+  add_case(train_form);
+
   CLI::App* keys = app.add_subcommand("keys", "list every case key: unit, default, bounds");
   bool markdown = false;
   keys->add_flag("--markdown", markdown, "the key tables of docs/case-files.md");
@@ -1279,6 +1290,7 @@ int main(int argc, char** argv) {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot, physical);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
     if (keys->parsed()) return cmd_keys(markdown, json);
+    if (train_form->parsed()) return cmd_train_form(case_file, sets);
     if (modes->parsed()) return cmd_modes(case_file, sets, json, modes_out);
     if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
     if (sweep_cmd->parsed()) {

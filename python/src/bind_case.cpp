@@ -3,6 +3,7 @@
 
 #include "bindings.hpp"
 #include "geardyn/case.hpp"
+#include "geardyn/train_case.hpp"
 
 namespace py = pybind11;
 
@@ -66,6 +67,14 @@ void bind_case(py::module_& m) {
           "that reads back equal).\n\nReturns\n-------\nstr")
       .def_readwrite("name", &Case::name,
                      "The case's name (the file's stem; written to summary.json).")
+      .def(
+          "train_form", [](const Case& c) { return train_form_of(c); },
+          "The case as a gear train of elements (``model.form = \"train\"``), as ``geardyn "
+          "train-form`` prints it: the same gears, mesh, loads and bearings, whose run is the "
+          "case's (docs/case-files.md, \"Gear trains\").\n\n"
+          "Returns\n-------\nCase\n\n"
+          "Raises\n------\nInputError\n    A form the train does not model (nondimensional, "
+          "dof 6, damping \"always\", tension \"clip\"), naming the key.")
       .def(
           "copy", [](const Case& c) { return Case(c); },
           "An independent copy.\n\nReturns\n-------\nCase")

@@ -760,6 +760,14 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert abs(rs.bearing_force[0, 0, 1] - b["static_force_y_n"]) < 1e-6 * abs(b["static_force_y_n"])
     assert b["min_moment_y_nm"] <= rs.bearing_axial[:, 0, 2].min() <= b["max_moment_y_nm"]
     assert np.isnan(rp.bearing_axial).all()  # the planar idler's bearing has none
+    # The paper's pair as a train of elements: its run is the pair's.
+    pair = geardyn.Case.default().with_({"solver.duration_s": 0.01})
+    as_train = pair.train_form()
+    assert as_train["model.form"] == "train"
+    one, two = geardyn.run(pair), geardyn.run(as_train)
+    assert np.max(np.abs(two.deflection_bar[:, 0] - one.delta_bar)) < 1e-8
+    with pytest.raises(geardyn.InputError, match="mesh.damping"):
+        pair.with_({"mesh.damping": "always"}).train_form()
     sm = geardyn.modes(spatial)
     assert sm["bodies"][3:] == ["idler_x", "idler_y", "idler_z", "idler_tx", "idler_ty"]
     for k in range(1, 8):

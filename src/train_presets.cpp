@@ -1,0 +1,185 @@
+// The gear pair's dimensional forms as trains of elements (train_form_of, train_case.hpp).
+#include <fmt/format.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "geardyn/coupled_model.hpp"
+#include "geardyn/geometry.hpp"
+#include "geardyn/model.hpp"
+#include "geardyn/run.hpp"
+#include "geardyn/train_case.hpp"
+
+namespace geardyn {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kRadToDeg = 180 / kPi;
+// A harmonic's frequency counts as the i-th multiple of the mesh frequency within this relative
+// distance (the model forms its terms as i times the mesh frequency: equal to rounding).
+constexpr double kMultipleTolerance = 1e-9;
+
+// The key's place for a message: " (case.toml:12:3)", or "" when it was not given.
+std::string where(const Case& c, const std::string& key) {
+  const auto it = c.origins.find(key);
+  return it == c.origins.end() ? "" : fmt::format(" ({})", it->second);
+}
+
+[[noreturn]] void refuse(const Case& c, const std::string& key, const std::string& value,
+                         const std::string& why) {
+  throw InputError(fmt::format("{} = {}{}: the train form {}", key, value, where(c, key), why));
+}
+
+// The i-th term of a series of multiples of w: i >= 1, or refused naming `what`.
+int multiple(const Case& c, const Harmonic& h, double w, const char* key) {
+  const double i = h.angular_frequency_rad_s / w;
+  const double whole = std::round(i);
+  if (!(whole >= 1 && std::abs(i - whole) <= kMultipleTolerance * whole))
+    refuse(
+        c, key, fmt::format("a term at {} rad/s", h.angular_frequency_rad_s),
+        fmt::format("writes a mesh's harmonics at whole multiples of its frequency {} rad/s", w));
+  return static_cast<int>(whole);
+}
+
+// A series' terms as [value, phase_deg] at multiples 1, 2, ... of w (zeros where absent), each
+// value scaled by `scale`.
+template <class H>
+std::vector<H> harmonics_of(const Case& c, const HarmonicSeries& s, double w, double scale,
+                            const char* key) {
+  std::vector<H> out;
+  for (const Harmonic& h : s.terms) {
+    const auto i = static_cast<std::size_t>(multiple(c, h, w, key));
+    if (out.size() < i) out.resize(i, H{0.0, 0.0});
+    // A negative value as its opposite half a cycle later (the keys take values >= 0).
+    const double v = h.amplitude * scale;
+    out[i - 1] = H{std::abs(v), (h.phase_rad + (v < 0 ? kPi : 0.0)) * kRadToDeg};
+  }
+  return out;
+}
+
+// A torque's terms as [amplitude, order, phase_deg] at orders of its body's speed w_body,
+// times `sign` (a negative amplitude as its opposite half a turn later).
+std::vector<OrderHarmonic> orders_of(const HarmonicSeries& s, double w_body, double sign) {
+  std::vector<OrderHarmonic> out;
+  for (const Harmonic& h : s.terms) {
+    if (h.amplitude == 0) continue;
+    const double a = sign * h.amplitude;
+    out.push_back({std::abs(a), h.angular_frequency_rad_s / w_body,
+                   (h.phase_rad + (a < 0 ? kPi : 0.0)) * kRadToDeg});
+  }
+  return out;
+}
+
+}  // namespace
+
+Case train_form_of(const Case& c) {
+  if (c.model.form == ModelForm::kNondimensional)
+    refuse(c, "model.form", "\"nondimensional\"",
+           "is dimensional: give the gears, the mesh and the loads (form \"gear_pair\")");
+  if (c.model.form == ModelForm::kTrain) return c;
+  const bool coupled = c.model.form == ModelForm::kCoupled;
+  if (coupled && c.model.dof == 6)
+    refuse(c, "model.dof", "6",
+           "has no body that slides along its axis without tilting: dof 3 is \"planar\" "
+           "bodies, dof 12 \"spatial\" ones");
+  if (c.mesh.damping == DampingForm::kAlways)
+    refuse(c, "mesh.damping", "\"always\"", "damps a mesh in contact only");
+  if (c.mesh.tension == TensionRule::kClip)
+    refuse(c, "mesh.tension", "\"clip\"", "lets a mesh force in contact turn negative (\"allow\")");
+  // The coupled pair's gears, mesh and loads are its one-degree pair's (gear_pair_of).
+  Geometry g;
+  const GearPairModel model = build_model(coupled ? gear_pair_of(c) : c, &g);
+  const GearPairParameters& p = model.parameters();
+  const double f1 = c.speed.shaft_frequency_hz;
+  const double w_mesh = 2 * kPi * f1 * c.gear.teeth[0];
+
+  Case out;
+  out.name = c.name;
+  out.description = c.description;
+  out.solver = c.solver;
+  out.model.form = ModelForm::kTrain;
+  TrainCase t;
+  t.reference = "pinion";
+  t.reference_speed_hz = f1;
+  const std::string dof = !coupled ? "torsion" : c.model.dof == 3 ? "planar" : "spatial";
+  for (int i = 0; i < 2; ++i) {
+    TrainBodyData b;
+    b.name = i == 0 ? "pinion" : "wheel";
+    b.dof = dof;
+    b.inertia_kg_m2 = g.inertia_kg_m2[static_cast<std::size_t>(i)];
+    b.teeth = c.gear.teeth[static_cast<std::size_t>(i)];
+    b.normal_module_mm = c.gear.normal_module_mm;
+    b.normal_pressure_angle_deg = c.gear.normal_pressure_angle_deg;
+    b.helix_angle_deg = c.gear.helix_angle_deg;
+    b.face_width_mm = c.gear.face_width_mm;
+    b.bore_diameter_mm = c.gear.bore_diameter_mm[static_cast<std::size_t>(i)];
+    b.density_kg_m3 = c.gear.density_kg_m3;
+    t.bodies.push_back(b);
+  }
+  TrainMeshData m;
+  m.name = "mesh";
+  m.driving = "pinion";
+  m.driven = "wheel";
+  m.backlash_um = c.mesh.backlash_um;
+  m.mean_stiffness_n_per_m = p.stiffness_n_per_m.offset;
+  m.stiffness_harmonics = harmonics_of<StiffnessHarmonic>(
+      c, p.stiffness_n_per_m, w_mesh, 1 / p.stiffness_n_per_m.offset, "mesh.stiffness_source");
+  m.transmission_error_um = harmonics_of<ErrorHarmonic>(c, p.transmission_error_m, w_mesh, 1e6,
+                                                        "mesh.transmission_error_um");
+  m.damping_ratio = c.mesh.damping_ratio;
+  if (coupled) m.position_angle_deg = g.transverse_pressure_angle_rad * kRadToDeg;
+  t.meshes.push_back(m);
+
+  // The torques, on the shafts' ends when the coupled case has them.
+  const bool motor = coupled && c.shafts.end_inertia_kg_m2[0] > 0,
+             load = coupled && c.shafts.end_inertia_kg_m2[1] > 0;
+  const std::array<const char*, 2> end = {"motor", "load"}, gear = {"pinion", "wheel"},
+                                   shaft = {"drive_shaft", "load_shaft"};
+  for (int i = 0; i < 2; ++i) {
+    if (!(i == 0 ? motor : load)) continue;
+    TrainBodyData b;
+    b.name = end[static_cast<std::size_t>(i)];
+    b.inertia_kg_m2 = c.shafts.end_inertia_kg_m2[static_cast<std::size_t>(i)];
+    t.bodies.push_back(b);
+    t.shafts.push_back({shaft[static_cast<std::size_t>(i)], end[static_cast<std::size_t>(i)],
+                        gear[static_cast<std::size_t>(i)],
+                        c.shafts.stiffness_n_m_per_rad[static_cast<std::size_t>(i)],
+                        c.shafts.damping_ratio});
+  }
+  const double w1 = 2 * kPi * f1;
+  const double w2 = w1 * c.gear.teeth[0] / c.gear.teeth[1];
+  const HarmonicSeries t1 = drive_torque_nm(c);
+  t.torques.push_back({"drive", motor ? "motor" : "pinion", t1.offset, orders_of(t1, w1, 1.0)});
+  if (c.load.load_torque_nm) {
+    const HarmonicSeries t2 = load_torque_nm(c);
+    t.torques.push_back({"load", load ? "load" : "wheel", -t2.offset, orders_of(t2, w2, -1.0)});
+  } else {
+    const double ratio = g.base_radius_m[1] / g.base_radius_m[0];
+    t.torques.push_back(
+        {"load", load ? "load" : "wheel", -ratio * t1.offset, orders_of(t1, w2, -ratio)});
+  }
+
+  if (coupled) {
+    const BearingData& x = c.bearings;
+    for (std::size_t i = 0; i < 2; ++i) {
+      TrainBearingData b;
+      b.name = fmt::format("{}_bearing", gear[i]);
+      b.body = gear[i];
+      b.stiffness_n_per_m = x.radial_stiffness_n_per_m[i];
+      b.damping_ratio = x.damping_ratio;
+      b.clearance_um = x.radial_clearance_um[i];
+      if (c.model.dof == 12) {
+        b.axial_stiffness_n_per_m = x.axial_stiffness_n_per_m[i];
+        b.tilt_stiffness_n_m_per_rad = x.tilt_stiffness_n_m_per_rad[i];
+      }
+      t.bearings.push_back(b);
+    }
+  }
+  out.train = std::make_shared<TrainCase>(std::move(t));
+  return out;
+}
+
+}  // namespace geardyn
