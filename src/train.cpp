@@ -938,18 +938,27 @@ Eigen::MatrixXd Assembled::contact_damping() const {
   return c;
 }
 
+namespace {
+
+// The contact states of mesh x: 3 (-1, 0, 1), or 5 (-2 .. 2) when it clips its tension.
+int radix(const Mesh& x) { return x.clips() ? 5 : 3; }
+
+}  // namespace
+
 int Assembled::region_count() const {
   int n = 1;
-  for (std::size_t m = 0; m < t_.meshes.size() + clearances_.size(); ++m) n *= 3;
+  for (const Mesh& x : t_.meshes) n *= radix(x);
+  for (std::size_t j = 0; j < clearances_.size(); ++j) n *= 3;
   return n;
 }
 
 int Assembled::region(const std::vector<int>& states,
                       const std::vector<int>& clearance_states) const {
   int r = 0, p = 1;
-  for (int s : states) {
-    r += (s + 1) * p;
-    p *= 3;
+  for (std::size_t m = 0; m < states.size(); ++m) {
+    const int base = radix(t_.meshes[m]);
+    r += (states[m] + base / 2) * p;
+    p *= base;
   }
   for (std::size_t j = 0; j < clearances_.size(); ++j) {
     r += ((j < clearance_states.size() ? clearance_states[j] : 0) + 1) * p;
@@ -960,15 +969,16 @@ int Assembled::region(const std::vector<int>& states,
 
 std::vector<int> Assembled::states(int region) const {
   std::vector<int> s;
-  for (std::size_t m = 0; m < t_.meshes.size(); ++m) {
-    s.push_back(region % 3 - 1);
-    region /= 3;
+  for (const Mesh& x : t_.meshes) {
+    const int base = radix(x);
+    s.push_back(region % base - base / 2);
+    region /= base;
   }
   return s;
 }
 
 std::vector<int> Assembled::clearance_states(int region) const {
-  for (std::size_t m = 0; m < t_.meshes.size(); ++m) region /= 3;
+  for (const Mesh& x : t_.meshes) region /= radix(x);
   std::vector<int> s;
   for (std::size_t j = 0; j < clearances_.size(); ++j) {
     s.push_back(region % 3 - 1);
@@ -1040,9 +1050,17 @@ HarmonicSeries Assembled::torque_series(int torque) const {
 int Assembled::classify(double t_s, const Eigen::VectorXd& y) const {
   std::vector<int> s;
   for (int m = 0; m < static_cast<int>(t_.meshes.size()); ++m) {
-    const double x = mesh_vector(m).dot(y.head(size())) - error_series(m)(t_s);
-    const double b = t_.meshes[m].backlash_m;
-    s.push_back(x >= b ? 1 : x <= -b ? -1 : 0);
+    const Mesh& mesh = t_.meshes[m];
+    const HarmonicSeries e = error_series(m);
+    const double x = mesh_vector(m).dot(y.head(size())) - e(t_s);
+    const double b = mesh.backlash_m;
+    const int side = x >= b ? 1 : x <= -b ? -1 : 0;
+    s.push_back(side);
+    if (side == 0 || !mesh.clips()) continue;
+    // F = k (d - e -+ b) + c (d' - e') pulls: held at 0.
+    const double f = stiffness_series(m)(t_s) * (x - side * b) +
+                     mesh.damping_n_s_per_m * (mesh_vector(m).dot(y.tail(size())) - e.rate(t_s));
+    if (side * f < 0) s.back() = 2 * side;
   }
   std::vector<int> c;
   for (const auto& [k, axis] : clearances_) {
@@ -1140,6 +1158,23 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
       g.scale = t.meshes[m].backlash_m;
       return g;
     };
+    // sign F of mesh m in contact at `edge` (+-b): k (d - e - edge) + c (d' - e'), or its damper
+    // alone (edge 0, `spring` false: a mesh damped at all times in its backlash).
+    const auto mesh_force = [&](int m, double sign, double edge, bool spring) {
+      ode::LinearGuard g = functional();
+      const Eigen::RowVectorXd v = a.mesh_vector(m);
+      const double c = t.meshes[m].damping_n_s_per_m;
+      Spectrum offset = scaled(sig[m].de, c);
+      if (spring) {
+        add(g.row, sig[m].k, sig[m].w, sign,
+            [&](RowVector& row, double x) { row.head(n) += x * v; });
+        offset = plus(plus(sig[m].ke, scaled(sig[m].k, edge)), offset);
+      }
+      g.row.constant.tail(n) += sign * c * v;
+      add(g.offset, offset, sig[m].w, -sign, [](double& x, double y) { x += y; });
+      g.scale = t.meshes[m].backlash_m * t.meshes[m].mean_stiffness_n_per_m;
+      return g;
+    };
 
     const std::vector<int> st = a.states(r), cs = a.clearance_states(r);
     ode::LinearRegion lr;
@@ -1168,47 +1203,51 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
       const Eigen::RowVectorXd v = a.mesh_vector(m);
       const Eigen::MatrixXd vtv = v.transpose() * v;
       const Vector mv = m_inv * v.transpose();
-      const double b = t.meshes[m].backlash_m, c = t.meshes[m].damping_n_s_per_m;
-      if (st[m] != 0) {
+      const Mesh& x = t.meshes[m];
+      const double b = x.backlash_m, c = x.damping_n_s_per_m;
+      // The side of contact (+-1), 0 in the backlash; a clipped mesh (+-2) touches but carries
+      // nothing.
+      const int side = st[m] > 0 ? 1 : st[m] < 0 ? -1 : 0;
+      const bool contact = st[m] == side && side != 0, damper = side == 0 && x.damping_always;
+      const Matrix block = m_inv * vtv;
+      if (contact) {
         // J theta'' += -V^T (k (V theta - e -+ b) + c (V theta' - e')).
-        const double edge = st[m] > 0 ? b : -b;
-        const Matrix block = m_inv * vtv;
         add(lr.a, sig[m].k, sig[m].w, 1.0,
             [&](Matrix& a, double x) { a.bottomLeftCorner(n, n) -= x * block; });
-        lr.a.constant.bottomRightCorner(n, n) -= c * block;
-        const Spectrum force = plus(plus(sig[m].ke, scaled(sig[m].k, edge)), scaled(sig[m].de, c));
+        const Spectrum force =
+            plus(plus(sig[m].ke, scaled(sig[m].k, side * b)), scaled(sig[m].de, c));
         add(lr.u, force, sig[m].w, 1.0, [&](Vector& u, double x) { u.tail(n) += x * mv; });
+      } else if (damper) {
+        // J theta'' += -V^T c (V theta' - e').
+        add(lr.u, scaled(sig[m].de, c), sig[m].w, 1.0,
+            [&](Vector& u, double x) { u.tail(n) += x * mv; });
       }
-      // Guards.
+      if (contact || damper) lr.a.constant.bottomRightCorner(n, n) -= c * block;
+      // Guards: d - e against -+b; in contact on a mesh that clips, F against 0 (sign F < 0:
+      // it would pull), and clipped, the same back.
       std::vector<int> to = st;
-      if (st[m] == 0) {
-        to[m] = 1;
-        ode::LinearGuard up = deflection(m, -1.0, -b);  // b - (d - e)
-        up.target = a.region(to, cs);
-        to[m] = -1;
-        ode::LinearGuard down = deflection(m, 1.0, -b);  // (d - e) + b
-        down.target = a.region(to, cs);
-        lr.guards.push_back(up);
-        lr.guards.push_back(down);
+      const auto guard = [&](ode::LinearGuard g, int state) {
+        to[m] = state;
+        g.target = a.region(to, cs);
+        lr.guards.push_back(std::move(g));
+      };
+      if (side == 0) {
+        guard(deflection(m, -1.0, -b), 1);  // b - (d - e)
+        guard(deflection(m, 1.0, -b), -1);  // (d - e) + b
       } else {
-        to[m] = 0;
-        ode::LinearGuard out = deflection(m, st[m] > 0 ? 1.0 : -1.0, b);
-        out.target = a.region(to, cs);
-        lr.guards.push_back(out);
+        guard(deflection(m, side, b), 0);
+        if (contact && x.clips()) guard(mesh_force(m, side, side * b, true), 2 * side);
+        if (!contact) guard(mesh_force(m, -side, side * b, true), side);
       }
       // Observables: d - e, and the force.
       lr.observables.push_back(deflection(m, 1.0, 0.0));
-      ode::LinearGuard f = functional();
-      if (st[m] != 0) {
-        const double edge = st[m] > 0 ? b : -b;
-        add(f.row, sig[m].k, sig[m].w, 1.0,
-            [&](RowVector& row, double x) { row.head(n) += x * v; });
-        f.row.constant.tail(n) += c * v;
-        add(f.offset, plus(plus(sig[m].ke, scaled(sig[m].k, edge)), scaled(sig[m].de, c)), sig[m].w,
-            -1.0, [](double& x, double y) { x += y; });
+      if (contact || damper) {
+        lr.observables.push_back(mesh_force(m, 1.0, side * b, contact));
+      } else {
+        ode::LinearGuard f = functional();
+        f.scale = b * x.mean_stiffness_n_per_m;
+        lr.observables.push_back(f);
       }
-      f.scale = t.meshes[m].backlash_m * t.meshes[m].mean_stiffness_n_per_m;
-      lr.observables.push_back(f);
     }
     // Each clearance direction j (bearing k's axis): in contact beyond +-c, k (w - o -+ c) +
     // c_b w' on B_j^T; its guards on w - o against +-c, as a mesh's on d - e against +-b.

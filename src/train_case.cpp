@@ -118,7 +118,23 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        "[[amplitude, phase_deg], ...] of the static transmission error at i times the mesh "
        "frequency"},
       {"damping_ratio", &M::damping_ratio, "", closed_open(0, 1), false,
-       "of the mesh's contact oscillator (its two gears on their own), acting in contact"},
+       "of the mesh's contact oscillator (its two gears on their own)"},
+      {"damping",
+       &M::damping,
+       "",
+       {},
+       false,
+       "where the mesh's damper acts: in contact only (the paper), or at all times (Kahraman "
+       "and Singh), as mesh.damping",
+       "contact always"},
+      {"tension",
+       &M::tension,
+       "",
+       {},
+       false,
+       "whether the contact force k (d - e -+ b) + c (d' - e') may pull (the paper), or is held "
+       "at 0 where it would (\"clip\"), as mesh.tension; unused with damping = \"always\"",
+       "allow clip"},
       {"position_angle_deg", &M::position_angle_deg, "deg", closed(-360, 360), false,
        "where the driven gear's centre lies seen from the driving gear's, counterclockwise "
        "from x (the reference turns counterclockwise): the line of action's direction, read "
@@ -809,6 +825,8 @@ train::Train train_of(const Case& c) {
                                 rb * rb / gears[m.driven].inertia_kg_m2);
       x.damping_n_s_per_m = 2 * m.damping_ratio * std::sqrt(m_n * m.mean_stiffness_n_per_m);
     }
+    x.damping_always = m.damping == "always";
+    x.clip_tension = m.tension == "clip";
     x.backlash_m = m.backlash_um * kUmToM;
     x.mean_stiffness_n_per_m = m.mean_stiffness_n_per_m;
     for (const StiffnessHarmonic& h : m.stiffness_harmonics)
@@ -1179,6 +1197,16 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
         "train.mesh[{}].thrust = \"{}\" ({}): not used: no gear of mesh '{}' is both spatial "
         "and helical, so nothing moves along the axes",
         i, m.thrust, where_given == t.origins.end() ? "" : where_given->second, m.name));
+  }
+  // With damping at all times the teeth alone carry k (d - e -+ b), which never pulls.
+  for (std::size_t i = 0; i < t.meshes.size(); ++i) {
+    const TrainMeshData& m = t.meshes[i];
+    if (m.tension != "clip" || m.damping != "always") continue;
+    const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
+    out.push_back(fmt::format(
+        "train.mesh[{}].tension = \"clip\" ({}): not used: mesh '{}' is damped at all times "
+        "(damping = \"always\"), its damper beside the teeth, and the teeth alone never pull",
+        i, where_given == t.origins.end() ? "" : where_given->second, m.name));
   }
   // A runout moves a gear's teeth or a carrier's pins: on a body with neither it moves nothing.
   for (std::size_t i = 0; i < t.bodies.size(); ++i) {

@@ -85,10 +85,6 @@ Case train_form_of(const Case& c) {
     refuse(c, "model.dof", "6",
            "has no body that slides along its axis without tilting: dof 3 is \"planar\" "
            "bodies, dof 12 \"spatial\" ones");
-  if (c.mesh.damping == DampingForm::kAlways)
-    refuse(c, "mesh.damping", "\"always\"", "damps a mesh in contact only");
-  if (c.mesh.tension == TensionRule::kClip)
-    refuse(c, "mesh.tension", "\"clip\"", "lets a mesh force in contact turn negative (\"allow\")");
   // The coupled pair's gears, mesh and loads are its one-degree pair's (gear_pair_of).
   Geometry g;
   const GearPairModel model = build_model(coupled ? gear_pair_of(c) : c, &g);
@@ -130,6 +126,8 @@ Case train_form_of(const Case& c) {
   m.transmission_error_um = harmonics_of<ErrorHarmonic>(c, p.transmission_error_m, w_mesh, 1e6,
                                                         "mesh.transmission_error_um");
   m.damping_ratio = c.mesh.damping_ratio;
+  m.damping = c.mesh.damping == DampingForm::kAlways ? "always" : "contact";
+  m.tension = c.mesh.tension == TensionRule::kClip ? "clip" : "allow";
   if (coupled) m.position_angle_deg = g.transverse_pressure_angle_rad * kRadToDeg;
   t.meshes.push_back(m);
 

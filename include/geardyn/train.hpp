@@ -110,8 +110,11 @@
 // at rest (a carrier) shifts its pins: each bearing on them has its seat moved by epsilon, a
 // load like a pin error's.
 //
-// Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1); a region
-// is one state per mesh, index sum_m (s_m + 1) 3^m. Guards: for each mesh, d - e crossing -+b.
+// Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1), a mesh
+// that clips its tension (Mesh::clips) five (-2 and 2: in contact on the back or drive side
+// with the force held at 0 where it would pull); a region is one state per mesh, index sum_m
+// (s_m + 1) 3^m for meshes of three states (a mixed radix with five). Guards: for each mesh,
+// d - e crossing -+b, and for a clipping mesh in contact its force F crossing 0.
 // Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N); then, the same in
 // every region, each shaft's torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m,
 // positive when a leads b), then each bearing's force on its seat k w + c w' in x and in y
@@ -171,7 +174,15 @@ struct Mesh {
   double mean_stiffness_n_per_m = 0;
   std::vector<MeshHarmonic> stiffness;           // ratios
   std::vector<MeshHarmonic> transmission_error;  // amplitudes, m
-  double damping_n_s_per_m = 0;                  // in contact only
+  double damping_n_s_per_m = 0;                  // in contact only, unless damping_always
+  // The damping forms and tension rules of the one-degree model (case.hpp's DampingForm and
+  // TensionRule): c (d' - e') at all times, beside the teeth (Kahraman and Singh), instead of in
+  // contact only; and a contact force k (d - e -+ b) + c (d' - e') held at 0 where it would pull
+  // (two more contact states, below), which means nothing with damping at all times (the teeth
+  // alone never pull: clips() is false then).
+  bool damping_always = false;
+  bool clip_tension = false;
+  bool clips() const { return clip_tension && !damping_always; }
   // The layout, read only when a planar body is in the mesh: psi and alpha_t (above).
   double position_angle_rad = 0;
   double transverse_pressure_angle_rad = 0;
@@ -387,9 +398,9 @@ class Assembled {
   enum class RegionBuild { kAuto, kEager, kLazy };
   ode::LinearSwitchedSystem linear_system(RegionBuild how = RegionBuild::kAuto) const;
   // The region of a mesh-state vector (and the clearances' states, 0 when not given: inside),
-  // and back. A region is every mesh's state (1 drive, 0 backlash, -1 back) and every clearance
-  // direction's (1 or -1 in contact beyond +c or -c, 0 inside), 3^(meshes + directions) of
-  // them.
+  // and back. A region is every mesh's state (1 drive, 0 backlash, -1 back; 2 and -2 clipped in
+  // contact on a mesh that clips) and every clearance direction's (1 or -1 in contact beyond +c
+  // or -c, 0 inside), 3^(meshes + directions) of them (5 for each mesh that clips).
   int region(const std::vector<int>& states, const std::vector<int>& clearance_states = {}) const;
   std::vector<int> states(int region) const;
   std::vector<int> clearance_states(int region) const;
@@ -397,8 +408,9 @@ class Assembled {
   // The clearance directions: bearing k's x then y for each bearing with a clearance, as
   // (bearing, axis 0 or 1).
   const std::vector<std::array<int, 2>>& clearances() const { return clearances_; }
-  // The region a state belongs to with no history (each mesh by its d - e against +-b, each
-  // clearance direction by w - o against +-c).
+  // The region a state belongs to with no history (each mesh by its d - e against +-b, a
+  // clipping mesh in contact also by its force's sign, each clearance direction by w - o against
+  // +-c).
   int classify(double t_s, const Eigen::VectorXd& y) const;
   // Sets the coordinates and rates of the bodies with a prescribed speed in y = (theta,
   // theta') to the prescription's at t; the others are left as they are.

@@ -69,7 +69,9 @@ struct TrainMeshData {
   double mean_stiffness_n_per_m = 0;
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // of the mesh frequency
   std::vector<ErrorHarmonic> transmission_error_um;    // of the mesh frequency
-  double damping_ratio = 0.02;  // of the mesh's own contact oscillator, in contact only
+  double damping_ratio = 0.02;                         // of the mesh's own contact oscillator
+  std::string damping = "contact";                     // where it acts: "contact", or "always"
+  std::string tension = "allow";  // the contact force may pull, or "clip": held at 0
   // Where the driven gear's centre lies seen from the driving gear's, counterclockwise from x:
   // the direction of the line of action, read when a body of the mesh is planar.
   double position_angle_deg = 0;

@@ -766,8 +766,9 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert as_train["model.form"] == "train"
     one, two = geardyn.run(pair), geardyn.run(as_train)
     assert np.max(np.abs(two.deflection_bar[:, 0] - one.delta_bar)) < 1e-8
-    with pytest.raises(geardyn.InputError, match="mesh.damping"):
-        pair.with_({"mesh.damping": "always"}).train_form()
+    assert pair.with_({"mesh.tension": "clip"}).train_form()["train.mesh[0].tension"] == "clip"
+    with pytest.raises(geardyn.InputError, match="model.form"):
+        pair.with_({"model.form": "nondimensional"}).train_form()
     sm = geardyn.modes(spatial)
     assert sm["bodies"][3:] == ["idler_x", "idler_y", "idler_z", "idler_tx", "idler_ty"]
     for k in range(1, 8):
