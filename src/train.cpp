@@ -145,7 +145,7 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (b.spatial && !b.planar)
       bad(fmt::format("body '{}'", b.name),
           "is spatial but not planar: a spatial body keeps its centre's x and y too");
-    if (b.spatial && !(b.tilt_inertia_kg_m2 > 0 && std::isfinite(b.tilt_inertia_kg_m2)))
+    if (b.spatial && b.tilts && !(b.tilt_inertia_kg_m2 > 0 && std::isfinite(b.tilt_inertia_kg_m2)))
       bad(fmt::format("body '{}'", b.name),
           fmt::format("tilt_inertia_kg_m2 = {}: a spatial body needs a finite inertia about a "
                       "diameter > 0 kg m^2",
@@ -212,9 +212,14 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
                                      std::pair{"tilt_damping", x.tilt_damping_n_m_s_per_rad}}) {
       if (!(value >= 0 && std::isfinite(value)))
         bad(e, fmt::format("{} = {}: must be finite and >= 0", key, value));
-      if (value != 0 && !t_.bodies[static_cast<std::size_t>(i)].spatial)
+      const Body& held = t_.bodies[static_cast<std::size_t>(i)];
+      if (value != 0 && !held.spatial)
         bad(e, fmt::format("{} = {} is read only for a spatial body (dof = \"spatial\"); body "
                            "'{}' is not",
+                           key, value, x.body));
+      if (value != 0 && held.spatial && !held.tilts && std::string_view(key).starts_with("tilt"))
+        bad(e, fmt::format("{} = {} is read only for a body that tilts (dof = \"spatial\"); body "
+                           "'{}' keeps z alone (dof = \"axial\")",
                            key, value, x.body));
     }
     axial_held[static_cast<std::size_t>(i)] += x.axial_stiffness_n_per_m;
@@ -239,16 +244,18 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     supported.insert(i);
   }
   for (std::size_t i = 0; i < t_.bodies.size(); ++i) {
+    // The body's dof as a case names it.
+    const char* dof = !t_.bodies[i].spatial ? "planar" : t_.bodies[i].tilts ? "spatial" : "axial";
     if (t_.bodies[i].planar && !supported.count(static_cast<int>(i)))
       bad(fmt::format("body '{}'", t_.bodies[i].name),
           fmt::format("is {0} (dof = \"{0}\") but no bearing carries it: its centre would be "
                       "free; add a [[train.bearing]] with body = its name",
-                      t_.bodies[i].spatial ? "spatial" : "planar"));
-    if (t_.bodies[i].spatial && !(axial_held[i] > 0 && tilt_held[i] > 0))
+                      dof));
+    if (t_.bodies[i].spatial && !(axial_held[i] > 0 && (tilt_held[i] > 0 || !t_.bodies[i].tilts)))
       bad(fmt::format("body '{}'", t_.bodies[i].name),
-          fmt::format("is spatial (dof = \"spatial\") but its bearings' {} stiffness is 0: it "
-                      "would be free to {}; give a bearing of it that stiffness",
-                      axial_held[i] > 0 ? "tilt" : "axial",
+          fmt::format("is {0} (dof = \"{0}\") but its bearings' {1} stiffness is 0: it "
+                      "would be free to {2}; give a bearing of it that stiffness",
+                      dof, axial_held[i] > 0 ? "tilt" : "axial",
                       axial_held[i] > 0 ? "tilt" : "slide along its axis"));
   }
   std::set<int> prescribed_bodies;
@@ -363,8 +370,8 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
       names_.push_back(b.name + "_x_m");
       names_.push_back(b.name + "_y_m");
     }
-    if (b.spatial) {
-      names_.push_back(b.name + "_z_m");
+    if (b.spatial) names_.push_back(b.name + "_z_m");
+    if (b.spatial && b.tilts) {
       names_.push_back(b.name + "_tx_rad");
       names_.push_back(b.name + "_ty_rad");
     }
@@ -375,10 +382,9 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
   for (int i = 0; i < n; ++i) {
     m_(i, i) = t_.bodies[i].inertia_kg_m2;
     if (const int x = translation(i); x >= 0) m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].mass_kg;
-    if (const int z = axial(i); z >= 0) {
-      m_(z, z) = t_.bodies[i].mass_kg;
-      m_(z + 1, z + 1) = m_(z + 2, z + 2) = t_.bodies[i].tilt_inertia_kg_m2;
-    }
+    if (const int z = axial(i); z >= 0) m_(z, z) = t_.bodies[i].mass_kg;
+    if (const int x = tilt(i); x >= 0)
+      m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].tilt_inertia_kg_m2;
   }
   // The frame's speed from the bodies held to the ground (the housing at rest).
   // (Without a planar body the terms act on nothing: case_keys reports the key unused.)
@@ -561,8 +567,7 @@ int Assembled::shaft_observable(int shaft) const {
 
 int Assembled::bearing_observable(int bearing) const {
   int i = 2 * static_cast<int>(t_.meshes.size()) + static_cast<int>(t_.shafts.size());
-  for (int k = 0; k < bearing; ++k)
-    i += axial(index(t_.bearings[static_cast<std::size_t>(k)].body)) >= 0 ? 5 : 2;
+  for (int k = 0; k < bearing; ++k) i += 2 + static_cast<int>(support_matrix(k).rows());
   return i;
 }
 
@@ -808,12 +813,13 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   // r = s R (n_y, -n_x).
   const double sb = m.axial_sense * std::sin(m.base_helix_angle_rad);
   const auto axial_part = [&](int body, double radius, double sign) {
-    const int z = axial(body);
+    const int z = axial(body), x = tilt(body);
     if (z < 0 || sb == 0) return;
-    const double rx = sense(body) * radius * ny, ry = -sense(body) * radius * nx;
     v(z) += sign * sb;
-    v(z + 1) += sign * sb * ry;
-    v(z + 2) -= sign * sb * rx;
+    if (x < 0) return;
+    const double rx = sense(body) * radius * ny, ry = -sense(body) * radius * nx;
+    v(x) += sign * sb * ry;
+    v(x + 1) -= sign * sb * rx;
   };
   axial_part(a, m.base_radius_driving_m, 1.0);
   axial_part(b, m.base_radius_driven_m, -1.0);
@@ -836,10 +842,12 @@ Eigen::MatrixXd Assembled::bearing_matrix(int bearing) const {
 }
 
 Eigen::MatrixXd Assembled::support_matrix(int bearing) const {
-  const int z = axial(index(t_.bearings[static_cast<std::size_t>(bearing)].body));
+  const int body = index(t_.bearings[static_cast<std::size_t>(bearing)].body);
+  const int z = axial(body);
   if (z < 0) return Eigen::MatrixXd::Zero(0, size());
-  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(3, size());
-  s.block(0, z, 3, 3) = Eigen::Matrix3d::Identity();
+  const int rows = tilt(body) < 0 ? 1 : 3;
+  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(rows, size());
+  s.block(0, z, rows, rows) = Eigen::MatrixXd::Identity(rows, rows);
   return s;
 }
 
@@ -899,8 +907,8 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c, bo
     const Eigen::MatrixXd s = a.support_matrix(static_cast<int>(i));
     if (s.rows() == 0) continue;
     const Bearing& x = t.bearings[i];
-    k += s.transpose() * support_diagonal(x, false).asDiagonal() * s;
-    c += s.transpose() * support_diagonal(x, true).asDiagonal() * s;
+    k += s.transpose() * support_diagonal(x, false).head(s.rows()).asDiagonal() * s;
+    c += s.transpose() * support_diagonal(x, true).head(s.rows()).asDiagonal() * s;
   }
   if (a.frame_rate_rad_s() != 0) {
     k += a.frame_stiffness();

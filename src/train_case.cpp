@@ -63,8 +63,9 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
        "the degrees of freedom it keeps: its rotation (\"torsion\"), also its centre's "
        "displacement in the plane on its bearings (\"planar\"), or all six: also along its "
        "axis and its tilts about x and y (\"spatial\", a helical gear's axial force and "
-       "moment; not in a planetary set)",
-       "torsion planar spatial"},
+       "moment; not in a planetary set), or along its axis without tilting (\"axial\", its "
+       "tilts held: the coupled pair's dof 6)",
+       "torsion planar axial spatial"},
       {"inertia_kg_m2", &B::inertia_kg_m2, "kg m^2", above(0), false,
        "polar moment of inertia; absent: a cylinder of the reference diameter and face width "
        "(a gear's)"},
@@ -208,8 +209,8 @@ const std::vector<ElementKey<TrainBearingData>>& bearing_keys() {
        "radial clearance: the bearing acts in x and in y each as a dead zone, nothing within "
        "+-clearance, its damping in contact only (0: none)"},
       {"axial_stiffness_n_per_m", &G::axial_stiffness_n_per_m, "N/m", at_least(0), false,
-       "along the axis, of a spatial body's bearing (on the ground), damped by damping_ratio "
-       "against the body's mass"},
+       "along the axis, of an axial or spatial body's bearing (on the ground), damped by "
+       "damping_ratio against the body's mass"},
       {"tilt_stiffness_n_m_per_rad", &G::tilt_stiffness_n_m_per_rad, "N m/rad", at_least(0), false,
        "about each diameter, of a spatial body's bearing, damped by damping_ratio against its "
        "tilt inertia"},
@@ -601,7 +602,12 @@ struct GearGeometry {
 };
 
 // A body that keeps its centre's x and y: planar, or spatial (planar too).
-bool keeps_plane(const TrainBodyData& b) { return b.dof == "planar" || b.dof == "spatial"; }
+bool keeps_plane(const TrainBodyData& b) {
+  return b.dof == "planar" || b.dof == "axial" || b.dof == "spatial";
+}
+
+// A body that moves along its axis: axial, or spatial (which tilts too).
+bool keeps_axis(const TrainBodyData& b) { return b.dof == "axial" || b.dof == "spatial"; }
 
 // A body's base radius, base helix angle and inertia (MODEL.md section 1, as the gear pair's).
 GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
@@ -775,7 +781,8 @@ train::Train train_of(const Case& c) {
                                          b.name, *b.tilt_inertia_kg_m2, b.dof));
     out.bodies.push_back({b.name, g.inertia_kg_m2, keeps_plane(b), g.mass_kg,
                           b.eccentricity_um * kUmToM, b.eccentricity_angle_deg * kDegToRad,
-                          b.dof == "spatial", b.dof == "spatial" ? g.tilt_inertia_kg_m2 : 0.0});
+                          keeps_axis(b), b.dof == "spatial" ? g.tilt_inertia_kg_m2 : 0.0,
+                          b.dof == "spatial"});
   }
   for (const TrainMeshData& m : t.meshes) {
     train::Mesh x;
@@ -863,10 +870,14 @@ train::Train train_of(const Case& c) {
     for (const auto& [leaf, value] :
          {std::pair{"axial_stiffness_n_per_m", b.axial_stiffness_n_per_m},
           std::pair{"tilt_stiffness_n_m_per_rad", b.tilt_stiffness_n_m_per_rad}})
-      if (value != 0 && carried != bodies.end() && carried->second->dof != "spatial")
-        rethrow_with_origin(t, fmt::format("bearing '{}': {} = {} is read only for a spatial body "
-                                           "(dof = \"spatial\"); body '{}' is {}",
-                                           b.name, leaf, value, b.body, carried->second->dof));
+      if (value != 0 && carried != bodies.end() &&
+          (leaf[0] == 'a' ? !keeps_axis(*carried->second) : carried->second->dof != "spatial"))
+        rethrow_with_origin(
+            t, fmt::format("bearing '{}': {} = {} is read only for a body that {} (dof = {}); "
+                           "body '{}' is {}",
+                           b.name, leaf, value, leaf[0] == 'a' ? "moves along its axis" : "tilts",
+                           leaf[0] == 'a' ? "\"axial\" or \"spatial\"" : "\"spatial\"", b.body,
+                           carried->second->dof));
     x.axial_stiffness_n_per_m = b.axial_stiffness_n_per_m;
     x.tilt_stiffness_n_m_per_rad = b.tilt_stiffness_n_m_per_rad;
     if (const auto g = gears.find(b.body); g != gears.end()) {
@@ -1188,8 +1199,7 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
     if (m.thrust == "+z") continue;
     const auto spatial_helical = [&](const std::string& name) {
       const auto it = by_name.find(name);
-      return it != by_name.end() && it->second->dof == "spatial" &&
-             it->second->helix_angle_deg != 0;
+      return it != by_name.end() && keeps_axis(*it->second) && it->second->helix_angle_deg != 0;
     };
     if (spatial_helical(m.driving) || spatial_helical(m.driven)) continue;
     const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));

@@ -132,7 +132,7 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
   std::vector<std::size_t> bearing_part;
   for (std::size_t q = 0, k = shafts; q < bearings; ++q) {
     bearing_part.push_back(k);
-    k += r.bearings[q].spatial ? 5 : 2;
+    k += static_cast<std::size_t>(r.bearings[q].part_count());
   }
   write_files_atomically(
       dir, {{"train_plot.csv",

@@ -81,10 +81,6 @@ Case train_form_of(const Case& c) {
            "is dimensional: give the gears, the mesh and the loads (form \"gear_pair\")");
   if (c.model.form == ModelForm::kTrain) return c;
   const bool coupled = c.model.form == ModelForm::kCoupled;
-  if (coupled && c.model.dof == 6)
-    refuse(c, "model.dof", "6",
-           "has no body that slides along its axis without tilting: dof 3 is \"planar\" "
-           "bodies, dof 12 \"spatial\" ones");
   // The coupled pair's gears, mesh and loads are its one-degree pair's (gear_pair_of).
   Geometry g;
   const GearPairModel model = build_model(coupled ? gear_pair_of(c) : c, &g);
@@ -100,7 +96,10 @@ Case train_form_of(const Case& c) {
   TrainCase t;
   t.reference = "pinion";
   t.reference_speed_hz = f1;
-  const std::string dof = !coupled ? "torsion" : c.model.dof == 3 ? "planar" : "spatial";
+  const std::string dof = !coupled           ? "torsion"
+                          : c.model.dof == 3 ? "planar"
+                          : c.model.dof == 6 ? "axial"
+                                             : "spatial";
   for (int i = 0; i < 2; ++i) {
     TrainBodyData b;
     b.name = i == 0 ? "pinion" : "wheel";
@@ -169,10 +168,8 @@ Case train_form_of(const Case& c) {
       b.stiffness_n_per_m = x.radial_stiffness_n_per_m[i];
       b.damping_ratio = x.damping_ratio;
       b.clearance_um = x.radial_clearance_um[i];
-      if (c.model.dof == 12) {
-        b.axial_stiffness_n_per_m = x.axial_stiffness_n_per_m[i];
-        b.tilt_stiffness_n_m_per_rad = x.tilt_stiffness_n_m_per_rad[i];
-      }
+      if (c.model.dof >= 6) b.axial_stiffness_n_per_m = x.axial_stiffness_n_per_m[i];
+      if (c.model.dof == 12) b.tilt_stiffness_n_m_per_rad = x.tilt_stiffness_n_m_per_rad[i];
       t.bearings.push_back(b);
     }
   }

@@ -181,14 +181,16 @@ class TrainObserver : public ode::FlowObserver {
       k += 2;
       if (!r.spatial) continue;
       r.axial_force_n = extremes(whole_parts_, k);
-      r.moment_x_nm = extremes(whole_parts_, k + 1);
-      r.moment_y_nm = extremes(whole_parts_, k + 2);
+      if (steady) r.steady_axial_force_n = extremes(part_parts_, k);
+      ++k;
+      if (!r.tilts) continue;
+      r.moment_x_nm = extremes(whole_parts_, k);
+      r.moment_y_nm = extremes(whole_parts_, k + 1);
       if (steady) {
-        r.steady_axial_force_n = extremes(part_parts_, k);
-        r.steady_moment_x_nm = extremes(part_parts_, k + 1);
-        r.steady_moment_y_nm = extremes(part_parts_, k + 2);
+        r.steady_moment_x_nm = extremes(part_parts_, k);
+        r.steady_moment_y_nm = extremes(part_parts_, k + 1);
       }
-      k += 3;
+      k += 2;
     }
   }
 
@@ -596,6 +598,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     r.name = t.bearings[k].name;
     const Eigen::MatrixXd support = a.support_matrix(static_cast<int>(k));
     r.spatial = support.rows() > 0;
+    r.tilts = support.rows() > 1;
     if (rest) {
       const Eigen::Vector2d w = a.bearing_matrix(static_cast<int>(k)) * rest->head(a.size()) -
                                 a.bearing_offset(static_cast<int>(k));
@@ -604,8 +607,10 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
       if (r.spatial) {
         const Eigen::VectorXd s = support * rest->head(a.size());
         r.static_axial_force_n = t.bearings[k].axial_stiffness_n_per_m * s(0);
-        r.static_moment_x_nm = t.bearings[k].tilt_stiffness_n_m_per_rad * s(1);
-        r.static_moment_y_nm = t.bearings[k].tilt_stiffness_n_m_per_rad * s(2);
+        if (r.tilts) {
+          r.static_moment_x_nm = t.bearings[k].tilt_stiffness_n_m_per_rad * s(1);
+          r.static_moment_y_nm = t.bearings[k].tilt_stiffness_n_m_per_rad * s(2);
+        }
       }
     }
     result.bearings.push_back(r);
@@ -754,7 +759,7 @@ struct PartQuantity {
 // A shaft's or bearing's reading (summary.json, docs/outputs.md): its name, each quantity's
 // max_ and min_, the same over the steady part, then each one's static_.
 nlohmann::ordered_json part_reading_json(const std::string& name,
-                                         std::initializer_list<PartQuantity> quantities) {
+                                         const std::vector<PartQuantity>& quantities) {
   nlohmann::ordered_json x, steady;
   x["name"] = name;
   for (const PartQuantity& q : quantities) {
@@ -818,19 +823,14 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
   j["shafts"] = shafts;
   nlohmann::ordered_json bearings = nlohmann::ordered_json::array();
   for (const TrainBearingReading& m : r.bearings) {
-    nlohmann::ordered_json x =
-        m.spatial
-            ? part_reading_json(
-                  m.name,
-                  {{"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
-                   {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n},
-                   {"axial_force_n", m.axial_force_n, m.steady_axial_force_n,
-                    m.static_axial_force_n},
-                   {"moment_x_nm", m.moment_x_nm, m.steady_moment_x_nm, m.static_moment_x_nm},
-                   {"moment_y_nm", m.moment_y_nm, m.steady_moment_y_nm, m.static_moment_y_nm}})
-            : part_reading_json(
-                  m.name, {{"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
-                           {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n}});
+    const std::vector<PartQuantity> all = {
+        {"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
+        {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n},
+        {"axial_force_n", m.axial_force_n, m.steady_axial_force_n, m.static_axial_force_n},
+        {"moment_x_nm", m.moment_x_nm, m.steady_moment_x_nm, m.static_moment_x_nm},
+        {"moment_y_nm", m.moment_y_nm, m.steady_moment_y_nm, m.static_moment_y_nm}};
+    nlohmann::ordered_json x = part_reading_json(
+        m.name, std::vector<PartQuantity>(all.begin(), all.begin() + m.part_count()));
     if (m.clearance_x.present) {
       x["clearance_x"] = clearance_json(m.clearance_x, m.steady_clearance_x);
       x["clearance_y"] = clearance_json(m.clearance_y, m.steady_clearance_y);
@@ -869,9 +869,8 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
   for (const TrainShaftReading& m : r.shafts) out << ',' << m.name << "_torque_nm";
   for (const TrainBearingReading& m : r.bearings) {
     out << ',' << m.name << "_force_x_n," << m.name << "_force_y_n";
-    if (m.spatial)
-      out << ',' << m.name << "_axial_force_n," << m.name << "_moment_x_nm," << m.name
-          << "_moment_y_nm";
+    if (m.spatial) out << ',' << m.name << "_axial_force_n";
+    if (m.tilts) out << ',' << m.name << "_moment_x_nm," << m.name << "_moment_y_nm";
   }
   out << '\n';
   const TrainSamples& s = r.samples;

@@ -1372,8 +1372,8 @@ TEST(Cli, TrainFormPrintsACoupledCaseAsATrainThatRunsAsIt) {
                   a["mesh"]["dynamic_factor_with_startup"].get<double>(),
               1.0, 1e-6);
   fs::remove_all(d);
-  const Outcome bad = cli("train-form " + coupled + " --set model.dof=6");
-  expect_refused(bad, "model.dof = 6");
+  const Outcome bad = cli("train-form " + coupled + " --set model.form=nondimensional");
+  expect_refused(bad, "model.form = \"nondimensional\"");
   EXPECT_EQ(bad.out, "");
 }
 

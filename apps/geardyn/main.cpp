@@ -386,11 +386,13 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
         x.name, x.force_x_n.min, x.force_x_n.max, x.force_y_n.min, x.force_y_n.max,
         fmt_optional(x.static_force_x_n, " N"), fmt_optional(x.static_force_y_n, " N"));
     if (x.spatial)
-      fmt::print(
-          "                    axial {:.6g} to {:.6g} N (static {}), moment x {:.6g} to {:.6g} N "
-          "m, y {:.6g} to {:.6g} N m\n",
-          x.axial_force_n.min, x.axial_force_n.max, fmt_optional(x.static_axial_force_n, " N"),
-          x.moment_x_nm.min, x.moment_x_nm.max, x.moment_y_nm.min, x.moment_y_nm.max);
+      fmt::print("                    axial {:.6g} to {:.6g} N (static {}){}\n",
+                 x.axial_force_n.min, x.axial_force_n.max,
+                 fmt_optional(x.static_axial_force_n, " N"),
+                 x.tilts ? fmt::format(", moment x {:.6g} to {:.6g} N m, y {:.6g} to {:.6g} N m",
+                                       x.moment_x_nm.min, x.moment_x_nm.max, x.moment_y_nm.min,
+                                       x.moment_y_nm.max)
+                         : std::string());
     if (x.clearance_x.present)
       fmt::print(
           "                    clearance: x {} impacts, {:.2f} % inside; y {} impacts, {:.2f} % "

@@ -153,6 +153,11 @@ struct Body {
   // are not modelled).
   bool spatial = false;
   double tilt_inertia_kg_m2 = 0;
+  // A spatial body that does not tilt (its tilts held by its bearings): it keeps z alone beside
+  // its x and y, and needs no tilt inertia (the coupled pair's dof 6).
+  bool tilts = true;
+  // Its coordinates beyond the rotation: x, y, then z and the tilts it keeps.
+  int extent() const { return planar ? 2 + (spatial ? (tilts ? 3 : 1) : 0) : 0; }
 };
 
 // k(t) = mean (1 + sum_i ratio_i cos(i w_mesh t + phase_i)) and e(t) = sum_i a_i cos(i w_mesh t
@@ -319,9 +324,15 @@ class Assembled {
   int index(const std::string& body) const;
   // The coordinate of a planar body's x (its y follows), -1 for a body that keeps torsion only.
   int translation(int body) const { return translation_[static_cast<std::size_t>(body)]; }
-  // The coordinate of a spatial body's z (its tilts tx, ty follow), -1 for any other body.
+  // The coordinate of a spatial body's z (its tilts tx, ty follow when it tilts), -1 for any
+  // other body.
   int axial(int body) const {
     return t_.bodies[static_cast<std::size_t>(body)].spatial ? translation(body) + 2 : -1;
+  }
+  // The coordinate of a spatial body's tx (its ty follows), -1 for a body that does not tilt.
+  int tilt(int body) const {
+    const Body& b = t_.bodies[static_cast<std::size_t>(body)];
+    return b.spatial && b.tilts ? translation(body) + 3 : -1;
   }
   // Each coordinate's name with its unit, as outputs write it: "<body>_rad" for a rotation,
   // "<body>_x_m" and "<body>_y_m" for a planar body's centre.
@@ -339,7 +350,8 @@ class Assembled {
   Eigen::VectorXd frame_load() const;
   // B of bearing k: its body's centre's displacement from its seat, w = B q (x and y rows).
   Eigen::MatrixXd bearing_matrix(int bearing) const;
-  // A of bearing k on a spatial body: w_s = A q, its z, tx and ty (3 rows); 0 rows otherwise.
+  // A of bearing k on a spatial body: w_s = A q, its z, tx and ty (3 rows; z alone, 1 row, on a
+  // body that does not tilt); 0 rows otherwise.
   Eigen::MatrixXd support_matrix(int bearing) const;
   // o of bearing k: its seat's error in x and y (Bearing's pin errors, and its carrier's
   // eccentricity), 0 without one.

@@ -70,9 +70,13 @@ struct TrainBearingReading {
   // the time inside the clearance) over the window and its steady part; `present` false
   // without one.
   ContactReading clearance_x, clearance_y, steady_clearance_x, steady_clearance_y;
-  // On a spatial body (train::Body::spatial): its axial force (N) and its moments about x and y
-  // (N m) on the seat, as the forces; `spatial` false and these empty on any other body.
-  bool spatial = false;
+  // On a spatial body (train::Body::spatial): its axial force (N) and, when it tilts
+  // (train::Body::tilts), its moments about x and y (N m) on the seat, as the forces; `spatial`
+  // (`tilts`) false and these empty on any other body.
+  bool spatial = false, tilts = false;
+  // Its parts among a sample's (TrainSamples::parts): x and y, then the axial force and moments
+  // it has.
+  int part_count() const { return 2 + (spatial ? 1 : 0) + (tilts ? 2 : 0); }
   TrainExtremes axial_force_n, moment_x_nm, moment_y_nm;
   TrainExtremes steady_axial_force_n, steady_moment_x_nm, steady_moment_y_nm;
   std::optional<double> static_axial_force_n, static_moment_x_nm, static_moment_y_nm;

@@ -501,7 +501,8 @@ class TrainRunResult:
         Samples x bearings x 2: each bearing's force on the ground in x and y (N).
     bearing_axial : numpy.ndarray
         Samples x bearings x 3: a spatial body's bearing's axial force (N) and moments about x
-        and y (N m); nan for a bearing of any other body.
+        and y (N m); an axial body's (dof "axial") its axial force, its moments nan; nan for a
+        bearing of any other body.
     ok : bool
         Whether the run completed.
     """
@@ -524,8 +525,8 @@ class TrainRunResult:
         self.bearings = [x["name"] for x in summary["bearings"]]
         ns = len(self.shafts)
         self.shaft_torque = arrays["parts"][:, :ns]
-        # Each bearing's x and y force, then a spatial body's axial force and tilt moments (nan
-        # on the others').
+        # Each bearing's x and y force, then an axial or spatial body's axial force and a spatial
+        # body's tilt moments (nan where a body has none).
         nt, nb = len(self.t), len(self.bearings)
         self.bearing_force = _numpy.empty((nt, nb, 2))
         self.bearing_axial = _numpy.full((nt, nb, 3), _numpy.nan)
@@ -533,9 +534,9 @@ class TrainRunResult:
         for j, b in enumerate(summary["bearings"]):
             self.bearing_force[:, j, :] = arrays["parts"][:, k:k + 2]
             k += 2
-            if "max_axial_force_n" in b:
-                self.bearing_axial[:, j, :] = arrays["parts"][:, k:k + 3]
-                k += 3
+            has = sum(f"max_{q}" in b for q in ("axial_force_n", "moment_x_nm", "moment_y_nm"))
+            self.bearing_axial[:, j, :has] = arrays["parts"][:, k:k + has]
+            k += has
         self.ok = summary["termination"] == "completed"
 
     def __repr__(self):

@@ -41,9 +41,9 @@ py::tuple train_result(const TrainRunResult& r) {
   arrays["contact"] =
       table<int>(n, meshes, [&](std::size_t i, std::size_t m) { return s.contact[i][m]; });
   // Each shaft's torque (N m), then each bearing's force in x and y (N), a spatial body's
-  // followed by its axial force (N) and moments about x and y (N m).
+  // followed by its axial force (N) and, when it tilts, its moments about x and y (N m).
   std::size_t parts = r.shafts.size();
-  for (const TrainBearingReading& b : r.bearings) parts += b.spatial ? 5 : 2;
+  for (const TrainBearingReading& b : r.bearings) parts += static_cast<std::size_t>(b.part_count());
   arrays["parts"] =
       table<double>(n, parts, [&](std::size_t i, std::size_t k) { return s.parts[i][k]; });
   return py::make_tuple(train_summary_json(r, unused_settings(r.input), -1), arrays);
