@@ -406,24 +406,38 @@ std::optional<double> load_sharing_factor(const std::vector<double>& forces_n) {
   return static_cast<double>(forces_n.size()) * most / sum;
 }
 
-std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why,
-                                            std::optional<double> at_s) {
+namespace {
+
+// Each mesh's error (its transmission error and its gears' runouts) at t as a load on the
+// coordinates, sum_m k_m e_m(t) V_m^T, and its rate's, sum_m k_m e_m'(t) V_m^T; false when every
+// error is 0 there.
+bool error_loads(const train::Assembled& a, double t_s, Eigen::VectorXd& load,
+                 Eigen::VectorXd& rate) {
+  const train::Train& t = a.train();
+  load = rate = Eigen::VectorXd::Zero(a.size());
+  bool any = false;
+  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
+    const HarmonicSeries e = a.error_series(static_cast<int>(m));
+    const double value = e(t_s), change = e.rate(t_s);
+    if (value == 0 && change == 0) continue;
+    any = true;
+    const Eigen::VectorXd v = a.mesh_vector(static_cast<int>(m)).transpose();
+    load += t.meshes[m].mean_stiffness_n_per_m * value * v;
+    rate += t.meshes[m].mean_stiffness_n_per_m * change * v;
+  }
+  return any;
+}
+
+// The quasi-static state (theta, theta') of K theta = q_load, K theta' = rate_load, K the
+// contact stiffness, in y whose prescribed bodies hold their place and rate (static_state's
+// contract); nullopt with `why` as there.
+std::optional<Eigen::VectorXd> quasi_static(const train::Assembled& a,
+                                            const Eigen::VectorXd& q_load,
+                                            const Eigen::VectorXd& rate_load, Eigen::VectorXd y,
+                                            std::string* why) {
   const train::Train& t = a.train();
   const int n = a.size();
-  Eigen::VectorXd q_load = Eigen::VectorXd::Zero(n);
-  for (const train::Torque& q : t.torques) q_load(a.index(q.body)) += q.mean_nm;
-  for (const train::Drag& d : t.drags) q_load(a.index(d.body)) -= d.constant_nm;
-  for (std::size_t b = 0; b < t.bearings.size(); ++b)
-    q_load += t.bearings[b].stiffness_n_per_m * a.bearing_matrix(static_cast<int>(b)).transpose() *
-              a.bearing_offset(static_cast<int>(b));
-  q_load += a.frame_load();
   const Eigen::MatrixXd k = a.contact_stiffness();
-  // In drive contact a mesh pushes with k_m (V q - b): its b is a load k_m b V^T.
-  for (std::size_t m = 0; m < t.meshes.size(); ++m)
-    q_load += t.meshes[m].mean_stiffness_n_per_m * t.meshes[m].backlash_m *
-              a.mesh_vector(static_cast<int>(m)).transpose();
-  Eigen::VectorXd y = Eigen::VectorXd::Zero(2 * static_cast<Eigen::Index>(n));
-  if (at_s) a.prescribe(*at_s, y);
   std::vector<int> free;
   for (int i = 0; i < n; ++i)
     if (!a.prescribed(i)) free.push_back(i);
@@ -435,7 +449,7 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
     Eigen::VectorXd rhs(f), rate_rhs(f);
     for (int i = 0; i < f; ++i) {
       rhs(i) = q_load(free[i]);
-      rate_rhs(i) = 0;
+      rate_rhs(i) = rate_load(free[i]);
       for (int j = 0; j < n; ++j) {
         if (!a.prescribed(j)) continue;
         rhs(i) -= k(free[i], j) * y(j);
@@ -480,11 +494,54 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
   bordered.topLeftCorner(n, n) = k;
   bordered.block(0, n, n, r) = rigid;
   bordered.block(n, 0, r, n) = rigid.transpose();
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu = bordered.fullPivLu();
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + r);
   rhs.head(n) = q_load;
-  const Eigen::VectorXd x = bordered.fullPivLu().solve(rhs);
-  y.head(n) = x.head(n);
+  y.head(n) = lu.solve(rhs).head(n);
+  // The errors' rates move the deflections, not the rigid motions (whose rates stay 0).
+  if (!rate_load.isZero(0)) {
+    rhs.head(n) = rate_load;
+    y.tail(n) = lu.solve(rhs).head(n);
+  }
   return y;
+}
+
+}  // namespace
+
+std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why,
+                                            std::optional<double> at_s) {
+  const train::Train& t = a.train();
+  const int n = a.size();
+  Eigen::VectorXd q_load = Eigen::VectorXd::Zero(n), rate_load = q_load;
+  for (const train::Torque& q : t.torques) q_load(a.index(q.body)) += q.mean_nm;
+  for (const train::Drag& d : t.drags) q_load(a.index(d.body)) -= d.constant_nm;
+  for (std::size_t b = 0; b < t.bearings.size(); ++b)
+    q_load += t.bearings[b].stiffness_n_per_m * a.bearing_matrix(static_cast<int>(b)).transpose() *
+              a.bearing_offset(static_cast<int>(b));
+  q_load += a.frame_load();
+  // In drive contact a mesh pushes with k_m (V q - e - b): its b is a load k_m b V^T, and at a
+  // time its error's value and rate are too.
+  for (std::size_t m = 0; m < t.meshes.size(); ++m)
+    q_load += t.meshes[m].mean_stiffness_n_per_m * t.meshes[m].backlash_m *
+              a.mesh_vector(static_cast<int>(m)).transpose();
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(2 * static_cast<Eigen::Index>(n));
+  if (at_s) {
+    a.prescribe(*at_s, y);
+    Eigen::VectorXd error, error_rate;
+    if (error_loads(a, *at_s, error, error_rate)) {
+      q_load += error;
+      rate_load = error_rate;
+    }
+  }
+  return quasi_static(a, q_load, rate_load, y, why);
+}
+
+Eigen::VectorXd rest_state(const train::Assembled& a, double at_s) {
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(2 * static_cast<Eigen::Index>(a.size()));
+  a.prescribe(at_s, y);
+  Eigen::VectorXd error, error_rate;
+  if (!error_loads(a, at_s, error, error_rate)) return y;
+  return quasi_static(a, error, error_rate, y, nullptr).value_or(y);
 }
 
 std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen::VectorXd& y) {
@@ -525,15 +582,11 @@ TrainSolver::TrainSolver(const Case& c) : case_(c) {
 TrainSolver::~TrainSolver() = default;
 
 ode::Vector TrainSolver::initial_state(InitialCondition initial, double t0_s) const {
-  ode::Vector y = ode::Vector::Zero(2 * static_cast<Eigen::Index>(a_->size()));
-  if (initial == InitialCondition::kStatic) {
-    std::string why;
-    const std::optional<Eigen::VectorXd> rest = static_state(*a_, &why, t0_s);
-    if (!rest) throw InputError(with_origins(case_, "solver.initial = \"static\": " + why));
-    y = *rest;
-  }
-  a_->prescribe(t0_s, y);
-  return y;
+  if (initial != InitialCondition::kStatic) return rest_state(*a_, t0_s);
+  std::string why;
+  const std::optional<Eigen::VectorXd> rest = static_state(*a_, &why, t0_s);
+  if (!rest) throw InputError(with_origins(case_, "solver.initial = \"static\": " + why));
+  return *rest;
 }
 
 ode::FlowResult TrainSolver::flow(double t0_s, const ode::Vector& y0, int region, double t1_s,
