@@ -31,6 +31,31 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
+// A CSV file as its header line and its rows of fields (split at commas; no quoting).
+struct CsvTable {
+  std::string header;
+  std::vector<std::string> names;
+  std::vector<std::vector<std::string>> rows;
+  // The index of a named column, names.size() when there is none.
+  std::size_t column(const std::string& name) const {
+    return static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+  }
+};
+CsvTable read_csv(const fs::path& p) {
+  const auto split = [](const std::string& line) {
+    std::vector<std::string> cells;
+    std::istringstream fields(line);
+    for (std::string f; std::getline(fields, f, ',');) cells.push_back(f);
+    return cells;
+  };
+  CsvTable t;
+  std::istringstream csv(slurp(p));
+  std::getline(csv, t.header);
+  t.names = split(t.header);
+  for (std::string line; std::getline(csv, line);) t.rows.push_back(split(line));
+  return t;
+}
+
 // A shell command line, its exit code and both streams.
 Outcome shell(const std::string& command) {
   const fs::path tmp = fs::temp_directory_path() / ("geardyn_cli_test_" + std::to_string(getpid()));
@@ -1187,25 +1212,22 @@ TEST(Cli, TheShippedPlanetaryStageRattlesAtLightLoadAndSharesItsLoad) {
   EXPECT_NE(body.find("lost contact: sun_planet1 sun_planet2 sun_planet3"), std::string::npos)
       << body;
   EXPECT_TRUE(fs::exists(d / "load_sharing.png"));
-  std::istringstream csv(slurp(d / "load_sharing_plot.csv"));
-  std::string line;
-  std::getline(csv, line);
-  EXPECT_EQ(line,
+  const CsvTable csv = read_csv(d / "load_sharing_plot.csv");
+  EXPECT_EQ(csv.header,
             "t_ms,sun_planet1_force_n,sun_planet2_force_n,sun_planet3_force_n,"
             "planet_ring1_force_n,planet_ring2_force_n,planet_ring3_force_n,sun_factor,"
             "ring_factor");
   int rows = 0;
-  while (std::getline(csv, line)) {
+  for (const std::vector<std::string>& cells : csv.rows) {
     std::vector<double> v;
-    std::istringstream fields(line);
-    for (std::string f; std::getline(fields, f, ',');) v.push_back(std::stod(f));
-    ASSERT_EQ(v.size(), 9U) << line;
+    for (const std::string& f : cells) v.push_back(std::stod(f));
+    ASSERT_EQ(v.size(), 9U);
     const double sum = v[1] + v[2] + v[3];
     if (sum > 0) {
-      EXPECT_NEAR(v[7], 3 * std::max({v[1], v[2], v[3]}) / sum, 1e-6 * v[7]) << line;
+      EXPECT_NEAR(v[7], 3 * std::max({v[1], v[2], v[3]}) / sum, 1e-6 * v[7]) << cells[0];
       ++rows;
     } else {
-      EXPECT_TRUE(std::isnan(v[7])) << line;
+      EXPECT_TRUE(std::isnan(v[7])) << cells[0];
     }
   }
   EXPECT_GT(rows, 100);
@@ -1406,26 +1428,13 @@ TEST(Cli, ASunStrikesItsBearingsClearanceUnderItsRunout) {
                             "'train.bearing[0].clearance_um=5' --out " +
                             d.string());
   ASSERT_EQ(sweep.code, 0) << sweep.err;
-  std::istringstream csv(slurp(d / "sweep.csv"));
-  std::string line;
-  std::getline(csv, line);
-  std::vector<std::string> names;
-  std::istringstream header(line);
-  for (std::string f; std::getline(header, f, ',');) names.push_back(f);
-  const auto column = [&](const std::string& name) {
-    return static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
-  };
-  const std::size_t impacts = column("sun_bearing_x_impacts_per_period"),
-                    inside_x = column("sun_bearing_x_inside_fraction");
-  ASSERT_LT(inside_x, names.size()) << line;
-  EXPECT_LT(column("sun_bearing_y_impacts_per_period"), names.size());
-  std::vector<std::vector<std::string>> rows;
-  while (std::getline(csv, line)) {
-    std::vector<std::string> cells;
-    std::istringstream fields(line);
-    for (std::string f; std::getline(fields, f, ',');) cells.push_back(f);
-    rows.push_back(cells);
-  }
+  const CsvTable csv = read_csv(d / "sweep.csv");
+  const std::size_t impacts = csv.column("sun_bearing_x_impacts_per_period"),
+                    inside_x = csv.column("sun_bearing_x_inside_fraction");
+  ASSERT_LT(inside_x, csv.names.size()) << csv.header;
+  ASSERT_LT(impacts, csv.names.size()) << csv.header;
+  EXPECT_LT(csv.column("sun_bearing_y_impacts_per_period"), csv.names.size());
+  const std::vector<std::vector<std::string>>& rows = csv.rows;
   ASSERT_EQ(rows.size(), 2U);
   EXPECT_EQ(std::stod(rows[0][impacts]), 0.0);
   EXPECT_EQ(std::stod(rows[0][inside_x]), 1.0);
