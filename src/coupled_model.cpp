@@ -585,13 +585,14 @@ int CoupledModel::classify(double t_s, const Eigen::VectorXd& y) const {
   return coupled_region(s);
 }
 
-Eigen::VectorXd CoupledModel::static_state() const {
+Eigen::VectorXd CoupledModel::static_state(bool at_start) const {
   // K q = Q with the mesh in drive contact: (K_b + k_m V^T V) q = Q_mean + V^T k_m (e_0 + b),
   // each clearance bearing on the side the mesh force pushes its gear to.
   const Eigen::Index n = p_.size();
   const double km = p_.stiffness_n_per_m.offset, b = p_.backlash_m;
   Vector force = p_.mean_force();
-  force += p_.mesh_vector.transpose() * km * (p_.transmission_error_m.offset + b);
+  const double e = at_start ? p_.transmission_error_m(0.0) : p_.transmission_error_m.offset;
+  force += p_.mesh_vector.transpose() * km * (e + b);
   Matrix k = contact_stiffness();
   for (int i = 0; i < 2; ++i) {
     if (p_.clearance_m[i] <= 0) continue;
@@ -600,9 +601,11 @@ Eigen::VectorXd CoupledModel::static_state() const {
     const double side = p_.mesh_vector[j] > 0 ? -1.0 : 1.0;
     force[j] += p_.bearing_stiffness[j] * side * p_.clearance_m[i];
   }
-  const Vector q = k.partialPivLu().solve(force);
+  const Eigen::PartialPivLU<Matrix> lu = k.partialPivLu();
   Vector y = Vector::Zero(2 * n);
-  y.head(n) = q;
+  y.head(n) = lu.solve(force);
+  if (const double rate = at_start ? p_.transmission_error_m.rate(0.0) : 0.0; rate != 0)
+    y.tail(n) = lu.solve(Vector(p_.mesh_vector.transpose() * km * rate));
   const CoupledState s = coupled_state(classify(0.0, y));
   if (s.mesh != kDriveContact)
     throw std::runtime_error(
@@ -613,6 +616,19 @@ Eigen::VectorXd CoupledModel::static_state() const {
       throw std::runtime_error(fmt::format(
           "no static contact of bearing {}: the mean mesh force does not close its clearance",
           i + 1));
+  return y;
+}
+
+Eigen::VectorXd CoupledModel::rest_state() const {
+  const Eigen::Index n = p_.size();
+  Vector y = Vector::Zero(2 * n);
+  const double e = p_.transmission_error_m(0.0), rate = p_.transmission_error_m.rate(0.0);
+  if (e == 0 && rate == 0) return y;
+  // K q = V^T k_m e: the mesh's spring at d = e, every bearing and shaft unloaded.
+  const double km = p_.stiffness_n_per_m.offset;
+  const Eigen::PartialPivLU<Matrix> lu = contact_stiffness().partialPivLu();
+  y.head(n) = lu.solve(Vector(p_.mesh_vector.transpose() * km * e));
+  y.tail(n) = lu.solve(Vector(p_.mesh_vector.transpose() * km * rate));
   return y;
 }
 

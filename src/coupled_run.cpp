@@ -251,10 +251,9 @@ CoupledSolver::CoupledSolver(const Case& c, const MeshStiffness* stiffness) : ca
 CoupledSolver::~CoupledSolver() = default;
 
 ode::Vector CoupledSolver::initial_state(InitialCondition initial) const {
-  if (initial == InitialCondition::kCenter)
-    return ode::Vector::Zero(2 * model_->parameters().size());
+  if (initial == InitialCondition::kCenter) return model_->rest_state();
   try {
-    return model_->static_state();
+    return model_->static_state(true);
   } catch (const std::runtime_error& e) {
     throw InputError(std::string("solver.initial = \"static\": ") + e.what());
   }

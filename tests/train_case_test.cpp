@@ -775,6 +775,20 @@ TEST(TrainCase, TheGearPairsFormsAreTrainsOfElements) {
       EXPECT_EQ(x.meshes.at(0).impacts, one.mesh.impacts);
       EXPECT_EQ(x.shafts.size(), shafts ? 2U : 0U);
     }
+  // The coupled pair with a transmission error starts at rest relative to it too.
+  for (const char* initial : {"\"center\"", "\"static\""}) {
+    SCOPED_TRACE(fmt::format("coupled, error, {}", initial));
+    Case c = on_bearings;
+    set_case_value(c, {"model.dof", "3"});
+    set_case_value(c, {"shafts.end_inertia_kg_m2", "[0.004, 0.009]"});
+    set_case_value(c, {"mesh.transmission_error_um", "[[0.5, 30], [0.2, -60]]"});
+    set_case_value(c, {"solver.initial", initial});
+    const CoupledRunResult one = run_coupled(c);
+    ASSERT_TRUE(one.ok()) << one.message;
+    const TrainRunResult x = run_train(train_form_of(c));
+    EXPECT_LT(worst_against(one.samples.deflection_bar, x), 1e-8);
+    EXPECT_EQ(x.meshes.at(0).impacts, one.mesh.impacts);
+  }
   // The nondimensional form, which has no gears, is refused naming the key.
   try {
     (void)train_form_of(load_case(cases / "kahraman_singh.toml"));

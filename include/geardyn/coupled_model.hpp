@@ -163,9 +163,16 @@ class CoupledModel {
   // The region a state at rest or in motion belongs to with no history.
   int classify(double t_s, const Eigen::VectorXd& y) const;
   // The static state under the mean loads, the mesh in drive contact and each bearing on the
-  // side the mesh force pushes it to (q, q' = 0). Throws std::runtime_error when no such
-  // consistent state exists (the mean load does not close the backlash).
-  Eigen::VectorXd static_state() const;
+  // side the mesh force pushes it to (q, q' = 0), with the transmission error's mean; with
+  // `at_start`, a run's start at t = 0, at rest relative to the error as the one-degree model
+  // starts (e(0) in place of its mean, q' following e'(0) quasi-statically). Throws
+  // std::runtime_error when no such consistent state exists (the mean load does not close the
+  // backlash).
+  Eigen::VectorXd static_state(bool at_start = false) const;
+  // At rest in the middle of the backlash and the clearances relative to the transmission error
+  // at t = 0 (the one-degree model's x = delta - e = 0, x' = 0): the quasi-static state under
+  // the error alone, d = e(0), d' = e'(0), the bearings unloaded; 0 without an error.
+  Eigen::VectorXd rest_state() const;
 
   // The linearised stiffness and damping in drive contact at the mean stiffness (every bearing
   // in contact): K_b + k_m V^T V and C_b + c V^T V.

@@ -87,8 +87,9 @@ class CoupledSolver {
   explicit CoupledSolver(const Case& c, const MeshStiffness* stiffness = nullptr);
   ~CoupledSolver();
   const CoupledModel& model() const { return *model_; }
-  // The state a run starts from: at rest in the middle of the backlash and the clearances, or
-  // the static contact state (InputError when there is none).
+  // The state a run starts from, at t = 0: at rest in the middle of the backlash and the
+  // clearances, or the static contact state (InputError when there is none), each relative to
+  // the transmission error (CoupledModel::rest_state, static_state).
   ode::Vector initial_state(InitialCondition initial) const;
   // From (t0, y0) to t1 with nothing read.
   ode::FlowResult advance(double t0, const ode::Vector& y0, double t1) const;
