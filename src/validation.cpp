@@ -743,6 +743,54 @@ void train_pair(Rows& rows, bool) {
                 1e-12, "N", "closed form T1 / (R_b1 cos(beta_b))");
 }
 
+// ---- pair_forms ----------------------------------------------------------------------------
+
+// Each sample's mesh deflection (d - e)/b of a train's first mesh against another model's, as
+// a row at its worst sample.
+void worst_sample(Rows& rows, const std::string& what, const TrainRunResult& train,
+                  const std::vector<double>& reference, const std::string& source) {
+  if (train.samples.t_s.size() != reference.size())
+    throw std::runtime_error(what + ": the runs have different samples");
+  std::size_t at = 0;
+  for (std::size_t i = 0; i < reference.size(); ++i)
+    if (std::abs(train.samples.deflection_bar[i][0] - reference[i]) >
+        std::abs(train.samples.deflection_bar[at][0] - reference[at]))
+      at = i;
+  rows.compare(what + ": (d - e)/b at its worst sample", train.samples.deflection_bar[at][0],
+               reference[at], 1.0, kDefaultAccuracyB, "", source, "in b");
+}
+
+void pair_forms(Rows& rows, bool quick) {
+  // The paper's pair with a two-harmonic transmission error and its tension clipped.
+  Case pair = park2010_pair_case();
+  pair.mesh.transmission_error_um = {{0.5, 30.0}, {0.2, -60.0}};
+  pair.mesh.tension = TensionRule::kClip;
+  pair.mesh.damping_ratio = 0.15;
+  const RunResult one = checked_run(pair);
+  const TrainRunResult train = run_train(train_form_of(pair));
+  if (!train.ok()) throw std::runtime_error(train.message);
+  const std::string source = "the one-degree model of the same pair";
+  rows.count("pair: impacts", train.meshes.at(0).impacts, one.reading.impacts, source);
+  worst_sample(rows, "pair", train, one.samples.delta_bar, source);
+  // The same pair on bearings and shafts, coupled with 3, 6 and 12 degrees of freedom.
+  for (const int dof : quick ? std::vector<int>{12} : std::vector<int>{3, 6, 12}) {
+    Case c = pair;
+    c.mesh.tension = TensionRule::kAllow;
+    c.mesh.damping_ratio = 0.02;
+    c.model.form = ModelForm::kCoupled;
+    c.model.dof = dof;
+    c.shafts.end_inertia_kg_m2 = {0.004, 0.009};
+    const CoupledRunResult coupled = run_coupled(c);
+    if (!coupled.ok()) throw std::runtime_error(coupled.message);
+    const TrainRunResult x = run_train(train_form_of(c));
+    if (!x.ok()) throw std::runtime_error(x.message);
+    const std::string what = fmt::format("coupled dof {}", dof);
+    const std::string from = fmt::format("the coupled model with dof {}", dof);
+    rows.count(what + ": impacts", x.meshes.at(0).impacts, coupled.mesh.impacts, from);
+    worst_sample(rows, what, x, coupled.samples.deflection_bar, from);
+  }
+}
+
 // ---- train_loose_gear --------------------------------------------------------------------
 
 // A loose gear on its bearing, meshed with an input gear whose speed fluctuates at the firing
@@ -967,6 +1015,8 @@ const std::vector<CheckEntry>& entries() {
       {{"te_response", "Transmission-error response against the frequency domain", true},
        te_response},
       {{"train_pair", "A two-gear train is the gear pair", true}, train_pair},
+      {{"pair_forms", "The pair's forms written as trains of elements run as themselves", true},
+       pair_forms},
       {{"train_loose_gear", "A loose gear rattles where the drag can no longer hold it", true},
        train_loose_gear},
       {{"planetary_lin_parker", "A planetary set's natural frequencies: Lin and Parker's table",

@@ -1539,7 +1539,8 @@ TEST(Validate, ABrokenElementFailsTheChecksWhoseReferencesDoNotPassThroughIt) {
   const nlohmann::json j = nlohmann::json::parse(o.out);
   EXPECT_FALSE(j["passed"].get<bool>());
   const std::set<std::string> expected = {"contact_response", "paper_dopri5", "paper_findings",
-                                          "coupled_rigid",    "te_response",  "train_pair"};
+                                          "coupled_rigid",    "te_response",  "train_pair",
+                                          "pair_forms"};
   EXPECT_EQ(failing_checks(j), expected);
 }
 
