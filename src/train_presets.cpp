@@ -75,10 +75,67 @@ std::vector<OrderHarmonic> orders_of(const HarmonicSeries& s, double w_body, dou
 
 }  // namespace
 
+namespace {
+
+// The non-dimensional oscillator x'' + 2 zeta x' + k(tau) f(x - e(tau)) = F_m + F_a cos(Omega
+// tau) (b = 1, damping at all times) as a train in units where it is itself: two equal spur
+// gears of kTeeth teeth on base circles of 1 m (a module of 2 / (kTeeth cos 20 deg) m), each of
+// inertia 2 kg m^2 (so m_eq = J / (2 R^2) = 1 kg), a mesh of 1 N/m and a backlash of 1 m, the
+// mesh frequency Omega / (2 pi) (1 s of the train is one tau); F(tau) is the pinion's torque
+// F R and the wheel's the matched -F R (m_eq (R T1 / J + R T2' / J) = F with T2' = -T2).
+constexpr int kTeeth = 50;
+constexpr double kPressureAngleDeg = 20;
+
+Case nondimensional_train(const Case& c) {
+  const ModelData& m = c.model;
+  Case out;
+  out.name = c.name;
+  out.description = c.description;
+  out.solver = c.solver;
+  out.model.form = ModelForm::kTrain;
+  TrainCase t;
+  t.reference = "pinion";
+  t.reference_speed_hz = m.omega / (2 * kPi * kTeeth);
+  const double module_mm = 2e3 / (kTeeth * std::cos(kPressureAngleDeg / kRadToDeg));
+  for (const char* name : {"pinion", "wheel"}) {
+    TrainBodyData b;
+    b.name = name;
+    b.inertia_kg_m2 = 2.0;
+    b.teeth = kTeeth;
+    b.normal_module_mm = module_mm;
+    b.normal_pressure_angle_deg = kPressureAngleDeg;
+    t.bodies.push_back(b);
+  }
+  TrainMeshData mesh;
+  mesh.name = "mesh";
+  mesh.driving = "pinion";
+  mesh.driven = "wheel";
+  mesh.backlash_um = 1e6;
+  mesh.mean_stiffness_n_per_m = 1;
+  mesh.stiffness_harmonics = m.stiffness_harmonics;
+  for (const ErrorHarmonic& h : m.transmission_error)
+    mesh.transmission_error_um.push_back({h.amplitude * 1e6, h.phase_deg});
+  mesh.damping_ratio = m.zeta;
+  mesh.damping = "always";
+  t.meshes.push_back(mesh);
+  // Omega is the mesh frequency: order kTeeth of either gear's speed.
+  const auto torque = [&](const char* name, const char* body, double sign) {
+    TrainTorqueData q{name, body, sign * m.force_mean, {}};
+    if (m.force_alternating != 0)
+      q.harmonics.push_back(
+          {m.force_alternating, static_cast<double>(kTeeth), sign > 0 ? 0.0 : 180.0});
+    return q;
+  };
+  t.torques.push_back(torque("drive", "pinion", 1.0));
+  t.torques.push_back(torque("load", "wheel", -1.0));
+  out.train = std::make_shared<TrainCase>(std::move(t));
+  return out;
+}
+
+}  // namespace
+
 Case train_form_of(const Case& c) {
-  if (c.model.form == ModelForm::kNondimensional)
-    refuse(c, "model.form", "\"nondimensional\"",
-           "is dimensional: give the gears, the mesh and the loads (form \"gear_pair\")");
+  if (c.model.form == ModelForm::kNondimensional) return nondimensional_train(c);
   if (c.model.form == ModelForm::kTrain) return c;
   const bool coupled = c.model.form == ModelForm::kCoupled;
   // The coupled pair's gears, mesh and loads are its one-degree pair's (gear_pair_of).

@@ -789,6 +789,21 @@ void pair_forms(Rows& rows, bool quick) {
     rows.count(what + ": impacts", x.meshes.at(0).impacts, coupled.mesh.impacts, from);
     worst_sample(rows, what, x, coupled.samples.deflection_bar, from);
   }
+  // The non-dimensional oscillator with a varying stiffness and a transmission error.
+  Case nd;
+  nd.model.form = ModelForm::kNondimensional;
+  nd.model.force_alternating = 0.02;
+  nd.model.omega = 1.3;
+  nd.model.stiffness_harmonics = {{0.2, 10.0}, {0.05, 0.0}};
+  nd.model.transmission_error = {{0.1, 45.0}};
+  nd.solver.duration_s = 60;
+  const RunResult oscillator = checked_run(nd);
+  const TrainRunResult as_train = run_train(train_form_of(nd));
+  if (!as_train.ok()) throw std::runtime_error(as_train.message);
+  const std::string of = "the non-dimensional model";
+  rows.count("non-dimensional: impacts", as_train.meshes.at(0).impacts, oscillator.reading.impacts,
+             of);
+  worst_sample(rows, "non-dimensional", as_train, oscillator.samples.delta_bar, of);
 }
 
 // ---- train_loose_gear --------------------------------------------------------------------

@@ -1394,8 +1394,8 @@ TEST(Cli, TrainFormPrintsACoupledCaseAsATrainThatRunsAsIt) {
                   a["mesh"]["dynamic_factor_with_startup"].get<double>(),
               1.0, 1e-6);
   fs::remove_all(d);
-  const Outcome bad = cli("train-form " + coupled + " --set model.form=nondimensional");
-  expect_refused(bad, "model.form = \"nondimensional\"");
+  const Outcome bad = cli("train-form " + coupled + " --set model.dof=5");
+  expect_refused(bad, "--set model.dof=5: model.dof = 5: must be 3, 6 or 12");
   EXPECT_EQ(bad.out, "");
 }
 

@@ -789,13 +789,26 @@ TEST(TrainCase, TheGearPairsFormsAreTrainsOfElements) {
     EXPECT_LT(worst_against(one.samples.deflection_bar, x), 1e-8);
     EXPECT_EQ(x.meshes.at(0).impacts, one.mesh.impacts);
   }
-  // The nondimensional form, which has no gears, is refused naming the key.
-  try {
-    (void)train_form_of(load_case(cases / "kahraman_singh.toml"));
-    ADD_FAILURE() << "the nondimensional form converted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("model.form = \"nondimensional\""), std::string::npos)
-        << e.what();
+  // The non-dimensional oscillator, in units where the train is it (its seconds are tau):
+  // the shipped Kahraman-Singh case and one with varying stiffness and a transmission error,
+  // from rest in the middle of the backlash, x/b against (d - e)/b.
+  for (const bool varying : {false, true}) {
+    SCOPED_TRACE(varying ? "nondimensional, varying" : "nondimensional");
+    Case c = load_case(cases / "kahraman_singh.toml");
+    set_case_value(c, {"solver.duration_s", "60"});
+    set_case_value(c, {"solver.initial", "\"center\""});
+    if (varying) {
+      set_case_value(c, {"model.stiffness_harmonics", "[[0.2, 10], [0.05, 0]]"});
+      set_case_value(c, {"model.transmission_error", "[[0.1, 45]]"});
+      set_case_value(c, {"model.omega", "1.3"});
+    }
+    const RunResult one = run(c);
+    const TrainRunResult x = run_train(train_form_of(c));
+    ASSERT_TRUE(x.ok()) << x.message;
+    ASSERT_EQ(x.samples.t_s.size(), one.samples.delta_bar.size());
+    EXPECT_LT(worst_against(one.samples.delta_bar, x), 1e-8);
+    EXPECT_EQ(x.meshes.at(0).impacts, one.reading.impacts);
+    EXPECT_GT(one.reading.impacts, 3);
   }
 }
 

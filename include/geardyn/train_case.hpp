@@ -175,25 +175,28 @@ train::Train train_of(const Case& c);
 // The same, assembled.
 train::Assembled assembled_train(const Case& c);
 
-// The train form (model.form = "train") of a case of the gear pair's dimensional forms: the
-// preset the forms "gear_pair" and "coupled" are of the elements (src/train_presets.cpp).
+// The train form (model.form = "train") of a case of the gear pair's forms: the preset the
+// forms "gear_pair", "coupled" and "nondimensional" are of the elements
+// (src/train_presets.cpp); a train case is returned as it is.
 // - Bodies "pinion" and "wheel": the case's gears with their inertias as computed; with form
-//   "coupled" planar (dof 3) or spatial (dof 12) on bearings "pinion_bearing" and
-//   "wheel_bearing" (the [bearings] values and clearances), the mesh's position angle the
+//   "coupled" planar (dof 3), axial (dof 6) or spatial (dof 12) on bearings "pinion_bearing"
+//   and "wheel_bearing" (the [bearings] values and clearances), the mesh's position angle the
 //   transverse pressure angle, so that its line of action is the train's y as the coupled
 //   pair's; its [shafts] as bodies "motor" and "load" with shafts "drive_shaft" and
 //   "load_shaft".
-// - Mesh "mesh": the case's backlash, damping ratio, and its stiffness k(t) and transmission
-//   error e(t) (whatever their source: ISO 6336, the energy method, a table) as the harmonics
-//   of the mesh frequency the pair's model keeps.
+// - Mesh "mesh": the case's backlash, damping ratio, damping form and tension rule, and its
+//   stiffness k(t) and transmission error e(t) (whatever their source: ISO 6336, the energy
+//   method, a table) as the harmonics of the mesh frequency the pair's model keeps.
 // - Torques: T1(t) on the pinion (the motor), "drive"; on the wheel (the load) "load", the
 //   matched load -R_b2 T1(t) / R_b1 or the given -T2(t), each harmonic at its order of its
 //   body's speed. The reference is the pinion at the case's shaft frequency; the solver is the
 //   case's.
+// - The non-dimensional form: the same names in units where the train is the oscillator (b =
+//   1 m, k_m = 1 N/m, m_eq = 1 kg, the mesh frequency Omega / 2 pi, damping at all times, F(tau)
+//   as matched torques on base circles of 1 m): its seconds are tau.
 // Its run is the case's run: d - e, impacts and forces (tests/train_case_test.cpp). Throws
-// InputError naming the key and where it was given for what the train does not model: the
-// nondimensional form, model.dof = 6 (axial motion without tilts), mesh.damping = "always",
-// mesh.tension = "clip", and a harmonic at no whole multiple of the mesh frequency.
+// InputError naming the key and where it was given for a harmonic at no whole multiple of the
+// mesh frequency.
 Case train_form_of(const Case& c);
 
 // Every key of [train] and of its elements, described from the tables the reader uses: for
