@@ -115,10 +115,11 @@
 // with the force held at 0 where it would pull); a region is one state per mesh, index sum_m
 // (s_m + 1) 3^m for meshes of three states (a mixed radix with five). Guards: for each mesh,
 // d - e crossing -+b, and for a clipping mesh in contact its force F crossing 0.
-// Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N); then, the same in
-// every region, each shaft's torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m,
-// positive when a leads b), then each bearing's force on its seat k w + c w' in x and in y
-// (N), on a spatial body followed by its axial force and tilt moments: shaft_observable and
+// Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N; 0 clipped, its
+// damper's in the backlash when damped at all times); then, the same in every region, each
+// shaft's torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m, positive when a
+// leads b), then each bearing's force on its seat k w + c w' in x and in y (N), on a spatial
+// body followed by its axial force and, when it tilts, its tilt moments: shaft_observable and
 // bearing_observable give their index.
 #pragma once
 
