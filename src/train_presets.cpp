@@ -73,10 +73,6 @@ std::vector<OrderHarmonic> orders_of(const HarmonicSeries& s, double w_body, dou
   return out;
 }
 
-}  // namespace
-
-namespace {
-
 // The non-dimensional oscillator x'' + 2 zeta x' + k(tau) f(x - e(tau)) = F_m + F_a cos(Omega
 // tau) (b = 1, damping at all times) as a train in units where it is itself: two equal spur
 // gears of kTeeth teeth on base circles of 1 m (a module of 2 / (kTeeth cos 20 deg) m), each of
