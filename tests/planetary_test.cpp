@@ -1064,7 +1064,8 @@ TEST(Eccentricity, ACarriersEccentricityIsItsPinsErrors) {
 // A sun's runout, read quasi-statically: turning slowly (2 Hz against the floating sun's
 // lowest mode), the sun's meshes at each instant carry what they carry at rest with the sun's
 // bearing seat moved by its runout there, epsilon(t) = e (cos w t, sin w t) (its centre of
-// teeth and its seat play the same part at rest), up to the inertia's share (f / f_n)^2.
+// teeth and its seat play the same part at rest), up to the inertia's share (f / f_n)^2, from
+// the first sample on.
 TEST(Eccentricity, ASunsRunoutIsQuasiStaticallyAMovedSeat) {
   constexpr double kSpeedHz = 2, kE = 20e-6;
   Case c = shipped_stage({{"train.mesh[0].stiffness_harmonics", "[]"},
@@ -1080,10 +1081,9 @@ TEST(Eccentricity, ASunsRunoutIsQuasiStaticallyAMovedSeat) {
   for (std::size_t b = 0; b < a.train().bearings.size(); ++b)
     if (a.train().bearings[b].body == "sun") sun_bearing = static_cast<int>(b);
   ASSERT_GE(sun_bearing, 0);
-  double largest_swing = 0, largest_miss = 0;
+  double largest_swing = 0, largest_miss = 0, start_miss = 0;
   for (std::size_t k = 0; k < r.samples.t_s.size(); k += 7) {
     const double t = r.samples.t_s[k];
-    if (t < 0.5) continue;  // the start's transient decayed
     train::Train moved = a.train();
     for (train::Body& b : moved.bodies) b.eccentricity_m = 0;
     moved.bearings[static_cast<std::size_t>(sun_bearing)].pin_error_radial_m = kE;
@@ -1094,12 +1094,18 @@ TEST(Eccentricity, ASunsRunoutIsQuasiStaticallyAMovedSeat) {
     ASSERT_TRUE(rest);
     const std::vector<double> f = static_mesh_forces_n(b, *rest);
     for (std::size_t m = 0; m < f.size(); ++m) {
+      const double miss = std::abs(r.samples.force_n[k][m] - f[m]);
+      // The start (static at t0 with the runout's value and rate) against the rest.
+      (t < 0.5 ? start_miss : largest_miss) = std::max(t < 0.5 ? start_miss : largest_miss, miss);
       largest_swing = std::max(largest_swing, std::abs(f[m] - *r.meshes[m].static_force_n));
-      largest_miss = std::max(largest_miss, std::abs(r.samples.force_n[k][m] - f[m]));
     }
   }
   EXPECT_GT(largest_swing, 10.0);  // N: the runout moves the loads
   EXPECT_LT(largest_miss, 1e-3 * largest_swing);
+  // From the start too: the static state at t0 takes the runout's value and rate (static_state
+  // with at_s), so no transient is released (0.011 N in the first half second as after it; a
+  // start that left the runout out missed by 6300 N there).
+  EXPECT_LT(start_miss, 1e-3 * largest_swing);
 }
 
 }  // namespace
