@@ -82,13 +82,19 @@ std::vector<OrderHarmonic> orders_of(const HarmonicSeries& s, double w_body, dou
 constexpr int kTeeth = 50;
 constexpr double kPressureAngleDeg = 20;
 
-Case nondimensional_train(const Case& c) {
-  const ModelData& m = c.model;
+// An empty train case with c's name, description and solver.
+Case train_case_of(const Case& c) {
   Case out;
   out.name = c.name;
   out.description = c.description;
   out.solver = c.solver;
   out.model.form = ModelForm::kTrain;
+  return out;
+}
+
+Case nondimensional_train(const Case& c) {
+  const ModelData& m = c.model;
+  Case out = train_case_of(c);
   TrainCase t;
   t.reference = "pinion";
   t.reference_speed_hz = m.omega / (2 * kPi * kTeeth);
@@ -141,11 +147,7 @@ Case train_form_of(const Case& c) {
   const double f1 = c.speed.shaft_frequency_hz;
   const double w_mesh = 2 * kPi * f1 * c.gear.teeth[0];
 
-  Case out;
-  out.name = c.name;
-  out.description = c.description;
-  out.solver = c.solver;
-  out.model.form = ModelForm::kTrain;
+  Case out = train_case_of(c);
   TrainCase t;
   t.reference = "pinion";
   t.reference_speed_hz = f1;
