@@ -1399,6 +1399,15 @@ void strain_energies(const Assembled& a, const Shape& shape, double total, Train
   }
 }
 
+// phi^H C phi / (2 w) of a mass-normalised shape at w = 2 pi frequency_hz; 0 at frequency 0.
+template <class Shape>
+double modal_damping_ratio(const Assembled& a, const Shape& shape, double frequency_hz) {
+  using Scalar = typename Shape::Scalar;
+  if (!(frequency_hz > 0)) return 0.0;
+  const Scalar c = shape.dot(a.contact_damping().template cast<Scalar>() * shape);
+  return std::real(c) / (2 * kTwoPi * frequency_hz);
+}
+
 // The modes of a train in a turning frame (Train::frame_terms): M q'' + G q' + K q = 0 with G
 // the frame's skew Coriolis matrix, as the first-order eigenproblem of (q, q'); each
 // oscillating mode's eigenvalue pair +-i w read once (i w), the rigid motions' zeros once each
@@ -1455,10 +1464,15 @@ std::vector<TrainMode> gyroscopic_modes(const Assembled& a, const Eigen::MatrixX
     shape *= std::polar(1.0, -std::arg(shape(top)));
     mode.shape = shape.real();
     mode.shape_imag = shape.imag();
+    // A rigid motion strains nothing: its shares stay 0 (a ratio of roundings otherwise).
+    const bool rigid_motion = j < r;
     strain_energies(a, shape,
-                    0.5 * shape.dot(a.contact_stiffness().cast<Complex>() * shape).real() +
-                        0.5 * shape.dot(-a.frame_stiffness().cast<Complex>() * shape).real(),
+                    rigid_motion
+                        ? 0.0
+                        : 0.5 * shape.dot(a.contact_stiffness().cast<Complex>() * shape).real() +
+                              0.5 * shape.dot(-a.frame_stiffness().cast<Complex>() * shape).real(),
                     mode);
+    mode.damping_ratio = modal_damping_ratio(a, shape, mode.frequency_hz);
     out.push_back(std::move(mode));
   }
   std::stable_sort(out.begin(), out.end(), [](const TrainMode& x, const TrainMode& y) {
@@ -1493,7 +1507,10 @@ std::vector<TrainMode> modes(const Assembled& a) {
                               ? std::sqrt(w2) / kTwoPi
                               : 0.0;
       mode.shape = select * solver.eigenvectors().col(r);
-      strain_energies(a, mode.shape, 0.5 * mode.shape.dot(k * mode.shape), mode);
+      // A rigid motion strains nothing: its shares stay 0 (a ratio of roundings otherwise).
+      strain_energies(a, mode.shape,
+                      mode.frequency_hz > 0 ? 0.5 * mode.shape.dot(k * mode.shape) : 0.0, mode);
+      mode.damping_ratio = modal_damping_ratio(a, mode.shape, mode.frequency_hz);
       out.push_back(std::move(mode));
     }
   }

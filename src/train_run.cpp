@@ -947,6 +947,7 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
     nlohmann::ordered_json mode;
     mode["frequency_hz"] = x.frequency_hz;
     mode["multiplicity"] = x.multiplicity;
+    mode["damping_ratio"] = x.damping_ratio;
     if (!x.type.empty()) mode["type"] = x.type;
     nlohmann::ordered_json shape, shape_imag, mesh, shaft, bearing;
     // A rotation by its body's name (rad), a centre's displacement by "<body>_x", "<body>_y",
@@ -980,14 +981,16 @@ std::string train_modes_table(const train::Assembled& a, const std::vector<train
   const train::Train& t = a.train();
   // A planetary set's modes with their type (train::TrainMode::type).
   const bool typed = !m.empty() && !m.front().type.empty();
-  std::string out = fmt::format("{:>4}  {:>14}  {:>4}", "mode", "frequency_hz", "mult");
+  std::string out =
+      fmt::format("{:>4}  {:>14}  {:>4}  {:>7}", "mode", "frequency_hz", "mult", "zeta");
   if (typed) out += fmt::format("  {:<13}", "type");
   for (const train::Mesh& x : t.meshes) out += fmt::format("  {:>12}", x.name);
   for (const train::Shaft& x : t.shafts) out += fmt::format("  {:>12}", x.name);
   for (const train::Bearing& x : t.bearings) out += fmt::format("  {:>12}", x.name);
   out += "   (strain energy, %)\n";
   for (std::size_t i = 0; i < m.size(); ++i) {
-    out += fmt::format("{:>4}  {:>14.6g}  {:>4}", i + 1, m[i].frequency_hz, m[i].multiplicity);
+    out += fmt::format("{:>4}  {:>14.6g}  {:>4}  {:>7.4f}", i + 1, m[i].frequency_hz,
+                       m[i].multiplicity, m[i].damping_ratio);
     if (typed) out += fmt::format("  {:<13}", m[i].type);
     for (double e : m[i].mesh_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     for (double e : m[i].shaft_energy) out += fmt::format("  {:>12.2f}", 100 * e);

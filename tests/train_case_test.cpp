@@ -566,9 +566,15 @@ TEST(TrainCase, SpatialGearsModesAreTheCoupledPairsWithTwelveDegrees) {
     ASSERT_EQ(one.modes.size(), 11U);
     ASSERT_EQ(x.size(), 12U);
     EXPECT_EQ(x[0].frequency_hz, 0.0);
+    // The rigid rotation strains and damps nothing.
+    EXPECT_EQ(x[0].mesh_energy[0], 0.0);
+    EXPECT_EQ(x[0].bearing_energy[0] + x[0].bearing_energy[1], 0.0);
+    EXPECT_EQ(x[0].damping_ratio, 0.0);
     for (std::size_t k = 0; k < 11; ++k) {
       EXPECT_NEAR(x[k + 1].frequency_hz / one.modes[k].frequency_hz, 1.0, 1e-9) << k;
       const Mode& m = one.modes[k];
+      // The modal damping ratio of the same shape with the same contact damping.
+      EXPECT_NEAR(x[k + 1].damping_ratio, m.damping_ratio, 1e-9) << k;
       const double bearings = m.line_energy[0] + m.line_energy[1] + m.axial_energy[0] +
                               m.axial_energy[1] + m.tilt_energy[0] + m.tilt_energy[1] +
                               m.cross_energy[0] + m.cross_energy[1];

@@ -483,6 +483,11 @@ struct TrainMode {
   std::vector<double> mesh_energy;     // fraction of the strain energy in each mesh
   std::vector<double> shaft_energy;    // and in each shaft
   std::vector<double> bearing_energy;  // and in each bearing (all its directions)
+  // A rigid motion (frequency 0, no element strained) has every share 0.
+  // The modal damping ratio phi^H C phi / (2 w) of the mass-normalised shape (C in contact, as
+  // contact_damping(): exact for damping proportional in the modes, the first-order estimate
+  // otherwise); 0 for a rigid motion.
+  double damping_ratio = 0;
   // How many modes share its frequency (within kSameModeFrequency), itself included.
   int multiplicity = 1;
   // In a train with pins (a planetary set), Lin and Parker's type, read from the shape: the

@@ -610,7 +610,8 @@ def modes(case):
         ``bodies`` (the shape's columns: each body's rotation by its name, then each planar
         body's centre as ``<body>_x``, ``<body>_y``, a spatial body's followed by ``<body>_z``,
         ``<body>_tx``, ``<body>_ty``), ``frequency_hz`` (ascending),
-        ``multiplicity`` (how many modes share each frequency), ``type`` (a planetary set's
+        ``multiplicity`` (how many modes share each frequency), ``damping_ratio`` (each mode's,
+        phi^H C phi / (2 w); 0 in a rigid motion), ``type`` (a planetary set's
         "rotational", "translational", "planet" or "mixed", read from the shape; "" in a train
         without pins), ``shape`` (modes x those columns, mass-normalised; complex, a whirl,
         with ``train.frame_terms``), ``mesh_energy``,
@@ -638,6 +639,7 @@ def modes(case):
         return {"bodies": list(ms[0]["shape"]) if ms else [],
                 "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
                 "multiplicity": np.array([m["multiplicity"] for m in ms]),
+                "damping_ratio": np.array([m["damping_ratio"] for m in ms]),
                 "type": [m.get("type", "") for m in ms],
                 "shape": np.array([list(m["shape"].values()) for m in ms]) +
                 (1j * np.array([list(m["shape_imag"].values()) for m in ms])
