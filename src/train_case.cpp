@@ -922,6 +922,7 @@ train::Train train_of(const Case& c) {
 }
 
 train::Assembled assembled_train(const Case& c) {
+  if (c.model.form != ModelForm::kTrain) return assembled_train(train_form_of(c));
   train::Train t = train_of(c);
   try {
     return train::Assembled(std::move(t));

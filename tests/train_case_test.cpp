@@ -818,6 +818,59 @@ TEST(TrainCase, TheGearPairsFormsAreTrainsOfElements) {
   }
 }
 
+TEST(TrainCase, ACoupledCaseRunsAsItsTrainWithTheCoupledModelsReadings) {
+  // run_train takes a coupled case as it is (TrainSolver builds its train form): the run keeps
+  // the case as given, and its readings are the coupled model's (CoupledModel, an independent
+  // assembly of the same equations): the mesh's impacts, force extremes and dynamic factors,
+  // each bearing's dynamic factor along the line of action (the train's y) and along the axis,
+  // and each shaft's, over the same steady part (the final half of a window that does not
+  // settle). A direction the static load leaves unloaded (x) has no factor.
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010_coupled.toml");
+  set_case_value(c, {"solver.duration_s", "0.02"});
+  set_case_value(c, {"shafts.end_inertia_kg_m2", "[0.004, 0.009]"});
+  for (const char* dof : {"3", "12"}) {
+    SCOPED_TRACE(fmt::format("dof {}", dof));
+    set_case_value(c, {"model.dof", dof});
+    const CoupledRunResult one = run_coupled(c);
+    ASSERT_TRUE(one.ok()) << one.message;
+    const TrainRunResult x = run_train(c);
+    ASSERT_TRUE(x.ok()) << x.message;
+    EXPECT_EQ(x.input.model.form, ModelForm::kCoupled);
+    ASSERT_EQ(one.steady.basis, SteadyBasis::kNotSettled);
+    ASSERT_EQ(x.steady.basis, SteadyBasis::kNotSettled);
+    ASSERT_EQ(x.steady.from_s, one.steady.from_s);
+    // On the coupled model's cells (kTrainCellRateProduct): as many, the same events.
+    EXPECT_EQ(x.cells, one.cells);
+    EXPECT_EQ(x.events, one.events);
+    const TrainMeshReading& m = x.meshes.at(0);
+    EXPECT_EQ(m.impacts, one.mesh.impacts);
+    EXPECT_GT(m.impacts, 3);
+    EXPECT_NEAR(m.max_force_n / one.max_force_n, 1, 1e-9);
+    EXPECT_NEAR(*m.dynamic_factor / one.dynamic_mesh_factor, 1, 1e-9);
+    EXPECT_NEAR(*m.dynamic_factor_with_startup / one.dynamic_mesh_factor_with_startup, 1, 1e-9);
+    ASSERT_EQ(x.bearings.size(), 2U);
+    ASSERT_EQ(x.shafts.size(), 2U);
+    for (std::size_t i = 0; i < 2; ++i) {
+      const TrainBearingReading& b = x.bearings[i];
+      EXPECT_FALSE(part_dynamic_factor(x, b.steady_force_x_n, b.static_force_x_n));
+      EXPECT_NEAR(
+          *part_dynamic_factor(x, b.steady_force_y_n, b.static_force_y_n) / one.bearing_factor[i],
+          1, 1e-9)
+          << i;
+      if (std::string(dof) == "12")
+        EXPECT_NEAR(*part_dynamic_factor(x, b.steady_axial_force_n, b.static_axial_force_n) /
+                        one.axial_factor[i],
+                    1, 1e-9)
+            << i;
+      const TrainShaftReading& s = x.shafts[i];
+      EXPECT_NEAR(
+          *part_dynamic_factor(x, s.steady_torque_nm, s.static_torque_nm) / one.shaft_factor[i], 1,
+          1e-9)
+          << i;
+    }
+  }
+}
+
 TEST(TrainCase, AMeshDampedAtAllTimesOrClippingItsTensionIsThePairs) {
   // The one-degree model's damping forms and tension rules as a train mesh's damping and
   // tension: the pair with its damper at all times, and with its tension clipped, on rigid

@@ -274,8 +274,8 @@ void print_run_summary(const geardyn::RunResult& r) {
                r.integration.unsplit_steps);
 }
 
-// A run of the coupled model or a train with a progress bar and Ctrl-C (which stops it where it
-// is, its part read): says on stderr when it was interrupted, or why it failed.
+// A run of a train (or of the coupled pair as one) with a progress bar and Ctrl-C (which stops it
+// where it is, its part read): says on stderr when it was interrupted, or why it failed.
 template <class Options, class Run>
 auto run_with_progress(const geardyn::Case& c, const std::string& out_dir, const Run& run,
                        bool& interrupted) {
@@ -296,64 +296,18 @@ auto run_with_progress(const geardyn::Case& c, const std::string& out_dir, const
   return r;
 }
 
-// A run of the coupled model: the summary per nonlinearity, summary.json, timeseries.csv and
-// case.toml into out_dir.
-int cmd_run_coupled(const geardyn::Case& c, const std::string& out_dir, bool plot) {
-  bool interrupted = false;
-  const geardyn::CoupledRunResult r =
-      run_with_progress<geardyn::CoupledRunOptions>(c, out_dir, geardyn::run_coupled, interrupted);
-  if (!r.ok() && !interrupted) return kExitNumerical;
-  const geardyn::CoupledParameters& p = r.parameters;
-  fmt::print("geardyn run: {} (coupled, dof {}: {} coordinates)\n", c.name, p.dof, p.size());
-  const auto contact = [](const char* name, const geardyn::ContactReading& x) {
-    fmt::print("  {:<17} {}, {} impacts ({} back side), separated {:.2f} % of the time\n", name,
-               geardyn::to_string(x.regime), x.impacts, x.backside_impacts,
-               100 * x.separated_fraction);
-  };
-  contact("mesh", r.mesh);
-  fmt::print(
-      "  mesh force        {:.6g} to {:.6g} N (static {:.6g} N), dynamic factor {:.6g} (steady "
-      "part; with the start-up {:.6g})\n",
-      r.min_force_n, r.max_force_n, p.static_mesh_force_n(), r.dynamic_mesh_factor,
-      r.dynamic_mesh_factor_with_startup);
-  print_steady_start(r.steady, "t", " s");
-  contact("  mesh", r.steady_part.mesh);
-  for (int i = 0; i < 2; ++i) {
-    if (r.bearing[i].present) contact(i == 0 ? "bearing 1" : "bearing 2", r.bearing[i]);
-    fmt::print("  bearing {} force   line {:.6g} N (factor {:.4g}), axial {:.6g} N\n", i + 1,
-               r.max_bearing_force_n[i], r.bearing_factor[i], r.max_axial_force_n[i]);
-  }
-  for (int i = 0; i < 2; ++i)
-    if (p.shaft[i] >= 0)
-      fmt::print("  {:<17} largest torque {:.6g} N m (static {:.6g} N m, factor {:.4g})\n",
-                 i == 0 ? "drive shaft" : "load shaft", r.max_shaft_torque_nm[i],
-                 p.static_shaft_torque_nm(i), r.shaft_factor[i]);
-  fmt::print("  cells             {} ({} events located), {:.3g} s wall\n", r.cells, r.events,
-             r.wall_time_s);
-  if (!out_dir.empty()) {
-    write_output(out_dir, "run", [&](const std::filesystem::path& d) {
-      geardyn::write_files_atomically(
-          d, {{"summary.json",
-               [&](std::ostream& o) { o << geardyn::coupled_summary_json(r) << "\n"; }},
-              {"timeseries.csv",
-               [&](std::ostream& o) { geardyn::write_coupled_timeseries_csv(o, r); }},
-              {"case.toml", [&](std::ostream& o) { o << geardyn::to_toml(c); }}});
-      if (plot) geardyn::write_coupled_run_figures(d, r);
-    });
-    fmt::print("  written to        {}/ (summary.json, timeseries.csv, case.toml)\n", out_dir);
-    if (plot) fmt::print("  figure            {}/coupled_time (.png, .svg, .gp)\n", out_dir);
-  }
-  return interrupted ? kExitInterrupted : 0;
-}
-
-// A run of a gear train: each mesh read as the one-degree run reads its mesh.
+// A run of a gear train, or of the coupled pair as its train form (train_form_of): each mesh
+// read as the one-degree run reads its mesh, each shaft and bearing by its name.
 int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot) {
   bool interrupted = false;
   const geardyn::TrainRunResult r =
       run_with_progress<geardyn::TrainRunOptions>(c, out_dir, geardyn::run_train, interrupted);
   if (!r.ok() && !interrupted) return kExitNumerical;
-  fmt::print("geardyn run: {} (train: {} bodies, {} meshes)\n", c.name, r.bodies.size(),
-             r.meshes.size());
+  fmt::print("geardyn run: {} ({}train: {} bodies, {} meshes)\n", c.name,
+             c.model.form == geardyn::ModelForm::kCoupled
+                 ? fmt::format("coupled, dof {}, as a ", c.model.dof)
+                 : "",
+             r.bodies.size(), r.meshes.size());
   if (r.system_period_s)
     fmt::print("  system period     {:.6g} s\n", *r.system_period_s);
   else
@@ -377,14 +331,30 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
       fmt::print("  {:<17} phase from the layout: {:.6g} of a mesh cycle at t = 0\n", "",
                  *m.layout_phase);
   }
+  // A part's dynamic factors (geardyn::part_dynamic_factor) where the static load has them.
+  const auto factors =
+      [&](std::initializer_list<
+          std::tuple<const char*, const geardyn::TrainExtremes&, const std::optional<double>&>>
+              quantities) {
+        std::vector<std::string> out;
+        for (const auto& [what, steady, at_rest] : quantities)
+          if (const auto f = geardyn::part_dynamic_factor(r, steady, at_rest))
+            out.push_back(fmt::format("{}{:.4g}", what, *f));
+        return out.empty() ? std::string()
+                           : fmt::format(", dynamic factor {}", fmt::join(out, ", "));
+      };
   for (const geardyn::TrainShaftReading& x : r.shafts)
-    fmt::print("  shaft {:<11} torque {:.6g} to {:.6g} N m, static {}\n", x.name, x.torque_nm.min,
-               x.torque_nm.max, fmt_optional(x.static_torque_nm, " N m"));
+    fmt::print("  shaft {:<11} torque {:.6g} to {:.6g} N m, static {}{}\n", x.name, x.torque_nm.min,
+               x.torque_nm.max, fmt_optional(x.static_torque_nm, " N m"),
+               factors({{"", x.steady_torque_nm, x.static_torque_nm}}));
   for (const geardyn::TrainBearingReading& x : r.bearings) {
     fmt::print(
-        "  bearing {:<9} force x {:.6g} to {:.6g} N, y {:.6g} to {:.6g} N, static ({}, {})\n",
+        "  bearing {:<9} force x {:.6g} to {:.6g} N, y {:.6g} to {:.6g} N, static ({}, {}){}\n",
         x.name, x.force_x_n.min, x.force_x_n.max, x.force_y_n.min, x.force_y_n.max,
-        fmt_optional(x.static_force_x_n, " N"), fmt_optional(x.static_force_y_n, " N"));
+        fmt_optional(x.static_force_x_n, " N"), fmt_optional(x.static_force_y_n, " N"),
+        factors({{"x ", x.steady_force_x_n, x.static_force_x_n},
+                 {"y ", x.steady_force_y_n, x.static_force_y_n},
+                 {"axial ", x.steady_axial_force_n, x.static_axial_force_n}}));
     if (x.spatial)
       fmt::print("                    axial {:.6g} to {:.6g} N (static {}){}\n",
                  x.axial_force_n.min, x.axial_force_n.max,
@@ -492,16 +462,12 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
     throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "run");
-  if (c.model.form == geardyn::ModelForm::kTrain) {
+  if (c.model.form == geardyn::ModelForm::kTrain || c.model.form == geardyn::ModelForm::kCoupled) {
     if (physical)
       throw geardyn::InputError(
-          "--physical: a gear train's figure shows each mesh's (d - e) / b and its force in N");
+          fmt::format("--physical: a {}'s figure shows each mesh's (d - e) / b and its force in N",
+                      c.model.form == geardyn::ModelForm::kTrain ? "gear train" : "coupled pair"));
     return cmd_run_train(c, out_dir, plot);
-  }
-  if (c.model.form == geardyn::ModelForm::kCoupled) {
-    if (physical)
-      throw geardyn::InputError("--physical: the coupled model's figure is in physical units");
-    return cmd_run_coupled(c, out_dir, plot);
   }
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;

@@ -154,11 +154,6 @@ double checked_output_interval_s(const Case& c, double fastest_period_s, const c
 // result.
 CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options = {});
 
-// summary.json of a coupled run (docs/outputs.md).
-std::string coupled_summary_json(const CoupledRunResult& r, int indent = 2);
-// timeseries.csv: t_s, every coordinate and its rate, (d - e)/b, F_n/(b k_m), mesh contact,
-// the bearing forces, and the torque of each shaft that is there.
-void write_coupled_timeseries_csv(std::ostream& out, const CoupledRunResult& r);
 // modes as JSON (docs/outputs.md) and as a table for the terminal.
 std::string modes_json(const ModeSet& m, int indent = 2);
 std::string modes_table(const ModeSet& m);

@@ -83,11 +83,6 @@ void write_stiffness_figure(const std::filesystem::path& dir, const std::string&
 // F / (b k_m).
 void write_run_figures(const std::filesystem::path& dir, const RunResult& r, bool physical = false);
 
-// The figure of a coupled run, into a directory: coupled_time (the mesh deflection and force,
-// the line-of-action bearing forces, the axial ones when the pair is helical and the dof keeps
-// z, and the bodies' translations), with coupled_plot.csv beside it.
-void write_coupled_run_figures(const std::filesystem::path& dir, const CoupledRunResult& r);
-
 // campbell.csv: each mode's frequency and mesh energy, and the shaft frequency at which mesh
 // orders 1 to 3 reach it (f / (i z1)).
 std::string campbell_csv(const Case& c, const ModeSet& m);

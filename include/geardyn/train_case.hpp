@@ -172,7 +172,7 @@ TrainCase expand_planets(const TrainCase& t);
 // where it was written (file:line), for an arrangement the assembler refuses (an unknown body,
 // a body named twice, no mesh, a train that cannot turn) and for a case of another form.
 train::Train train_of(const Case& c);
-// The same, assembled.
+// The same, assembled; a case of the gear pair's forms as its train form (train_form_of).
 train::Assembled assembled_train(const Case& c);
 
 // The train form (model.form = "train") of a case of the gear pair's forms: the preset the

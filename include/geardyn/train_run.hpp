@@ -190,8 +190,9 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
 // window, a sweep point's settling and measurement.
 class TrainSolver {
  public:
-  // Throws InputError for a case that is no train, "newmark", or a system the exact engine
-  // cannot take.
+  // A train case, or a pair's form as its train of elements (train_form_of; its readings are
+  // the train's, its input the case as given). Throws InputError for "newmark" or a system the
+  // exact engine cannot take.
   explicit TrainSolver(const Case& c);
   ~TrainSolver();
   TrainSolver(const TrainSolver&) = delete;
@@ -259,6 +260,16 @@ class TrainSections {
 // "newmark", a static start without a static state, or a window past the work bounds of run.hpp;
 // a numerical failure is reported in the result.
 TrainRunResult run_train(const Case& c, const TrainRunOptions& options = {});
+
+// A shaft's or bearing's dynamic factor for one quantity (a torque, a force in x, y or along the
+// axis, a moment): the largest magnitude over the steady part over the static value's (as the
+// mesh's dynamic factor reads F), absent where the static value is not above
+// kNegligibleStaticFraction of the largest static mesh force (times 1 m for a torque or moment)
+// of the run: a direction the static load does not load, whose factor would be a ratio of
+// roundings.
+constexpr double kNegligibleStaticFraction = 1e-9;
+std::optional<double> part_dynamic_factor(const TrainRunResult& r, const TrainExtremes& steady,
+                                          const std::optional<double>& at_rest);
 
 // summary.json of a train run (docs/outputs.md): the run, then one object per mesh.
 std::string train_summary_json(const TrainRunResult& r, const std::vector<std::string>& unused,

@@ -36,7 +36,7 @@ except ImportError as _e:  # pragma: no cover - depends on the installation
 
 __all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry",
            "stiffness", "run", "sweep", "orbit", "continuation", "stability", "plot", "to_xarray",
-           "save", "load", "SweepResult", "CoupledRunResult", "TrainRunResult", "modes"]
+           "save", "load", "SweepResult", "TrainRunResult", "modes"]
 
 
 class NumericalError(RuntimeError):
@@ -352,12 +352,13 @@ def run(case, progress=None):
 
     Returns
     -------
-    RunResult or CoupledRunResult
+    RunResult or TrainRunResult
         ``t`` (s), ``delta_bar`` (delta / b), ``force_bar`` (F / (b k_m)), ``velocity`` (m/s)
         and ``contact`` (1 drive side, 0 separated, -1 back side) as NumPy arrays that point
         into the result; ``summary`` (the keys of summary.json); ``events`` (arrays). A case
-        with ``model.form = "coupled"`` gives a `CoupledRunResult`, one with ``"train"`` a
-        `TrainRunResult`.
+        with ``model.form = "train"`` gives a `TrainRunResult`, and so does one with
+        ``"coupled"``, which runs as its train form (bodies "pinion" and "wheel", mesh "mesh",
+        bearings "pinion_bearing" and "wheel_bearing", shafts "drive_shaft" and "load_shaft").
 
     Raises
     ------
@@ -375,10 +376,8 @@ def run(case, progress=None):
         callback = _progress(progress)
     form = _form(case)
     if form in ("train", "coupled"):
-        run_form, result = ((_geardyn._run_train, TrainRunResult) if form == "train"
-                            else (_geardyn._run_coupled, CoupledRunResult))
-        text, arrays, interrupted = run_form(case, callback)
-        r = result(_json.loads(text), arrays)
+        text, arrays, interrupted = _geardyn._run_train(case, callback)
+        r = TrainRunResult(_json.loads(text), arrays)
         if interrupted:
             raise _interrupted(r, "run")
         if not r.ok and "cancelled" not in r.summary["termination"]:
@@ -393,85 +392,9 @@ def run(case, progress=None):
     return r
 
 
-class CoupledRunResult:
-    """A run of the coupled model (``model.form = "coupled"``; docs/outputs.md).
-
-    Attributes
-    ----------
-    summary : dict
-        The keys of the command line's summary.json: ``mesh`` and ``bearings`` readings,
-        forces (N) and dynamic factors.
-    coordinates : list of str
-        The coordinates' names with their units (``"u_m"``, ``"y1_m"``, ``"ty1_rad"``, ...).
-    t : numpy.ndarray
-        Sample times, s.
-    q, velocity : numpy.ndarray
-        Samples x coordinates: the coordinates (m or rad) and their rates (m/s or rad/s).
-    deflection_bar, force_bar : numpy.ndarray
-        (d - e) / b and F_n / (b k_m) of the mesh.
-    mesh_contact : numpy.ndarray
-        1 drive side, 0 separated, -1 back side.
-    bearing_force, axial_force : numpy.ndarray
-        Samples x 2: each gear's bearing force along the line of action and axially, N.
-    shaft_torque : numpy.ndarray
-        Samples x 2: the drive and the load shaft's torque, N m (0 for a shaft not there).
-    ok : bool
-        Whether the run completed.
-    """
-
-    def __init__(self, summary, arrays):
-        self.summary = summary
-        self.coordinates = list(summary["coordinates"])
-        n = len(self.coordinates)
-        self.t = arrays["t"]
-        self.q = arrays["state"][:, :n]
-        self.velocity = arrays["state"][:, n:]
-        self.deflection_bar = arrays["deflection_bar"]
-        self.force_bar = arrays["force_bar"]
-        self.mesh_contact = arrays["mesh_contact"]
-        self.bearing_force = arrays["bearing_force"]
-        self.axial_force = arrays["axial_force"]
-        self.shaft_torque = arrays["shaft_torque"]
-        self.ok = bool(summary["completed"])
-
-    def __repr__(self):
-        m = self.summary["mesh"]
-        return (f"<geardyn.CoupledRunResult dof {self.summary['dof']}: mesh {m['regime']}, "
-                f"{m['impacts']} impacts, dynamic factor {m['dynamic_factor']:.4g}>")
-
-    def to_xarray(self):
-        """The run as a labelled Dataset.
-
-        Returns
-        -------
-        xarray.Dataset
-            Dimensions t (s) and coordinate (the names of `coordinates`); q and velocity
-            (t x coordinate), deflection_bar, force_bar, mesh_contact, bearing_force and
-            axial_force (t x gear, N), shaft_torque (t x shaft, N m; only the shafts that are
-            there); the summary (JSON) as an attribute.
-        """
-        import xarray as xr
-        shafts = [s["shaft"] for s in self.summary["shafts"]]
-        ds = xr.Dataset(
-            {"q": (("t", "coordinate"), self.q),
-             "velocity": (("t", "coordinate"), self.velocity),
-             "deflection_bar": ("t", self.deflection_bar, {"long_name": "(d - e) / b"}),
-             "force_bar": ("t", self.force_bar, {"long_name": "F_n / (b k_m)"}),
-             "mesh_contact": ("t", self.mesh_contact),
-             "bearing_force": (("t", "gear"), self.bearing_force, {"units": "N"}),
-             "axial_force": (("t", "gear"), self.axial_force, {"units": "N"})},
-            coords={"t": ("t", self.t, {"units": "s"}), "coordinate": self.coordinates,
-                    "gear": [1, 2]},
-            attrs={"summary": _json.dumps(self.summary)})
-        if shafts:
-            ds["shaft_torque"] = xr.DataArray(
-                self.shaft_torque[:, [s - 1 for s in shafts]], dims=("t", "shaft"),
-                coords={"shaft": shafts}, attrs={"units": "N m"})
-        return ds
-
-
 class TrainRunResult:
-    """A run of a gear train (``model.form = "train"``; docs/outputs.md, "Gear trains").
+    """A run of a gear train (``model.form = "train"``, or a coupled case run as its train form;
+    docs/outputs.md, "Gear trains").
 
     Attributes
     ----------

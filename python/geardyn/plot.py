@@ -1,5 +1,5 @@
-"""Figures for notebooks, with matplotlib: a run (one-degree, coupled or a gear train), a
-frequency response, a branch of orbits."""
+"""Figures for notebooks, with matplotlib: a run (one-degree, or a gear train: a coupled case's
+too), a frequency response, a branch of orbits."""
 import numpy as np
 
 
@@ -7,12 +7,12 @@ def run(r, ax=None, title=None):
     """delta / b and F / (b k_m) over time, stacked as in the paper's Figs. 4-6.
 
     Separation and back-side contact are shaded where they occur (and in the legend only
-    then); the backlash band -1 <= delta / b <= 1 is drawn in a neutral grey. A coupled run
-    (`CoupledRunResult`) is drawn by `coupled_run`, a train's (`TrainRunResult`) by `train_run`.
+    then); the backlash band -1 <= delta / b <= 1 is drawn in a neutral grey. A train's run
+    (`TrainRunResult`, a coupled case's too) is drawn by `train_run`.
 
     Parameters
     ----------
-    r : RunResult, CoupledRunResult or TrainRunResult
+    r : RunResult or TrainRunResult
     ax : pair of matplotlib Axes, optional
         Drawn into; new ones when None.
     title : str, optional
@@ -25,8 +25,6 @@ def run(r, ax=None, title=None):
 
     if hasattr(r, "meshes"):
         return train_run(r, title=title)
-    if not hasattr(r, "delta_bar"):
-        return coupled_run(r, title=title)
 
     if ax is None:
         fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9, 6))
@@ -61,70 +59,6 @@ def run(r, ax=None, title=None):
     return fig
 
 
-def coupled_run(r, title=None):
-    """A coupled run's parts over time, one panel each, as `geardyn run --plot` draws them.
-
-    The mesh ((d - e) / b and F_n / (b k_m), separation shaded where it occurs), the bearing
-    forces along the line of action, the axial bearing forces (only when they are not zero),
-    the shaft torques (only for the shafts that are there) and the gears' translations y (and
-    z when it moves), in um. Legends name only what is drawn.
-
-    Parameters
-    ----------
-    r : CoupledRunResult
-    title : str, optional
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    import matplotlib.pyplot as plt
-
-    t_ms = r.t * 1e3
-    shafts = [s["shaft"] for s in r.summary["shafts"]]
-    axial = bool(np.any(r.axial_force != 0))
-    q = {name: r.q[:, i] for i, name in enumerate(r.coordinates)}
-    rows = 3 + axial + bool(shafts)
-    fig, ax = plt.subplots(rows, 1, sharex=True, figsize=(9, 2.2 * rows))
-    colours = ("#1f4e9c", "#c0392b")
-    separated = r.mesh_contact == 0
-    mesh = ax[0]
-    if separated.any():
-        mesh.fill_between(t_ms, 0, 1, where=separated, transform=mesh.get_xaxis_transform(),
-                          color="#f4a6a6", alpha=0.6, linewidth=0, label="separated")
-    mesh.plot(t_ms, r.deflection_bar, color=colours[0], linewidth=0.9, label="(d - e) / b")
-    mesh.plot(t_ms, r.force_bar, color=colours[1], linewidth=0.9, label="F / (b k_m)")
-    mesh.axhline(1, color="gray", linestyle="--", linewidth=0.8)
-    mesh.set_ylabel("mesh")
-    panels = [(ax[1], "bearing force (N)", [(r.bearing_force[:, i], f"gear {i + 1}")
-                                             for i in range(2)])]
-    k = 2
-    if axial:
-        panels.append((ax[k], "axial force (N)", [(r.axial_force[:, i], f"gear {i + 1}")
-                                                  for i in range(2)]))
-        k += 1
-    if shafts:
-        names = {1: "drive shaft (motor)", 2: "load shaft"}
-        panels.append((ax[k], "shaft torque (N m)", [(r.shaft_torque[:, s - 1], names[s])
-                                                     for s in shafts]))
-        k += 1
-    moves = [(q[n] * 1e6, n.split("_")[0]) for n in ("y1_m", "y2_m", "z1_m", "z2_m")
-             if n in q and (n.startswith("y") or np.any(q[n] != 0))]
-    panels.append((ax[k], "displacement (um)", moves))
-    for a, label, lines in panels:
-        for i, (y, name) in enumerate(lines):
-            a.plot(t_ms, y, color=colours[i % 2], linestyle="-" if i < 2 else "--",
-                   linewidth=0.9, label=name)
-        a.set_ylabel(label)
-    for a in ax:
-        a.grid(color="#dddddd")
-        a.legend(loc="upper right", fontsize=8)
-    ax[-1].set_xlabel("t (ms)")
-    ax[0].set_title(title or f"coupled, dof {r.summary['dof']}: mesh {r.summary['mesh']['regime']}")
-    fig.tight_layout()
-    return fig
-
-
 def _panel_stack(rows, height):
     """A figure of `rows` panels over a shared time axis, each `height` inches: (fig, axes)."""
     import matplotlib.pyplot as plt
@@ -148,7 +82,9 @@ def _finish_stack(fig, axes, title):
 def train_run(r, title=None):
     """A gear train's run, one panel per mesh, as `geardyn run --plot` draws it: the mesh's
     (d - e) / b (separation shaded where it occurs, the contact edges dashed) and its force in
-    N on a second axis.
+    N on a second axis; then, when the train has shafts or bearings, one panel of each shaft's
+    torque (N m, solid) and each bearing's radial force |F| (N, dashed; on a second axis beside
+    shafts).
 
     Parameters
     ----------
@@ -160,7 +96,8 @@ def train_run(r, title=None):
     matplotlib.figure.Figure
     """
     t_ms = r.t * 1e3
-    fig, ax = _panel_stack(len(r.meshes), 2.4)
+    parts = bool(r.shafts or r.bearings)
+    fig, ax = _panel_stack(len(r.meshes) + parts, 2.4)
     for m, (name, reading) in enumerate(zip(r.meshes, r.summary["meshes"])):
         a = ax[m]
         separated = r.contact[:, m] == 0
@@ -177,6 +114,23 @@ def train_run(r, title=None):
         f.set_ylabel("force (N)")
         a.set_title(f"mesh {name} ({reading['mesh_frequency_hz']:.6g} Hz): {reading['regime']}, "
                     f"{reading['impacts']} impacts", fontsize=9)
+    if parts:
+        colours = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad", "#d35400", "#16a085"]
+        a = ax[-1]
+        for q, name in enumerate(r.shafts):
+            a.plot(t_ms, r.shaft_torque[:, q], color=colours[q % 6], linewidth=1.0,
+                   label=f"shaft {name} (N m)")
+        b = a.twinx() if r.shafts and r.bearings else a
+        for q, name in enumerate(r.bearings):
+            style = {"color": colours[(len(r.shafts) + q) % 6], "linestyle": "--",
+                     "linewidth": 1.0}
+            b.plot(t_ms, np.hypot(r.bearing_force[:, q, 0], r.bearing_force[:, q, 1]), **style)
+            a.plot([], [], label=f"bearing {name} |F| (N)", **style)  # in the panel's legend
+        a.set_ylabel("shaft torque (N m)" if r.shafts else "bearing force (N)")
+        if b is not a:
+            b.set_ylabel("bearing force (N)")
+        a.set_title("shafts and bearings" if r.shafts and r.bearings
+                    else "shafts" if r.shafts else "bearings", fontsize=9)
     return _finish_stack(fig, ax, title)
 
 

@@ -72,7 +72,7 @@ def test_the_shipped_coupled_case_has_the_6206_values_at_its_static_load(tmp_pat
     subprocess.run([cli, "run", str(path), "--set", "solver.duration_s=0.001", "--out",
                     str(tmp_path)], check=True, capture_output=True)
     summary = json.loads((tmp_path / "summary.json").read_text())
-    normal = summary["mesh"]["static_force_n"]
+    normal = summary["meshes"][0]["static_force_n"]
     case = geardyn.Case.from_toml(path)
     one = geardyn.run(case.with_({"model.form": "gear_pair", "solver.duration_s": 0.001}))
     helix = math.radians(one.summary["derived"]["base_helix_angle_deg"])
