@@ -118,14 +118,20 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
   const TrainSamples& s = r.samples;
   const std::size_t meshes = r.meshes.size(), shafts = r.shafts.size(),
                     bearings = r.bearings.size();
-  // A last row for the shafts' torques and the bearings' radial forces, when there are any.
+  // A row for the shafts' torques and the bearings' radial forces, when there are any, and a
+  // last one for the axial forces of the bearings of bodies that move along their axis.
   const bool parts = shafts + bearings > 0;
+  std::vector<std::size_t> axial;  // the bearings with an axial force
+  for (std::size_t q = 0; q < bearings; ++q)
+    if (r.bearings[q].spatial) axial.push_back(q);
+  const std::size_t rows = meshes + (parts ? 1 : 0) + (axial.empty() ? 0 : 1);
   std::string header = "t_ms";
   for (const TrainMeshReading& m : r.meshes)
     header += fmt::format(",{0}_deflection_bar,{0}_force_n", m.name);
   for (const TrainShaftReading& x : r.shafts) header += fmt::format(",{}_torque_nm", x.name);
   for (const TrainBearingReading& x : r.bearings)
     header += fmt::format(",{}_radial_force_n", x.name);
+  for (const std::size_t q : axial) header += fmt::format(",{}_axial_force_n", r.bearings[q].name);
   header += "\n";
   // Each bearing's x force among the parts (a spatial body's has its axial force and moments
   // after its y).
@@ -148,6 +154,7 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
                    for (std::size_t q = 0; q < shafts; ++q) v.push_back(p[q]);
                    for (std::size_t q = 0; q < bearings; ++q)
                      v.push_back(std::hypot(p[bearing_part[q]], p[bearing_part[q] + 1]));
+                   for (const std::size_t q : axial) v.push_back(p[bearing_part[q] + 2]);
                    return v;
                  })}});
   std::string g =
@@ -156,7 +163,7 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
   fmt::format_to(std::back_inserter(g),
                  "set multiplot layout {},1 title \"{}: gear train, {} bodies, {} meshes\"\n"
                  "set xrange [0:{}]\n",
-                 meshes + (parts ? 1 : 0), quoted(r.input.name), r.bodies.size(), meshes,
+                 rows, quoted(r.input.name), r.bodies.size(), meshes,
                  r.input.solver.duration_s * 1e3);
   for (std::size_t m = 0; m < meshes; ++m) {
     const TrainMeshReading& x = r.meshes[m];
@@ -196,16 +203,30 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
     const bool both = shafts > 0 && bearings > 0;
     fmt::format_to(std::back_inserter(g),
                    "set title \"{}\" font ',10'\nset ylabel '{}'\nset y2label '{}'\n{}"
-                   "set xlabel 't (ms)'\nplot {}\n",
+                   "{}\nplot {}\n",
                    both         ? "shafts and bearings"
                    : shafts > 0 ? "shafts"
                                 : "bearings",
                    shafts > 0 ? "shaft torque (N m)" : "bearing force (N)",
-                   both ? "bearing force (N)" : "", both ? "" : "unset y2tics\n", plots);
+                   both ? "bearing force (N)" : "", both ? "" : "unset y2tics\n",
+                   axial.empty() ? "set xlabel 't (ms)'" : "unset xlabel", plots);
+  }
+  if (!axial.empty()) {
+    // Each axial or spatial body's bearing's axial force (a helical mesh's thrust on it).
+    std::string plots;
+    std::size_t column = 2 + 2 * meshes + shafts + bearings;
+    for (std::size_t i = 0; i < axial.size(); ++i, ++column)
+      plots += fmt::format(
+          "{}'train_plot.csv' using 1:{} skip 1 axes x1y1 with lines lw 1.2 lc rgb '{}' title "
+          "'bearing {} axial (N)'",
+          i == 0 ? "" : ", ", column, colour(shafts + axial[i]), quoted(r.bearings[axial[i]].name));
+    fmt::format_to(std::back_inserter(g),
+                   "set title \"axial bearing forces\" font ',10'\nset ylabel 'axial force (N)'\n"
+                   "set y2label ''\nunset y2tics\nset xlabel 't (ms)'\nplot {}\n",
+                   plots);
   }
   g += "unset multiplot\n";
-  render_figure(dir, "train_time", g, 1000,
-                260 * static_cast<int>(std::max<std::size_t>(meshes + (parts ? 1 : 0), 1)));
+  render_figure(dir, "train_time", g, 1000, 260 * static_cast<int>(std::max<std::size_t>(rows, 1)));
 }
 
 void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,

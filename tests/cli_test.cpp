@@ -887,6 +887,16 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   const std::string shaft_plot = slurp(d / "train_time_body.gp");
   EXPECT_NE(shaft_plot.find("shaft load_shaft"), std::string::npos);
   EXPECT_EQ(shaft_plot.find("drive_shaft"), std::string::npos);
+  // dof 12: the helical mesh's thrust moves the gears along their axis, its own panel last.
+  EXPECT_NE(shaft_plot.find("axial bearing forces"), std::string::npos);
+  EXPECT_NE(read_csv(d / "train_plot.csv").header.find("wheel_bearing_axial_force_n"),
+            std::string::npos);
+  fs::remove_all(d);
+  ASSERT_EQ(cli("run " + coupled +
+                " --set model.dof=3 --set solver.duration_s=0.005 --plot --out " + d.string())
+                .code,
+            0);
+  EXPECT_EQ(slurp(d / "train_time_body.gp").find("axial"), std::string::npos);
   fs::remove_all(d);
   const Outcome one =
       cli("run " + std::string(GEARDYN_SOURCE_DIR) +

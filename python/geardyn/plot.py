@@ -84,7 +84,8 @@ def train_run(r, title=None):
     (d - e) / b (separation shaded where it occurs, the contact edges dashed) and its force in
     N on a second axis; then, when the train has shafts or bearings, one panel of each shaft's
     torque (N m, solid) and each bearing's radial force |F| (N, dashed; on a second axis beside
-    shafts).
+    shafts); and, when bodies move along their axis (dof "axial" or "spatial"), one panel of
+    their bearings' axial forces (N).
 
     Parameters
     ----------
@@ -97,7 +98,8 @@ def train_run(r, title=None):
     """
     t_ms = r.t * 1e3
     parts = bool(r.shafts or r.bearings)
-    fig, ax = _panel_stack(len(r.meshes) + parts, 2.4)
+    axial = [q for q, b in enumerate(r.summary["bearings"]) if "max_axial_force_n" in b]
+    fig, ax = _panel_stack(len(r.meshes) + parts + bool(axial), 2.4)
     for m, (name, reading) in enumerate(zip(r.meshes, r.summary["meshes"])):
         a = ax[m]
         separated = r.contact[:, m] == 0
@@ -114,9 +116,9 @@ def train_run(r, title=None):
         f.set_ylabel("force (N)")
         a.set_title(f"mesh {name} ({reading['mesh_frequency_hz']:.6g} Hz): {reading['regime']}, "
                     f"{reading['impacts']} impacts", fontsize=9)
+    colours = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad", "#d35400", "#16a085"]
     if parts:
-        colours = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad", "#d35400", "#16a085"]
-        a = ax[-1]
+        a = ax[len(r.meshes)]
         for q, name in enumerate(r.shafts):
             a.plot(t_ms, r.shaft_torque[:, q], color=colours[q % 6], linewidth=1.0,
                    label=f"shaft {name} (N m)")
@@ -131,6 +133,13 @@ def train_run(r, title=None):
             b.set_ylabel("bearing force (N)")
         a.set_title("shafts and bearings" if r.shafts and r.bearings
                     else "shafts" if r.shafts else "bearings", fontsize=9)
+    if axial:
+        a = ax[-1]
+        for q in axial:
+            a.plot(t_ms, r.bearing_axial[:, q, 0], color=colours[(len(r.shafts) + q) % 6],
+                   linewidth=1.0, label=f"bearing {r.bearings[q]} axial (N)")
+        a.set_ylabel("axial force (N)")
+        a.set_title("axial bearing forces", fontsize=9)
     return _finish_stack(fig, ax, title)
 
 

@@ -147,6 +147,11 @@ def test_a_coupled_run_figure_is_its_trains(tmp_path):
     assert any("load_shaft" in x for x in legends), legends
     assert not any("drive_shaft" in x for x in legends), legends
     assert any("pinion_bearing" in x for x in legends), legends
+    # The helical pair with dof 12 moves along its axis: its bearings' axial forces, last.
+    assert [a.get_title() for a in fig.axes if a.get_title()][-1] == "axial bearing forces"
+    assert legends[-2:] == ["bearing pinion_bearing axial (N)", "bearing wheel_bearing axial (N)"]
+    planar = geardyn.plot.run(geardyn.run(case.with_({"model.dof": 3})))
+    assert "axial bearing forces" not in [a.get_title() for a in planar.axes]
 
 
 def test_the_example_reproduces_fig4c(tmp_path):
