@@ -161,9 +161,9 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set key top right font ',9' opaque\nset ytics nomirror\nset y2tics\n";
   fmt::format_to(std::back_inserter(g),
-                 "set multiplot layout {},1 title \"{}: gear train, {} bodies, {} meshes\"\n"
+                 "set multiplot layout {},1 title \"{}: gear train, {} bodies, {} mesh{}\"\n"
                  "set xrange [0:{}]\n",
-                 rows, quoted(r.input.name), r.bodies.size(), meshes,
+                 rows, quoted(r.input.name), r.bodies.size(), meshes, meshes == 1 ? "" : "es",
                  r.input.solver.duration_s * 1e3);
   for (std::size_t m = 0; m < meshes; ++m) {
     const TrainMeshReading& x = r.meshes[m];

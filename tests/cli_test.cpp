@@ -845,7 +845,7 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   const fs::path d = fresh("coupled_run");
   const Outcome r = cli("run " + coupled + " --set solver.duration_s=0.005 --out " + d.string());
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.out.find("(coupled, dof 12, as a train: 2 bodies, 1 meshes)"), std::string::npos)
+  EXPECT_NE(r.out.find("(coupled, dof 12, as a train: 2 bodies, 1 mesh)"), std::string::npos)
       << r.out;
   const nlohmann::json s = nlohmann::json::parse(slurp(d / "summary.json"));
   EXPECT_EQ(s["form"], "coupled");

@@ -303,11 +303,11 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
   const geardyn::TrainRunResult r =
       run_with_progress<geardyn::TrainRunOptions>(c, out_dir, geardyn::run_train, interrupted);
   if (!r.ok() && !interrupted) return kExitNumerical;
-  fmt::print("geardyn run: {} ({}train: {} bodies, {} meshes)\n", c.name,
+  fmt::print("geardyn run: {} ({}train: {} bodies, {} mesh{})\n", c.name,
              c.model.form == geardyn::ModelForm::kCoupled
                  ? fmt::format("coupled, dof {}, as a ", c.model.dof)
                  : "",
-             r.bodies.size(), r.meshes.size());
+             r.bodies.size(), r.meshes.size(), r.meshes.size() == 1 ? "" : "es");
   if (r.system_period_s)
     fmt::print("  system period     {:.6g} s\n", *r.system_period_s);
   else
