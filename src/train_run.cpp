@@ -32,10 +32,11 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kBalanceTolerance = 1e-9;
 
 // A train's cells are twice the one-degree model's in h times the fastest rate, as the coupled
-// model's (coupled_run.cpp, kCoupledCellRateProduct): the coupled pair's train form then runs on
-// the same cells as the coupled model (12982 for the shipped case over 0.05 s, against 23119
-// with the one-degree model's 1.5), 30 % faster; the other shipped trains' runs measured the
-// same either way (docs/performance.md).
+// model's (coupled_run.cpp, kCoupledCellRateProduct): a coupled case, which runs as its train,
+// then steps the coupled model's cells (12982 for the shipped case over 0.05 s, against 23119
+// with the one-degree model's 1.5; the same cells and events, TrainCase test), about 10 %
+// faster in one process; the shipped trains' runs measured the same either way within the
+// machine's noise (docs/performance.md).
 constexpr double kTrainCellRateProduct = 3.0;
 
 double ratio_value(const train::Ratio& r) {
