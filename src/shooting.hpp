@@ -187,9 +187,8 @@ class CoupledShooting {
 // Not copyable (the flow refers to the solver).
 class TrainShooting {
  public:
-  // `scale` as for Shooting (empty: each free coordinate by the backlash over the base radius
-  // of its body's first mesh, each rate by that times the train's highest natural frequency in
-  // contact). Throws InputError for a case that is no train, a freely turning one whose mean
+  // `scale` as for Shooting (empty: each free coordinate as train_state_scale measures it).
+  // Throws InputError for a case that is no train, a freely turning one whose mean
   // torques do not balance (it speeds up or slows down), one with no common period
   // (quasi-periodic) or in which nothing varies. `stiffness` is not used (a train's meshes
   // carry their own).

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -38,8 +39,8 @@ std::string number_text(double x) { return fmt::format("{:.17g}", x); }
 // The share of the steady tolerance that the error of an exact periodic response may take.
 constexpr double kResponseErrorShare = 0.1;
 
-// A coupled point's periodic response in one contact region, exact (steady.hpp's
-// affine_response) to within `error` in the scaled norm.
+// A train point's periodic response in one contact region, exact (steady.hpp's
+// affine_response) to within `error` in the section's measure (TrainSections::distance).
 struct RegionResponse {
   ode::Vector state;
   double error = 0;
@@ -49,27 +50,55 @@ struct RegionResponse {
 // it: one period with the Jacobian gives P(y) and M. It stands when M's multipliers lie inside
 // the unit circle (the flow settles on it), a period flown from it stays in the region, and its
 // error (the engine's tolerance or what that period returns with, whichever is larger, times
-// the amplification) is within kResponseErrorShare of the steady tolerance; otherwise nullopt,
-// and the fits judge.
-std::optional<RegionResponse> region_response(const CoupledSolver& solver, double t,
+// the amplification, in the norm of `scale`, times `gain` into the section's measure) is within
+// kResponseErrorShare of the steady tolerance; otherwise nullopt, and the fits judge. A train
+// that turns freely is read modulo its rigid motions: `project` takes a state to its part that
+// the elements move (rigid_free), in which the response lies.
+std::optional<RegionResponse> region_response(const TrainSolver& solver, double t,
                                               const ode::Vector& y, int region, double period_s,
-                                              const ode::Vector& scale, double engine_tolerance,
-                                              double steady_tolerance) {
+                                              const ode::Vector& scale, double gain,
+                                              double engine_tolerance, double steady_tolerance,
+                                              const ode::Matrix& project) {
   const ode::FlowResult f = solver.advance_with_jacobian(t, y, t + period_s);
   if (!f.ok() || f.events != 0 || f.region != region || !f.jacobian) return std::nullopt;
-  if (!(std::abs(floquet_multipliers(*f.jacobian).front()) < 1)) return std::nullopt;
-  const std::optional<AffineResponse> r = affine_response(*f.jacobian, y, f.state, scale);
+  const ode::Matrix monodromy = project * *f.jacobian * project;
+  if (!(std::abs(floquet_multipliers(monodromy).front()) < 1)) return std::nullopt;
+  const std::optional<AffineResponse> r =
+      affine_response(monodromy, project * y, project * f.state, scale);
   if (!r) return std::nullopt;
   const ode::FlowResult back = solver.advance(t, r->state, t + period_s);
   if (!back.ok() || back.events != 0 || back.region != region) return std::nullopt;
-  const double noise = std::max(engine_tolerance, scaled_norm(back.state - r->state, scale));
-  const double error = r->amplification * noise;
+  const double noise =
+      std::max(engine_tolerance, scaled_norm(project * back.state - r->state, scale));
+  const double error = gain * r->amplification * noise;
   if (!(error <= kResponseErrorShare * steady_tolerance)) return std::nullopt;
   return RegionResponse{r->state, error};
 }
 
+// A train's state less its rigid motions (train::Assembled::rigid_motions(): the rotation of a
+// train no support holds): P = diag(P_q, P_q), P_q = I - R (R^T M R)^-1 R^T M, which keeps what
+// the elements move. No element force does work on a rigid motion (K R = 0, C R = 0) and no
+// guard reads one (V R = 0), so the flow of P y is P of the flow of y, and a periodic response
+// of the train modulo its rotation is a fixed point of P times the period's map. Identity for a
+// train without rigid motions; absent when a viscous drag acts on one (C R != 0: the rotation
+// and the rest move together, and the fits judge).
+std::optional<ode::Matrix> rigid_free(const train::Assembled& a) {
+  const Eigen::Index n = a.size();
+  const Eigen::MatrixXd r = a.rigid_motions();
+  ode::Matrix p = ode::Matrix::Identity(2 * n, 2 * n);
+  if (r.cols() == 0) return p;
+  for (const train::Drag& d : a.train().drags)
+    if (d.viscous_n_m_s_per_rad > 0) return std::nullopt;
+  const Eigen::MatrixXd& m = a.mass();
+  const Eigen::MatrixXd rm = r.transpose() * m;
+  const Eigen::MatrixXd q = Eigen::MatrixXd::Identity(n, n) - r * (rm * r).ldlt().solve(rm);
+  p.topLeftCorner(n, n) = q;
+  p.bottomRightCorner(n, n) = q;
+  return p;
+}
+
 // The state a point hands to the next one of its sequence: the one-degree model's, or the
-// coordinates and rates of the coupled model or a train.
+// coordinates and rates of a train (a coupled pair's as its train).
 struct Carry {
   std::optional<ode::State> state;
   std::optional<ode::Vector> coordinates;
@@ -91,6 +120,11 @@ double train_section_period_s(const TrainSolver& solver, std::string* quasi) {
   return 1.0 / solver.assembled().train().reference_speed_hz;
 }
 
+// Whether a case's points run as a train: a train, or a coupled pair as its train form.
+bool as_train(const Case& c) {
+  return c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled;
+}
+
 struct PointJob {
   std::size_t slot;  // index into the result's points
   double value, value2;
@@ -103,14 +137,18 @@ class PointRunner {
   // whole sweep (shared_stiffness).
   PointRunner(const Case& base, const SweepOptions& o) : base_(base), o_(o) {
     mesh_ = mesh_to_read(base, o.mesh);
-    if (base.model.form == ModelForm::kTrain) {
-      // A train's meshes come from its own stiffness sources; the mesh read is named.
+    if (as_train(base)) {
+      // A train's meshes come from its own stiffness sources; the mesh read is named. A coupled
+      // pair runs as its train (train_form_of), whose bearings and shafts it has.
       const train::Assembled a = assembled_train(base);
       for (const train::Mesh& m : a.train().meshes) meshes_.push_back(m.name);
       groups_ = load_sharing_groups(a);
       for (const auto& [k, axis] : a.clearances())
         clearances_.push_back(a.train().bearings[static_cast<std::size_t>(k)].name +
                               (axis == 0 ? "_x" : "_y"));
+      TrainRunResult named;
+      add_parts(a, std::nullopt, named);
+      for (const TrainPartQuantity& q : part_quantities(named)) parts_.push_back({q.part, q.what});
       return;
     }
     std::vector<std::string> keys{o.axis.key};
@@ -121,6 +159,7 @@ class PointRunner {
   const std::vector<std::string>& meshes() const { return meshes_; }
   const std::vector<LoadSharingGroup>& load_sharing() const { return groups_; }
   const std::vector<std::string>& clearances() const { return clearances_; }
+  const std::vector<SweepPart>& parts() const { return parts_; }
   const std::string& mesh_read() const {
     static const std::string none;
     return meshes_.empty() ? none : meshes_[mesh_];
@@ -129,7 +168,7 @@ class PointRunner {
   std::string period_note_at(double value, double value2) const {
     std::string note;
     const Case c = case_at(value, value2);
-    if (c.model.form == ModelForm::kTrain) train_section_period_s(TrainSolver(c), &note);
+    if (as_train(c)) train_section_period_s(TrainSolver(c), &note);
     return note;
   }
 
@@ -148,8 +187,7 @@ class PointRunner {
   }
   double period_at(double value, double value2) const {
     const Case c = case_at(value, value2);
-    if (c.model.form == ModelForm::kCoupled) return coupled_period_s(c);
-    if (c.model.form == ModelForm::kTrain) return train_section_period_s(TrainSolver(c), nullptr);
+    if (as_train(c)) return train_section_period_s(TrainSolver(c), nullptr);
     return period_s(build_model(c, nullptr, stiffness()));
   }
 
@@ -163,15 +201,14 @@ class PointRunner {
     if (o_.axis2) set(c, o_.axis2->key, value2, where2);
     const std::string both = where2.empty() ? where : where + " with " + where2;
     double period = 0, fastest = 0;
-    if (c.model.form == ModelForm::kTrain) {
+    if (as_train(c)) {
       const TrainSolver solver(c);
       period = train_section_period_s(solver, nullptr);
       fastest = solver.fastest_period_s();
       if (o_.start_static)  // every sequence starts from the static state
         (void)solver.initial_state(InitialCondition::kStatic);
     } else {
-      const GearPairModel model = build_model(
-          c.model.form == ModelForm::kCoupled ? gear_pair_of(c) : c, nullptr, stiffness());
+      const GearPairModel model = build_model(c, nullptr, stiffness());
       period = period_s(model);
       fastest = fastest_period_s(model.parameters());
     }
@@ -186,18 +223,11 @@ class PointRunner {
           kMaxFastestPeriods));
   }
 
-  // The coupled model's section period: that of its excitations, the one-degree pair's with
-  // the same case (stiffness, torques, transmission error).
-  double coupled_period_s(const Case& c) const {
-    return period_s(build_model(gear_pair_of(c), nullptr, stiffness()));
-  }
-
   // Runs one point from `carry` (the previous point's end state) or from the case's initial
   // condition, and leaves its end state in `carry`.
   SweepPoint run(const PointJob& job, Carry& carry) const {
     const Case c = case_at(job.value, job.value2);
-    if (c.model.form == ModelForm::kCoupled) return run_coupled_point(c, job, carry);
-    if (c.model.form == ModelForm::kTrain) return run_train_point(c, job, carry);
+    if (as_train(c)) return run_train_point(c, job, carry);
     const GearPairModel model = build_model(c, nullptr, stiffness());
     const double period = period_s(model);
     // With Newmark, a whole number of steps per period: block ends fall on period ends.
@@ -294,7 +324,7 @@ class PointRunner {
             ode::OutputGrid{t0_s, period / spp, static_cast<std::int64_t>(m) * spp}};
   }
 
-  // settle() for a model whose state is a vector (the coupled model, a train): from (t, y) to
+  // settle() for a model whose state is a vector (a train): from (t, y) to
   // the section times k period (k T0 from the point's start, as the one-degree point's), each a
   // flow of solver.advance(t, y, t_next) after which seen(flow) hears it with (t, y) moved on;
   // a numerical failure into `failure`, which ends the settling. The periods run.
@@ -342,120 +372,14 @@ class PointRunner {
     return pt;
   }
 
-  // A point of the coupled model: settled on the section by its mesh deflection d - e and the
-  // bearing displacements y_i and z_i the model has, each with its rate (all in b and b w_n),
-  // measured by the coupled reading (coupled_run.hpp).
-  SweepPoint run_coupled_point(const Case& c, const PointJob& job, Carry& carry) const {
-    const CoupledSolver solver(c, stiffness());
-    const CoupledParameters& p = solver.model().parameters();
-    const double period = coupled_period_s(c);
-    // The previous point's end state, unless a shaft came or went (another set of coordinates).
-    const bool same =
-        carry.coordinates && carry.coordinates->size() == 2 * solver.model().parameters().size();
-    ode::Vector y =
-        same ? *carry.coordinates
-             : solver.initial_state(o_.start_static ? InitialCondition::kStatic : c.solver.initial);
-    const double b = p.backlash_m;
-    const double w_n = std::sqrt(p.cos_base_helix * p.cos_base_helix * p.stiffness_n_per_m.offset /
-                                 p.equivalent_mass_kg);
-    CoupledSections section(p, c.solver.tolerance);
-    double t = 0;
-    const auto add = [&] { section.add(t, y); };
-    add();
-    // Where the last period stayed in one region, the distance of every coordinate to that
-    // region's periodic response is exact (each region's found once); elsewhere the fits judge.
-    const ode::Vector scale = detail::coupled_orbit_scale(p, w_n);
-    std::map<int, std::optional<RegionResponse>> responses;
-    std::optional<int> steady_region;  // the region of a last period without events
-    const auto judge = [&] {
-      if (steady_region) {
-        auto [it, fresh] = responses.try_emplace(*steady_region);
-        if (fresh)
-          it->second = region_response(solver, t, y, *steady_region, period, scale,
-                                       c.solver.tolerance, o_.steady_tolerance);
-        if (const std::optional<RegionResponse>& r = it->second) {
-          const double distance = scaled_norm(y - r->state, scale) + r->error;
-          return SteadyVerdict{distance <= o_.steady_tolerance ? 1 : 0, distance};
-        }
-      }
-      return section.judge(o_.steady_tolerance);
-    };
-    SteadyVerdict verdict;
-    std::optional<ode::FlowResult> failure;
-    const int k =
-        settle_flows(solver, period, t, y, judge, verdict, failure, [&](const ode::FlowResult& f) {
-          // Without events over the flow, its last period had none.
-          steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
-          add();
-        });
-    // A failed coupled point keeps its bearing columns, as NaN.
-    const auto failed_coupled = [&](const char* termination, const std::string& message) {
-      SweepPoint pt = failed(job, carry, termination, message);
-      BearingReading nan;
-      nan.max_line_force_n = nan.line_force_factor = nan.max_axial_force_n =
-          nan.axial_force_factor = nan.impacts_per_period = kNaN;
-      pt.bearings = std::array<BearingReading, 2>{nan, nan};
-      return pt;
-    };
-    if (failure) return failed_coupled(ode::to_string(failure->termination), failure->message);
-    const Measurement w = measurement(verdict, t, period);
-    const int m = w.periods, spp = w.samples_per_period;
-    ode::Vector end;
-    const CoupledRunResult r = solver.read(t, y, w.t1_s, w.grid, w.t1_s - period, {}, &end);
-    if (!r.ok()) return failed_coupled(ode::to_string(r.termination), r.message);
-    SweepPoint pt = point_of(job);
-    const CoupledSamples& smp = r.samples;
-    const double count = static_cast<double>(smp.t_s.size());
-    double sd = 0, sd2 = 0, sf = 0, sf2 = 0;
-    for (std::size_t i = 0; i < smp.t_s.size(); ++i) {
-      sd += smp.deflection_bar[i];
-      sd2 += smp.deflection_bar[i] * smp.deflection_bar[i];
-      sf += smp.force_bar[i];
-      sf2 += smp.force_bar[i] * smp.force_bar[i];
-      if (i % static_cast<std::size_t>(spp) == 0) {
-        pt.strobe_delta_bar.push_back(smp.deflection_bar[i]);
-        pt.strobe_velocity_m_s.push_back(section.mesh(smp.t_s[i], smp.state[i]).v);
-        pt.strobe_force_bar.push_back(smp.force_bar[i]);
-      }
-    }
-    const double force_scale = b * p.stiffness_n_per_m.offset;
-    pt.mean_delta_bar = sd / count;
-    pt.rms_delta_bar = std::sqrt(sd2 / count);
-    pt.mean_force_bar = sf / count;
-    pt.rms_force_bar = std::sqrt(sf2 / count);
-    pt.pp_delta_bar = (r.max_deflection_m - r.min_deflection_m) / b;
-    pt.min_delta_bar = r.min_deflection_m / b;
-    pt.pp_force_bar = (r.max_force_n - r.min_force_n) / force_scale;
-    pt.max_force_bar = r.max_force_n / force_scale;
-    pt.dynamic_factor = r.dynamic_mesh_factor;
-    pt.separated_fraction = r.mesh.separated_fraction;
-    pt.impacts_per_period = static_cast<double>(r.mesh.impacts) / m;
-    pt.regime = r.mesh.regime;
-    pt.double_sided = r.mesh.double_sided;
-    pt.settle_periods = k;
-    pt.settled = verdict.settled();
-    pt.period_multiple = verdict.period_multiple;
-    // In permanent contact and without bearing clearances the model is linear with coefficients
-    // of period T0: its one steady response is of period T0, whatever multiple q the section
-    // fits settled on (a q-periodic point of a stable affine map is its fixed point, and the
-    // distance predicted to it stands).
-    const bool linear = !r.bearing[0].present && !r.bearing[1].present && r.mesh.impacts == 0 &&
-                        r.mesh.separations == 0 && r.mesh.separated_fraction == 0;
-    if (pt.settled && linear) pt.period_multiple = 1;
-    pt.steady_error = verdict.error;
-    pt.bearings.emplace();
-    for (std::size_t i = 0; i < 2; ++i)
-      (*pt.bearings)[i] = {
-          r.max_bearing_force_n[i], r.bearing_factor[i], r.max_axial_force_n[i], r.axial_factor[i],
-          r.bearing[i].present ? static_cast<double>(r.bearing[i].impacts) / m : kNaN};
-    carry.coordinates = end;
-    return pt;
-  }
-
-  // A point of a gear train: settled on the section by every mesh's d - e and every shaft's
-  // twist with their rates (TrainSections), measured by the train's reading (train_run.hpp),
-  // each mesh into SweepPoint::meshes and the mesh read (SweepOptions::mesh) into the point's
-  // own statistics, as the one-degree point's (F / (b k_m) with the mesh's mean stiffness).
+  // A point of a gear train (or a coupled pair as its train): settled on the section by every
+  // mesh's d - e, every shaft's twist and every centre with their rates (TrainSections), or,
+  // where the last period stayed in one contact region, by the exact distance of the whole state
+  // (modulo the rigid rotation) to that region's periodic response (region_response); measured
+  // by the train's reading (train_run.hpp), each mesh into SweepPoint::meshes, each shaft's and
+  // bearing's quantity into SweepPoint::parts, and the mesh read (SweepOptions::mesh) into the
+  // point's own statistics, as the one-degree point's (F / (b k_m) with the mesh's mean
+  // stiffness).
   SweepPoint run_train_point(const Case& c, const PointJob& job, Carry& carry) const {
     const TrainSolver solver(c);
     const train::Assembled& a = solver.assembled();
@@ -468,6 +392,7 @@ class PointRunner {
       pt.meshes.assign(meshes_.size(), nan);
       pt.load_sharing.assign(groups_.size(), {kNaN, kNaN});
       pt.clearances.assign(clearances_.size(), {kNaN, kNaN});
+      pt.parts.assign(parts_.size(), {kNaN, kNaN});
       return pt;
     };
     // The previous point's end state at a section time (every excitation back at its phase 0),
@@ -486,15 +411,38 @@ class PointRunner {
     TrainSections section(a, solver.top_frequency_rad_s(), c.solver.tolerance);
     double t = 0;
     section.add(t, y);
-    // Without a common period there is no section to be steady on.
+    // Where the last period stayed in one region, the distance of the state (less its rigid
+    // motions) to that region's periodic response is exact (each region's found once, with the
+    // exact engine); elsewhere the fits judge. Without a common period there is no section to
+    // be steady on.
+    const ode::Vector scale = train_state_scale(a, solver.top_frequency_rad_s());
+    const double gain = section.gain(scale);
+    const std::optional<ode::Matrix> project =
+        c.solver.method == Method::kExact ? rigid_free(a) : std::nullopt;
+    std::map<int, std::optional<RegionResponse>> responses;
+    std::optional<int> steady_region;  // the region of a last period without events
     const auto judge = [&] {
-      return quasi.empty() ? section.judge(o_.steady_tolerance)
-                           : SteadyVerdict{0, std::numeric_limits<double>::infinity()};
+      if (!quasi.empty()) return SteadyVerdict{0, std::numeric_limits<double>::infinity()};
+      if (steady_region && project) {
+        auto [it, fresh] = responses.try_emplace(*steady_region);
+        if (fresh)
+          it->second = region_response(solver, t, y, *steady_region, period, scale, gain,
+                                       c.solver.tolerance, o_.steady_tolerance, *project);
+        if (const std::optional<RegionResponse>& r = it->second) {
+          const double distance = section.distance(*project * y - r->state) + r->error;
+          return SteadyVerdict{distance <= o_.steady_tolerance ? 1 : 0, distance};
+        }
+      }
+      return section.judge(o_.steady_tolerance);
     };
     SteadyVerdict verdict;
     std::optional<ode::FlowResult> failure;
-    const int k = settle_flows(solver, period, t, y, judge, verdict, failure,
-                               [&](const ode::FlowResult&) { section.add(t, y); });
+    const int k =
+        settle_flows(solver, period, t, y, judge, verdict, failure, [&](const ode::FlowResult& f) {
+          // Without events over the flow, its last period had none.
+          steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
+          section.add(t, y);
+        });
     if (failure) return failed_train(ode::to_string(failure->termination), failure->message);
     const Measurement w = measurement(verdict, t, period);
     const int m = w.periods, spp = w.samples_per_period;
@@ -505,7 +453,8 @@ class PointRunner {
     SweepPoint pt = point_of(job);
     const TrainSamples& smp = r.samples;
     const double count = static_cast<double>(smp.t_s.size());
-    bool contact_only = true;  // every mesh in contact throughout: the train is linear there
+    // Every mesh in contact throughout and no bearing clearance: the train is linear there.
+    bool contact_only = a.clearances().empty();
     for (std::size_t i = 0; i < r.meshes.size(); ++i) {
       const TrainMeshReading& x = r.meshes[i];
       const double b = x.backlash_m;
@@ -545,6 +494,10 @@ class PointRunner {
           }));
       pt.load_sharing.push_back({x.factor_with_startup.value_or(kNaN), lost});
     }
+    // Each shaft's and bearing's quantity over the whole measurement.
+    for (const TrainPartQuantity& q : part_quantities(r))
+      pt.parts.push_back({std::max(std::abs(q.whole->max), std::abs(q.whole->min)),
+                          part_dynamic_factor(r, *q.whole, *q.at_rest).value_or(kNaN)});
     // The mesh read, as the one-degree point reads its mesh.
     const MeshReading& read = pt.meshes[mesh_];
     const TrainMeshReading& x = r.meshes[mesh_];
@@ -577,8 +530,8 @@ class PointRunner {
     pt.settle_periods = k;
     pt.settled = verdict.settled();
     pt.period_multiple = verdict.period_multiple;
-    // Every mesh in contact throughout: linear with coefficients of period T0, its one steady
-    // response of period T0 (as the coupled point's).
+    // Every mesh in contact throughout and no bearing clearance: linear with coefficients of
+    // period T0, its one steady response of period T0.
     if (pt.settled && contact_only) pt.period_multiple = 1;
     pt.steady_error = verdict.error;
     carry.coordinates = end;
@@ -632,6 +585,7 @@ class PointRunner {
   std::vector<std::string> meshes_;  // a train's
   std::vector<LoadSharingGroup> groups_;
   std::vector<std::string> clearances_;  // a train's clearance directions
+  std::vector<SweepPart> parts_;         // a train's shaft and bearing quantities
   std::size_t mesh_ = 0;                 // the one the points' statistics read
 };
 
@@ -817,6 +771,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   r.meshes = runner.meshes();
   r.load_sharing = runner.load_sharing();
   r.clearances = runner.clearances();
+  r.parts = runner.parts();
   r.mesh = runner.mesh_read();
 
   // The sequences: for each row, the up sweep and/or the down sweep.
@@ -858,15 +813,14 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
       r.failed += !p->failure.empty();
       r.points.push_back(std::move(*p));
     }
-  // A bearing clearance makes the coupled model nonlinear in contact too (in the base case or
-  // along a key that sets one).
+  // A bearing clearance makes a train nonlinear in contact too (in the base case or along a key
+  // that sets one: the coupled pair's bearings.radial_clearance_um, a train bearing's
+  // clearance_um).
   const auto sets_clearance = [](const SweepAxis& a) {
-    return a.key.starts_with("bearings.radial_clearance_um");
+    return a.key.find("clearance") != std::string::npos;
   };
   const bool clearances =
-      base.model.form == ModelForm::kCoupled &&
-      (base.bearings.radial_clearance_um[0] > 0 || base.bearings.radial_clearance_um[1] > 0 ||
-       sets_clearance(o.axis) || (o.axis2 && sets_clearance(*o.axis2)));
+      !r.clearances.empty() || sets_clearance(o.axis) || (o.axis2 && sets_clearance(*o.axis2));
   read_jumps(r, !clearances);
   r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
@@ -884,20 +838,15 @@ std::string csv_text(const std::string& s) {
   return q + "\"";
 }
 
-// sweep.csv's header (no newline); the coupled model's bearings add ten columns before
-// `failure`, a train's meshes ten each, its load-sharing groups two each, its bearing clearance
-// directions two each.
+// sweep.csv's header (no newline); before `failure` a train's (or a coupled pair's) meshes add
+// ten columns each, its load-sharing groups two each, its bearing clearance directions two each,
+// its shaft and bearing quantities two each.
 std::string sweep_csv_header(const SweepResult& r) {
-  const ModelForm form = r.form;
   std::string out =
       "direction,param,value,param2,value2,settled,settle_periods,mean_delta_bar,rms_delta_bar,"
       "pp_delta_bar,min_delta_bar,mean_force_bar,rms_force_bar,pp_force_bar,max_force_bar,"
       "dynamic_factor,separated_fraction,impacts_per_period,regime,double_sided,period_multiple,"
       "steady_error,";
-  if (form == ModelForm::kCoupled)
-    for (int gear = 1; gear <= 2; ++gear)
-      for (const BearingColumn& col : kBearingColumns)
-        fmt::format_to(std::back_inserter(out), "bearing{}_{},", gear, col.name);
   for (const std::string& mesh : r.meshes) {
     for (const MeshColumn& col : kMeshColumns)
       fmt::format_to(std::back_inserter(out), "{}_{},", mesh, col.name);
@@ -907,6 +856,8 @@ std::string sweep_csv_header(const SweepResult& r) {
     fmt::format_to(std::back_inserter(out), "{0}_load_sharing_factor,{0}_lost_contact,", g.label);
   for (const std::string& c : r.clearances)
     fmt::format_to(std::back_inserter(out), "{0}_impacts_per_period,{0}_inside_fraction,", c);
+  for (const SweepPart& q : r.parts)
+    fmt::format_to(std::back_inserter(out), "{},{},", q.peak_column(), q.factor_column());
   return out + "failure";
 }
 
@@ -925,7 +876,6 @@ int sweep_csv_column(const SweepResult& r, const std::string& name) {
 
 std::string sweep_csv(const SweepResult& r) {
   const SweepOptions& o = r.options;
-  const bool bearings = r.form == ModelForm::kCoupled;
   std::string out = sweep_csv_header(r) + "\n";
   for (const SweepPoint& p : r.points) {
     fmt::format_to(
@@ -937,11 +887,6 @@ std::string sweep_csv(const SweepResult& r) {
         p.dynamic_factor ? fmt::format("{}", *p.dynamic_factor) : "", p.separated_fraction,
         p.impacts_per_period, p.failure.empty() ? to_string(p.regime) : "failed",
         p.double_sided ? 1 : 0, p.period_multiple, p.steady_error);
-    if (bearings)
-      for (std::size_t i = 0; i < 2; ++i)
-        for (const BearingColumn& col : kBearingColumns)
-          fmt::format_to(std::back_inserter(out), "{},",
-                         p.bearings ? (*p.bearings)[i].*col.member : kNaN);
     for (std::size_t i = 0; i < r.meshes.size(); ++i) {
       const bool read = i < p.meshes.size() && p.failure.empty();
       for (const MeshColumn& col : kMeshColumns)
@@ -958,6 +903,11 @@ std::string sweep_csv(const SweepResult& r) {
       const bool read = i < p.clearances.size() && p.failure.empty();
       fmt::format_to(std::back_inserter(out), "{},{},", read ? p.clearances[i][0] : kNaN,
                      read ? p.clearances[i][1] : kNaN);
+    }
+    for (std::size_t i = 0; i < r.parts.size(); ++i) {
+      const bool read = i < p.parts.size() && p.failure.empty();
+      fmt::format_to(std::back_inserter(out), "{},{},", read ? p.parts[i].peak : kNaN,
+                     read ? p.parts[i].factor : kNaN);
     }
     out += csv_text(p.failure) + "\n";
   }
@@ -1006,6 +956,11 @@ std::string summary(const SweepResult& r) {
     j["load_sharing"] = groups;
   }
   if (!r.clearances.empty()) j["clearances"] = r.clearances;
+  if (!r.parts.empty()) {
+    nlohmann::json parts = nlohmann::json::array();
+    for (const SweepPart& q : r.parts) parts.push_back({{"part", q.part}, {"quantity", q.what}});
+    j["parts"] = parts;
+  }
   if (!r.period_note.empty()) j["period_note"] = r.period_note;
   j["settle_periods"] = o.settle_periods;
   j["measure_periods"] = o.measure_periods;
@@ -1137,38 +1092,20 @@ std::string regime_map_body(const SweepResult& r) {
   return s;
 }
 
-// A train's meshes along the key, each a curve, up and down: the peak-to-peak (d - e) / b, the
-// dynamic factor, and in a third panel the impacts per system period where any occurred.
-std::string mesh_responses_body(const SweepResult& r) {
-  // A panel draws a curve per series: sweep.csv's column and its legend.
-  struct Panel {
-    const char* ylabel;
-    std::vector<std::pair<std::string, std::string>> series;
-  };
-  const auto per_mesh = [&](const char* ylabel, const char* column) {
-    Panel p{ylabel, {}};
-    for (const std::string& m : r.meshes) p.series.emplace_back(m + "_" + column, m);
-    return p;
-  };
-  std::vector<Panel> panels{per_mesh("peak-to-peak (d - e) / b", "pp_delta_bar"),
-                            per_mesh("dynamic factor", "dynamic_factor")};
-  const bool impacts = std::any_of(r.points.begin(), r.points.end(), [](const SweepPoint& p) {
-    return std::any_of(p.meshes.begin(), p.meshes.end(),
-                       [](const MeshReading& m) { return m.impacts_per_period > 0; });
-  });
-  if (impacts) panels.push_back(per_mesh("impacts per system period", "impacts_per_period"));
-  if (!r.load_sharing.empty()) {
-    Panel p{"load-sharing factor", {}};
-    for (const LoadSharingGroup& g : r.load_sharing)
-      p.series.emplace_back(g.label + "_load_sharing_factor", g.label);
-    panels.push_back(std::move(p));
-  }
+// A figure of panels along the key, each drawing its series (sweep.csv's column and its legend)
+// up and down.
+struct SeriesPanel {
+  std::string ylabel;
+  std::vector<std::pair<std::string, std::string>> series;
+};
+std::string series_body(const SweepResult& r, const std::string& title,
+                        const std::vector<SeriesPanel>& panels) {
   static constexpr std::array<const char*, 6> kColours{"#1f3b73", "#b5532b", "#2e7d32",
                                                        "#6a1b9a", "#00838f", "#5d4037"};
   std::string s = fmt::format(
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set key top left font ',9'\n{}set multiplot layout {},1 title \"each mesh along {}\"\n",
-      r.options.axis.log ? "set logscale x\n" : "", panels.size(), r.options.axis.key);
+      "set key top left font ',9'\n{}set multiplot layout {},1 title \"{} along {}\"\n",
+      r.options.axis.log ? "set logscale x\n" : "", panels.size(), title, r.options.axis.key);
   for (std::size_t k = 0; k < panels.size(); ++k) {
     fmt::format_to(std::back_inserter(s), "set xlabel '{}'\nset ylabel '{}'\nplot ",
                    k + 1 == panels.size() ? r.options.axis.key : "", panels[k].ylabel);
@@ -1194,67 +1131,68 @@ std::string mesh_responses_body(const SweepResult& r) {
   return s + "unset multiplot\n";
 }
 
-// The coupled model's bearings along the key: the largest line-of-action force per gear, up
-// and down, and in further panels only what occurred: the axial forces of a helical pair, the
-// impacts in a bearing's clearance.
-std::string bearing_forces_body(const SweepResult& r) {
-  using Member = double BearingReading::*;
-  // Whether some point's bearing `gear` (0: either) has `member` passing `test`.
-  const auto any = [&](Member member, int gear, const auto& test) {
-    for (const SweepPoint& p : r.points)
-      if (p.bearings)
-        for (int i = 1; i <= 2; ++i)
-          if ((gear == 0 || gear == i) && test((*p.bearings)[i - 1].*member)) return true;
-    return false;
+// A train's meshes along the key, each a curve, up and down: the peak-to-peak (d - e) / b, the
+// dynamic factor, and in a third panel the impacts per system period where any occurred.
+std::string mesh_responses_body(const SweepResult& r) {
+  const auto per_mesh = [&](const char* ylabel, const char* column) {
+    SeriesPanel p{ylabel, {}};
+    for (const std::string& m : r.meshes) p.series.emplace_back(m + "_" + column, m);
+    return p;
   };
-  const auto finite = [](double x) { return std::isfinite(x); };
-  struct Panel {
-    Member member;
-    const char* ylabel;
-  };
-  std::vector<Panel> panels{
-      {&BearingReading::max_line_force_n, "largest line-of-action force (N)"}};
-  if (any(&BearingReading::max_axial_force_n, 0,
-          [](double x) { return std::isfinite(x) && x > 0; }))
-    panels.push_back({&BearingReading::max_axial_force_n, "largest axial force (N)"});
-  if (any(&BearingReading::impacts_per_period, 0, finite))
-    panels.push_back({&BearingReading::impacts_per_period, "impacts per period in the clearance"});
-  const auto column_of = [&](int gear, Member member) {
-    const auto* col = std::find_if(kBearingColumns.begin(), kBearingColumns.end(),
-                                   [&](const BearingColumn& c) { return c.member == member; });
-    return sweep_csv_column(r, fmt::format("bearing{}_{}", gear, col->name));
-  };
-  std::string s = fmt::format(
-      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set key top right font ',9'\n{}set multiplot layout {},1 title \"bearings along {}\"\n",
-      r.options.axis.log ? "set logscale x\n" : "", panels.size(), r.options.axis.key);
-  for (std::size_t k = 0; k < panels.size(); ++k) {
-    const Panel& panel = panels[k];
-    fmt::format_to(std::back_inserter(s), "set xlabel '{}'\nset ylabel '{}'\nplot ",
-                   k + 1 == panels.size() ? r.options.axis.key : "", panel.ylabel);
-    bool first = true;
-    for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
-      if (std::none_of(r.points.begin(), r.points.end(),
-                       [&](const SweepPoint& p) { return p.direction == d; }))
-        continue;
-      for (int gear = 1; gear <= 2; ++gear) {
-        if (panel.member == &BearingReading::impacts_per_period &&
-            !any(&BearingReading::impacts_per_period, gear, finite))
-          continue;  // this bearing has no clearance
-        const bool up = d == SweepDirection::kUp;
-        fmt::format_to(std::back_inserter(s),
-                       "{}'sweep.csv' every ::1 using {}:(strcol({}) eq '{}' ? ${} : NaN) with "
-                       "linespoints dt {} pt {} ps {} lc rgb '{}' title '{}: gear {}'",
-                       first ? "" : ", \\\n     ", sweep_csv_column(r, "value"),
-                       sweep_csv_column(r, "direction"), to_string(d),
-                       column_of(gear, panel.member), gear == 1 ? 1 : 2, up ? 7 : 6, up ? 0.4 : 0.5,
-                       up ? "#1f3b73" : "#b5532b", to_string(d), gear);
-        first = false;
-      }
-    }
-    s += "\n";
+  std::vector<SeriesPanel> panels{per_mesh("peak-to-peak (d - e) / b", "pp_delta_bar"),
+                                  per_mesh("dynamic factor", "dynamic_factor")};
+  const bool impacts = std::any_of(r.points.begin(), r.points.end(), [](const SweepPoint& p) {
+    return std::any_of(p.meshes.begin(), p.meshes.end(),
+                       [](const MeshReading& m) { return m.impacts_per_period > 0; });
+  });
+  if (impacts) panels.push_back(per_mesh("impacts per system period", "impacts_per_period"));
+  if (!r.load_sharing.empty()) {
+    SeriesPanel p{"load-sharing factor", {}};
+    for (const LoadSharingGroup& g : r.load_sharing)
+      p.series.emplace_back(g.label + "_load_sharing_factor", g.label);
+    panels.push_back(std::move(p));
   }
-  return s + "unset multiplot\n";
+  return series_body(r, "each mesh", panels);
+}
+
+// A train's shafts and bearings along the key, up and down, one panel per kind of quantity that
+// some point loads (a quantity's largest magnitude; one that stays 0, as a spur pair's axial
+// force, is left out): the bearings' forces in the plane (x, y), their axial forces, their
+// moments, the shafts' torques; and the impacts per system period in each bearing clearance.
+std::string part_forces_body(const SweepResult& r) {
+  const auto loaded = [&](std::size_t i) {
+    return std::any_of(r.points.begin(), r.points.end(), [&](const SweepPoint& p) {
+      return i < p.parts.size() && std::isfinite(p.parts[i].peak) && p.parts[i].peak > 0;
+    });
+  };
+  struct Kind {
+    const char* ylabel;
+    std::vector<const char*> whats;
+  };
+  static const std::array<Kind, 4> kKinds{
+      {{"largest bearing force (N)", {"force_x_n", "force_y_n"}},
+       {"largest axial force (N)", {"axial_force_n"}},
+       {"largest moment (N m)", {"moment_x_nm", "moment_y_nm"}},
+       {"largest shaft torque (N m)", {"torque_nm"}}}};
+  std::vector<SeriesPanel> panels;
+  for (const Kind& kind : kKinds) {
+    SeriesPanel p{kind.ylabel, {}};
+    for (std::size_t i = 0; i < r.parts.size(); ++i) {
+      const SweepPart& q = r.parts[i];
+      if (std::find_if(kind.whats.begin(), kind.whats.end(),
+                       [&](const char* w) { return q.what == w; }) == kind.whats.end() ||
+          !loaded(i))
+        continue;
+      p.series.emplace_back(q.peak_column(), q.label());
+    }
+    if (!p.series.empty()) panels.push_back(std::move(p));
+  }
+  if (!r.clearances.empty()) {
+    SeriesPanel p{"impacts per period in the clearance", {}};
+    for (const std::string& c : r.clearances) p.series.emplace_back(c + "_impacts_per_period", c);
+    panels.push_back(std::move(p));
+  }
+  return series_body(r, "bearings and shafts", panels);
 }
 
 }  // namespace
@@ -1353,13 +1291,13 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
     render_figure(dir, "regime_map", regime_map_body(r), 1000, 600);
     drawn.emplace_back("regime_map");
   }
-  if (r.form == ModelForm::kCoupled && !o.axis2) {
-    render_figure(dir, "bearing_forces", bearing_forces_body(r), 1000, 750);
-    drawn.emplace_back("bearing_forces");
-  }
   if (!r.meshes.empty() && !o.axis2) {
     render_figure(dir, "mesh_responses", mesh_responses_body(r), 1000, 900);
     drawn.emplace_back("mesh_responses");
+  }
+  if (!r.parts.empty() && !o.axis2) {
+    render_figure(dir, "part_forces", part_forces_body(r), 1000, 900);
+    drawn.emplace_back("part_forces");
   }
   return drawn;
 }

@@ -106,25 +106,11 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
         Segments([this](int i, const ode::Vector& z) { return flow(i, z); }, segments, scale);
     return;
   }
-  // Each free coordinate by b / (cos(beta_b) R) of its body's first mesh, the rates times the
-  // highest natural frequency in contact.
-  const double w = solver_.top_frequency_rad_s();
+  // Each free coordinate as train_state_scale measures it.
+  const ode::Vector whole = train_state_scale(a, solver_.top_frequency_rad_s());
   ode::Vector own(static_cast<Eigen::Index>(free_.size()));
-  for (std::size_t k = 0; k < free_.size(); ++k) {
-    const Eigen::Index i = free_[k] % n;
-    double angle = std::numeric_limits<double>::infinity();
-    for (std::size_t m = 0; m < t.meshes.size(); ++m) {
-      const double v = std::abs(a.mesh_vector(static_cast<int>(m))(i));
-      if (v > 0) angle = std::min(angle, t.meshes[m].backlash_m / v);
-    }
-    if (!std::isfinite(angle)) {
-      // A body joined by shafts alone: a milliradian; a centre no mesh moves: the least b.
-      angle = 1e-3;
-      if (i >= a.body_count())
-        for (const train::Mesh& x : t.meshes) angle = std::min(angle, x.backlash_m);
-    }
-    own(static_cast<Eigen::Index>(k)) = free_[k] < n ? angle : angle * w;
-  }
+  for (std::size_t k = 0; k < free_.size(); ++k)
+    own(static_cast<Eigen::Index>(k)) = whole(free_[k]);
   segments_ = Segments([this](int i, const ode::Vector& z) { return flow(i, z); }, segments, own);
 }
 

@@ -620,35 +620,9 @@ ode::FlowResult TrainSolver::advance_with_jacobian(double t0_s, const ode::Vecto
   return engine_->flow(t0_s, y0, a_->classify(t0_s, y0), t1_s, ode::OutputGrid{}, nothing, true);
 }
 
-TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s,
-                                 const ode::OutputGrid& grid, double final_from_s,
-                                 std::optional<double> watch_period_s,
-                                 const std::function<bool(double)>& progress,
-                                 ode::Vector* end_state) const {
-  const train::Assembled& a = *a_;
+void add_parts(const train::Assembled& a, const std::optional<Eigen::VectorXd>& rest,
+               TrainRunResult& result) {
   const train::Train& t = a.train();
-  TrainRunResult result;
-  result.input = case_;
-  for (int i = 0; i < a.body_count(); ++i) {
-    result.bodies.push_back(t.bodies[static_cast<std::size_t>(i)].name);
-    result.body_speed_hz.push_back(t.reference_speed_hz *
-                                   ratio_value(a.speed_ratios()[static_cast<std::size_t>(i)]));
-  }
-  result.coordinates = a.coordinate_names();
-  result.system_period_s = a.system_period_s(&result.system_period_note);
-  const std::optional<Eigen::VectorXd> rest = static_state(a, &result.static_note);
-  const std::vector<double> static_forces =
-      rest ? static_mesh_forces_n(a, *rest) : std::vector<double>{};
-  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
-    TrainMeshReading r;
-    r.name = t.meshes[m].name;
-    r.mesh_frequency_hz = a.mesh_frequency_hz(static_cast<int>(m));
-    r.backlash_m = t.meshes[m].backlash_m;
-    r.mean_stiffness_n_per_m = t.meshes[m].mean_stiffness_n_per_m;
-    if (t.mesh_phase_from_layout) r.layout_phase = a.mesh_phases()[m];
-    if (rest) r.static_force_n = static_forces[m];
-    result.meshes.push_back(r);
-  }
   for (std::size_t k = 0; k < t.shafts.size(); ++k) {
     TrainShaftReading r;
     r.name = t.shafts[k].name;
@@ -679,6 +653,59 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     }
     result.bearings.push_back(r);
   }
+}
+
+std::vector<TrainPartQuantity> part_quantities(const TrainRunResult& r) {
+  std::vector<TrainPartQuantity> out;
+  for (const TrainShaftReading& m : r.shafts)
+    out.push_back({m.name, "torque_nm", &m.torque_nm, &m.steady_torque_nm, &m.static_torque_nm});
+  for (const TrainBearingReading& m : r.bearings) {
+    const std::array<TrainPartQuantity, 5> all = {
+        TrainPartQuantity{m.name, "force_x_n", &m.force_x_n, &m.steady_force_x_n,
+                          &m.static_force_x_n},
+        TrainPartQuantity{m.name, "force_y_n", &m.force_y_n, &m.steady_force_y_n,
+                          &m.static_force_y_n},
+        TrainPartQuantity{m.name, "axial_force_n", &m.axial_force_n, &m.steady_axial_force_n,
+                          &m.static_axial_force_n},
+        TrainPartQuantity{m.name, "moment_x_nm", &m.moment_x_nm, &m.steady_moment_x_nm,
+                          &m.static_moment_x_nm},
+        TrainPartQuantity{m.name, "moment_y_nm", &m.moment_y_nm, &m.steady_moment_y_nm,
+                          &m.static_moment_y_nm}};
+    out.insert(out.end(), all.begin(), all.begin() + m.part_count());
+  }
+  return out;
+}
+
+TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s,
+                                 const ode::OutputGrid& grid, double final_from_s,
+                                 std::optional<double> watch_period_s,
+                                 const std::function<bool(double)>& progress,
+                                 ode::Vector* end_state) const {
+  const train::Assembled& a = *a_;
+  const train::Train& t = a.train();
+  TrainRunResult result;
+  result.input = case_;
+  for (int i = 0; i < a.body_count(); ++i) {
+    result.bodies.push_back(t.bodies[static_cast<std::size_t>(i)].name);
+    result.body_speed_hz.push_back(t.reference_speed_hz *
+                                   ratio_value(a.speed_ratios()[static_cast<std::size_t>(i)]));
+  }
+  result.coordinates = a.coordinate_names();
+  result.system_period_s = a.system_period_s(&result.system_period_note);
+  const std::optional<Eigen::VectorXd> rest = static_state(a, &result.static_note);
+  const std::vector<double> static_forces =
+      rest ? static_mesh_forces_n(a, *rest) : std::vector<double>{};
+  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
+    TrainMeshReading r;
+    r.name = t.meshes[m].name;
+    r.mesh_frequency_hz = a.mesh_frequency_hz(static_cast<int>(m));
+    r.backlash_m = t.meshes[m].backlash_m;
+    r.mean_stiffness_n_per_m = t.meshes[m].mean_stiffness_n_per_m;
+    if (t.mesh_phase_from_layout) r.layout_phase = a.mesh_phases()[m];
+    if (rest) r.static_force_n = static_forces[m];
+    result.meshes.push_back(r);
+  }
+  add_parts(a, rest, result);
 
   const int region = a.classify(t0_s, y0);
   const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : *adaptive_;
@@ -720,24 +747,75 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   return result;
 }
 
+ode::Vector train_state_scale(const train::Assembled& a, double rate_rad_s) {
+  const train::Train& t = a.train();
+  const Eigen::Index n = a.size();
+  ode::Vector scale(2 * n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    double size = kInf;
+    for (std::size_t m = 0; m < t.meshes.size(); ++m) {
+      const double v = std::abs(a.mesh_vector(static_cast<int>(m))(i));
+      if (v > 0) size = std::min(size, t.meshes[m].backlash_m / v);
+    }
+    if (!std::isfinite(size)) {
+      size = 1e-3;
+      if (i >= a.body_count())
+        for (const train::Mesh& x : t.meshes) size = std::min(size, x.backlash_m);
+    }
+    scale(i) = size;
+    scale(n + i) = size * rate_rad_s;
+  }
+  return scale;
+}
+
 TrainSections::TrainSections(const train::Assembled& a, double top_frequency_rad_s,
                              double integration_tolerance)
-    : a_(a) {
+    : a_(a), rate_rad_s_(top_frequency_rad_s) {
   const train::Train& t = a.train();
+  const Eigen::Index n = a.size();
   double angle_scale = kInf;   // the smallest b / (cos beta_b R) of the meshes, rad
   double length_scale = kInf;  // the smallest b, m
-  for (std::size_t m = 0; m < t.meshes.size(); ++m) {
-    const train::Mesh& x = t.meshes[m];
-    series_.emplace_back(x.backlash_m, top_frequency_rad_s, integration_tolerance);
-    errors_.push_back(a.error_series(static_cast<int>(m)));
+  for (const train::Mesh& x : t.meshes) {
     for (const double r : {x.base_radius_driving_m, x.base_radius_driven_m})
       angle_scale = std::min(angle_scale, x.backlash_m / (std::cos(x.base_helix_angle_rad) * r));
     length_scale = std::min(length_scale, x.backlash_m);
   }
-  for (std::size_t k = 0; k < t.shafts.size(); ++k)
-    series_.emplace_back(angle_scale, top_frequency_rad_s, integration_tolerance);
-  for (int k = a.body_count(); k < a.size(); ++k)
-    series_.emplace_back(length_scale, top_frequency_rad_s, integration_tolerance);
+  const auto count =
+      static_cast<Eigen::Index>(t.meshes.size() + t.shafts.size()) + (n - a.body_count());
+  rows_ = Eigen::MatrixXd::Zero(count, n);
+  sizes_.resize(count);
+  Eigen::Index j = 0;
+  for (std::size_t m = 0; m < t.meshes.size(); ++m, ++j) {
+    errors_.push_back(a.error_series(static_cast<int>(m)));
+    rows_.row(j) = a.mesh_vector(static_cast<int>(m));
+    sizes_(j) = t.meshes[m].backlash_m;
+  }
+  for (std::size_t k = 0; k < t.shafts.size(); ++k, ++j) {
+    rows_.row(j) = a.shaft_vector(static_cast<int>(k));
+    sizes_(j) = angle_scale;
+  }
+  // Each planar body's centre.
+  for (Eigen::Index k = a.body_count(); k < n; ++k, ++j) {
+    rows_(j, k) = 1;
+    sizes_(j) = length_scale;
+  }
+  for (j = 0; j < count; ++j)
+    series_.emplace_back(sizes_(j), top_frequency_rad_s, integration_tolerance);
+}
+
+double TrainSections::distance(const ode::Vector& dy) const {
+  const Eigen::Index n = a_.size();
+  const Eigen::VectorXd q = (rows_ * dy.head(n)).cwiseQuotient(sizes_);
+  const Eigen::VectorXd v = (rows_ * dy.tail(n)).cwiseQuotient(sizes_) / rate_rad_s_;
+  return std::max(q.lpNorm<Eigen::Infinity>(), v.lpNorm<Eigen::Infinity>());
+}
+
+double TrainSections::gain(const ode::Vector& scale) const {
+  const Eigen::Index n = a_.size();
+  const Eigen::MatrixXd w = rows_.cwiseAbs();
+  const Eigen::VectorXd q = (w * scale.head(n)).cwiseQuotient(sizes_);
+  const Eigen::VectorXd v = (w * scale.tail(n)).cwiseQuotient(sizes_) / rate_rad_s_;
+  return std::max(q.lpNorm<Eigen::Infinity>(), v.lpNorm<Eigen::Infinity>());
 }
 
 ode::State TrainSections::mesh(int m, double t_s, const ode::Vector& y) const {
@@ -748,18 +826,15 @@ ode::State TrainSections::mesh(int m, double t_s, const ode::Vector& y) const {
 }
 
 void TrainSections::add(double t_s, const ode::Vector& y) {
-  const train::Train& t = a_.train();
   const Eigen::Index n = a_.size();
-  for (std::size_t m = 0; m < t.meshes.size(); ++m)
-    series_[m].add(mesh(static_cast<int>(m), t_s, y));
-  for (std::size_t k = 0; k < t.shafts.size(); ++k) {
-    const Eigen::RowVectorXd v = a_.shaft_vector(static_cast<int>(k));
-    series_[t.meshes.size() + k].add({t_s, v.dot(y.head(n)), v.dot(y.tail(n)), 0.0, 0});
+  const Eigen::VectorXd q = rows_ * y.head(n), v = rows_ * y.tail(n);
+  for (std::size_t j = 0; j < series_.size(); ++j) {
+    const auto k = static_cast<Eigen::Index>(j);
+    // A mesh's deflection less its error: d - e.
+    const double e = j < errors_.size() ? errors_[j](t_s) : 0.0;
+    const double de = j < errors_.size() ? errors_[j].rate(t_s) : 0.0;
+    series_[j].add({t_s, q(k) - e, v(k) - de, 0.0, 0});
   }
-  // Each planar body's centre.
-  std::size_t next = t.meshes.size() + t.shafts.size();
-  for (Eigen::Index k = a_.body_count(); k < n; ++k)
-    series_[next++].add({t_s, y(k), y(n + k), 0.0, 0});
 }
 
 TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
@@ -811,32 +886,23 @@ nlohmann::ordered_json clearance_json(const ContactReading& whole, const Contact
   if (steady.present) x["steady"] = one(steady);
   return x;
 }
-// One quantity of a shaft or bearing: its extremes over the window and the steady part, and its
-// static value.
-struct PartQuantity {
-  const char* what;  // "torque_nm", "force_x_n", ...
-  const TrainExtremes& whole;
-  const TrainExtremes& steady;
-  const std::optional<double>& at_rest;
-};
-
 // A shaft's or bearing's reading (summary.json, docs/outputs.md): its name, each quantity's
 // max_ and min_, the same over the steady part, then each one's static_, then its dynamic
 // factor (part_dynamic_factor) by quantity.
 nlohmann::ordered_json part_reading_json(const TrainRunResult& r, const std::string& name,
-                                         const std::vector<PartQuantity>& quantities) {
+                                         const std::vector<TrainPartQuantity>& quantities) {
   nlohmann::ordered_json x, steady, factors;
   x["name"] = name;
-  for (const PartQuantity& q : quantities) {
-    x[fmt::format("max_{}", q.what)] = finite_json(q.whole.max);
-    x[fmt::format("min_{}", q.what)] = finite_json(q.whole.min);
-    steady[fmt::format("max_{}", q.what)] = finite_json(q.steady.max);
-    steady[fmt::format("min_{}", q.what)] = finite_json(q.steady.min);
+  for (const TrainPartQuantity& q : quantities) {
+    x[fmt::format("max_{}", q.what)] = finite_json(q.whole->max);
+    x[fmt::format("min_{}", q.what)] = finite_json(q.whole->min);
+    steady[fmt::format("max_{}", q.what)] = finite_json(q.steady->max);
+    steady[fmt::format("min_{}", q.what)] = finite_json(q.steady->min);
   }
   x["steady"] = steady;
-  for (const PartQuantity& q : quantities) {
-    x[fmt::format("static_{}", q.what)] = optional_json(q.at_rest);
-    factors[q.what] = optional_json(part_dynamic_factor(r, q.steady, q.at_rest));
+  for (const TrainPartQuantity& q : quantities) {
+    x[fmt::format("static_{}", q.what)] = optional_json(*q.at_rest);
+    factors[q.what] = optional_json(part_dynamic_factor(r, *q.steady, *q.at_rest));
   }
   x["dynamic_factor"] = factors;
   return x;
@@ -895,21 +961,20 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     meshes.push_back(x);
   }
   j["meshes"] = meshes;
+  // Each part's quantities, in part_quantities' order: a shaft's one, then a bearing's.
+  const std::vector<TrainPartQuantity> quantities = part_quantities(r);
+  auto next = quantities.begin();
+  const auto take = [&](const std::string& name, int count) {
+    const std::vector<TrainPartQuantity> own(next, next + count);
+    next += count;
+    return part_reading_json(r, name, own);
+  };
   nlohmann::ordered_json shafts = nlohmann::ordered_json::array();
-  for (const TrainShaftReading& m : r.shafts)
-    shafts.push_back(part_reading_json(
-        r, m.name, {{"torque_nm", m.torque_nm, m.steady_torque_nm, m.static_torque_nm}}));
+  for (const TrainShaftReading& m : r.shafts) shafts.push_back(take(m.name, 1));
   j["shafts"] = shafts;
   nlohmann::ordered_json bearings = nlohmann::ordered_json::array();
   for (const TrainBearingReading& m : r.bearings) {
-    const std::vector<PartQuantity> all = {
-        {"force_x_n", m.force_x_n, m.steady_force_x_n, m.static_force_x_n},
-        {"force_y_n", m.force_y_n, m.steady_force_y_n, m.static_force_y_n},
-        {"axial_force_n", m.axial_force_n, m.steady_axial_force_n, m.static_axial_force_n},
-        {"moment_x_nm", m.moment_x_nm, m.steady_moment_x_nm, m.static_moment_x_nm},
-        {"moment_y_nm", m.moment_y_nm, m.steady_moment_y_nm, m.static_moment_y_nm}};
-    nlohmann::ordered_json x = part_reading_json(
-        r, m.name, std::vector<PartQuantity>(all.begin(), all.begin() + m.part_count()));
+    nlohmann::ordered_json x = take(m.name, m.part_count());
     if (m.clearance_x.present) {
       x["clearance_x"] = clearance_json(m.clearance_x, m.steady_clearance_x);
       x["clearance_y"] = clearance_json(m.clearance_y, m.steady_clearance_y);

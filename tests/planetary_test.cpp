@@ -685,7 +685,7 @@ TEST(PlanetaryLoadSharing, ASweepReadsEachGroupPerPoint) {
   }
   const std::string csv = sweep_csv(off);
   EXPECT_NE(csv.find(",sun_load_sharing_factor,sun_lost_contact,ring_load_sharing_factor,"
-                     "ring_lost_contact,failure\n"),
+                     "ring_lost_contact,"),
             std::string::npos);
 
   // The shipped varying stiffness at 40 Hz: a point reads the factor the run reads in its

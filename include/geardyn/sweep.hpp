@@ -87,30 +87,6 @@ struct SweepOptions {
   std::string validate() const;
 };
 
-// One bearing of a coupled sweep point (coupled_run.hpp's reading over the measurement): the
-// largest line-of-action and axial bearing force (N, exact extremes) and their dynamic factors
-// (over the static cos(beta_b) F_n and sin(beta_b) F_n; NaN axial for a spur pair), and the
-// impacts per system period in the bearing's clearance (NaN without a clearance).
-struct BearingReading {
-  double max_line_force_n = 0, line_force_factor = 0;
-  double max_axial_force_n = 0, axial_force_factor = 0;
-  double impacts_per_period = 0;
-};
-
-// The bearing columns of a coupled sweep, in order: sweep.csv's bearing{1,2}_<name> and the
-// Python result's keys of the same names.
-struct BearingColumn {
-  const char* name;
-  double BearingReading::*member;
-};
-inline constexpr std::array<BearingColumn, 5> kBearingColumns{{
-    {"max_line_force_n", &BearingReading::max_line_force_n},
-    {"line_force_factor", &BearingReading::line_force_factor},
-    {"max_axial_force_n", &BearingReading::max_axial_force_n},
-    {"axial_force_factor", &BearingReading::axial_force_factor},
-    {"impacts_per_period", &BearingReading::impacts_per_period},
-}};
-
 // One mesh of a train's sweep point over the measurement, as the point's own statistics read
 // the mesh that SweepOptions::mesh names: (d - e) / b, its largest force (N, exact extremes),
 // the dynamic factor (that force over the static one: NaN without a static force) and the
@@ -149,6 +125,24 @@ struct LoadSharingReading {
   double lost_contact = 0;
 };
 
+// A shaft's or bearing's quantity of a train's sweep (train_run.hpp's TrainPartQuantity): the
+// part's name and what it is ("torque_nm", "force_x_n", "force_y_n", "axial_force_n",
+// "moment_x_nm", "moment_y_nm"). sweep.csv's columns <part>_<what>_peak and
+// <part>_<what>_factor; the Python result's part_peak and part_factor arrays.
+struct SweepPart {
+  std::string part, what;
+  std::string label() const { return part + "_" + what; }
+  std::string peak_column() const { return label() + "_peak"; }
+  std::string factor_column() const { return label() + "_factor"; }
+};
+
+// That quantity over a point's measurement: its largest magnitude (N or N m, the engine's exact
+// extremes) and its dynamic factor, that over the static value (part_dynamic_factor; NaN where
+// the static value is absent or negligible, and for a failed point).
+struct PartReading {
+  double peak = 0, factor = 0;
+};
+
 struct SweepPoint {
   SweepDirection direction = SweepDirection::kUp;  // kUp or kDown
   double value = 0;
@@ -173,11 +167,8 @@ struct SweepPoint {
   bool double_sided = false;
   // Once per system period over the measurement.
   std::vector<double> strobe_delta_bar, strobe_velocity_m_s, strobe_force_bar;
-  // The coupled model's bearings over the measurement, per gear (1, 2); empty for the other
-  // forms, NaN for a failed point.
-  std::optional<std::array<BearingReading, 2>> bearings;
-  // A train's meshes over the measurement, in SweepResult::meshes' order (NaN for a failed
-  // point); empty for the other forms.
+  // A train's (or a coupled pair's) meshes over the measurement, in SweepResult::meshes' order
+  // (NaN for a failed point); empty for the one-degree forms.
   std::vector<MeshReading> meshes;
   // A train's load-sharing groups, in SweepResult::load_sharing's order (NaN for a failed point).
   std::vector<LoadSharingReading> load_sharing;
@@ -185,6 +176,8 @@ struct SweepPoint {
   // measurement: impacts on either edge per system period, and the fraction of the time inside
   // (NaN for a failed point).
   std::vector<std::array<double, 2>> clearances;
+  // A train's shaft and bearing quantities, in SweepResult::parts' order.
+  std::vector<PartReading> parts;
 };
 
 // Where the up and the down sweep part: the parameter interval over which their responses
@@ -214,6 +207,9 @@ struct SweepResult {
   // A train's bearing clearance directions, "<bearing>_x" and "<bearing>_y" (train::Assembled::
   // clearances()): sweep.csv's <name>_impacts_per_period and <name>_inside_fraction.
   std::vector<std::string> clearances;
+  // A train's shaft and bearing quantities (part_quantities' order): sweep.csv's two columns
+  // each.
+  std::vector<SweepPart> parts;
   // Why the points were not judged steady, when a train has no common period (quasi-periodic:
   // each point runs max_settle_periods periods of its reference body's turn before it is
   // measured, flagged not settled).
@@ -244,8 +240,9 @@ constexpr double kJumpContrast = 3.0;
 SweepResult sweep(const Case& base, const SweepOptions& o);
 
 // sweep.csv (one row per point and direction), strobe.csv, summary.json, and with `figures` the
-// frequency-response curve, the bifurcation diagram, (2-D) the regime map and (a 1-D sweep of
-// the coupled model) the bearing forces, PNG and SVG. Returns the names of the figures drawn.
+// frequency-response curve, the bifurcation diagram, (2-D) the regime map and (a 1-D sweep of a
+// train or a coupled pair) each mesh's response and the bearings' and shafts' loads
+// (mesh_responses, part_forces), PNG and SVG. Returns the names of the figures drawn.
 std::vector<std::string> write_sweep(const std::filesystem::path& dir, const SweepResult& r,
                                      bool figures = true);
 

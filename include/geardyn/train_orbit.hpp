@@ -39,9 +39,8 @@ struct TrainOrbit : PeriodicSolution {
 
 // The orbit of N system periods (options.periods) of a train case: from a first guess settled
 // over options.settle_periods system periods from solver.initial, Newton's method on M
-// segments (options.segments; 0: N) to options.tolerance on the scaled residual (each
-// coordinate by the backlash over the base radius of its body's first mesh, each rate by that
-// times the train's highest natural frequency in contact). Throws InputError for a case that is
+// segments (options.segments; 0: N) to options.tolerance on the residual scaled as
+// train_state_scale measures a state (train_run.hpp). Throws InputError for a case that is
 // no train, a freely turning train whose mean torques do not balance, a train whose excitations
 // have no common
 // period (quasi-periodic: there is no orbit to find) or none at all, bad options; a Newton

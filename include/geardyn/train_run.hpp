@@ -82,6 +82,17 @@ struct TrainBearingReading {
   std::optional<double> static_axial_force_n, static_moment_x_nm, static_moment_y_nm;
 };
 
+// One quantity of a shaft or bearing of a train run: which (`what`), its extremes over the
+// window and the steady part, and its static value (absent without a static state). The one list
+// of them (part_quantities) is what summary.json, the terminal and a sweep's part columns read.
+struct TrainPartQuantity {
+  std::string part;  // the shaft's or bearing's name
+  const char* what;  // "torque_nm", "force_x_n", "force_y_n", "axial_force_n", "moment_x_nm", ...
+  const TrainExtremes* whole;
+  const TrainExtremes* steady;
+  const std::optional<double>* at_rest;
+};
+
 // A gear's load shared among the meshes it drives, or among those that drive it, when there
 // are two or more (a sun's planets, a ring's, a split-torque drive): the load-sharing factor
 // n max_i F_i / sum_i F_i over its n meshes (ISO 6336-1's K_gamma, AGMA 6123's mesh load
@@ -156,6 +167,17 @@ struct TrainRunResult {
   double wall_time_s = 0;
   bool ok() const { return termination == ode::Termination::kCompleted; }
 };
+
+// Every quantity of r's shafts and bearings, referring into r: each shaft's torque_nm, then each
+// bearing's force_x_n and force_y_n, on a spatial body its axial_force_n, and when it tilts its
+// moment_x_nm and moment_y_nm.
+std::vector<TrainPartQuantity> part_quantities(const TrainRunResult& r);
+
+// Appends a's shafts and bearings to r.shafts and r.bearings as a run reads them before its
+// first sample: named, what each bearing carries (spatial, tilts), the static values at `rest`
+// when given (static_state), the extremes yet to come.
+void add_parts(const train::Assembled& a, const std::optional<Eigen::VectorXd>& rest,
+               TrainRunResult& r);
 
 struct TrainRunOptions {
   // Called now and then with the fraction of the window done; false cancels.
@@ -233,6 +255,14 @@ class TrainSolver {
   double fastest_period_s_ = 0, top_frequency_rad_s_ = 0;
 };
 
+// Each coordinate of a train's state (q, q') by the size a periodic response is measured in: a
+// coordinate by the smallest b / |v_i| of the meshes that move it (an angle's b / (cos beta_b R),
+// v the mesh's row of V), one no mesh moves by a milliradian (a body joined by shafts alone) or
+// the smallest b (a centre); each rate by its coordinate's times rate_rad_s (the train's highest
+// natural frequency in contact). The orbits' unknowns (train_orbit.hpp) and a sweep point's
+// periodic response in contact are measured in it.
+ode::Vector train_state_scale(const train::Assembled& a, double rate_rad_s);
+
 // A train's state as the section judges it (steady.hpp): every mesh's d - e and every shaft's
 // twist, with their rates, in the mesh's b (a shaft's: in the smallest b / (cos beta_b R) of the
 // meshes) and b times the highest natural frequency in contact.
@@ -245,10 +275,21 @@ class TrainSections {
   SteadyVerdict judge(double tolerance) const { return judge_together(series_, tolerance); }
   // Mesh m's d - e (m) and its rate (m/s) at (t, y).
   ode::State mesh(int m, double t_s, const ode::Vector& y) const;
+  // The size of a state difference dy = (dq, dq') in the judgement's measure: the largest of
+  // its projections (each mesh's d, each shaft's twist, each centre) over their size, and of
+  // their rates over size times the top frequency. An exact distance to a periodic response
+  // (a sweep point's region_response) is measured in it.
+  double distance(const ode::Vector& dy) const;
+  // The largest distance() of a difference whose components are at most scale_i.
+  double gain(const ode::Vector& scale) const;
 
  private:
   const train::Assembled& a_;
-  std::vector<HarmonicSeries> errors_;
+  std::vector<HarmonicSeries> errors_;  // each mesh's e(t)
+  // Each series' projection of q (a row of V, a shaft's row, a centre's unit row) and size.
+  Eigen::MatrixXd rows_;
+  Eigen::VectorXd sizes_;
+  double rate_rad_s_;
   std::vector<SectionSeries> series_;
 };
 

@@ -646,11 +646,9 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         and the other statistics of delta / b and F / (b k_m), ``separated_fraction``,
         ``impacts_per_period`` per system period, ``settled``, ``settle_periods``,
         ``period_multiple`` (the response's period in T0, 0 when not settled),
-        ``steady_error`` (its predicted distance, b), ``dynamic_factor``; for a coupled case
-        also the bearings' ``bearing1_max_line_force_n``, ``bearing1_line_force_factor``,
-        ``bearing1_max_axial_force_n``, ``bearing1_axial_force_factor``,
-        ``bearing1_impacts_per_period`` and the same for ``bearing2``, as in sweep.csv; for
-        a gear train ``meshes`` (their names), ``mesh`` (the one read) and one (points,
+        ``steady_error`` (its predicted distance, b), ``dynamic_factor``; for a gear train
+        (and a coupled case, which sweeps as its train) ``meshes`` (their names), ``mesh``
+        (the one read) and one (points,
         meshes) array per mesh column of sweep.csv: ``mesh_pp_delta_bar``,
         ``mesh_max_force_n``, ``mesh_dynamic_factor``, ``mesh_impacts_per_period``, ... and
         ``mesh_regime`` (a list per point); where gears share their load among two or
@@ -658,7 +656,10 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         groups) arrays ``load_sharing_factor`` (n max F / sum F over the measurement) and
         ``lost_contact`` (the group's meshes that left their drive flank); with bearing
         clearances ``clearances`` (``<bearing>_x``, ``_y``) and (points, clearances) arrays
-        ``clearance_impacts_per_period`` and ``clearance_inside_fraction``; ``period_note``
+        ``clearance_impacts_per_period`` and ``clearance_inside_fraction``; with shafts or
+        bearings ``parts`` (``<part>_<quantity>``: ``pinion_bearing_force_y_n``,
+        ``drive_shaft_torque_nm``, ...) and (points, parts) arrays ``part_peak`` (the largest
+        magnitude, N or N m) and ``part_factor`` (that over the static value); ``period_note``
         when the train is quasi-periodic),
         ``direction``, ``regime`` and ``failure`` (why a point failed,
         else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
@@ -709,7 +710,7 @@ def _merged_rows(parts, param, param2):
                     strobe.setdefault(k, []).append(a + offset if k == "point" else a)
                 offset += len(p["value"])
             out[key] = {k: _numpy.concatenate(a) for k, a in strobe.items()}
-        elif key in ("meshes", "load_sharing", "clearances"):
+        elif key in ("meshes", "load_sharing", "clearances", "parts"):
             out[key] = v  # the train's mesh and group names, the same in every row
         elif isinstance(v, _numpy.ndarray):
             out[key] = _numpy.concatenate([p[key] for p in parts])

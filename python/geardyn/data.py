@@ -28,15 +28,6 @@ _COLUMNS = {
     "double_sided": ("1", "1 when back-side contact occurred"),
     "dynamic_factor": ("1", "max F_G over the static mesh force (NaN without mean load)"),
     "settle_periods": ("period", "system periods run before the measurement kept"),
-    **{f"bearing{g}_{name}": (units, f"bearing of gear {g}: {what}")
-       for g in (1, 2)
-       for name, units, what in (
-           ("max_line_force_n", "N", "largest |line-of-action force|"),
-           ("line_force_factor", "1", "largest line-of-action force over cos(beta_b) F_static"),
-           ("max_axial_force_n", "N", "largest |axial force|"),
-           ("axial_force_factor", "1", "largest axial force over sin(beta_b) F_static (NaN: spur)"),
-           ("impacts_per_period", "1/period", "impacts in its clearance per system period "
-                                              "(NaN: no clearance)"))},
     "delta_bar": ("1", "delta / b"),
     "force_bar": ("1", "F / (b k_m)"),
     "velocity": ("m/s", "delta', the velocity along the line of action"),
@@ -63,6 +54,11 @@ _GROUP_COLUMNS = {
 _CLEARANCE_COLUMNS = {
     "clearance_impacts_per_period": ("1/period", "impacts on the clearance's edges per period"),
     "clearance_inside_fraction": ("1", "fraction of the time inside the clearance"),
+}
+# A train's shaft and bearing quantities' columns (sweep.csv's <part>_<quantity>_<name>).
+_PART_COLUMNS = {
+    "part_peak": ("N or N m", "largest magnitude of the quantity (its name's unit: _n N, _nm N m)"),
+    "part_factor": ("1", "that over its static value (NaN: none or negligible)"),
 }
 _UNIT_SUFFIXES = {"_hz": "Hz", "_um": "um", "_mm": "mm", "_deg": "deg", "_s": "s", "_nm": "N m",
                   "_n_per_m": "N/m", "_kg_m3": "kg/m^3", "_gpa": "GPa"}
@@ -116,9 +112,10 @@ def _sweep_dataset(s, param, param2=None):
                                {"long_name": "each mesh's none, transient or sustained"})
     # The bearing clearance directions over a dimension `clearance`, the load-sharing groups
     # (a sun's planets, a ring's) over `group`.
-    clearances, groups = s.get("clearances"), s.get("load_sharing")
+    clearances, groups, parts = s.get("clearances"), s.get("load_sharing"), s.get("parts")
     for items, columns, dim in ((clearances, _CLEARANCE_COLUMNS, "clearance"),
-                                (groups, _GROUP_COLUMNS, "group")):
+                                (groups, _GROUP_COLUMNS, "group"),
+                                (parts, _PART_COLUMNS, "part")):
         for name, (units, long_name) in (columns.items() if items else ()):
             a = np.full(shape + [len(items)], np.nan)
             for i, at in enumerate(index):
@@ -158,6 +155,9 @@ def _sweep_dataset(s, param, param2=None):
     if clearances:
         coords["clearance"] = ("clearance", list(clearances),
                                {"long_name": "a bearing clearance's direction"})
+    if parts:
+        coords["part"] = ("part", list(parts),
+                          {"long_name": "a shaft's or bearing's quantity: <part>_<quantity>"})
     if groups:
         coords["group"] = ("group", list(groups),
                            {"long_name": "a gear sharing its load among two or more meshes"})
@@ -221,12 +221,13 @@ class SweepResult(dict):
         -------
         pandas.DataFrame
             Indexed by direction, (param2,) and param; a column per statistic, and for a
-            gear train each mesh's as ``<mesh>_<statistic>`` and each load-sharing group's
-            as ``<group>_load_sharing_factor`` (sweep.csv's names); the strobe
+            gear train each mesh's as ``<mesh>_<statistic>``, each load-sharing group's
+            as ``<group>_load_sharing_factor``, each shaft's and bearing's quantity as
+            ``<part>_<quantity>_peak`` and ``_factor`` (sweep.csv's names); the strobe
             samples stay in `to_xarray()`.
         """
         ds = self.to_xarray()
-        df = ds.drop_dims([d for d in ("strobe", "mesh", "group", "clearance")
+        df = ds.drop_dims([d for d in ("strobe", "mesh", "group", "clearance", "part")
                            if d in ds.dims]).to_dataframe()
         for name, v in ds.data_vars.items():
             if "mesh" in v.dims:
@@ -238,6 +239,9 @@ class SweepResult(dict):
             if "clearance" in v.dims:
                 for c in ds["clearance"].values:
                     df[f"{c}_{name[len('clearance_'):]}"] = v.sel(clearance=c).to_series()
+            if "part" in v.dims:
+                for q in ds["part"].values:
+                    df[f"{q}_{name[len('part_'):]}"] = v.sel(part=q).to_series()
         return df
 
     def __reduce__(self):

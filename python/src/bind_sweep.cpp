@@ -92,33 +92,29 @@ void bind_sweep(py::module_& m) {
         out["settle_periods"] = col([](const SweepPoint& p) { return p.settle_periods; });
         out["period_multiple"] = col([](const SweepPoint& p) { return p.period_multiple; });
         out["steady_error"] = col([](const SweepPoint& p) { return p.steady_error; });
-        // The coupled model's bearings, under sweep.csv's names.
-        if (r.form == ModelForm::kCoupled)
-          for (std::size_t i = 0; i < 2; ++i)
-            for (const BearingColumn& c : kBearingColumns)
-              out[py::str("bearing" + std::to_string(i + 1) + "_" + c.name)] =
-                  col([&](const SweepPoint& p) {
-                    return p.bearings ? (*p.bearings)[i].*c.member
-                                      : std::numeric_limits<double>::quiet_NaN();
-                  });
-        // A train's meshes: each column as a (points, meshes) array, mesh_<name>.
+        // A (points, k) array of get(point, j): NaN for a failed point and past the point's
+        // own columns.
+        const auto per_point = [&](std::size_t k, const auto& items, auto get) {
+          py::array_t<double> a({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(k)});
+          auto w = a.mutable_unchecked<2>();
+          for (std::size_t i = 0; i < n; ++i) {
+            const SweepPoint& p = r.points[i];
+            for (std::size_t j = 0; j < k; ++j)
+              w(i, j) = j < (p.*items).size() && p.failure.empty()
+                            ? get((p.*items)[j])
+                            : std::numeric_limits<double>::quiet_NaN();
+          }
+          return a;
+        };
+        // A train's meshes (a coupled pair's too): each column as a (points, meshes) array,
+        // mesh_<name>.
         if (!r.meshes.empty()) {
           out["meshes"] = r.meshes;
           out["mesh"] = r.mesh;
           const std::size_t k = r.meshes.size();
-          const auto per_mesh = [&](auto get) {
-            py::array_t<double> a({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(k)});
-            auto w = a.mutable_unchecked<2>();
-            for (std::size_t i = 0; i < n; ++i)
-              for (std::size_t j = 0; j < k; ++j)
-                w(i, j) = j < r.points[i].meshes.size() && r.points[i].failure.empty()
-                              ? get(r.points[i].meshes[j])
-                              : std::numeric_limits<double>::quiet_NaN();
-            return a;
-          };
           for (const MeshColumn& c : kMeshColumns)
-            out[py::str(std::string("mesh_") + c.name)] =
-                per_mesh([&](const MeshReading& x) { return x.*c.member; });
+            out[py::str(std::string("mesh_") + c.name)] = per_point(
+                k, &SweepPoint::meshes, [&](const MeshReading& x) { return x.*c.member; });
           py::list regimes_per_mesh;
           for (const SweepPoint& p : r.points) {
             py::list row;
@@ -134,35 +130,31 @@ void bind_sweep(py::module_& m) {
           py::list labels;
           for (const LoadSharingGroup& g : r.load_sharing) labels.append(g.label);
           out["load_sharing"] = labels;
-          const std::size_t k = r.load_sharing.size();
-          const auto per_group = [&](double LoadSharingReading::*member) {
-            py::array_t<double> a({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(k)});
-            auto w = a.mutable_unchecked<2>();
-            for (std::size_t i = 0; i < n; ++i)
-              for (std::size_t j = 0; j < k; ++j)
-                w(i, j) = j < r.points[i].load_sharing.size() && r.points[i].failure.empty()
-                              ? r.points[i].load_sharing[j].*member
-                              : std::numeric_limits<double>::quiet_NaN();
-            return a;
-          };
-          out["load_sharing_factor"] = per_group(&LoadSharingReading::factor);
-          out["lost_contact"] = per_group(&LoadSharingReading::lost_contact);
+          for (const auto& [name, member] :
+               {std::pair{"load_sharing_factor", &LoadSharingReading::factor},
+                std::pair{"lost_contact", &LoadSharingReading::lost_contact}})
+            out[name] = per_point(r.load_sharing.size(), &SweepPoint::load_sharing,
+                                  [m = member](const LoadSharingReading& x) { return x.*m; });
         }
         // A train's bearing clearance directions: (points, clearances) arrays.
         if (!r.clearances.empty()) {
           out["clearances"] = r.clearances;
-          const std::size_t k = r.clearances.size();
           for (const auto& [name, at] : {std::pair{"clearance_impacts_per_period", 0},
-                                         std::pair{"clearance_inside_fraction", 1}}) {
-            py::array_t<double> a({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(k)});
-            auto w = a.mutable_unchecked<2>();
-            for (std::size_t i = 0; i < n; ++i)
-              for (std::size_t j = 0; j < k; ++j)
-                w(i, j) = j < r.points[i].clearances.size() && r.points[i].failure.empty()
-                              ? r.points[i].clearances[j][static_cast<std::size_t>(at)]
-                              : std::numeric_limits<double>::quiet_NaN();
-            out[name] = a;
-          }
+                                         std::pair{"clearance_inside_fraction", 1}})
+            out[name] = per_point(r.clearances.size(), &SweepPoint::clearances,
+                                  [at = static_cast<std::size_t>(at)](
+                                      const std::array<double, 2>& x) { return x[at]; });
+        }
+        // A train's shaft and bearing quantities (<part>_<quantity>): (points, parts) arrays of
+        // the largest magnitude and the dynamic factor.
+        if (!r.parts.empty()) {
+          py::list labels;
+          for (const SweepPart& q : r.parts) labels.append(q.label());
+          out["parts"] = labels;
+          out["part_peak"] = per_point(r.parts.size(), &SweepPoint::parts,
+                                       [](const PartReading& x) { return x.peak; });
+          out["part_factor"] = per_point(r.parts.size(), &SweepPoint::parts,
+                                         [](const PartReading& x) { return x.factor; });
         }
         if (!r.period_note.empty()) out["period_note"] = r.period_note;
         // The strobe (one sample per system period of each point's measurement), flat:

@@ -532,24 +532,30 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
         geardyn.orbit(case.with_({"model.dof": 3}), state=[0.0, 0.0])
     with pytest.raises(geardyn.InputError, match="modes are of the coupled model"):
         geardyn.modes(geardyn.Case())
-    # A coupled sweep's bearing columns are the command line's, with their units in xarray.
+    # A coupled sweep (as its train) has the command line's bearing columns, per part along a
+    # dimension in xarray and under sweep.csv's names in pandas.
     s = geardyn.sweep(case, "speed.shaft_frequency_hz", [2000.0, 2500.0], direction="up")
     cli("sweep", str(path), "--param", "speed.shaft_frequency_hz", "--from", "2000", "--to",
         "2500", "--points", "2", "--direction", "up", "--no-figures", "--out",
         str(tmp_path / "sweep"))
     rows = (tmp_path / "sweep" / "sweep.csv").read_text().splitlines()
     header = rows[0].split(",")
-    for name in ("bearing1_max_line_force_n", "bearing2_axial_force_factor",
-                 "bearing1_impacts_per_period"):
-        column = [float(r.split(",")[header.index(name)]) for r in rows[1:]]
-        assert np.array_equal(s[name], column, equal_nan=True), name
-    assert np.all(np.isnan(s["bearing2_impacts_per_period"]))  # no clearance
+    assert s["meshes"] == ["mesh"] and "pinion_bearing_force_y_n" in s["parts"]
+    assert s["part_peak"].shape == (2, len(s["parts"]))
+    for k, part in enumerate(s["parts"]):
+        for name, array in ((part + "_peak", s["part_peak"]), (part + "_factor", s["part_factor"])):
+            column = [float(r.split(",")[header.index(name)]) for r in rows[1:]]
+            assert np.array_equal(array[:, k], column, equal_nan=True), name
+    y = s["parts"].index("pinion_bearing_force_y_n")
+    assert np.all(s["part_peak"][:, y] > 0) and np.all(s["part_factor"][:, y] > 1)
+    assert np.all(np.isnan(s["part_factor"][:, s["parts"].index("pinion_bearing_force_x_n")]))
     ds = s.to_xarray()
-    assert ds["bearing1_max_line_force_n"].attrs["units"] == "N"
-    fig = geardyn.plot.frequency_response(s, "f1 (Hz)", column="bearing1_max_line_force_n")
-    assert list(fig.axes[0].lines[0].get_ydata()) == list(s["bearing1_max_line_force_n"])
-    assert "bearing" not in " ".join(geardyn.sweep(geardyn.Case(), "speed.shaft_frequency_hz",
-                                                   [2000.0], direction="up"))
+    assert list(ds["part"].values) == s["parts"]
+    assert np.array_equal(ds["part_peak"].sel(direction="up").values, s["part_peak"])
+    df = s.to_pandas()
+    assert list(df["pinion_bearing_force_y_n_peak"]) == list(s["part_peak"][:, y])
+    assert "parts" not in geardyn.sweep(geardyn.Case(), "speed.shaft_frequency_hz", [2000.0],
+                                        direction="up")
 
 
 def _users_folder(path):
