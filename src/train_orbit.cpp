@@ -188,8 +188,8 @@ TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
     const auto n = static_cast<Eigen::Index>(orbit.coordinates.size());
     if (start->size() != n)
       throw InputError(fmt::format(
-          "the start state has {} values; this train takes {} (its free coordinates, then "
-          "their rates, SI: {})",
+          "--state: {} values given; this train takes {} (its free coordinates, then their "
+          "rates, SI: {}; an orbit's JSON gives them as \"unknowns\")",
           start->size(), n, fmt::join(orbit.coordinates, ", ")));
     z0 = *start;
   } else {
@@ -234,6 +234,7 @@ std::string train_orbit_json(const TrainOrbit& o, int indent) {
   j["coordinates"] = o.coordinates;
   j["modulo_rotation"] = o.modulo_rotation;
   j["state"] = std::vector<double>(o.state.data(), o.state.data() + o.state.size());
+  j["unknowns"] = std::vector<double>(o.unknowns.data(), o.unknowns.data() + o.unknowns.size());
   nlohmann::json meshes = nlohmann::json::array();
   for (std::size_t m = 0; m < o.meshes.size(); ++m) {
     const bool read = o.converged;

@@ -1099,6 +1099,29 @@ TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
                            " --set 'train.speed[0].acceleration_harmonics=[[290, 2, 0]]' "
                            "--segments 4 --settle-periods 200");
   EXPECT_NE(text.out.find("mesh rattle"), std::string::npos) << text.out;
+  // Its unknowns, given back as --state, start a Newton that has nothing left to do (no
+  // settling), and land on the same section state; a --state of another size is named.
+  std::string start;
+  for (const auto& x : j["unknowns"]) start += fmt::format(" {:.17g}", x.get<double>());
+  const Outcome from = cli("orbit " + loose +
+                           " --set 'train.speed[0].acceleration_harmonics=[[290, 2, 0]]' "
+                           "--segments 4 --settle-periods 0 --json --state" +
+                           start);
+  ASSERT_EQ(from.code, 0) << from.err;
+  const nlohmann::json again = nlohmann::json::parse(from.out);
+  EXPECT_LE(again["iterations"].get<int>(), 1);
+  ASSERT_EQ(again["state"].size(), j["state"].size());
+  for (std::size_t k = 0; k < j["state"].size(); ++k)
+    EXPECT_NEAR(again["state"][k].get<double>(), j["state"][k].get<double>(),
+                1e-9 * std::abs(j["state"][k].get<double>()) + 1e-15)
+        << k;
+  const Outcome bad = cli("orbit " + loose + " --state 0 0 0");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--state: 3 values given; this train takes 2 (its free coordinates, "
+                         "then their rates, SI: loose_rad, loose_rad_s"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_EQ(bad.out, "");
   const Outcome free =
       cli("orbit " + std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml --json");
   ASSERT_EQ(free.code, 0) << free.err;

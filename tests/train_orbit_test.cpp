@@ -263,6 +263,39 @@ TEST(TrainOrbit, AFreelyTurningTrainsMeanRigidSpeedIsItsNominalOne) {
   EXPECT_GT((d.inverse() * orbit.monodromy * d).norm(), 1e-8);  // not nothing
 }
 
+TEST(TrainOrbit, NewtonStartsWhereItIsToldAndFindsTheSameOrbit) {
+  // The loose gear's unstable rattle (above): from its own unknowns Newton has nothing to do;
+  // from a start 1e-4 of the section's scale away (no settling: an unstable orbit that the run
+  // leaves) it converges back onto the same orbit. A start of another size is refused by name.
+  const Case c = loose_gear(290);
+  const TrainOrbit orbit = orbit_of(c);
+  ASSERT_TRUE(orbit.converged) << orbit.message;
+  ASSERT_EQ(orbit.unknowns.size(), 2);
+  OrbitOptions o;
+  o.segments = 4;
+  o.settle_periods = 0;
+  const TrainOrbit same = find_train_orbit(c, o, orbit.unknowns);
+  ASSERT_TRUE(same.converged) << same.message;
+  EXPECT_LE(same.iterations, 1);
+  const train::Assembled a = assembled_train(c);
+  const double angle = 50e-6 / std::abs(a.mesh_vector(0)(1));
+  ode::Vector near = orbit.unknowns;
+  near(0) += 1e-4 * angle;
+  const TrainOrbit back = find_train_orbit(c, o, near);
+  ASSERT_TRUE(back.converged) << back.message;
+  EXPECT_GE(back.iterations, 1);
+  EXPECT_NEAR(back.unknowns(0), orbit.unknowns(0), 1e-7 * angle);
+  EXPECT_EQ(back.impacts_per_period, orbit.impacts_per_period);
+  try {
+    (void)find_train_orbit(c, o, ode::Vector::Zero(3));
+    ADD_FAILURE() << "a start of three values was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--state: 3 values given; this train takes 2"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(TrainOrbit, WhatHasNoOrbitSaysWhy) {
   // A train that turns freely with mean torques that do not balance speeds up: no orbit.
   Case reducer =

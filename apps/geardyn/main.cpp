@@ -797,11 +797,11 @@ int cmd_coupled_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
 // impacts per period.
 int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
                     const std::vector<double>& state, bool json) {
+  std::optional<geardyn::ode::Vector> start;
   if (!state.empty())
-    throw geardyn::InputError(
-        "--state: a gear train's orbit starts from its settled run (a section state is not "
-        "taken yet)");
-  const geardyn::TrainOrbit r = geardyn::find_train_orbit(c, o);
+    start = Eigen::Map<const geardyn::ode::Vector>(state.data(),
+                                                   static_cast<Eigen::Index>(state.size()));
+  const geardyn::TrainOrbit r = geardyn::find_train_orbit(c, o, start);
   if (json) {
     fmt::print("{}\n", geardyn::train_orbit_json(r));
     return r.converged ? 0 : kExitNumerical;

@@ -45,13 +45,15 @@ struct TrainOrbit : PeriodicSolution {
 // have no common
 // period (quasi-periodic: there is no orbit to find) or none at all, bad options; a Newton
 // that does not converge is reported in the result.
-// With `start` (the unknowns at the section, in `coordinates` order, SI) Newton starts there in
-// place of the settled run.
+// With `start` (the unknowns at the section, in `coordinates` order, SI: a found orbit's
+// `unknowns`) Newton starts there in place of the settled run; InputError naming --state when it
+// has another size.
 TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
                             const std::optional<ode::Vector>& start = std::nullopt);
 
 // `geardyn orbit --json` of a train: the keys every orbit has (orbit.hpp's periodic JSON),
-// "model": "train", the coordinates, the section state and per mesh its impacts per period.
+// "model": "train", the coordinates, the section state (every body's), the unknowns (what
+// --state takes) and per mesh its impacts per period.
 std::string train_orbit_json(const TrainOrbit& o, int indent = 2);
 
 }  // namespace geardyn

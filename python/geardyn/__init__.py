@@ -796,14 +796,17 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
     state : sequence of float, optional
         First guess on the section t = 0: delta (m) and delta' (m/s); for a coupled case
         (``model.form = "coupled"``) its 2n coordinates and their rates, SI, in the order of
-        ``coordinates``.
+        ``coordinates``; for a gear train its unknowns (the free coordinates, then their
+        rates, SI, in the order of ``coordinates``: a found orbit's ``unknowns``).
 
     Returns
     -------
     dict
         ``converged`` and ``message`` (not converging is reported here, not raised),
         ``period_s`` (s; tau in the non-dimensional form), ``state`` (m, m/s; for a coupled
-        case all coordinates and rates, with ``coordinates`` and per-bearing ``bearings``),
+        case all coordinates and rates, with ``coordinates`` and per-bearing ``bearings``;
+        for a gear train every body's, with ``unknowns`` in ``coordinates`` order,
+        ``modulo_rotation`` and per mesh its ``impacts_per_period`` in ``meshes``),
         ``floquet_multipliers`` (complex, largest first), ``monodromy``, ``stable``,
         ``impacts_per_period``, ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``,
         ``sequence`` (the contact events of one period) and more.
@@ -819,6 +822,8 @@ def _orbit_dict(text):
 
     o = _json.loads(text)
     o["state"] = np.array(o["state"])
+    if "unknowns" in o:  # a gear train's
+        o["unknowns"] = np.array(o["unknowns"])
     o["floquet_multipliers"] = np.array([complex(re, im) for re, im in o["floquet_multipliers"]])
     o["monodromy"] = np.array(o["monodromy"])
     return o

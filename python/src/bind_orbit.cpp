@@ -10,6 +10,7 @@
 #include "geardyn/coupled_orbit.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/stability.hpp"
+#include "geardyn/train_orbit.hpp"
 
 namespace py = pybind11;
 
@@ -39,9 +40,6 @@ py::array_t<std::complex<double>> multipliers(const std::vector<T>& rows, F get,
   return a;
 }
 
-// The orbit as JSON text (orbit_json); the Python layer turns it into a dict with arrays.
-py::str orbit_text(const Orbit& o) { return orbit_json(o, -1); }
-
 }  // namespace
 
 void bind_orbit(py::module_& m) {
@@ -57,17 +55,15 @@ void bind_orbit(py::module_& m) {
         o.max_iterations = max_iterations;
         std::optional<ode::State> start;
         if (state && state->size() == 2) start = ode::State{0.0, (*state)[0], (*state)[1], 0.0, 0};
-        if (c.model.form == ModelForm::kCoupled) {
+        if (c.model.form == ModelForm::kCoupled || c.model.form == ModelForm::kTrain) {
           std::optional<ode::Vector> y0;
           if (state)
             y0 = Eigen::Map<const ode::Vector>(state->data(),
                                                static_cast<Eigen::Index>(state->size()));
-          CoupledOrbit r;
-          {
-            const py::gil_scoped_release release;
-            r = find_coupled_orbit(c, o, y0);
-          }
-          return py::str(coupled_orbit_json(r, -1));
+          const py::gil_scoped_release release;
+          if (c.model.form == ModelForm::kTrain)
+            return train_orbit_json(find_train_orbit(c, o, y0), -1);
+          return coupled_orbit_json(find_coupled_orbit(c, o, y0), -1);
         }
         if (state && state->size() != 2)
           throw InputError("state: takes two values, delta (m) and delta' (m/s) at t = 0");
@@ -76,7 +72,7 @@ void bind_orbit(py::module_& m) {
           const py::gil_scoped_release release;
           r = find_orbit(c, o, start);
         }
-        return orbit_text(r);
+        return orbit_json(r, -1);
       },
       py::arg("case"), py::arg("periods") = 1, py::arg("segments") = 0,
       py::arg("settle_periods") = 100, py::arg("tolerance") = 1e-10, py::arg("max_iterations") = 40,

@@ -646,6 +646,28 @@ def test_ctrl_c_during_a_write_is_raised_once_the_file_is_whole(tmp_path):
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+def test_a_trains_orbit_from_python_is_the_command_lines():
+    # The loose gear's rattle at 290 rad/s^2 (an orbit, unstable): the orbit's JSON from Python
+    # is the command line's, and its unknowns, given back as `state`, start a Newton with
+    # nothing left to do.
+    path = SOURCE / "cases/loose_gear_rattle.toml"
+    key = "train.speed[0].acceleration_harmonics"
+    case = geardyn.Case.from_toml(path).with_({key: [[290, 2, 0]]})
+    o = geardyn.orbit(case, segments=4, settle_periods=200)
+    out = json.loads(cli("orbit", str(path), "--set", f"{key}=[[290, 2, 0]]", "--segments", "4",
+                         "--settle-periods", "200", "--json").stdout)
+    assert o["converged"] and out["converged"] and o["model"] == "train"
+    assert o["coordinates"] == out["coordinates"] == ["loose_rad", "loose_rad_s"]
+    assert o["unknowns"] == pytest.approx(np.array(out["unknowns"]), rel=1e-12, abs=1e-18)
+    assert o["state"] == pytest.approx(np.array(out["state"]), rel=1e-12, abs=1e-18)
+    assert [m["impacts_per_period"] for m in o["meshes"]] == \
+        [m["impacts_per_period"] for m in out["meshes"]]
+    again = geardyn.orbit(case, segments=4, settle_periods=0, state=o["unknowns"])
+    assert again["converged"] and again["iterations"] <= 1
+    with pytest.raises(geardyn.InputError, match=r"state: 1 values given; this train takes 2"):
+        geardyn.orbit(case, state=[0.0])
+
+
 def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     # The idler train from its file, from the command line and from a dict built in code: the
     # same readings per mesh; its xarray has a mesh dimension.
