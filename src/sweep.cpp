@@ -17,7 +17,6 @@
 #include <string>
 
 #include "geardyn/case_keys.hpp"
-#include "geardyn/coupled_run.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"

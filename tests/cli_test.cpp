@@ -858,6 +858,20 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   EXPECT_TRUE(s["bearings"][0]["dynamic_factor"]["force_x_n"].is_null());
   EXPECT_GT(s["bearings"][0]["dynamic_factor"]["force_y_n"].get<double>(), 1.0);
   EXPECT_GT(s["bearings"][0]["dynamic_factor"]["axial_force_n"].get<double>(), 1.0);
+  // The terminal lists each bearing's factors as the summary has them, to 4 digits: along y,
+  // the axis and about y, none across the line of action.
+  for (const auto& b : s["bearings"]) {
+    const nlohmann::json& f = b["dynamic_factor"];
+    const std::string line = fmt::format("bearing {:<9} force x", b["name"].get<std::string>());
+    const std::size_t at = r.out.find(line);
+    ASSERT_NE(at, std::string::npos) << r.out;
+    const std::string rest = r.out.substr(at, r.out.find('\n', at) - at);
+    EXPECT_NE(rest.find(fmt::format(", dynamic factor y {:.4g}, axial {:.4g}, moment y {:.4g}",
+                                    f["force_y_n"].get<double>(), f["axial_force_n"].get<double>(),
+                                    f["moment_y_nm"].get<double>())),
+              std::string::npos)
+        << rest;
+  }
   const std::string header = read_csv(d / "timeseries.csv").header;
   EXPECT_EQ(header.rfind("t_s,pinion_rad,wheel_rad,pinion_x_m,pinion_y_m,pinion_z_m", 0), 0U)
       << header;

@@ -19,6 +19,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
@@ -331,30 +332,29 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
       fmt::print("  {:<17} phase from the layout: {:.6g} of a mesh cycle at t = 0\n", "",
                  *m.layout_phase);
   }
-  // A part's dynamic factors (geardyn::part_dynamic_factor) where the static load has them.
-  const auto factors =
-      [&](std::initializer_list<
-          std::tuple<const char*, const geardyn::TrainExtremes&, const std::optional<double>&>>
-              quantities) {
-        std::vector<std::string> out;
-        for (const auto& [what, steady, at_rest] : quantities)
-          if (const auto f = geardyn::part_dynamic_factor(r, steady, at_rest))
-            out.push_back(fmt::format("{}{:.4g}", what, *f));
-        return out.empty() ? std::string()
-                           : fmt::format(", dynamic factor {}", fmt::join(out, ", "));
-      };
+  // A part's dynamic factors (geardyn::part_dynamic_factor) where the static load has them, by
+  // quantity (geardyn::part_quantities: the summary's list).
+  const std::vector<geardyn::TrainPartQuantity> quantities = geardyn::part_quantities(r);
+  const auto factors = [&](const std::string& part) {
+    static const std::map<std::string, std::string> kLabel = {
+        {"torque_nm", ""},           {"force_x_n", "x "},          {"force_y_n", "y "},
+        {"axial_force_n", "axial "}, {"moment_x_nm", "moment x "}, {"moment_y_nm", "moment y "}};
+    std::vector<std::string> out;
+    for (const geardyn::TrainPartQuantity& q : quantities)
+      if (q.part == part)
+        if (const auto f = geardyn::part_dynamic_factor(r, *q.steady, *q.at_rest))
+          out.push_back(fmt::format("{}{:.4g}", kLabel.at(q.what), *f));
+    return out.empty() ? std::string() : fmt::format(", dynamic factor {}", fmt::join(out, ", "));
+  };
   for (const geardyn::TrainShaftReading& x : r.shafts)
     fmt::print("  shaft {:<11} torque {:.6g} to {:.6g} N m, static {}{}\n", x.name, x.torque_nm.min,
-               x.torque_nm.max, fmt_optional(x.static_torque_nm, " N m"),
-               factors({{"", x.steady_torque_nm, x.static_torque_nm}}));
+               x.torque_nm.max, fmt_optional(x.static_torque_nm, " N m"), factors(x.name));
   for (const geardyn::TrainBearingReading& x : r.bearings) {
     fmt::print(
         "  bearing {:<9} force x {:.6g} to {:.6g} N, y {:.6g} to {:.6g} N, static ({}, {}){}\n",
         x.name, x.force_x_n.min, x.force_x_n.max, x.force_y_n.min, x.force_y_n.max,
         fmt_optional(x.static_force_x_n, " N"), fmt_optional(x.static_force_y_n, " N"),
-        factors({{"x ", x.steady_force_x_n, x.static_force_x_n},
-                 {"y ", x.steady_force_y_n, x.static_force_y_n},
-                 {"axial ", x.steady_axial_force_n, x.static_axial_force_n}}));
+        factors(x.name));
     if (x.spatial)
       fmt::print("                    axial {:.6g} to {:.6g} N (static {}){}\n",
                  x.axial_force_n.min, x.axial_force_n.max,
