@@ -103,9 +103,9 @@ CoupledOrbit find_coupled_orbit(const Case& c, const OrbitOptions& options,
   if (start) {
     if (start->size() != 2 * n)
       throw InputError(fmt::format(
-          "--state: {} values given; this coupled case takes {} (its {} coordinates, then their "
-          "rates, SI)",
-          start->size(), 2 * n, n));
+          "--state: {} value{} given; this coupled case takes {} (its {} coordinates, then "
+          "their rates, SI)",
+          start->size(), start->size() == 1 ? "" : "s", 2 * n, n));
     y0 = *start;
   } else {
     y0 = solver.initial_state(c.solver.initial);

@@ -188,9 +188,9 @@ TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
     const auto n = static_cast<Eigen::Index>(orbit.coordinates.size());
     if (start->size() != n)
       throw InputError(fmt::format(
-          "--state: {} values given; this train takes {} (its free coordinates, then their "
+          "--state: {} value{} given; this train takes {} (its free coordinates, then their "
           "rates, SI: {}; an orbit's JSON gives them as \"unknowns\")",
-          start->size(), n, fmt::join(orbit.coordinates, ", ")));
+          start->size(), start->size() == 1 ? "" : "s", n, fmt::join(orbit.coordinates, ", ")));
     z0 = *start;
   } else {
     // The case's start, on the orbits' side of the phase condition (a freely turning train's

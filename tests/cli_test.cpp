@@ -1136,6 +1136,19 @@ TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
             std::string::npos)
       << bad.err;
   EXPECT_EQ(bad.out, "");
+  // As many values as the train takes, however many (a planetary set's 34), and one at least:
+  // the count is the case's to check.
+  std::string thirty;
+  for (int k = 0; k < 30; ++k) thirty += " 0";
+  const Outcome many = cli("orbit " + std::string(GEARDYN_SOURCE_DIR) +
+                           "/cases/planetary_set.toml --state" + thirty);
+  EXPECT_EQ(many.code, 2);
+  EXPECT_NE(many.err.find("--state: 30 values given; this train takes 34"), std::string::npos)
+      << many.err;
+  const Outcome one = cli("orbit " + loose + " --state 0");
+  EXPECT_EQ(one.code, 2);
+  EXPECT_NE(one.err.find("--state: 1 value given; this train takes 2"), std::string::npos)
+      << one.err;
   const Outcome free =
       cli("orbit " + std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml --json");
   ASSERT_EQ(free.code, 0) << free.err;

@@ -835,9 +835,9 @@ int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets
   std::optional<geardyn::ode::State> start;
   if (!state.empty()) {
     if (state.size() != 2)
-      throw geardyn::InputError(
-          fmt::format("--state: {} values given; it takes two, delta (m) and delta' (m/s) at t = 0",
-                      state.size()));
+      throw geardyn::InputError(fmt::format(
+          "--state: {} value{} given; it takes two, delta (m) and delta' (m/s) at t = 0",
+          state.size(), state.size() == 1 ? "" : "s"));
     start = geardyn::ode::State{0.0, state[0], state[1], 0.0, 0};
   }
   const geardyn::Orbit r = geardyn::find_orbit(c, o, start);
@@ -1184,8 +1184,11 @@ int main(int argc, char** argv) {
   orbit
       ->add_option("--state", orbit_state,
                    "first guess on the section t = 0: delta (m) and delta' (m/s); a coupled "
-                   "case: its coordinates, then their rates (SI)")
-      ->expected(2, 26);  // the coupled model: 13 coordinates at most (dof 12 and two shafts)
+                   "case: its coordinates, then their rates (SI); a gear train: its unknowns "
+                   "(--json's \"unknowns\")")
+      // As many as the case takes (a train's free coordinates and rates: any number); the
+      // count is checked against the case, naming what it takes.
+      ->expected(1, CLI::detail::expected_max_vector_size);
   orbit->add_option("--tolerance", oo.tolerance, "Newton's tolerance on the scaled residual");
   orbit->add_option("--max-iterations", oo.max_iterations, "Newton iterations at most (40)");
   orbit->add_flag("--json", json, "print JSON");

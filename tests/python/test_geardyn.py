@@ -664,7 +664,7 @@ def test_a_trains_orbit_from_python_is_the_command_lines():
         [m["impacts_per_period"] for m in out["meshes"]]
     again = geardyn.orbit(case, segments=4, settle_periods=0, state=o["unknowns"])
     assert again["converged"] and again["iterations"] <= 1
-    with pytest.raises(geardyn.InputError, match=r"state: 1 values given; this train takes 2"):
+    with pytest.raises(geardyn.InputError, match=r"state: 1 value given; this train takes 2"):
         geardyn.orbit(case, state=[0.0])
 
 
