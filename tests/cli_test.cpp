@@ -775,6 +775,14 @@ TEST(Cli, KeyTablesInTheDocsAreTheProgramsOwn) {
   EXPECT_EQ(keys[1]["key"], "model.form");
 }
 
+// " --state v1 v2 ...": an orbit's values from its JSON, given back to the command line (each
+// to the digits that read back to the same double).
+std::string state_option(const nlohmann::json& values) {
+  std::string out = " --state";
+  for (const auto& x : values) out += fmt::format(" {:.17g}", x.get<double>());
+  return out;
+}
+
 TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
   // The shipped case at its 1 kHz: a stable period-1 orbit in permanent contact (docs/orbits.md);
   // the keys in --json; a --state of the wrong size is named.
@@ -805,12 +813,8 @@ TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
   // A start of its six values is taken; of two, refused by name.
   const nlohmann::json o3 =
       nlohmann::json::parse(cli("orbit " + coupled + " --set model.dof=3 --json").out);
-  std::string start;
-  for (const auto& x : o3["state"]) start += fmt::format(" {:.17g}", x.get<double>());
-  const Outcome from = cli("orbit " + coupled +
-                           " --set model.dof=3 --settle-periods 0 --json "
-                           "--state" +
-                           start);
+  const Outcome from = cli("orbit " + coupled + " --set model.dof=3 --settle-periods 0 --json" +
+                           state_option(o3["state"]));
   ASSERT_EQ(from.code, 0) << from.err;
   EXPECT_LE(nlohmann::json::parse(from.out)["iterations"].get<int>(), 1);
   const Outcome bad = cli("orbit " + coupled + " --set model.dof=3 --state 0 0");
@@ -1115,12 +1119,10 @@ TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
   EXPECT_NE(text.out.find("mesh rattle"), std::string::npos) << text.out;
   // Its unknowns, given back as --state, start a Newton that has nothing left to do (no
   // settling), and land on the same section state; a --state of another size is named.
-  std::string start;
-  for (const auto& x : j["unknowns"]) start += fmt::format(" {:.17g}", x.get<double>());
   const Outcome from = cli("orbit " + loose +
                            " --set 'train.speed[0].acceleration_harmonics=[[290, 2, 0]]' "
-                           "--segments 4 --settle-periods 0 --json --state" +
-                           start);
+                           "--segments 4 --settle-periods 0 --json" +
+                           state_option(j["unknowns"]));
   ASSERT_EQ(from.code, 0) << from.err;
   const nlohmann::json again = nlohmann::json::parse(from.out);
   EXPECT_LE(again["iterations"].get<int>(), 1);
