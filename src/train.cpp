@@ -145,6 +145,10 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (b.spatial && !b.planar)
       bad(fmt::format("body '{}'", b.name),
           "is spatial but not planar: a spatial body keeps its centre's x and y too");
+    if (b.line && (!b.planar || (b.spatial && b.tilts)))
+      bad(fmt::format("body '{}'", b.name),
+          "is held to its line but not planar, or tilts: a body held to its mesh's line of "
+          "action moves along it (and along its axis) only");
     if (b.spatial && b.tilts && !(b.tilt_inertia_kg_m2 > 0 && std::isfinite(b.tilt_inertia_kg_m2)))
       bad(fmt::format("body '{}'", b.name),
           fmt::format("tilt_inertia_kg_m2 = {}: a spatial body needs a finite inertia about a "
@@ -219,8 +223,8 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
                            key, value, x.body));
       if (value != 0 && held.spatial && !held.tilts && std::string_view(key).starts_with("tilt"))
         bad(e, fmt::format("{} = {} is read only for a body that tilts (dof = \"spatial\"); body "
-                           "'{}' keeps z alone (dof = \"axial\")",
-                           key, value, x.body));
+                           "'{}' keeps z alone (dof = \"{}\")",
+                           key, value, x.body, held.line ? "line_axial" : "axial"));
     }
     axial_held[static_cast<std::size_t>(i)] += x.axial_stiffness_n_per_m;
     tilt_held[static_cast<std::size_t>(i)] += x.tilt_stiffness_n_m_per_rad;
@@ -232,10 +236,11 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
       bad(e, fmt::format("stiffness = {} N/m: must be finite and > 0", x.stiffness_n_per_m));
     if (!(x.clearance_m >= 0 && std::isfinite(x.clearance_m)))
       bad(e, fmt::format("clearance = {} m: must be finite and >= 0", x.clearance_m));
-    if (x.clearance_m > 0)
-      for (const int axis : {0, 1})
-        clearances_.push_back({static_cast<int>(&x - t_.bearings.data()), axis});
     if (!x.on.empty()) {
+      if (t_.bodies[static_cast<std::size_t>(i)].line)
+        bad(e, fmt::format("body = \"{}\" is held to its line: a body on a pin moves in the "
+                           "plane (dof = \"planar\")",
+                           x.body));
       if (body(e, "on", x.on) == i)
         bad(e, fmt::format("on = \"{}\": a body's pin carries another body", x.on));
       if (!(x.pin_radius_m >= 0 && std::isfinite(x.pin_radius_m) && std::isfinite(x.pin_angle_rad)))
@@ -245,7 +250,11 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
   }
   for (std::size_t i = 0; i < t_.bodies.size(); ++i) {
     // The body's dof as a case names it.
-    const char* dof = !t_.bodies[i].spatial ? "planar" : t_.bodies[i].tilts ? "spatial" : "axial";
+    const Body& b = t_.bodies[i];
+    const char* dof = b.line       ? (b.spatial ? "line_axial" : "line")
+                      : !b.spatial ? "planar"
+                      : b.tilts    ? "spatial"
+                                   : "axial";
     if (t_.bodies[i].planar && !supported.count(static_cast<int>(i)))
       bad(fmt::format("body '{}'", t_.bodies[i].name),
           fmt::format("is {0} (dof = \"{0}\") but no bearing carries it: its centre would be "
@@ -362,11 +371,26 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
           fmt::format("body = \"{}\" is at rest in the train's frame: its speed cannot be "
                       "prescribed at orders of its speed",
                       v.body));
-  // The coordinates: every rotation, then each planar body's x and y.
+  // The coordinates: every rotation, then each planar body's x and y (its w when held to its
+  // line, along its one mesh's line of action).
   for (const Body& b : t_.bodies) names_.push_back(b.name + "_rad");
   for (const Body& b : t_.bodies) {
     translation_.push_back(b.planar ? static_cast<int>(names_.size()) : -1);
-    if (b.planar) {
+    basis_.push_back(Eigen::MatrixXd::Identity(2, b.plane_extent()));
+    if (b.line) {
+      std::vector<int> meshes;
+      for (std::size_t m = 0; m < t_.meshes.size(); ++m)
+        if (t_.meshes[m].driving == b.name || t_.meshes[m].driven == b.name)
+          meshes.push_back(static_cast<int>(m));
+      if (meshes.size() != 1)
+        bad(fmt::format("body '{}'", b.name),
+            fmt::format("is held to its line (dof = \"{}\") but is in {} meshes: it moves "
+                        "along the line of action of one mesh (give it dof = \"{}\")",
+                        b.spatial ? "line_axial" : "line", meshes.size(),
+                        b.spatial ? "axial" : "planar"));
+      basis_.back() = line_of_action(meshes[0]);
+      names_.push_back(b.name + "_line_m");
+    } else if (b.planar) {
       names_.push_back(b.name + "_x_m");
       names_.push_back(b.name + "_y_m");
     }
@@ -376,12 +400,21 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
       names_.push_back(b.name + "_ty_rad");
     }
   }
+  // Each clearance's directions, x then y, but a direction a body held to its line cannot move in.
+  for (std::size_t k = 0; k < t_.bearings.size(); ++k)
+    if (t_.bearings[k].clearance_m > 0)
+      for (const int axis : {0, 1})
+        if (plane_basis(index(t_.bearings[k].body)).row(axis).norm() > 0)
+          clearances_.push_back({static_cast<int>(k), axis});
   phase_.assign(t_.meshes.size(), 0.0);
   if (t_.mesh_phase_from_layout) place_teeth();
   m_ = Eigen::MatrixXd::Zero(size(), size());
   for (int i = 0; i < n; ++i) {
     m_(i, i) = t_.bodies[i].inertia_kg_m2;
-    if (const int x = translation(i); x >= 0) m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].mass_kg;
+    if (const int x = translation(i); x >= 0) {
+      const Eigen::MatrixXd& p = plane_basis(i);
+      m_.block(x, x, p.cols(), p.cols()) = t_.bodies[i].mass_kg * p.transpose() * p;
+    }
     if (const int z = axial(i); z >= 0) m_(z, z) = t_.bodies[i].mass_kg;
     if (const int x = tilt(i); x >= 0)
       m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].tilt_inertia_kg_m2;
@@ -418,9 +451,11 @@ Eigen::MatrixXd Assembled::frame_stiffness() const {
   if (frame_rate_ == 0) return k;
   const double w2 = frame_rate_ * frame_rate_;
   for (int i = 0; i < body_count(); ++i)
-    if (const int x = translation(i); x >= 0)
-      k.block(x, x, 2, 2) -=
-          w2 * t_.bodies[static_cast<std::size_t>(i)].mass_kg * Eigen::Matrix2d::Identity();
+    if (const int x = translation(i); x >= 0) {
+      const Eigen::MatrixXd& p = plane_basis(i);
+      k.block(x, x, p.cols(), p.cols()) -=
+          w2 * t_.bodies[static_cast<std::size_t>(i)].mass_kg * p.transpose() * p;
+    }
   // A carried body's softening on its displacement from its pin's turned place, v = u - theta_c
   // d_c (d_c = -B's column of theta_c: w = u - ... - theta_c d_c): -m Omega^2 v v^T adds to the
   // -m Omega^2 u u^T above the cross terms m Omega^2 (d_c e_c^T + e_c d_c^T) and
@@ -443,9 +478,11 @@ Eigen::MatrixXd Assembled::frame_damping() const {
   if (frame_rate_ == 0) return c;
   for (int i = 0; i < body_count(); ++i)
     if (const int x = translation(i); x >= 0) {
+      // 2 m Omega [[0, -1], [1, 0]] on u = P q_p (nothing on a body held to its line).
+      const Eigen::MatrixXd& p = plane_basis(i);
       const double g = 2 * frame_rate_ * t_.bodies[static_cast<std::size_t>(i)].mass_kg;
-      c(x, x + 1) -= g;
-      c(x + 1, x) += g;
+      c.block(x, x, p.cols(), p.cols()) +=
+          g * p.transpose() * (Eigen::Matrix2d() << 0, -1, 1, 0).finished() * p;
     }
   return c;
 }
@@ -801,14 +838,10 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
   v(b) -= cb * m.base_radius_driven_m;
   const Eigen::Vector2d n = line_of_action(mesh);
   const double nx = n.x(), ny = n.y();
-  if (const int x = translation(a); x >= 0) {
-    v(x) += cb * nx;
-    v(x + 1) += cb * ny;
-  }
-  if (const int x = translation(b); x >= 0) {
-    v(x) -= cb * nx;
-    v(x + 1) -= cb * ny;
-  }
+  if (const int x = translation(a); x >= 0)
+    v.segment(x, plane_basis(a).cols()) += cb * n.transpose() * plane_basis(a);
+  if (const int x = translation(b); x >= 0)
+    v.segment(x, plane_basis(b).cols()) -= cb * n.transpose() * plane_basis(b);
   // The axial part sin(beta_b) h (w_a - w_b), w = z + tx r_y - ty r_x at the contact point
   // r = s R (n_y, -n_x).
   const double sb = m.axial_sense * std::sin(m.base_helix_angle_rad);
@@ -829,10 +862,12 @@ Eigen::RowVectorXd Assembled::mesh_vector(int mesh) const {
 Eigen::MatrixXd Assembled::bearing_matrix(int bearing) const {
   const Bearing& x = t_.bearings[static_cast<std::size_t>(bearing)];
   Eigen::MatrixXd b = Eigen::MatrixXd::Zero(2, size());
-  b.block(0, translation(index(x.body)), 2, 2) = Eigen::Matrix2d::Identity();
+  const int i = index(x.body);
+  b.block(0, translation(i), 2, plane_basis(i).cols()) = plane_basis(i);
   if (!x.on.empty()) {
     const int j = index(x.on);
-    if (const int u = translation(j); u >= 0) b.block(0, u, 2, 2) -= Eigen::Matrix2d::Identity();
+    if (const int u = translation(j); u >= 0)
+      b.block(0, u, 2, plane_basis(j).cols()) -= plane_basis(j);
     // The pin's point turns with j: theta_j s_j z x r, r = R (cos psi, sin psi).
     const double s = sense(j) * x.pin_radius_m;
     b(0, j) += s * std::sin(x.pin_angle_rad);
@@ -1540,7 +1575,7 @@ std::vector<TrainMode> modes(const Assembled& a) {
         if (!central[static_cast<std::size_t>(i)]) continue;
         turn += mass(i, i) * square(i);
         if (const int x = a.translation(i); x >= 0)
-          shift += mass(x, x) * (square(x) + square(x + 1));
+          for (int j = x; j < x + a.plane_basis(i).cols(); ++j) shift += mass(j, j) * square(j);
       }
       const bool turns = turn > kStillShare, shifts = shift > kStillShare;
       m.type = turns && shifts ? "mixed"

@@ -64,8 +64,10 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
        "displacement in the plane on its bearings (\"planar\"), or all six: also along its "
        "axis and its tilts about x and y (\"spatial\", a helical gear's axial force and "
        "moment; not in a planetary set), or along its axis without tilting (\"axial\", its "
-       "tilts held: the coupled pair's dof 6)",
-       "torsion planar axial spatial"},
+       "tilts held: the coupled pair's dof 6); \"line\" and \"line_axial\" as \"planar\" and "
+       "\"axial\" with the centre held to its one mesh's line of action (Kahraman and Singh's "
+       "lumped pair: the coupled pair's dof 3 and 6)",
+       "torsion planar axial spatial line line_axial"},
       {"inertia_kg_m2", &B::inertia_kg_m2, "kg m^2", above(0), false,
        "polar moment of inertia; absent: a cylinder of the reference diameter and face width "
        "(a gear's)"},
@@ -601,13 +603,16 @@ struct GearGeometry {
          mass_kg = 0, tilt_inertia_kg_m2 = 0;
 };
 
-// A body that keeps its centre's x and y: planar, or spatial (planar too).
+// A body whose centre moves in the plane: planar, axial or spatial, or held to its line.
 bool keeps_plane(const TrainBodyData& b) {
-  return b.dof == "planar" || b.dof == "axial" || b.dof == "spatial";
+  return b.dof == "planar" || b.dof == "axial" || b.dof == "spatial" || b.dof == "line" ||
+         b.dof == "line_axial";
 }
 
-// A body that moves along its axis: axial, or spatial (which tilts too).
-bool keeps_axis(const TrainBodyData& b) { return b.dof == "axial" || b.dof == "spatial"; }
+// A body that moves along its axis: axial (or line_axial), or spatial (which tilts too).
+bool keeps_axis(const TrainBodyData& b) {
+  return b.dof == "axial" || b.dof == "spatial" || b.dof == "line_axial";
+}
 
 // A body's base radius, base helix angle and inertia (MODEL.md section 1, as the gear pair's).
 GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
@@ -782,7 +787,7 @@ train::Train train_of(const Case& c) {
     out.bodies.push_back({b.name, g.inertia_kg_m2, keeps_plane(b), g.mass_kg,
                           b.eccentricity_um * kUmToM, b.eccentricity_angle_deg * kDegToRad,
                           keeps_axis(b), b.dof == "spatial" ? g.tilt_inertia_kg_m2 : 0.0,
-                          b.dof == "spatial"});
+                          b.dof == "spatial", b.dof == "line" || b.dof == "line_axial"});
   }
   for (const TrainMeshData& m : t.meshes) {
     train::Mesh x;

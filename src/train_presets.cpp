@@ -151,9 +151,11 @@ Case train_form_of(const Case& c) {
   TrainCase t;
   t.reference = "pinion";
   t.reference_speed_hz = f1;
+  // The coupled model moves each gear along the line of action alone at dof 3 and 6, and keeps
+  // its whole plane at dof 12.
   const std::string dof = !coupled           ? "torsion"
-                          : c.model.dof == 3 ? "planar"
-                          : c.model.dof == 6 ? "axial"
+                          : c.model.dof == 3 ? "line"
+                          : c.model.dof == 6 ? "line_axial"
                                              : "spatial";
   for (int i = 0; i < 2; ++i) {
     TrainBodyData b;

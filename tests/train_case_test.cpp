@@ -586,6 +586,37 @@ TEST(TrainCase, SpatialGearsModesAreTheCoupledPairsWithTwelveDegrees) {
   }
 }
 
+TEST(TrainCase, TheCoupledFormsTrainHasTheCoupledPairsModesAndCoordinates) {
+  // train_form_of writes the coupled pair's gears with dof 3 and 6 held to the line of action
+  // ("line", "line_axial"), as the coupled model holds them, and with dof 12 spatial: its train
+  // has the coupled model's coordinates and the rigid rotation (which the coupled u leaves
+  // out), and its modes are the coupled ones to 1e-9 beside that rotation, the mesh's and the
+  // bearings' strain energies to 1e-6. With "planar" bodies dof 3 would have two more modes
+  // (each centre across the line on its bearing alone).
+  for (const int dof : {3, 6, 12}) {
+    SCOPED_TRACE(dof);
+    const auto [coupled, unused] = the_pair_both_ways({0, 0}, true, dof);
+    const CoupledParameters p = coupled_parameters(coupled);
+    const train::Assembled a = assembled_train(train_form_of(coupled));
+    EXPECT_EQ(a.size(), static_cast<int>(p.coordinates.size()) + 1);
+    if (dof < 12) EXPECT_EQ(a.coordinate_names()[2], "pinion_line_m");
+    const ModeSet one = modes(CoupledModel(p));
+    const std::vector<train::TrainMode> x = train::modes(a);
+    ASSERT_EQ(x.size(), one.modes.size() + 1);
+    EXPECT_EQ(x[0].frequency_hz, 0.0);
+    for (std::size_t k = 0; k < one.modes.size(); ++k) {
+      const Mode& m = one.modes[k];
+      EXPECT_NEAR(x[k + 1].frequency_hz / m.frequency_hz, 1.0, 1e-9) << k;
+      EXPECT_NEAR(x[k + 1].damping_ratio, m.damping_ratio, 1e-9) << k;
+      const double bearings = m.line_energy[0] + m.line_energy[1] + m.axial_energy[0] +
+                              m.axial_energy[1] + m.tilt_energy[0] + m.tilt_energy[1] +
+                              m.cross_energy[0] + m.cross_energy[1];
+      EXPECT_NEAR(x[k + 1].bearing_energy[0] + x[k + 1].bearing_energy[1], bearings, 1e-6) << k;
+      EXPECT_NEAR(x[k + 1].mesh_energy[0], m.mesh_energy, 1e-6) << k;
+    }
+  }
+}
+
 // kBodyB and a mesh "m" in which a drives b, with one more line of the mesh's: line 15 of a
 // file that kBodyA and one line of body a's head.
 std::string body_b_and_mesh(const std::string& mesh_line) {
@@ -605,7 +636,7 @@ TEST(TrainCase, APlanarBodysKeysAreCheckedAndALayoutNothingReadsIsReported) {
   const std::string wrong = error_of(head + "dof = \"rigid\"\n" + tail);
   EXPECT_NE(wrong.find("t.toml:10:"), std::string::npos) << wrong;
   EXPECT_NE(wrong.find("train.body[0].dof = \"rigid\": must be \"torsion\", \"planar\", "
-                       "\"axial\" or \"spatial\""),
+                       "\"axial\", \"spatial\", \"line\" or \"line_axial\""),
             std::string::npos)
       << wrong;
   // A mass on a body that keeps torsion only is read by nothing: refused.

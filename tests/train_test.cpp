@@ -561,6 +561,109 @@ TEST(Train, APlanarPairsModesAreTheCoupledPairsAndItsBearingsAlone) {
   }
 }
 
+TEST(Train, ABodyHeldToItsLineIsThePlanarBodyAlongIt) {
+  // The planar pair above with each gear held to the line of action (Body::line): one
+  // coordinate w per centre, u = n w. Its modes are the coupled model's alone (the bearings'
+  // motions across the line are gone), whatever psi, and its flow through impacts of the mesh
+  // and of a bearing clearance at a slant (n along neither x nor y, so that both directions'
+  // dead zones see w) is the planar pair's: theta, and n . u = w, to 1e-9 of their range, its
+  // centres' motion across n staying 0. A mutant that drops n from the mesh's or the bearing's
+  // columns, or keeps the clearance of a direction the line does not reach, fails.
+  Case c = testing::coupled(3);
+  c.bearings.radial_stiffness_n_per_m = {1.2e8, 3.1e8};
+  const CoupledParameters p = coupled_parameters(c);
+  std::vector<double> expected;
+  for (const Mode& m : modes(CoupledModel(p)).modes) expected.push_back(m.frequency_hz);
+  for (const double psi : {0.0, 0.7, -2.5}) {
+    SCOPED_TRACE(psi);
+    Train held = planar_pair(p, c, psi);
+    for (Body& b : held.bodies) b.line = true;
+    const Assembled a(held);
+    EXPECT_EQ(a.coordinate_names(), (std::vector<std::string>{"pinion_rad", "wheel_rad",
+                                                              "pinion_line_m", "wheel_line_m"}));
+    EXPECT_NEAR(a.mass()(2, 2), held.bodies[0].mass_kg, 1e-15 * held.bodies[0].mass_kg);
+    const std::vector<TrainMode> m = modes(a);
+    ASSERT_EQ(m.size(), 4U);
+    EXPECT_EQ(m[0].frequency_hz, 0.0);
+    for (std::size_t r = 1; r < 4; ++r)
+      EXPECT_NEAR(m[r].frequency_hz / expected[r - 1], 1.0, 1e-9) << r;
+  }
+  // The flow, rattling from rest at the backlash's middle under the torques' fluctuation: at a
+  // slant (n along neither x nor y), and with n along y (the coupled pair's psi = alpha_t) and
+  // the wheel's bearing with a clearance of a third of the mesh's backlash. (A clearance acts
+  // in x and in y each, so at a slant it pushes a planar centre across the line.)
+  const double alpha_t = compute_geometry(c.gear).transverse_pressure_angle_rad;
+  for (const double psi : {0.7, alpha_t}) {
+    SCOPED_TRACE(psi);
+    Train planar = planar_pair(p, c, psi);
+    if (psi == alpha_t) planar.bearings[1].clearance_m = planar.meshes[0].backlash_m / 3;
+    for (Torque& q : planar.torques)
+      for (TorqueHarmonic& h : q.harmonics) h.amplitude_nm *= 40;
+    Train held = planar;
+    for (Body& b : held.bodies) b.line = true;
+    const Assembled ap(planar), ah(held);
+    EXPECT_EQ(ap.clearances().size(), psi == alpha_t ? 2U : 0U);
+    EXPECT_EQ(ah.clearances().size(), psi == alpha_t ? 1U : 0U);  // y alone: x never closes
+    // 10 ms: the rattle is chaotic, the two assemblies' rounding (1e-18 rad) growing some tenfold
+    // a millisecond (to 1e-10 relative by 20 ms).
+    const double t1 = 0.01, dt = 2e-5;
+    ode::FlowResult rp, rh;
+    const Samples sp = flow(ap, ode::Vector::Zero(2 * ap.size()), t1, dt, &rp);
+    const Samples sh = flow(ah, ode::Vector::Zero(2 * ah.size()), t1, dt, &rh);
+    EXPECT_GT(rh.events, 10);
+    ASSERT_EQ(sp.t.size(), sh.t.size());
+    const Eigen::Vector2d n = ap.line_of_action(0);
+    double range_theta = 0, range_w = 0, off_theta = 0, off_w = 0, across = 0;
+    for (std::size_t i = 0; i < sp.t.size(); ++i) {
+      const ode::Vector& yp = sp.states[i];
+      const ode::Vector& yh = sh.states[i];
+      for (int b = 0; b < 2; ++b) {
+        const Eigen::Vector2d u = yp.segment(ap.translation(b), 2);
+        const double w = yh(ah.translation(b));
+        range_theta = std::max(range_theta, std::abs(yh(b)));
+        range_w = std::max(range_w, std::abs(w));
+        off_theta = std::max(off_theta, std::abs(yp(b) - yh(b)));
+        off_w = std::max(off_w, std::abs(n.dot(u) - w));
+        across = std::max(across, std::abs(n.x() * u.y() - n.y() * u.x()));
+      }
+    }
+    if (psi == alpha_t) EXPECT_GT(range_w, planar.bearings[1].clearance_m);  // it closes
+    EXPECT_LT(off_theta, 1e-9 * range_theta);
+    EXPECT_LT(off_w, 1e-9 * range_w);
+    EXPECT_LT(across, 1e-12 * range_w);
+  }
+}
+
+TEST(Train, ABodyHeldToItsLineNeedsOneMeshAndNoPin) {
+  Case c = testing::coupled(3);
+  const CoupledParameters p = coupled_parameters(c);
+  Train t = planar_pair(p, c, 0.3);
+  t.bodies[1].line = true;
+  t.bodies.push_back({"idler", 1e-3});
+  t.meshes.push_back(t.meshes[0]);
+  t.meshes[1].name = "second";
+  t.meshes[1].driving = "wheel";
+  t.meshes[1].driven = "idler";
+  const auto error = [](const Train& x) {
+    try {
+      Assembled a(x);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(error(t),
+            "body 'wheel': is held to its line (dof = \"line\") but is in 2 meshes: it moves "
+            "along the line of action of one mesh (give it dof = \"planar\")");
+  Train pinned = planar_pair(p, c, 0.3);
+  pinned.bodies[1].line = true;
+  pinned.bodies.push_back({"carrier", 1e-2});
+  pinned.bearings[1].on = "carrier";
+  EXPECT_NE(error(pinned).find("bearing 'bearing2': body = \"wheel\" is held to its line"),
+            std::string::npos)
+      << error(pinned);
+}
+
 TEST(Train, TheMeshPushesTheDrivenCentreAlongItsLineOfAction) {
   // The static state of a planar pair under its mean torques: the mesh force F = T1 / (R_1
   // cos(beta_b)) pushes the wheel's centre by cos(beta_b) F n / k_2 and the pinion's by the

@@ -10,8 +10,9 @@
 // (Body::planar) also moves in the plane of the gears: its centre's displacement (x_i, y_i) (m)
 // in a frame fixed to the ground, the reference body turning counterclockwise (+z) in it. The
 // coordinates are every body's theta first, in the bodies' order, then (x, y) of each planar
-// body in that order, and after (x, y) a spatial body's (Body::spatial) z (m, along the axes)
-// and its tilts tx, ty (rad, about x and y): a torsional train's coordinates are its bodies'.
+// body in that order (w alone for one held to its line, Body::line: u = n w along its mesh's
+// line of action n), and after them a spatial body's (Body::spatial) z (m, along the axes) and
+// its tilts tx, ty (rad, about x and y): a torsional train's coordinates are its bodies'.
 //
 // The train's frame. A train whose bodies carry others on pins (a planetary set's carrier) is
 // written in the frame of its carrier, turning uniformly at the carrier's nominal speed: the
@@ -157,8 +158,15 @@ struct Body {
   // A spatial body that does not tilt (its tilts held by its bearings): it keeps z alone beside
   // its x and y, and needs no tilt inertia (the coupled pair's dof 6).
   bool tilts = true;
-  // Its coordinates beyond the rotation: x, y, then z and the tilts it keeps.
-  int extent() const { return planar ? 2 + (spatial ? (tilts ? 3 : 1) : 0) : 0; }
+  // A planar body held to its line: its centre moves along the line of action of its one mesh
+  // only, u = n w (one coordinate w, m, instead of x and y), as in the lumped pair of Kahraman
+  // and Singh (1991) and the coupled pair's dof 3 and 6, whose bearings hold it across the line
+  // rigidly. Spatial and not tilting too: w, then z.
+  bool line = false;
+  // Its coordinates in the plane (w, or x and y), and beyond the rotation: those, then z and the
+  // tilts it keeps.
+  int plane_extent() const { return planar ? (line ? 1 : 2) : 0; }
+  int extent() const { return plane_extent() + (spatial ? (tilts ? 3 : 1) : 0); }
 };
 
 // k(t) = mean (1 + sum_i ratio_i cos(i w_mesh t + phase_i)) and e(t) = sum_i a_i cos(i w_mesh t
@@ -227,7 +235,8 @@ struct Bearing {
   double pin_error_radial_m = 0, pin_error_tangential_m = 0;
   // A radial clearance c: the bearing then acts in x and in y each as a dead zone, k (w - o -+
   // c) beyond +-c and nothing inside, its damping in contact only (Kahraman and Singh's
-  // clearance, per direction: a round clearance is not piecewise linear). 0: none.
+  // clearance, per direction: a round clearance is not piecewise linear). 0: none. On a body
+  // held to its line, in those of x and y its line has a part along.
   double clearance_m = 0;
   // On a spatial body: its axial stiffness and damping (N/m, N s/m) on z, and its tilt
   // stiffness and damping (N m/rad, N m s/rad) on each tilt; 0 on any other body.
@@ -323,20 +332,29 @@ class Assembled {
   int body_count() const { return static_cast<int>(t_.bodies.size()); }
   // The coordinate of a body's rotation (its index among the bodies), -1 when there is none.
   int index(const std::string& body) const;
-  // The coordinate of a planar body's x (its y follows), -1 for a body that keeps torsion only.
+  // The coordinate of a planar body's x (its y follows; its w alone when held to its line), -1
+  // for a body that keeps torsion only.
   int translation(int body) const { return translation_[static_cast<std::size_t>(body)]; }
+  // P of a planar body: its centre's displacement u = P q_p (x and y rows) from its coordinates
+  // in the plane q_p, translation(body) on: the identity (2 x 2), or n (2 x 1) for a body held
+  // to its line (Body::line); 2 x 0 for a body that keeps torsion only.
+  const Eigen::MatrixXd& plane_basis(int body) const {
+    return basis_[static_cast<std::size_t>(body)];
+  }
   // The coordinate of a spatial body's z (its tilts tx, ty follow when it tilts), -1 for any
   // other body.
   int axial(int body) const {
-    return t_.bodies[static_cast<std::size_t>(body)].spatial ? translation(body) + 2 : -1;
+    const Body& b = t_.bodies[static_cast<std::size_t>(body)];
+    return b.spatial ? translation(body) + b.plane_extent() : -1;
   }
   // The coordinate of a spatial body's tx (its ty follows), -1 for a body that does not tilt.
   int tilt(int body) const {
     const Body& b = t_.bodies[static_cast<std::size_t>(body)];
-    return b.spatial && b.tilts ? translation(body) + 3 : -1;
+    return b.spatial && b.tilts ? translation(body) + b.plane_extent() + 1 : -1;
   }
   // Each coordinate's name with its unit, as outputs write it: "<body>_rad" for a rotation,
-  // "<body>_x_m" and "<body>_y_m" for a planar body's centre.
+  // "<body>_x_m" and "<body>_y_m" for a planar body's centre ("<body>_line_m": its w, held to
+  // its line).
   const std::vector<std::string>& coordinate_names() const { return names_; }
   // Each body's sense of rotation in the train's frame: +1 counterclockwise (the reference's,
   // and a body at rest's).
@@ -419,7 +437,8 @@ class Assembled {
   std::vector<int> clearance_states(int region) const;
   int region_count() const;
   // The clearance directions: bearing k's x then y for each bearing with a clearance, as
-  // (bearing, axis 0 or 1).
+  // (bearing, axis 0 or 1); of a body held to its line, only those the line has a part along
+  // (a direction it cannot move in never closes its gap).
   const std::vector<std::array<int, 2>>& clearances() const { return clearances_; }
   // The region a state belongs to with no history (each mesh by its d - e against +-b, a
   // clipping mesh in contact also by its force's sign, each clearance direction by w - o against
@@ -458,8 +477,9 @@ class Assembled {
   Train t_;
   std::vector<Ratio> speed_;
   std::vector<int> sense_, translation_;
-  std::vector<double> phase_;  // each mesh's, in cycles
-  double frame_rate_ = 0;      // Omega, rad/s
+  std::vector<Eigen::MatrixXd> basis_;  // plane_basis
+  std::vector<double> phase_;           // each mesh's, in cycles
+  double frame_rate_ = 0;               // Omega, rad/s
   std::vector<std::array<int, 2>> clearances_;
   std::vector<std::string> names_;
   Eigen::MatrixXd m_;

@@ -405,7 +405,8 @@ class TrainRunResult:
         The bodies' and the meshes' names, in the case's order.
     coordinates : list of str
         The state's coordinates with their units: each body's rotation (``<body>_rad``), then
-        each planar body's centre (``<body>_x_m``, ``<body>_y_m``), a spatial body's followed by
+        each planar body's centre (``<body>_x_m``, ``<body>_y_m``; ``<body>_line_m`` along the
+        line of action for one held to it), a spatial body's followed by
         its axial displacement and tilts (``<body>_z_m``, ``<body>_tx_rad``, ``<body>_ty_rad``).
     t : numpy.ndarray
         Sample times, s.

@@ -784,12 +784,13 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     one, two = geardyn.run(pair), geardyn.run(as_train)
     assert np.max(np.abs(two.deflection_bar[:, 0] - one.delta_bar)) < 1e-8
     assert pair.with_({"mesh.tension": "clip"}).train_form()["train.mesh[0].tension"] == "clip"
-    # The coupled pair with dof 6 as axial bodies: each bearing reads its axial force, no moments.
+    # The coupled pair with dof 6 as bodies held to the line of action that move along their
+    # axes: each bearing reads its axial force, no moments.
     six = geardyn.Case.from_toml(SOURCE / "cases/park2010_coupled.toml").with_(
         {"model.dof": 6, "solver.duration_s": 0.005})
     r6 = geardyn.run(six.train_form())
-    assert r6.coordinates == ["pinion_rad", "wheel_rad", "pinion_x_m", "pinion_y_m", "pinion_z_m",
-                              "wheel_x_m", "wheel_y_m", "wheel_z_m"]
+    assert r6.coordinates == ["pinion_rad", "wheel_rad", "pinion_line_m", "pinion_z_m",
+                              "wheel_line_m", "wheel_z_m"]
     assert np.isfinite(r6.bearing_axial[:, :, 0]).all() and np.isnan(r6.bearing_axial[:, :, 1:]).all()
     assert abs(r6.bearing_axial[:, 0, 0]).max() > 1.0  # the helix's thrust
     # The non-dimensional oscillator as a train in units where it is itself (seconds are tau).
