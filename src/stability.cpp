@@ -67,9 +67,10 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
   double system_period = 0;
   std::optional<ode::Matrix> reduce;  // Q of the coordinates read (train::Assembled)
   ode::Matrix rates;                  // each rigid motion's rate (0, r), in the full state
-  if (c.model.form == ModelForm::kTrain) {
-    // Every mesh in drive contact, read in the train's own coordinates (reduced_basis).
-    const train::Assembled a = assembled_train(c);
+  if (c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled) {
+    // Every mesh in drive contact, read in the train's own coordinates (reduced_basis); the
+    // coupled pair as its train (train_form_of).
+    const train::Assembled a = assembled_train(c, stiffness);
     if (elastic && a.train().speeds.empty()) {
       const Eigen::MatrixXd rigid = a.rigid_motions();
       rates = ode::Matrix::Zero(2 * static_cast<Eigen::Index>(a.size()), rigid.cols());
@@ -94,22 +95,6 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
     }
     system_period = period.value_or(0.0);
     reduce = a.reduced_basis();
-  } else if (c.model.form == ModelForm::kCoupled) {
-    // The coupled model in drive contact, each clearance bearing on the side the static mesh
-    // force holds it (coupled_model.hpp).
-    const MeshStiffness own = stiffness ? MeshStiffness{} : case_stiffness(c);
-    if (!stiffness) stiffness = &own;
-    const CoupledModel model(coupled_parameters(c, stiffness));
-    sys = model.linear_system();
-    contact = coupled_region({kDriveContact, {0, 0}});
-    if (model.parameters().clearance_m[0] > 0 || model.parameters().clearance_m[1] > 0) {
-      try {
-        contact = model.classify(0.0, model.static_state());
-      } catch (const std::runtime_error& e) {
-        throw InputError(std::string("stability in permanent contact: ") + e.what());
-      }
-    }
-    system_period = system_period_s(build_model(gear_pair_of(c), nullptr, stiffness).parameters());
   } else {
     const GearPairModel model = build_model(c, nullptr, stiffness);
     sys = model.linear_system();
@@ -144,7 +129,12 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
   if (rates.cols() == 0) return m;
   // A rate v the flow keeps (M v = v: nothing damps it) is a right eigenvector of 1; in an
   // orthonormal basis (V, W) M is block triangular, and W^T M W holds the other multipliers.
-  const ode::Matrix v = reduce->transpose() * rates;
+  // On the balanced M (balance, orbit.hpp: an exact similarity D^-1 M D, v to D^-1 v): what the
+  // rounding of M v = v leaves in the dropped block W^T M V moves the others by its size times
+  // that of V^T M W, which unbalanced (rates against angles and metres) reached 1e-9 of the
+  // unit circle (the coupled pair's train, undamped).
+  const ode::Vector d = balance(m);
+  const ode::Matrix v = d.cwiseInverse().asDiagonal() * (reduce->transpose() * rates);
   const Eigen::HouseholderQR<ode::Matrix> qr(v);
   const ode::Matrix basis = qr.householderQ() * ode::Matrix::Identity(m.rows(), m.rows());
   const ode::Matrix kept = basis.leftCols(v.cols());

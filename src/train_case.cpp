@@ -926,8 +926,8 @@ train::Train train_of(const Case& c) {
   return out;
 }
 
-train::Assembled assembled_train(const Case& c) {
-  if (c.model.form != ModelForm::kTrain) return assembled_train(train_form_of(c));
+train::Assembled assembled_train(const Case& c, const MeshStiffness* stiffness) {
+  if (c.model.form != ModelForm::kTrain) return assembled_train(train_form_of(c, stiffness));
   train::Train t = train_of(c);
   try {
     return train::Assembled(std::move(t));

@@ -136,13 +136,13 @@ Case nondimensional_train(const Case& c) {
 
 }  // namespace
 
-Case train_form_of(const Case& c) {
+Case train_form_of(const Case& c, const MeshStiffness* stiffness) {
   if (c.model.form == ModelForm::kNondimensional) return nondimensional_train(c);
   if (c.model.form == ModelForm::kTrain) return c;
   const bool coupled = c.model.form == ModelForm::kCoupled;
   // The coupled pair's gears, mesh and loads are its one-degree pair's (gear_pair_of).
   Geometry g;
-  const GearPairModel model = build_model(coupled ? gear_pair_of(c) : c, &g);
+  const GearPairModel model = build_model(coupled ? gear_pair_of(c) : c, &g, stiffness);
   const GearPairParameters& p = model.parameters();
   const double f1 = c.speed.shaft_frequency_hz;
   const double w_mesh = 2 * kPi * f1 * c.gear.teeth[0];

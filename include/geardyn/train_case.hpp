@@ -29,6 +29,10 @@
 #include "geardyn/train.hpp"
 
 namespace geardyn {
+struct MeshStiffness;  // stiffness.hpp
+}
+
+namespace geardyn {
 
 // One term a cos(order Omega t + phase) at an order of a body's own rotation frequency.
 struct OrderHarmonic {
@@ -172,14 +176,16 @@ TrainCase expand_planets(const TrainCase& t);
 // where it was written (file:line), for an arrangement the assembler refuses (an unknown body,
 // a body named twice, no mesh, a train that cannot turn) and for a case of another form.
 train::Train train_of(const Case& c);
-// The same, assembled; a case of the gear pair's forms as its train form (train_form_of).
-train::Assembled assembled_train(const Case& c);
+// The same, assembled; a case of the gear pair's forms as its train form (train_form_of, with
+// `stiffness` as there).
+train::Assembled assembled_train(const Case& c, const MeshStiffness* stiffness = nullptr);
 
 // The train form (model.form = "train") of a case of the gear pair's forms: the preset the
 // forms "gear_pair", "coupled" and "nondimensional" are of the elements
 // (src/train_presets.cpp); a train case is returned as it is.
 // - Bodies "pinion" and "wheel": the case's gears with their inertias as computed; with form
-//   "coupled" planar (dof 3), axial (dof 6) or spatial (dof 12) on bearings "pinion_bearing"
+//   "coupled" held to the line of action as the coupled model holds them ("line" with dof 3,
+//   "line_axial" with dof 6) or spatial (dof 12) on bearings "pinion_bearing"
 //   and "wheel_bearing" (the [bearings] values and clearances), the mesh's position angle the
 //   transverse pressure angle, so that its line of action is the train's y as the coupled
 //   pair's; its [shafts] as bodies "motor" and "load" with shafts "drive_shaft" and
@@ -196,8 +202,9 @@ train::Assembled assembled_train(const Case& c);
 //   as matched torques on base circles of 1 m): its seconds are tau.
 // Its run is the case's run: d - e, impacts and forces (tests/train_case_test.cpp). Throws
 // InputError naming the key and where it was given for a harmonic at no whole multiple of the
-// mesh frequency.
-Case train_form_of(const Case& c);
+// mesh frequency. `stiffness`: the mesh's curve when a study has computed it already
+// (build_model's; shared_stiffness), else computed from the case.
+Case train_form_of(const Case& c, const MeshStiffness* stiffness = nullptr);
 
 // Every key of [train] and of its elements, described from the tables the reader uses: for
 // the key tables of docs/case-files.md (as case_keys_markdown writes those of the sections),
