@@ -15,6 +15,7 @@
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
+#include "geardyn/train.hpp"
 #include "geardyn/transmission_error.hpp"
 
 namespace geardyn {
@@ -669,27 +670,7 @@ ModeSet modes(const CoupledModel& model) {
     mode.shaft_energy = {share(Coordinate::kShaft1), share(Coordinate::kShaft2)};
     out.modes.push_back(std::move(mode));
   }
-  // The damped eigenvalues of the first-order system, balanced: in mass-scaled coordinates
-  // L^T q (M = L L^T) and velocities over the highest undamped w (the same eigenvalues; the
-  // blocks then have norms of one order instead of 1 and w^2).
-  const double w_top = std::sqrt(std::max(solver.eigenvalues().maxCoeff(), 1e-300));
-  Matrix a = Matrix::Zero(2 * n, 2 * n);
-  a.topRightCorner(n, n) = w_top * Matrix::Identity(n, n);
-  const Eigen::LLT<Matrix> cholesky(m);
-  const auto scaled = [&](const Matrix& x) {  // L^-1 x L^-T
-    const Matrix left = cholesky.matrixL().solve(x);
-    return Matrix(cholesky.matrixL().solve(left.transpose()).transpose());
-  };
-  a.bottomLeftCorner(n, n) = -scaled(k) / w_top;
-  a.bottomRightCorner(n, n) = -scaled(c);
-  Eigen::EigenSolver<Matrix> damped(a, false);
-  for (Eigen::Index i = 0; i < damped.eigenvalues().size(); ++i) {
-    const Complex lambda = damped.eigenvalues()[i];
-    if (lambda.imag() < 0) continue;  // one of each pair (overdamped roots have imag 0)
-    const double mag = std::abs(lambda);
-    out.damped.push_back({mag / (2 * kPi), mag > 0 ? -lambda.real() / mag : 1.0});
-  }
-  std::sort(out.damped.begin(), out.damped.end());
+  out.damped = train::damped_eigenvalues(m, k, c);
   return out;
 }
 

@@ -414,48 +414,4 @@ CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
   return result;
 }
 
-std::string modes_json(const ModeSet& m, int indent) {
-  nlohmann::json j;
-  nlohmann::json coords = nlohmann::json::array();
-  for (Coordinate x : m.coordinates) coords.push_back(to_string(x));
-  j["coordinates"] = coords;
-  nlohmann::json list = nlohmann::json::array();
-  for (const Mode& x : m.modes) {
-    std::vector<double> shape(x.shape.data(), x.shape.data() + x.shape.size());
-    list.push_back({{"frequency_hz", x.frequency_hz},
-                    {"damping_ratio", x.damping_ratio},
-                    {"shape", shape},
-                    {"energy",
-                     {{"mesh", x.mesh_energy},
-                      {"line_bearings", {x.line_energy[0], x.line_energy[1]}},
-                      {"axial_bearings", {x.axial_energy[0], x.axial_energy[1]}},
-                      {"tilt_bearings", {x.tilt_energy[0], x.tilt_energy[1]}},
-                      {"cross_bearings", {x.cross_energy[0], x.cross_energy[1]}},
-                      {"shafts", {x.shaft_energy[0], x.shaft_energy[1]}}}}});
-  }
-  j["modes"] = list;
-  nlohmann::json damped = nlohmann::json::array();
-  for (const auto& [f, z] : m.damped) damped.push_back({{"frequency_hz", f}, {"damping_ratio", z}});
-  j["damped_eigenvalues"] = damped;
-  return j.dump(indent);
-}
-
-std::string modes_table(const ModeSet& m) {
-  std::string out =
-      fmt::format("{:>4} {:>12} {:>8}   strain energy: {:>6} {:>13} {:>13} {:>13} {:>13} {:>13}\n",
-                  "mode", "f (Hz)", "zeta", "mesh", "line bearing", "axial bearing", "tilt bearing",
-                  "cross bearing", "shaft");
-  const auto pair = [](const std::array<double, 2>& e) {
-    return fmt::format("{:5.1f} {:5.1f}", 100 * e[0], 100 * e[1]);
-  };
-  for (std::size_t r = 0; r < m.modes.size(); ++r) {
-    const Mode& x = m.modes[r];
-    out += fmt::format(
-        "{:>4} {:>12.6g} {:>8.4f}   (%)            {:>6.1f} {:>13} {:>13} {:>13} {:>13} {:>13}\n",
-        r + 1, x.frequency_hz, x.damping_ratio, 100 * x.mesh_energy, pair(x.line_energy),
-        pair(x.axial_energy), pair(x.tilt_energy), pair(x.cross_energy), pair(x.shaft_energy));
-  }
-  return out;
-}
-
 }  // namespace geardyn

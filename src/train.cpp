@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <algorithm>
@@ -16,6 +17,7 @@
 #include <optional>
 #include <queue>
 #include <set>
+#include <stdexcept>
 
 #include "geardyn/case.hpp"
 
@@ -1423,14 +1425,20 @@ void strain_energies(const Assembled& a, const Shape& shape, double total, Train
         share(strain(t.shafts[s].stiffness_n_m_per_rad,
                      a.shaft_vector(static_cast<int>(s)).template cast<Scalar>().dot(shape))));
   for (std::size_t b = 0; b < t.bearings.size(); ++b) {
+    // x and y on the radial stiffness, then z, tx and ty on the support's.
+    const auto w = (a.bearing_matrix(static_cast<int>(b)).template cast<Scalar>() * shape).eval();
     const auto w_s = (a.support_matrix(static_cast<int>(b)).template cast<Scalar>() * shape).eval();
     const Eigen::Vector3d k_s = support_diagonal(t.bearings[b], false);
-    double axial_tilt = 0;
-    for (Eigen::Index row = 0; row < w_s.size(); ++row) axial_tilt += strain(k_s(row), w_s(row));
-    mode.bearing_energy.push_back(share(
-        0.5 * t.bearings[b].stiffness_n_per_m *
-            (a.bearing_matrix(static_cast<int>(b)).template cast<Scalar>() * shape).squaredNorm() +
-        axial_tilt));
+    std::array<double, 5> parts{};
+    for (Eigen::Index row = 0; row < 2; ++row)
+      parts[static_cast<std::size_t>(row)] =
+          share(strain(t.bearings[b].stiffness_n_per_m, Scalar(w(row))));
+    for (Eigen::Index row = 0; row < w_s.size(); ++row)
+      parts[static_cast<std::size_t>(2 + row)] = share(strain(k_s(row), Scalar(w_s(row))));
+    double sum = 0;
+    for (const double x : parts) sum += x;
+    mode.bearing_energy.push_back(sum);
+    mode.bearing_parts.push_back(parts);
   }
 }
 
@@ -1518,14 +1526,64 @@ std::vector<TrainMode> gyroscopic_modes(const Assembled& a, const Eigen::MatrixX
 
 }  // namespace
 
-std::vector<TrainMode> modes(const Assembled& a) {
-  // The free bodies only: a prescribed one is held.
+namespace {
+
+// The coordinates modes read, as the columns of a selection: the free bodies' (a prescribed
+// one is held).
+Eigen::MatrixXd free_coordinates(const Assembled& a) {
   std::vector<int> free;
   for (int i = 0; i < a.size(); ++i)
     if (!a.prescribed(i)) free.push_back(i);
   const auto nf = static_cast<Eigen::Index>(free.size());
   Eigen::MatrixXd select = Eigen::MatrixXd::Zero(a.size(), nf);
   for (Eigen::Index j = 0; j < nf; ++j) select(free[j], j) = 1;
+  return select;
+}
+
+}  // namespace
+
+std::vector<std::array<double, 2>> damped_eigenvalues(const Eigen::MatrixXd& m,
+                                                      const Eigen::MatrixXd& k,
+                                                      const Eigen::MatrixXd& c) {
+  using Matrix = Eigen::MatrixXd;
+  const Eigen::Index n = m.rows();
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> solver(k, m, Eigen::EigenvaluesOnly);
+  if (solver.info() != Eigen::Success)
+    throw std::runtime_error("modes: the eigenvalue problem K phi = w^2 M phi did not converge");
+  // Balanced: in mass-scaled coordinates L^T q (M = L L^T) and velocities over the highest
+  // undamped w (the same eigenvalues; the blocks then have norms of one order, not 1 and w^2).
+  const double top = std::max(solver.eigenvalues().maxCoeff(), 1e-300), w_top = std::sqrt(top);
+  Matrix s = Matrix::Zero(2 * n, 2 * n);
+  s.topRightCorner(n, n) = w_top * Matrix::Identity(n, n);
+  const Eigen::LLT<Matrix> cholesky(m);
+  const auto scaled = [&](const Matrix& x) {  // L^-1 x L^-T
+    const Matrix left = cholesky.matrixL().solve(x);
+    return Matrix(cholesky.matrixL().solve(left.transpose()).transpose());
+  };
+  s.bottomLeftCorner(n, n) = -scaled(k) / w_top;
+  s.bottomRightCorner(n, n) = -scaled(c);
+  const Eigen::EigenSolver<Matrix> damped(s, false);
+  std::vector<std::array<double, 2>> out;
+  for (Eigen::Index i = 0; i < damped.eigenvalues().size(); ++i) {
+    const Complex lambda = damped.eigenvalues()[i];
+    if (lambda.imag() < 0) continue;  // one of each pair (overdamped roots have imag 0)
+    const double mag = std::abs(lambda);
+    if (mag * mag <= kRigidEigenvalueFraction * top) continue;  // a rigid motion
+    out.push_back({mag / kTwoPi, -lambda.real() / mag});
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<std::array<double, 2>> damped_eigenvalues(const Assembled& a) {
+  const Eigen::MatrixXd select = free_coordinates(a);
+  return damped_eigenvalues(select.transpose() * a.mass() * select,
+                            select.transpose() * a.contact_stiffness() * select,
+                            select.transpose() * a.contact_damping() * select);
+}
+
+std::vector<TrainMode> modes(const Assembled& a) {
+  const Eigen::MatrixXd select = free_coordinates(a);
   std::vector<TrainMode> out;
   const Train& t = a.train();
   if (a.frame_rate_rad_s() != 0) {

@@ -1040,7 +1040,7 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
     mode["multiplicity"] = x.multiplicity;
     mode["damping_ratio"] = x.damping_ratio;
     if (!x.type.empty()) mode["type"] = x.type;
-    nlohmann::ordered_json shape, shape_imag, mesh, shaft, bearing;
+    nlohmann::ordered_json shape, shape_imag, mesh, shaft, bearing, parts;
     // A rotation by its body's name (rad), a centre's displacement by "<body>_x", "<body>_y",
     // a spatial body's "<body>_z", "<body>_tx", "<body>_ty": the coordinate's name less its
     // unit.
@@ -1053,18 +1053,34 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
     }
     for (std::size_t k = 0; k < t.meshes.size(); ++k) mesh[t.meshes[k].name] = x.mesh_energy[k];
     for (std::size_t k = 0; k < t.shafts.size(); ++k) shaft[t.shafts[k].name] = x.shaft_energy[k];
-    for (std::size_t k = 0; k < t.bearings.size(); ++k)
+    for (std::size_t k = 0; k < t.bearings.size(); ++k) {
       bearing[t.bearings[k].name] = x.bearing_energy[k];
+      // By direction: x and y, then the axial and tilt parts the bearing has.
+      const Eigen::Index support = a.support_matrix(static_cast<int>(k)).rows();
+      const std::array<double, 5>& e = x.bearing_parts[k];
+      nlohmann::ordered_json p{{"x", e[0]}, {"y", e[1]}};
+      if (support > 0) p["axial"] = e[2];
+      if (support > 1) {
+        p["tilt_x"] = e[3];
+        p["tilt_y"] = e[4];
+      }
+      parts[t.bearings[k].name] = p;
+    }
     mode["shape"] = shape;
     if (!shape_imag.is_null()) mode["shape_imag"] = shape_imag;  // a whirl (frame terms)
     mode["mesh_energy"] = mesh.is_null() ? nlohmann::ordered_json::object() : mesh;
     mode["shaft_energy"] = shaft.is_null() ? nlohmann::ordered_json::object() : shaft;
     mode["bearing_energy"] = bearing.is_null() ? nlohmann::ordered_json::object() : bearing;
+    mode["bearing_energy_parts"] = parts.is_null() ? nlohmann::ordered_json::object() : parts;
     j.push_back(mode);
   }
+  nlohmann::ordered_json damped = nlohmann::ordered_json::array();
+  for (const auto& [f, z] : train::damped_eigenvalues(a))
+    damped.push_back({{"frequency_hz", f}, {"damping_ratio", z}});
   nlohmann::ordered_json out;
   out["form"] = "train";
   out["modes"] = j;
+  out["damped_eigenvalues"] = damped;
   return out.dump(indent);
 }
 

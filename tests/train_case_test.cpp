@@ -555,6 +555,25 @@ TEST(TrainCase, AxialGearsOnBearingsRunAsTheCoupledPairWithSixDegrees) {
   expect_the_coupled_pair({0.3, 0.2}, true, 6);
 }
 
+// A train's modes x after its rigid rotation against the coupled model's: each frequency and
+// damping ratio to 1e-9, the strain energy in the mesh and in both bearings to 1e-6.
+void expect_the_coupled_modes(const ModeSet& one, const std::vector<train::TrainMode>& x) {
+  ASSERT_EQ(x.size(), one.modes.size() + 1);
+  for (std::size_t k = 0; k < one.modes.size(); ++k) {
+    const Mode& m = one.modes[k];
+    EXPECT_NEAR(x[k + 1].frequency_hz / m.frequency_hz, 1.0, 1e-9) << k;
+    // The modal damping ratio of the same shape with the same contact damping.
+    EXPECT_NEAR(x[k + 1].damping_ratio, m.damping_ratio, 1e-9) << k;
+    const double bearings = m.line_energy[0] + m.line_energy[1] + m.axial_energy[0] +
+                            m.axial_energy[1] + m.tilt_energy[0] + m.tilt_energy[1] +
+                            m.cross_energy[0] + m.cross_energy[1];
+    // Degenerate pairs (x and the rock about it, which no mesh touches) may mix their shares
+    // within a pair; the sum over both bearings is a mode's own.
+    EXPECT_NEAR(x[k + 1].bearing_energy[0] + x[k + 1].bearing_energy[1], bearings, 1e-6) << k;
+    EXPECT_NEAR(x[k + 1].mesh_energy[0], m.mesh_energy, 1e-6) << k;
+  }
+}
+
 TEST(TrainCase, SpatialGearsModesAreTheCoupledPairsWithTwelveDegrees) {
   // The train keeps the pair's rigid rotation (frequency 0) beside the coupled model's 11
   // coordinates: the other 11 frequencies are the coupled ones, and the axial and tilt bearings
@@ -570,19 +589,7 @@ TEST(TrainCase, SpatialGearsModesAreTheCoupledPairsWithTwelveDegrees) {
     EXPECT_EQ(x[0].mesh_energy[0], 0.0);
     EXPECT_EQ(x[0].bearing_energy[0] + x[0].bearing_energy[1], 0.0);
     EXPECT_EQ(x[0].damping_ratio, 0.0);
-    for (std::size_t k = 0; k < 11; ++k) {
-      EXPECT_NEAR(x[k + 1].frequency_hz / one.modes[k].frequency_hz, 1.0, 1e-9) << k;
-      const Mode& m = one.modes[k];
-      // The modal damping ratio of the same shape with the same contact damping.
-      EXPECT_NEAR(x[k + 1].damping_ratio, m.damping_ratio, 1e-9) << k;
-      const double bearings = m.line_energy[0] + m.line_energy[1] + m.axial_energy[0] +
-                              m.axial_energy[1] + m.tilt_energy[0] + m.tilt_energy[1] +
-                              m.cross_energy[0] + m.cross_energy[1];
-      // Degenerate pairs (x and the rock about it, which no mesh touches) may mix their shares
-      // within a pair; the sum over both bearings is a mode's own.
-      EXPECT_NEAR(x[k + 1].bearing_energy[0] + x[k + 1].bearing_energy[1], bearings, 1e-6) << k;
-      EXPECT_NEAR(x[k + 1].mesh_energy[0], m.mesh_energy, 1e-6) << k;
-    }
+    expect_the_coupled_modes(one, x);
   }
 }
 
@@ -604,15 +611,13 @@ TEST(TrainCase, TheCoupledFormsTrainHasTheCoupledPairsModesAndCoordinates) {
     const std::vector<train::TrainMode> x = train::modes(a);
     ASSERT_EQ(x.size(), one.modes.size() + 1);
     EXPECT_EQ(x[0].frequency_hz, 0.0);
-    for (std::size_t k = 0; k < one.modes.size(); ++k) {
-      const Mode& m = one.modes[k];
-      EXPECT_NEAR(x[k + 1].frequency_hz / m.frequency_hz, 1.0, 1e-9) << k;
-      EXPECT_NEAR(x[k + 1].damping_ratio, m.damping_ratio, 1e-9) << k;
-      const double bearings = m.line_energy[0] + m.line_energy[1] + m.axial_energy[0] +
-                              m.axial_energy[1] + m.tilt_energy[0] + m.tilt_energy[1] +
-                              m.cross_energy[0] + m.cross_energy[1];
-      EXPECT_NEAR(x[k + 1].bearing_energy[0] + x[k + 1].bearing_energy[1], bearings, 1e-6) << k;
-      EXPECT_NEAR(x[k + 1].mesh_energy[0], m.mesh_energy, 1e-6) << k;
+    expect_the_coupled_modes(one, x);
+    // The damped eigenvalues, the rigid rotation's left out: the coupled model's.
+    const std::vector<std::array<double, 2>> damped = train::damped_eigenvalues(a);
+    ASSERT_EQ(damped.size(), one.damped.size());
+    for (std::size_t k = 0; k < damped.size(); ++k) {
+      EXPECT_NEAR(damped[k][0] / one.damped[k][0], 1.0, 1e-9) << k;
+      EXPECT_NEAR(damped[k][1], one.damped[k][1], 1e-9) << k;
     }
   }
 }

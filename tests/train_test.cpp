@@ -564,11 +564,11 @@ TEST(Train, APlanarPairsModesAreTheCoupledPairsAndItsBearingsAlone) {
 TEST(Train, ABodyHeldToItsLineIsThePlanarBodyAlongIt) {
   // The planar pair above with each gear held to the line of action (Body::line): one
   // coordinate w per centre, u = n w. Its modes are the coupled model's alone (the bearings'
-  // motions across the line are gone), whatever psi, and its flow through impacts of the mesh
-  // and of a bearing clearance at a slant (n along neither x nor y, so that both directions'
-  // dead zones see w) is the planar pair's: theta, and n . u = w, to 1e-9 of their range, its
-  // centres' motion across n staying 0. A mutant that drops n from the mesh's or the bearing's
-  // columns, or keeps the clearance of a direction the line does not reach, fails.
+  // motions across the line are gone), whatever psi, and its flow through the mesh's impacts
+  // at a slant (n along neither x nor y), and through a bearing clearance's with n along y, is
+  // the planar pair's: theta, and n . u = w, to 1e-9 of their range, its centres' motion across
+  // n staying 0. A mutant that drops n from the mesh's or the bearing's columns, or keeps the
+  // clearance of a direction the line does not reach, fails.
   Case c = testing::coupled(3);
   c.bearings.radial_stiffness_n_per_m = {1.2e8, 3.1e8};
   const CoupledParameters p = coupled_parameters(c);

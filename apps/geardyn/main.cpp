@@ -405,53 +405,37 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
   return interrupted ? kExitInterrupted : 0;
 }
 
-// The modes of the coupled model linearised in contact at the mean stiffness.
+// The modes of a train, or of the coupled pair as its train (train_form_of), linearised with
+// every mesh in contact at its mean stiffness.
 int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets, bool json,
               const std::string& out_dir) {
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "modes");
-  if (c.model.form == geardyn::ModelForm::kTrain) {
-    const geardyn::train::Assembled a = geardyn::assembled_train(c);
-    const std::vector<geardyn::train::TrainMode> m = geardyn::train::modes(a);
-    if (json) {
-      fmt::print("{}\n", geardyn::train_modes_json(a, m));
-    } else {
-      fmt::print("modes of {} (train), every mesh in contact at its mean stiffness{}\n", c.name,
-                 c.train->speeds.empty() ? "" : ", the prescribed bodies held");
-      fmt::print("{}", geardyn::train_modes_table(a, m));
-    }
-    if (!out_dir.empty()) {
-      write_output(out_dir, "modes", [&](const std::filesystem::path& d) {
-        geardyn::write_files_atomically(d, {{"modes.json", [&](std::ostream& o) {
-                                               o << geardyn::train_modes_json(a, m) << "\n";
-                                             }}});
-        geardyn::write_train_campbell_figure(d, a, m);
-      });
-      if (!json)
-        fmt::print("written to {}/ (modes.json, campbell.csv, campbell .png .svg .gp)\n", out_dir);
-    }
-    return 0;
-  }
-  if (c.model.form != geardyn::ModelForm::kCoupled)
+  const bool coupled = c.model.form == geardyn::ModelForm::kCoupled;
+  if (c.model.form != geardyn::ModelForm::kTrain && !coupled)
     throw geardyn::InputError(fmt::format(
-        "model.form = \"{}\": modes are of the coupled model; set model.form = \"coupled\" "
-        "(the one-degree model has one, its contact natural frequency, printed by run)",
+        "model.form = \"{}\": modes are of the coupled model and of gear trains; set "
+        "model.form = \"coupled\" (the one-degree model has one, its contact natural frequency, "
+        "printed by run)",
         geardyn::to_string(c.model.form)));
-  const geardyn::ModeSet m = geardyn::modes(geardyn::CoupledModel(geardyn::coupled_parameters(c)));
-  const auto write = [&] {
-    write_output(out_dir, "modes",
-                 [&](const std::filesystem::path& d) { geardyn::write_campbell_figure(d, c, m); });
-  };
+  const geardyn::train::Assembled a = geardyn::assembled_train(c);
+  const std::vector<geardyn::train::TrainMode> m = geardyn::train::modes(a);
   if (json) {
-    fmt::print("{}\n", geardyn::modes_json(m));
-    if (!out_dir.empty()) write();
-    return 0;
+    fmt::print("{}\n", geardyn::train_modes_json(a, m));
+  } else {
+    fmt::print("modes of {} ({}), every mesh in contact at its mean stiffness{}\n", c.name,
+               coupled ? fmt::format("coupled, dof {}, as a train", c.model.dof) : "train",
+               !coupled && !c.train->speeds.empty() ? ", the prescribed bodies held" : "");
+    fmt::print("{}", geardyn::train_modes_table(a, m));
   }
-  fmt::print("modes of {} (coupled, dof {}), in contact at the mean mesh stiffness\n", c.name,
-             c.model.dof);
-  fmt::print("{}", geardyn::modes_table(m));
   if (!out_dir.empty()) {
-    write();
-    fmt::print("written to {}/ (modes.json, campbell.csv, campbell .png .svg .gp)\n", out_dir);
+    write_output(out_dir, "modes", [&](const std::filesystem::path& d) {
+      geardyn::write_files_atomically(
+          d,
+          {{"modes.json", [&](std::ostream& o) { o << geardyn::train_modes_json(a, m) << "\n"; }}});
+      geardyn::write_train_campbell_figure(d, a, m);
+    });
+    if (!json)
+      fmt::print("written to {}/ (modes.json, campbell.csv, campbell .png .svg .gp)\n", out_dir);
   }
   return 0;
 }
@@ -1100,7 +1084,7 @@ int main(int argc, char** argv) {
   geometry->add_flag("--json", json, "print JSON");
 
   CLI::App* modes = app.add_subcommand(
-      "modes", "natural frequencies, damping and strain energies of the coupled model");
+      "modes", "natural frequencies, damping and strain energies of a gear train or coupled pair");
   add_case(modes);
   modes->add_flag("--json", json, "print JSON");
   std::string modes_out;

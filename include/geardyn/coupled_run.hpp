@@ -154,8 +154,4 @@ double checked_output_interval_s(const Case& c, double fastest_period_s, const c
 // result.
 CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options = {});
 
-// modes as JSON (docs/outputs.md) and as a table for the terminal.
-std::string modes_json(const ModeSet& m, int indent = 2);
-std::string modes_table(const ModeSet& m);
-
 }  // namespace geardyn

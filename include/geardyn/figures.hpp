@@ -83,16 +83,6 @@ void write_stiffness_figure(const std::filesystem::path& dir, const std::string&
 // F / (b k_m).
 void write_run_figures(const std::filesystem::path& dir, const RunResult& r, bool physical = false);
 
-// campbell.csv: each mode's frequency and mesh energy, and the shaft frequency at which mesh
-// orders 1 to 3 reach it (f / (i z1)).
-std::string campbell_csv(const Case& c, const ModeSet& m);
-
-// The Campbell diagram of the coupled model: its modes in contact (speed-independent: no
-// gyroscopic terms in this model) against the shaft frequency, the mesh orders 1 to 3, the
-// resonance speeds of the modes with at least 5 % of their strain energy in the mesh, and the
-// case's speed; with campbell.csv and modes.json beside it.
-void write_campbell_figure(const std::filesystem::path& dir, const Case& c, const ModeSet& m);
-
 // The figure of a gear train's run, into a directory: train_time, one row per mesh with its
 // deflection (d - e) / b and its force (N), with train_plot.csv beside it; with load-sharing
 // groups (a planetary set), load_sharing too: a row per group with each planet's mesh force

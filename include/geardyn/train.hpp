@@ -503,6 +503,9 @@ struct TrainMode {
   std::vector<double> mesh_energy;     // fraction of the strain energy in each mesh
   std::vector<double> shaft_energy;    // and in each shaft
   std::vector<double> bearing_energy;  // and in each bearing (all its directions)
+  // Each bearing's by direction: x, y (its seat's radial stiffness; a body held to its line
+  // along the line's parts in them), axial, tilt about x, tilt about y (0 where it has none).
+  std::vector<std::array<double, 5>> bearing_parts;
   // A rigid motion (frequency 0, no element strained) has every share 0.
   // The modal damping ratio phi^H C phi / (2 w) of the mass-normalised shape (C in contact, as
   // contact_damping(): exact for damping proportional in the modes, the first-order estimate
@@ -517,5 +520,16 @@ struct TrainMode {
   std::string type;
 };
 std::vector<TrainMode> modes(const Assembled& a);
+
+// The damped system's eigenvalues (one of each conjugate pair) of M q'' + C q' + K q = 0, K and
+// M symmetric and M positive definite, as frequency |lambda| / 2 pi and damping ratio
+// -Re lambda / |lambda|, ascending; a rigid motion's zero eigenvalues (|lambda|^2 within
+// rounding of the largest undamped w^2) left out.
+std::vector<std::array<double, 2>> damped_eigenvalues(const Eigen::MatrixXd& m,
+                                                      const Eigen::MatrixXd& k,
+                                                      const Eigen::MatrixXd& c);
+// Those of the train as modes() reads it: every mesh in drive contact at its mean stiffness,
+// the prescribed bodies held (C with the frame's gyroscopic terms when it has them).
+std::vector<std::array<double, 2>> damped_eigenvalues(const Assembled& a);
 
 }  // namespace geardyn::train

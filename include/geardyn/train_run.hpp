@@ -319,7 +319,8 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
 void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r);
 
 // The modes of a train as JSON and as a table for the terminal: frequency, multiplicity, a
-// planetary set's mode type, and the strain energy in each mesh, shaft and bearing.
+// planetary set's mode type, and the strain energy in each mesh, shaft and bearing (the JSON
+// also by each bearing's direction, and the damped eigenvalues).
 std::string train_modes_json(const train::Assembled& a, const std::vector<train::TrainMode>& m,
                              int indent = 2);
 std::string train_modes_table(const train::Assembled& a, const std::vector<train::TrainMode>& m);

@@ -525,32 +525,31 @@ def _nan_if_none(x):
 
 @_pythonic()
 def modes(case):
-    """The coupled model's or a gear train's modes, as `geardyn modes --json`.
+    """The modes of a gear train, or of the coupled pair as its train, as `geardyn modes --json`.
 
     Parameters
     ----------
     case : Case
-        A case with ``model.form = "coupled"`` or ``"train"``. A train's modes are a dict of
-        ``bodies`` (the shape's columns: each body's rotation by its name, then each planar
-        body's centre as ``<body>_x``, ``<body>_y``, a spatial body's followed by ``<body>_z``,
-        ``<body>_tx``, ``<body>_ty``), ``frequency_hz`` (ascending),
-        ``multiplicity`` (how many modes share each frequency), ``damping_ratio`` (each mode's,
-        phi^H C phi / (2 w); 0 in a rigid motion), ``type`` (a planetary set's
-        "rotational", "translational", "planet" or "mixed", read from the shape; "" in a train
-        without pins), ``shape`` (modes x those columns, mass-normalised; complex, a whirl,
-        with ``train.frame_terms``), ``mesh_energy``,
-        ``shaft_energy`` and ``bearing_energy`` (by name: the strain energy fraction in each
-        mode); the coupled model's as below.
+        A case with ``model.form = "train"`` or ``"coupled"`` (read as its train: bodies
+        ``pinion`` and ``wheel``, held to the line of action with dof 3 and 6, bearings
+        ``pinion_bearing`` and ``wheel_bearing``, with its shafts ``motor`` and ``load``).
 
     Returns
     -------
     dict
-        ``coordinates`` (names); ``frequency_hz`` and ``damping_ratio`` (arrays, one per mode,
-        ascending); ``shape`` (modes x coordinates, mass-normalised); ``energy``: a dict of the
-        strain energy fractions per part (``mesh``: one per mode; ``line_bearings``,
-        ``axial_bearings``, ``tilt_bearings``, ``cross_bearings``: modes x 2 gears;
-        ``shafts``: modes x 2 shafts, 0 for a shaft not there);
-        ``damped``: the damped eigenvalues' frequencies and damping ratios (modes x 2).
+        ``bodies`` (the shape's columns: each body's rotation by its name, then each planar
+        body's centre as ``<body>_x``, ``<body>_y`` (``<body>_line`` held to its line), a
+        spatial body's followed by ``<body>_z``, ``<body>_tx``, ``<body>_ty``),
+        ``frequency_hz`` (ascending; a freely turning train's first is its rigid rotation, 0),
+        ``multiplicity`` (how many modes share each frequency), ``damping_ratio`` (each mode's,
+        phi^H C phi / (2 w); 0 in a rigid motion), ``type`` (a planetary set's "rotational",
+        "translational", "planet" or "mixed", read from the shape; "" in a train without
+        pins), ``shape`` (modes x those columns, mass-normalised; complex, a whirl, with
+        ``train.frame_terms``), ``mesh_energy``, ``shaft_energy`` and ``bearing_energy`` (by
+        name: the strain energy fraction in each mode), ``bearing_energy_parts`` (by bearing
+        name, by direction ``x``, ``y`` and, where it has them, ``axial``, ``tilt_x``,
+        ``tilt_y``), and ``damped``: the damped eigenvalues' frequencies and damping ratios
+        (one row each, ascending; the rigid motions' left out).
 
     Raises
     ------
@@ -558,36 +557,31 @@ def modes(case):
         A case of a one-degree form, or bad input.
     """
     import numpy as np
-    if _form(case) == "train":
-        ms = _json.loads(_geardyn._train_modes(case))["modes"]
-        return {"bodies": list(ms[0]["shape"]) if ms else [],
-                "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
-                "multiplicity": np.array([m["multiplicity"] for m in ms]),
-                "damping_ratio": np.array([m["damping_ratio"] for m in ms]),
-                "type": [m.get("type", "") for m in ms],
-                "shape": np.array([list(m["shape"].values()) for m in ms]) +
-                (1j * np.array([list(m["shape_imag"].values()) for m in ms])
-                 if ms and "shape_imag" in ms[0] else 0),
-                "mesh_energy": {k: np.array([m["mesh_energy"][k] for m in ms])
-                                for k in (ms[0]["mesh_energy"] if ms else {})},
-                "shaft_energy": {k: np.array([m["shaft_energy"][k] for m in ms])
-                                 for k in (ms[0]["shaft_energy"] if ms else {})},
-                "bearing_energy": {k: np.array([m["bearing_energy"][k] for m in ms])
-                                   for k in (ms[0]["bearing_energy"] if ms else {})}}
-    if _form(case) != "coupled":
+    if _form(case) not in ("train", "coupled"):
         raise InputError(f"model.form = \"{case['model.form']}\": modes are of the coupled "
-                         "model; set model.form = \"coupled\"")
-    j = _json.loads(_geardyn._modes(case))
+                         "model and of gear trains; set model.form = \"coupled\"")
+    j = _json.loads(_geardyn._train_modes(case))
     ms = j["modes"]
-    parts = ("line_bearings", "axial_bearings", "tilt_bearings", "cross_bearings", "shafts")
-    return {"coordinates": j["coordinates"],
+
+    def by_name(key):
+        return {k: np.array([m[key][k] for m in ms]) for k in (ms[0][key] if ms else {})}
+
+    return {"bodies": list(ms[0]["shape"]) if ms else [],
             "frequency_hz": np.array([m["frequency_hz"] for m in ms]),
+            "multiplicity": np.array([m["multiplicity"] for m in ms]),
             "damping_ratio": np.array([m["damping_ratio"] for m in ms]),
-            "shape": np.array([m["shape"] for m in ms]),
-            "energy": dict({"mesh": np.array([m["energy"]["mesh"] for m in ms])},
-                           **{p: np.array([m["energy"][p] for m in ms]) for p in parts}),
+            "type": [m.get("type", "") for m in ms],
+            "shape": np.array([list(m["shape"].values()) for m in ms]) +
+            (1j * np.array([list(m["shape_imag"].values()) for m in ms])
+             if ms and "shape_imag" in ms[0] else 0),
+            "mesh_energy": by_name("mesh_energy"),
+            "shaft_energy": by_name("shaft_energy"),
+            "bearing_energy": by_name("bearing_energy"),
+            "bearing_energy_parts": {
+                b: {d: np.array([m["bearing_energy_parts"][b][d] for m in ms]) for d in dirs}
+                for b, dirs in (ms[0]["bearing_energy_parts"].items() if ms else ())},
             "damped": np.array([[d["frequency_hz"], d["damping_ratio"]]
-                                for d in j["damped_eigenvalues"]])}
+                                for d in j["damped_eigenvalues"]]).reshape(-1, 2)}
 
 
 _SWEEP_NAMES = {"points": "len(values)", "from": "values", "to": "values",

@@ -122,7 +122,6 @@ void bind_stiffness(pybind11::module_& m);
 void bind_run(pybind11::module_& m);
 void bind_sweep(pybind11::module_& m);
 void bind_orbit(pybind11::module_& m);
-void bind_coupled(pybind11::module_& m);
 void bind_train(pybind11::module_& m);
 void bind_validation(pybind11::module_& m);
 void bind_study(pybind11::module_& m);

@@ -20,7 +20,6 @@ PYBIND11_MODULE(_geardyn, m) {
   geardyn::python::bind_run(m);
   geardyn::python::bind_sweep(m);
   geardyn::python::bind_orbit(m);
-  geardyn::python::bind_coupled(m);
   geardyn::python::bind_train(m);
   geardyn::python::bind_validation(m);
   geardyn::python::bind_study(m);

@@ -513,14 +513,19 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
     assert rs.shaft_torque.max() <= rs.summary["shafts"][0]["max_torque_nm"]
     assert rs.shaft_torque.max() > 0.9 * rs.summary["shafts"][0]["max_torque_nm"]
 
+    # Its modes are its train's, as the command line's: the rigid rotation and 11 elastic modes,
+    # each one's strain energy whole over the mesh and the bearings' directions.
     m = geardyn.modes(case)
     out = json.loads(cli("modes", str(path), "--json").stdout)
     assert list(m["frequency_hz"]) == [x["frequency_hz"] for x in out["modes"]]
-    assert m["shape"].shape == (11, 11)
-    total = m["energy"]["mesh"] + sum(m["energy"][p].sum(axis=1) for p in
-                                      ("line_bearings", "axial_bearings", "tilt_bearings",
-                                       "cross_bearings", "shafts"))
-    assert total == pytest.approx(np.ones(11), abs=1e-12)
+    assert m["shape"].shape == (12, 12) and m["frequency_hz"][0] == 0.0
+    assert m["bodies"][:4] == ["pinion", "wheel", "pinion_x", "pinion_y"]
+    parts = m["bearing_energy_parts"]
+    assert set(parts["pinion_bearing"]) == {"x", "y", "axial", "tilt_x", "tilt_y"}
+    total = m["mesh_energy"]["mesh"] + sum(e for b in parts.values() for e in b.values())
+    assert total[1:] == pytest.approx(np.ones(11), abs=1e-12)
+    assert m["damped"].shape == (11, 2)
+    assert m["damped"][:, 0] == pytest.approx(m["frequency_hz"][1:], rel=1e-3)
     # The coupled orbit from Python is the command line's.
     o = geardyn.orbit(case.with_({"model.dof": 3}))
     out = json.loads(cli("orbit", str(path), "--set", "model.dof=3", "--json").stdout)
@@ -530,7 +535,7 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
     assert abs(o["floquet_multipliers"][0]) == pytest.approx(out["max_multiplier"], rel=1e-12)
     with pytest.raises(geardyn.InputError, match="this coupled case takes 6"):
         geardyn.orbit(case.with_({"model.dof": 3}), state=[0.0, 0.0])
-    with pytest.raises(geardyn.InputError, match="modes are of the coupled model"):
+    with pytest.raises(geardyn.InputError, match="modes are of the coupled model and of gear trains"):
         geardyn.modes(geardyn.Case())
     # A coupled sweep (as its train) has the command line's bearing columns, per part along a
     # dimension in xarray and under sweep.csv's names in pandas.
