@@ -142,9 +142,8 @@ class PointRunner {
       const train::Assembled a = assembled_train(base);
       for (const train::Mesh& m : a.train().meshes) meshes_.push_back(m.name);
       groups_ = load_sharing_groups(a);
-      for (const auto& [k, axis] : a.clearances())
-        clearances_.push_back(a.train().bearings[static_cast<std::size_t>(k)].name +
-                              (axis == 0 ? "_x" : "_y"));
+      for (std::size_t j = 0; j < a.clearances().size(); ++j)
+        clearances_.push_back(a.clearance_name(static_cast<int>(j)));
       TrainRunResult named;
       add_parts(a, std::nullopt, named);
       for (const TrainPartQuantity& q : part_quantities(named)) parts_.push_back({q.part, q.what});

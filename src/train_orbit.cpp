@@ -156,6 +156,15 @@ bool TrainShooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& s
     return false;
   }
   orbit.readings = r.meshes;
+  orbit.clearances.clear();
+  orbit.clearance_readings.clear();
+  const train::Assembled& a = solver_.assembled();
+  for (std::size_t j = 0; j < a.clearances().size(); ++j) {
+    const auto [bearing, axis] = a.clearances()[j];
+    const TrainBearingReading& b = r.bearings[static_cast<std::size_t>(bearing)];
+    orbit.clearances.push_back(a.clearance_name(static_cast<int>(j)));
+    orbit.clearance_readings.push_back(axis == 0 ? b.clearance_x : b.clearance_y);
+  }
   orbit.impacts_per_period.clear();
   orbit.backside_impacts_per_period.clear();
   for (const TrainMeshReading& m : r.meshes) {
@@ -237,15 +246,28 @@ std::string train_orbit_json(const TrainOrbit& o, int indent) {
   j["unknowns"] = std::vector<double>(o.unknowns.data(), o.unknowns.data() + o.unknowns.size());
   nlohmann::json meshes = nlohmann::json::array();
   for (std::size_t m = 0; m < o.meshes.size(); ++m) {
-    const bool read = o.converged;
-    meshes.push_back(
-        {{"name", o.meshes[m]},
-         {"impacts_per_period",
-          read ? nlohmann::json(o.impacts_per_period[m]) : nlohmann::json(nullptr)},
-         {"backside_impacts_per_period",
-          read ? nlohmann::json(o.backside_impacts_per_period[m]) : nlohmann::json(nullptr)}});
+    nlohmann::json mesh{{"name", o.meshes[m]},
+                        {"impacts_per_period", nullptr},
+                        {"backside_impacts_per_period", nullptr}};
+    // Read over the period of a converged orbit, the extremes exact: d - e over b, and the force.
+    if (o.converged) {
+      mesh["impacts_per_period"] = o.impacts_per_period[m];
+      mesh["backside_impacts_per_period"] = o.backside_impacts_per_period[m];
+      const TrainMeshReading& x = o.readings[m];
+      mesh["min_deflection_bar"] = x.min_deflection_m / x.backlash_m;
+      mesh["max_deflection_bar"] = x.max_deflection_m / x.backlash_m;
+      mesh["min_force_n"] = x.min_force_n;
+      mesh["max_force_n"] = x.max_force_n;
+    }
+    meshes.push_back(mesh);
   }
   j["meshes"] = meshes;
+  nlohmann::json clearances = nlohmann::json::array();
+  for (std::size_t k = 0; k < o.clearances.size(); ++k)
+    clearances.push_back({{"name", o.clearances[k]},
+                          {"impacts_per_period", o.clearance_readings[k].impacts},
+                          {"separations_per_period", o.clearance_readings[k].separations}});
+  j["clearances"] = clearances;
   return j.dump(indent);
 }
 

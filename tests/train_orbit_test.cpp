@@ -8,10 +8,12 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <string>
 
 #include "geardyn/case.hpp"
+#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/train_case.hpp"
@@ -320,6 +322,40 @@ TEST(TrainOrbit, WhatHasNoOrbitSaysWhy) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("no periodic orbit"), std::string::npos) << e.what();
   }
+}
+
+TEST(TrainOrbit, TheCoupledPairsOrbitAsItsTrainIsTheCoupledModels) {
+  // The coupled pair at dof 3 with clearance bearings that open and close within the period
+  // (CoupledOrbit.TheMonodromyThroughBearingClearancesIsTheFlowMapsDerivative): as its train
+  // (the gears held to the line of action, the rigid rotation a coordinate) the orbit is the
+  // coupled model's, an independent assembly: the same impacts of the mesh and of each
+  // clearance per period, and (d - e)/b's exact extremes and the multipliers to 1e-6.
+  Case c = testing::coupled(3);
+  c.bearings.radial_clearance_um = {5, 5};
+  c.speed.shaft_frequency_hz = 600;
+  OrbitOptions o;
+  o.settle_periods = 300;
+  const CoupledOrbit one = find_coupled_orbit(c, o);
+  ASSERT_TRUE(one.converged) << one.message;
+  const TrainOrbit x = find_train_orbit(c, o);
+  ASSERT_TRUE(x.converged) << x.message;
+  EXPECT_EQ(x.impacts_per_period[0], one.reading.mesh.impacts);
+  EXPECT_EQ(x.clearances, (std::vector<std::string>{"pinion_bearing_y", "wheel_bearing_y"}));
+  ASSERT_EQ(x.clearance_readings.size(), 2U);
+  for (std::size_t k = 0; k < 2; ++k)
+    EXPECT_EQ(x.clearance_readings[k].impacts, one.reading.bearing[k].impacts) << k;
+  const double b = one.reading.parameters.backlash_m;
+  EXPECT_NEAR(x.readings[0].min_deflection_m / b, one.reading.min_deflection_m / b, 1e-6);
+  EXPECT_NEAR(x.readings[0].max_deflection_m / b, one.reading.max_deflection_m / b, 1e-6);
+  // Modulo the rigid rotation at its mean speed (the phase condition) the unknowns are as many
+  // as the coupled model's coordinates and rates, and so are the multipliers.
+  ASSERT_EQ(x.multipliers.size(), one.multipliers.size());
+  for (std::size_t k = 0; k < x.multipliers.size(); ++k)
+    EXPECT_LT(std::abs(x.multipliers[k] - one.multipliers[k]), 1e-6) << k;
+  // The JSON's readings are these.
+  const nlohmann::json j = nlohmann::json::parse(train_orbit_json(x));
+  EXPECT_EQ(j["clearances"][1]["impacts_per_period"], one.reading.bearing[1].impacts);
+  EXPECT_EQ(j["meshes"][0]["max_deflection_bar"].get<double>(), x.readings[0].max_deflection_m / b);
 }
 
 }  // namespace

@@ -805,9 +805,18 @@ int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
       r.coordinates.size(),
       r.modulo_rotation ? ", modulo the train's free rotation at its nominal mean speed" : "");
   print_multipliers(r);
-  for (std::size_t m = 0; m < r.meshes.size(); ++m)
-    fmt::print("  mesh {:<12} {} impacts/period ({} back side)\n", r.meshes[m],
-               r.impacts_per_period[m], r.backside_impacts_per_period[m]);
+  for (std::size_t m = 0; m < r.meshes.size(); ++m) {
+    const geardyn::TrainMeshReading& x = r.readings[m];
+    fmt::print(
+        "  mesh {:<12} {} impacts/period ({} back side), (d - e)/b {:.9g} to {:.9g}, "
+        "F {:.9g} to {:.9g} N\n",
+        r.meshes[m], r.impacts_per_period[m], r.backside_impacts_per_period[m],
+        x.min_deflection_m / x.backlash_m, x.max_deflection_m / x.backlash_m, x.min_force_n,
+        x.max_force_n);
+  }
+  for (std::size_t k = 0; k < r.clearances.size(); ++k)
+    fmt::print("  clearance {:<12} {} impacts/period, separations {}\n", r.clearances[k],
+               r.clearance_readings[k].impacts, r.clearance_readings[k].separations);
   return 0;
 }
 

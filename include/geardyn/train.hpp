@@ -440,6 +440,11 @@ class Assembled {
   // (bearing, axis 0 or 1); of a body held to its line, only those the line has a part along
   // (a direction it cannot move in never closes its gap).
   const std::vector<std::array<int, 2>>& clearances() const { return clearances_; }
+  // Clearance direction j's name in outputs: "<bearing>_x" or "<bearing>_y".
+  std::string clearance_name(int j) const {
+    const auto [bearing, axis] = clearances_[static_cast<std::size_t>(j)];
+    return t_.bearings[static_cast<std::size_t>(bearing)].name + (axis == 0 ? "_x" : "_y");
+  }
   // The region a state belongs to with no history (each mesh by its d - e against +-b, a
   // clipping mesh in contact also by its force's sign, each clearance direction by w - o against
   // +-c).

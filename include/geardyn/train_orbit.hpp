@@ -35,6 +35,9 @@ struct TrainOrbit : PeriodicSolution {
   std::vector<std::int64_t> impacts_per_period, backside_impacts_per_period;  // per mesh
   // Each mesh over one period of the orbit: its contact history and exact extremes.
   std::vector<TrainMeshReading> readings;
+  // Each bearing clearance direction's (train::Assembled::clearance_name) over the period.
+  std::vector<std::string> clearances;
+  std::vector<ContactReading> clearance_readings;
 };
 
 // The orbit of N system periods (options.periods) of a train case: from a first guess settled
