@@ -139,9 +139,7 @@ TEST(CoupledOrbit, TheMonodromyThroughImpactsIsTheFlowMapsDerivative) {
 
 TEST(CoupledOrbit, TheMonodromyThroughBearingClearancesIsTheFlowMapsDerivative) {
   // Clearance bearings that open and close within the period: their events' saltation too.
-  Case c = coupled(3);
-  c.bearings.radial_clearance_um = {5, 5};
-  c.speed.shaft_frequency_hz = 600;
+  const Case c = testing::coupled_with_clearances();
   OrbitOptions o;
   o.settle_periods = 300;
   const CoupledOrbit orbit = find_coupled_orbit(c, o);

@@ -36,6 +36,15 @@ inline Case coupled(int dof) {
   return c;
 }
 
+// The coupled model with dof 3 at f_1 = 600 Hz, its bearings with radial clearances of 5 um that
+// open and close within a period of its orbit (two impacts each).
+inline Case coupled_with_clearances() {
+  Case c = coupled(3);
+  c.bearings.radial_clearance_um = {5, 5};
+  c.speed.shaft_frequency_hz = 600;
+  return c;
+}
+
 // The paper's pair at a light load whose torque falls to zero once a turn (5 N m, fluctuating
 // fully: one impact a period), as the one-degree model (first) and as a train turning freely
 // with a torque on each gear (second).

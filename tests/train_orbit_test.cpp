@@ -330,9 +330,7 @@ TEST(TrainOrbit, TheCoupledPairsOrbitAsItsTrainIsTheCoupledModels) {
   // (the gears held to the line of action, the rigid rotation a coordinate) the orbit is the
   // coupled model's, an independent assembly: the same impacts of the mesh and of each
   // clearance per period, and (d - e)/b's exact extremes and the multipliers to 1e-6.
-  Case c = testing::coupled(3);
-  c.bearings.radial_clearance_um = {5, 5};
-  c.speed.shaft_frequency_hz = 600;
+  const Case c = testing::coupled_with_clearances();
   OrbitOptions o;
   o.settle_periods = 300;
   const CoupledOrbit one = find_coupled_orbit(c, o);

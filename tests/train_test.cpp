@@ -527,17 +527,29 @@ Train planar_pair(const CoupledParameters& p, const Case& c, double psi_rad) {
   return t;
 }
 
+// The coupled model with dof 3 on bearings of unequal stiffness, its parameters and its modes'
+// frequencies (ascending).
+struct CoupledPair {
+  Case c;
+  CoupledParameters p;
+  std::vector<double> frequencies_hz;
+};
+CoupledPair coupled_pair_on_bearings() {
+  CoupledPair x{testing::coupled(3), {}, {}};
+  x.c.bearings.radial_stiffness_n_per_m = {1.2e8, 3.1e8};
+  x.p = coupled_parameters(x.c);
+  for (const Mode& m : modes(CoupledModel(x.p)).modes) x.frequencies_hz.push_back(m.frequency_hz);
+  return x;
+}
+
 TEST(Train, APlanarPairsModesAreTheCoupledPairsAndItsBearingsAlone) {
   // Two planar gears on isotropic bearings: the line of action's direction takes the coupled
   // model's y (dof 3: u, y1, y2, a test of its own against closed forms), and each centre's
   // motion across it is its bearing alone, w^2 = k_r / m. With a helix (cos(beta_b) on every
   // entry of V) and at any psi. A mutant without cos(beta_b) on the centres, or with n not a
   // unit vector, moves the coupled frequencies by percents.
-  Case c = testing::coupled(3);
-  c.bearings.radial_stiffness_n_per_m = {1.2e8, 3.1e8};
-  const CoupledParameters p = coupled_parameters(c);
-  std::vector<double> expected;
-  for (const Mode& m : modes(CoupledModel(p)).modes) expected.push_back(m.frequency_hz);
+  const auto [c, p, coupled_hz] = coupled_pair_on_bearings();
+  std::vector<double> expected = coupled_hz;
   for (int i = 0; i < 2; ++i) {
     const int line = p.line[static_cast<std::size_t>(i)];
     expected.push_back(std::sqrt(p.bearing_stiffness(line) / p.mass(line, line)) / kTwoPi);
@@ -569,11 +581,7 @@ TEST(Train, ABodyHeldToItsLineIsThePlanarBodyAlongIt) {
   // the planar pair's: theta, and n . u = w, to 1e-9 of their range, its centres' motion across
   // n staying 0. A mutant that drops n from the mesh's or the bearing's columns, or keeps the
   // clearance of a direction the line does not reach, fails.
-  Case c = testing::coupled(3);
-  c.bearings.radial_stiffness_n_per_m = {1.2e8, 3.1e8};
-  const CoupledParameters p = coupled_parameters(c);
-  std::vector<double> expected;
-  for (const Mode& m : modes(CoupledModel(p)).modes) expected.push_back(m.frequency_hz);
+  const auto [c, p, expected] = coupled_pair_on_bearings();
   for (const double psi : {0.0, 0.7, -2.5}) {
     SCOPED_TRACE(psi);
     Train held = planar_pair(p, c, psi);
