@@ -559,6 +559,8 @@ ode::LinearSwitchedSystem CoupledModel::linear_system() const {
     for (int i = 0; i < 2; ++i) region.observables.push_back(bearing_force(i, s.bearing[i]));
     for (int i = 0; i < 2; ++i) region.observables.push_back(axial_force(i));
     for (int i = 0; i < 2; ++i) region.observables.push_back(shaft_torque(i));
+    // A constant mesh stiffness, or a separated mesh, leaves A and the rows constant.
+    ode::drop_zero_terms(region);
   }
   return sys;
 }

@@ -126,7 +126,21 @@ CoupledOrbit find_coupled_orbit(const Case& c, const OrbitOptions& options,
     orbit.message = why;
     return orbit;
   }
-  const detail::NewtonOutcome newton = detail::solve_periodic(shooting.shooting(), x, options);
+  // Without settling, the start given (or the case's) is the one start.
+  OrbitOptions once = options;
+  if (start || options.settle_periods == 0) once.starts = 1;
+  const auto next = [&](ode::Vector& next_x, std::string& next_why) {
+    const ode::FlowResult later = solver.advance(0.0, y0, orbit.period_s);
+    if (!later.ok()) {
+      next_why = fmt::format("the settling simulation failed ({}): {}",
+                             ode::to_string(later.termination), later.message);
+      return false;
+    }
+    y0 = later.state;
+    return shooting.shooting().guess(y0, next_x, next_why);
+  };
+  const detail::NewtonOutcome newton =
+      detail::solve_periodic_from_settled(shooting.shooting(), x, once, next);
   orbit.iterations = newton.iterations;
   orbit.residual = newton.residual;
   if (!newton.converged) {

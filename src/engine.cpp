@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+#include <Eigen/QR>
 #include <algorithm>
 #include <array>
 #include <cassert>
@@ -14,6 +15,7 @@
 #include <mutex>
 #include <numbers>
 #include <stdexcept>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -128,6 +130,40 @@ std::string check_region(const LinearSwitchedSystem& sys, int r, const LinearReg
 }
 
 }  // namespace
+
+namespace {
+
+template <class T>
+bool is_zero(const T& x) {
+  if constexpr (std::is_arithmetic_v<T>) {
+    return x == 0;
+  } else {
+    return !x.any();
+  }
+}
+
+template <class T>
+void drop_if_zero(FourierTerms<T>& s) {
+  const auto zero = [](const std::vector<T>& terms) {
+    return std::all_of(terms.begin(), terms.end(), [](const T& x) { return is_zero(x); });
+  };
+  if (zero(s.cos) && zero(s.sin)) {
+    s.cos.clear();
+    s.sin.clear();
+  }
+}
+
+}  // namespace
+
+void drop_zero_terms(LinearRegion& region) {
+  drop_if_zero(region.a);
+  drop_if_zero(region.u);
+  for (auto* list : {&region.guards, &region.observables})
+    for (LinearGuard& g : *list) {
+      drop_if_zero(g.row);
+      drop_if_zero(g.offset);
+    }
+}
 
 struct LazyRegionStore {
   int count = 0;
@@ -358,6 +394,10 @@ constexpr int kExactRangeTerms = 4;
 // force on a backlash).
 constexpr double kMaxCellExcursion = 1.0;
 constexpr int kMaxExcursionHalvings = 16;
+// A static state of a region whose A0 is singular (a train's free rigid rotation) is accepted
+// when it solves A0 y + u0 = 0 to this fraction of |A0| |y| + |u0| (max norms): far above the
+// rounding of a least-squares solve, far below any residual a torque left unbalanced gives.
+constexpr double kStaticResidual = 1e-12;
 // Steps of iterative refinement of a cell's virtual start state at a region entry.
 constexpr int kEntryRefinements = 2;
 // Cells between exact resynchronisations of the forcing phasors.
@@ -432,7 +472,8 @@ struct RegionCells {
   using R = Eigen::Matrix<double, 1, D>;
   double h = 0;             // cell length, s
   int K = 1;                // cells per coefficient period (1 for constant coefficients)
-  V y_ref;                  // the static state of the region (0 when A0 is singular)
+  V y_ref;                  // a static state of the region (0 when it has none)
+  bool has_static = false;  // y_ref solves A0 y + u0 = 0
   std::vector<int> forced;  // frequencies with a forcing term
   std::vector<double> rot_cos, rot_sin;  // cos, sin of w_f h for the forced frequencies
   std::vector<Cell<D>> cells;
@@ -516,8 +557,10 @@ void build_period(const LinearSwitchedSystem& sys, RegionCells<D>& rc) {
 }
 
 // The steady-jump quantities of RegionCells for a region of constant coefficients (see there):
-// the periodic particular solution solves (A0 + i w I)(pc + i ps) = -(uc + i us) per forced
-// frequency; none exists when A0 is singular or a forced frequency is an eigenfrequency.
+// the periodic particular solution is y_ref (a static state, rc.has_static) plus, per forced
+// frequency, the solution of (A0 + i w I)(pc + i ps) = -(uc + i us); none exists without a
+// static state or when a forced frequency is an eigenfrequency. A singular A0 (a train's free
+// rigid rotation) keeps its static states: the flow around y_p is exact through phi_T.
 template <int D>
 void build_steady_jumps(const LinearSwitchedSystem& sys, const LinearRegion& reg,
                         RegionCells<D>& rc) {
@@ -527,7 +570,7 @@ void build_steady_jumps(const LinearSwitchedSystem& sys, const LinearRegion& reg
   using CV = Eigen::Matrix<std::complex<double>, D, 1>;
   const int n = sys.dimension;
   const auto& w = sys.frequencies_rad_s;
-  if (!Eigen::FullPivLU<Matrix>(reg.a.constant).isInvertible()) return;
+  if (!rc.has_static) return;
   rc.pc.clear();
   rc.ps.clear();
   rc.p_swing = V::Zero(n);
@@ -1291,12 +1334,23 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
     const bool periodic =
         reg.a.varies() || std::any_of(reg.guards.begin(), reg.guards.end(),
                                       [](const LinearGuard& q) { return q.row.varies(); });
-    // The static state: A0 y + u0 = 0 where A0 is invertible.
+    // The static state: A0 y + u0 = 0, the one where A0 is invertible, the least-squares
+    // one where it is singular and the forcing leaves its null directions alone (a train's
+    // rigid rotation under balanced torques).
     rc.y_ref = V::Zero(n);
     Eigen::FullPivLU<Matrix> lu(reg.a.constant);
     if (lu.isInvertible()) {
       const Vector y = lu.solve(-reg.u.constant);
-      if (y.allFinite()) rc.y_ref = y;
+      rc.has_static = y.allFinite();
+      if (rc.has_static) rc.y_ref = y;
+    } else {
+      const Vector y =
+          Eigen::CompleteOrthogonalDecomposition<Matrix>(reg.a.constant).solve(-reg.u.constant);
+      const double residual = (reg.a.constant * y + reg.u.constant).lpNorm<Eigen::Infinity>();
+      const double size = reg.a.constant.lpNorm<Eigen::Infinity>() * y.lpNorm<Eigen::Infinity>() +
+                          reg.u.constant.lpNorm<Eigen::Infinity>();
+      rc.has_static = y.allFinite() && residual <= kStaticResidual * size;
+      if (rc.has_static) rc.y_ref = y;
     }
     if (periodic) {
       rc.K = static_cast<int>(std::min<double>(

@@ -6,7 +6,6 @@
 #include <cassert>
 #include <cmath>
 #include <numbers>
-#include <type_traits>
 #include <vector>
 
 #include "geardyn/validation.hpp"
@@ -187,25 +186,6 @@ int frequency_index(std::vector<double>& w, double omega) {
   return static_cast<int>(w.size()) - 1;
 }
 
-template <class T>
-bool is_zero(const T& x) {
-  if constexpr (std::is_arithmetic_v<T>) {
-    return x == 0;
-  } else {
-    return !x.any();
-  }
-}
-
-template <class T>
-void drop_if_constant(ode::FourierTerms<T>& x) {
-  bool varies = false;
-  for (std::size_t f = 0; f < x.cos.size(); ++f) varies |= !is_zero(x.cos[f]) || !is_zero(x.sin[f]);
-  if (!varies) {
-    x.cos.clear();
-    x.sin.clear();
-  }
-}
-
 }  // namespace
 
 ode::LinearSwitchedSystem GearPairModel::linear_system() const {
@@ -344,14 +324,7 @@ ode::LinearSwitchedSystem GearPairModel::linear_system() const {
     r.observables = {delta, force};
     // Terms that are zero at every frequency are dropped: constant coefficients let the
     // engine take any cell grid.
-    drop_if_constant(r.a);
-    drop_if_constant(r.u);
-    for (auto* list : {&r.guards, &r.observables}) {
-      for (ode::LinearGuard& g : *list) {
-        drop_if_constant(g.row);
-        drop_if_constant(g.offset);
-      }
-    }
+    ode::drop_zero_terms(r);
   }
   return sys;
 }

@@ -38,6 +38,8 @@ std::string OrbitOptions::validate() const {
     return fmt::format("--settle-periods = {}: must be an integer in [0, 1000000]", settle_periods);
   if (!(tolerance >= 1e-14 && tolerance <= 1e-2))
     return fmt::format("--tolerance = {}: must be in [1e-14, 1e-2]", tolerance);
+  if (starts < 1 || starts > 1000)
+    return fmt::format("--starts = {}: must be an integer in [1, 1000]", starts);
   if (max_iterations < 1 || max_iterations > 1000)
     return fmt::format("--max-iterations = {}: must be an integer in [1, 1000]", max_iterations);
   return {};
@@ -235,6 +237,27 @@ NewtonOutcome solve_periodic(const Segments& s, ode::Vector& x, const OrbitOptio
   return out;
 }
 
+NewtonOutcome solve_periodic_from_settled(
+    const Segments& s, ode::Vector& x, const OrbitOptions& options,
+    const std::function<bool(ode::Vector& x, std::string& why)>& next) {
+  NewtonOutcome out = solve_periodic(s, x, options);
+  int start = 1;
+  std::string why;
+  for (; start < options.starts && !out.converged; ++start) {
+    if (!next(x, why)) break;
+    const int before = out.iterations;
+    out = solve_periodic(s, x, options);
+    out.iterations += before;
+  }
+  if (out.converged && start > 1)
+    out.message += fmt::format(" (start {} of {}: the settled state {} orbit periods on)", start,
+                               options.starts, start - 1);
+  if (!out.converged && (start > 1 || !why.empty()))
+    out.message += fmt::format(" (from {} settled state{} one orbit period apart{})", start,
+                               start == 1 ? "" : "s", why.empty() ? "" : "; the next: " + why);
+  return out;
+}
+
 void floquet(const std::vector<ode::Matrix>& segment_jacobians, ode::Matrix& monodromy,
              std::vector<std::complex<double>>& multipliers) {
   const Eigen::Index d = segment_jacobians.empty() ? 0 : segment_jacobians.front().rows();
@@ -408,7 +431,23 @@ Orbit find_orbit(const Case& c, const OrbitOptions& options,
     orbit.message = why;
     return orbit;
   }
-  detail::NewtonOutcome newton = detail::solve_periodic(shooting.shooting(), x, options);
+  // Without settling, the start given (or the case's) is the one start.
+  OrbitOptions once = options;
+  if (start || options.settle_periods == 0) once.starts = 1;
+  const auto next = [&](ode::Vector& next_x, std::string& next_why) {
+    const auto later = shooting.solver().advance(s0, s0.t + orbit.period_s);
+    if (!later.ok()) {
+      next_why = fmt::format("the settling simulation failed ({}): {}",
+                             ode::to_string(later.termination), later.message);
+      return false;
+    }
+    s0 = later.end_state;
+    ode::Vector y(2);
+    y << s0.q, s0.v;
+    return shooting.guess(y, next_x, next_why);
+  };
+  detail::NewtonOutcome newton =
+      detail::solve_periodic_from_settled(shooting.shooting(), x, once, next);
   orbit.iterations = newton.iterations;
   orbit.residual = newton.residual;
   if (!newton.converged) {

@@ -80,6 +80,15 @@ struct NewtonOutcome {
 };
 NewtonOutcome solve_periodic(const Segments& s, ode::Vector& x, const OrbitOptions& options);
 
+// solve_periodic from x, then, while it fails and options.starts allow, from the next settled
+// state (OrbitOptions::starts): next(x, why) sets x to the unknowns of the state one orbit
+// period after the last start, or says why it cannot (a failed flow ends the starts). The
+// iterations are those of every start; the message says from which start it converged, or
+// that every start failed.
+NewtonOutcome solve_periodic_from_settled(
+    const Segments& s, ode::Vector& x, const OrbitOptions& options,
+    const std::function<bool(ode::Vector& x, std::string& why)>& next);
+
 // The monodromy matrix (the product of the segments' Jacobians, last on the left) and its
 // eigenvalues, largest modulus first.
 void floquet(const std::vector<ode::Matrix>& segment_jacobians, ode::Matrix& monodromy,

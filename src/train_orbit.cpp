@@ -192,7 +192,7 @@ TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
   for (const train::Mesh& m : shooting.solver().assembled().train().meshes)
     orbit.meshes.push_back(m.name);
   // The first guess: the start given, or the case's start settled over whole system periods.
-  ode::Vector z0;
+  ode::Vector z0, y0;
   if (start) {
     const auto n = static_cast<Eigen::Index>(orbit.coordinates.size());
     if (start->size() != n)
@@ -204,7 +204,7 @@ TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
   } else {
     // The case's start, on the orbits' side of the phase condition (a freely turning train's
     // rigid momentum; a prescribed train's start is already its lift).
-    ode::Vector y0 =
+    y0 =
         shooting.full(0.0, shooting.reduce(shooting.solver().initial_state(c.solver.initial, 0.0)));
     if (options.settle_periods > 0) {
       const ode::FlowResult settled =
@@ -224,7 +224,23 @@ TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
     orbit.message = why;
     return orbit;
   }
-  const detail::NewtonOutcome newton = detail::solve_periodic(shooting.shooting(), x, options);
+  // Without settling, the start given (or the case's) is the one start.
+  OrbitOptions once = options;
+  if (start || options.settle_periods == 0) once.starts = 1;
+  const auto next = [&](ode::Vector& next_x, std::string& next_why) {
+    // From the section state as the orbits read it (a prescribed body at its prescription).
+    const ode::FlowResult later =
+        shooting.solver().advance(0.0, shooting.full(0.0, shooting.reduce(y0)), orbit.period_s);
+    if (!later.ok()) {
+      next_why = fmt::format("the settling simulation failed ({}): {}",
+                             ode::to_string(later.termination), later.message);
+      return false;
+    }
+    y0 = later.state;
+    return shooting.shooting().guess(shooting.reduce(y0), next_x, next_why);
+  };
+  const detail::NewtonOutcome newton =
+      detail::solve_periodic_from_settled(shooting.shooting(), x, once, next);
   orbit.iterations = newton.iterations;
   orbit.residual = newton.residual;
   orbit.message = newton.message;

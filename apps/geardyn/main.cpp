@@ -1174,6 +1174,9 @@ int main(int argc, char** argv) {
   orbit->add_option("--segments", oo.segments, "shooting segments (default: one per period)");
   orbit->add_option("--settle-periods", oo.settle_periods,
                     "system periods simulated for the first guess (default 100)");
+  orbit->add_option("--starts", oo.starts,
+                    "settled states Newton starts from at most, one orbit period apart "
+                    "(default 16)");
   orbit
       ->add_option("--state", orbit_state,
                    "first guess on the section t = 0: delta (m) and delta' (m/s); a coupled "
@@ -1199,6 +1202,8 @@ int main(int argc, char** argv) {
   cont->add_option("--segments", co.orbit.segments, "shooting segments (default: one a period)");
   cont->add_option("--settle-periods", co.orbit.settle_periods,
                    "system periods simulated for the first orbit (default 100)");
+  cont->add_option("--starts", co.orbit.starts,
+                   "settled states the first orbit's Newton starts from at most (default 16)");
   cont->add_option("--step", co.initial_step, "first arclength step (default 0.01)");
   cont->add_option("--max-step", co.max_step, "largest arclength step (default 0.02)");
   cont->add_option("--max-points", co.max_points, "points at most (default 5000)");
@@ -1271,7 +1276,19 @@ int main(int argc, char** argv) {
     }
     if (cont->parsed())
       return cmd_continue(case_file, sets, co, cont_out, !cont_no_figures, overlay_dir);
-    if (orbit->parsed()) return cmd_orbit(case_file, sets, oo, orbit_state, json);
+    if (orbit->parsed()) {
+      // The settling gives the first guesses: with --state, or without settling, its options
+      // are not used, and the user is told so.
+      for (const char* opt : {"--settle-periods", "--starts"}) {
+        const bool unused =
+            !orbit_state.empty() || (oo.settle_periods == 0 && std::string(opt) == "--starts");
+        if (unused && orbit->count(opt) > 0)
+          fmt::print(stderr, "geardyn: warning: {} is not used: {}\n", opt,
+                     orbit_state.empty() ? "--settle-periods 0 settles nothing"
+                                         : "--state is the first guess");
+      }
+      return cmd_orbit(case_file, sets, oo, orbit_state, json);
+    }
     if (validate->parsed()) return cmd_validate(quick, json, validate_out);
     if (reproduce->parsed())
       return cmd_reproduce(study_name, case_file, sets, reproduce_out, threads, !no_figures);

@@ -60,6 +60,14 @@ struct LinearRegion {
   std::vector<LinearGuard> observables;
 };
 
+// Empties the cos and sin terms of every series of the region (A, u, each guard's and
+// observable's row and offset) whose terms are all zero: the series is then constant, as the
+// engine reads a series without terms, and a region whose A and guard rows are all constant is
+// stepped with constant coefficients (any cell length, the steady jumps of engine.hpp) however
+// long its system's coefficient period. A builder that lays out one term per frequency of its
+// table calls it on each region it makes.
+void drop_zero_terms(LinearRegion& region);
+
 // The regions of a system built on demand (LinearSwitchedSystem::make_lazy), shared by its
 // copies.
 struct LazyRegionStore;

@@ -38,6 +38,11 @@ struct OrbitOptions {
   // Without a start state: system periods simulated from the case's initial condition to get
   // the first guess.
   int settle_periods = 100;
+  // Settled states Newton starts from at most: when Newton from the settled state fails, it
+  // starts again from the state one orbit period later, and so on. A rattle that settles on a
+  // chaotic motion passes near its unstable orbits at some periods and not at others. Only
+  // with settling (settle_periods > 0 and no start state given).
+  int starts = 16;
   double tolerance = 1e-10;  // on the scaled residual max |y_{i+1} - phi_i(y_i)| (see above)
   int max_iterations = 40;   // Newton iterations at most
   // Empty when valid; otherwise the offending option, its value and the allowed range.

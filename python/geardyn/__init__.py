@@ -770,7 +770,7 @@ def _interrupted(result, what):
 
 @_pythonic()
 def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_iterations=40,
-          state=None):
+          state=None, starts=16):
     """The periodic orbit of a case, as `geardyn orbit` (docs/orbits.md).
 
     Newton's method on the stroboscopic map with the exact engine's Jacobian (saltation at
@@ -793,6 +793,11 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
         (``model.form = "coupled"``) its 2n coordinates and their rates, SI, in the order of
         ``coordinates``; for a gear train its unknowns (the free coordinates, then their
         rates, SI, in the order of ``coordinates``: a found orbit's ``unknowns``).
+    starts : int
+        Settled states Newton starts from at most (when `state` is None and `settle_periods`
+        > 0): when Newton fails from one, it starts again from the state one orbit period
+        later. A rattle that settles on a chaotic motion passes near its unstable orbits at
+        some periods only.
 
     Returns
     -------
@@ -808,7 +813,8 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
     """
     return _orbit_dict(_geardyn._orbit(case, periods, segments, settle_periods, tolerance,
                                        max_iterations,
-                                       None if state is None else [float(x) for x in state]))
+                                       None if state is None else [float(x) for x in state],
+                                       starts))
 
 
 def _orbit_dict(text):

@@ -46,8 +46,9 @@ void bind_orbit(py::module_& m) {
   m.def(
       "_orbit",
       [](const Case& c, int periods, int segments, int settle_periods, double tolerance,
-         int max_iterations, std::optional<std::vector<double>> state) {
+         int max_iterations, std::optional<std::vector<double>> state, int starts) {
         OrbitOptions o;
+        o.starts = starts;
         o.periods = periods;
         o.segments = segments;
         o.settle_periods = settle_periods;
@@ -76,7 +77,7 @@ void bind_orbit(py::module_& m) {
       },
       py::arg("case"), py::arg("periods") = 1, py::arg("segments") = 0,
       py::arg("settle_periods") = 100, py::arg("tolerance") = 1e-10, py::arg("max_iterations") = 40,
-      py::arg("state") = py::none());
+      py::arg("state") = py::none(), py::arg("starts") = OrbitOptions{}.starts);
 
   m.def(
       "_continuation",
