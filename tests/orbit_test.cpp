@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <numbers>
 
+#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/run.hpp"
 
 namespace {
@@ -322,6 +323,42 @@ TEST(Orbit, SystemPeriodIsTheCommonPeriodOfTheExcitations) {
   c.mesh.stiffness_source = geardyn::StiffnessSource::kHarmonics;
   c.mesh.stiffness_harmonics.clear();
   EXPECT_THROW(geardyn::system_period_s(geardyn::build_model(c).parameters()), geardyn::InputError);
+}
+
+TEST(Orbit, EachFinderStartsAgainOnePeriodOnFromTheSettledMotion) {
+  // One Newton iteration from each of three settled states (OrbitOptions::starts): not
+  // converged, three iterations counted, and the last start is the state settled two periods
+  // longer (its one iteration leaves the residual a single start leaves from there). A mutant
+  // that starts again from the same state, or from a state two periods on, fails the last.
+  OrbitOptions o = shooting();
+  o.max_iterations = 1;
+  o.starts = 3;
+  OrbitOptions longer = shooting();
+  longer.max_iterations = 1;
+  longer.settle_periods = o.settle_periods + 2;
+  longer.starts = 1;
+  const auto check = [&](const geardyn::PeriodicSolution& r, const geardyn::PeriodicSolution& one) {
+    EXPECT_FALSE(r.converged);
+    EXPECT_EQ(r.iterations, 3);
+    EXPECT_NE(r.message.find("(from 3 settled states one orbit period apart)"), std::string::npos)
+        << r.message;
+    EXPECT_EQ(one.iterations, 1);
+    EXPECT_EQ(one.message.find("settled state"), std::string::npos) << one.message;
+    EXPECT_NEAR(r.residual, one.residual, 1e-8 * one.residual);
+    EXPECT_GT(one.residual, 1e-6);  // far from converged: a start's difference shows
+  };
+  {
+    SCOPED_TRACE("one degree");
+    const Case c = nondimensional(0.05, 0.1, 0.02, 0.95);
+    check(geardyn::find_orbit(c, o), geardyn::find_orbit(c, longer));
+  }
+  {
+    SCOPED_TRACE("coupled, dof 3");
+    Case c = geardyn::load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) /
+                                "cases/park2010_coupled.toml");
+    geardyn::set_case_value(c, {"model.dof", "3"});
+    check(geardyn::find_coupled_orbit(c, o), geardyn::find_coupled_orbit(c, longer));
+  }
 }
 
 TEST(Orbit, FailuresAreReportedWithTheirReason) {

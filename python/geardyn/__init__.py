@@ -833,7 +833,7 @@ def _orbit_dict(text):
 @_pythonic({"from": "from_"})
 def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=100, step=0.01,
                  max_step=0.02, max_points=5000, follow_period_doubling=False, progress=None,
-                 mesh=None):
+                 mesh=None, starts=16):
     """Follows a branch of periodic orbits in a case key, as `geardyn continue`.
 
     Pseudo-arclength continuation from the orbit at `from_`; folds, period doublings,
@@ -846,8 +846,8 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
         A numeric case key (an array element as ``"model.stiffness_harmonics[0][0]"``).
     from_, to : float
         The range of the key, in its unit.
-    periods, segments, settle_periods : int
-        As for `orbit`.
+    periods, segments, settle_periods, starts : int
+        As for `orbit` (the first orbit's).
     step, max_step : float
         First and largest arclength step (scaled state, key over its range).
     max_points : int
@@ -888,7 +888,7 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
         callback = _progress(progress)
     r = _geardyn._continuation(case, param, float(from_), float(to), periods, segments,
                                settle_periods, step, max_step, max_points,
-                               follow_period_doubling, callback, mesh or "")
+                               follow_period_doubling, callback, mesh or "", starts)
     for b in r["bifurcations"]:
         # None where the located orbit could not be read again (its flow failed).
         b["orbit"] = _orbit_dict(b["orbit"]) if b["orbit"] else None

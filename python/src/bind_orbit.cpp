@@ -83,7 +83,8 @@ void bind_orbit(py::module_& m) {
       "_continuation",
       [](const Case& c, const std::string& param, double from, double to, int periods, int segments,
          int settle_periods, double step, double max_step, int max_points,
-         bool follow_period_doubling, const py::object& progress, const std::string& mesh) {
+         bool follow_period_doubling, const py::object& progress, const std::string& mesh,
+         int starts) {
         ContinuationOptions o;
         o.mesh = mesh;
         o.key = param;
@@ -92,6 +93,7 @@ void bind_orbit(py::module_& m) {
         o.orbit.periods = periods;
         o.orbit.segments = segments;
         o.orbit.settle_periods = settle_periods;
+        o.orbit.starts = starts;
         o.initial_step = step;
         o.max_step = max_step;
         o.max_points = max_points;
@@ -148,7 +150,7 @@ void bind_orbit(py::module_& m) {
       py::arg("segments") = 0, py::arg("settle_periods") = 100, py::arg("step") = 0.01,
       py::arg("max_step") = 0.02, py::arg("max_points") = 5000,
       py::arg("follow_period_doubling") = false, py::arg("progress") = py::none(),
-      py::arg("mesh") = "");
+      py::arg("mesh") = "", py::arg("starts") = OrbitOptions{}.starts);
 
   m.def(
       "_stability",

@@ -669,6 +669,13 @@ def test_a_trains_orbit_from_python_is_the_command_lines():
         [m["impacts_per_period"] for m in out["meshes"]]
     again = geardyn.orbit(case, segments=4, settle_periods=0, state=o["unknowns"])
     assert again["converged"] and again["iterations"] <= 1
+    # Newton starts again from later settled states (`starts`, the command line's --starts):
+    # from one only, this rattle's first settled state leads nowhere.
+    assert o["message"] == out["message"] and "(start " in o["message"]
+    once = geardyn.orbit(case, segments=4, settle_periods=200, starts=1)
+    assert not once["converged"] and "settled state" not in once["message"]
+    with pytest.raises(geardyn.InputError, match=r"^starts = 0: must be an integer in \[1, 1000\]"):
+        geardyn.orbit(case, starts=0)
     with pytest.raises(geardyn.InputError, match=r"state: 1 value given; this train takes 2"):
         geardyn.orbit(case, state=[0.0])
 
