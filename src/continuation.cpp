@@ -15,7 +15,6 @@
 #include <sstream>
 
 #include "geardyn/case_keys.hpp"
-#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
@@ -80,27 +79,10 @@ void to_branch(const Orbit& orbit, BranchOrbit& o, std::size_t /*mesh*/) {
   o.contacts = {{"", orbit.reading.impacts, orbit.reading.separations}};
 }
 
-// A coupled orbit as the continuation keeps it: its state, the mesh's reading in the
-// one-degree units, and the counts of the mesh and each bearing.
-void to_branch(const CoupledOrbit& orbit, BranchOrbit& o, std::size_t /*mesh*/) {
-  o.state = orbit.state;
-  const CoupledRunResult& r = orbit.reading;
-  const double b = r.parameters.backlash_m, bk = b * r.parameters.stiffness_n_per_m.offset;
-  o.reading = RunReading{};
-  static_cast<ContactCounts&>(o.reading) = r.mesh;
-  o.reading.min_delta_bar = r.min_deflection_m / b;
-  o.reading.max_delta_bar = r.max_deflection_m / b;
-  o.reading.min_force_bar = r.min_force_n / bk;
-  o.reading.max_force_bar = r.max_force_n / bk;
-  o.signature = {r.mesh.impacts, r.mesh.backside_impacts, r.mesh.separations};
-  o.contacts = {{"mesh", r.mesh.impacts, r.mesh.separations}};
-  for (int i = 0; i < 2; ++i) {
-    const ContactReading& g = r.bearing[static_cast<std::size_t>(i)];
-    o.signature.push_back(g.impacts);
-    o.signature.push_back(g.separations);
-    if (g.present)
-      o.contacts.push_back({fmt::format("bearing {}", i + 1), g.impacts, g.separations});
-  }
+// The cases whose orbits are a train's: a gear train, and the coupled pair as its train form
+// (train_form_of), its clearances and shafts included. The one-degree forms keep their own.
+bool on_train_path(const Case& c) {
+  return c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled;
 }
 
 // A train's orbit as the continuation keeps it: the unknowns (its free coordinates' state),
@@ -124,14 +106,19 @@ void to_branch(const TrainOrbit& orbit, BranchOrbit& o, std::size_t mesh) {
     o.signature.insert(o.signature.end(), {r.impacts, r.backside_impacts, r.separations});
     o.contacts.push_back({"mesh " + r.name, r.impacts, r.separations});
   }
+  // Each bearing clearance direction's counts: its grazing is a change in them too.
+  for (std::size_t k = 0; k < orbit.clearances.size(); ++k) {
+    const ContactReading& g = orbit.clearance_readings[k];
+    o.signature.insert(o.signature.end(), {g.impacts, g.separations});
+    o.contacts.push_back({"clearance " + orbit.clearances[k], g.impacts, g.separations});
+  }
 }
 
 std::string json_of(const Orbit& o) { return orbit_json(o, -1); }
-std::string json_of(const CoupledOrbit& o) { return coupled_orbit_json(o, -1); }
 std::string json_of(const TrainOrbit& o) { return train_orbit_json(o, -1); }
 
-// The family of one model: its shooting (detail::Shooting, CoupledShooting or TrainShooting)
-// and its orbit record (Orbit, CoupledOrbit or TrainOrbit).
+// The family of one model: its shooting (detail::Shooting or TrainShooting) and its orbit
+// record (Orbit or TrainOrbit).
 template <class ShootingT, class OrbitT>
 class FamilyOf final : public Family {
  public:
@@ -164,10 +151,7 @@ class FamilyOf final : public Family {
 std::unique_ptr<Family> family(const Case& c, int periods, int segments, const ode::Vector& scale,
                                double engine_tolerance, const MeshStiffness* stiffness,
                                std::size_t mesh) {
-  if (c.model.form == ModelForm::kCoupled)
-    return std::make_unique<FamilyOf<detail::CoupledShooting, CoupledOrbit>>(
-        c, periods, segments, scale, engine_tolerance, stiffness, mesh);
-  if (c.model.form == ModelForm::kTrain)
+  if (on_train_path(c))
     return std::make_unique<FamilyOf<detail::TrainShooting, TrainOrbit>>(
         c, periods, segments, scale, engine_tolerance, stiffness, mesh);
   return std::make_unique<FamilyOf<detail::Shooting, Orbit>>(c, periods, segments, scale,
@@ -176,15 +160,9 @@ std::unique_ptr<Family> family(const Case& c, int periods, int segments, const o
 
 // The names of a case's state entries (ContinuationResult::state_names).
 std::vector<std::string> state_names(const Case& c) {
-  if (c.model.form == ModelForm::kTrain)
+  if (on_train_path(c))
     return detail::TrainShooting(c, 1, 1, ode::Vector{}, c.solver.tolerance).coordinates();
-  if (c.model.form != ModelForm::kCoupled) return {"delta_m", "velocity_m_s"};
-  const std::vector<Coordinate> coords = coupled_parameters(c).coordinates;
-  std::vector<std::string> names;
-  names.reserve(2 * coords.size());
-  for (Coordinate x : coords) names.emplace_back(to_string(x));
-  for (Coordinate x : coords) names.push_back(std::string(to_string(x)) + "_s");
-  return names;
+  return {"delta_m", "velocity_m_s"};
 }
 
 // The periodic orbit of case c (period and segments of `o`) from a state y0 on the section:
@@ -281,26 +259,19 @@ class Continuer {
     }
   }
 
-  // The first point: find_orbit (find_coupled_orbit) at `from`, then one correction at fixed p.
+  // The first point: find_orbit (find_train_orbit) at `from`, then one correction at fixed p.
   bool start(Point& pt, std::string& why) {
     const Case c0 = case_at(o_.from);
     OrbitOptions oo = o_.orbit;
     oo.segments = segments_;
     ode::Vector y0;
-    if (c0.model.form == ModelForm::kTrain) {
+    if (on_train_path(c0)) {
       const TrainOrbit first = find_train_orbit(c0, oo, o_.start);
       if (!first.converged) {
         why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
         return false;
       }
       y0 = first.unknowns;
-    } else if (c0.model.form == ModelForm::kCoupled) {
-      const CoupledOrbit first = find_coupled_orbit(c0, oo, o_.start);
-      if (!first.converged) {
-        why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
-        return false;
-      }
-      y0 = first.state;
     } else {
       if (o_.start && o_.start->size() != 2)
         throw InputError(fmt::format(
@@ -992,8 +963,8 @@ ContinuationResult continuation(const Case& c, const ContinuationOptions& option
   Continuer k(c, options, lo, hi);
   ContinuationResult res = k.run();
   res.state_names = state_names(c);
-  if (c.model.form == ModelForm::kTrain)
-    res.mesh = train_of(c).meshes[mesh_to_read(c, options.mesh)].name;
+  if (on_train_path(c))
+    res.mesh = assembled_train(c).train().meshes[mesh_to_read(c, options.mesh)].name;
   const auto finish = [&]() -> ContinuationResult& {
     res.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -199,8 +199,8 @@ class TrainShooting {
   // `scale` as for Shooting (empty: each free coordinate as train_state_scale measures it).
   // Throws InputError for a case that is no train, a freely turning one whose mean
   // torques do not balance (it speeds up or slows down), one with no common period
-  // (quasi-periodic) or in which nothing varies. `stiffness` is not used (a train's meshes
-  // carry their own).
+  // (quasi-periodic) or in which nothing varies. `stiffness` as for TrainSolver (a pair form's
+  // mesh stiffness computed beforehand; a train's meshes carry their own).
   TrainShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
                 double engine_tolerance, const MeshStiffness* stiffness = nullptr);
   TrainShooting(const TrainShooting&) = delete;

@@ -19,8 +19,8 @@ namespace geardyn {
 namespace detail {
 
 TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                             double engine_tolerance, const MeshStiffness* /*stiffness*/)
-    : solver_(exact_case(c, engine_tolerance)),
+                             double engine_tolerance, const MeshStiffness* stiffness)
+    : solver_(exact_case(c, engine_tolerance), stiffness),
       periods_(periods),
       segments_([this](int i, const ode::Vector& z) { return flow(i, z); }, segments,
                 ode::Vector{}) {
@@ -251,6 +251,23 @@ TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
   }
   orbit.converged = true;
   return orbit;
+}
+
+ode::Vector train_orbit_state(const Case& c, const ode::Vector& unknowns) {
+  const detail::TrainShooting s(c, 1, 1, ode::Vector{}, c.solver.tolerance);
+  if (unknowns.size() != static_cast<Eigen::Index>(s.coordinates().size()))
+    throw InputError(fmt::format("{} unknowns given; this train takes {} ({})", unknowns.size(),
+                                 s.coordinates().size(), fmt::join(s.coordinates(), ", ")));
+  return s.full(0.0, unknowns);
+}
+
+ode::Vector train_orbit_unknowns(const Case& c, const ode::Vector& state) {
+  const detail::TrainShooting s(c, 1, 1, ode::Vector{}, c.solver.tolerance);
+  const Eigen::Index size = 2 * static_cast<Eigen::Index>(s.solver().assembled().size());
+  if (state.size() != size)
+    throw InputError(
+        fmt::format("a state of {} values given; this train's has {}", state.size(), size));
+  return s.reduce(state);
 }
 
 std::string train_orbit_json(const TrainOrbit& o, int indent) {

@@ -562,7 +562,7 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
   return f;
 }
 
-TrainSolver::TrainSolver(const Case& c) : case_(c) {
+TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(c) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
   if (c.solver.method == Method::kNewmark)
     throw InputError(with_origins(
@@ -571,7 +571,7 @@ TrainSolver::TrainSolver(const Case& c) : case_(c) {
                        c.model.form == ModelForm::kTrain ? "gear train"
                                                          : "coupled pair (as its train form)")));
   // A pair's form as its train of elements (assembled_train): the same system, read per element.
-  a_ = std::make_unique<train::Assembled>(assembled_train(c));
+  a_ = std::make_unique<train::Assembled>(assembled_train(c, stiffness));
   if (c.solver.method == Method::kDopri5) {
     adaptive_ = a_->linear_system();
   } else {

@@ -784,22 +784,29 @@ std::string state_option(const nlohmann::json& values) {
 }
 
 TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
-  // The shipped case at its 1 kHz: a stable period-1 orbit in permanent contact (docs/orbits.md);
-  // the keys in --json; a --state of the wrong size is named.
+  // The shipped case at its 1 kHz: a stable period-1 orbit in permanent contact (docs/orbits.md),
+  // found on its train (train_form_of) as every train's orbit: its JSON a train's, the unknowns
+  // the 11 coordinates and rates modulo the rigid rotation (22 multipliers, as the coupled
+  // model's), the state every body's (24); a --state of the wrong size is named.
   const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
   const Outcome o = cli("orbit " + coupled + " --json");
   ASSERT_EQ(o.code, 0) << o.err;
   const nlohmann::json j = nlohmann::json::parse(o.out);
-  for (const char* key : {"converged", "period_s", "state", "floquet_multipliers", "stable",
-                          "impacts_per_period", "min_delta_bar", "max_delta_bar", "max_force_bar"})
+  for (const char* key : {"converged", "period_s", "state", "unknowns", "coordinates",
+                          "floquet_multipliers", "stable", "meshes", "clearances"})
     EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["model"], "train");
+  EXPECT_TRUE(j["modulo_rotation"].get<bool>());
   EXPECT_TRUE(j["converged"].get<bool>());
   EXPECT_TRUE(j["stable"].get<bool>());
-  EXPECT_EQ(j["impacts_per_period"], 0);
+  ASSERT_EQ(j["meshes"].size(), 1U);
+  EXPECT_EQ(j["meshes"][0]["impacts_per_period"], 0);
   EXPECT_NEAR(j["max_multiplier"].get<double>(), 0.956, 0.0005);
-  EXPECT_EQ(j["state"].size(), 22U);
+  EXPECT_EQ(j["state"].size(), 24U);
+  EXPECT_EQ(j["unknowns"].size(), 22U);
   EXPECT_EQ(j["floquet_multipliers"].size(), 22U);
-  EXPECT_GT(j["min_delta_bar"].get<double>(), 1.0);  // the mesh never leaves contact
+  // The mesh never leaves contact.
+  EXPECT_GT(j["meshes"][0]["min_deflection_bar"].get<double>(), 1.0);
   const Outcome text = cli("orbit " + coupled + " --set model.dof=3");
   ASSERT_EQ(text.code, 0) << text.err;
   EXPECT_NE(text.out.find("stable            no"), std::string::npos) << text.out;
@@ -810,17 +817,16 @@ TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
                          "--points 19 --json");
   ASSERT_EQ(st.code, 0) << st.err;
   EXPECT_EQ(nlohmann::json::parse(st.out)["boundaries"].size(), 0U);
-  // A start of its six values is taken; of two, refused by name.
+  // A start of its six unknowns is taken; of two, refused by name.
   const nlohmann::json o3 =
       nlohmann::json::parse(cli("orbit " + coupled + " --set model.dof=3 --json").out);
   const Outcome from = cli("orbit " + coupled + " --set model.dof=3 --settle-periods 0 --json" +
-                           state_option(o3["state"]));
+                           state_option(o3["unknowns"]));
   ASSERT_EQ(from.code, 0) << from.err;
   EXPECT_LE(nlohmann::json::parse(from.out)["iterations"].get<int>(), 1);
   const Outcome bad = cli("orbit " + coupled + " --set model.dof=3 --state 0 0");
   EXPECT_NE(bad.code, 0);
-  EXPECT_NE(bad.err.find("2 values given; this coupled case takes 6"), std::string::npos)
-      << bad.err;
+  EXPECT_NE(bad.err.find("2 values given; this train takes 6"), std::string::npos) << bad.err;
 }
 
 TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
@@ -963,7 +969,8 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   ASSERT_EQ(sw.code, 0) << sw.err;
   EXPECT_TRUE(fs::exists(d / "sweep.csv"));
   fs::remove_all(d);
-  // A continuation takes it too: branch.csv's state columns are its coordinates and rates.
+  // A continuation takes it too: branch.csv's state columns are its train's unknowns (modulo
+  // the rigid rotation: the wheel's angle and each gear's centre along the line, then rates).
   const Outcome s1 = cli("continue " + coupled +
                          " --set model.dof=3 --set load.fluctuation_ratio=0 --set "
                          "mesh.transmission_error_um=[[1.0,0.0]] --param speed.shaft_frequency_hz "
@@ -971,7 +978,8 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
                          d.string());
   ASSERT_EQ(s1.code, 0) << s1.err;
   const std::string branch = slurp(d / "branch.csv");
-  EXPECT_NE(branch.find(",separations_per_period,u_m,y1_m,y2_m,u_m_s,y1_m_s,y2_m_s,mu1_re,"),
+  EXPECT_NE(branch.find(",separations_per_period,wheel_rad,pinion_line_m,wheel_line_m,wheel_rad_s,"
+                        "pinion_line_m_s,wheel_line_m_s,mu1_re,"),
             std::string::npos)
       << branch.substr(0, 300);
   fs::remove_all(d);

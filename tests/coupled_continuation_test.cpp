@@ -1,10 +1,11 @@
-// Continuation of the coupled model (continuation.hpp) on the Table 1 pair with a steady torque,
-// a constant mesh stiffness and a transmission error of 2 um (a dimensional Kahraman-Singh
-// oscillator), continued in the shaft frequency across the mesh mode's primary resonance:
+// Continuation of the coupled pair (continuation.hpp, on its train: train_form_of) on the Table
+// 1 pair with a steady torque, a constant mesh stiffness and a transmission error of 2 um (a
+// dimensional Kahraman-Singh oscillator), continued in the shaft frequency across the mesh mode's
+// primary resonance:
 // - on bearings 1e6 and 1e5 times stiffer than the mesh, its folds and grazings are the
 //   one-degree model's, the gap shrinking tenfold per decade;
 // - on bearings as stiff as the mesh (the resonance moves up), the stable points are where long
-//   simulations of the coupled model settle, the unstable ones return after a period, and the
+//   simulations of its train settle, the unstable ones return after a period, and the
 //   folds are where the simulations jump;
 // - with a radial clearance, the grazing where the bearings stop separating lies between a
 //   simulation whose bearings separate and one whose do not;
@@ -13,6 +14,7 @@
 //   meets a period-1 orbit of another family.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdint>
@@ -21,8 +23,9 @@
 #include <vector>
 
 #include "geardyn/continuation.hpp"
-#include "geardyn/coupled_orbit.hpp"
-#include "geardyn/coupled_run.hpp"
+#include "geardyn/train_case.hpp"
+#include "geardyn/train_orbit.hpp"
+#include "geardyn/train_run.hpp"
 
 namespace geardyn {
 namespace {
@@ -58,21 +61,39 @@ ContinuationResult branch(const Case& c, double from, double to) {
   return continuation(c, o);
 }
 
-// The last period of a simulation of the coupled case at f_1 = f_hz from y0, `periods` mesh
-// periods long.
-CoupledRunResult settle(Case c, double f_hz, const ode::Vector& y0, int periods) {
+// The coupled case is continued on its train (train_form_of): a branch's state is the train's
+// unknowns (modulo the rigid rotation: the wheel's angle, each gear's centre along the line of
+// action, then their rates). Each check below flows the train's whole state without Jacobians.
+
+// The last period of a simulation of the coupled case at f_1 = f_hz from the unknowns z0,
+// `periods` mesh periods long.
+TrainRunResult settle(Case c, double f_hz, const ode::Vector& z0, int periods) {
   c.speed.shaft_frequency_hz = f_hz;
   c.solver.tolerance = 1e-12;
-  const CoupledSolver solver(c);
+  const TrainSolver solver(c);
   const double mesh_period_s = 1.0 / (f_hz * c.gear.teeth[0]);
   const double last_s = (periods - 1) * mesh_period_s, end_s = periods * mesh_period_s;
-  const ode::FlowResult settled = solver.advance(0.0, y0, last_s);
+  const ode::FlowResult settled = solver.advance(0.0, train_orbit_state(c, z0), last_s);
   EXPECT_TRUE(settled.ok()) << settled.message;
-  return solver.read(last_s, settled.state, end_s, ode::OutputGrid{}, end_s);
+  return solver.read(last_s, settled.state, end_s, ode::OutputGrid{}, end_s, std::nullopt);
 }
 
-double amplitude(const CoupledRunResult& r) {
-  return 0.5 * (r.max_deflection_m - r.min_deflection_m) / r.parameters.backlash_m;
+double amplitude(const TrainRunResult& r) {
+  const TrainMeshReading& m = r.meshes.at(0);
+  return 0.5 * (m.max_deflection_m - m.min_deflection_m) / m.backlash_m;
+}
+
+// The largest difference of two states' coordinates (unknowns), in metres along the line of
+// action: the wheel's angle times its lever in the mesh (first), the centres as they are.
+double coordinate_gap_m(const Case& c, const ode::Vector& a, const ode::Vector& b) {
+  const train::Assembled t = assembled_train(c);
+  const auto& names = t.coordinate_names();
+  const auto wheel = std::find(names.begin(), names.end(), "wheel_rad") - names.begin();
+  const double lever_m = std::abs(t.mesh_vector(0)(wheel));
+  const Eigen::Index n = a.size() / 2;
+  ode::Vector d = (a - b).head(n).cwiseAbs();
+  d(0) *= lever_m;
+  return d.maxCoeff();
 }
 
 TEST(CoupledContinuation, RigidBearingsGiveTheOneDegreeBranch) {
@@ -103,12 +124,13 @@ TEST(CoupledContinuation, StablePointsAndFoldsAreThoseOfSimulations) {
   const ContinuationResult r = branch(c, 45, 60);
   ASSERT_TRUE(r.completed) << r.message;
   ASSERT_EQ(r.state_names.size(), 6U);
-  EXPECT_EQ(r.state_names[0], "u_m");
-  EXPECT_EQ(r.state_names[3], "u_m_s");
+  EXPECT_EQ(r.state_names[0], "wheel_rad");
+  EXPECT_EQ(r.state_names[1], "pinion_line_m");
+  EXPECT_EQ(r.state_names[3], "wheel_rad_s");
   // Grazing into rattle at the mesh, the fold up, the fold down; the bearings never separate.
   ASSERT_EQ(r.bifurcations.size(), 3U);
   EXPECT_EQ(r.bifurcations[0].type, BifurcationType::kGrazing);
-  EXPECT_EQ(r.bifurcations[0].detail, "mesh impacts 0 -> 1, separations 0 -> 1 per period");
+  EXPECT_EQ(r.bifurcations[0].detail, "mesh mesh impacts 0 -> 1, separations 0 -> 1 per period");
   EXPECT_EQ(r.bifurcations[1].type, BifurcationType::kFold);
   EXPECT_EQ(r.bifurcations[2].type, BifurcationType::kFold);
   // Where docs/orbits.md says they are.
@@ -116,18 +138,21 @@ TEST(CoupledContinuation, StablePointsAndFoldsAreThoseOfSimulations) {
   EXPECT_NEAR(r.bifurcations[1].param, 57.315, 1e-3);
   EXPECT_NEAR(r.bifurcations[2].param, 56.509, 1e-3);
   // Every 6th stable point away from the folds (its multipliers below 0.98; the bearing mode's
-  // are near 0.95): a simulation from 1e-3 b off the orbit (in u) settles to its amplitude and
-  // impacts.
+  // are near 0.95): a simulation from 1e-3 b off the orbit (in the wheel's angle) settles to
+  // its amplitude and impacts.
   int checked = 0;
+  const train::Assembled t = assembled_train(c);
+  const double wheel_lever_m = std::abs(t.mesh_vector(0)(1));
+  ASSERT_EQ(t.coordinate_names()[1], "wheel_rad");
   for (std::size_t i = 0; i < r.points.size(); i += 6) {
     const BranchPoint& p = r.points[i];
     if (!p.orbit.stable || p.orbit.max_multiplier() > 0.98) continue;
-    ode::Vector y = p.orbit.state;
-    y[0] += 1e-3 * 100e-6;
-    const CoupledRunResult x = settle(c, p.param, y, 2000);
+    ode::Vector z = p.orbit.state;
+    z[0] += 1e-3 * 100e-6 / wheel_lever_m;
+    const TrainRunResult x = settle(c, p.param, z, 2000);
     ASSERT_TRUE(x.ok()) << x.message;
     EXPECT_NEAR(amplitude(x), p.amplitude(), 1e-8) << "f_1 = " << p.param;
-    EXPECT_EQ(x.mesh.impacts, p.orbit.reading.impacts) << "f_1 = " << p.param;
+    EXPECT_EQ(x.meshes.at(0).impacts, p.orbit.reading.impacts) << "f_1 = " << p.param;
     ++checked;
   }
   EXPECT_GE(checked, 6);
@@ -140,11 +165,12 @@ TEST(CoupledContinuation, StablePointsAndFoldsAreThoseOfSimulations) {
     Case cp = c;
     cp.speed.shaft_frequency_hz = p.param;
     cp.solver.tolerance = 1e-12;
-    const CoupledSolver solver(cp);
-    const ode::FlowResult back =
-        solver.advance(0.0, p.orbit.state, 1.0 / (p.param * c.gear.teeth[0]));
+    const TrainSolver solver(cp);
+    const ode::FlowResult back = solver.advance(0.0, train_orbit_state(cp, p.orbit.state),
+                                                1.0 / (p.param * c.gear.teeth[0]));
     ASSERT_TRUE(back.ok()) << back.message;
-    EXPECT_LT((back.state - p.orbit.state).head(3).cwiseAbs().maxCoeff(), 1e-7 * 100e-6)
+    EXPECT_LT(coordinate_gap_m(cp, train_orbit_unknowns(cp, back.state), p.orbit.state),
+              1e-7 * 100e-6)
         << "f_1 = " << p.param;
     EXPECT_GT(p.orbit.max_multiplier(), 1.0);
   }
@@ -154,11 +180,11 @@ TEST(CoupledContinuation, StablePointsAndFoldsAreThoseOfSimulations) {
   const Bifurcation &up = r.bifurcations[1], &down = r.bifurcations[2];
   EXPECT_LT(amplitude(settle(c, up.param - d, up.orbit.state, 3000)), 0.11);
   EXPECT_GT(amplitude(settle(c, up.param + d, up.orbit.state, 3000)), 0.13);
-  const CoupledRunResult above = settle(c, down.param + d, down.orbit.state, 3000);
-  EXPECT_EQ(above.mesh.impacts, 1);
+  const TrainRunResult above = settle(c, down.param + d, down.orbit.state, 3000);
+  EXPECT_EQ(above.meshes.at(0).impacts, 1);
   EXPECT_GT(amplitude(above), 0.13);
-  const CoupledRunResult below = settle(c, down.param - d, down.orbit.state, 3000);
-  EXPECT_EQ(below.mesh.impacts, 0);
+  const TrainRunResult below = settle(c, down.param - d, down.orbit.state, 3000);
+  EXPECT_EQ(below.meshes.at(0).impacts, 0);
   EXPECT_LT(amplitude(below), 0.11);
 }
 
@@ -172,17 +198,18 @@ TEST(CoupledContinuation, ABearingClearanceGrazingIsWhereTheBearingsStopSeparati
   const Bifurcation& g = r.bifurcations[0];
   EXPECT_EQ(g.type, BifurcationType::kGrazing);
   EXPECT_EQ(g.detail,
-            "bearing 1 impacts 1 -> 0, separations 1 -> 0; bearing 2 impacts 1 -> 0, "
-            "separations 1 -> 0 per period");
+            "clearance pinion_bearing_y impacts 1 -> 0, separations 1 -> 0; clearance "
+            "wheel_bearing_y impacts 1 -> 0, separations 1 -> 0 per period");
   EXPECT_FALSE(g.orbit_json.empty());
   EXPECT_NEAR(g.param, 20.419, 1e-3);
   const double d = 1e-3;  // Hz
-  const CoupledRunResult before = settle(c, g.param - d, g.orbit.state, 1000);
-  const CoupledRunResult after = settle(c, g.param + d, g.orbit.state, 1000);
+  const TrainRunResult before = settle(c, g.param - d, g.orbit.state, 1000);
+  const TrainRunResult after = settle(c, g.param + d, g.orbit.state, 1000);
   ASSERT_TRUE(before.ok() && after.ok());
+  ASSERT_EQ(before.bearings.size(), 2U);
   for (std::size_t i = 0; i < 2; ++i) {
-    EXPECT_EQ(before.bearing[i].separations, 1) << "bearing " << i + 1;
-    EXPECT_EQ(after.bearing[i].separations, 0) << "bearing " << i + 1;
+    EXPECT_EQ(before.bearings[i].clearance_y.separations, 1) << "bearing " << i + 1;
+    EXPECT_EQ(after.bearings[i].clearance_y.separations, 0) << "bearing " << i + 1;
   }
 }
 
@@ -226,15 +253,15 @@ TEST(CoupledContinuation, APeriodDoublingIsSwitchedToItsDoubledBranch) {
     Case cp = c;
     cp.speed.shaft_frequency_hz = p.param;
     cp.solver.tolerance = 1e-12;
-    const CoupledSolver solver(cp);
+    const TrainSolver solver(cp);
     const double t0 = 1.0 / p.param;  // the system period: the torque's
-    const ode::FlowResult one = solver.advance(0.0, p.orbit.state, t0);
-    const ode::FlowResult two = solver.advance(0.0, p.orbit.state, 2 * t0);
+    const ode::Vector y = train_orbit_state(cp, p.orbit.state);
+    const ode::FlowResult one = solver.advance(0.0, y, t0);
+    const ode::FlowResult two = solver.advance(0.0, y, 2 * t0);
     ASSERT_TRUE(one.ok() && two.ok());
-    const double b = 100e-6, n = static_cast<double>(p.orbit.state.size() / 2);
-    const ode::Vector s = p.orbit.state;
-    const auto gap = [&](const ode::Vector& y) {
-      return (y - s).head(static_cast<Eigen::Index>(n)).cwiseAbs().maxCoeff() / b;
+    const double b = 100e-6;
+    const auto gap = [&](const ode::Vector& end) {
+      return coordinate_gap_m(cp, train_orbit_unknowns(cp, end), p.orbit.state) / b;
     };
     EXPECT_LT(gap(two.state), 1e-7) << "f_1 = " << p.param;
     EXPECT_GT(gap(one.state), 1e-3) << "f_1 = " << p.param;
@@ -275,7 +302,7 @@ TEST(CoupledContinuation, ThePeriodDoubledBranchEndsWhereItMeetsAnotherPeriodOne
   const auto nearest_to_minus_one = [&](double f1, const ode::Vector& start) {
     Case at = c;
     at.speed.shaft_frequency_hz = f1;
-    const CoupledOrbit orbit = find_coupled_orbit(at, OrbitOptions{}, start);
+    const TrainOrbit orbit = find_train_orbit(at, OrbitOptions{}, start);
     EXPECT_TRUE(orbit.converged) << f1 << ": " << orbit.message;
     std::complex<double> best = 0;
     for (const auto& mu : orbit.multipliers)

@@ -27,7 +27,6 @@
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/continuation.hpp"
-#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
@@ -728,7 +727,7 @@ const char* contact_name(int region) {
 }
 
 // An orbit's Floquet multipliers (the four largest) and whether it is stable, as `geardyn orbit`
-// prints them for the coupled model and for a train.
+// prints them for a train (and the coupled pair as its train).
 void print_multipliers(const geardyn::PeriodicSolution& r) {
   fmt::print("  multipliers       {}, the largest:\n", r.multipliers.size());
   for (std::size_t k = 0; k < std::min<std::size_t>(r.multipliers.size(), 4); ++k)
@@ -737,48 +736,8 @@ void print_multipliers(const geardyn::PeriodicSolution& r) {
   fmt::print("  stable            {}\n", r.stable ? "yes" : "no");
 }
 
-// The coupled model's orbit: its state per coordinate, multipliers and readings.
-int cmd_coupled_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
-                      const std::vector<double>& state, bool json) {
-  std::optional<geardyn::ode::Vector> start;
-  if (!state.empty())
-    start = Eigen::Map<const geardyn::ode::Vector>(state.data(),
-                                                   static_cast<Eigen::Index>(state.size()));
-  const geardyn::CoupledOrbit r = geardyn::find_coupled_orbit(c, o, start);
-  if (json) {
-    fmt::print("{}\n", geardyn::coupled_orbit_json(r));
-    return r.converged ? 0 : kExitNumerical;
-  }
-  fmt::print("geardyn orbit: {} (coupled, dof {}){}\n", c.name, c.model.dof,
-             c.description.empty() ? "" : " - " + c.description);
-  if (!r.converged) {
-    fmt::print(stderr, "geardyn: the orbit was not found: {}\n", r.message);
-    return kExitNumerical;
-  }
-  const geardyn::CoupledRunResult& m = r.reading;
-  const double b = m.parameters.backlash_m, bk = b * m.parameters.stiffness_n_per_m.offset;
-  fmt::print(
-      "  period            {:.9g} s = {} x the system period {:.9g} s ({} shooting segment{})\n",
-      r.period_s, r.periods, r.system_period_s, r.segments, r.segments == 1 ? "" : "s");
-  fmt::print("  Newton            {}\n", r.message);
-  fmt::print("  section state     {} coordinates and their rates (--json prints them)\n",
-             r.coordinates.size());
-  print_multipliers(r);
-  fmt::print("  mesh              {} impacts/period ({} back side), separations {}\n",
-             m.mesh.impacts, m.mesh.backside_impacts, m.mesh.separations);
-  fmt::print("  (d - e)/b         min {:.9g}  max {:.9g}\n", m.min_deflection_m / b,
-             m.max_deflection_m / b);
-  fmt::print("  F_bar             min {:.9g}  max {:.9g}\n", m.min_force_n / bk,
-             m.max_force_n / bk);
-  for (int i = 0; i < 2; ++i)
-    if (m.bearing[i].present)
-      fmt::print("  bearing {}         {} impacts/period, separations {}\n", i + 1,
-                 m.bearing[i].impacts, m.bearing[i].separations);
-  return 0;
-}
-
-// A gear train's orbit (train_orbit.hpp): its period, Newton, multipliers and each mesh's
-// impacts per period.
+// A gear train's orbit (train_orbit.hpp), or the coupled pair's as its train form: its period,
+// Newton, multipliers, each mesh's impacts per period and each clearance's.
 int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
                     const std::vector<double>& state, bool json) {
   std::optional<geardyn::ode::Vector> start;
@@ -790,7 +749,10 @@ int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
     fmt::print("{}\n", geardyn::train_orbit_json(r));
     return r.converged ? 0 : kExitNumerical;
   }
-  fmt::print("geardyn orbit: {} (train){}\n", c.name,
+  fmt::print("geardyn orbit: {} ({}){}\n", c.name,
+             c.model.form == geardyn::ModelForm::kCoupled
+                 ? fmt::format("coupled, dof {}, as a train", c.model.dof)
+                 : std::string("train"),
              c.description.empty() ? "" : " - " + c.description);
   if (!r.converged) {
     fmt::print(stderr, "geardyn: the orbit was not found: {}\n", r.message);
@@ -823,8 +785,8 @@ int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
 int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets,
               const geardyn::OrbitOptions& o, const std::vector<double>& state, bool json) {
   const geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "orbit");
-  if (c.model.form == geardyn::ModelForm::kCoupled) return cmd_coupled_orbit(c, o, state, json);
-  if (c.model.form == geardyn::ModelForm::kTrain) return cmd_train_orbit(c, o, state, json);
+  if (c.model.form == geardyn::ModelForm::kCoupled || c.model.form == geardyn::ModelForm::kTrain)
+    return cmd_train_orbit(c, o, state, json);
   std::optional<geardyn::ode::State> start;
   if (!state.empty()) {
     if (state.size() != 2)
@@ -1179,9 +1141,8 @@ int main(int argc, char** argv) {
                     "(default 16)");
   orbit
       ->add_option("--state", orbit_state,
-                   "first guess on the section t = 0: delta (m) and delta' (m/s); a coupled "
-                   "case: its coordinates, then their rates (SI); a gear train: its unknowns "
-                   "(--json's \"unknowns\")")
+                   "first guess on the section t = 0: delta (m) and delta' (m/s); a gear "
+                   "train or coupled case: its unknowns (--json's \"unknowns\", SI)")
       // As many as the case takes (a train's free coordinates and rates: any number); the
       // count is checked against the case, naming what it takes.
       ->expected(1, CLI::detail::expected_max_vector_size);

@@ -23,12 +23,11 @@
 // M the monodromy. Each is located by bisection along the branch, re-correcting at every
 // trial point, to a width in p of kLocateWidth p_scale.
 //
-// Every model is continued: the one-degree forms on the shooting of orbit.hpp, the coupled
-// model (model.form = "coupled") on that of coupled_orbit.hpp, its unknowns all its
-// coordinates and their rates, and a gear train with a prescribed speed on that of
-// train_orbit.hpp, its unknowns its free bodies' angles and rates. A coupled orbit's grazing is
-// a change in the impacts or separations per period of the mesh or of a clearance bearing; a
-// train's, of any mesh (its readings are its first mesh's).
+// Every model is continued: the one-degree forms on the shooting of orbit.hpp, a gear train
+// and the coupled pair (model.form = "coupled", as its train: train_form_of) on that of
+// train_orbit.hpp, its unknowns its free coordinates and rates (modulo the rigid rotation where
+// it turns freely). A train's grazing is a change in the impacts or separations per period of
+// any mesh or clearance direction (its readings are one mesh's: ContinuationOptions::mesh).
 #pragma once
 
 #include <complex>
@@ -58,16 +57,17 @@ const char* to_string(BifurcationType t);
 
 // What the continuation keeps of an orbit, of either model.
 struct BranchOrbit : PeriodicSolution {
-  ode::Vector state;  // on the section t = 0, SI: (delta, delta'), or the coupled (q, q')
-  // The mesh's over one period: impacts, separations, extremes of delta_bar ((d - e)/b in the
-  // coupled model) and of F_bar.
+  ode::Vector state;  // on the section t = 0, SI: (delta, delta'), or a train's unknowns
+  // The mesh's over one period: impacts, separations, extremes of delta_bar ((d - e)/b in a
+  // train) and of F_bar.
   RunReading reading;
   // Which contacts are entered and left in one period, the grazing test: the one-degree
-  // model's contact sequence (cyclic: the least of its rotations); the coupled model's impacts,
-  // back-side impacts and separations of the mesh, then impacts and separations of each bearing.
+  // model's contact sequence (cyclic: the least of its rotations); a train's impacts, back-side
+  // impacts and separations of each mesh, then impacts and separations of each clearance
+  // direction.
   std::vector<std::int64_t> signature;
   // Impacts and separations per period of each nonlinearity: the one-degree mesh (name ""), or
-  // "mesh" and each clearance bearing ("bearing 1", "bearing 2").
+  // each "mesh <name>" and each "clearance <bearing>_x" or "_y".
   struct Contacts {
     std::string name;
     std::int64_t impacts = 0, separations = 0;
@@ -105,7 +105,7 @@ struct ContinuationOptions {
   double min_step = 1e-8;
   int max_points = 5000;  // on each branch
   // A state on the section at `from` to start Newton from, in place of the settled simulation:
-  // (delta, delta'), a coupled case's (q, q'), or a train's unknowns (state_names), SI.
+  // (delta, delta'), or a train's (and the coupled pair's) unknowns (state_names), SI.
   std::optional<ode::Vector> start;
   // A gear train's mesh whose reading the branch's points carry (amplitude, force, contact
   // counts in the one-degree units of its b and mean stiffness): empty for the first. Every
@@ -123,11 +123,10 @@ struct ContinuationOptions {
 
 struct ContinuationResult {
   // The names of the state's entries, as branch.csv heads their columns: delta_m,
-  // velocity_m_s; or each coupled coordinate (u_m, y1_m, ...), then its rate (u_m_s, ...); or
-  // a train's free coordinates (<body>_rad, a planar body's <body>_x_m, <body>_y_m), then
-  // their rates (the same with _s).
+  // velocity_m_s; or a train's (and the coupled pair's) free coordinates (<body>_rad, a planar
+  // body's <body>_x_m, <body>_y_m), then their rates (the same with _s).
   std::vector<std::string> state_names;
-  std::string mesh;  // a train's mesh read (ContinuationOptions::mesh), empty for other forms
+  std::string mesh;  // a train's mesh read (ContinuationOptions::mesh), empty for one degree
   std::vector<BranchPoint> points;
   std::vector<Bifurcation> bifurcations;
   bool completed = false;  // the branch reached `to`
@@ -136,8 +135,8 @@ struct ContinuationResult {
   double wall_time_s = 0;
 };
 
-// Follows the branch of the orbit found at p = from (find_orbit, or find_coupled_orbit for a
-// coupled case, with options.orbit, from options.start when given) towards `to`; with
+// Follows the branch of the orbit found at p = from (find_orbit, or find_train_orbit for a
+// train and the coupled pair, with options.orbit, from options.start when given) towards `to`; with
 // follow_period_doubling also the period-doubled branches (the switch: Newton on the doubled period
 // from the period-doubling orbit displaced along the eigenvector of its multiplier -1, just beyond
 // the located parameter). A period-doubled branch ends where it meets a period-N orbit again

@@ -54,6 +54,13 @@ struct TrainOrbit : PeriodicSolution {
 TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
                             const std::optional<ode::Vector>& start = std::nullopt);
 
+// An orbit's unknowns (TrainOrbit::unknowns, a continuation's branch state) as the whole state
+// (q, q') on the section t = 0 that TrainSolver flows, and a whole state as its unknowns
+// (modulo the rigid rotation for a train that turns freely). Throws InputError as
+// find_train_orbit does for a case that has no orbits.
+ode::Vector train_orbit_state(const Case& c, const ode::Vector& unknowns);
+ode::Vector train_orbit_unknowns(const Case& c, const ode::Vector& state);
+
 // `geardyn orbit --json` of a train: the keys every orbit has (orbit.hpp's periodic JSON),
 // "model": "train", the coordinates, the section state (every body's), the unknowns (what
 // --state takes) and per mesh its impacts per period.

@@ -215,7 +215,9 @@ class TrainSolver {
   // A train case, or a pair's form as its train of elements (train_form_of; its readings are
   // the train's, its input the case as given). Throws InputError for "newmark" or a system the
   // exact engine cannot take.
-  explicit TrainSolver(const Case& c);
+  // `stiffness`, when given, is a pair form's mesh stiffness computed beforehand (a study whose
+  // key leaves the curve alone shares it: shared_stiffness); a train's meshes carry their own.
+  explicit TrainSolver(const Case& c, const MeshStiffness* stiffness = nullptr);
   ~TrainSolver();
   TrainSolver(const TrainSolver&) = delete;
   TrainSolver& operator=(const TrainSolver&) = delete;

@@ -789,10 +789,10 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
         Newton's tolerance on the scaled residual (delta / b, delta' / (b w_n)).
     max_iterations : int
     state : sequence of float, optional
-        First guess on the section t = 0: delta (m) and delta' (m/s); for a coupled case
-        (``model.form = "coupled"``) its 2n coordinates and their rates, SI, in the order of
-        ``coordinates``; for a gear train its unknowns (the free coordinates, then their
-        rates, SI, in the order of ``coordinates``: a found orbit's ``unknowns``).
+        First guess on the section t = 0: delta (m) and delta' (m/s); for a gear train, and a
+        coupled case (``model.form = "coupled"``, found on its train), its unknowns (the free
+        coordinates, then their rates, SI, in the order of ``coordinates``: a found orbit's
+        ``unknowns``).
     starts : int
         Settled states Newton starts from at most (when `state` is None and `settle_periods`
         > 0): when Newton fails from one, it starts again from the state one orbit period
@@ -803,13 +803,13 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
     -------
     dict
         ``converged`` and ``message`` (not converging is reported here, not raised),
-        ``period_s`` (s; tau in the non-dimensional form), ``state`` (m, m/s; for a coupled
-        case all coordinates and rates, with ``coordinates`` and per-bearing ``bearings``;
-        for a gear train every body's, with ``unknowns`` in ``coordinates`` order,
-        ``modulo_rotation`` and per mesh its ``impacts_per_period`` in ``meshes``),
-        ``floquet_multipliers`` (complex, largest first), ``monodromy``, ``stable``,
-        ``impacts_per_period``, ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``,
-        ``sequence`` (the contact events of one period) and more.
+        ``period_s`` (s; tau in the non-dimensional form), ``state`` (m, m/s; for a gear train
+        and a coupled case every body's, with ``unknowns`` in ``coordinates`` order,
+        ``modulo_rotation``, per mesh its ``impacts_per_period`` and exact extremes in
+        ``meshes`` and per clearance direction its counts in ``clearances``),
+        ``floquet_multipliers`` (complex, largest first), ``monodromy``, ``stable``; for the
+        one-degree forms ``impacts_per_period``, ``min_delta_bar``, ``max_delta_bar``,
+        ``max_force_bar``, ``sequence`` (the contact events of one period) and more.
     """
     return _orbit_dict(_geardyn._orbit(case, periods, segments, settle_periods, tolerance,
                                        max_iterations,

@@ -7,7 +7,6 @@
 
 #include "bindings.hpp"
 #include "geardyn/continuation.hpp"
-#include "geardyn/coupled_orbit.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/stability.hpp"
 #include "geardyn/train_orbit.hpp"
@@ -62,9 +61,8 @@ void bind_orbit(py::module_& m) {
             y0 = Eigen::Map<const ode::Vector>(state->data(),
                                                static_cast<Eigen::Index>(state->size()));
           const py::gil_scoped_release release;
-          if (c.model.form == ModelForm::kTrain)
-            return train_orbit_json(find_train_orbit(c, o, y0), -1);
-          return coupled_orbit_json(find_coupled_orbit(c, o, y0), -1);
+          // The coupled pair as its train form (train_form_of): one path.
+          return train_orbit_json(find_train_orbit(c, o, y0), -1);
         }
         if (state && state->size() != 2)
           throw InputError("state: takes two values, delta (m) and delta' (m/s) at t = 0");
@@ -117,8 +115,8 @@ void bind_orbit(py::module_& m) {
             pts, [](const BranchPoint& p) { return static_cast<double>(p.orbit.reading.impacts); });
         d["max_multiplier"] =
             column(pts, [](const BranchPoint& p) { return p.orbit.max_multiplier(); });
-        // The state on the section, a column per entry: delta_m and velocity_m_s, or each
-        // coupled coordinate and its rate.
+        // The state on the section, a column per entry: delta_m and velocity_m_s, or a train's
+        // unknowns (the coupled pair's as its train's).
         for (std::size_t j = 0; j < r.state_names.size(); ++j)
           d[py::str(r.state_names[j])] = column(pts, [j](const BranchPoint& p) {
             return p.orbit.state[static_cast<Eigen::Index>(j)];

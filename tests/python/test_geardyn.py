@@ -526,14 +526,16 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
     assert total[1:] == pytest.approx(np.ones(11), abs=1e-12)
     assert m["damped"].shape == (11, 2)
     assert m["damped"][:, 0] == pytest.approx(m["frequency_hz"][1:], rel=1e-3)
-    # The coupled orbit from Python is the command line's.
+    # The coupled orbit from Python is the command line's, found on its train: six unknowns
+    # (modulo the rigid rotation), every body's state (eight).
     o = geardyn.orbit(case.with_({"model.dof": 3}))
     out = json.loads(cli("orbit", str(path), "--set", "model.dof=3", "--json").stdout)
-    assert o["converged"] and out["converged"] and not o["stable"]
-    assert o["state"].shape == (6,) and o["monodromy"].shape == (6, 6)
-    assert o["state"] == pytest.approx(np.array(out["state"]), rel=1e-12, abs=1e-18)
+    assert o["converged"] and out["converged"] and not o["stable"] and o["model"] == "train"
+    assert o["unknowns"].shape == (6,) and o["monodromy"].shape == (6, 6)
+    assert o["state"].shape == (8,)
+    assert o["unknowns"] == pytest.approx(np.array(out["unknowns"]), rel=1e-12, abs=1e-18)
     assert abs(o["floquet_multipliers"][0]) == pytest.approx(out["max_multiplier"], rel=1e-12)
-    with pytest.raises(geardyn.InputError, match="this coupled case takes 6"):
+    with pytest.raises(geardyn.InputError, match="this train takes 6"):
         geardyn.orbit(case.with_({"model.dof": 3}), state=[0.0, 0.0])
     with pytest.raises(geardyn.InputError, match="modes are of the coupled model and of gear trains"):
         geardyn.modes(geardyn.Case())

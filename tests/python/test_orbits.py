@@ -62,7 +62,8 @@ TE_PAIR = [("model.form", "coupled"), ("model.dof", 3), ("mesh.stiffness_source"
 
 def test_a_coupled_continuation_matches_the_command_line(tmp_path):
     # The pair on bearings as stiff as the mesh, excited by a transmission error: the branch's
-    # state columns are its coordinates and their rates, as in the command line's branch.csv.
+    # state columns are its train's unknowns (the wheel's angle and the centres along the line
+    # of action, then their rates), as in the command line's branch.csv.
     case_file = tmp_path / "pair.toml"
     c = geardyn.Case.default()
     for k, v in TE_PAIR:
@@ -74,12 +75,13 @@ def test_a_coupled_continuation_matches_the_command_line(tmp_path):
     rows = np.genfromtxt(tmp_path / "out" / "branch.csv", delimiter=",", names=True)
     b = geardyn.continuation(c, "speed.shaft_frequency_hz", 50, 60)
     assert b["completed"], b["message"]
-    for name in ["param", "x_a", "u_m", "y1_m", "y2_m", "u_m_s", "y2_m_s"]:
+    for name in ["param", "x_a", "wheel_rad", "pinion_line_m", "wheel_line_m", "wheel_rad_s",
+                 "wheel_line_m_s"]:
         assert np.array_equal(b[name], rows[name]), name
     assert "delta_m" not in b
     assert [f["type"] for f in b["bifurcations"]] == ["grazing", "fold", "fold"]
     orbit = b["bifurcations"][1]["orbit"]
-    assert orbit["model"] == "coupled" and orbit["state"].shape == (6,)
+    assert orbit["model"] == "train" and orbit["unknowns"].shape == (6,)
     assert orbit["monodromy"].shape == (6, 6)
 
 
