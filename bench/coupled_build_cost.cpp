@@ -2,8 +2,10 @@
 // engine (CoupledSolver) with the case's own mesh stiffness and with one computed beforehand
 // (a study whose key leaves the curve alone shares it: shared_stiffness), the first flow of
 // one system period with its Jacobian on a model of the shared stiffness (the engine builds
-// the cells of every region it enters), and the same flow again on the built cells. The
-// continuation builds a model at each value of the key it evaluates (docs/performance.md).
+// the cells of every region it enters), and the same flow again on the built cells, on the
+// coupled model's own solver. A continuation builds a model at each value of the key it
+// evaluates (docs/performance.md); since 236678c it builds the pair's train (TrainSolver), not
+// this one.
 //
 //   coupled_build_cost [f1_hz]    (default 650; cases/park2010_coupled.toml, dof 12)
 #include <fmt/format.h>
