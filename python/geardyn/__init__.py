@@ -864,12 +864,12 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     Returns
     -------
     dict
-        ``mesh``: the train's mesh read ("" for another form). One NumPy array per point:
-        ``param``, ``stable``, ``x_a`` ((max - min) / 2 of delta / b),
-        ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``, ``impacts_per_period``,
-        ``max_multiplier``, the state on the section (``delta_m`` (m) and ``velocity_m_s``
-        (m/s); a coupled case's coordinates and their rates, ``u_m``, ``y1_m``, ...,
-        ``u_m_s``, ...), ``branch``, ``periods``, ``multipliers`` (the two largest);
+        ``mesh``: the train's mesh read (a coupled case's too; "" for the one-degree forms).
+        One NumPy array per point: ``param``, ``stable``, ``x_a`` ((max - min) / 2 of
+        delta / b), ``min_delta_bar``, ``max_delta_bar``, ``max_force_bar``,
+        ``impacts_per_period``, ``max_multiplier``, the state on the section (``delta_m`` (m)
+        and ``velocity_m_s`` (m/s); a train's and a coupled case's unknowns, e.g.
+        ``wheel_rad``, ``pinion_line_m``, ..., ``wheel_rad_s``, ...), ``branch``, ``periods``, ``multipliers`` (the two largest);
         ``bifurcations`` (dicts: type, param, branch, detail, x_a and ``orbit`` as `orbit`
         returns it, or None where it could not be read again); ``completed``, ``cancelled``,
         ``message``.
