@@ -129,10 +129,6 @@ std::string check_region(const LinearSwitchedSystem& sys, int r, const LinearReg
   return {};
 }
 
-}  // namespace
-
-namespace {
-
 template <class T>
 bool is_zero(const T& x) {
   if constexpr (std::is_arithmetic_v<T>) {

@@ -250,8 +250,8 @@ NewtonOutcome solve_periodic_from_settled(
     out.iterations += before;
   }
   if (out.converged && start > 1)
-    out.message += fmt::format(" (start {} of {}: the settled state {} orbit periods on)", start,
-                               options.starts, start - 1);
+    out.message += fmt::format(" (start {} of {}: the settled state {} orbit period{} on)", start,
+                               options.starts, start - 1, start == 2 ? "" : "s");
   if (!out.converged && (start > 1 || !why.empty()))
     out.message += fmt::format(" (from {} settled state{} one orbit period apart{})", start,
                                start == 1 ? "" : "s", why.empty() ? "" : "; the next: " + why);
