@@ -1498,12 +1498,18 @@ class LazyRegions {
 struct ExactEngine::Impl {
   LinearSwitchedSystem sys;
   EngineOptions opt;
-  std::unique_ptr<LazyRegions<2>> fixed;  // dimension 2
+  // The regions' cells, of fixed-size matrices (no allocation in a flow) for two states (the
+  // one-degree model) and four (a pair or a loose gear as a train), dynamic ones otherwise:
+  // one of the three is made (with_flow).
+  std::unique_ptr<LazyRegions<2>> fixed;
+  std::unique_ptr<LazyRegions<4>> fixed4;
   std::unique_ptr<LazyRegions<Eigen::Dynamic>> general;
 
   template <class F>
   decltype(auto) visit(int region, F&& f) const {
-    return fixed ? f(fixed->get(region)) : f(general->get(region));
+    return fixed    ? f(fixed->get(region))
+           : fixed4 ? f(fixed4->get(region))
+                    : f(general->get(region));
   }
 };
 
@@ -1518,6 +1524,8 @@ ExactEngine::ExactEngine(LinearSwitchedSystem system, const EngineOptions& optio
   I.opt = options;
   if (I.sys.dimension == 2) {
     I.fixed = std::make_unique<LazyRegions<2>>(I.sys, options);
+  } else if (I.sys.dimension == 4) {
+    I.fixed4 = std::make_unique<LazyRegions<4>>(I.sys, options);
   } else {
     I.general = std::make_unique<LazyRegions<Eigen::Dynamic>>(I.sys, options);
   }
@@ -2348,37 +2356,44 @@ class Flow final : public CellView {
 
 }  // namespace
 
+namespace {
+
+// Calls f with a flow of I's system on I's regions at its size (ExactEngine::Impl).
+template <class Impl, class F>
+decltype(auto) with_flow(const Impl& I, F&& f) {
+  if (I.fixed) {
+    Flow<2> flow(I.sys, *I.fixed, I.opt);
+    return f(flow);
+  }
+  if (I.fixed4) {
+    Flow<4> flow(I.sys, *I.fixed4, I.opt);
+    return f(flow);
+  }
+  Flow<Eigen::Dynamic> flow(I.sys, *I.general, I.opt);
+  return f(flow);
+}
+
+}  // namespace
+
 FlowResult ExactEngine::flow(double t0_s, const Vector& y0, int region, double t1_s,
                              const OutputGrid& output, FlowObserver& observer,
                              bool jacobian) const {
   const Impl& I = *impl_;
   if (std::string e = check_flow_arguments(I.sys, t0_s, y0, region, t1_s); !e.empty())
     throw std::invalid_argument(e);
-  if (I.fixed) {
-    Flow<2> f(I.sys, *I.fixed, I.opt);
-    return f.run(t0_s, y0, region, t1_s, output, observer, jacobian);
-  }
-  Flow<Eigen::Dynamic> f(I.sys, *I.general, I.opt);
-  return f.run(t0_s, y0, region, t1_s, output, observer, jacobian);
+  return with_flow(
+      I, [&](auto& f) { return f.run(t0_s, y0, region, t1_s, output, observer, jacobian); });
 }
 
 void ExactEngine::revisit(const KeptStretches& kept, const std::vector<std::size_t>& order,
                           const std::function<bool(std::size_t, const CellView&)>& look) const {
-  const Impl& I = *impl_;
-  const auto each = [&](auto& flow) {
+  with_flow(*impl_, [&](auto& flow) {
     for (std::size_t i : order) {
       assert(i < kept.size());
       flow.load(kept, i);
       if (!look(i, flow)) return;
     }
-  };
-  if (I.fixed) {
-    Flow<2> f(I.sys, *I.fixed, I.opt);
-    each(f);
-    return;
-  }
-  Flow<Eigen::Dynamic> f(I.sys, *I.general, I.opt);
-  each(f);
+  });
 }
 
 }  // namespace geardyn::ode

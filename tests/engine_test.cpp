@@ -543,6 +543,97 @@ TEST(ExactEngine, JacobianMatchesFiniteDifferencesForTwoDegreesOfFreedom) {
   expect_jacobian_matches_differences(e, y0, 0, 12.0, step, 4);
 }
 
+// The system with one more state that nothing moves (a zero row and column, a zero entry in
+// every forcing and guard row): the same flow in the first states, on the engine's general
+// (dynamic-size) path, where s itself may take a fixed-size one (ExactEngine's dimensions 2 and 4).
+LinearSwitchedSystem with_a_still_state(LinearSwitchedSystem s) {
+  const int n = s.dimension;
+  const auto grow_matrix = [n](Matrix& a) {
+    a.conservativeResize(n + 1, n + 1);
+    a.row(n).setZero();
+    a.col(n).setZero();
+  };
+  const auto grow_vector = [n](Vector& v) {
+    v.conservativeResize(n + 1);
+    v(n) = 0;
+  };
+  const auto grow_row = [n](RowVector& r) {
+    r.conservativeResize(n + 1);
+    r(n) = 0;
+  };
+  for (LinearRegion& r : s.regions) {
+    grow_matrix(r.a.constant);
+    for (Matrix& a : r.a.cos) grow_matrix(a);
+    for (Matrix& a : r.a.sin) grow_matrix(a);
+    grow_vector(r.u.constant);
+    for (Vector& u : r.u.cos) grow_vector(u);
+    for (Vector& u : r.u.sin) grow_vector(u);
+    for (std::vector<LinearGuard>* gs : {&r.guards, &r.observables})
+      for (LinearGuard& g : *gs) {
+        grow_row(g.row.constant);
+        for (RowVector& q : g.row.cos) grow_row(q);
+        for (RowVector& q : g.row.sin) grow_row(q);
+      }
+  }
+  s.dimension = n + 1;
+  return s;
+}
+
+TEST(ExactEngine, FixedSizeFlowsStepAsTheGeneralOne) {
+  // Two states (the non-dimensional gear rattling on both flanks, a stiffness harmonic) and
+  // four (two masses with a gap, one spring varying): each flow, its events, samples, end state
+  // and Jacobian, against the same system with a still fifth or third state, which the engine
+  // steps on its general path. They differ by rounding only: the same cells, another order of
+  // the sums.
+  geardyn::Case c;
+  c.model.form = geardyn::ModelForm::kNondimensional;
+  c.model.zeta = 0.02;
+  c.model.force_mean = 0.05;
+  c.model.force_alternating = 0.6;
+  c.model.omega = 1.3;
+  c.model.stiffness_harmonics = {{0.2, 10}};
+  struct Trial {
+    LinearSwitchedSystem sys;
+    Vector y0;
+    int region;
+    double t1;
+  };
+  Vector y2(2), y4(4);
+  y2 << 0.2, 0.1;
+  y4 << 0.0, 0.0, 0.9, -0.4;
+  const std::vector<Trial> trials{
+      {geardyn::build_model(c).linear_system(), y2,
+       geardyn::kSeparated - geardyn::GearPairModel::kFirstRegion, 60.0},
+      {two_masses(0.3), y4, 0, 40.0}};
+  for (const Trial& trial : trials) {
+    const int n = trial.sys.dimension;
+    SCOPED_TRACE(n);
+    const ExactEngine fixed(trial.sys), general(with_a_still_state(trial.sys));
+    Vector y0g = Vector::Zero(n + 1);
+    y0g.head(n) = trial.y0;
+    const OutputGrid grid{0, trial.t1 / 400, 401};
+    Recorder a, b;
+    const FlowResult ra = fixed.flow(0, trial.y0, trial.region, trial.t1, grid, a, true);
+    const FlowResult rb = general.flow(0, y0g, trial.region, trial.t1, grid, b, true);
+    ASSERT_TRUE(ra.ok()) << ra.message;
+    ASSERT_TRUE(rb.ok()) << rb.message;
+    ASSERT_GE(ra.events, 6);
+    EXPECT_EQ(ra.cells, rb.cells);
+    ASSERT_EQ(a.event_t.size(), b.event_t.size());
+    for (std::size_t i = 0; i < a.event_t.size(); ++i)
+      EXPECT_NEAR(a.event_t[i], b.event_t[i], 1e-12 * trial.t1);
+    ASSERT_EQ(a.y.size(), b.y.size());
+    const double scale = trial.y0.cwiseAbs().maxCoeff() + 1.0;
+    for (std::size_t i = 0; i < a.y.size(); ++i) {
+      EXPECT_NEAR((a.y[i] - b.y[i].head(n)).cwiseAbs().maxCoeff(), 0.0, 1e-11 * scale) << i;
+      EXPECT_EQ(b.y[i](n), 0.0);
+    }
+    EXPECT_NEAR((ra.state - rb.state.head(n)).cwiseAbs().maxCoeff(), 0.0, 1e-11 * scale);
+    const Matrix ja = *ra.jacobian, jb = rb.jacobian->topLeftCorner(n, n);
+    EXPECT_NEAR((ja - jb).cwiseAbs().maxCoeff(), 0.0, 1e-9 * (ja.cwiseAbs().maxCoeff() + 1.0));
+  }
+}
+
 TEST(ExactEngine, SamplesInsideCellsKeepTheTruncationOfTheCells) {
   // A sample alone in its cell sums only the terms its place in the cell needs
   // (Cell::term_weight); the rest of the cell's series must stay within the truncation the
