@@ -141,7 +141,7 @@ std::vector<double> train_run(const geardyn::Case& c, double t1,
       0, solver.initial_state(geardyn::InitialCondition::kCenter), t1, grid, t1, std::nullopt);
   if (!r.ok()) std::fprintf(stderr, "failed: %s\n", r.message.c_str());
   std::vector<double> out;
-  for (const std::vector<double>& d : r.samples.deflection_bar) out.push_back(d[0]);
+  for (const auto d : r.samples.deflection_bar) out.push_back(d[0]);
   return out;
 }
 

@@ -458,9 +458,10 @@ class PointRunner {
       const double b = x.backlash_m;
       MeshReading mr;
       double sd = 0, sd2 = 0;
-      for (const std::vector<double>& d : smp.deflection_bar) {
-        sd += d[i];
-        sd2 += d[i] * d[i];
+      for (std::size_t k = 0; k < smp.deflection_bar.size(); ++k) {
+        const double d = smp.deflection_bar[k][i];
+        sd += d;
+        sd2 += d * d;
       }
       mr.mean_delta_bar = sd / count;
       mr.rms_delta_bar = std::sqrt(sd2 / count);

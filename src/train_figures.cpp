@@ -150,7 +150,7 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
                      v.push_back(s.deflection_bar[k][m]);
                      v.push_back(s.force_n[k][m]);
                    }
-                   const std::vector<double>& p = s.parts[k];
+                   const auto p = s.parts[k];
                    for (std::size_t q = 0; q < shafts; ++q) v.push_back(p[q]);
                    for (std::size_t q = 0; q < bearings; ++q)
                      v.push_back(std::hypot(p[bearing_part[q]], p[bearing_part[q] + 1]));

@@ -132,24 +132,32 @@ class TrainObserver : public ode::FlowObserver {
   void on_sample(double t, const ode::Vector& y, int region) override {
     TrainSamples& s = out_.samples;
     reader(region)(t, y, values_);
-    const std::vector<int> states = a_.states(region);
+    const std::vector<int>& states = region_states(region);
     s.t_s.push_back(t);
     s.state.push_back(y);
-    std::vector<double> d(states.size()), f(states.size());
-    for (std::size_t m = 0; m < states.size(); ++m) {
+    const std::size_t meshes = states.size();
+    double* d = s.deflection_bar.append(meshes);
+    double* f = s.force_n.append(meshes);
+    for (std::size_t m = 0; m < meshes; ++m) {
       d[m] = values_[2 * m] / out_.meshes[m].backlash_m;
       f[m] = values_[2 * m + 1];
       point(m, values_[2 * m], f[m]);  // a sample is a point of the window too
     }
-    s.deflection_bar.push_back(std::move(d));
-    s.force_n.push_back(std::move(f));
     s.contact.push_back(states);
-    std::vector<double> parts(whole_parts_.size());
-    for (std::size_t k = 0; k < parts.size(); ++k) {
+    double* parts = s.parts.append(whole_parts_.size());
+    for (std::size_t k = 0; k < whole_parts_.size(); ++k) {
       parts[k] = values_[first_part_ + k];
       point_part(k, parts[k]);
     }
-    s.parts.push_back(std::move(parts));
+  }
+
+  // a_.states(region), kept for the region last asked of (samples come many to a region).
+  const std::vector<int>& region_states(int region) {
+    if (region != sample_region_) {
+      sample_states_ = a_.states(region);
+      sample_region_ = region;
+    }
+    return sample_states_;
   }
 
   bool on_progress(double t) override { return !progress_ || progress_((t - t0_) / (t1_ - t0_)); }
@@ -289,7 +297,9 @@ class TrainObserver : public ode::FlowObserver {
   TrainRunResult& out_;
   const std::function<bool(double)>& progress_;
   double t0_, t1_;
-  std::vector<int> states_;  // each mesh's contact state now
+  std::vector<int> states_;         // each mesh's contact state now
+  std::vector<int> sample_states_;  // region_states'
+  int sample_region_ = -1;
   std::vector<ContactTracker> trackers_, part_trackers_;
   // Each clearance direction's (train::Assembled::clearances()) state now and its trackers.
   std::vector<int> clearance_states_;

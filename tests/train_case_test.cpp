@@ -195,7 +195,7 @@ TEST(TrainCase, ShaftTorquesAndBearingForcesAreReadExactlyWithTheirStaticValues)
     EXPECT_NEAR(a.max / b.max, 1.0, 1e-9);
     EXPECT_NEAR(a.min / b.min, 1.0, 1e-9);
     double lo = kInf, hi = -kInf;
-    for (const std::vector<double>& x : fine.samples.parts) {
+    for (const auto x : fine.samples.parts) {
       lo = std::min(lo, x[k]);
       hi = std::max(hi, x[k]);
     }
@@ -970,9 +970,8 @@ TEST(TrainCase, AMeshDampedAtAllTimesOrClippingItsTensionIsThePairs) {
     EXPECT_GT(worst_against(plain.samples.delta_bar, x), 1e-4);  // the option moves the run
     EXPECT_EQ(x.meshes.at(0).impacts, one.reading.impacts);
     const bool clip = std::string(key) == "mesh.tension";
-    const auto clipped =
-        std::count_if(x.samples.contact.begin(), x.samples.contact.end(),
-                      [](const std::vector<int>& s) { return std::abs(s[0]) == 2; });
+    const auto clipped = std::count_if(x.samples.contact.begin(), x.samples.contact.end(),
+                                       [](const auto s) { return std::abs(s[0]) == 2; });
     if (clip)
       EXPECT_GT(clipped, 0);
     else

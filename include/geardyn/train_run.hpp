@@ -3,11 +3,15 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <iosfwd>
+#include <iterator>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -131,14 +135,75 @@ std::vector<LoadSharingGroup> load_sharing_groups(const train::Assembled& a);
 // (a negative force): a planet losing its load, where the factor no longer describes it.
 bool left_drive_flank(const TrainMeshPart& part);
 
+// Rows of one width in one buffer: a run's values per output sample, so that a sample costs
+// no allocation. Row i reads as an Eigen vector: rows[i][m], rows[i].size(), rows[i].head(k).
+template <class T>
+class SampleRows {
+ public:
+  using Row = Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, 1>>;
+  std::size_t size() const { return rows_; }
+  bool empty() const { return rows_ == 0; }
+  std::size_t width() const { return width_; }
+  Row operator[](std::size_t i) const {
+    return Row(values_.data() + i * width_, static_cast<Eigen::Index>(width_));
+  }
+  // The rows in order (for a range-for), each a Row.
+  class const_iterator {
+   public:
+    using iterator_category = std::forward_iterator_tag;
+    using value_type = Row;
+    using difference_type = std::ptrdiff_t;
+    using pointer = void;
+    using reference = Row;
+    const_iterator() = default;
+    const_iterator(const SampleRows* rows, std::size_t i) : rows_(rows), i_(i) {}
+    Row operator*() const { return (*rows_)[i_]; }
+    const_iterator& operator++() {
+      ++i_;
+      return *this;
+    }
+    const_iterator operator++(int) {
+      const_iterator before = *this;
+      ++i_;
+      return before;
+    }
+    bool operator==(const const_iterator& o) const { return i_ == o.i_; }
+
+   private:
+    const SampleRows* rows_ = nullptr;
+    std::size_t i_ = 0;
+  };
+  const_iterator begin() const { return {this, 0}; }
+  const_iterator end() const { return {this, rows_}; }
+  // Appends a row of `width` values (every row the first one's width) and returns where they
+  // go, to be written before the next append.
+  T* append(std::size_t width) {
+    if (rows_ == 0) width_ = width;
+    if (width != width_) throw std::logic_error("SampleRows: rows of different widths");
+    ++rows_;
+    values_.resize(values_.size() + width_);
+    return values_.data() + values_.size() - width_;
+  }
+  // Appends a copy of any contiguous range of T (an Eigen vector, a std::vector).
+  template <class Range>
+  void push_back(const Range& row) {
+    T* to = append(static_cast<std::size_t>(row.size()));
+    std::copy(row.data(), row.data() + row.size(), to);
+  }
+
+ private:
+  std::vector<T> values_;
+  std::size_t width_ = 0, rows_ = 0;
+};
+
 struct TrainSamples {
   std::vector<double> t_s;
-  std::vector<Eigen::VectorXd> state;               // (q, q'): rad, m and their rates
-  std::vector<std::vector<double>> deflection_bar;  // per sample, per mesh: (d - e) / b
-  std::vector<std::vector<double>> force_n;         // per sample, per mesh: F
-  std::vector<std::vector<int>> contact;            // per sample, per mesh: 1, 0, -1
+  SampleRows<double> state;           // (q, q'): rad, m and their rates
+  SampleRows<double> deflection_bar;  // per sample, per mesh: (d - e) / b
+  SampleRows<double> force_n;         // per sample, per mesh: F
+  SampleRows<int> contact;            // per sample, per mesh: 1, 0, -1
   // Per sample: each shaft's torque (N m), then each bearing's force in x and y (N).
-  std::vector<std::vector<double>> parts;
+  SampleRows<double> parts;
 };
 
 struct TrainRunResult {
