@@ -151,6 +151,18 @@ class TrainObserver : public ode::FlowObserver {
     }
   }
 
+  // Room in the result for `count` output samples.
+  void reserve(std::int64_t count) {
+    const auto rows = static_cast<std::size_t>(std::max<std::int64_t>(count, 0));
+    TrainSamples& s = out_.samples;
+    s.t_s.reserve(rows);
+    s.state.reserve(rows, static_cast<std::size_t>(sys_.dimension));
+    s.deflection_bar.reserve(rows, states_.size());
+    s.force_n.reserve(rows, states_.size());
+    s.contact.reserve(rows, states_.size());
+    s.parts.reserve(rows, whole_parts_.size());
+  }
+
   // a_.states(region), kept for the region last asked of (samples come many to a region).
   const std::vector<int>& region_states(int region) {
     if (region != sample_region_) {
@@ -720,6 +732,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   const int region = a.classify(t0_s, y0);
   const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : *adaptive_;
   TrainObserver observer(a, sys, result, t0_s, t1_s, final_from_s, region, progress);
+  observer.reserve(grid.count);
   FlowPieces pieces(
       t0_s, y0, region, t1_s, grid,
       [&](double from, const ode::Vector& y, int r, double to, const ode::OutputGrid& piece) {

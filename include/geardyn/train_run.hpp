@@ -175,6 +175,8 @@ class SampleRows {
   };
   const_iterator begin() const { return {this, 0}; }
   const_iterator end() const { return {this, rows_}; }
+  // Room for `rows` rows of `width` values (a run knows its output samples beforehand).
+  void reserve(std::size_t rows, std::size_t width) { values_.reserve(rows * width); }
   // Appends a row of `width` values (every row the first one's width) and returns where they
   // go, to be written before the next append.
   T* append(std::size_t width) {
