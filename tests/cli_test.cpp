@@ -983,8 +983,20 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
             std::string::npos)
       << branch.substr(0, 300);
   fs::remove_all(d);
+  // The one-degree pair's modes are its train's: the rigid rotation and the contact mode, at the
+  // natural frequency its run prints.
   const Outcome plain = cli("modes");
-  expect_refused(plain, "modes are of the coupled model");
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  EXPECT_NE(plain.out.find("(gear pair, as a train)"), std::string::npos) << plain.out;
+  const Outcome run = cli("run");
+  ASSERT_EQ(run.code, 0) << run.err;
+  const std::size_t at = run.out.find("contact natural frequency ");
+  ASSERT_NE(at, std::string::npos) << run.out;
+  const std::string f = run.out.substr(at + 26, run.out.find(' ', at + 26) - at - 26);
+  EXPECT_NE(plain.out.find("   2 " + std::string(16 - f.size() - 1, ' ') + f + "     1   0.0200"),
+            std::string::npos)
+      << f << "\n"
+      << plain.out;
   EXPECT_FALSE(fs::exists(d));
 }
 

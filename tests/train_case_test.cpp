@@ -622,6 +622,35 @@ TEST(TrainCase, TheCoupledFormsTrainHasTheCoupledPairsModesAndCoordinates) {
   }
 }
 
+TEST(TrainCase, TheOneDegreeFormsTrainsHaveTheContactModeAndTheRigidRotation) {
+  // The paper's pair (the shipped case: energy-method stiffness, helical) and the
+  // non-dimensional oscillator, as their trains (`geardyn modes` of a one-degree case): the
+  // rigid rotation at 0 and one mode in contact at the one-degree model's natural frequency
+  // sqrt(cos^2 beta_b k_m / m_eq) (1 rad per tau in the non-dimensional form, whose train turns
+  // a second into a tau), its damping ratio the mesh's, all its strain energy in the mesh.
+  Case nd;
+  nd.model.form = ModelForm::kNondimensional;
+  nd.model.zeta = 0.07;
+  nd.model.stiffness_harmonics = {{0.2, 10.0}};
+  const Case paper =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "park2010.toml");
+  for (const Case& c : {paper, nd}) {
+    SCOPED_TRACE(to_string(c.model.form));
+    const GearPairModel one = build_model(c);
+    const std::vector<train::TrainMode> m = train::modes(assembled_train(c));
+    ASSERT_EQ(m.size(), 2U);
+    EXPECT_EQ(m[0].frequency_hz, 0.0);
+    EXPECT_EQ(m[0].mesh_energy.at(0), 0.0);
+    const double w = one.parameters().natural_angular_frequency_rad_s();
+    EXPECT_NEAR(m[1].frequency_hz / (w / (2 * std::numbers::pi)), 1.0, 1e-12);
+    EXPECT_NEAR(m[1].damping_ratio,
+                c.model.form == ModelForm::kNondimensional ? nd.model.zeta : c.mesh.damping_ratio,
+                1e-12);
+    EXPECT_NEAR(m[1].mesh_energy.at(0), 1.0, 1e-12);
+  }
+  EXPECT_NEAR(build_model(nd).parameters().natural_angular_frequency_rad_s(), 1.0, 1e-15);
+}
+
 // kBodyB and a mesh "m" in which a drives b, with one more line of the mesh's: line 15 of a
 // file that kBodyA and one line of body a's head.
 std::string body_b_and_mesh(const std::string& mesh_line) {

@@ -404,26 +404,34 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
   return interrupted ? kExitInterrupted : 0;
 }
 
-// The modes of a train, or of the coupled pair as its train (train_form_of), linearised with
-// every mesh in contact at its mean stiffness.
+// The modes of a train, or of a pair's form as its train (train_form_of: the one-degree pair's
+// are its rigid rotation and its contact mode), linearised with every mesh in contact at its
+// mean stiffness.
 int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets, bool json,
               const std::string& out_dir) {
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "modes");
-  const bool coupled = c.model.form == geardyn::ModelForm::kCoupled;
-  if (c.model.form != geardyn::ModelForm::kTrain && !coupled)
-    throw geardyn::InputError(fmt::format(
-        "model.form = \"{}\": modes are of the coupled model and of gear trains; set "
-        "model.form = \"coupled\" (the one-degree model has one, its contact natural frequency, "
-        "printed by run)",
-        geardyn::to_string(c.model.form)));
   const geardyn::train::Assembled a = geardyn::assembled_train(c);
   const std::vector<geardyn::train::TrainMode> m = geardyn::train::modes(a);
   if (json) {
     fmt::print("{}\n", geardyn::train_modes_json(a, m));
   } else {
-    fmt::print("modes of {} ({}), every mesh in contact at its mean stiffness{}\n", c.name,
-               coupled ? fmt::format("coupled, dof {}, as a train", c.model.dof) : "train",
-               !coupled && !c.train->speeds.empty() ? ", the prescribed bodies held" : "");
+    std::string form = "train";
+    switch (c.model.form) {
+      case geardyn::ModelForm::kCoupled:
+        form = fmt::format("coupled, dof {}, as a train", c.model.dof);
+        break;
+      case geardyn::ModelForm::kGearPair:
+        form = "gear pair, as a train";
+        break;
+      case geardyn::ModelForm::kNondimensional:
+        form = "non-dimensional, as a train: a second is a tau, Hz are cycles per tau";
+        break;
+      case geardyn::ModelForm::kTrain:
+        break;
+    }
+    const bool held = c.model.form == geardyn::ModelForm::kTrain && !c.train->speeds.empty();
+    fmt::print("modes of {} ({}), every mesh in contact at its mean stiffness{}\n", c.name, form,
+               held ? ", the prescribed bodies held" : "");
     fmt::print("{}", geardyn::train_modes_table(a, m));
   }
   if (!out_dir.empty()) {
@@ -1055,7 +1063,7 @@ int main(int argc, char** argv) {
   geometry->add_flag("--json", json, "print JSON");
 
   CLI::App* modes = app.add_subcommand(
-      "modes", "natural frequencies, damping and strain energies of a gear train or coupled pair");
+      "modes", "natural frequencies, damping and strain energies of a gear train or a pair");
   add_case(modes);
   modes->add_flag("--json", json, "print JSON");
   std::string modes_out;

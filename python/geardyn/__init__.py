@@ -525,14 +525,17 @@ def _nan_if_none(x):
 
 @_pythonic()
 def modes(case):
-    """The modes of a gear train, or of the coupled pair as its train, as `geardyn modes --json`.
+    """The modes of a gear train, or of a pair's form as its train, as `geardyn modes --json`.
 
     Parameters
     ----------
     case : Case
-        A case with ``model.form = "train"`` or ``"coupled"`` (read as its train: bodies
-        ``pinion`` and ``wheel``, held to the line of action with dof 3 and 6, bearings
-        ``pinion_bearing`` and ``wheel_bearing``, with its shafts ``motor`` and ``load``).
+        A case of any form: ``model.form = "train"``, or a pair's form read as its train
+        (``geardyn train-form``): ``"coupled"`` (bodies ``pinion`` and ``wheel``, held to the
+        line of action with dof 3 and 6, bearings ``pinion_bearing`` and ``wheel_bearing``,
+        with its shafts ``motor`` and ``load``), ``"gear_pair"`` and ``"nondimensional"`` (the
+        rigid rotation and the contact mode, at the one-degree model's natural frequency; in
+        the non-dimensional form a second is a tau).
 
     Returns
     -------
@@ -554,12 +557,9 @@ def modes(case):
     Raises
     ------
     InputError
-        A case of a one-degree form, or bad input.
+        Bad input.
     """
     import numpy as np
-    if _form(case) not in ("train", "coupled"):
-        raise InputError(f"model.form = \"{case['model.form']}\": modes are of the coupled "
-                         "model and of gear trains; set model.form = \"coupled\"")
     j = _json.loads(_geardyn._train_modes(case))
     ms = j["modes"]
 

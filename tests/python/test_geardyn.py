@@ -537,8 +537,13 @@ def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
     assert abs(o["floquet_multipliers"][0]) == pytest.approx(out["max_multiplier"], rel=1e-12)
     with pytest.raises(geardyn.InputError, match="this train takes 6"):
         geardyn.orbit(case.with_({"model.dof": 3}), state=[0.0, 0.0])
-    with pytest.raises(geardyn.InputError, match="modes are of the coupled model and of gear trains"):
-        geardyn.modes(geardyn.Case())
+    # The one-degree pair's modes are its train's: the rigid rotation and the contact mode at
+    # the one-degree model's natural frequency.
+    m = geardyn.modes(geardyn.Case())
+    assert len(m["bodies"]) == 2 and m["frequency_hz"][0] == 0.0
+    one = geardyn.run(geardyn.Case().with_({"solver.duration_s": 1e-3}))
+    f_n = one.summary["derived"]["natural_frequency_hz"]
+    assert m["frequency_hz"][1] == pytest.approx(f_n, rel=1e-12)
     # A coupled sweep (as its train) has the command line's bearing columns, per part along a
     # dimension in xarray and under sweep.csv's names in pandas.
     s = geardyn.sweep(case, "speed.shaft_frequency_hz", [2000.0, 2500.0], direction="up")
