@@ -588,10 +588,13 @@ class PointRunner {
   std::size_t mesh_ = 0;                 // the one the points' statistics read
 };
 
-// Jumps and hysteresis of one row (all points of a 1-D sweep; one value of the second key of
-// a map), appended to r. `contact_is_linear`: the model is linear while the mesh stays in
-// contact (no bearing clearance), so two neighbours both in permanent contact lie on one
-// linear response and cannot jump, however steep its resonance.
+// A point measured as it is: not settled, and not failed (Hysteresis, Jump, UnsettledRange).
+bool unsettled(const SweepPoint& p) { return !p.settled && p.failure.empty(); }
+
+// Jumps, hysteresis and the stretches of unsettled points of one row (all points of a 1-D
+// sweep; one value of the second key of a map), appended to r. `contact_is_linear`: the model is
+// linear while the mesh stays in contact (no bearing clearance), so two neighbours both in
+// permanent contact lie on one linear response and cannot jump, however steep its resonance.
 void read_row_jumps(SweepResult& r, double value2, bool contact_is_linear) {
   const bool map = r.options.axis2.has_value();
   const auto in_row = [&](const SweepPoint& p) { return !map || p.value2 == value2; };
@@ -612,7 +615,16 @@ void read_row_jumps(SweepResult& r, double value2, bool contact_is_linear) {
       const double neighbours = std::max(i > 0 ? change(i - 1) : 0.0, change(i + 1));
       if (change(i) > kJumpFraction * std::max(std::abs(a), std::abs(b)) &&
           change(i) > kJumpContrast * neighbours)
-        r.jumps.push_back({d, seq[i]->value, seq[i + 1]->value, a, b, value2});
+        r.jumps.push_back({d, seq[i]->value, seq[i + 1]->value, a, b, value2,
+                           unsettled(*seq[i]) || unsettled(*seq[i + 1])});
+    }
+    // The stretches of points that did not settle, in run order.
+    for (std::size_t i = 0; i < seq.size(); ++i) {
+      if (!unsettled(*seq[i])) continue;
+      if (i == 0 || !unsettled(*seq[i - 1]))
+        r.unsettled_ranges.push_back({d, seq[i]->value, seq[i]->value, value2, 0});
+      r.unsettled_ranges.back().to_value = seq[i]->value;
+      ++r.unsettled_ranges.back().points;
     }
   }
   // Hysteresis: where the up and the down sweep differ at the same value.
@@ -631,6 +643,7 @@ void read_row_jumps(SweepResult& r, double value2, bool contact_is_linear) {
     if (differ) {
       if (!open) open = Hysteresis{value, value, value2};
       open->to_value = value;
+      open->unsettled = open->unsettled || unsettled(*up) || unsettled(*down);
     } else if (open) {
       r.hysteresis.push_back(*open);
       open.reset();
@@ -808,7 +821,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   r.cancelled = pool.stopped;
   for (auto& p : done_points)
     if (p) {
-      r.unsettled += !p->settled && p->failure.empty();
+      r.unsettled += unsettled(*p);
       r.failed += !p->failure.empty();
       r.points.push_back(std::move(*p));
     }
@@ -976,9 +989,19 @@ std::string summary(const SweepResult& r) {
   j["unused_settings"] = r.unused_settings;
   j["hysteresis"] = nlohmann::json::array();
   for (const Hysteresis& h : r.hysteresis) {
-    nlohmann::json x = {{"from_value", h.from_value}, {"to_value", h.to_value}};
+    nlohmann::json x = {
+        {"from_value", h.from_value}, {"to_value", h.to_value}, {"unsettled", h.unsettled}};
     if (o.axis2) x["value2"] = h.value2;
     j["hysteresis"].push_back(x);
+  }
+  j["unsettled_ranges"] = nlohmann::json::array();
+  for (const UnsettledRange& u : r.unsettled_ranges) {
+    nlohmann::json x = {{"direction", to_string(u.direction)},
+                        {"from_value", u.from_value},
+                        {"to_value", u.to_value},
+                        {"points", u.points}};
+    if (o.axis2) x["value2"] = u.value2;
+    j["unsettled_ranges"].push_back(x);
   }
   j["jumps"] = nlohmann::json::array();
   for (const Jump& x : r.jumps) {
@@ -986,7 +1009,8 @@ std::string summary(const SweepResult& r) {
                         {"from_value", x.from_value},
                         {"to_value", x.to_value},
                         {"pp_delta_bar_before", x.before},
-                        {"pp_delta_bar_after", x.after}};
+                        {"pp_delta_bar_after", x.after},
+                        {"unsettled", x.unsettled}};
     if (o.axis2) y["value2"] = x.value2;
     j["jumps"].push_back(y);
   }

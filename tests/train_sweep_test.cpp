@@ -1,13 +1,18 @@
 // Sweeps of gear trains (sweep.hpp on a train case): a one-mesh train's sweep against the gear
-// pair's, a loose gear's rattle along its fluctuation against the closed-form onset, every
-// mesh's columns and the mesh read, a quasi-periodic train, and the messages.
+// pair's, a loose gear's rattle along its fluctuation against the closed-form onset and where it
+// does not settle, every mesh's columns and the mesh read, a quasi-periodic train, and the
+// messages.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <sstream>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "geardyn/case.hpp"
 #include "geardyn/sweep.hpp"
@@ -115,6 +120,75 @@ TEST(TrainSweep, ALooseGearRattlesAlongItsFluctuationFromItsClosedFormOnset) {
               std::string::npos)
         << e.what();
   }
+}
+
+TEST(TrainSweep, PointsThatDoNotSettleAreListedAndWhatReadsThemSaysSo) {
+  // The loose gear from 100 to 600 rad/s^2, up and down: above the onset its rattle settles at
+  // some amplitudes and not at others (chaos with windows). The stretches of unsettled points,
+  // each sequence in run order, are those of the points themselves; a jump or a hysteresis
+  // interval says whether it reads an unsettled point; summary.json lists them.
+  const Case c = shipped("loose_gear_rattle.toml");
+  const SweepResult r =
+      sweep(c, speed_sweep("train.speed[0].acceleration_harmonics[0][0]", 100, 600, 30));
+  ASSERT_EQ(r.points.size(), 60u);
+  std::vector<UnsettledRange> expected;
+  for (const SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
+    bool open = false;
+    for (const SweepPoint& p : r.points) {
+      if (p.direction != d) continue;
+      ASSERT_TRUE(p.failure.empty()) << p.failure;
+      if (p.settled) {
+        open = false;
+        continue;
+      }
+      if (!open) expected.push_back({d, p.value, p.value, 0.0, 0});
+      open = true;
+      expected.back().to_value = p.value;
+      ++expected.back().points;
+    }
+  }
+  ASSERT_GE(expected.size(), 2u);  // not one stretch: some rattles settle among those that do not
+  ASSERT_EQ(r.unsettled_ranges.size(), expected.size());
+  std::size_t total = 0;
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(r.unsettled_ranges[i].direction, expected[i].direction) << i;
+    EXPECT_EQ(r.unsettled_ranges[i].from_value, expected[i].from_value) << i;
+    EXPECT_EQ(r.unsettled_ranges[i].to_value, expected[i].to_value) << i;
+    EXPECT_EQ(r.unsettled_ranges[i].points, expected[i].points) << i;
+    total += expected[i].points;
+  }
+  EXPECT_EQ(total, r.unsettled);
+  const auto point = [&](SweepDirection d, double value) -> const SweepPoint& {
+    for (const SweepPoint& p : r.points)
+      if (p.direction == d && p.value == value) return p;
+    throw std::logic_error("no such point");
+  };
+  ASSERT_FALSE(r.jumps.empty());
+  bool any = false;
+  for (const Jump& j : r.jumps) {
+    const bool reads =
+        !point(j.direction, j.from_value).settled || !point(j.direction, j.to_value).settled;
+    EXPECT_EQ(j.unsettled, reads) << j.from_value;
+    any = any || reads;
+  }
+  EXPECT_TRUE(any);  // the jump into the rattle
+  for (const Hysteresis& h : r.hysteresis) {
+    bool reads = false;
+    for (const SweepPoint& p : r.points)
+      reads = reads || (p.value >= h.from_value && p.value <= h.to_value && !p.settled);
+    EXPECT_EQ(h.unsettled, reads) << h.from_value;
+  }
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / "geardyn_unsettled_ranges";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  write_sweep(dir, r, false);
+  std::ifstream in(dir / "summary.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j.at("unsettled_ranges").size(), expected.size());
+  EXPECT_EQ(j["unsettled_ranges"][0].at("points").get<std::size_t>(), expected[0].points);
+  EXPECT_EQ(j.at("jumps").at(0).at("unsettled").get<bool>(), r.jumps[0].unsettled);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(TrainSweep, EveryMeshHasItsColumnsAndTheMeshReadIsNamed) {

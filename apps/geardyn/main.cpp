@@ -642,14 +642,36 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
   const auto row = [&](double value2) {
     return o.axis2 ? fmt::format("at {} = {:.6g}: ", o.axis2->key, value2) : std::string{};
   };
+  // Where points did not settle (their readings a stretch of the motion), the first few
+  // stretches by name, the rest counted.
+  constexpr std::size_t kRangesShown = 6;
+  const std::vector<geardyn::UnsettledRange>& ur = r.unsettled_ranges;
+  if (!ur.empty()) {
+    std::vector<std::string> shown;
+    for (std::size_t i = 0; i < std::min(ur.size(), kRangesShown); ++i)
+      shown.push_back(fmt::format(
+          "{}{} {}", row(ur[i].value2), geardyn::to_string(ur[i].direction),
+          ur[i].points == 1 ? fmt::format("at {:.6g}", ur[i].from_value)
+                            : fmt::format("{:.6g} to {:.6g} ({} points)", ur[i].from_value,
+                                          ur[i].to_value, ur[i].points)));
+    fmt::print("  not settled (each read as it is, a stretch of its motion): {}{}\n",
+               fmt::join(shown, "; "),
+               ur.size() > kRangesShown
+                   ? fmt::format("; {} more stretches (summary.json)", ur.size() - kRangesShown)
+                   : "");
+  }
+  const auto unsettled_note = [](bool unsettled) {
+    return unsettled ? " (reads a point not settled)" : "";
+  };
   for (const geardyn::Hysteresis& h : r.hysteresis)
-    fmt::print("  {}up and down differ from {} = {:.6g} to {:.6g}\n", row(h.value2), o.axis.key,
-               h.from_value, h.to_value);
+    fmt::print("  {}up and down differ from {} = {:.6g} to {:.6g}{}\n", row(h.value2), o.axis.key,
+               h.from_value, h.to_value, unsettled_note(h.unsettled));
   for (const geardyn::Jump& j : r.jumps)
     fmt::print(
-        "  {}{} sweep jumps between {:.6g} and {:.6g}: peak-to-peak delta/b {:.4g} -> {:.4g}\n",
-        row(j.value2), geardyn::to_string(j.direction), j.from_value, j.to_value, j.before,
-        j.after);
+        "  {}{} sweep jumps between {:.6g} and {:.6g}: peak-to-peak delta/b {:.4g} -> "
+        "{:.4g}{}\n",
+        row(j.value2), geardyn::to_string(j.direction), j.from_value, j.to_value, j.before, j.after,
+        unsettled_note(j.unsettled));
   if (r.jumps.empty())
     fmt::print("  no jump found{}\n",
                o.direction == geardyn::SweepDirection::kBoth && r.hysteresis.empty()

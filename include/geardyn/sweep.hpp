@@ -183,15 +183,29 @@ struct SweepPoint {
 // Where the up and the down sweep part: the parameter interval over which their responses
 // differ (hysteresis), and the jumps that bound it.
 // In a map, each row (a value of the second key, value2) is read on its own.
+// A point that did not settle is measured as it is: its readings are a stretch of a motion
+// that is chaotic, quasi-periodic or slower to settle than max_settle_periods, and a rounding
+// change may read another stretch of it. A hysteresis interval or a jump that reads such a
+// point says so (`unsettled`), and the sweep lists where they lie (UnsettledRange).
 struct Hysteresis {
   double from_value = 0, to_value = 0;
-  double value2 = 0;  // the map's row (0 for a 1-D sweep)
+  double value2 = 0;       // the map's row (0 for a 1-D sweep)
+  bool unsettled = false;  // an up or down point in it did not settle
 };
 struct Jump {
   SweepDirection direction = SweepDirection::kUp;
   double from_value = 0, to_value = 0;  // the two consecutive points between which it jumps
   double before = 0, after = 0;         // pp_delta_bar on either side
   double value2 = 0;                    // the map's row (0 for a 1-D sweep)
+  bool unsettled = false;               // one of the two did not settle
+};
+// Consecutive points of one sequence (a direction, a map's row) that did not settle, failed
+// points apart.
+struct UnsettledRange {
+  SweepDirection direction = SweepDirection::kUp;
+  double from_value = 0, to_value = 0;  // its first and last point, in run order
+  double value2 = 0;                    // the map's row (0 for a 1-D sweep)
+  std::size_t points = 0;
 };
 
 struct SweepResult {
@@ -217,6 +231,7 @@ struct SweepResult {
   std::vector<SweepPoint> points;  // in sweep order: up (each row), then down
   std::vector<Hysteresis> hysteresis;
   std::vector<Jump> jumps;
+  std::vector<UnsettledRange> unsettled_ranges;  // each row's up sequence, then its down one
   std::size_t unsettled = 0;
   std::size_t failed = 0;  // points whose integration failed (SweepPoint::failure)
   bool cancelled = false;

@@ -660,7 +660,10 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
         sample belongs to), ``delta_bar``, ``velocity_m_s`` (m/s), ``force_bar``, one sample
         per system period of the measurement; ``jumps`` and ``hysteresis`` (dicts with
-        ``from_value`` and ``to_value``), ``period_s``, ``cancelled``, ``param``
+        ``from_value``, ``to_value`` and ``unsettled``: whether they read a point that did not
+        settle), ``unsettled_ranges`` (dicts with ``direction``, ``from_value``, ``to_value``
+        and ``points``: each run of consecutive points that did not settle, read as they are),
+        ``period_s``, ``cancelled``, ``param``
         (``param2``). Its ``to_xarray()``, ``to_pandas()`` and ``save(path)`` label it.
 
     Raises

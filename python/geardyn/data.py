@@ -163,6 +163,7 @@ def _sweep_dataset(s, param, param2=None):
                            {"long_name": "a gear sharing its load among two or more meshes"})
     attrs = {"geardyn": "sweep", "param": param, "jumps": json.dumps(s.get("jumps", [])),
              "hysteresis": json.dumps(s.get("hysteresis", [])),
+             "unsettled_ranges": json.dumps(s.get("unsettled_ranges", [])),
              "period_s": s.get("period_s", np.nan),
              "period_units": "tau" if s.get("form") == "nondimensional" else "s",
              "cancelled": int(bool(s.get("cancelled", False)))}
@@ -303,8 +304,9 @@ def to_xarray(result, param=None, param2=None):
         column a variable with ``units`` and ``long_name``; the strobe (one sample per
         system period of each point's measurement) as ``strobe_delta_bar``,
         ``strobe_velocity_m_s`` and ``strobe_force_bar`` over a further dimension ``strobe``;
-        the jumps and the hysteresis intervals as the JSON attributes ``jumps`` and
-        ``hysteresis``, the system period as ``period_s``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
+        the jumps, the hysteresis intervals and the runs of points that did not settle as
+        the JSON attributes ``jumps``, ``hysteresis`` and ``unsettled_ranges``, the system
+        period as ``period_s``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
         and contact, attributes ``summary`` (JSON) and ``case`` (TOML).
     """
     if isinstance(result, dict):

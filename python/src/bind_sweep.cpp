@@ -185,17 +185,28 @@ void bind_sweep(py::module_& m) {
           py::dict d(py::arg("direction") = to_string(j.direction),
                      py::arg("from_value") = j.from_value, py::arg("to_value") = j.to_value,
                      py::arg("pp_delta_bar_before") = j.before,
-                     py::arg("pp_delta_bar_after") = j.after);
+                     py::arg("pp_delta_bar_after") = j.after,
+                     py::arg("unsettled") = j.unsettled);
           if (o.axis2) d["value2"] = j.value2;
           jumps.append(d);
         }
         for (const Hysteresis& h : r.hysteresis) {
-          py::dict d(py::arg("from_value") = h.from_value, py::arg("to_value") = h.to_value);
+          py::dict d(py::arg("from_value") = h.from_value, py::arg("to_value") = h.to_value,
+                     py::arg("unsettled") = h.unsettled);
           if (o.axis2) d["value2"] = h.value2;
           hysteresis.append(d);
         }
+        py::list unsettled_ranges;
+        for (const UnsettledRange& u : r.unsettled_ranges) {
+          py::dict d(py::arg("direction") = to_string(u.direction),
+                     py::arg("from_value") = u.from_value, py::arg("to_value") = u.to_value,
+                     py::arg("points") = u.points);
+          if (o.axis2) d["value2"] = u.value2;
+          unsettled_ranges.append(d);
+        }
         out["jumps"] = jumps;
         out["hysteresis"] = hysteresis;
+        out["unsettled_ranges"] = unsettled_ranges;
         out["cancelled"] = r.cancelled;
         out["interrupted"] = hook.interrupted();
         return out;

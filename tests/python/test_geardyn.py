@@ -468,6 +468,8 @@ def test_a_sweeps_strobe_jumps_and_hysteresis_are_the_command_lines(tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert s["jumps"] and s["hysteresis"]  # this sweep has both
     assert s["jumps"] == summary["jumps"] and s["hysteresis"] == summary["hysteresis"]
+    assert s["unsettled_ranges"] == summary["unsettled_ranges"]
+    assert all(not j["unsettled"] for j in s["jumps"]) == (not s["unsettled_ranges"])
     # The files name the period in tau in this form; Python keeps the SI names, the units in
     # the Dataset's attributes.
     assert s["period_s"] == summary["period_tau"] and s["form"] == "nondimensional"
@@ -486,6 +488,7 @@ def test_a_sweeps_strobe_jumps_and_hysteresis_are_the_command_lines(tmp_path):
     assert up.shape == (21, 10)
     assert np.array_equal(up.values.ravel(), st["delta_bar"][: 21 * 10])
     assert json.loads(ds.attrs["hysteresis"]) == s["hysteresis"]
+    assert json.loads(ds.attrs["unsettled_ranges"]) == s["unsettled_ranges"]
 
 
 def test_the_coupled_model_from_python_is_the_command_lines(tmp_path):
