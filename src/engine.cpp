@@ -643,15 +643,19 @@ void trig_taylor(double w, double t0, double h, int p, std::vector<double>& c,
 }
 
 // The series over a cell starting at t0 (length h, p + 1 terms) of an affine functional's
-// time-varying parts: its row G(t0 + x h) (empty when constant) and its offset (g0 included).
+// time-varying parts: its row G(t0 + x h) in G's first p + 1 entries, and its offset (g0
+// included). Returns how many row terms it wrote: p + 1, or 0 when the row is constant (G then
+// as it was). G only grows, so that its rows keep their storage from one call to the next.
 template <class R>
-void functional_terms(const LinearSwitchedSystem& sys, const LinearGuard& q, double t0, double h,
-                      int p, std::vector<R>& G, std::vector<double>& off) {
+int functional_terms(const LinearSwitchedSystem& sys, const LinearGuard& q, double t0, double h,
+                     int p, std::vector<R>& G, std::vector<double>& off) {
   const auto& w = sys.frequencies_rad_s;
-  std::vector<double> tc, ts;
-  G.clear();
+  thread_local std::vector<double> tc, ts;  // trig_taylor's, kept between calls
+  int terms = 0;
   if (q.row.varies()) {
-    G.assign(p + 1, R::Zero(sys.dimension));
+    terms = p + 1;
+    if (G.size() < static_cast<std::size_t>(terms)) G.resize(static_cast<std::size_t>(terms));
+    for (int m = 0; m < terms; ++m) G[m].setZero(sys.dimension);
     G[0] = q.row.constant;
     for (std::size_t f = 0; f < w.size(); ++f) {
       if (!q.row.cos[f].any() && !q.row.sin[f].any()) continue;
@@ -666,6 +670,7 @@ void functional_terms(const LinearSwitchedSystem& sys, const LinearGuard& q, dou
     trig_taylor(w[f], t0, h, p, tc, ts);
     for (int m = 0; m <= p; ++m) off[m] += q.offset.cos[f] * tc[m] + q.offset.sin[f] * ts[m];
   }
+  return terms;
 }
 
 // The series of the functionals in `list` over cell k of `rc` (Cell::fn or
@@ -686,19 +691,27 @@ void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<Linear
   // A row's time-varying part (G[m], m >= 1) lies in the columns where some of its cos or sin
   // terms is nonzero (a mesh force's: the mesh's coordinates): those terms are formed on the
   // cell's series at those columns alone, gathered once per set of columns.
-  std::vector<Eigen::Index> cols, gathered_cols;
-  std::vector<Matrix> phi_cols;
-  std::vector<std::vector<Vector>> resp_cols;  // r0, then rc and rs per forced frequency
+  struct Gathered {
+    std::vector<Eigen::Index> cols;
+    std::vector<Matrix> phi;                // each term's rows at the columns
+    std::vector<std::vector<Vector>> resp;  // r0, then rc and rs per forced frequency
+  };
+  std::vector<Gathered> gathered;  // one per set of columns met (a mesh's), kept for the cell
+  std::vector<Eigen::Index> cols;
+  std::vector<RowVector> g_cols;  // G[m] at those columns, m >= 1
   out.clear();
   for (const LinearGuard& q : list) {
-    functional_terms(sys, q, t0, h, p, G, off);
-    if (G.empty()) G.assign(1, q.row.constant);  // constant: one term
+    int g_terms = functional_terms(sys, q, t0, h, p, G, off);
+    if (g_terms == 0) {  // constant: one term
+      if (G.empty()) G.resize(1);
+      G[0] = q.row.constant;
+      g_terms = 1;
+    }
     typename Cell<D>::Functional f;
     f.phi.assign(p + 1, R::Zero(n));
     f.r0 = off;
     f.rc.assign(nf, std::vector<double>(p + 1, 0.0));
     f.rs.assign(nf, std::vector<double>(p + 1, 0.0));
-    const int g_terms = static_cast<int>(G.size());
     cols.clear();
     for (Eigen::Index c = 0; c < n && g_terms > 1; ++c)
       for (std::size_t w = 0; w < q.row.cos.size(); ++w)
@@ -708,17 +721,40 @@ void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<Linear
         }
     const bool blocked =
         D == Eigen::Dynamic && g_terms > 1 && 2 * static_cast<Eigen::Index>(cols.size()) <= n;
-    if (blocked && cols != gathered_cols) {
-      gathered_cols = cols;
-      phi_cols.clear();
-      resp_cols.assign(1 + 2 * nf, {});
-      for (int k = 0; k <= p; ++k) {
-        phi_cols.push_back(Matrix(cell.phi[k])(cols, Eigen::all));
-        resp_cols[0].push_back(Vector(cell.r0[k])(cols));
-        for (std::size_t j = 0; j < nf; ++j) {
-          resp_cols[1 + 2 * j].push_back(Vector(cell.rc[j][k])(cols));
-          resp_cols[2 + 2 * j].push_back(Vector(cell.rs[j][k])(cols));
+    const Gathered* at = nullptr;
+    if (blocked) {
+      auto it = std::find_if(gathered.begin(), gathered.end(),
+                             [&](const Gathered& g) { return g.cols == cols; });
+      if (it == gathered.end()) {
+        Gathered g;
+        g.cols = cols;
+        g.resp.assign(1 + 2 * nf, {});
+        const auto rows_at = [&](const auto& v) {
+          Vector out(static_cast<Eigen::Index>(cols.size()));
+          for (std::size_t c = 0; c < cols.size(); ++c)
+            out[static_cast<Eigen::Index>(c)] = v[cols[c]];
+          return out;
+        };
+        for (int k = 0; k <= p; ++k) {
+          Matrix phi(static_cast<Eigen::Index>(cols.size()), n);
+          for (std::size_t c = 0; c < cols.size(); ++c)
+            phi.row(static_cast<Eigen::Index>(c)) = cell.phi[k].row(cols[c]);
+          g.phi.push_back(std::move(phi));
+          g.resp[0].push_back(rows_at(cell.r0[k]));
+          for (std::size_t j = 0; j < nf; ++j) {
+            g.resp[1 + 2 * j].push_back(rows_at(cell.rc[j][k]));
+            g.resp[2 + 2 * j].push_back(rows_at(cell.rs[j][k]));
+          }
         }
+        gathered.push_back(std::move(g));
+        it = std::prev(gathered.end());
+      }
+      at = &*it;
+      g_cols.resize(static_cast<std::size_t>(g_terms));
+      for (int m = 1; m < g_terms; ++m) {
+        g_cols[m].resize(static_cast<Eigen::Index>(cols.size()));
+        for (std::size_t c = 0; c < cols.size(); ++c)
+          g_cols[m][static_cast<Eigen::Index>(c)] = G[m][cols[c]];
       }
     }
     for (int k = 0; k <= p; ++k) {
@@ -730,13 +766,13 @@ void cache_functionals(const LinearSwitchedSystem& sys, const std::vector<Linear
       }
       // No varying column: the terms m >= 1 are zero.
       for (int m = 1; m <= (cols.empty() ? 0 : std::min(k, g_terms - 1)); ++m) {
-        if (blocked) {
-          const RowVector g = Matrix(G[m])(Eigen::all, cols);
-          f.phi[k] += g * phi_cols[k - m];
-          f.r0[k] += g.dot(resp_cols[0][k - m]);
+        if (at) {
+          const RowVector& g = g_cols[m];
+          f.phi[k] += g * at->phi[k - m];
+          f.r0[k] += g.dot(at->resp[0][k - m]);
           for (std::size_t j = 0; j < nf; ++j) {
-            f.rc[j][k] += g.dot(resp_cols[1 + 2 * j][k - m]);
-            f.rs[j][k] += g.dot(resp_cols[2 + 2 * j][k - m]);
+            f.rc[j][k] += g.dot(at->resp[1 + 2 * j][k - m]);
+            f.rs[j][k] += g.dot(at->resp[2 + 2 * j][k - m]);
           }
           continue;
         }
@@ -2310,8 +2346,7 @@ class Flow final : public CellView {
     std::fill(gc.begin(), gc.end(), 0.0);
     ensure_coefficients();
     const LinearGuard& q = id < guards ? reg.guards[id] : reg.observables[id - guards];
-    functional_terms(sys_, q, cur_.tm, rc.h, p, rows_, offs_);
-    if (rows_.empty()) {
+    if (functional_terms(sys_, q, cur_.tm, rc.h, p, rows_, offs_) == 0) {
       for (int k = 0; k <= p; ++k) gc[k] = q.row.constant.dot(yk_[k]);
     } else {
       for (int k = 0; k <= p; ++k)
