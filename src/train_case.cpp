@@ -93,6 +93,16 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
        "and turns with it, its mass centred (a sun's or a carrier's eccentricity)"},
       {"eccentricity_angle_deg", &B::eccentricity_angle_deg, "deg", closed(-360, 360), false,
        "where that centre lies at t = 0, counterclockwise from x in the train's frame"},
+      {"profile_shift", &B::profile_shift, "", closed(-1.5, 1.5), false,
+       "profile shift coefficient x, for a mesh's stiffness_source = \"energy\""},
+      {"outside_diameter_mm", &B::outside_diameter_mm, "mm", above(0), false,
+       "tip diameter d_a, for a mesh's stiffness_source = \"energy\"; absent: d + 2 m_n (1 + x)"},
+      {"youngs_modulus_gpa", &B::youngs_modulus_gpa, "GPa", above(0), false,
+       "Young's modulus, for a mesh's stiffness_source = \"energy\""},
+      {"poisson_ratio", &B::poisson_ratio, "", open(0, 0.5), false,
+       "Poisson's ratio, for a mesh's stiffness_source = \"energy\""},
+      {"basic_rack_dedendum", &B::basic_rack_dedendum, "", closed(1, 1.6), false,
+       "h_fP / m_n of the basic rack, for a mesh's stiffness_source = \"energy\""},
   };
   return keys;
 }
@@ -113,10 +123,27 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        "external internal"},
       {"backlash_um", &M::backlash_um, "um", above(1e-3), false,
        "b, half the total normal backlash 2b"},
-      {"mean_stiffness_n_per_m", &M::mean_stiffness_n_per_m, "N/m", above(0), true,
-       "mean normal mesh stiffness k_m"},
+      {"stiffness_source",
+       &M::stiffness_source,
+       "",
+       {},
+       false,
+       "where k(t) comes from: \"harmonics\", mean_stiffness_n_per_m and stiffness_harmonics "
+       "as given; \"energy\", the gear pair's energy method on the two gears' teeth, module, "
+       "angles, face widths, profile shifts, tip diameters and material (the narrower face "
+       "width), as mesh.stiffness_source = \"energy\" (docs/stiffness.md)",
+       "harmonics energy"},
+      {"mean_stiffness_n_per_m", &M::mean_stiffness_n_per_m, "N/m", above(0), false,
+       "mean normal mesh stiffness k_m; required with stiffness_source = \"harmonics\", with "
+       "\"energy\" the computed curve scaled to it (absent: its own mean)"},
       {"stiffness_harmonics", &M::stiffness_harmonics, "", closed_open(0, 1), false,
-       "[[ratio k_i/k_m, phase_deg], ...] at i times the mesh frequency"},
+       "[[ratio k_i/k_m, phase_deg], ...] at i times the mesh frequency, with stiffness_source = "
+       "\"harmonics\""},
+      {"harmonics_kept", &M::harmonics_kept, "", closed(0, 16), false,
+       "with stiffness_source = \"energy\": the harmonics kept of the computed curve"},
+      {"center_distance_mm", &M::center_distance_mm, "mm", above(0), false,
+       "with stiffness_source = \"energy\": the centre distance a; absent: the one the two "
+       "profile shifts imply"},
       {"transmission_error_um", &M::transmission_error_um, "um", at_least(0), false,
        "[[amplitude, phase_deg], ...] of the static transmission error at i times the mesh "
        "frequency"},
@@ -835,14 +862,41 @@ train::Train train_of(const Case& c) {
       const double ra = cb * x.base_radius_driving_m, rb = cb * x.base_radius_driven_m;
       const double m_n = 1.0 / (ra * ra / gears[m.driving].inertia_kg_m2 +
                                 rb * rb / gears[m.driven].inertia_kg_m2);
-      x.damping_n_s_per_m = 2 * m.damping_ratio * std::sqrt(m_n * m.mean_stiffness_n_per_m);
+      if (m.stiffness_source == "energy") {
+        if (x.internal)
+          rethrow_with_origin(t, fmt::format("mesh '{}': stiffness_source = \"energy\" takes an "
+                                             "external mesh; give an internal one's k_m and "
+                                             "harmonics (stiffness_source = \"harmonics\")",
+                                             m.name));
+        PairMeshStiffness k;
+        try {
+          k = pair_mesh_stiffness(m, *a->second, *b->second);
+        } catch (const InputError& e) {
+          rethrow_with_origin(
+              t, fmt::format("mesh '{}': stiffness_source = \"energy\": {}", m.name, e.what()));
+        }
+        x.mean_stiffness_n_per_m = k.mean_n_per_m;
+        for (const StiffnessHarmonic& h : k.harmonics)
+          x.stiffness.push_back({h.ratio, h.phase_deg * kDegToRad});
+      }
+      const double k_m = m.stiffness_source == "energy" ? x.mean_stiffness_n_per_m
+                                                        : m.mean_stiffness_n_per_m.value_or(0.0);
+      x.damping_n_s_per_m = 2 * m.damping_ratio * std::sqrt(m_n * k_m);
     }
     x.damping_always = m.damping == "always";
     x.clip_tension = m.tension == "clip";
     x.backlash_m = m.backlash_um * kUmToM;
-    x.mean_stiffness_n_per_m = m.mean_stiffness_n_per_m;
-    for (const StiffnessHarmonic& h : m.stiffness_harmonics)
-      x.stiffness.push_back({h.ratio, h.phase_deg * kDegToRad});
+    if (m.stiffness_source != "energy") {
+      if (!m.mean_stiffness_n_per_m)
+        rethrow_with_origin(
+            t, fmt::format("mesh '{}': train.mesh[{}] has no mean_stiffness_n_per_m: it must be "
+                           "given with stiffness_source = \"harmonics\" (the default; "
+                           "stiffness_source = \"energy\" computes it from the gears)",
+                           m.name, &m - t.meshes.data()));
+      x.mean_stiffness_n_per_m = *m.mean_stiffness_n_per_m;
+      for (const StiffnessHarmonic& h : m.stiffness_harmonics)
+        x.stiffness.push_back({h.ratio, h.phase_deg * kDegToRad});
+    }
     for (const ErrorHarmonic& h : m.transmission_error_um)
       x.transmission_error.push_back({h.amplitude * kUmToM, h.phase_deg * kDegToRad});
     out.meshes.push_back(std::move(x));
@@ -1244,6 +1298,47 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
           fmt::format("train.body[{}].eccentricity_angle_deg = {} ({}): not used: body '{}' has no "
                       "eccentricity_um to direct",
                       i, b.eccentricity_angle_deg, where, b.name));
+    // Its flanks and material are read by a mesh that computes its stiffness from its gears.
+    const bool flanks_read = std::any_of(t.meshes.begin(), t.meshes.end(), [&](const auto& m) {
+      return m.stiffness_source == "energy" && (m.driving == b.name || m.driven == b.name);
+    });
+    const TrainBodyData plain;
+    for (const auto& [leaf, value, unset] :
+         {std::tuple{"profile_shift", b.profile_shift, b.profile_shift == plain.profile_shift},
+          std::tuple{"outside_diameter_mm", b.outside_diameter_mm.value_or(0.0),
+                     !b.outside_diameter_mm},
+          std::tuple{"youngs_modulus_gpa", b.youngs_modulus_gpa,
+                     b.youngs_modulus_gpa == plain.youngs_modulus_gpa},
+          std::tuple{"poisson_ratio", b.poisson_ratio, b.poisson_ratio == plain.poisson_ratio},
+          std::tuple{"basic_rack_dedendum", b.basic_rack_dedendum,
+                     b.basic_rack_dedendum == plain.basic_rack_dedendum}})
+      if (!unset && !flanks_read)
+        out.push_back(fmt::format(
+            "train.body[{}].{} = {} ({}): not used: no mesh of body '{}' takes its stiffness from "
+            "the gears (stiffness_source = \"energy\")",
+            i, leaf, value, where, b.name));
+  }
+  // A mesh's stiffness keys that its source does not read.
+  for (std::size_t i = 0; i < t.meshes.size(); ++i) {
+    const TrainMeshData& m = t.meshes[i];
+    const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
+    const std::string where = where_given == t.origins.end() ? "" : where_given->second;
+    const TrainMeshData plain;
+    if (m.stiffness_source == "energy" && !m.stiffness_harmonics.empty())
+      out.push_back(fmt::format(
+          "train.mesh[{}].stiffness_harmonics ({}): not used: mesh '{}' computes its harmonics "
+          "from its gears (stiffness_source = \"energy\")",
+          i, where, m.name));
+    if (m.stiffness_source != "energy" && m.harmonics_kept != plain.harmonics_kept)
+      out.push_back(fmt::format(
+          "train.mesh[{}].harmonics_kept = {} ({}): not used: mesh '{}' takes its harmonics as "
+          "given (stiffness_source = \"{}\")",
+          i, m.harmonics_kept, where, m.name, m.stiffness_source));
+    if (m.stiffness_source != "energy" && m.center_distance_mm)
+      out.push_back(fmt::format(
+          "train.mesh[{}].center_distance_mm = {} ({}): not used: mesh '{}' takes its stiffness "
+          "as given (stiffness_source = \"{}\")",
+          i, *m.center_distance_mm, where, m.name, m.stiffness_source));
   }
   for (std::size_t i = 0; i < t.bearings.size(); ++i) {
     const TrainBearingData& b = t.bearings[i];

@@ -1,7 +1,9 @@
 // The gear pair's dimensional forms as trains of elements (train_form_of, train_case.hpp).
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -10,6 +12,7 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
 
 namespace geardyn {
@@ -135,6 +138,93 @@ Case nondimensional_train(const Case& c) {
 }
 
 }  // namespace
+
+PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
+                                      const TrainBodyData& driven) {
+  const std::array<const TrainBodyData*, 2> body = {&driving, &driven};
+  // The pair's [gear] and [mesh] keys, from the bodies' and the mesh's; its errors name them
+  // as the train has them.
+  Case c;
+  GearData& g = c.gear;
+  g.normal_module_mm = driving.normal_module_mm;
+  g.normal_pressure_angle_deg = driving.normal_pressure_angle_deg;
+  g.helix_angle_deg = driving.helix_angle_deg;
+  g.face_width_mm = std::min(driving.face_width_mm, driven.face_width_mm);
+  const double beta = g.helix_angle_deg / kRadToDeg;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const TrainBodyData& b = *body[i];
+    g.teeth[i] = b.teeth;
+    g.profile_shift[i] = b.profile_shift;
+    g.outside_diameter_mm[i] =
+        b.outside_diameter_mm.value_or(b.teeth * b.normal_module_mm / std::cos(beta) +
+                                       2 * b.normal_module_mm * (1 + b.profile_shift));
+    g.bore_diameter_mm[i] = b.bore_diameter_mm;
+    g.youngs_modulus_gpa[i] = b.youngs_modulus_gpa;
+    g.poisson_ratio[i] = b.poisson_ratio;
+    g.basic_rack_dedendum[i] = b.basic_rack_dedendum;
+    g.rim_thickness_mm[i] = 0;
+    g.web_thickness_mm[i] = 0;
+  }
+  g.inertia_kg_m2.reset();
+  const auto named = [&](std::string what) {
+    const std::array<std::pair<const char*, std::string>, 8> keys = {{
+        {"gear.center_distance_mm", "center_distance_mm"},
+        {"gear.outside_diameter_mm",
+         fmt::format("the outside_diameter_mm of '{}' and '{}'", driving.name, driven.name)},
+        {"gear.profile_shift",
+         fmt::format("the profile_shift of '{}' and '{}'", driving.name, driven.name)},
+        {"gear.face_width_mm",
+         fmt::format("the face_width_mm of '{}' and '{}'", driving.name, driven.name)},
+        {"gear.bore_diameter_mm",
+         fmt::format("the bore_diameter_mm of '{}' and '{}'", driving.name, driven.name)},
+        {"gear.basic_rack_dedendum",
+         fmt::format("the basic_rack_dedendum of '{}' and '{}'", driving.name, driven.name)},
+        {"mesh.harmonics_kept", "harmonics_kept"},
+        {"gear.", "the gears' "},
+    }};
+    for (const auto& [from, to] : keys)
+      for (std::size_t at = what.find(from); at != std::string::npos; at = what.find(from, at))
+        what.replace(at, std::strlen(from), to);
+    return what;
+  };
+  if (!(g.face_width_mm > 0))
+    throw InputError(named("gear.face_width_mm = 0: the energy method needs the face width"));
+  if (m.center_distance_mm) {
+    g.center_distance_mm = *m.center_distance_mm;
+  } else {
+    // Zero backlash at the shifts: inv(alpha_wt) = inv(alpha_t) + 2 tan(alpha_n) (x1 + x2) /
+    // (z1 + z2), a = a_0 cos(alpha_t) / cos(alpha_wt) (ISO 21771).
+    const double an = g.normal_pressure_angle_deg / kRadToDeg;
+    const double at = std::atan(std::tan(an) / std::cos(beta));
+    const double z = g.teeth[0] + g.teeth[1];
+    const double inv_wt =
+        involute(at) + 2 * std::tan(an) * (g.profile_shift[0] + g.profile_shift[1]) / z;
+    if (!(inv_wt > 0))
+      throw InputError(named(fmt::format(
+          "gear.profile_shift = [{}, {}]: too negative for {} and {} teeth (no working pressure "
+          "angle); give center_distance_mm",
+          g.profile_shift[0], g.profile_shift[1], g.teeth[0], g.teeth[1])));
+    g.center_distance_mm = 0.5 * z * g.normal_module_mm / std::cos(beta) * std::cos(at) /
+                           std::cos(inverse_involute(inv_wt));
+  }
+  c.mesh.stiffness_source = StiffnessSource::kEnergy;
+  c.mesh.mean_stiffness_n_per_m =
+      m.mean_stiffness_n_per_m.value_or(0.0);  // 0: the curve's own mean
+  c.mesh.harmonics_kept = m.harmonics_kept;
+  c.mesh.stiffness_harmonics.clear();
+  c.speed.shaft_frequency_hz = 1;  // the series' frequencies only; read as mesh orders below
+  HarmonicSeries k;
+  try {
+    k = mesh_stiffness_series(c, case_geometry(c));
+  } catch (const InputError& e) {
+    throw InputError(named(e.what()));
+  }
+  PairMeshStiffness out;
+  out.mean_n_per_m = k.offset;
+  out.harmonics =
+      harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi * g.teeth[0], 1 / k.offset, "stiffness_source");
+  return out;
+}
 
 Case train_form_of(const Case& c, const MeshStiffness* stiffness) {
   if (c.model.form == ModelForm::kNondimensional) return nondimensional_train(c);

@@ -651,6 +651,109 @@ TEST(TrainCase, TheOneDegreeFormsTrainsHaveTheContactModeAndTheRigidRotation) {
   EXPECT_NEAR(build_model(nd).parameters().natural_angular_frequency_rad_s(), 1.0, 1e-15);
 }
 
+TEST(TrainCase, AMeshTakesItsStiffnessFromItsGearsByTheEnergyMethod) {
+  // The shipped paper's pair (energy method, helical, shifted, its centre distance given, its
+  // curve scaled to k_m) written as a train whose mesh has stiffness_source = "energy": the
+  // mesh's k_m and harmonics are the one-degree model's curve to 1e-12, so the train runs as
+  // the pair's train form; without k_m, the curve's own mean, as the pair's with k_m = 0.
+  // Without center_distance_mm the mesh takes the one its shifts imply (the geometry's
+  // shift_center_distance_m), and without outside_diameter_mm d + 2 m_n (1 + x).
+  Case pair = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "park2010.toml");
+  const GearData& g = pair.gear;
+  // The train's text: each gear's lines (and `extra`), then the mesh's lines.
+  const auto text = [&](const std::array<std::string, 2>& extra, const std::string& mesh) {
+    std::string out = "[model]\nform = \"train\"\n[train]\nreference_speed_hz = 1000\n";
+    for (std::size_t i = 0; i < 2; ++i)
+      out += fmt::format(
+          "[[train.body]]\nname = \"{}\"\nteeth = {}\nnormal_module_mm = {}\n"
+          "normal_pressure_angle_deg = {}\nhelix_angle_deg = {}\nface_width_mm = {}\n{}",
+          i == 0 ? "pinion" : "wheel", g.teeth[i], g.normal_module_mm, g.normal_pressure_angle_deg,
+          g.helix_angle_deg, g.face_width_mm, extra[i]);
+    return out +
+           "[[train.mesh]]\ndriving = \"pinion\"\ndriven = \"wheel\"\n"
+           "stiffness_source = \"energy\"\n" +
+           mesh;
+  };
+  const std::string shipped_gear = fmt::format("profile_shift = {}\noutside_diameter_mm = {}\n",
+                                               g.profile_shift[0], g.outside_diameter_mm[0]);
+  const std::array<std::string, 2> shipped{shipped_gear, shipped_gear};
+  const auto curve = [](const train::Assembled& a) {
+    const train::Mesh& m = a.train().meshes.at(0);
+    std::vector<double> v{m.mean_stiffness_n_per_m};
+    for (const train::MeshHarmonic& h : m.stiffness) {
+      v.push_back(h.value * std::cos(h.phase_rad));
+      v.push_back(h.value * std::sin(h.phase_rad));
+    }
+    return v;
+  };
+  const auto expect_same = [](const std::vector<double>& x, const std::vector<double>& y) {
+    ASSERT_EQ(x.size(), y.size());
+    EXPECT_NEAR(x[0] / y[0], 1.0, 1e-12);
+    for (std::size_t i = 1; i < x.size(); ++i) EXPECT_NEAR(x[i], y[i], 1e-12) << i;
+  };
+  const std::vector<double> pair_curve = curve(assembled_train(pair));
+  ASSERT_EQ(pair_curve.size(), 1 + 2 * 2U);  // k_m and two harmonics
+  EXPECT_GT(pair_curve[1] * pair_curve[1] + pair_curve[2] * pair_curve[2], 1e-4);
+  const std::string at_150 = fmt::format("center_distance_mm = {}\n", g.center_distance_mm);
+  expect_same(curve(assembled_train(
+                  parse_case(text(shipped, at_150 + fmt::format("mean_stiffness_n_per_m = {}\n",
+                                                                pair.mesh.mean_stiffness_n_per_m)),
+                             "t.toml"))),
+              pair_curve);
+  Case own = pair;
+  own.mesh.mean_stiffness_n_per_m = 0;
+  const std::vector<double> own_curve = curve(assembled_train(own));
+  EXPECT_GT(std::abs(own_curve[0] / pair_curve[0] - 1), 0.1);  // the shipped case scales it
+  expect_same(curve(assembled_train(parse_case(text(shipped, at_150), "t.toml"))), own_curve);
+  // Other shifts, the tips from them and the centre distance they imply.
+  Case shifted = own;
+  shifted.gear.profile_shift = {0.5, 0.1};
+  const double beta = g.helix_angle_deg * kPi / 180;
+  for (std::size_t i = 0; i < 2; ++i)
+    shifted.gear.outside_diameter_mm[i] =
+        g.teeth[i] * g.normal_module_mm / std::cos(beta) +
+        2 * g.normal_module_mm * (1 + shifted.gear.profile_shift[i]);
+  shifted.gear.center_distance_mm = compute_geometry(shifted.gear).shift_center_distance_m * 1e3;
+  EXPECT_GT(std::abs(shifted.gear.center_distance_mm - 150), 0.4);
+  expect_same(curve(assembled_train(parse_case(
+                  text({"profile_shift = 0.5\n", "profile_shift = 0.1\n"}, ""), "t.toml"))),
+              curve(assembled_train(shifted)));
+  // What it cannot take is said, naming the mesh, where it was written and the train's keys.
+  const std::string internal = error_of(text({"", "inertia_kg_m2 = 1\n"}, "kind = \"internal\"\n"));
+  EXPECT_NE(internal.find("t.toml:"), std::string::npos) << internal;
+  EXPECT_NE(internal.find("mesh 'mesh1': stiffness_source = \"energy\" takes an external mesh"),
+            std::string::npos)
+      << internal;
+  const std::string near = error_of(text(shipped, "center_distance_mm = 100\n"));
+  EXPECT_NE(near.find("mesh 'mesh1': stiffness_source = \"energy\": center_distance_mm = 100: "
+                      "must exceed the sum of the base radii"),
+            std::string::npos)
+      << near;
+  // Flanks no energy mesh reads, and a mesh's keys its source does not read, are reported.
+  const std::vector<std::string> unused =
+      unused_settings(parse_case(std::string(kBodyA) + "profile_shift = 0.3\n" + kBodyB + kMeshAB +
+                                     "harmonics_kept = 4\ncenter_distance_mm = 61\n",
+                                 "t.toml"));
+  ASSERT_EQ(unused.size(), 3U) << fmt::format("{}", fmt::join(unused, "\n"));
+  EXPECT_EQ(unused[0].find("train.body[0].profile_shift = 0.3 (t.toml:5:1): not used: no mesh of "
+                           "body 'a' takes its stiffness from the gears"),
+            0U)
+      << unused[0];
+  EXPECT_EQ(unused[1].find("train.mesh[0].harmonics_kept = 4"), 0U) << unused[1];
+  EXPECT_EQ(unused[2].find("train.mesh[0].center_distance_mm = 61"), 0U) << unused[2];
+  EXPECT_TRUE(unused_settings(parse_case(text(shipped, at_150), "t.toml")).empty());
+  const std::vector<std::string> harmonics =
+      unused_settings(parse_case(text(shipped, "stiffness_harmonics = [[0.1, 0]]\n"), "t.toml"));
+  ASSERT_EQ(harmonics.size(), 1U);
+  EXPECT_NE(harmonics[0].find("train.mesh[0].stiffness_harmonics"), std::string::npos);
+  const std::string given =
+      error_of(std::string(kBodyA) + kBodyB + "[[train.mesh]]\ndriving = \"a\"\ndriven = \"b\"\n");
+  EXPECT_NE(given.find("mesh 'mesh1': train.mesh[0] has no mean_stiffness_n_per_m: it must be "
+                       "given with stiffness_source = \"harmonics\""),
+            std::string::npos)
+      << given;
+}
+
 // kBodyB and a mesh "m" in which a drives b, with one more line of the mesh's: line 15 of a
 // file that kBodyA and one line of body a's head.
 std::string body_b_and_mesh(const std::string& mesh_line) {

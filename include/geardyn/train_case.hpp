@@ -61,6 +61,13 @@ struct TrainBodyData {
   double density_kg_m3 = 7850;
   double eccentricity_um = 0;  // runout of its teeth and pins (train::Body)
   double eccentricity_angle_deg = 0;
+  // Its flanks and material, read by a mesh whose stiffness_source is "energy" (the gear
+  // pair's [gear] keys of this gear): the tip diameter (absent: d + 2 m_n (1 + x)).
+  double profile_shift = 0;
+  std::optional<double> outside_diameter_mm;
+  double youngs_modulus_gpa = 206;
+  double poisson_ratio = 0.3;
+  double basic_rack_dedendum = 1.25;
 };
 
 // [[train.mesh]]: a mesh between two gears, the driving one (whose drive flank pushes) first;
@@ -70,8 +77,13 @@ struct TrainMeshData {
   std::string name, driving, driven;
   std::string kind = "external";  // or "internal"
   double backlash_um = 100;       // b, half the total normal backlash
-  double mean_stiffness_n_per_m = 0;
+  // "harmonics": k_m and its harmonics as given; "energy": the gear pair's energy method on
+  // the two gears' data (pair_mesh_stiffness), k_m then scaling the curve when given.
+  std::string stiffness_source = "harmonics";
+  std::optional<double> mean_stiffness_n_per_m;
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // of the mesh frequency
+  int harmonics_kept = 2;                              // with "energy": harmonics kept of the curve
+  std::optional<double> center_distance_mm;            // with "energy" (absent: the shifts' own)
   std::vector<ErrorHarmonic> transmission_error_um;    // of the mesh frequency
   double damping_ratio = 0.02;                         // of the mesh's own contact oscillator
   std::string damping = "contact";                     // where it acts: "contact", or "always"
@@ -176,6 +188,20 @@ TrainCase expand_planets(const TrainCase& t);
 // where it was written (file:line), for an arrangement the assembler refuses (an unknown body,
 // a body named twice, no mesh, a train that cannot turn) and for a case of another form.
 train::Train train_of(const Case& c);
+// The mean stiffness (N/m) and the harmonics of the mesh frequency (ratios to it, phases in
+// degrees) of a mesh whose stiffness_source is "energy": the external gear pair of its two gears
+// (driving first) by the gear pair's energy method (stiffness.hpp), as the one-degree model
+// takes its own curve, its [gear] keys from the bodies' (the face width the narrower of the
+// two), its centre distance the mesh's or, absent, the one the profile shifts imply, k_m
+// scaling the curve when the mesh gives one. Throws InputError naming the mesh's or a body's
+// key.
+struct PairMeshStiffness {
+  double mean_n_per_m = 0;
+  std::vector<StiffnessHarmonic> harmonics;
+};
+PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
+                                      const TrainBodyData& driven);
+
 // The same, assembled; a case of the gear pair's forms as its train form (train_form_of, with
 // `stiffness` as there).
 train::Assembled assembled_train(const Case& c, const MeshStiffness* stiffness = nullptr);
