@@ -148,33 +148,33 @@ class SampleRows {
     return Row(values_.data() + i * width_, static_cast<Eigen::Index>(width_));
   }
   // The rows in order (for a range-for), each a Row.
-  class const_iterator {
+  class ConstIterator {
    public:
     using iterator_category = std::forward_iterator_tag;
     using value_type = Row;
     using difference_type = std::ptrdiff_t;
     using pointer = void;
     using reference = Row;
-    const_iterator() = default;
-    const_iterator(const SampleRows* rows, std::size_t i) : rows_(rows), i_(i) {}
+    ConstIterator() = default;
+    ConstIterator(const SampleRows* rows, std::size_t i) : rows_(rows), i_(i) {}
     Row operator*() const { return (*rows_)[i_]; }
-    const_iterator& operator++() {
+    ConstIterator& operator++() {
       ++i_;
       return *this;
     }
-    const_iterator operator++(int) {
-      const_iterator before = *this;
+    ConstIterator operator++(int) {
+      ConstIterator before = *this;
       ++i_;
       return before;
     }
-    bool operator==(const const_iterator& o) const { return i_ == o.i_; }
+    bool operator==(const ConstIterator& o) const { return i_ == o.i_; }
 
    private:
     const SampleRows* rows_ = nullptr;
     std::size_t i_ = 0;
   };
-  const_iterator begin() const { return {this, 0}; }
-  const_iterator end() const { return {this, rows_}; }
+  ConstIterator begin() const { return {this, 0}; }
+  ConstIterator end() const { return {this, rows_}; }
   // Room for `rows` rows of `width` values (a run knows its output samples beforehand).
   void reserve(std::size_t rows, std::size_t width) { values_.reserve(rows * width); }
   // Appends a row of `width` values (every row the first one's width) and returns where they
