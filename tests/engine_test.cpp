@@ -463,9 +463,9 @@ void expect_jacobian_matches_differences(const ExactEngine& e, const Vector& y0,
   }
 }
 
-TEST(ExactEngine, JacobianMatchesFiniteDifferencesThroughImpacts) {
-  // The non-dimensional gear (Kahraman-Singh) rattling between both flanks, with a stiffness
-  // harmonic: several impacts, each with its saltation.
+// The non-dimensional gear (Kahraman-Singh) rattling between both flanks, with a stiffness
+// harmonic: several impacts from (0.2, 0.1) in its separated region.
+LinearSwitchedSystem rattling_oscillator() {
   geardyn::Case c;
   c.model.form = geardyn::ModelForm::kNondimensional;
   c.model.zeta = 0.02;
@@ -473,8 +473,12 @@ TEST(ExactEngine, JacobianMatchesFiniteDifferencesThroughImpacts) {
   c.model.force_alternating = 0.6;
   c.model.omega = 1.3;
   c.model.stiffness_harmonics = {{0.2, 10}};
-  const geardyn::GearPairModel model = geardyn::build_model(c);
-  const ExactEngine e(model.linear_system());
+  return geardyn::build_model(c).linear_system();
+}
+
+TEST(ExactEngine, JacobianMatchesFiniteDifferencesThroughImpacts) {
+  // The rattling oscillator: several impacts, each with its saltation.
+  const ExactEngine e(rattling_oscillator());
   Vector y0(2), step(2);
   y0 << 0.2, 0.1;
   step << 1e-6, 1e-6;
@@ -585,13 +589,6 @@ TEST(ExactEngine, FixedSizeFlowsStepAsTheGeneralOne) {
   // and Jacobian, against the same system with a still fifth or third state, which the engine
   // steps on its general path. They differ by rounding only: the same cells, another order of
   // the sums.
-  geardyn::Case c;
-  c.model.form = geardyn::ModelForm::kNondimensional;
-  c.model.zeta = 0.02;
-  c.model.force_mean = 0.05;
-  c.model.force_alternating = 0.6;
-  c.model.omega = 1.3;
-  c.model.stiffness_harmonics = {{0.2, 10}};
   struct Trial {
     LinearSwitchedSystem sys;
     Vector y0;
@@ -602,8 +599,7 @@ TEST(ExactEngine, FixedSizeFlowsStepAsTheGeneralOne) {
   y2 << 0.2, 0.1;
   y4 << 0.0, 0.0, 0.9, -0.4;
   const std::vector<Trial> trials{
-      {geardyn::build_model(c).linear_system(), y2,
-       geardyn::kSeparated - geardyn::GearPairModel::kFirstRegion, 60.0},
+      {rattling_oscillator(), y2, geardyn::kSeparated - geardyn::GearPairModel::kFirstRegion, 60.0},
       {two_masses(0.3), y4, 0, 40.0}};
   for (const Trial& trial : trials) {
     const int n = trial.sys.dimension;
