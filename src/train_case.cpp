@@ -1334,6 +1334,16 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
           "train.mesh[{}].harmonics_kept = {} ({}): not used: mesh '{}' takes its harmonics as "
           "given (stiffness_source = \"{}\")",
           i, m.harmonics_kept, where, m.name, m.stiffness_source));
+    // What the gear pair of an energy mesh's gears says of their data.
+    if (m.stiffness_source == "energy") {
+      const auto a = std::find_if(t.bodies.begin(), t.bodies.end(),
+                                  [&](const TrainBodyData& b) { return b.name == m.driving; });
+      const auto b = std::find_if(t.bodies.begin(), t.bodies.end(),
+                                  [&](const TrainBodyData& x) { return x.name == m.driven; });
+      if (a != t.bodies.end() && b != t.bodies.end() && a->teeth > 0 && b->teeth > 0)
+        for (const std::string& w : pair_mesh_warnings(m, *a, *b))
+          out.push_back(fmt::format("train.mesh[{}] ('{}', {}): {}", i, m.name, where, w));
+    }
     if (m.stiffness_source != "energy" && m.center_distance_mm)
       out.push_back(fmt::format(
           "train.mesh[{}].center_distance_mm = {} ({}): not used: mesh '{}' takes its stiffness "

@@ -1,4 +1,5 @@
-// The gear pair's dimensional forms as trains of elements (train_form_of, train_case.hpp).
+// The gear pair's dimensional forms as trains of elements (train_form_of, train_case.hpp), and
+// the gear pair of a train mesh's two gears (pair_mesh_stiffness).
 #include <fmt/format.h>
 
 #include <array>
@@ -139,11 +140,46 @@ Case nondimensional_train(const Case& c) {
 
 }  // namespace
 
-PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
-                                      const TrainBodyData& driven) {
+namespace {
+
+// A train mesh's message of its gear pair with the pair's keys as the train has them.
+std::string train_keys_in(std::string what, const TrainBodyData& driving,
+                          const TrainBodyData& driven) {
+  const std::string both = fmt::format("of '{}' and '{}'", driving.name, driven.name);
+  // A gear's own entry first: "gear.profile_shift[1]" is the driven gear's profile_shift.
+  for (const char* leaf : {"outside_diameter_mm", "profile_shift", "bore_diameter_mm",
+                           "basic_rack_dedendum", "youngs_modulus_gpa", "poisson_ratio"})
+    for (int i = 0; i < 2; ++i) {
+      const std::string from = fmt::format("gear.{}[{}]", leaf, i);
+      const std::string to =
+          fmt::format("the {} of '{}'", leaf, i == 0 ? driving.name : driven.name);
+      for (std::size_t at = what.find(from); at != std::string::npos;
+           at = what.find(from, at + to.size()))
+        what.replace(at, from.size(), to);
+    }
+  const std::array<std::pair<const char*, std::string>, 9> keys = {{
+      {"gear.center_distance_mm", "center_distance_mm"},
+      {"mesh.backlash_um", "backlash_um"},
+      {"gear.outside_diameter_mm", "the outside_diameter_mm " + both},
+      {"gear.profile_shift", "the profile_shift " + both},
+      {"gear.face_width_mm", "the face_width_mm " + both},
+      {"gear.bore_diameter_mm", "the bore_diameter_mm " + both},
+      {"gear.basic_rack_dedendum", "the basic_rack_dedendum " + both},
+      {"mesh.harmonics_kept", "harmonics_kept"},
+      {"gear.", "the gears' "},
+  }};
+  for (const auto& [from, to] : keys)
+    for (std::size_t at = what.find(from); at != std::string::npos;
+         at = what.find(from, at + to.size()))
+      what.replace(at, std::strlen(from), to);
+  return what;
+}
+
+// The gear pair of a train mesh's two gears (pair_mesh_stiffness): its [gear] and [mesh] keys
+// from the bodies' and the mesh's. Throws InputError in the train's keys.
+Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& driving,
+                    const TrainBodyData& driven) {
   const std::array<const TrainBodyData*, 2> body = {&driving, &driven};
-  // The pair's [gear] and [mesh] keys, from the bodies' and the mesh's; its errors name them
-  // as the train has them.
   Case c;
   GearData& g = c.gear;
   g.normal_module_mm = driving.normal_module_mm;
@@ -166,29 +202,9 @@ PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyDat
     g.web_thickness_mm[i] = 0;
   }
   g.inertia_kg_m2.reset();
-  const auto named = [&](std::string what) {
-    const std::array<std::pair<const char*, std::string>, 8> keys = {{
-        {"gear.center_distance_mm", "center_distance_mm"},
-        {"gear.outside_diameter_mm",
-         fmt::format("the outside_diameter_mm of '{}' and '{}'", driving.name, driven.name)},
-        {"gear.profile_shift",
-         fmt::format("the profile_shift of '{}' and '{}'", driving.name, driven.name)},
-        {"gear.face_width_mm",
-         fmt::format("the face_width_mm of '{}' and '{}'", driving.name, driven.name)},
-        {"gear.bore_diameter_mm",
-         fmt::format("the bore_diameter_mm of '{}' and '{}'", driving.name, driven.name)},
-        {"gear.basic_rack_dedendum",
-         fmt::format("the basic_rack_dedendum of '{}' and '{}'", driving.name, driven.name)},
-        {"mesh.harmonics_kept", "harmonics_kept"},
-        {"gear.", "the gears' "},
-    }};
-    for (const auto& [from, to] : keys)
-      for (std::size_t at = what.find(from); at != std::string::npos; at = what.find(from, at))
-        what.replace(at, std::strlen(from), to);
-    return what;
-  };
   if (!(g.face_width_mm > 0))
-    throw InputError(named("gear.face_width_mm = 0: the energy method needs the face width"));
+    throw InputError(train_keys_in("gear.face_width_mm = 0: the energy method needs the face width",
+                                   driving, driven));
   if (m.center_distance_mm) {
     g.center_distance_mm = *m.center_distance_mm;
   } else {
@@ -200,29 +216,50 @@ PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyDat
     const double inv_wt =
         involute(at) + 2 * std::tan(an) * (g.profile_shift[0] + g.profile_shift[1]) / z;
     if (!(inv_wt > 0))
-      throw InputError(named(fmt::format(
-          "gear.profile_shift = [{}, {}]: too negative for {} and {} teeth (no working pressure "
-          "angle); give center_distance_mm",
-          g.profile_shift[0], g.profile_shift[1], g.teeth[0], g.teeth[1])));
+      throw InputError(train_keys_in(
+          fmt::format("gear.profile_shift = [{}, {}]: too negative for {} and {} teeth (no "
+                      "working pressure angle); give center_distance_mm",
+                      g.profile_shift[0], g.profile_shift[1], g.teeth[0], g.teeth[1]),
+          driving, driven));
     g.center_distance_mm = 0.5 * z * g.normal_module_mm / std::cos(beta) * std::cos(at) /
                            std::cos(inverse_involute(inv_wt));
   }
   c.mesh.stiffness_source = StiffnessSource::kEnergy;
-  c.mesh.mean_stiffness_n_per_m =
-      m.mean_stiffness_n_per_m.value_or(0.0);  // 0: the curve's own mean
+  // Absent: 0, the curve's own mean.
+  c.mesh.mean_stiffness_n_per_m = m.mean_stiffness_n_per_m.value_or(0.0);
   c.mesh.harmonics_kept = m.harmonics_kept;
   c.mesh.stiffness_harmonics.clear();
-  c.speed.shaft_frequency_hz = 1;  // the series' frequencies only; read as mesh orders below
+  c.speed.shaft_frequency_hz = 1;  // the series' frequencies only; read as mesh orders
+  return c;
+}
+
+}  // namespace
+
+PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
+                                      const TrainBodyData& driven) {
+  const Case c = mesh_pair_case(m, driving, driven);
   HarmonicSeries k;
   try {
     k = mesh_stiffness_series(c, case_geometry(c));
   } catch (const InputError& e) {
-    throw InputError(named(e.what()));
+    throw InputError(train_keys_in(e.what(), driving, driven));
   }
   PairMeshStiffness out;
   out.mean_n_per_m = k.offset;
-  out.harmonics =
-      harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi * g.teeth[0], 1 / k.offset, "stiffness_source");
+  out.harmonics = harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi * c.gear.teeth[0], 1 / k.offset,
+                                                  "stiffness_source");
+  return out;
+}
+
+std::vector<std::string> pair_mesh_warnings(const TrainMeshData& m, const TrainBodyData& driving,
+                                            const TrainBodyData& driven) {
+  std::vector<std::string> out;
+  try {
+    for (const std::string& w : case_geometry(mesh_pair_case(m, driving, driven)).warnings)
+      out.push_back(train_keys_in(w, driving, driven));
+  } catch (const InputError&) {
+    // What the pair cannot take is said when the train is assembled.
+  }
   return out;
 }
 

@@ -742,6 +742,23 @@ TEST(TrainCase, AMeshTakesItsStiffnessFromItsGearsByTheEnergyMethod) {
   EXPECT_EQ(unused[1].find("train.mesh[0].harmonics_kept = 4"), 0U) << unused[1];
   EXPECT_EQ(unused[2].find("train.mesh[0].center_distance_mm = 61"), 0U) << unused[2];
   EXPECT_TRUE(unused_settings(parse_case(text(shipped, at_150), "t.toml")).empty());
+  // What the pair's geometry says and goes on from is said, in the train's keys.
+  const std::vector<std::string> apart =
+      unused_settings(parse_case(text(shipped, "center_distance_mm = 151\n"), "t.toml"));
+  // (The shipped tips are those of the tip shortening at 150 mm.)
+  ASSERT_EQ(apart.size(), 3U);
+  EXPECT_EQ(apart[0].find("train.mesh[0] ('mesh1', t.toml:"), 0U) << apart[0];
+  EXPECT_NE(apart[0].find("center_distance_mm = 151 disagrees with the 149.9998 mm that the "
+                          "profile shifts x1 + x2 = 0.415 imply"),
+            std::string::npos)
+      << apart[0];
+  EXPECT_NE(apart[0].find("the backlash is backlash_um as given"), std::string::npos) << apart[0];
+  EXPECT_NE(apart[1].find("the outside_diameter_mm of 'pinion' = 154.98 disagrees"),
+            std::string::npos)
+      << apart[1];
+  EXPECT_NE(apart[2].find("the outside_diameter_mm of 'wheel' = 154.98 disagrees"),
+            std::string::npos)
+      << apart[2];
   const std::vector<std::string> harmonics =
       unused_settings(parse_case(text(shipped, "stiffness_harmonics = [[0.1, 0]]\n"), "t.toml"));
   ASSERT_EQ(harmonics.size(), 1U);

@@ -201,6 +201,11 @@ struct PairMeshStiffness {
 };
 PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                       const TrainBodyData& driven);
+// What that gear pair's geometry says of the data and goes on (a centre distance that the
+// shifts do not imply), in the train's keys; nothing where the pair is refused (the assembly
+// says why).
+std::vector<std::string> pair_mesh_warnings(const TrainMeshData& m, const TrainBodyData& driving,
+                                            const TrainBodyData& driven);
 
 // The same, assembled; a case of the gear pair's forms as its train form (train_form_of, with
 // `stiffness` as there).

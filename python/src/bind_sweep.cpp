@@ -185,8 +185,7 @@ void bind_sweep(py::module_& m) {
           py::dict d(py::arg("direction") = to_string(j.direction),
                      py::arg("from_value") = j.from_value, py::arg("to_value") = j.to_value,
                      py::arg("pp_delta_bar_before") = j.before,
-                     py::arg("pp_delta_bar_after") = j.after,
-                     py::arg("unsettled") = j.unsettled);
+                     py::arg("pp_delta_bar_after") = j.after, py::arg("unsettled") = j.unsettled);
           if (o.axis2) d["value2"] = j.value2;
           jumps.append(d);
         }
