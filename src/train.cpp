@@ -1053,7 +1053,7 @@ MeshSignals mesh_signals(const Assembled& a, int mesh) {
   MeshSignals s;
   s.w = kTwoPi * a.mesh_frequency_hz(mesh) / stride;
   s.k = from_harmonics(x.mean_stiffness_n_per_m, x.stiffness, x.mean_stiffness_n_per_m, stride);
-  s.e = from_harmonics(0.0, x.transmission_error, 1.0, stride);
+  s.e = from_harmonics(x.transmission_error_mean_m, x.transmission_error, 1.0, stride);
   const Eigen::Vector2d n = a.line_of_action(mesh);
   const double cb = std::cos(x.base_helix_angle_rad);
   // e -= sign cb n . epsilon(t), epsilon = e (cos(s w_g t + phi), sin(s w_g t + phi)) at the

@@ -131,22 +131,47 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        "where k(t) comes from: \"harmonics\", mean_stiffness_n_per_m and stiffness_harmonics "
        "as given; \"energy\", the gear pair's energy method on the two gears' teeth, module, "
        "angles, face widths, profile shifts, tip diameters and material (the narrower face "
-       "width), as mesh.stiffness_source = \"energy\" (docs/stiffness.md)",
-       "harmonics energy"},
+       "width), as mesh.stiffness_source = \"energy\" (docs/stiffness.md); \"table\", the "
+       "curve of stiffness_table",
+       "harmonics energy table"},
       {"mean_stiffness_n_per_m", &M::mean_stiffness_n_per_m, "N/m", above(0), false,
        "mean normal mesh stiffness k_m; required with stiffness_source = \"harmonics\", with "
-       "\"energy\" the computed curve scaled to it (absent: its own mean)"},
+       "\"energy\" or \"table\" the curve scaled to it (absent: its own mean)"},
       {"stiffness_harmonics", &M::stiffness_harmonics, "", closed_open(0, 1), false,
        "[[ratio k_i/k_m, phase_deg], ...] at i times the mesh frequency, with stiffness_source = "
        "\"harmonics\""},
+      {"stiffness_table",
+       &M::stiffness_table,
+       "",
+       {},
+       false,
+       "with stiffness_source = \"table\": a CSV `position,stiffness_n_per_m` over one mesh "
+       "cycle, position in [0, 1) (as mesh.stiffness_table), relative to the case file"},
       {"harmonics_kept", &M::harmonics_kept, "", closed(0, 16), false,
-       "with stiffness_source = \"energy\": the harmonics kept of the computed curve"},
+       "with stiffness_source = \"energy\" or \"table\": the harmonics kept of the curve"},
       {"center_distance_mm", &M::center_distance_mm, "mm", above(0), false,
        "with stiffness_source = \"energy\": the centre distance a; absent: the one the two "
        "profile shifts imply"},
       {"transmission_error_um", &M::transmission_error_um, "um", at_least(0), false,
        "[[amplitude, phase_deg], ...] of the static transmission error at i times the mesh "
        "frequency"},
+      {"transmission_error_mean_um",
+       &M::transmission_error_mean_um,
+       "um",
+       {},
+       false,
+       "the transmission error's constant part: where the teeth touch moves by it (with a "
+       "torsional support or a prescribed speed it loads the mesh)"},
+      {"transmission_error_table",
+       &M::transmission_error_table,
+       "",
+       {},
+       false,
+       "instead of the two above: a CSV `position,transmission_error_um` over one mesh cycle (as "
+       "mesh.transmission_error_table), relative to the case file: its mean and "
+       "transmission_error_kept harmonics"},
+      {"transmission_error_kept", &M::transmission_error_kept, "", closed(1, kMaxErrorHarmonics),
+       false, "harmonics kept from transmission_error_table"},
       {"damping_ratio", &M::damping_ratio, "", closed_open(0, 1), false,
        "of the mesh's contact oscillator (its two gears on their own)"},
       {"damping",
@@ -464,8 +489,13 @@ void read_array(const toml::table& train, const std::string& source,
     ElementReader r(source, prefix, t, overrides);
     E e = r.read(keys);
     if (e.name.empty()) e.name = fmt::format("{}{}", kind, i + 1);
-    origins[fmt::format("{} '{}'", kind, e.name)] =
-        origin_of(overrides, prefix, t.source(), source);
+    const std::string label = fmt::format("{} '{}'", kind, e.name);
+    origins[label] = origin_of(overrides, prefix, t.source(), source);
+    // Each key where it was written (key_origin): a --set of another key of the element moves
+    // the element's origin, not this one's.
+    for (auto&& [k, node] : t)
+      origins[fmt::format("{}: {}", label, k.str())] =
+          origin_of(overrides, fmt::format("{}.{}", prefix, k.str()), node.source(), source);
     out.push_back(std::move(e));
   }
 }
@@ -612,15 +642,20 @@ namespace {
 // where that element was written.
 [[noreturn]] void rethrow_with_origin(const TrainCase& t, const std::string& message) {
   // The longest label the message starts with: "the train: reference" (where the reference was
-  // given) before "the train" (the [train] table).
+  // given) before "the train" (the [train] table); an element's key ("mesh 'm': driven") when
+  // the message gives its value ("mesh 'm': driven = \"c\": ..."), not when it goes on in
+  // words ("bearing 'pin1': body 'sun' carries ...").
   std::string where_given, matched;
-  for (const auto& [label, origin] : t.origins)
-    if (message.rfind(label, 0) == 0 && label.size() > matched.size() &&
-        (message.size() == label.size() || message[label.size()] == ':' ||
-         message[label.size()] == ' ')) {
+  for (const auto& [label, origin] : t.origins) {
+    if (message.rfind(label, 0) != 0 || label.size() <= matched.size()) continue;
+    const bool of_key = label.find("': ") != std::string::npos;
+    const std::string_view rest = std::string_view(message).substr(label.size());
+    if (of_key ? rest.rfind(" =", 0) == 0
+               : rest.empty() || rest.front() == ':' || rest.front() == ' ') {
       where_given = origin;
       matched = label;
     }
+  }
   throw InputError(where_given.empty() ? fmt::format("train: {}", message)
                                        : fmt::format("{}: train: {}", where_given, message));
 }
@@ -738,13 +773,18 @@ TrainCase expand_planets(const TrainCase& written) {
         out.push_back(e);
         continue;
       }
-      const auto origin = t.origins.find(fmt::format("{} '{}'", kind, e.name));
+      // The template's origin and its keys' ("mesh 'sp': backlash_um"), for each copy.
+      const std::string label = fmt::format("{} '{}'", kind, e.name);
+      std::vector<std::pair<std::string, std::string>> written;
+      for (const auto& [l, origin] : t.origins)
+        if (l == label || l.rfind(label + ": ", 0) == 0)
+          written.emplace_back(l.substr(label.size()), origin);
       for (int n = 0; n < w.planets; ++n) {
         E x = e;
         turn(x, n);
         x.name = copy_name(e.name, n);
-        if (origin != t.origins.end())
-          t.origins[fmt::format("{} '{}'", kind, x.name)] = origin->second;
+        for (const auto& [rest, origin] : written)
+          t.origins[fmt::format("{} '{}'{}", kind, x.name, rest)] = origin;
         out.push_back(std::move(x));
       }
     }
@@ -878,26 +918,58 @@ train::Train train_of(const Case& c) {
         x.mean_stiffness_n_per_m = k.mean_n_per_m;
         for (const StiffnessHarmonic& h : k.harmonics)
           x.stiffness.push_back({h.ratio, h.phase_deg * kDegToRad});
+      } else if (m.stiffness_source == "table") {
+        if (m.stiffness_table.empty())
+          rethrow_with_origin(
+              t, fmt::format("mesh '{}': train.mesh[{}] has no stiffness_table: it must be given "
+                             "with stiffness_source = \"table\" (a CSV "
+                             "`position,stiffness_n_per_m` over one mesh cycle)",
+                             m.name, &m - t.meshes.data()));
+        PairMeshStiffness k;
+        try {
+          k = table_mesh_stiffness(m, c.directory);
+        } catch (const InputError& e) {
+          rethrow_with_origin(t, fmt::format("mesh '{}': {}", m.name, e.what()));
+        }
+        x.mean_stiffness_n_per_m = k.mean_n_per_m;
+        for (const StiffnessHarmonic& h : k.harmonics)
+          x.stiffness.push_back({h.ratio, h.phase_deg * kDegToRad});
       }
-      const double k_m = m.stiffness_source == "energy" ? x.mean_stiffness_n_per_m
-                                                        : m.mean_stiffness_n_per_m.value_or(0.0);
+      const double k_m = m.stiffness_source != "harmonics" ? x.mean_stiffness_n_per_m
+                                                           : m.mean_stiffness_n_per_m.value_or(0.0);
       x.damping_n_s_per_m = 2 * m.damping_ratio * std::sqrt(m_n * k_m);
     }
     x.damping_always = m.damping == "always";
     x.clip_tension = m.tension == "clip";
     x.backlash_m = m.backlash_um * kUmToM;
-    if (m.stiffness_source != "energy") {
+    if (m.stiffness_source == "harmonics") {
       if (!m.mean_stiffness_n_per_m)
         rethrow_with_origin(
             t, fmt::format("mesh '{}': train.mesh[{}] has no mean_stiffness_n_per_m: it must be "
                            "given with stiffness_source = \"harmonics\" (the default; "
-                           "stiffness_source = \"energy\" computes it from the gears)",
+                           "stiffness_source = \"energy\" computes it from the gears, "
+                           "\"table\" reads it from stiffness_table)",
                            m.name, &m - t.meshes.data()));
       x.mean_stiffness_n_per_m = *m.mean_stiffness_n_per_m;
       for (const StiffnessHarmonic& h : m.stiffness_harmonics)
         x.stiffness.push_back({h.ratio, h.phase_deg * kDegToRad});
     }
-    for (const ErrorHarmonic& h : m.transmission_error_um)
+    TableMeshError error{m.transmission_error_mean_um, m.transmission_error_um};
+    if (!m.transmission_error_table.empty()) {
+      if (!m.transmission_error_um.empty() || m.transmission_error_mean_um != 0)
+        rethrow_with_origin(
+            t, fmt::format("mesh '{}': transmission_error_table = \"{}\": the transmission error "
+                           "is a table or harmonics (transmission_error_um, "
+                           "transmission_error_mean_um), not both",
+                           m.name, m.transmission_error_table));
+      try {
+        error = table_mesh_error(m, c.directory);
+      } catch (const InputError& e) {
+        rethrow_with_origin(t, fmt::format("mesh '{}': {}", m.name, e.what()));
+      }
+    }
+    x.transmission_error_mean_m = error.mean_um * kUmToM;
+    for (const ErrorHarmonic& h : error.harmonics)
       x.transmission_error.push_back({h.amplitude * kUmToM, h.phase_deg * kDegToRad});
     out.meshes.push_back(std::move(x));
   }
@@ -1224,6 +1296,19 @@ std::size_t mesh_to_read(const Case& c, const std::string& name) {
   return static_cast<std::size_t>(it - names.begin());
 }
 
+namespace {
+
+// Where an element's key was written; where the element was when the key was not (a default).
+std::string key_origin(const TrainCase& t, std::string_view kind, const std::string& name,
+                       std::string_view leaf) {
+  const std::string label = fmt::format("{} '{}'", kind, name);
+  for (const std::string& l : {fmt::format("{}: {}", label, leaf), label})
+    if (const auto it = t.origins.find(l); it != t.origins.end()) return it->second;
+  return "";
+}
+
+}  // namespace
+
 std::vector<std::string> train_unused_settings(const TrainCase& t) {
   std::vector<std::string> out;
   if (t.frame_terms && std::none_of(t.bodies.begin(), t.bodies.end(),
@@ -1243,13 +1328,11 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
     if (m.position_angle_deg == 0 || placed.count(m.driving) || placed.count(m.driven) ||
         t.mesh_phase == "layout")
       continue;
-    const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
     out.push_back(fmt::format(
         "train.mesh[{}].position_angle_deg = {} ({}): not used: neither gear of mesh '{}' is "
         "planar or eccentric and train.mesh_phase is not \"layout\", so its layout moves "
         "nothing",
-        i, m.position_angle_deg, where_given == t.origins.end() ? "" : where_given->second,
-        m.name));
+        i, m.position_angle_deg, key_origin(t, "mesh", m.name, "position_angle_deg"), m.name));
   }
   // The thrust's sense moves something only with a spatial gear in a helical mesh.
   std::map<std::string, const TrainBodyData*> by_name;
@@ -1262,21 +1345,19 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
       return it != by_name.end() && keeps_axis(*it->second) && it->second->helix_angle_deg != 0;
     };
     if (spatial_helical(m.driving) || spatial_helical(m.driven)) continue;
-    const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
     out.push_back(fmt::format(
         "train.mesh[{}].thrust = \"{}\" ({}): not used: no gear of mesh '{}' is both spatial "
         "and helical, so nothing moves along the axes",
-        i, m.thrust, where_given == t.origins.end() ? "" : where_given->second, m.name));
+        i, m.thrust, key_origin(t, "mesh", m.name, "thrust"), m.name));
   }
   // With damping at all times the teeth alone carry k (d - e -+ b), which never pulls.
   for (std::size_t i = 0; i < t.meshes.size(); ++i) {
     const TrainMeshData& m = t.meshes[i];
     if (m.tension != "clip" || m.damping != "always") continue;
-    const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
     out.push_back(fmt::format(
         "train.mesh[{}].tension = \"clip\" ({}): not used: mesh '{}' is damped at all times "
         "(damping = \"always\"), its damper beside the teeth, and the teeth alone never pull",
-        i, where_given == t.origins.end() ? "" : where_given->second, m.name));
+        i, key_origin(t, "mesh", m.name, "tension"), m.name));
   }
   // A runout moves a gear's teeth or a carrier's pins: on a body with neither it moves nothing.
   for (std::size_t i = 0; i < t.bodies.size(); ++i) {
@@ -1286,18 +1367,17 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
     });
     const bool pins = std::any_of(t.bearings.begin(), t.bearings.end(),
                                   [&](const TrainBearingData& x) { return x.on == b.name; });
-    const auto where_given = t.origins.find(fmt::format("body '{}'", b.name));
-    const std::string where = where_given == t.origins.end() ? "" : where_given->second;
+    const auto where = [&](std::string_view leaf) { return key_origin(t, "body", b.name, leaf); };
     if (b.eccentricity_um != 0 && !meshes && !pins)
       out.push_back(fmt::format(
           "train.body[{}].eccentricity_um = {} ({}): not used: body '{}' has no teeth in a mesh "
           "and carries no pins, so its runout moves nothing",
-          i, b.eccentricity_um, where, b.name));
+          i, b.eccentricity_um, where("eccentricity_um"), b.name));
     if (b.eccentricity_angle_deg != 0 && b.eccentricity_um == 0)
       out.push_back(
           fmt::format("train.body[{}].eccentricity_angle_deg = {} ({}): not used: body '{}' has no "
                       "eccentricity_um to direct",
-                      i, b.eccentricity_angle_deg, where, b.name));
+                      i, b.eccentricity_angle_deg, where("eccentricity_angle_deg"), b.name));
     // Its flanks and material are read by a mesh that computes its stiffness from its gears.
     const bool flanks_read = std::any_of(t.meshes.begin(), t.meshes.end(), [&](const auto& m) {
       return m.stiffness_source == "energy" && (m.driving == b.name || m.driven == b.name);
@@ -1316,24 +1396,36 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
         out.push_back(fmt::format(
             "train.body[{}].{} = {} ({}): not used: no mesh of body '{}' takes its stiffness from "
             "the gears (stiffness_source = \"energy\")",
-            i, leaf, value, where, b.name));
+            i, leaf, value, where(leaf), b.name));
   }
   // A mesh's stiffness keys that its source does not read.
   for (std::size_t i = 0; i < t.meshes.size(); ++i) {
     const TrainMeshData& m = t.meshes[i];
-    const auto where_given = t.origins.find(fmt::format("mesh '{}'", m.name));
-    const std::string where = where_given == t.origins.end() ? "" : where_given->second;
+    const auto where = [&](std::string_view leaf) { return key_origin(t, "mesh", m.name, leaf); };
     const TrainMeshData plain;
-    if (m.stiffness_source == "energy" && !m.stiffness_harmonics.empty())
+    if (m.stiffness_source != "harmonics" && !m.stiffness_harmonics.empty())
       out.push_back(fmt::format(
-          "train.mesh[{}].stiffness_harmonics ({}): not used: mesh '{}' computes its harmonics "
-          "from its gears (stiffness_source = \"energy\")",
-          i, where, m.name));
-    if (m.stiffness_source != "energy" && m.harmonics_kept != plain.harmonics_kept)
+          "train.mesh[{}].stiffness_harmonics ({}): not used: mesh '{}' takes its harmonics "
+          "from {} (stiffness_source = \"{}\")",
+          i, where("stiffness_harmonics"), m.name,
+          m.stiffness_source == "energy" ? "its gears" : "its stiffness_table",
+          m.stiffness_source));
+    if (m.stiffness_source != "table" && !m.stiffness_table.empty())
+      out.push_back(fmt::format(
+          "train.mesh[{}].stiffness_table = \"{}\" ({}): not used: mesh '{}' does not read its "
+          "stiffness from a table (stiffness_source = \"{}\")",
+          i, m.stiffness_table, where("stiffness_table"), m.name, m.stiffness_source));
+    if (m.transmission_error_table.empty() &&
+        m.transmission_error_kept != plain.transmission_error_kept)
+      out.push_back(fmt::format(
+          "train.mesh[{}].transmission_error_kept = {} ({}): not used: mesh '{}' has no "
+          "transmission_error_table to keep harmonics of",
+          i, m.transmission_error_kept, where("transmission_error_kept"), m.name));
+    if (m.stiffness_source == "harmonics" && m.harmonics_kept != plain.harmonics_kept)
       out.push_back(fmt::format(
           "train.mesh[{}].harmonics_kept = {} ({}): not used: mesh '{}' takes its harmonics as "
           "given (stiffness_source = \"{}\")",
-          i, m.harmonics_kept, where, m.name, m.stiffness_source));
+          i, m.harmonics_kept, where("harmonics_kept"), m.name, m.stiffness_source));
     // What the gear pair of an energy mesh's gears says of their data.
     if (m.stiffness_source == "energy") {
       const auto a = std::find_if(t.bodies.begin(), t.bodies.end(),
@@ -1342,18 +1434,18 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
                                   [&](const TrainBodyData& x) { return x.name == m.driven; });
       if (a != t.bodies.end() && b != t.bodies.end() && a->teeth > 0 && b->teeth > 0)
         for (const std::string& w : pair_mesh_warnings(m, *a, *b))
-          out.push_back(fmt::format("train.mesh[{}] ('{}', {}): {}", i, m.name, where, w));
+          out.push_back(fmt::format("train.mesh[{}] ('{}', {}): {}", i, m.name,
+                                    key_origin(t, "mesh", m.name, "stiffness_source"), w));
     }
     if (m.stiffness_source != "energy" && m.center_distance_mm)
       out.push_back(fmt::format(
           "train.mesh[{}].center_distance_mm = {} ({}): not used: mesh '{}' takes its stiffness "
           "as given (stiffness_source = \"{}\")",
-          i, *m.center_distance_mm, where, m.name, m.stiffness_source));
+          i, *m.center_distance_mm, where("center_distance_mm"), m.name, m.stiffness_source));
   }
   for (std::size_t i = 0; i < t.bearings.size(); ++i) {
     const TrainBearingData& b = t.bearings[i];
     if (!b.on.empty()) continue;
-    const auto where_given = t.origins.find(fmt::format("bearing '{}'", b.name));
     // On the ground its pin angle is read only as the direction of its errors.
     const bool errors = b.pin_error_radial_um != 0 || b.pin_error_tangential_um != 0;
     for (const auto& [leaf, value, why] :
@@ -1364,8 +1456,7 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
         out.push_back(fmt::format(
             "train.bearing[{}].{} = {} ({}): not used: bearing '{}' has no `on` (it sits on the "
             "ground), {}",
-            i, leaf, value, where_given == t.origins.end() ? "" : where_given->second, b.name,
-            why));
+            i, leaf, value, key_origin(t, "bearing", b.name, leaf), b.name, why));
   }
   return out;
 }

@@ -15,6 +15,7 @@
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/transmission_error.hpp"
 
 namespace geardyn {
 
@@ -251,6 +252,69 @@ PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyDat
   return out;
 }
 
+namespace {
+
+// The gear pair's case that reads a train mesh's tables: a mesh frequency of 1 Hz (the series'
+// terms read as mesh orders), the tables resampled as the pair's (its stiffness_positions).
+Case mesh_table_case(const TrainMeshData& m, const std::filesystem::path& directory) {
+  Case c;
+  c.directory = directory;
+  c.gear.teeth[0] = 1;
+  c.speed.shaft_frequency_hz = 1;
+  c.mesh.stiffness_source = StiffnessSource::kTable;
+  c.mesh.stiffness_table = m.stiffness_table;
+  c.mesh.mean_stiffness_n_per_m = m.mean_stiffness_n_per_m.value_or(0.0);  // 0: its own
+  c.mesh.harmonics_kept = m.harmonics_kept;
+  c.mesh.stiffness_harmonics.clear();
+  c.mesh.transmission_error_um.clear();
+  c.mesh.transmission_error_table = m.transmission_error_table;
+  c.mesh.transmission_error_kept = m.transmission_error_kept;
+  return c;
+}
+
+// The pair's message of a table in the mesh's keys.
+std::string mesh_keys_in(std::string what) {
+  for (const auto& [from, to] : std::array<std::pair<std::string_view, std::string_view>, 3>{
+           {{"mesh.stiffness_table", "stiffness_table"},
+            {"mesh.transmission_error_table", "transmission_error_table"},
+            {"mesh.harmonics_kept", "harmonics_kept"}}})
+    for (std::size_t at = what.find(from); at != std::string::npos;
+         at = what.find(from, at + to.size()))
+      what.replace(at, from.size(), to);
+  return what;
+}
+
+}  // namespace
+
+PairMeshStiffness table_mesh_stiffness(const TrainMeshData& m,
+                                       const std::filesystem::path& directory) {
+  const Case c = mesh_table_case(m, directory);
+  HarmonicSeries k;
+  try {
+    k = mesh_stiffness_series(c, mesh_stiffness(c, Geometry{}));
+  } catch (const InputError& e) {
+    throw InputError(mesh_keys_in(e.what()));
+  }
+  PairMeshStiffness out;
+  out.mean_n_per_m = k.offset;
+  out.harmonics = harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi, 1 / k.offset, "stiffness_table");
+  return out;
+}
+
+TableMeshError table_mesh_error(const TrainMeshData& m, const std::filesystem::path& directory) {
+  const Case c = mesh_table_case(m, directory);
+  HarmonicSeries e;
+  try {
+    e = transmission_error_series(c);
+  } catch (const InputError& x) {
+    throw InputError(mesh_keys_in(x.what()));
+  }
+  TableMeshError out;
+  out.mean_um = e.offset * 1e6;
+  out.harmonics = harmonics_of<ErrorHarmonic>(c, e, 2 * kPi, 1e6, "transmission_error_table");
+  return out;
+}
+
 std::vector<std::string> pair_mesh_warnings(const TrainMeshData& m, const TrainBodyData& driving,
                                             const TrainBodyData& driven) {
   std::vector<std::string> out;
@@ -308,6 +372,7 @@ Case train_form_of(const Case& c, const MeshStiffness* stiffness) {
       c, p.stiffness_n_per_m, w_mesh, 1 / p.stiffness_n_per_m.offset, "mesh.stiffness_source");
   m.transmission_error_um = harmonics_of<ErrorHarmonic>(c, p.transmission_error_m, w_mesh, 1e6,
                                                         "mesh.transmission_error_um");
+  m.transmission_error_mean_um = p.transmission_error_m.offset * 1e6;  // a table's mean
   m.damping_ratio = c.mesh.damping_ratio;
   m.damping = c.mesh.damping == DampingForm::kAlways ? "always" : "contact";
   m.tension = c.mesh.tension == TensionRule::kClip ? "clip" : "allow";

@@ -1097,7 +1097,7 @@ TEST(Cli, ATrainsModesAndWhatACommandCannotTakeYet) {
                                    "[[train.mesh]]\ndriving = \"a\"\ndriven = \"b\"\n"
                                    "mean_stiffness_n_per_m = 1e8\n";
   const Outcome bad = cli("run " + (d / "bad.toml").string() + " --out " + (d / "out").string());
-  expect_refused(bad, "bad.toml:8:1: train: mesh 'mesh1': driven = \"b\": no body of that name");
+  expect_refused(bad, "bad.toml:10:10: train: mesh 'mesh1': driven = \"b\": no body of that name");
   EXPECT_FALSE(fs::exists(d / "out"));
   fs::remove_all(d);
 }

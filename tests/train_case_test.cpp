@@ -5,9 +5,11 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <numbers>
 #include <string>
@@ -18,6 +20,7 @@
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/stiffness.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/validation.hpp"
 
@@ -735,7 +738,7 @@ TEST(TrainCase, AMeshTakesItsStiffnessFromItsGearsByTheEnergyMethod) {
                                      "harmonics_kept = 4\ncenter_distance_mm = 61\n",
                                  "t.toml"));
   ASSERT_EQ(unused.size(), 3U) << fmt::format("{}", fmt::join(unused, "\n"));
-  EXPECT_EQ(unused[0].find("train.body[0].profile_shift = 0.3 (t.toml:5:1): not used: no mesh of "
+  EXPECT_EQ(unused[0].find("train.body[0].profile_shift = 0.3 (t.toml:10:17): not used: no mesh of "
                            "body 'a' takes its stiffness from the gears"),
             0U)
       << unused[0];
@@ -763,12 +766,124 @@ TEST(TrainCase, AMeshTakesItsStiffnessFromItsGearsByTheEnergyMethod) {
       unused_settings(parse_case(text(shipped, "stiffness_harmonics = [[0.1, 0]]\n"), "t.toml"));
   ASSERT_EQ(harmonics.size(), 1U);
   EXPECT_NE(harmonics[0].find("train.mesh[0].stiffness_harmonics"), std::string::npos);
+  // Each key is said where it was written: a --set of the source moves not the harmonics'.
+  const std::vector<std::string> moved = unused_settings(
+      parse_case(std::string(kBodyA) + kBodyB + kMeshAB + "stiffness_harmonics = [[0.1, 0]]\n",
+                 "t.toml", {parse_override("train.mesh[0].stiffness_source = \"energy\"")}));
+  ASSERT_EQ(moved.size(), 1U) << fmt::format("{}", fmt::join(moved, "\n"));
+  EXPECT_EQ(moved[0].find("train.mesh[0].stiffness_harmonics (t.toml:"), 0U) << moved[0];
   const std::string given =
       error_of(std::string(kBodyA) + kBodyB + "[[train.mesh]]\ndriving = \"a\"\ndriven = \"b\"\n");
   EXPECT_NE(given.find("mesh 'mesh1': train.mesh[0] has no mean_stiffness_n_per_m: it must be "
                        "given with stiffness_source = \"harmonics\""),
             std::string::npos)
       << given;
+}
+
+TEST(TrainCase, AMeshReadsItsStiffnessAndItsTransmissionErrorFromTables) {
+  // Tables of eight rows over a mesh cycle, resampled linearly to 256 positions (32 per row):
+  // the samples' mean is the rows' mean exactly, and the first harmonic of a sampled cosine
+  // keeps its phase (the linear kernel is even) with its amplitude times
+  // (sin(pi / 8) / (32 sin(pi / 256)))^2, the kernel's transfer at that harmonic.
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / fmt::format("geardyn_tables_{}", ::getpid());
+  std::filesystem::create_directories(dir);
+  const std::array<double, 8> k = {3.0e8, 3.1e8, 2.9e8, 2.2e8, 2.0e8, 2.1e8, 2.3e8, 2.8e8};
+  {
+    std::ofstream ks(dir / "k.csv");
+    ks << "position,stiffness_n_per_m\n";
+    for (std::size_t j = 0; j < k.size(); ++j) ks << fmt::format("{},{}\n", j / 8.0, k[j]);
+    std::ofstream es(dir / "e.csv");
+    es << "position,transmission_error_um\n";
+    for (int j = 0; j < 8; ++j)
+      es << fmt::format("{},{:.17g}\n", j / 8.0, 2.0 + 1.5 * std::cos(kPi * j / 4 + 0.3));
+    std::ofstream bad(dir / "bad.csv");
+    bad << "position,stiffness_n_per_m\n0,1e8\n0.5,-1\n";
+  }
+  const auto write = [&](const std::string& mesh) {
+    std::ofstream(dir / "t.toml") << std::string(kBodyA) + kBodyB + R"([[train.mesh]]
+name = "m"
+driving = "a"
+driven = "b"
+)" + mesh;
+    return load_case(dir / "t.toml");
+  };
+  const Case tables = write(
+      "stiffness_source = \"table\"\nstiffness_table = \"k.csv\"\n"
+      "transmission_error_table = \"e.csv\"\ntransmission_error_kept = 3\n");
+  const train::Assembled a = assembled_train(tables);
+  const train::Mesh& m = a.train().meshes.at(0);
+  double mean = 0;
+  for (double v : k) mean += v / 8;
+  EXPECT_NEAR(m.mean_stiffness_n_per_m / mean, 1.0, 1e-12);
+  ASSERT_EQ(m.stiffness.size(), 2U);  // harmonics_kept's default
+  EXPECT_NEAR(m.transmission_error_mean_m, 2e-6, 1e-17);
+  ASSERT_EQ(m.transmission_error.size(), 3U);
+  const double gain = std::pow(std::sin(kPi / 8) / (32 * std::sin(kPi / 256)), 2);
+  EXPECT_NEAR(m.transmission_error[0].value, 1.5e-6 * gain, 1e-17);
+  EXPECT_NEAR(m.transmission_error[0].phase_rad, 0.3, 1e-12);
+  EXPECT_LT(m.transmission_error[1].value, 1e-17);  // a sampled cosine has no second harmonic
+  // The constant part moves where the teeth touch: the contact state at rest reads it.
+  EXPECT_NEAR(a.error_series(0).offset, 2e-6, 1e-17);
+  // The gear pair's reading of the same tables: the train's to 1e-12, and the pair's train form
+  // keeps the transmission error's mean.
+  Case pair = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "park2010.toml");
+  pair.mesh.stiffness_source = StiffnessSource::kTable;
+  pair.mesh.stiffness_table = (dir / "k.csv").string();
+  pair.mesh.mean_stiffness_n_per_m = 0;
+  pair.mesh.transmission_error_um.clear();
+  pair.mesh.transmission_error_table = (dir / "e.csv").string();
+  pair.mesh.transmission_error_kept = 3;
+  const MeshStiffness pk = mesh_stiffness(pair, case_geometry(pair));
+  EXPECT_NEAR(pk.fourier.mean_n_per_m / m.mean_stiffness_n_per_m, 1.0, 1e-12);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_NEAR(pk.fourier.harmonics[i].ratio, m.stiffness[i].value, 1e-12);
+    EXPECT_NEAR(pk.fourier.harmonics[i].phase_deg * kPi / 180, m.stiffness[i].phase_rad, 1e-12);
+  }
+  const train::Assembled pair_train = assembled_train(pair);
+  EXPECT_NEAR(pair_train.error_series(0).offset, 2e-6, 1e-17);
+  EXPECT_NEAR(pair_train.train().meshes[0].transmission_error[0].value, 1.5e-6 * gain, 1e-17);
+  // k_m given scales the table's curve.
+  const Case scaled = write(
+      "stiffness_source = \"table\"\nstiffness_table = \"k.csv\"\nmean_stiffness_n_per_m = 1e8\n");
+  EXPECT_NEAR(train_of(scaled).meshes[0].mean_stiffness_n_per_m, 1e8, 1e-4);
+  EXPECT_NEAR(train_of(scaled).meshes[0].stiffness[0].value, m.stiffness[0].value, 1e-12);
+  // What cannot be read is said, with the key's own line.
+  const auto refusal = [&](const std::string& mesh) -> std::string {
+    try {
+      (void)assembled_train(write(mesh));
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string missing = refusal("stiffness_source = \"table\"\n");
+  EXPECT_NE(missing.find("mesh 'm': train.mesh[0] has no stiffness_table: it must be given with "
+                         "stiffness_source = \"table\""),
+            std::string::npos)
+      << missing;
+  const std::string negative =
+      refusal("stiffness_source = \"table\"\nstiffness_table = \"bad.csv\"\n");
+  EXPECT_NE(negative.find("t.toml:20:19: train: mesh 'm': stiffness_table = \"bad.csv\": "),
+            std::string::npos)
+      << negative;
+  EXPECT_NE(negative.find("bad.csv:3: '0.5,-1': must be"), std::string::npos) << negative;
+  const std::string both = refusal(
+      "mean_stiffness_n_per_m = 2e8\ntransmission_error_um = [[1, 0]]\n"
+      "transmission_error_table = \"e.csv\"\n");
+  EXPECT_NE(both.find("mesh 'm': transmission_error_table = \"e.csv\": the transmission error is "
+                      "a table or harmonics"),
+            std::string::npos)
+      << both;
+  // What the mesh's sources do not read is reported.
+  const std::vector<std::string> unused =
+      unused_settings(write("mean_stiffness_n_per_m = 2e8\nstiffness_table = \"k.csv\"\n"
+                            "transmission_error_kept = 2\n"));
+  ASSERT_EQ(unused.size(), 2U) << fmt::format("{}", fmt::join(unused, "\n"));
+  EXPECT_EQ(unused[0].find("train.mesh[0].stiffness_table = \"k.csv\" ("), 0U) << unused[0];
+  EXPECT_NE(unused[0].find("t.toml:20:"), std::string::npos) << unused[0];
+  EXPECT_EQ(unused[1].find("train.mesh[0].transmission_error_kept = 2"), 0U) << unused[1];
+  std::filesystem::remove_all(dir);
 }
 
 // kBodyB and a mesh "m" in which a drives b, with one more line of the mesh's: line 15 of a
@@ -801,7 +916,7 @@ TEST(TrainCase, APlanarBodysKeysAreCheckedAndALayoutNothingReadsIsReported) {
   const Case torsional = parse_case(head + tail, "t.toml");
   const std::vector<std::string> unused = unused_settings(torsional);
   ASSERT_EQ(unused.size(), 1U);
-  EXPECT_NE(unused[0].find("train.mesh[0].position_angle_deg = 30 (t.toml:15"), std::string::npos)
+  EXPECT_NE(unused[0].find("train.mesh[0].position_angle_deg = 30 (t.toml:20:"), std::string::npos)
       << unused[0];
   EXPECT_NE(unused[0].find("neither gear of mesh 'm' is planar or eccentric"), std::string::npos);
   // Read for the mesh phase from the layout.
@@ -1250,7 +1365,7 @@ driving = "a"
 driven = "c"
 mean_stiffness_n_per_m = 2e8
 )",
-       {"t.toml:15:", "mesh 'm'", "driven = \"c\"", "no body of that name"}},
+       {"t.toml:18:", "mesh 'm'", "driven = \"c\"", "no body of that name"}},
       {head + mesh + R"([[train.body]]
 name = "a"
 inertia_kg_m2 = 1

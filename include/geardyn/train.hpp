@@ -188,6 +188,7 @@ struct Mesh {
   double mean_stiffness_n_per_m = 0;
   std::vector<MeshHarmonic> stiffness;           // ratios
   std::vector<MeshHarmonic> transmission_error;  // amplitudes, m
+  double transmission_error_mean_m = 0;          // e's constant part
   double damping_n_s_per_m = 0;                  // in contact only, unless damping_always
   // The damping forms and tension rules of the one-degree model (case.hpp's DampingForm and
   // TensionRule): c (d' - e') at all times, beside the teeth (Kahraman and Singh), instead of in

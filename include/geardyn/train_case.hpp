@@ -19,6 +19,7 @@
 #pragma once
 
 #include <array>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <string>
@@ -78,16 +79,24 @@ struct TrainMeshData {
   std::string kind = "external";  // or "internal"
   double backlash_um = 100;       // b, half the total normal backlash
   // "harmonics": k_m and its harmonics as given; "energy": the gear pair's energy method on
-  // the two gears' data (pair_mesh_stiffness), k_m then scaling the curve when given.
+  // the two gears' data (pair_mesh_stiffness); "table": stiffness_table's curve
+  // (table_mesh_stiffness). With a curve, k_m scales it when given.
   std::string stiffness_source = "harmonics";
   std::optional<double> mean_stiffness_n_per_m;
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // of the mesh frequency
-  int harmonics_kept = 2;                              // with "energy": harmonics kept of the curve
-  std::optional<double> center_distance_mm;            // with "energy" (absent: the shifts' own)
-  std::vector<ErrorHarmonic> transmission_error_um;    // of the mesh frequency
-  double damping_ratio = 0.02;                         // of the mesh's own contact oscillator
-  std::string damping = "contact";                     // where it acts: "contact", or "always"
-  std::string tension = "allow";  // the contact force may pull, or "clip": held at 0
+  std::string stiffness_table;  // with "table": CSV `position,stiffness_n_per_m`, one mesh cycle
+  int harmonics_kept = 2;       // with "energy" or "table": harmonics kept of the curve
+  std::optional<double> center_distance_mm;          // with "energy" (absent: the shifts' own)
+  std::vector<ErrorHarmonic> transmission_error_um;  // of the mesh frequency
+  // e(t)'s constant part: a constant offset of where the teeth touch (a table's mean).
+  double transmission_error_mean_um = 0;
+  // Instead of the two above: CSV `position,transmission_error_um` over one mesh cycle, its mean
+  // and transmission_error_kept harmonics (table_mesh_error).
+  std::string transmission_error_table;
+  int transmission_error_kept = 4;
+  double damping_ratio = 0.02;      // of the mesh's own contact oscillator
+  std::string damping = "contact";  // where it acts: "contact", or "always"
+  std::string tension = "allow";    // the contact force may pull, or "clip": held at 0
   // Where the driven gear's centre lies seen from the driving gear's, counterclockwise from x:
   // the direction of the line of action, read when a body of the mesh is planar.
   double position_angle_deg = 0;
@@ -169,7 +178,8 @@ struct TrainCase {
   std::vector<TrainSpeedData> speeds;
   // Where each element was written, "file:line:column" of its table (or the --set), by its
   // label "mesh 'stage1'" ("the train" for [train], "the train: reference" for its reference
-  // key): the assembler's messages name the element, the reader adds where.
+  // key), and each of its keys by "mesh 'stage1': backlash_um": the assembler's messages name
+  // the element (and the key), the reader adds where.
   std::map<std::string, std::string> origins;
 };
 
@@ -201,6 +211,20 @@ struct PairMeshStiffness {
 };
 PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                       const TrainBodyData& driven);
+// The same of a mesh whose stiffness_source is "table": its stiffness_table (relative to
+// `directory`, the case file's) read, resampled and reduced to harmonics_kept harmonics as the
+// gear pair reads mesh.stiffness_table (stiffness.hpp's table_cycle), k_m scaling it when the
+// mesh gives one. Throws InputError naming the mesh's key, the file and the line.
+PairMeshStiffness table_mesh_stiffness(const TrainMeshData& m,
+                                       const std::filesystem::path& directory);
+// The mean (um) and the harmonics (um, phases in degrees) of a mesh's transmission_error_table,
+// as the gear pair reads mesh.transmission_error_table (transmission_error.hpp). Throws
+// InputError naming the mesh's key, the file and the line.
+struct TableMeshError {
+  double mean_um = 0;
+  std::vector<ErrorHarmonic> harmonics;
+};
+TableMeshError table_mesh_error(const TrainMeshData& m, const std::filesystem::path& directory);
 // What that gear pair's geometry says of the data and goes on (a centre distance that the
 // shifts do not imply), in the train's keys; nothing where the pair is refused (the assembly
 // says why).
