@@ -147,16 +147,19 @@ MaybeViolation check_relations(const Case& c) {
   if (m.harmonics_kept >= m.stiffness_positions / 2)
     return bad("mesh.harmonics_kept", m.harmonics_kept,
                "fewer than half of mesh.stiffness_positions");
-  if (m.stiffness_source != StiffnessSource::kHarmonics && !m.stiffness_harmonics.empty())
+  const bool given_harmonics = m.stiffness_source == StiffnessSource::kHarmonics ||
+                               m.stiffness_source == StiffnessSource::kIso6336;
+  if (!given_harmonics && !m.stiffness_harmonics.empty())
     return MaybeViolation(Violation{
         "mesh.stiffness_harmonics", fmt::format("{} harmonics", m.stiffness_harmonics.size()),
-        "empty unless mesh.stiffness_source = \"harmonics\" (the other sources compute them)"});
+        "empty unless mesh.stiffness_source = \"harmonics\" or \"iso6336\" (the other sources "
+        "compute them)"});
   if (m.stiffness_source == StiffnessSource::kTable && m.stiffness_table.empty())
     return MaybeViolation(Violation{"mesh.stiffness_table", "\"\"",
                                     "a CSV file when mesh.stiffness_source = \"table\""});
   double ratio_sum = 0.0;
   for (const StiffnessHarmonic& h : m.stiffness_harmonics) ratio_sum += h.ratio;
-  if (!(ratio_sum < 1) && m.stiffness_source == StiffnessSource::kHarmonics)
+  if (!(ratio_sum < 1) && given_harmonics)
     return bad("mesh.stiffness_harmonics", ratio_sum,
                "harmonic ratios whose sum is < 1, so that k(t) stays positive");
 

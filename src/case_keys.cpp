@@ -147,7 +147,8 @@ std::vector<CaseKey> make_keys() {
       {"mesh.stiffness_source",
        choice<kMesh, &M::stiffness_source>({option("energy", StiffnessSource::kEnergy),
                                             option("harmonics", StiffnessSource::kHarmonics),
-                                            option("table", StiffnessSource::kTable)}),
+                                            option("table", StiffnessSource::kTable),
+                                            option("iso6336", StiffnessSource::kIso6336)}),
        "",
        {},
        "",
@@ -158,10 +159,11 @@ std::vector<CaseKey> make_keys() {
        stiff},
       {"mesh.mean_stiffness_n_per_m", &field<kMesh, &M::mean_stiffness_n_per_m>, "N/m", at_least(0),
        "stiffness",
-       "(> 0 with \"harmonics\"; with \"energy\" or \"table\" 0 keeps the computed mean)",
+       "(> 0 with \"harmonics\"; with \"energy\" or \"table\" 0 keeps the computed mean; not "
+       "read with \"iso6336\")",
        "k_m (normal direction); the computed curve is scaled to it", sweep, stiff},
       {"mesh.stiffness_harmonics", &field<kMesh, &M::stiffness_harmonics>, "", closed_open(0, 1),
-       "ratio k_ai/k_m", "(their sum below 1; only with \"harmonics\")",
+       "ratio k_ai/k_m", "(their sum below 1; only with \"harmonics\" or \"iso6336\")",
        "[k_ai/k_m, phi_i_deg] pairs of eq. 11, the i-th at i z1 f_1", sweep, stiff},
       {"mesh.stiffness_table",
        &field<kMesh, &M::stiffness_table>,
@@ -548,6 +550,11 @@ std::string unused_reason(const CaseKey& k, const Case& c) {
   if (k.name == "mesh.stiffness_table" && c.mesh.stiffness_source != StiffnessSource::kTable &&
       !c.mesh.stiffness_table.empty())
     return "mesh.stiffness_source is not \"table\"";
+  if ((k.name == "mesh.mean_stiffness_n_per_m" || k.name == "mesh.harmonics_kept" ||
+       k.name == "mesh.stiffness_slices") &&
+      c.mesh.stiffness_source == StiffnessSource::kIso6336)
+    return "mesh.stiffness_source = \"iso6336\" takes k_m from ISO 6336-1 (c_gamma_alpha b) and "
+           "the harmonics as given";
   if (k.name == "mesh.transmission_error_kept" && c.mesh.transmission_error_table.empty())
     return "there is no mesh.transmission_error_table to keep harmonics of";
   if ((k.name == "load.load_fluctuation_order" || k.name == "load.load_fluctuation_phase_deg") &&

@@ -129,12 +129,15 @@ Study park2010_study(const Case& base) {
     h += fmt::format("{}k_a{}/k_m = {:.4f}, phi_{} = {:.1f} deg", h.empty() ? "" : "; ", i + 1,
                      k.fourier.harmonics[i].ratio, i + 1, k.fourier.harmonics[i].phase_deg);
   if (h.empty()) h = "no harmonics (constant k_m)";
-  const char* source = base.mesh.stiffness_source == StiffnessSource::kEnergy
-                           ? "computed from the gear data by the potential-energy slice method, "
-                             "its mean scaled to k_m as the paper did"
-                       : base.mesh.stiffness_source == StiffnessSource::kTable
-                           ? "from the table mesh.stiffness_table, its mean scaled to k_m"
-                           : "as given in the case";
+  const char* source =
+      base.mesh.stiffness_source == StiffnessSource::kEnergy
+          ? "computed from the gear data by the potential-energy slice method, "
+            "its mean scaled to k_m as the paper did"
+      : base.mesh.stiffness_source == StiffnessSource::kTable
+          ? "from the table mesh.stiffness_table, its mean scaled to k_m"
+      : base.mesh.stiffness_source == StiffnessSource::kIso6336
+          ? "k_m from ISO 6336-1 Method B (c_gamma_alpha b), the harmonics as given"
+          : "as given in the case";
   s.assumptions.push_back(fmt::format(
       "Mesh stiffness: k_m = {:.4g} N/m with {}; {}. The paper kept the mean and two harmonics "
       "of its own program's curve (Fig. 3) but does not print them.",

@@ -286,6 +286,7 @@ Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g) {
   s.material_factor = (2 * e1 * e2 / (e1 + e2)) / kIsoSteelModulusGpa;
   const double ft_n = 2.0 * std::abs(c.load.torque_nm) / g.reference_diameter_m[0];
   const double line_load = ft_n * c.mesh.application_factor / gd.face_width_mm;
+  s.line_load_n_per_mm = line_load;
   s.load_factor =
       line_load < kIsoLineLoadNPerMm ? std::pow(line_load / kIsoLineLoadNPerMm, 0.25) : 1.0;
   s.c_prime = s.c_prime_th * s.c_m * s.c_r * s.c_b * cos_beta * s.material_factor * s.load_factor;
@@ -503,6 +504,18 @@ MeshStiffness mesh_stiffness(const Case& c, const Geometry& g) {
       m.fourier.mean_n_per_m = c.mesh.mean_stiffness_n_per_m;
       m.fourier.harmonics = c.mesh.stiffness_harmonics;
       return m;
+    case StiffnessSource::kIso6336: {
+      const Iso6336Stiffness iso = iso6336_stiffness(c, g);
+      if (!(iso.mesh_stiffness_n_per_m > 0))
+        throw InputError(fmt::format(
+            "mesh.stiffness_source = \"iso6336\": ISO 6336-1 gives c_gamma_alpha b = {:.4g} N/m "
+            "here (line load {:.4g} N/mm, its load factor {:.4g}): its stiffness needs a "
+            "driving torque load.torque_nm != 0",
+            iso.mesh_stiffness_n_per_m, iso.line_load_n_per_mm, iso.load_factor));
+      m.fourier.mean_n_per_m = iso.mesh_stiffness_n_per_m;
+      m.fourier.harmonics = c.mesh.stiffness_harmonics;
+      return m;
+    }
     case StiffnessSource::kEnergy:
       m.cycle = cached_energy_cycle(c, g);
       break;

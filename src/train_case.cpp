@@ -17,6 +17,7 @@
 #include <variant>
 
 #include "geardyn/case_keys.hpp"
+#include "geardyn/train_run.hpp"
 #include "toml_source.hpp"
 
 namespace geardyn {
@@ -27,6 +28,10 @@ constexpr double kPi = std::numbers::pi;
 constexpr double kMmToM = 1e-3;
 constexpr double kUmToM = 1e-6;
 constexpr double kDegToRad = kPi / 180.0;
+// The passes of an ISO 6336 mesh's stiffness at its static load, and when they have settled
+// (iso_meshes_at_their_load): relative change of k_m.
+constexpr int kIsoLoadPasses = 50;
+constexpr double kIsoLoadTolerance = 1e-12;
 
 Range above(double lo) { return {lo, kInf, false, true}; }
 Range at_least(double lo) { return {lo, kInf, true, true}; }
@@ -132,14 +137,16 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        "as given; \"energy\", the gear pair's energy method on the two gears' teeth, module, "
        "angles, face widths, profile shifts, tip diameters and material (the narrower face "
        "width), as mesh.stiffness_source = \"energy\" (docs/stiffness.md); \"table\", the "
-       "curve of stiffness_table",
-       "harmonics energy table"},
+       "curve of stiffness_table; \"iso6336\", k_m = c_gamma_alpha b of ISO 6336-1 Method B "
+       "from the same data under the mesh's load at the train's static state, "
+       "stiffness_harmonics as given",
+       "harmonics energy table iso6336"},
       {"mean_stiffness_n_per_m", &M::mean_stiffness_n_per_m, "N/m", above(0), false,
        "mean normal mesh stiffness k_m; required with stiffness_source = \"harmonics\", with "
        "\"energy\" or \"table\" the curve scaled to it (absent: its own mean)"},
       {"stiffness_harmonics", &M::stiffness_harmonics, "", closed_open(0, 1), false,
        "[[ratio k_i/k_m, phase_deg], ...] at i times the mesh frequency, with stiffness_source = "
-       "\"harmonics\""},
+       "\"harmonics\" or \"iso6336\""},
       {"stiffness_table",
        &M::stiffness_table,
        "",
@@ -150,7 +157,8 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
       {"harmonics_kept", &M::harmonics_kept, "", closed(0, 16), false,
        "with stiffness_source = \"energy\" or \"table\": the harmonics kept of the curve"},
       {"center_distance_mm", &M::center_distance_mm, "mm", above(0), false,
-       "with stiffness_source = \"energy\": the centre distance a; absent: the one the two "
+       "with stiffness_source = \"energy\" or \"iso6336\": the centre distance a; absent: the one "
+       "the two "
        "profile shifts imply"},
       {"transmission_error_um", &M::transmission_error_um, "um", at_least(0), false,
        "[[amplitude, phase_deg], ...] of the static transmission error at i times the mesh "
@@ -824,6 +832,72 @@ TrainCase expand_planets(const TrainCase& written) {
   return t;
 }
 
+namespace {
+
+// ISO 6336-1's stiffness of the meshes whose stiffness_source is "iso6336" at the load each
+// carries at the train's static state (static_state): the train at their full-load stiffness,
+// then again at the loads found until they settle (at once where the train's statics do not
+// depend on its stiffnesses; a planetary set's load sharing does), each mesh's damping kept at
+// its ratio (c ~ sqrt(k_m)). Refused when the train has no static state or a mesh carries no
+// load there.
+void iso_meshes_at_their_load(const TrainCase& t, train::Train& out) {
+  std::vector<std::size_t> iso;
+  for (std::size_t i = 0; i < t.meshes.size(); ++i)
+    if (t.meshes[i].stiffness_source == "iso6336") iso.push_back(i);
+  if (iso.empty()) return;
+  const auto body = [&](const std::string& name) {
+    return *std::find_if(t.bodies.begin(), t.bodies.end(),
+                         [&](const TrainBodyData& b) { return b.name == name; });
+  };
+  for (int pass = 0; pass < kIsoLoadPasses; ++pass) {
+    std::optional<train::Assembled> a;
+    try {
+      a.emplace(out);
+    } catch (const InputError& e) {
+      rethrow_with_origin(t, e.what());
+    }
+    std::string why;
+    const std::optional<Eigen::VectorXd> y = static_state(*a, &why);
+    const TrainMeshData& first = t.meshes[iso.front()];
+    if (!y)
+      rethrow_with_origin(t, fmt::format("mesh '{}': stiffness_source = \"iso6336\": ISO 6336-1's "
+                                         "stiffness is read at the mesh's static load, and the "
+                                         "train has none: {}",
+                                         first.name, why));
+    const std::vector<double> force = static_mesh_forces_n(*a, *y);
+    bool settled = true;
+    for (const std::size_t i : iso) {
+      const TrainMeshData& m = t.meshes[i];
+      train::Mesh& x = out.meshes[i];
+      if (!(force[i] > 0))
+        rethrow_with_origin(
+            t, fmt::format("mesh '{}': stiffness_source = \"iso6336\": the mesh carries {:.4g} N "
+                           "at the train's static state; ISO 6336-1's stiffness needs a load "
+                           "on its drive flank",
+                           m.name, force[i]));
+      // The normal force's torque on the driving gear: F cos(beta_b) r_b.
+      const double torque = force[i] * std::cos(x.base_helix_angle_rad) * x.base_radius_driving_m;
+      PairMeshStiffness k;
+      try {
+        k = iso_mesh_stiffness(m, body(m.driving), body(m.driven), torque);
+      } catch (const InputError& e) {
+        rethrow_with_origin(
+            t, fmt::format("mesh '{}': stiffness_source = \"iso6336\": {}", m.name, e.what()));
+      }
+      settled = settled && std::abs(k.mean_n_per_m - x.mean_stiffness_n_per_m) <=
+                               kIsoLoadTolerance * k.mean_n_per_m;
+      x.damping_n_s_per_m *= std::sqrt(k.mean_n_per_m / x.mean_stiffness_n_per_m);
+      x.mean_stiffness_n_per_m = k.mean_n_per_m;
+    }
+    if (settled) return;
+  }
+  rethrow_with_origin(t, fmt::format("mesh '{}': stiffness_source = \"iso6336\": the meshes' "
+                                     "stiffnesses and static loads did not settle in {} passes",
+                                     t.meshes[iso.front()].name, kIsoLoadPasses));
+}
+
+}  // namespace
+
 train::Train train_of(const Case& c) {
   if (c.model.form != ModelForm::kTrain || !c.train)
     throw InputError(
@@ -902,18 +976,20 @@ train::Train train_of(const Case& c) {
       const double ra = cb * x.base_radius_driving_m, rb = cb * x.base_radius_driven_m;
       const double m_n = 1.0 / (ra * ra / gears[m.driving].inertia_kg_m2 +
                                 rb * rb / gears[m.driven].inertia_kg_m2);
-      if (m.stiffness_source == "energy") {
+      if (m.stiffness_source == "energy" || m.stiffness_source == "iso6336") {
         if (x.internal)
-          rethrow_with_origin(t, fmt::format("mesh '{}': stiffness_source = \"energy\" takes an "
+          rethrow_with_origin(t, fmt::format("mesh '{}': stiffness_source = \"{}\" takes an "
                                              "external mesh; give an internal one's k_m and "
                                              "harmonics (stiffness_source = \"harmonics\")",
-                                             m.name));
+                                             m.name, m.stiffness_source));
         PairMeshStiffness k;
         try {
-          k = pair_mesh_stiffness(m, *a->second, *b->second);
+          // ISO's at its full load here; at the mesh's static load below.
+          k = m.stiffness_source == "energy" ? pair_mesh_stiffness(m, *a->second, *b->second)
+                                             : iso_mesh_stiffness(m, *a->second, *b->second);
         } catch (const InputError& e) {
-          rethrow_with_origin(
-              t, fmt::format("mesh '{}': stiffness_source = \"energy\": {}", m.name, e.what()));
+          rethrow_with_origin(t, fmt::format("mesh '{}': stiffness_source = \"{}\": {}", m.name,
+                                             m.stiffness_source, e.what()));
         }
         x.mean_stiffness_n_per_m = k.mean_n_per_m;
         for (const StiffnessHarmonic& h : k.harmonics)
@@ -1049,6 +1125,7 @@ train::Train train_of(const Case& c) {
   } catch (const InputError& e) {
     rethrow_with_origin(t, e.what());
   }
+  iso_meshes_at_their_load(t, out);
   return out;
 }
 
@@ -1378,10 +1455,15 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
           fmt::format("train.body[{}].eccentricity_angle_deg = {} ({}): not used: body '{}' has no "
                       "eccentricity_um to direct",
                       i, b.eccentricity_angle_deg, where("eccentricity_angle_deg"), b.name));
-    // Its flanks and material are read by a mesh that computes its stiffness from its gears.
-    const bool flanks_read = std::any_of(t.meshes.begin(), t.meshes.end(), [&](const auto& m) {
-      return m.stiffness_source == "energy" && (m.driving == b.name || m.driven == b.name);
-    });
+    // Its flanks and material are read by a mesh that computes its stiffness from its gears
+    // (ISO 6336-1 reads no Poisson's ratio).
+    const auto flanks_read = [&](std::string_view leaf) {
+      return std::any_of(t.meshes.begin(), t.meshes.end(), [&](const auto& m) {
+        return (m.stiffness_source == "energy" ||
+                (m.stiffness_source == "iso6336" && leaf != "poisson_ratio")) &&
+               (m.driving == b.name || m.driven == b.name);
+      });
+    };
     const TrainBodyData plain;
     for (const auto& [leaf, value, unset] :
          {std::tuple{"profile_shift", b.profile_shift, b.profile_shift == plain.profile_shift},
@@ -1392,18 +1474,25 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
           std::tuple{"poisson_ratio", b.poisson_ratio, b.poisson_ratio == plain.poisson_ratio},
           std::tuple{"basic_rack_dedendum", b.basic_rack_dedendum,
                      b.basic_rack_dedendum == plain.basic_rack_dedendum}})
-      if (!unset && !flanks_read)
+      if (!unset && !flanks_read(leaf))
         out.push_back(fmt::format(
             "train.body[{}].{} = {} ({}): not used: no mesh of body '{}' takes its stiffness from "
-            "the gears (stiffness_source = \"energy\")",
-            i, leaf, value, where(leaf), b.name));
+            "the gears (stiffness_source = \"energy\"{})",
+            i, leaf, value, where(leaf), b.name,
+            std::string_view(leaf) == "poisson_ratio" ? "" : " or \"iso6336\""));
   }
   // A mesh's stiffness keys that its source does not read.
   for (std::size_t i = 0; i < t.meshes.size(); ++i) {
     const TrainMeshData& m = t.meshes[i];
     const auto where = [&](std::string_view leaf) { return key_origin(t, "mesh", m.name, leaf); };
     const TrainMeshData plain;
-    if (m.stiffness_source != "harmonics" && !m.stiffness_harmonics.empty())
+    if (m.stiffness_source == "iso6336" && m.mean_stiffness_n_per_m)
+      out.push_back(fmt::format(
+          "train.mesh[{}].mean_stiffness_n_per_m = {} ({}): not used: mesh '{}' takes k_m from "
+          "ISO 6336-1 (stiffness_source = \"iso6336\")",
+          i, *m.mean_stiffness_n_per_m, where("mean_stiffness_n_per_m"), m.name));
+    if (m.stiffness_source != "harmonics" && m.stiffness_source != "iso6336" &&
+        !m.stiffness_harmonics.empty())
       out.push_back(fmt::format(
           "train.mesh[{}].stiffness_harmonics ({}): not used: mesh '{}' takes its harmonics "
           "from {} (stiffness_source = \"{}\")",
@@ -1421,13 +1510,14 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
           "train.mesh[{}].transmission_error_kept = {} ({}): not used: mesh '{}' has no "
           "transmission_error_table to keep harmonics of",
           i, m.transmission_error_kept, where("transmission_error_kept"), m.name));
-    if (m.stiffness_source == "harmonics" && m.harmonics_kept != plain.harmonics_kept)
+    if ((m.stiffness_source == "harmonics" || m.stiffness_source == "iso6336") &&
+        m.harmonics_kept != plain.harmonics_kept)
       out.push_back(fmt::format(
           "train.mesh[{}].harmonics_kept = {} ({}): not used: mesh '{}' takes its harmonics as "
           "given (stiffness_source = \"{}\")",
           i, m.harmonics_kept, where("harmonics_kept"), m.name, m.stiffness_source));
-    // What the gear pair of an energy mesh's gears says of their data.
-    if (m.stiffness_source == "energy") {
+    // What the gear pair of an energy or ISO mesh's gears says of their data.
+    if (m.stiffness_source == "energy" || m.stiffness_source == "iso6336") {
       const auto a = std::find_if(t.bodies.begin(), t.bodies.end(),
                                   [&](const TrainBodyData& b) { return b.name == m.driving; });
       const auto b = std::find_if(t.bodies.begin(), t.bodies.end(),
@@ -1437,7 +1527,7 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
           out.push_back(fmt::format("train.mesh[{}] ('{}', {}): {}", i, m.name,
                                     key_origin(t, "mesh", m.name, "stiffness_source"), w));
     }
-    if (m.stiffness_source != "energy" && m.center_distance_mm)
+    if (m.stiffness_source != "energy" && m.stiffness_source != "iso6336" && m.center_distance_mm)
       out.push_back(fmt::format(
           "train.mesh[{}].center_distance_mm = {} ({}): not used: mesh '{}' takes its stiffness "
           "as given (stiffness_source = \"{}\")",

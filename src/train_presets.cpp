@@ -2,6 +2,7 @@
 // the gear pair of a train mesh's two gears (pair_mesh_stiffness).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -15,6 +16,7 @@
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_run.hpp"
 #include "geardyn/transmission_error.hpp"
 
 namespace geardyn {
@@ -26,6 +28,8 @@ constexpr double kRadToDeg = 180 / kPi;
 // A harmonic's frequency counts as the i-th multiple of the mesh frequency within this relative
 // distance (the model forms its terms as i times the mesh frequency: equal to rounding).
 constexpr double kMultipleTolerance = 1e-9;
+// ISO 6336-1's line load F_t K_A / b (N/mm) from which its load factor on c' is 1.
+constexpr double kIsoFullLoadNPerMm = 100;
 
 // The key's place for a message: " (case.toml:12:3)", or "" when it was not given.
 std::string where(const Case& c, const std::string& key) {
@@ -204,8 +208,9 @@ Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& driving,
   }
   g.inertia_kg_m2.reset();
   if (!(g.face_width_mm > 0))
-    throw InputError(train_keys_in("gear.face_width_mm = 0: the energy method needs the face width",
-                                   driving, driven));
+    throw InputError(
+        train_keys_in("gear.face_width_mm = 0: a stiffness from the gears needs their face width",
+                      driving, driven));
   if (m.center_distance_mm) {
     g.center_distance_mm = *m.center_distance_mm;
   } else {
@@ -249,6 +254,29 @@ PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyDat
   out.mean_n_per_m = k.offset;
   out.harmonics = harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi * c.gear.teeth[0], 1 / k.offset,
                                                   "stiffness_source");
+  return out;
+}
+
+PairMeshStiffness iso_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
+                                     const TrainBodyData& driven,
+                                     std::optional<double> driving_torque_nm) {
+  Case c = mesh_pair_case(m, driving, driven);
+  c.mesh.stiffness_source = StiffnessSource::kIso6336;
+  c.mesh.stiffness_harmonics = m.stiffness_harmonics;
+  c.mesh.mean_stiffness_n_per_m = 0;
+  // T = F_t d / 2 with F_t / b twice the line load above which ISO's load factor is 1.
+  const double d_m = driving.teeth * driving.normal_module_mm * 1e-3 /
+                     std::cos(driving.helix_angle_deg / kRadToDeg);
+  c.load.torque_nm =
+      driving_torque_nm.value_or(2 * kIsoFullLoadNPerMm * c.gear.face_width_mm * d_m / 2);
+  PairMeshStiffness out;
+  try {
+    const MeshStiffness k = mesh_stiffness(c, case_geometry(c));
+    out.mean_n_per_m = k.fourier.mean_n_per_m;
+    out.harmonics = k.fourier.harmonics;
+  } catch (const InputError& e) {
+    throw InputError(train_keys_in(e.what(), driving, driven));
+  }
   return out;
 }
 
@@ -313,6 +341,76 @@ TableMeshError table_mesh_error(const TrainMeshData& m, const std::filesystem::p
   out.mean_um = e.offset * 1e6;
   out.harmonics = harmonics_of<ErrorHarmonic>(c, e, 2 * kPi, 1e6, "transmission_error_table");
   return out;
+}
+
+namespace {
+
+// A train's body by its name (one the assembler has checked).
+const TrainBodyData& body_named(const TrainCase& t, const std::string& name) {
+  return *std::find_if(t.bodies.begin(), t.bodies.end(),
+                       [&](const TrainBodyData& b) { return b.name == name; });
+}
+
+}  // namespace
+
+GearPairToRead gear_pair_to_read(const Case& c, const std::string& mesh) {
+  if (c.model.form == ModelForm::kTrain)
+    return {train_mesh_pair(c, mesh), train_mesh_pair_warnings(c, mesh)};
+  (void)mesh_to_read(c, mesh);  // refuses a name
+  return {c, case_geometry(c).warnings};
+}
+
+std::vector<std::string> train_mesh_pair_warnings(const Case& c, const std::string& mesh) {
+  const std::size_t i = mesh_to_read(c, mesh);
+  const TrainCase t = expand_planets(*c.train);
+  const TrainMeshData& m = t.meshes.at(i);
+  std::vector<std::string> out;
+  for (const std::string& w :
+       pair_mesh_warnings(m, body_named(t, m.driving), body_named(t, m.driven)))
+    out.push_back(fmt::format("mesh '{}': {}", m.name, w));
+  return out;
+}
+
+Case train_mesh_pair(const Case& c, const std::string& mesh) {
+  const std::size_t i = mesh_to_read(c, mesh);
+  const train::Assembled a = assembled_train(c);
+  const TrainCase t = expand_planets(*c.train);
+  const TrainMeshData& m = t.meshes.at(i);
+  const auto body = [&](const std::string& name) { return body_named(t, name); };
+  const auto origin = t.origins.find(fmt::format("mesh '{}'", m.name));
+  const std::string where = origin == t.origins.end() ? "" : origin->second + ": ";
+  if (m.kind == "internal")
+    throw InputError(
+        fmt::format("{}train: mesh '{}': is internal: the gear pair of a mesh is an "
+                    "external one",
+                    where, m.name));
+  Case pair;
+  try {
+    pair = mesh_pair_case(m, body(m.driving), body(m.driven));
+    (void)case_geometry(pair);  // what the pair's geometry refuses, in the train's keys
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}train: mesh '{}': {}", where, m.name,
+                                 train_keys_in(e.what(), body(m.driving), body(m.driven))));
+  }
+  pair.name = fmt::format("{}, mesh '{}'", c.name, m.name);
+  pair.directory = c.directory;
+  const train::Mesh& x = a.train().meshes[i];
+  pair.speed.shaft_frequency_hz = a.mesh_frequency_hz(static_cast<int>(i)) / x.teeth_driving;
+  if (m.stiffness_source == "harmonics" || m.stiffness_source == "iso6336") {
+    pair.mesh.stiffness_source =
+        m.stiffness_source == "harmonics" ? StiffnessSource::kHarmonics : StiffnessSource::kIso6336;
+    pair.mesh.mean_stiffness_n_per_m = x.mean_stiffness_n_per_m;
+    pair.mesh.stiffness_harmonics = m.stiffness_harmonics;
+  } else if (m.stiffness_source == "table") {
+    pair.mesh.stiffness_source = StiffnessSource::kTable;
+    pair.mesh.stiffness_table = m.stiffness_table;
+  }
+  if (const std::optional<Eigen::VectorXd> y = static_state(a))
+    pair.load.torque_nm =
+        static_mesh_forces_n(a, *y)[i] * std::cos(x.base_helix_angle_rad) * x.base_radius_driving_m;
+  else
+    pair.load.torque_nm = 0;
+  return pair;
 }
 
 std::vector<std::string> pair_mesh_warnings(const TrainMeshData& m, const TrainBodyData& driving,

@@ -549,10 +549,11 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
     q_load += t.bearings[b].stiffness_n_per_m * a.bearing_matrix(static_cast<int>(b)).transpose() *
               a.bearing_offset(static_cast<int>(b));
   q_load += a.frame_load();
-  // In drive contact a mesh pushes with k_m (V q - e - b): its b is a load k_m b V^T, and at a
-  // time its error's value and rate are too.
+  // In drive contact a mesh pushes with k_m (V q - e - b): its b is a load k_m b V^T, and so is
+  // its error's constant part (the mean state) or, at a time, its error's value and rate.
   for (std::size_t m = 0; m < t.meshes.size(); ++m)
-    q_load += t.meshes[m].mean_stiffness_n_per_m * t.meshes[m].backlash_m *
+    q_load += t.meshes[m].mean_stiffness_n_per_m *
+              (t.meshes[m].backlash_m + (at_s ? 0.0 : t.meshes[m].transmission_error_mean_m)) *
               a.mesh_vector(static_cast<int>(m)).transpose();
   Eigen::VectorXd y = Eigen::VectorXd::Zero(2 * static_cast<Eigen::Index>(n));
   if (at_s) {
@@ -578,9 +579,9 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
   std::vector<double> f;
   const train::Train& t = a.train();
   for (std::size_t m = 0; m < t.meshes.size(); ++m)
-    f.push_back(
-        t.meshes[m].mean_stiffness_n_per_m *
-        (a.mesh_vector(static_cast<int>(m)).dot(y.head(a.size())) - t.meshes[m].backlash_m));
+    f.push_back(t.meshes[m].mean_stiffness_n_per_m *
+                (a.mesh_vector(static_cast<int>(m)).dot(y.head(a.size())) -
+                 t.meshes[m].transmission_error_mean_m - t.meshes[m].backlash_m));
   return f;
 }
 

@@ -10,6 +10,7 @@
 #include <functional>
 #include <numbers>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/validation.hpp"
 #include "test_support.hpp"
 
@@ -276,6 +277,60 @@ TEST(Table, BadFilesAreInputErrors) {
   EXPECT_NE(m.find("mesh.stiffness_table"), std::string::npos) << m;
   c.mesh.stiffness_table = "no/such.csv";
   EXPECT_THROW(table_cycle(c), InputError);
+}
+
+TEST(MeshStiffness, TheIso6336SourceIsTheStandardsMeshStiffnessWithTheHarmonicsGiven) {
+  // k_m = c' (0.75 eps_alpha + 0.25) b, the harmonics as given; under the paper's light load
+  // (Table 1: 33 N/mm, below ISO's 100 N/mm) c' carries the load factor (F_t K_A / b / 100)^0.25,
+  // so doubling the torque raises k_m by 2^0.25.
+  Case c;
+  c.mesh.stiffness_source = StiffnessSource::kIso6336;
+  c.mesh.stiffness_harmonics = {{0.1, 30.0}};
+  const Geometry g = compute_geometry(c.gear);
+  const Iso6336Stiffness iso = iso6336_stiffness(c, g);
+  const MeshStiffness m = mesh_stiffness(c, g);
+  EXPECT_FALSE(m.cycle.has_value());
+  EXPECT_NEAR(m.fourier.mean_n_per_m,
+              iso.c_prime * (0.75 * g.transverse_contact_ratio + 0.25) * c.gear.face_width_mm * 1e6,
+              1e-6);
+  ASSERT_EQ(m.fourier.harmonics.size(), 1U);
+  EXPECT_EQ(m.fourier.harmonics[0].ratio, 0.1);
+  EXPECT_EQ(m.fourier.harmonics[0].phase_deg, 30.0);
+  EXPECT_LT(iso.load_factor, 1.0);
+  Case doubled = c;
+  doubled.load.torque_nm *= 2;
+  EXPECT_NEAR(mesh_stiffness(doubled, g).fourier.mean_n_per_m / m.fourier.mean_n_per_m,
+              std::pow(2.0, 0.25), 1e-12);
+  // The run's k(t) is it.
+  const HarmonicSeries k = mesh_stiffness_series(c, g);
+  EXPECT_EQ(k.offset, m.fourier.mean_n_per_m);
+  EXPECT_NEAR(k.terms.at(0).amplitude, 0.1 * m.fourier.mean_n_per_m, 1e-6);
+  // No torque, no ISO stiffness: refused, saying why.
+  Case unloaded = c;
+  unloaded.load.torque_nm = 0;
+  const std::string why = testing::error_of([&] { (void)mesh_stiffness(unloaded, g); });
+  EXPECT_NE(why.find("mesh.stiffness_source = \"iso6336\": ISO 6336-1 gives c_gamma_alpha b = 0 "
+                     "N/m here (line load 0 N/mm"),
+            std::string::npos)
+      << why;
+  // In a case file: the harmonics are taken, a given k_m is reported as not used.
+  const Case file = parse_case(
+      "[mesh]\nstiffness_source = \"iso6336\"\nmean_stiffness_n_per_m = 3e8\n"
+      "stiffness_harmonics = [[0.1, 30]]\n",
+      "t.toml");
+  const std::vector<std::string> unused = unused_settings(file);
+  ASSERT_EQ(unused.size(), 1U);
+  EXPECT_EQ(unused[0].find("mesh.mean_stiffness_n_per_m = 3e+08 (t.toml:3:"), 0U) << unused[0];
+  EXPECT_NE(unused[0].find("not used: mesh.stiffness_source = \"iso6336\" takes k_m from ISO"),
+            std::string::npos)
+      << unused[0];
+  EXPECT_NE(testing::error_of([] {
+              (void)parse_case(
+                  "[mesh]\nstiffness_harmonics = [[0.1, 30]]\n"
+                  "stiffness_source = \"energy\"\n",
+                  "t.toml");
+            }).find("empty unless mesh.stiffness_source = \"harmonics\" or \"iso6336\""),
+            std::string::npos);
 }
 
 TEST(MeshStiffness, DefaultIsTheEnergyMethodScaledToTable1) {

@@ -780,6 +780,66 @@ TEST(TrainCase, AMeshTakesItsStiffnessFromItsGearsByTheEnergyMethod) {
       << given;
 }
 
+TEST(TrainCase, AMeshTakesIso6336sStiffnessAtItsStaticLoad) {
+  // The shipped paper's pair written as a train, its pinion driven by the case's torque and its
+  // wheel loaded to balance it: the mesh's static force puts the pair's torque back on the
+  // pinion, so its k_m is the gear pair's own "iso6336" k_m; under this light load (below ISO's
+  // 100 N/mm) doubling the torque raises it by 2^0.25. Its harmonics are the ones given.
+  Case pair = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "park2010.toml");
+  const GearData& g = pair.gear;
+  const auto text = [&](double torque_nm, const std::string& mesh) {
+    std::string out = "[model]\nform = \"train\"\n[train]\nreference_speed_hz = 1000\n";
+    for (std::size_t i = 0; i < 2; ++i)
+      out += fmt::format(
+          "[[train.body]]\nname = \"{}\"\nteeth = {}\nnormal_module_mm = {}\n"
+          "normal_pressure_angle_deg = {}\nhelix_angle_deg = {}\nface_width_mm = {}\n"
+          "profile_shift = {}\noutside_diameter_mm = {}\n",
+          i == 0 ? "pinion" : "wheel", g.teeth[i], g.normal_module_mm, g.normal_pressure_angle_deg,
+          g.helix_angle_deg, g.face_width_mm, g.profile_shift[i], g.outside_diameter_mm[i]);
+    return out +
+           fmt::format(
+               "[[train.torque]]\nbody = \"pinion\"\nmean_nm = {}\n[[train.torque]]\nbody = "
+               "\"wheel\"\nmean_nm = {}\n",
+               torque_nm, -torque_nm * g.teeth[1] / g.teeth[0]) +
+           fmt::format(
+               "[[train.mesh]]\nname = \"m\"\ndriving = \"pinion\"\ndriven = \"wheel\"\n"
+               "stiffness_source = \"iso6336\"\ncenter_distance_mm = {}\n",
+               g.center_distance_mm) +
+           mesh;
+  };
+  pair.mesh.stiffness_source = StiffnessSource::kIso6336;
+  pair.mesh.stiffness_harmonics = {{0.2, 40.0}};
+  const double k_pair = mesh_stiffness(pair, case_geometry(pair)).fourier.mean_n_per_m;
+  const Case train_case =
+      parse_case(text(pair.load.torque_nm, "stiffness_harmonics = [[0.2, 40]]\n"), "t.toml");
+  const train::Train t = train_of(train_case);
+  EXPECT_NEAR(t.meshes[0].mean_stiffness_n_per_m / k_pair, 1.0, 1e-10);
+  ASSERT_EQ(t.meshes[0].stiffness.size(), 1U);
+  EXPECT_EQ(t.meshes[0].stiffness[0].value, 0.2);
+  const double k_double = train_of(parse_case(text(2 * pair.load.torque_nm, ""), "t.toml"))
+                              .meshes[0]
+                              .mean_stiffness_n_per_m;
+  EXPECT_NEAR(k_double / t.meshes[0].mean_stiffness_n_per_m, std::pow(2.0, 0.25), 1e-10);
+  // The damping keeps its ratio at the stiffness found: c = 2 zeta sqrt(m_n k_m).
+  const train::Train harmonics = train_of(parse_case(
+      text(pair.load.torque_nm, "")
+              .replace(text(pair.load.torque_nm, "").find("iso6336"), 7, "harmonics") +
+          fmt::format("mean_stiffness_n_per_m = {:.17g}\n", t.meshes[0].mean_stiffness_n_per_m),
+      "t.toml"));
+  EXPECT_NEAR(t.meshes[0].damping_n_s_per_m / harmonics.meshes[0].damping_n_s_per_m, 1.0, 1e-12);
+  // No load on the mesh, no ISO stiffness; a k_m given is not read.
+  const std::string unloaded = error_of(text(0, ""));
+  EXPECT_NE(unloaded.find("mesh 'm': stiffness_source = \"iso6336\": the mesh carries 0 N at the "
+                          "train's static state"),
+            std::string::npos)
+      << unloaded;
+  const std::vector<std::string> unused = unused_settings(
+      parse_case(text(pair.load.torque_nm, "mean_stiffness_n_per_m = 3e8\n"), "t.toml"));
+  ASSERT_EQ(unused.size(), 1U) << fmt::format("{}", fmt::join(unused, "\n"));
+  EXPECT_EQ(unused[0].find("train.mesh[0].mean_stiffness_n_per_m = 300000000 (t.toml:"), 0U)
+      << unused[0];
+}
+
 TEST(TrainCase, AMeshReadsItsStiffnessAndItsTransmissionErrorFromTables) {
   // Tables of eight rows over a mesh cycle, resampled linearly to 256 positions (32 per row):
   // the samples' mean is the rows' mean exactly, and the first harmonic of a sampled cosine
@@ -883,6 +943,27 @@ driven = "b"
   EXPECT_EQ(unused[0].find("train.mesh[0].stiffness_table = \"k.csv\" ("), 0U) << unused[0];
   EXPECT_NE(unused[0].find("t.toml:20:"), std::string::npos) << unused[0];
   EXPECT_EQ(unused[1].find("train.mesh[0].transmission_error_kept = 2"), 0U) << unused[1];
+  // The constant part is in the mean static state: with the wheel held by a support, the same
+  // force (the torque sets it) at a deflection moved by it.
+  const auto held = [&](const std::string& mean) {
+    return assembled_train(write("mean_stiffness_n_per_m = 2e8\n" + mean + R"([[train.torque]]
+body = "a"
+mean_nm = 50
+[[train.shaft]]
+from = "b"
+to = "ground"
+stiffness_n_m_per_rad = 1e5
+)"));
+  };
+  const train::Assembled plain = held(""), offset = held("transmission_error_mean_um = 2\n");
+  const std::optional<Eigen::VectorXd> y0 = static_state(plain), y1 = static_state(offset);
+  ASSERT_TRUE(y0 && y1);
+  const double f0 = static_mesh_forces_n(plain, *y0).at(0);
+  EXPECT_GT(f0, 1000);
+  EXPECT_NEAR(static_mesh_forces_n(offset, *y1).at(0) / f0, 1.0, 1e-12);
+  EXPECT_NEAR(offset.mesh_vector(0).dot(y1->head(offset.size())) -
+                  plain.mesh_vector(0).dot(y0->head(plain.size())),
+              2e-6, 1e-15);
   std::filesystem::remove_all(dir);
 }
 

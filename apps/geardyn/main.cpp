@@ -151,11 +151,12 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 
 // The case a model command works on; every setting it gives that the model does not use is
 // said (case_keys.hpp, unused_settings), never dropped silently.
-// A gear train (model.form = "train") is taken by `run`, `sweep`, `continue`, `modes`, `orbit`
-// and `stability` so far; every other command says so.
+// A gear train (model.form = "train") is taken by `run`, `sweep`, `continue`, `modes`, `orbit`,
+// `stability`, and by `geometry` and `stiffness` for one of its meshes (--mesh) so far; every
+// other command says so.
 void check_command_takes(const geardyn::Case& c, std::string_view command) {
-  static constexpr std::array<std::string_view, 6> kTakeTrains{"run",   "sweep", "continue",
-                                                               "modes", "orbit", "stability"};
+  static constexpr std::array<std::string_view, 8> kTakeTrains{
+      "run", "sweep", "continue", "modes", "orbit", "stability", "geometry", "stiffness"};
   if (c.model.form == geardyn::ModelForm::kTrain &&
       std::find(kTakeTrains.begin(), kTakeTrains.end(), command) == kTakeTrains.end())
     throw geardyn::InputError(geardyn::with_origins(
@@ -540,9 +541,19 @@ int cmd_train_form(const std::string& case_file, const std::vector<std::string>&
   return 0;
 }
 
-int cmd_geometry(const std::string& case_file, const std::vector<std::string>& sets, bool json) {
+// The gear pair a geometry or stiffness command reads (gear_pair_to_read).
+geardyn::GearPairToRead pair_to_read(const std::string& case_file,
+                                     const std::vector<std::string>& sets, const std::string& mesh,
+                                     std::string_view command) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
-  check_command_takes(c, "geometry");
+  check_command_takes(c, command);
+  return geardyn::gear_pair_to_read(c, mesh);
+}
+
+int cmd_geometry(const std::string& case_file, const std::vector<std::string>& sets,
+                 const std::string& mesh, bool json) {
+  const geardyn::GearPairToRead read = pair_to_read(case_file, sets, mesh, "geometry");
+  const geardyn::Case& c = read.pair;
   const geardyn::Geometry g = geardyn::case_geometry(c);
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   constexpr double kMm = 1e3;
@@ -550,7 +561,7 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
     fmt::print("{}\n", geardyn::geometry_json(g));
     return 0;
   }
-  print_warnings(g.warnings);
+  print_warnings(read.warnings);
   fmt::print("geometry of {}\n", c.name);
   fmt::print("  transverse module          {:.6f} mm\n", g.transverse_module_m * kMm);
   fmt::print("  transverse pressure angle  {:.6f} deg\n", g.transverse_pressure_angle_rad * kDeg);
@@ -687,9 +698,9 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
 constexpr int kFigureHarmonics = 10;
 
 int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& sets,
-                  const std::string& out_dir, bool json) {
-  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
-  check_command_takes(c, "stiffness");
+                  const std::string& mesh, const std::string& out_dir, bool json) {
+  const geardyn::GearPairToRead read = pair_to_read(case_file, sets, mesh, "stiffness");
+  const geardyn::Case& c = read.pair;
   const geardyn::Geometry g = geardyn::case_geometry(c);
   const geardyn::Iso6336Stiffness iso = geardyn::iso6336_stiffness(c, g);
   const geardyn::StiffnessCycle cycle = geardyn::energy_method_cycle(c, g);
@@ -705,8 +716,10 @@ int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& 
       geardyn::write_stiffness_figure(
           d, c.name + ": mesh stiffness (energy method)", cycle,
           geardyn::fourier_harmonics(cycle, kFigureHarmonics),
-          c.mesh.stiffness_source == geardyn::StiffnessSource::kHarmonics ? 0
-                                                                          : c.mesh.harmonics_kept,
+          c.mesh.stiffness_source == geardyn::StiffnessSource::kHarmonics ||
+                  c.mesh.stiffness_source == geardyn::StiffnessSource::kIso6336
+              ? 0
+              : c.mesh.harmonics_kept,
           used.fourier);
     });
   }
@@ -714,7 +727,7 @@ int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& 
     fmt::print("{}\n", report);
     return 0;
   }
-  print_warnings(g.warnings);
+  print_warnings(read.warnings);
   fmt::print("mesh stiffness of {} (normal direction)\n", c.name);
   fmt::print(
       "  ISO 6336-1 Method B   c'_th {:.4f}, c' {:.4f}, c_gamma_alpha {:.4f}, "
@@ -1083,6 +1096,9 @@ int main(int argc, char** argv) {
   CLI::App* geometry = app.add_subcommand("geometry", "print the derived gear geometry");
   add_case(geometry);
   geometry->add_flag("--json", json, "print JSON");
+  std::string pair_mesh;
+  geometry->add_option("--mesh", pair_mesh,
+                       "a gear train's mesh whose gear pair is read (default: the first)");
 
   CLI::App* modes = app.add_subcommand(
       "modes", "natural frequencies, damping and strain energies of a gear train or a pair");
@@ -1105,6 +1121,8 @@ int main(int argc, char** argv) {
   add_case(stiffness);
   stiffness->add_option("--out", out_dir, "directory for stiffness.csv, harmonics.json, figure");
   stiffness->add_flag("--json", json, "print JSON");
+  stiffness->add_option("--mesh", pair_mesh,
+                        "a gear train's mesh whose gear pair is read (default: the first)");
 
   CLI::App* sweep_cmd =
       app.add_subcommand("sweep", "sweep a case key (a map: two): frequency response, jumps");
@@ -1248,11 +1266,11 @@ int main(int argc, char** argv) {
   // The command the arguments chose.
   const auto dispatch = [&]() -> int {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot, physical);
-    if (geometry->parsed()) return cmd_geometry(case_file, sets, json);
+    if (geometry->parsed()) return cmd_geometry(case_file, sets, pair_mesh, json);
     if (keys->parsed()) return cmd_keys(markdown, json);
     if (train_form->parsed()) return cmd_train_form(case_file, sets);
     if (modes->parsed()) return cmd_modes(case_file, sets, json, modes_out);
-    if (stiffness->parsed()) return cmd_stiffness(case_file, sets, out_dir, json);
+    if (stiffness->parsed()) return cmd_stiffness(case_file, sets, pair_mesh, out_dir, json);
     if (sweep_cmd->parsed()) {
       so.direction = direction == "up"     ? geardyn::SweepDirection::kUp
                      : direction == "down" ? geardyn::SweepDirection::kDown

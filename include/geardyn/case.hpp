@@ -84,6 +84,7 @@ enum class StiffnessSource {
   kEnergy,     // the potential-energy slice method from the gear data (stiffness.hpp)
   kHarmonics,  // mean_stiffness_n_per_m and stiffness_harmonics as given
   kTable,      // a CSV of k over one mesh cycle (stiffness_table)
+  kIso6336,    // k_m = c_gamma_alpha b of ISO 6336-1 Method B, stiffness_harmonics as given
 };
 
 // [mesh]

@@ -35,6 +35,7 @@ struct Iso6336Stiffness {
   double c_r = 1;                         // gear blank factor (rim and web)
   double c_b = 1;                         // basic rack factor
   double material_factor = 1;             // E / E_st, E = 2 E1 E2 / (E1 + E2)
+  double line_load_n_per_mm = 0;          // F_t K_A / b
   double load_factor = 1;                 // (F_t K_A / b / 100)^0.25 below 100 N/mm, else 1
   double c_prime = 0;                     // c'_th C_M C_R C_B cos(beta) (material, load factors)
   double c_gamma_alpha = 0;               // c' (0.75 eps_alpha + 0.25)
@@ -114,7 +115,8 @@ StiffnessFourier fourier_harmonics(const StiffnessCycle& cycle, int kept);
 // Largest |k - series| over the cycle's positions, relative to the mean.
 double truncation_error(const StiffnessCycle& cycle, const StiffnessFourier& f);
 
-// The mesh stiffness a case runs with: its source, kept harmonics and scaling.
+// The mesh stiffness a case runs with: its source, kept harmonics and scaling ("iso6336":
+// c_gamma_alpha b, the harmonics as given; InputError when no torque loads it).
 struct MeshStiffness {
   StiffnessFourier fourier;             // what the model uses (scaled, truncated)
   std::optional<StiffnessCycle> cycle;  // the computed or tabulated curve, unscaled

@@ -80,7 +80,9 @@ struct TrainMeshData {
   double backlash_um = 100;       // b, half the total normal backlash
   // "harmonics": k_m and its harmonics as given; "energy": the gear pair's energy method on
   // the two gears' data (pair_mesh_stiffness); "table": stiffness_table's curve
-  // (table_mesh_stiffness). With a curve, k_m scales it when given.
+  // (table_mesh_stiffness); "iso6336": ISO 6336-1's c_gamma_alpha b of the two gears under the
+  // mesh's static load (iso_mesh_stiffness), its harmonics as given. With a curve, k_m scales
+  // it when given.
   std::string stiffness_source = "harmonics";
   std::optional<double> mean_stiffness_n_per_m;
   std::vector<StiffnessHarmonic> stiffness_harmonics;  // of the mesh frequency
@@ -211,6 +213,13 @@ struct PairMeshStiffness {
 };
 PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                       const TrainBodyData& driven);
+// The same of a mesh whose stiffness_source is "iso6336": ISO 6336-1 Method B's c_gamma_alpha b
+// (stiffness.hpp's iso6336_stiffness) of that gear pair under `driving_torque_nm` on its driving
+// gear (absent: a line load of twice ISO's 100 N/mm, so its load factor is 1), the mesh's
+// stiffness_harmonics as given. Throws InputError as pair_mesh_stiffness.
+PairMeshStiffness iso_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
+                                     const TrainBodyData& driven,
+                                     std::optional<double> driving_torque_nm = std::nullopt);
 // The same of a mesh whose stiffness_source is "table": its stiffness_table (relative to
 // `directory`, the case file's) read, resampled and reduced to harmonics_kept harmonics as the
 // gear pair reads mesh.stiffness_table (stiffness.hpp's table_cycle), k_m scaling it when the
@@ -283,6 +292,24 @@ std::string train_key_not_sweepable(std::string_view dotted);
 // Throws InputError "--mesh = "NAME": ..." for a name the train does not have (listing its
 // meshes) and for a name given to a case of another form (which has one mesh).
 std::size_t mesh_to_read(const Case& c, const std::string& name);
+
+// The gear pair of a train's mesh (mesh_to_read's; an external one), for `geardyn geometry` and
+// `geardyn stiffness`: its [gear] keys from the two gears' as pair_mesh_stiffness writes them,
+// its [mesh] stiffness source, k_m, harmonics or table as the train mesh runs with them, its
+// driving gear's speed, and as load.torque_nm the torque F cos(beta_b) r_b of the mesh's force
+// at the train's static state (0 without one), which ISO 6336-1's load factor reads. Named
+// "<case>, mesh '<name>'". Throws InputError naming the mesh and where it was written.
+Case train_mesh_pair(const Case& c, const std::string& mesh);
+// What that gear pair's geometry says of the data (pair_mesh_warnings), in the train's keys.
+std::vector<std::string> train_mesh_pair_warnings(const Case& c, const std::string& mesh);
+// The gear pair that `geardyn geometry` and `geardyn stiffness` (and Python's geometry() and
+// stiffness()) read: a train's mesh's (train_mesh_pair, its warnings in the train's keys), or the
+// case itself with its geometry's warnings (a mesh named for it refused, mesh_to_read).
+struct GearPairToRead {
+  Case pair;
+  std::vector<std::string> warnings;
+};
+GearPairToRead gear_pair_to_read(const Case& c, const std::string& mesh);
 
 // The train's settings that nothing reads, "train.mesh[0].position_angle_deg = 30 (where): not
 // used: why" (a mesh's layout when neither of its gears is planar), for unused_settings.

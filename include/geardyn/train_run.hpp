@@ -258,7 +258,8 @@ struct TrainRunOptions {
 // a jolt). With `at_s` each mesh's error (transmission error and runouts) at that time loads it
 // too, as the one-degree model starts at rest relative to its error: d - e(t0) in place of d,
 // the rates following e'(t0) quasi-statically (a start without the jolt of an error that turns
-// on); without it the state is the mean one the readings' static values use. The motions no
+// on); without it the state is the mean one the readings' static values use, each mesh's error
+// there its constant part (Mesh::transmission_error_mean_m). The motions no
 // element resists (Assembled::rigid_motions(): with no prescribed body and no support, the
 // train's rigid rotation, r the speed ratios) are left out (R^T theta = 0, R^T theta' = 0).
 // Absent, with `why`, when the mean torques do work on such a motion (the train would speed up
@@ -271,7 +272,8 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
 // train lets them be, the prescribed bodies as prescribed; 0 (and the prescriptions) without an
 // error, or where the train has no such state (a prescribed speed leaving a part free).
 Eigen::VectorXd rest_state(const train::Assembled& a, double at_s);
-// Each mesh's force k_m (V theta - b) in such a state.
+// Each mesh's force k_m (V theta - e_mean - b) in such a state (e_mean the error's constant
+// part).
 std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen::VectorXd& y);
 
 // A train case's integrator (the exact engine with solver.method = "exact", the adaptive one of

@@ -268,12 +268,15 @@ Case.from_dict = staticmethod(_from_dict)
 Case.__hash__ = None
 
 
-def geometry(case):
+def geometry(case, mesh=""):
     """The derived gear geometry, as `geardyn geometry --json`.
 
     Parameters
     ----------
     case : Case
+    mesh : str
+        Of a gear train: the external mesh whose gear pair is read (default: the first), as
+        ``--mesh``; a name given for another form is refused.
 
     Returns
     -------
@@ -281,15 +284,18 @@ def geometry(case):
         Diameters and distances in mm, angles in deg, inertias in kg m^2, the equivalent mass
         in kg, contact ratios, and ``warnings`` (docs/outputs.md).
     """
-    return _json.loads(_geardyn._geometry_json(case))
+    return _json.loads(_geardyn._geometry_json(case, mesh))
 
 
-def stiffness(case):
+def stiffness(case, mesh=""):
     """The mesh stiffness from the gear data, as `geardyn stiffness --json`.
 
     Parameters
     ----------
     case : Case
+    mesh : str
+        Of a gear train: the external mesh whose gear pair is read (default: the first), as
+        ``--mesh``.
 
     Returns
     -------
@@ -298,7 +304,7 @@ def stiffness(case):
         (mean, min, max in N/m, the kept harmonics as [k_ai / k_m, phase in deg]) and
         ``cycle``: arrays ``position`` (fraction of a mesh cycle) and ``total_n_per_m`` (N/m).
     """
-    text, arrays = _geardyn._stiffness(case)
+    text, arrays = _geardyn._stiffness(case, mesh)
     out = _json.loads(text)
     out["cycle"] = arrays
     return out

@@ -3,6 +3,7 @@
 #include "bindings.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/stiffness.hpp"
+#include "geardyn/train_case.hpp"
 
 namespace py = pybind11;
 
@@ -11,7 +12,8 @@ namespace geardyn::python {
 void bind_stiffness(py::module_& m) {
   m.def(
       "_stiffness",
-      [](const Case& c) {
+      [](const Case& of, const std::string& mesh) {
+        const Case c = gear_pair_to_read(of, mesh).pair;  // a train's: its mesh's gear pair
         const Geometry g = compute_geometry(c.gear);
         const Iso6336Stiffness iso = iso6336_stiffness(c, g);
         StiffnessCycle cycle = energy_method_cycle(c, g);
@@ -22,7 +24,7 @@ void bind_stiffness(py::module_& m) {
             py::array_t<double>(cycle.total_n_per_m.size(), cycle.total_n_per_m.data());
         return py::make_tuple(stiffness_json(c, g, iso, cycle, kept), arrays);
       },
-      py::arg("case"));
+      py::arg("case"), py::arg("mesh") = "");
 }
 
 }  // namespace geardyn::python

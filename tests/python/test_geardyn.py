@@ -80,6 +80,19 @@ def test_geometry_and_stiffness_match_the_command_line():
         cli("stiffness", "--json").stdout)
     assert len(s["cycle"]["position"]) == 256
     assert s["cycle"]["total_n_per_m"].mean() == pytest.approx(s["energy"]["mean_n_per_m"])
+    # A train's mesh: its gear pair, as --mesh reads it (the default [gear] is no train's).
+    reducer = SOURCE / "cases" / "two_stage_reducer.toml"
+    train = geardyn.Case.from_toml(reducer)
+    stage2 = geardyn.geometry(train, mesh="stage2")
+    assert stage2 == json.loads(cli("geometry", str(reducer), "--mesh", "stage2", "--json").stdout)
+    assert stage2 != geardyn.geometry(train)
+    s2 = geardyn.stiffness(train, mesh="stage2")
+    assert {k: v for k, v in s2.items() if k != "cycle"} == json.loads(
+        cli("stiffness", str(reducer), "--mesh", "stage2", "--json").stdout)
+    with pytest.raises(geardyn.InputError, match="the train has no mesh of that name"):
+        geardyn.stiffness(train, mesh="stage3")
+    with pytest.raises(geardyn.InputError, match="names a gear train's mesh"):
+        geardyn.geometry(case, mesh="stage2")
 
 
 def test_sweep_returns_columns_and_finds_the_jump():
