@@ -376,7 +376,9 @@ Case train_mesh_pair(const Case& c, const std::string& mesh) {
   const train::Assembled a = assembled_train(c);
   const TrainCase t = expand_planets(*c.train);
   const TrainMeshData& m = t.meshes.at(i);
-  const auto body = [&](const std::string& name) { return body_named(t, name); };
+  const auto body = [&](const std::string& name) -> const TrainBodyData& {
+    return body_named(t, name);
+  };
   const auto origin = t.origins.find(fmt::format("mesh '{}'", m.name));
   const std::string where = origin == t.origins.end() ? "" : origin->second + ": ";
   if (m.kind == "internal")
