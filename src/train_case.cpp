@@ -168,8 +168,9 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        "um",
        {},
        false,
-       "the transmission error's constant part: where the teeth touch moves by it (with a "
-       "torsional support or a prescribed speed it loads the mesh)"},
+       "the transmission error's constant part: where the teeth touch moves by it (the forces "
+       "change only where the train's statics depend on its deflections: meshes in parallel, a "
+       "body held twice)"},
       {"transmission_error_table",
        &M::transmission_error_table,
        "",

@@ -840,6 +840,54 @@ TEST(TrainCase, AMeshTakesIso6336sStiffnessAtItsStaticLoad) {
       << unused[0];
 }
 
+TEST(TrainCase, IsoMeshesSettleWhereTheirLoadsDependOnTheirStiffnesses) {
+  // A split drive: a pinion meshes with two wheels that join the output through shafts of
+  // unequal stiffness, so the two meshes share the pinion's torque by their compliances, and
+  // ISO's k_m of each (under 100 N/mm, its load factor) by its share. At the train found, each
+  // mesh's k_m is ISO's at the load the train's static state puts on it, to 1e-10: a fixed
+  // point, which one pass from the full-load stiffnesses does not reach.
+  std::string text =
+      "[model]\nform = \"train\"\n[train]\nreference_speed_hz = 20\n"
+      "[[train.body]]\nname = \"input\"\nteeth = 20\nnormal_module_mm = 2\nface_width_mm = 20\n";
+  for (const char* w : {"w1", "w2"})
+    text += fmt::format(
+        "[[train.body]]\nname = \"{}\"\nteeth = 40\nnormal_module_mm = 2\nface_width_mm = 20\n"
+        "[[train.mesh]]\ndriving = \"input\"\ndriven = \"{}\"\nstiffness_source = \"iso6336\"\n",
+        w, w);
+  text +=
+      "[[train.body]]\nname = \"output\"\ninertia_kg_m2 = 0.1\n"
+      "[[train.shaft]]\nfrom = \"w1\"\nto = \"output\"\nstiffness_n_m_per_rad = 2e4\n"
+      "[[train.shaft]]\nfrom = \"w2\"\nto = \"output\"\nstiffness_n_m_per_rad = 8e4\n"
+      "[[train.torque]]\nbody = \"input\"\nmean_nm = 50\n"
+      "[[train.torque]]\nbody = \"output\"\nmean_nm = -100\n";
+  const Case c = parse_case(text, "t.toml");
+  const train::Assembled a = assembled_train(c);
+  const std::optional<Eigen::VectorXd> y = static_state(a);
+  ASSERT_TRUE(y);
+  const std::vector<double> force = static_mesh_forces_n(a, *y);
+  const TrainCase& t = *c.train;
+  double full_load = 0;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const train::Mesh& x = a.train().meshes[i];
+    const double torque = force[i] * std::cos(x.base_helix_angle_rad) * x.base_radius_driving_m;
+    const PairMeshStiffness iso =
+        iso_mesh_stiffness(t.meshes[i], t.bodies[0], t.bodies[i + 1], torque);
+    EXPECT_NEAR(x.mean_stiffness_n_per_m / iso.mean_n_per_m, 1.0, 1e-10) << i;
+    full_load = iso_mesh_stiffness(t.meshes[i], t.bodies[0], t.bodies[i + 1]).mean_n_per_m;
+  }
+  // The stiffer path carries more, and its mesh is the stiffer; both below full load.
+  EXPECT_GT(force[1], 1.1 * force[0]);
+  EXPECT_GT(a.train().meshes[1].mean_stiffness_n_per_m, a.train().meshes[0].mean_stiffness_n_per_m);
+  EXPECT_LT(a.train().meshes[1].mean_stiffness_n_per_m, full_load);
+  // The torques balance through the two meshes: F cos(beta_b) r_b sums to the pinion's.
+  double carried = 0;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const train::Mesh& x = a.train().meshes[i];
+    carried += force[i] * std::cos(x.base_helix_angle_rad) * x.base_radius_driving_m;
+  }
+  EXPECT_NEAR(carried, 50, 1e-9);
+}
+
 TEST(TrainCase, AMeshReadsItsStiffnessAndItsTransmissionErrorFromTables) {
   // Tables of eight rows over a mesh cycle, resampled linearly to 256 positions (32 per row):
   // the samples' mean is the rows' mean exactly, and the first harmonic of a sampled cosine
