@@ -53,6 +53,7 @@ struct ElementKey {
   bool required;
   std::string_view doc;
   std::string_view choices = "";  // of a name that is one of a few words: "torsion planar"
+  bool file = false;              // of a name that is a file's path
 };
 
 // The keys of each kind of element: the one table the reader, its messages and the docs use.
@@ -153,7 +154,9 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        {},
        false,
        "with stiffness_source = \"table\": a CSV `position,stiffness_n_per_m` over one mesh "
-       "cycle, position in [0, 1) (as mesh.stiffness_table), relative to the case file"},
+       "cycle, position in [0, 1) (as mesh.stiffness_table), relative to the case file",
+       "",
+       true},
       {"harmonics_kept", &M::harmonics_kept, "", closed(0, 16), false,
        "with stiffness_source = \"energy\" or \"table\": the harmonics kept of the curve"},
       {"center_distance_mm", &M::center_distance_mm, "mm", above(0), false,
@@ -178,7 +181,9 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        false,
        "instead of the two above: a CSV `position,transmission_error_um` over one mesh cycle (as "
        "mesh.transmission_error_table), relative to the case file: its mean and "
-       "transmission_error_kept harmonics"},
+       "transmission_error_kept harmonics",
+       "",
+       true},
       {"transmission_error_kept", &M::transmission_error_kept, "", closed(1, kMaxErrorHarmonics),
        false, "harmonics kept from transmission_error_table"},
       {"damping_ratio", &M::damping_ratio, "", closed_open(0, 1), false,
@@ -355,7 +360,7 @@ std::string allowed(const ElementKey<E>& key) {
                                    all[i]);
             return words;
           }
-          return "a name in quotes";
+          return key.file ? "a file's path in quotes" : "a name in quotes";
         } else if constexpr (std::is_same_v<T, int>) {
           return fmt::format("a whole number {}", bound);
         } else if constexpr (std::is_same_v<T, std::vector<OrderHarmonic>>) {

@@ -976,6 +976,10 @@ driven = "b"
             std::string::npos)
       << negative;
   EXPECT_NE(negative.find("bad.csv:3: '0.5,-1': must be"), std::string::npos) << negative;
+  const std::string number = refusal("stiffness_source = \"table\"\nstiffness_table = 5\n");
+  EXPECT_NE(number.find("train.mesh[0].stiffness_table = 5: must be a file's path in quotes"),
+            std::string::npos)
+      << number;
   const std::string both = refusal(
       "mean_stiffness_n_per_m = 2e8\ntransmission_error_um = [[1, 0]]\n"
       "transmission_error_table = \"e.csv\"\n");
