@@ -1164,8 +1164,8 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
                   bearing_offset(static_cast<int>(k));
   if (frame_rate_ != 0) q_common += frame_load();
 
-  // Region r from what every region shares: built here for a train of few meshes, on demand
-  // (ode::LinearSwitchedSystem::make_lazy) past kEagerRegions, from a copy of the train.
+  // Region r from what every region shares: built on demand (ode::LinearSwitchedSystem::
+  // make_lazy) from a copy of the train, or here when asked.
   auto build = [self = std::make_shared<const Assembled>(*this), sig, freqs = sys.frequencies_rad_s,
                 nf, n_coefficient, m_inv, k_common, c_common, q_common, n, dim,
                 meshes](int r) -> ode::LinearRegion {
@@ -1398,9 +1398,7 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
     ode::drop_zero_terms(lr);
     return lr;
   };
-  const bool lazy =
-      how == RegionBuild::kLazy || (how == RegionBuild::kAuto && region_count() > kEagerRegions);
-  if (lazy) {
+  if (how == RegionBuild::kLazy) {
     sys.make_lazy(region_count(), std::move(build));
   } else {
     for (int r = 0; r < region_count(); ++r) sys.regions.push_back(build(r));

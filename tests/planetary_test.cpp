@@ -902,11 +902,11 @@ TEST(Planetary, RigidBearingsAndPinsGiveTheRotationalModel) {
 namespace geardyn {
 namespace {
 
-// Five planets: 3^10 = 59049 contact regions, built as the flow enters them (past
-// kEagerRegions). The shipped stage with five planets (their phases as given: 24 + 78 teeth do
-// not assemble five equally spaced, and the meshes in phase keep the planets alike) runs from its
-// static state, its planets sharing equally throughout; with one pin off the others carry more,
-// and more still as the meshes' stiffness varies.
+// Five planets: 3^10 = 59049 contact regions, built as the flow enters them. The shipped stage with
+// five planets (their phases as given: 24 + 78 teeth do not assemble five equally spaced, and the
+// meshes in phase keep the planets alike) runs from its static state, its planets sharing equally
+// throughout; with one pin off the others carry more, and more still as the meshes' stiffness
+// varies.
 TEST(PlanetaryLoadSharing, FivePlanetsRunWithTheirRegionsBuiltOnDemand) {
   Case c =
       shipped_stage({{"train.planets", "5"},

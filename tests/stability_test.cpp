@@ -360,7 +360,8 @@ TEST(Stability, AFreelyTurningTrainHasItsMeshsMultipliersAndANeutralRate) {
   const Case idler =
       geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml");
   const geardyn::train::Assembled a = geardyn::assembled_train(idler);
-  geardyn::ode::LinearSwitchedSystem sys = a.linear_system();
+  geardyn::ode::LinearSwitchedSystem sys =
+      a.linear_system(geardyn::train::Assembled::RegionBuild::kEager);  // its regions to edit
   const int contact = a.region(std::vector<int>(a.train().meshes.size(), 1));
   sys.regions[contact].guards.clear();
   geardyn::ode::EngineOptions eo;

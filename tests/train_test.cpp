@@ -368,7 +368,7 @@ TEST(Train, AnUndampedTrainKeepsItsEnergyThroughImpacts) {
 
 TEST(Train, RegionsBuiltOnDemandFlowAsRegionsBuiltUpFront) {
   // The rattling two-stage train of the test above, its regions built up front and on demand
-  // (LinearSwitchedSystem::make_lazy, used past kEagerRegions): the same regions, and the same
+  // (LinearSwitchedSystem::make_lazy, the default): the same regions, and the same
   // flow bit for bit through every event, with the exact engine and with dopri5; the lazy system
   // builds only the regions the flow enters.
   Train t = two_stage(2e8);
@@ -378,6 +378,7 @@ TEST(Train, RegionsBuiltOnDemandFlowAsRegionsBuiltUpFront) {
                                   lazy = a.linear_system(Assembled::RegionBuild::kLazy);
   ASSERT_FALSE(eager.lazy());
   ASSERT_TRUE(lazy.lazy());
+  EXPECT_TRUE(a.linear_system().lazy());  // the default: a run enters few of its regions
   EXPECT_EQ(lazy.region_count(), 9);
   EXPECT_TRUE(lazy.regions.empty());
   EXPECT_EQ(lazy.validate(), "");

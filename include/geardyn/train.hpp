@@ -310,10 +310,6 @@ constexpr std::int64_t kMaxOrderDenominator = 10000;
 // can use (it would be run period by period): the excitations count as quasi-periodic.
 constexpr double kMaxPeriodMultiple = 1e4;
 
-// A train's system holds every region when it has at most this many (six meshes: three
-// planets), and builds them on demand past it.
-constexpr int kEagerRegions = 729;
-
 // The train assembled: matrices at the mean stiffness, speeds, frequencies and the system.
 class Assembled {
  public:
@@ -425,10 +421,10 @@ class Assembled {
   Eigen::MatrixXd contact_damping() const;
 
   // The system for the exact engine (state (theta, theta'), regions as above): its regions
-  // built here up to kEagerRegions of them, past that on demand (a set of four planets has
-  // 3^8 = 6561, most never visited), or as asked.
-  enum class RegionBuild { kAuto, kEager, kLazy };
-  ode::LinearSwitchedSystem linear_system(RegionBuild how = RegionBuild::kAuto) const;
+  // built on demand, as a flow first enters each (3^meshes of them, most never visited: 729
+  // for three planets, 6561 for four; a run in permanent contact enters one), or all here.
+  enum class RegionBuild { kEager, kLazy };
+  ode::LinearSwitchedSystem linear_system(RegionBuild how = RegionBuild::kLazy) const;
   // The region of a mesh-state vector (and the clearances' states, 0 when not given: inside),
   // and back. A region is every mesh's state (1 drive, 0 backlash, -1 back; 2 and -2 clipped in
   // contact on a mesh that clips) and every clearance direction's (1 or -1 in contact beyond +c
