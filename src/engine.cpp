@@ -258,20 +258,26 @@ FunctionalValues::FunctionalValues(const LinearSwitchedSystem& s,
     : s_(&s),
       gs_(&gs),
       used_(gs.size()),
+      varies_(gs.size()),
       cos_wt_(s.frequencies_rad_s.size()),
-      sin_wt_(s.frequencies_rad_s.size()),
-      row_(s.dimension) {
+      sin_wt_(s.frequencies_rad_s.size()) {
   std::vector<bool> any(s.frequencies_rad_s.size(), false);
   for (std::size_t i = 0; i < gs.size(); ++i) {
     const LinearGuard& g = gs[i];
+    RowVector spread = RowVector::Zero(s.dimension);
     for (std::size_t f = 0; f < s.frequencies_rad_s.size(); ++f) {
       const bool row = f < g.row.cos.size() && (g.row.cos[f].any() || g.row.sin[f].any());
       const bool offset = f < g.offset.cos.size() && (g.offset.cos[f] != 0 || g.offset.sin[f] != 0);
+      if (row) spread += g.row.cos[f].cwiseAbs() + g.row.sin[f].cwiseAbs();
       if (row || offset) {
         used_[i].push_back(f);
         any[f] = true;
       }
     }
+    for (Eigen::Index j = 0; j < s.dimension; ++j)
+      if (spread(j) != 0) varies_[i].push_back(j);
+    // Where the row does not vary it is its constant at every time (0 + 0 c + 0 s = 0 there).
+    rows_.push_back(g.row.constant);
   }
   for (std::size_t f = 0; f < any.size(); ++f)
     if (any[f]) any_.push_back(f);
@@ -289,21 +295,27 @@ void FunctionalValues::operator()(double t_s, const Vector& y, std::vector<doubl
   values.resize(gs.size());
   for (std::size_t i = 0; i < gs.size(); ++i) {
     const LinearGuard& g = gs[i];
-    row_ = g.row.constant;
-    double offset = g.offset.constant;
-    for (const std::size_t f : used_[i]) {
-      if (f < g.row.cos.size()) {
-        row_ += g.row.cos[f] * cos_wt_[f];
-        row_ += g.row.sin[f] * sin_wt_[f];
+    RowVector& row = rows_[i];
+    // Entry by entry the operations of `row = constant; row += cos c; row += sin s` per
+    // frequency, on the entries where they change anything.
+    for (const Eigen::Index j : varies_[i]) {
+      double x = g.row.constant(j);
+      for (const std::size_t f : used_[i]) {
+        if (f < g.row.cos.size()) {
+          x += g.row.cos[f](j) * cos_wt_[f];
+          x += g.row.sin[f](j) * sin_wt_[f];
+        }
       }
+      row(j) = x;
     }
+    double offset = g.offset.constant;
     for (const std::size_t f : used_[i]) {
       if (f < g.offset.cos.size()) {
         offset += g.offset.cos[f] * cos_wt_[f];
         offset += g.offset.sin[f] * sin_wt_[f];
       }
     }
-    values[i] = row_.dot(y) + offset;
+    values[i] = row.dot(y) + offset;
   }
 }
 

@@ -117,9 +117,10 @@ double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, dou
                         const Vector& y);
 // The values of a list of functionals (a region's guards or observables) at many (t, y), each
 // equal to the last bit to functional_value's: built once per list, it keeps the frequencies
-// each functional's row or offset holds (a harmonic whose terms are zero adds nothing) and
-// computes their cosines and sines once per call, without allocating. The system and the list
-// must outlive the reader.
+// each functional's row or offset holds (a harmonic whose terms are zero adds nothing) and the
+// entries where its row varies (a mesh's row reads a few of the state's), sums only those, in
+// functional_value's order, and computes the cosines and sines once per call, without
+// allocating. The system and the list must outlive the reader.
 class FunctionalValues {
  public:
   FunctionalValues(const LinearSwitchedSystem& s, const std::vector<LinearGuard>& gs);
@@ -129,10 +130,11 @@ class FunctionalValues {
  private:
   const LinearSwitchedSystem* s_;
   const std::vector<LinearGuard>* gs_;
-  std::vector<std::vector<std::size_t>> used_;  // per functional, the frequencies it holds
-  std::vector<std::size_t> any_;                // frequencies some functional holds
+  std::vector<std::vector<std::size_t>> used_;     // per functional, the frequencies it holds
+  std::vector<std::size_t> any_;                   // frequencies some functional holds
+  std::vector<std::vector<Eigen::Index>> varies_;  // per functional, where its row varies
   mutable std::vector<double> cos_wt_, sin_wt_;
-  mutable RowVector row_;
+  mutable std::vector<RowVector> rows_;  // per functional, its row at the last time asked
 };
 
 // Interval bounds of an affine functional (a guard or an observable) over every time and every
