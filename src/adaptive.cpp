@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <boost/math/tools/toms748_solve.hpp>
 #include <boost/numeric/odeint.hpp>
@@ -17,58 +18,133 @@ namespace {
 
 using Values = std::vector<double>;  // the stepper's state type
 
-// y' = A_r(t) y + u_r(t) of one region. The time-varying parts are sparse (a mesh's stiffness
-// joins two bodies), so they are kept as their non-zero entries, each with its cos and sin
-// coefficients, and the cosines and sines are computed once per call per frequency.
-class Derivative {
- public:
-  Derivative(const LinearSwitchedSystem& s, int region) : r_(s.region(region)), n_(s.dimension) {
-    const std::size_t nf = s.frequencies_rad_s.size();
-    for (std::size_t f = 0; f < nf; ++f) {
-      Terms t{s.frequencies_rad_s[f], {}, {}};
-      if (f < r_.a.cos.size())
-        for (Eigen::Index i = 0; i < n_; ++i)
-          for (Eigen::Index j = 0; j < n_; ++j)
-            if (r_.a.cos[f](i, j) != 0 || r_.a.sin[f](i, j) != 0)
-              t.matrix.push_back({i, j, r_.a.cos[f](i, j), r_.a.sin[f](i, j)});
-      if (f < r_.u.cos.size())
-        for (Eigen::Index i = 0; i < n_; ++i)
-          if (r_.u.cos[f](i) != 0 || r_.u.sin[f](i) != 0)
-            t.forcing.push_back({i, 0, r_.u.cos[f](i), r_.u.sin[f](i)});
-      if (!t.matrix.empty() || !t.forcing.empty()) terms_.push_back(std::move(t));
-    }
-  }
-  void operator()(const Values& x, Values& dx, double t) const {
-    const Eigen::Map<const Vector> y(x.data(), n_);
-    dx.resize(x.size());
-    Eigen::Map<Vector> out(dx.data(), n_);
-    out.noalias() = r_.a.constant * y;
-    out += r_.u.constant;
-    for (const Terms& f : terms_) {
-      const double c = std::cos(f.w * t), sn = std::sin(f.w * t);
-      for (const Entry& e : f.matrix) out(e.i) += (c * e.c + sn * e.s) * y(e.j);
-      for (const Entry& e : f.forcing) out(e.i) += c * e.c + sn * e.s;
-    }
-  }
-
- private:
-  struct Entry {
-    Eigen::Index i, j;
-    double c, s;
-  };
-  struct Terms {
-    double w;
-    std::vector<Entry> matrix, forcing;
-  };
-  const LinearRegion& r_;
-  Eigen::Index n_;
-  std::vector<Terms> terms_;
-};
-
 // A guard counts as crossed below this fraction of its scale (the exact engine's slack).
 double crossed_below(const LinearGuard& g) { return -kGuardSlack * g.scale; }
 
 }  // namespace
+
+RegionDerivative::RegionDerivative(const LinearSwitchedSystem& s, int region)
+    : r_(s.region(region)), n_(s.dimension) {
+  const std::size_t nf = s.frequencies_rad_s.size();
+  const Matrix& a0 = r_.a.constant;
+  // The frequencies with a matrix term, the rows they touch and their non-zero entries.
+  std::vector<std::size_t> varying;
+  std::vector<bool> row_varies(static_cast<std::size_t>(n_), false);
+  double entries = 0;
+  for (std::size_t f = 0; f < r_.a.cos.size(); ++f) {
+    bool any = false;
+    for (Eigen::Index i = 0; i < n_; ++i)
+      for (Eigen::Index j = 0; j < n_; ++j)
+        if (r_.a.cos[f](i, j) != 0 || r_.a.sin[f](i, j) != 0) {
+          any = true;
+          row_varies[static_cast<std::size_t>(i)] = true;
+          ++entries;
+        }
+    if (any) varying.push_back(f);
+  }
+  for (Eigen::Index i = 0; i < n_; ++i) {
+    if (!row_varies[static_cast<std::size_t>(i)]) {
+      Eigen::Index nonzero = 0, j = 0;
+      for (Eigen::Index k = 0; k < n_; ++k)
+        if (a0(i, k) != 0) {
+          ++nonzero;
+          j = k;
+        }
+      if (nonzero == 1 && a0(i, j) == 1.0) {
+        copies_.emplace_back(i, j);
+        continue;
+      }
+    }
+    rows_.push_back(i);
+  }
+  a0_rows_ = a0(rows_, Eigen::all);
+  const auto m = static_cast<Eigen::Index>(rows_.size());
+
+  // The varying matrices' shared row space: the column space of their transposes side by side.
+  if (!varying.empty()) {
+    const auto nv = static_cast<Eigen::Index>(varying.size());
+    Matrix w(n_, 2 * nv * n_);
+    for (Eigen::Index k = 0; k < nv; ++k) {
+      const std::size_t f = varying[static_cast<std::size_t>(k)];
+      w.middleCols(2 * k * n_, n_) = r_.a.cos[f].transpose();
+      w.middleCols((2 * k + 1) * n_, n_) = r_.a.sin[f].transpose();
+    }
+    const Eigen::ColPivHouseholderQR<Matrix> qr(w);
+    const Eigen::Index r = qr.rank();
+    const double dense = static_cast<double>(n_ * r + m * 2 * nv * r);
+    if (r < n_ && dense < kSparseEntryCost * entries) {
+      const Matrix q = qr.householderQ() * Matrix::Identity(n_, r);
+      Matrix b(m, 2 * nv * r);
+      double miss = 0, size = 0;
+      for (Eigen::Index k = 0; k < nv; ++k) {
+        const std::size_t f = varying[static_cast<std::size_t>(k)];
+        for (int part = 0; part < 2; ++part) {
+          const Matrix& a = part == 0 ? r_.a.cos[f] : r_.a.sin[f];
+          const Matrix aq = a * q;
+          miss = std::max(miss, (a - aq * q.transpose()).cwiseAbs().maxCoeff());
+          size = std::max(size, a.cwiseAbs().maxCoeff());
+          b.middleCols((2 * k + part) * r, r) = aq(rows_, Eigen::all);
+        }
+      }
+      if (miss <= kLowRankTolerance * size) {
+        q_ = q;
+        b_rows_ = std::move(b);
+        low_rank_f_ = varying;
+      }
+    }
+  }
+  for (std::size_t f = 0; f < nf; ++f) {
+    Terms t{f, {}, {}};
+    if (!low_rank() && f < r_.a.cos.size())
+      for (Eigen::Index i = 0; i < n_; ++i)
+        for (Eigen::Index j = 0; j < n_; ++j)
+          if (r_.a.cos[f](i, j) != 0 || r_.a.sin[f](i, j) != 0)
+            t.matrix.push_back({i, j, r_.a.cos[f](i, j), r_.a.sin[f](i, j)});
+    if (f < r_.u.cos.size())
+      for (Eigen::Index i = 0; i < n_; ++i)
+        if (r_.u.cos[f](i) != 0 || r_.u.sin[f](i) != 0)
+          t.forcing.push_back({i, 0, r_.u.cos[f](i), r_.u.sin[f](i)});
+    if (!t.matrix.empty() || !t.forcing.empty()) terms_.push_back(std::move(t));
+  }
+  for (const std::size_t f : low_rank_f_) used_.push_back(f);
+  for (const Terms& t : terms_)
+    if (std::find(used_.begin(), used_.end(), t.f) == used_.end()) used_.push_back(t.f);
+  w_ = s.frequencies_rad_s;
+  cos_.assign(nf, 0.0);
+  sin_.assign(nf, 0.0);
+  qy_.resize(q_.cols());
+  phases_.resize(b_rows_.cols());
+  product_.resize(m);
+}
+
+void RegionDerivative::operator()(const double* y, double* dy, double t_s) const {
+  const Eigen::Map<const Vector> x(y, n_);
+  Eigen::Map<Vector> out(dy, n_);
+  for (const std::size_t f : used_) {
+    cos_[f] = std::cos(w_[f] * t_s);
+    sin_[f] = std::sin(w_[f] * t_s);
+  }
+  product_.noalias() = a0_rows_ * x;
+  if (low_rank()) {
+    qy_.noalias() = q_.transpose() * x;
+    const Eigen::Index r = q_.cols();
+    for (std::size_t k = 0; k < low_rank_f_.size(); ++k) {
+      const auto at = static_cast<Eigen::Index>(2 * k) * r;
+      phases_.segment(at, r) = cos_[low_rank_f_[k]] * qy_;
+      phases_.segment(at + r, r) = sin_[low_rank_f_[k]] * qy_;
+    }
+    product_.noalias() += b_rows_ * phases_;
+  }
+  for (const auto& [i, j] : copies_) out(i) = x(j);
+  for (std::size_t k = 0; k < rows_.size(); ++k)
+    out(rows_[k]) = product_(static_cast<Eigen::Index>(k));
+  out += r_.u.constant;
+  for (const Terms& f : terms_) {
+    const double c = cos_[f.f], sn = sin_[f.f];
+    for (const Entry& e : f.matrix) out(e.i) += (c * e.c + sn * e.s) * x(e.j);
+    for (const Entry& e : f.forcing) out(e.i) += c * e.c + sn * e.s;
+  }
+}
 
 FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Vector& y0,
                          int region, double t1, const OutputGrid& output, FlowObserver& observer,
@@ -81,11 +157,11 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
   // Each region's right-hand side and guards, made when the flow first enters it (a train's
   // 3^meshes regions are mostly never visited).
   const auto count = static_cast<std::size_t>(system.region_count());
-  std::vector<std::unique_ptr<Derivative>> rhs(count);
+  std::vector<std::unique_ptr<RegionDerivative>> rhs(count);
   std::vector<std::unique_ptr<FunctionalValues>> guards(count);
-  const auto rhs_of = [&](int r) -> const Derivative& {
+  const auto rhs_of = [&](int r) -> const RegionDerivative& {
     auto& d = rhs[static_cast<std::size_t>(r)];
-    if (!d) d = std::make_unique<Derivative>(system, r);
+    if (!d) d = std::make_unique<RegionDerivative>(system, r);
     return *d;
   };
   const auto guards_of = [&](int r) -> const FunctionalValues& {
@@ -142,8 +218,11 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
     if (steps > options.max_steps)
       return finish(Termination::kStepUnderflow,
                     fmt::format("more than {} steps by t = {:.6g} s", options.max_steps, t));
-    const Derivative& f = rhs_of(region);
-    stepper.do_step([&f](const Values& s, Values& ds, double tt) { f(s, ds, tt); });
+    const RegionDerivative& f = rhs_of(region);
+    stepper.do_step([&f, n](const Values& s, Values& ds, double tt) {
+      ds.resize(static_cast<std::size_t>(n));
+      f(s.data(), ds.data(), tt);
+    });
     double te = std::min(stepper.current_time(), t1);
     stepper.calc_state(te, xe);
     if (!std::all_of(xe.begin(), xe.end(), [](double v) { return std::isfinite(v); }))
