@@ -1071,7 +1071,7 @@ void add_second_axis(CLI::App* sub, geardyn::SweepAxis& axis, const std::string&
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"geardyn: nonlinear dynamics of gear pairs with backlash"};
+  CLI::App app{"geardyn: nonlinear dynamics of gear pairs and trains with backlash"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "geardyn " GEARDYN_VERSION);
 

@@ -4,7 +4,7 @@
 namespace py = pybind11;
 
 PYBIND11_MODULE(_geardyn, m) {
-  m.doc() = "geardyn: nonlinear dynamics of gear pairs with backlash (C++ core)";
+  m.doc() = "geardyn: nonlinear dynamics of gear pairs and trains with backlash (C++ core)";
   // Bad input, with the command line's message (file and line or key, value, what is allowed).
   static py::exception<geardyn::InputError> input_error(m, "InputError", PyExc_ValueError);
   py::register_exception_translator([](std::exception_ptr p) {
