@@ -974,6 +974,8 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     nlohmann::ordered_json x;
     x["name"] = m.name;
     x["mesh_frequency_hz"] = m.mesh_frequency_hz;
+    x["mean_stiffness_n_per_m"] = m.mean_stiffness_n_per_m;
+    x["backlash_m"] = m.backlash_m;
     if (m.layout_phase) x["layout_phase"] = *m.layout_phase;
     part_json(x, m, m.backlash_m);
     nlohmann::ordered_json steady;

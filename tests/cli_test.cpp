@@ -1039,6 +1039,12 @@ TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
   EXPECT_EQ(j["meshes"][1]["name"], "stage2");
   EXPECT_NEAR(j["meshes"][0]["mesh_frequency_hz"].get<double>(), 2300.0, 1e-9);
   EXPECT_NEAR(j["meshes"][1]["mesh_frequency_hz"].get<double>(), 100.0 * 23 / 61 * 19, 1e-9);
+  // Each mesh's k_m and backlash as the case gives them, in the summary and on the terminal.
+  EXPECT_EQ(j["meshes"][0]["mean_stiffness_n_per_m"].get<double>(), 6e8);
+  EXPECT_EQ(j["meshes"][1]["mean_stiffness_n_per_m"].get<double>(), 8e8);
+  EXPECT_NEAR(j["meshes"][0]["backlash_m"].get<double>(), 30e-6, 1e-18);
+  EXPECT_NEAR(j["meshes"][1]["backlash_m"].get<double>(), 40e-6, 1e-18);
+  EXPECT_NE(o.out.find("mean stiffness 8e+08 N/m, backlash 40 um"), std::string::npos) << o.out;
   for (const auto& m : j["meshes"]) {
     EXPECT_GT(m["dynamic_factor"].get<double>(), 0.9) << m;
     EXPECT_GE(m["dynamic_factor_with_startup"].get<double>(), m["dynamic_factor"].get<double>());
@@ -1119,6 +1125,20 @@ torque_nm = 49.5
     ASSERT_EQ(own.code, 0) << own.err;
     expect_same(nlohmann::json::parse(own.out), nlohmann::json::parse(train.out), command);
   }
+  // Run with ISO 6336-1's stiffness, the summary gives the k_m the run took: the one `stiffness`
+  // prints for the mesh at its static load.
+  const std::string iso = " --set 'train.mesh[0].stiffness_source=\"iso6336\"'";
+  const Outcome iso_k = cli("stiffness " + (d / "t.toml").string() + " --mesh m --json" + iso);
+  ASSERT_EQ(iso_k.code, 0) << iso_k.err;
+  const Outcome iso_run = cli("run " + (d / "t.toml").string() + iso +
+                              " --set solver.duration_s=0.001 --out " + (d / "iso").string());
+  ASSERT_EQ(iso_run.code, 0) << iso_run.err;
+  const double k_iso =
+      nlohmann::json::parse(iso_k.out)["iso6336"]["mesh_stiffness_n_per_m"].get<double>();
+  EXPECT_NEAR(nlohmann::json::parse(
+                  slurp(d / "iso" / "summary.json"))["meshes"][0]["mean_stiffness_n_per_m"]
+                  .get<double>(),
+              k_iso, 1e-10 * k_iso);
   // The shipped reducer's second stage, its files written; a mesh it has not, a name given to a
   // pair and an internal mesh are refused.
   const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <limits>
 #include <numbers>
+#include <random>
 #include <string>
 
 #include "geardyn/adaptive.hpp"
@@ -306,8 +307,9 @@ TEST(TrainCase, TheAdaptiveDerivativeIsTheSystemsOwnSum) {
   const auto check = [](const ode::LinearSwitchedSystem& s, int region, const std::string& what) {
     const ode::RegionDerivative f(s, region);
     const ode::LinearRegion& r = s.region(region);
-    std::srand(7);
-    const auto random = [] { return 2.0 * std::rand() / RAND_MAX - 1.0; };
+    std::mt19937 engine(7);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    const auto random = [&] { return unit(engine); };
     double worst = 0;  // the largest difference over its rounding scale
     for (int k = 0; k < 20; ++k) {
       const double t = 0.01 * random() + 0.02;

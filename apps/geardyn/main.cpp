@@ -49,6 +49,7 @@ constexpr int kExitNumerical = 1;
 constexpr int kExitInput = 2;
 constexpr int kExitFigure = 3;
 constexpr int kExitInterrupted = 130;  // 128 + SIGINT, as shells report it
+constexpr double kUmPerM = 1e6;
 
 // Set by Ctrl-C during a sweep: the sweep stops after the points under way.
 std::atomic<bool> g_interrupted{false};
@@ -328,6 +329,9 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
     fmt::print("  {:<17} steady part: {}, {} impacts, force {:.6g} to {:.6g} N\n", "",
                geardyn::to_string(m.steady.regime), m.steady.impacts, m.steady.min_force_n,
                m.steady.max_force_n);
+    // k_m as the run took it: given, or from the mesh's stiffness source (ISO 6336 at its load).
+    fmt::print("  {:<17} mean stiffness {:.6g} N/m, backlash {:.6g} um\n", "",
+               m.mean_stiffness_n_per_m, m.backlash_m * kUmPerM);
     if (m.layout_phase)
       fmt::print("  {:<17} phase from the layout: {:.6g} of a mesh cycle at t = 0\n", "",
                  *m.layout_phase);

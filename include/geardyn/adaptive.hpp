@@ -44,7 +44,7 @@ constexpr double kLowRankTolerance = 1e-13;
 //   deflection, so r is at most the count of varying meshes whatever the count of frequencies),
 //   sum_f (...) y = sum_f (cos Ac_f Q + sin As_f Q) (Q^T y), one dense product of width 2 F r.
 // - The forcing's varying part as its non-zero entries.
-// The system must outlive it.
+// The system must outlive it; one flow's own (it keeps scratch: not for two threads at once).
 class RegionDerivative {
  public:
   RegionDerivative(const LinearSwitchedSystem& s, int region);

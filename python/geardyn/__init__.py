@@ -483,7 +483,8 @@ class TrainRunResult:
             Dimensions t (s), body, coordinate and mesh (their names); theta and rate (t x
             body), q and q_rate (t x coordinate, rad or m as the name says, and their rates),
             deflection_bar, force (N) and contact (t x mesh); per mesh its readings
-            (impacts, separated_fraction, dynamic_factor, ...) and those of its steady part
+            (mean_stiffness_n_per_m, backlash_m, impacts, separated_fraction, dynamic_factor, ...)
+            and those of its steady part
             (steady_impacts, steady_regime, steady_max_force_n, ...) as variables along mesh;
             the summary (JSON) as an attribute, where "steady" says where the part starts and
             why; ``layout_phase`` (cycles) along mesh with ``train.mesh_phase = "layout"``;
@@ -494,7 +495,8 @@ class TrainRunResult:
         import xarray as xr
         meshes = self.summary["meshes"]
         per_mesh = {k: ("mesh", [_nan_if_none(m[k]) for m in meshes])
-                    for k in ("mesh_frequency_hz", "impacts", "backside_impacts", "separations",
+                    for k in ("mesh_frequency_hz", "mean_stiffness_n_per_m", "backlash_m",
+                              "impacts", "backside_impacts", "separations",
                               "separated_fraction", "max_force_n", "min_force_n",
                               "static_force_n", "dynamic_factor", "dynamic_factor_with_startup")}
         per_mesh["regime"] = ("mesh", [m["regime"] for m in meshes])

@@ -721,6 +721,10 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert ds["force"].dims == ("t", "mesh") and list(ds["mesh"].values) == ["in", "out"]
     assert float(ds["force"].sel(mesh="out").max()) <= summary["meshes"][1]["max_force_n"]
     assert float(ds["dynamic_factor"].sel(mesh="in")) == summary["meshes"][0]["dynamic_factor"]
+    # Each mesh's k_m and backlash as the run took them (the file's).
+    assert [m["mean_stiffness_n_per_m"] for m in summary["meshes"]] == [4e8, 4e8]
+    assert list(ds["mean_stiffness_n_per_m"].values) == [4e8, 4e8]
+    assert list(ds["backlash_m"].values) == pytest.approx([40e-6, 40e-6], rel=1e-12)
     # The steady part per mesh (where it starts in the summary), its forces within the whole's.
     assert summary["steady"]["basis"] in ("settled", "not_settled")
     assert float(ds["steady_max_force_n"].sel(mesh="in")) == \
