@@ -34,6 +34,10 @@ constexpr double kNeutralMargin = 1e-9;
 // within this of M's size: rounding leaves some 1e-12 there, a drag of a millionth of the
 // mesh damping some 1e-6.
 constexpr double kNeutralRate = 1e-9;
+// A freely turning train's contact flow is read on the complement of its rigid motions
+// (elastic_quotient) where A T = T A_e holds to this fraction of A's largest entry: rounding
+// leaves some 1e-16 there, a drag that grounds the rotation far more.
+constexpr double kQuotientTolerance = 1e-12;
 
 Case case_at(const Case& base, const SweepAxis& axis, double value) {
   Case c = base;
@@ -58,8 +62,51 @@ std::optional<double> complex_pair_test(const std::vector<std::complex<double>>&
 
 namespace {
 
-// The monodromy as contact_monodromy gives it, or with `elastic` its rigid rates' exact
-// multipliers of 1 deflated (train.hpp, reduced_basis: a rate no drag damps maps to itself).
+// The homogeneous flow of region `contact` on the complement of a freely turning train's rigid
+// motions U (n x k, the coordinates' part): with Z spanning {x : U^T M x = 0}, which M^-1 K(t)
+// and M^-1 C(t) map into themselves when K U = C U = 0 (nothing grounds the motions), A(t) T =
+// T A_e(t) for T = diag(Z, Z) and A_e = L A T, L = diag(Zp, Zp), Zp = (Z^T M Z)^-1 Z^T M. Its
+// monodromy holds the elastic multipliers alone: the rigid ones (1 and its Jordan partner) are
+// dropped exactly, and the flow has 2 k states fewer (the pair's train: the one-degree model's
+// two). nullopt where A T = T A_e does not hold to kQuotientTolerance (a drag grounds them).
+std::optional<ode::LinearSwitchedSystem> elastic_quotient(const ode::LinearSwitchedSystem& sys,
+                                                          int contact, const ode::Matrix& mass,
+                                                          const ode::Matrix& rigid) {
+  const Eigen::Index n = mass.rows(), e = n - rigid.cols();
+  const Eigen::HouseholderQR<ode::Matrix> qr(mass * rigid);
+  const ode::Matrix z = (qr.householderQ() * ode::Matrix::Identity(n, n)).rightCols(e);
+  const ode::Matrix zp = (z.transpose() * mass * z).ldlt().solve(z.transpose() * mass);
+  ode::Matrix t = ode::Matrix::Zero(2 * n, 2 * e), l = ode::Matrix::Zero(2 * e, 2 * n);
+  t.topLeftCorner(n, e) = z;
+  t.bottomRightCorner(n, e) = z;
+  l.topLeftCorner(e, n) = zp;
+  l.bottomRightCorner(e, n) = zp;
+  const ode::LinearRegion& r = sys.region(contact);
+  double miss = 0, size = 0;
+  const auto restrict = [&](const ode::Matrix& a) {
+    ode::Matrix ae = l * a * t;
+    miss = std::max(miss, (a * t - t * ae).cwiseAbs().maxCoeff());
+    size = std::max(size, a.cwiseAbs().maxCoeff());
+    return ae;
+  };
+  ode::LinearRegion q;
+  q.a.constant = restrict(r.a.constant);
+  for (const ode::Matrix& a : r.a.cos) q.a.cos.push_back(restrict(a));
+  for (const ode::Matrix& a : r.a.sin) q.a.sin.push_back(restrict(a));
+  if (!(miss <= kQuotientTolerance * size)) return std::nullopt;
+  q.u.constant = ode::Vector::Zero(2 * e);  // the forcing does not enter the monodromy
+  ode::LinearSwitchedSystem out;
+  out.dimension = static_cast<int>(2 * e);
+  out.frequencies_rad_s = sys.frequencies_rad_s;
+  out.coefficient_period_s = sys.coefficient_period_s;
+  out.regions = {std::move(q)};
+  return out;
+}
+
+// The monodromy as contact_monodromy gives it, or with `elastic` without the rigid motions'
+// multipliers of 1: a freely turning train's flow read on their complement (elastic_quotient),
+// or its rigid rates' multipliers deflated (train.hpp, reduced_basis: a rate no drag damps maps
+// to itself).
 ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_s,
                                  const MeshStiffness* stiffness, bool elastic) {
   ode::LinearSwitchedSystem sys;
@@ -95,6 +142,14 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
     }
     system_period = period.value_or(0.0);
     reduce = a.reduced_basis();
+    if (rates.cols() > 0)
+      if (std::optional<ode::LinearSwitchedSystem> q =
+              elastic_quotient(sys, contact, a.mass(), a.rigid_motions())) {
+        sys = std::move(*q);
+        contact = 0;
+        reduce.reset();
+        rates.resize(0, 0);
+      }
   } else {
     const GearPairModel model = build_model(c, nullptr, stiffness);
     sys = model.linear_system();

@@ -42,9 +42,12 @@ ode::Matrix contact_monodromy(const Case& c, double tolerance = 1e-12, double pe
 
 // The same without the multipliers every freely turning train has whatever its meshes do: the
 // rate of each rigid motion that nothing damps maps to itself (a multiplier of exactly 1, whose
-// det(M - I) rounding leaves of either sign), deflated: the other multipliers, which the
-// stability study reads (its boundaries would otherwise be rounding's). The same matrix as
-// contact_monodromy where there is no such rate.
+// det(M - I) rounding leaves of either sign). Where nothing grounds the motions the flow is
+// read on their mass-orthogonal complement, which every K(t) and C(t) keep (2 k states fewer:
+// the pair's train has the one-degree model's two); where a drag damps them, as contact_monodromy
+// with each kept rate deflated. The other multipliers, which the stability study reads (its
+// boundaries would otherwise be rounding's). The same matrix as contact_monodromy where there
+// is no such rate.
 ode::Matrix elastic_contact_monodromy(const Case& c, double tolerance = 1e-12, double period_s = 0,
                                       const MeshStiffness* stiffness = nullptr);
 
