@@ -863,20 +863,44 @@ bool set_number_in_place(Case& c, const Override& o) {
 }  // namespace
 
 void set_case_value(Case& c, const Override& o) {
+  const std::string base = o.key.substr(0, o.key.find('['));
   if (set_number_in_place(c, o)) {
-    c.origins[o.key.substr(0, o.key.find('['))] = o.label();
+    c.origins[base] = o.label();
     return;
+  }
+  if (c.train) {
+    TrainCase t = *c.train;
+    if (set_train_number_in_place(t, o)) {
+      c.train = std::make_shared<const TrainCase>(std::move(t));
+      c.origins[base] = o.label();
+      return;
+    }
   }
   const std::string name = c.name;
   const std::filesystem::path directory = c.directory;
   std::map<std::string, std::string> origins = c.origins;
+  const std::shared_ptr<const TrainCase> train = c.train;
   c = parse_case(to_toml(c), "(case)", {o});
   c.name = name;
   c.directory = directory;
   // The keys came from where they came from before; the override from itself.
-  const std::string base = o.key.substr(0, o.key.find('['));
   origins[base] = o.label();
   c.origins = std::move(origins);
+  if (train && c.train) {
+    // The train's elements and keys too: read again from the text written here (every key,
+    // the defaults written out), each would cite its place in that text ("(case):12:3"), not
+    // the user's file or --set; a default has no place.
+    TrainCase t = *c.train;
+    std::map<std::string, std::string> kept;
+    for (const auto& [label, where] : t.origins) {
+      if (where == o.label())
+        kept[label] = where;
+      else if (const auto it = train->origins.find(label); it != train->origins.end())
+        kept[label] = it->second;
+    }
+    t.origins = std::move(kept);
+    c.train = std::make_shared<const TrainCase>(std::move(t));
+  }
 }
 
 std::string with_origins(const Case& c, const std::string& message) {

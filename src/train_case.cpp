@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -1555,6 +1556,80 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
             i, leaf, value, key_origin(t, "bearing", b.name, leaf), b.name, why));
   }
   return out;
+}
+
+namespace {
+
+// Sets element i's `leaf` of `kind` (keys its table) to v, within the key's bounds, as the
+// reader would; false when the key is not one number or v is out of bounds.
+template <class E>
+bool set_element_number(TrainCase& t, std::vector<E>& elements, std::string_view kind,
+                        const std::vector<ElementKey<E>>& keys, std::size_t i,
+                        std::string_view leaf, double v, const std::string& label) {
+  if (i >= elements.size()) return false;
+  for (const ElementKey<E>& key : keys) {
+    if (key.leaf != leaf) continue;
+    if (!key.range.contains(v)) return false;
+    E& e = elements[i];
+    bool set = false;
+    std::visit(
+        [&](auto member) {
+          using T = std::remove_reference_t<decltype(e.*member)>;
+          if constexpr (std::is_same_v<T, double> || std::is_same_v<T, std::optional<double>>) {
+            e.*member = v;
+            set = true;
+          }
+        },
+        key.field);
+    if (!set) return false;
+    const std::string element = fmt::format("{} '{}'", kind, e.name);
+    t.origins[element] = label;
+    t.origins[fmt::format("{}: {}", element, leaf)] = label;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+bool set_train_number_in_place(TrainCase& t, const Override& o) {
+  double v = 0;
+  const char* end = o.value.data() + o.value.size();
+  const auto [ptr, ec] = std::from_chars(o.value.data(), end, v);
+  if (ec != std::errc{} || ptr != end || !std::isfinite(v)) return false;
+  if (o.key == "train.reference_speed_hz") {
+    if (!(v > 0)) return false;
+    t.reference_speed_hz = v;
+    return true;
+  }
+  // train.<kind>[i].<leaf>
+  const std::string_view key = o.key;
+  constexpr std::string_view kPrefix = "train.";
+  if (key.rfind(kPrefix, 0) != 0) return false;
+  const std::size_t open = key.find('['), close = key.find(']');
+  if (open == std::string_view::npos || close == std::string_view::npos || close < open ||
+      close + 1 >= key.size() || key[close + 1] != '.')
+    return false;
+  const std::string_view kind = key.substr(kPrefix.size(), open - kPrefix.size());
+  const std::string_view leaf = key.substr(close + 2);
+  std::size_t i = 0;
+  const auto [at, bad] = std::from_chars(key.data() + open + 1, key.data() + close, i);
+  if (bad != std::errc{} || at != key.data() + close ||
+      leaf.find_first_of(".[") != std::string_view::npos)
+    return false;
+  const std::string label = o.label();
+  if (kind == "body") return set_element_number(t, t.bodies, kind, body_keys(), i, leaf, v, label);
+  if (kind == "mesh") return set_element_number(t, t.meshes, kind, mesh_keys(), i, leaf, v, label);
+  if (kind == "shaft")
+    return set_element_number(t, t.shafts, kind, shaft_keys(), i, leaf, v, label);
+  if (kind == "bearing")
+    return set_element_number(t, t.bearings, kind, bearing_keys(), i, leaf, v, label);
+  if (kind == "torque")
+    return set_element_number(t, t.torques, kind, torque_keys(), i, leaf, v, label);
+  if (kind == "drag") return set_element_number(t, t.drags, kind, drag_keys(), i, leaf, v, label);
+  if (kind == "speed")
+    return set_element_number(t, t.speeds, kind, speed_keys(), i, leaf, v, label);
+  return false;
 }
 
 std::string train_toml(const TrainCase& t) {

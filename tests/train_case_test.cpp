@@ -299,6 +299,42 @@ double largest_difference(const TrainRunResult& a, const TrainRunResult& b) {
   return worst;
 }
 
+// A key set on a loaded train (a sweep's point, a study's sample: set_case_value) gives the case
+// that reading the file with that key would: the same case written back, the same origin for
+// every element and key (the set key's the override's, every other one its place in the file),
+// whether the number is set in place (set_train_number_in_place) or the case read again (a
+// name); and an out-of-bounds number the reader's message.
+TEST(TrainCase, AKeySetOnALoadedTrainIsTheFileReadWithIt) {
+  const std::filesystem::path reducer =
+      std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml";
+  const std::vector<Override> overrides = {
+      {"train.reference_speed_hz", "77.5", "--param train.reference_speed_hz at 77.5"},
+      {"train.mesh[1].backlash_um", "55", "--param train.mesh[1].backlash_um at 55"},
+      {"train.body[0].inertia_kg_m2", "0.0123", "--to 0.0123"},
+      {"train.body[2].inertia_kg_m2", "0.0123", "--to 0.0123"},  // absent in the file
+      {"train.torque[1].mean_nm", "-12.5", "--from -12.5"},
+      {"train.shaft[2].stiffness_n_m_per_rad", "2.5e4", "--param"},
+      {"train.mesh[0].stiffness_source", "\"harmonics\"", "--set name"},  // read again
+  };
+  for (const Override& o : overrides) {
+    Case set = load_case(reducer);
+    set_case_value(set, o);
+    const Case read = load_case(reducer, {o});
+    EXPECT_EQ(to_toml(set), to_toml(read)) << o.key;
+    ASSERT_TRUE(set.train && read.train);
+    EXPECT_EQ(set.train->origins, read.train->origins) << o.key;
+  }
+  Case c = load_case(reducer);
+  try {
+    set_case_value(c, {"train.mesh[1].backlash_um", "-1", "--from -1"});
+    ADD_FAILURE() << "a negative backlash was taken";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--from -1: train.mesh[1].backlash_um = -1: must ", 0),
+              0U)
+        << e.what();
+  }
+}
+
 // The adaptive integrator's right-hand side (RegionDerivative: copies, one dense product, the
 // varying part through its shared row space or as entries) is derivative()'s, the system's own
 // sum, to rounding: every shipped train, in permanent contact and in two other regions, and the
