@@ -114,9 +114,10 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
   double system_period = 0;
   std::optional<ode::Matrix> reduce;  // Q of the coordinates read (train::Assembled)
   ode::Matrix rates;                  // each rigid motion's rate (0, r), in the full state
-  if (c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled) {
-    // Every mesh in drive contact, read in the train's own coordinates (reduced_basis); the
-    // coupled pair as its train (train_form_of).
+  if (elastic || c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled) {
+    // Every mesh in drive contact, read in the train's own coordinates (reduced_basis); every
+    // other form as its train (train_form_of) for the study (elastic), the one-degree model's
+    // own flow below only for contact_monodromy (the checks' independent reference).
     const train::Assembled a = assembled_train(c, stiffness);
     if (elastic && a.train().speeds.empty()) {
       const Eigen::MatrixXd rigid = a.rigid_motions();
