@@ -584,4 +584,31 @@ std::vector<std::string> unused_settings(const Case& c) {
   return out;
 }
 
+std::string unread_study_key(const Case& c, const std::vector<std::vector<Override>>& corners) {
+  std::string line;
+  for (const std::vector<Override>& corner : corners) {
+    if (corner.empty()) continue;
+    Case at = c;
+    for (const Override& o : corner) set_case_value(at, o);
+    const Override& o = corner.front();
+    std::string found;
+    if (const CaseKey* k = find_case_key(o.key); k && !o.key.starts_with("train.")) {
+      // Its reason whatever its value (unused_settings passes over a key at its default).
+      if (const std::string why = unused_reason(*k, at); !why.empty())
+        found =
+            fmt::format("{} = {} ({}): not used: {}", k->name, k->value_text(at), o.label(), why);
+    } else {
+      // A train's element key: its line of the train's unused settings, the index of a
+      // harmonic's entry dropped (key[i][j]).
+      const std::size_t dot = o.key.rfind('.');
+      const std::string stem = o.key.substr(0, o.key.find('[', dot == std::string::npos ? 0 : dot));
+      for (const std::string& x : unused_settings(at))
+        if (x.starts_with(stem + " =") || x.starts_with(stem + " (")) found = x;
+    }
+    if (found.empty()) return {};  // read at this corner
+    if (line.empty()) line = found;
+  }
+  return line;
+}
+
 }  // namespace geardyn

@@ -958,6 +958,15 @@ ContinuationResult continuation(const Case& c, const ContinuationOptions& option
   Case at_to = c;
   set_case_value(at_to,
                  {options.key, fmt::format("{}", options.to), fmt::format("--to {}", options.to)});
+  if (const std::string why =
+          unread_study_key(c, {{{options.key, fmt::format("{:.17g}", options.from),
+                                 fmt::format("--from {}", options.from)}},
+                               {{options.key, fmt::format("{:.17g}", options.to),
+                                 fmt::format("--to {}", options.to)}}});
+      !why.empty())
+    throw InputError(
+        fmt::format("--param {}: the continuation would vary a key this case does not read: {}",
+                    options.key, why));
   const double lo = std::min(options.from, options.to), hi = std::max(options.from, options.to);
   const auto wall_start = std::chrono::steady_clock::now();
   Continuer k(c, options, lo, hi);

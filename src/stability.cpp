@@ -255,6 +255,7 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
         Case at = c;
         set_case_value(at, {axis->key, fmt::format("{:.17g}", end.value), end.origin});
       }
+  check_axes_read(c, o.axis, o.axis2 ? &*o.axis2 : nullptr);
   const std::optional<MeshStiffness> shared = shared_stiffness(c, keys);
   for (const double row : rows) {
     const Case base = o.axis2 ? case_at(c, *o.axis2, row) : c;

@@ -760,6 +760,32 @@ std::vector<AxisValue> axis_ends(const SweepAxis& a, const std::string& suffix) 
   return out;
 }
 
+void check_axes_read(const Case& c, const SweepAxis& axis, const SweepAxis* axis2) {
+  const auto corners = [](const SweepAxis& a, const std::string& suffix, const SweepAxis* b,
+                          const std::string& suffix_b) {
+    std::vector<std::vector<Override>> out;
+    const auto set = [](const SweepAxis& x, const AxisValue& v) {
+      return Override{x.key, fmt::format("{:.17g}", v.value), v.origin};
+    };
+    for (const AxisValue& x : axis_ends(a, suffix)) {
+      if (!b) out.push_back({set(a, x)});
+      if (b)
+        for (const AxisValue& y : axis_ends(*b, suffix_b)) out.push_back({set(a, x), set(*b, y)});
+    }
+    return out;
+  };
+  const auto check = [&](const SweepAxis& a, const std::string& suffix, const SweepAxis* b,
+                         const std::string& suffix_b) {
+    if (const std::string why = unread_study_key(c, corners(a, suffix, b, suffix_b)); !why.empty())
+      throw InputError(
+          fmt::format("--param{} {}: the study would vary a key this case does not "
+                      "read: {}",
+                      suffix, a.key, why));
+  };
+  check(axis, "", axis2, "2");
+  if (axis2) check(*axis2, "2", &axis, "");
+}
+
 SweepResult sweep(const Case& base, const SweepOptions& o) {
   if (const std::string e = o.validate(); !e.empty()) throw InputError(e);
   const auto start = std::chrono::steady_clock::now();
@@ -777,6 +803,7 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   for (const AxisValue& y : rows2)
     for (const AxisValue& x : axis_ends(o.axis, ""))
       runner.check_work_at(x.value, x.origin, y.value, y.origin);
+  check_axes_read(base, o.axis, o.axis2 ? &*o.axis2 : nullptr);
   const double first2 = o.axis2 ? o.axis2->values().front() : 0.0;
   r.period_s = runner.period_at(o.axis.values().front(), first2);
   r.period_note = runner.period_note_at(o.axis.values().front(), first2);

@@ -742,6 +742,30 @@ TEST(Cli, SweepRejectsABadKey) {
   expect_refused(o, "--param speed.rpm");
 }
 
+// A key the case does not read, in each study that varies one: refused, exit 2, nothing
+// written (a train's sweep of [speed] once ran 400 identical points and said nothing).
+TEST(Cli, AStudyOfAKeyTheCaseDoesNotReadIsRefused) {
+  const std::string train = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const fs::path d = fresh("unread_key");
+  expect_refused(
+      cli("sweep " + train +
+          " --param speed.shaft_frequency_hz --from 100 --to 200 --points 3 --out " + d.string()),
+      "--param speed.shaft_frequency_hz: the study would vary a key this case does "
+      "not read: speed.shaft_frequency_hz = 100.0 (--from 100): not used: model.form "
+      "= \"train\" reads [train] and [solver]");
+  EXPECT_FALSE(fs::exists(d));
+  expect_refused(
+      cli("continue " + kCase + " --param model.zeta --from 0.01 --to 0.1 --out " + d.string()),
+      "--param model.zeta: the continuation would vary a key this case does not read");
+  EXPECT_FALSE(fs::exists(d));
+  expect_refused(cli("stability " + kCase +
+                     " --param bearings.radial_stiffness_n_per_m[0] --from 1e8 --to 2e8 "
+                     "--points 3 --out " +
+                     d.string()),
+                 "has no bearings or shafts");
+  EXPECT_FALSE(fs::exists(d));
+}
+
 TEST(Cli, LongRunShowsProgress) {
   // 1.5e8 steps: well over the one second after which progress is shown.
   const Outcome o =

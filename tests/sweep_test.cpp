@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/steady.hpp"
 #include "test_support.hpp"
@@ -339,6 +340,57 @@ TEST(Sweep, BadOptionsAndKeysAreInputErrors) {
   const std::string msg = testing::error_of([&] { sweep(Case{}, o); });
   EXPECT_NE(msg.find("--param speed.rpm"), std::string::npos) << msg;
   EXPECT_NE(msg.find("unknown key"), std::string::npos) << msg;
+}
+
+// A swept key the case does not read would give every point the same response: refused before
+// any work, naming the option, the key, the value's origin and why (case_keys.hpp,
+// unread_study_key), wherever the form, the method or another key leaves it unread.
+TEST(Sweep, AKeyTheCaseDoesNotReadIsRefusedBeforeAnyWork) {
+  const auto refusal = [](const Case& c, const SweepOptions& o) {
+    return testing::error_of([&] { sweep(c, o); });
+  };
+  // The gear pair reads [gear], [mesh], [load] and [speed], not model.omega.
+  SweepOptions o = omega_sweep(1, 2, 3, SweepDirection::kUp);
+  std::string msg = refusal(Case{}, o);
+  for (const char* part : {"--param model.omega:", "model.omega = 1.0 (--from 1)", "not used",
+                           "only \"nondimensional\" reads model.omega"})
+    EXPECT_NE(msg.find(part), std::string::npos) << part << "\n" << msg;
+  // The non-dimensional form has no backlash in um: the second key of a map, with its option.
+  o.axis2 = SweepAxis{"mesh.backlash_um", 50, 150, 2, false};
+  msg = refusal(nondimensional(0.05, 0.1, 0.1), o);
+  EXPECT_NE(msg.find("--param2 mesh.backlash_um: "), std::string::npos) << msg;
+  EXPECT_NE(msg.find("(--from2 50)"), std::string::npos) << msg;
+  // A train turns at train.reference_speed_hz; [speed] is not its.
+  const Case train = load_case(fs::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml");
+  SweepOptions speed;
+  speed.axis = {"speed.shaft_frequency_hz", 100, 200, 3, false};
+  msg = refusal(train, speed);
+  EXPECT_NE(msg.find("reads [train] and [solver]"), std::string::npos) << msg;
+  // A train's key that its element's source does not read: k_m of an ISO 6336 mesh.
+  Case iso = train;
+  set_case_value(iso, {"train.mesh[0].stiffness_source", "\"iso6336\""});
+  speed.axis = {"train.mesh[0].mean_stiffness_n_per_m", 5e8, 7e8, 3, false};
+  msg = refusal(iso, speed);
+  EXPECT_NE(msg.find("train.mesh[0].mean_stiffness_n_per_m = 500000000 (--from 500000000): not "
+                     "used: mesh 'stage1' takes k_m from ISO 6336-1"),
+            std::string::npos)
+      << msg;
+  // A key read at some corner of a map is varied: the fluctuation's order, with its ratio swept
+  // from 0; with the ratio held at 0 the order alone is refused, at its default value too.
+  Case still;
+  set_case_value(still, {"load.fluctuation_ratio", "0"});
+  const Override order_low{"load.fluctuation_order", "1", "--from 1"};
+  const Override order_high{"load.fluctuation_order", "3", "--to 3"};
+  EXPECT_EQ(unread_study_key(still, {{order_low, {"load.fluctuation_ratio", "0", "--from2 0"}},
+                                     {order_high, {"load.fluctuation_ratio", "0", "--from2 0"}},
+                                     {order_low, {"load.fluctuation_ratio", "0.2", "--to2 0.2"}},
+                                     {order_high, {"load.fluctuation_ratio", "0.2", "--to2 0.2"}}}),
+            "");
+  msg = unread_study_key(still, {{order_low}, {order_high}});
+  EXPECT_NE(msg.find("load.fluctuation_order = 1.0 (--from 1): not used: load.fluctuation_ratio "
+                     "= 0"),
+            std::string::npos)
+      << msg;
 }
 
 TEST(Sweep, AMapReadsJumpsAndHysteresisRowByRow) {

@@ -106,6 +106,13 @@ std::string check_sweepable(std::string_view dotted);
 // is used, or when it holds the value that means "none" (solver.time_step_s = 0).
 std::string unused_reason(const CaseKey& k, const Case& c);
 
+// A study's varied key, checked before any work: `corners` are the combinations of the values
+// the study sets (each varied key at each end of its values, with its origin, the key checked
+// first in each). Its line of unused_settings when every corner leaves it unused (the study
+// would vary nothing: speed.shaft_frequency_hz on a train, which turns at
+// train.reference_speed_hz; mesh.backlash_um in the non-dimensional form), else empty.
+std::string unread_study_key(const Case& c, const std::vector<std::vector<Override>>& corners);
+
 // One line per key the user gave (Case::origins: a file or a --set), at a value other than its
 // default (which changes nothing either way), that the case does not use:
 // "solver.time_step_s = 1e-06 (--set solver.time_step_s=1e-6): not used: ...". The command line

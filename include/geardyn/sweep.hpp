@@ -44,6 +44,11 @@ struct AxisValue {
 };
 std::vector<AxisValue> axis_ends(const SweepAxis& a, const std::string& suffix);
 
+// Throws InputError when a swept key (`axis`, or `axis2` of a map) changes nothing in `c` at
+// every corner of the axes' ends (unread_study_key, case_keys.hpp), naming the option, the key,
+// where its value came from and why the case does not read it. Before any work.
+void check_axes_read(const Case& c, const SweepAxis& axis, const SweepAxis* axis2);
+
 enum class SweepDirection { kUp, kDown, kBoth };
 const char* to_string(SweepDirection d);
 

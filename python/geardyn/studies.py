@@ -237,6 +237,19 @@ def design(case, inputs, samples=None, method="lhs", seed=0, correlation=None):
                     case.with_({k: float(value)})
                 except ValueError as e:
                     raise StudyError(f"inputs.{k} = {value:g}: {e}") from None
+    # Each input must change something: at the corners of the inputs' ranges the case reads it.
+    ends = [{k: float(np.min(v)) for k, v in out.items()},
+            {k: float(np.max(v)) for k, v in out.items()}]
+    for k in out:
+        corners = [[(k, end[k])] + [(j, other[j]) for j in out if j != k]
+                   for end in ends for other in ends]
+        try:
+            why = case._unread_study_key(corners)
+        except ValueError as e:
+            raise StudyError(f"inputs.{k}: {e}") from None
+        if why:
+            raise StudyError(f"inputs.{k}: the study would vary a key this case does not read: "
+                             f"{why}")
     return out
 
 

@@ -1,8 +1,10 @@
+#include <fmt/format.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
 #include "bindings.hpp"
 #include "geardyn/case.hpp"
+#include "geardyn/case_keys.hpp"
 #include "geardyn/train_case.hpp"
 
 namespace py = pybind11;
@@ -61,6 +63,23 @@ void bind_case(py::module_& m) {
           "toml_value : str\n    The value as TOML text (``\"150\"``, ``\"[[0.1, 0]]\"``); bare "
           "text is taken as a string.\n\n"
           "Raises\n------\nInputError\n    A key that does not exist or a value out of range.")
+      .def(
+          "_unread_study_key",
+          [](const Case& c,
+             const std::vector<std::vector<std::pair<std::string, double>>>& corners) {
+            std::vector<std::vector<Override>> sets;
+            for (const auto& corner : corners) {
+              std::vector<Override>& set = sets.emplace_back();
+              for (const auto& [key, value] : corner)
+                set.push_back({key, fmt::format("{:.17g}", value),
+                               fmt::format("inputs.{} = {:g}", key, value)});
+            }
+            return unread_study_key(c, sets);
+          },
+          py::arg("corners"),
+          "The first key of every corner (a list of (key, value) the study sets together), when it "
+          "is unused at all of them: its unused line; else \"\" (case_keys.hpp, "
+          "unread_study_key).")
       .def(
           "to_toml", [](const Case& c) { return to_toml(c); },
           "Every key of the case as TOML text, numbers to 17 significant digits (a case file "

@@ -71,6 +71,10 @@ def test_a_scipy_frozen_distribution_and_a_correlation_are_taken():
      ["inputs.mesh.backlash_um.distribution", "gamma", "uniform"]),
     ({"mesh.backlash_um": {"distribution": "uniform", "lower": 80}}, {},
      ["inputs.mesh.backlash_um", "missing upper"]),
+    # A key this case does not read would give every sample the same run.
+    ({"model.zeta": {"distribution": "uniform", "lower": 0.01, "upper": 0.1}}, {},
+     ["inputs.model.zeta: the study would vary a key this case does not read",
+      "only \"nondimensional\" reads model.zeta"]),
     (INPUTS, {"method": "halton"}, ["method = 'halton'", "lhs"]),
     (INPUTS, {"samples": 0}, ["samples = 0"]),
     (INPUTS, {"executor": "tcp://127.0.0.1:9"}, ["cannot reach the Dask scheduler"]),
