@@ -33,8 +33,10 @@ std::string origin_of(const std::vector<Override>& overrides, const std::string&
                       const toml::source_region& src, const std::string& source) {
   for (auto it = overrides.rbegin(); it != overrides.rend(); ++it) {
     const std::string& k = it->key;
+    // The key itself, a key or an entry under it, or an entry of it (key[i][j]): an array
+    // with an entry overridden is the override's.
     if (dotted == k || dotted.rfind(k + ".", 0) == 0 || dotted.rfind(k + "[", 0) == 0 ||
-        k.rfind(dotted + ".", 0) == 0)
+        k.rfind(dotted + ".", 0) == 0 || k.rfind(dotted + "[", 0) == 0)
       return it->label();
   }
   return where(src, source);
@@ -620,7 +622,10 @@ namespace {
 
 // An override of one element of an array, `key[i]` or `key[i][j]`: replaces that element of
 // the array set in `root`. Throws InputError naming the override.
-void set_element(toml::table& root, const Override& o, const std::string& origin) {
+void set_element(toml::table& root, const Override& o, const std::string& given) {
+  // Where the value came from and the key it sets, once ("--from 10: key[1][0]").
+  const std::string origin =
+      given.find(o.key) == std::string::npos ? fmt::format("{}: {}", given, o.key) : given;
   const std::size_t open = o.key.find('[');
   const std::string base = o.key.substr(0, open);
   std::vector<std::size_t> index;

@@ -1590,6 +1590,60 @@ bool set_element_number(TrainCase& t, std::vector<E>& elements, std::string_view
   return false;
 }
 
+// A harmonic's first entry: its amplitude (a stiffness harmonic's ratio k_ai / k_m).
+double& amplitude_of(StiffnessHarmonic& h) { return h.ratio; }
+double& amplitude_of(ErrorHarmonic& h) { return h.amplitude; }
+double& amplitude_of(OrderHarmonic& h) { return h.amplitude; }
+
+template <class T>
+constexpr bool kIsHarmonics =
+    std::is_same_v<T, std::vector<StiffnessHarmonic>> ||
+    std::is_same_v<T, std::vector<ErrorHarmonic>> || std::is_same_v<T, std::vector<OrderHarmonic>>;
+
+// The same for entry [row][column] of element i's harmonics `leaf`, as the reader takes it:
+// the amplitude (column 0) within the key's bounds, an order (the middle of [amplitude, order,
+// phase_deg]) > 0, a phase any finite number; false when there is no such entry (the reader
+// then says why).
+template <class E>
+bool set_element_entry(TrainCase& t, std::vector<E>& elements, std::string_view kind,
+                       const std::vector<ElementKey<E>>& keys, std::size_t i, std::string_view leaf,
+                       std::size_t row, std::size_t column, double v, const std::string& label) {
+  if (i >= elements.size()) return false;
+  for (const ElementKey<E>& key : keys) {
+    if (key.leaf != leaf) continue;
+    E& e = elements[i];
+    bool set = false;
+    std::visit(
+        [&](auto member) {
+          using T = std::remove_reference_t<decltype(e.*member)>;
+          if constexpr (kIsHarmonics<T>) {
+            using H = typename T::value_type;
+            constexpr std::size_t kWidth = std::is_same_v<H, OrderHarmonic> ? 3 : 2;
+            if (row >= (e.*member).size() || column >= kWidth) return;
+            H& h = (e.*member)[row];
+            if (column == 0) {
+              if (!key.range.contains(v)) return;
+              amplitude_of(h) = v;
+            } else if (column + 1 == kWidth) {
+              h.phase_deg = v;
+            } else if constexpr (kWidth == 3) {
+              if (!(v > 0)) return;
+              h.order = v;
+            }
+            set = true;
+          }
+        },
+        key.field);
+    if (!set) return false;
+    // The element's origin and the array's are the override's, as the reader gives them.
+    const std::string element = fmt::format("{} '{}'", kind, e.name);
+    t.origins[element] = label;
+    t.origins[fmt::format("{}: {}", element, leaf)] = label;
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 bool set_train_number_in_place(TrainCase& t, const Override& o) {
@@ -1611,13 +1665,33 @@ bool set_train_number_in_place(TrainCase& t, const Override& o) {
       close + 1 >= key.size() || key[close + 1] != '.')
     return false;
   const std::string_view kind = key.substr(kPrefix.size(), open - kPrefix.size());
-  const std::string_view leaf = key.substr(close + 2);
+  std::string_view leaf = key.substr(close + 2);
   std::size_t i = 0;
   const auto [at, bad] = std::from_chars(key.data() + open + 1, key.data() + close, i);
-  if (bad != std::errc{} || at != key.data() + close ||
-      leaf.find_first_of(".[") != std::string_view::npos)
+  if (bad != std::errc{} || at != key.data() + close || leaf.find('.') != std::string_view::npos)
     return false;
   const std::string label = o.label();
+  // A harmonic's entry: <leaf>[row][column].
+  if (const std::size_t bracket = leaf.find('['); bracket != std::string_view::npos) {
+    std::size_t index[2] = {0, 0};
+    std::string_view rest = leaf.substr(bracket);
+    for (std::size_t& x : index) {
+      const std::size_t shut = rest.find(']');
+      if (rest.empty() || rest[0] != '[' || shut == std::string_view::npos) return false;
+      const auto [end, error] = std::from_chars(rest.data() + 1, rest.data() + shut, x);
+      if (error != std::errc{} || end != rest.data() + shut) return false;
+      rest = rest.substr(shut + 1);
+    }
+    if (!rest.empty()) return false;
+    leaf = leaf.substr(0, bracket);
+    const auto entry = [&](auto& elements, const auto& keys) {
+      return set_element_entry(t, elements, kind, keys, i, leaf, index[0], index[1], v, label);
+    };
+    if (kind == "mesh") return entry(t.meshes, mesh_keys());
+    if (kind == "torque") return entry(t.torques, torque_keys());
+    if (kind == "speed") return entry(t.speeds, speed_keys());
+    return false;
+  }
   if (kind == "body") return set_element_number(t, t.bodies, kind, body_keys(), i, leaf, v, label);
   if (kind == "mesh") return set_element_number(t, t.meshes, kind, mesh_keys(), i, leaf, v, label);
   if (kind == "shaft")

@@ -26,6 +26,7 @@
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/validation.hpp"
+#include "test_support.hpp"
 
 namespace geardyn {
 namespace {
@@ -315,6 +316,9 @@ TEST(TrainCase, AKeySetOnALoadedTrainIsTheFileReadWithIt) {
       {"train.torque[1].mean_nm", "-12.5", "--from -12.5"},
       {"train.shaft[2].stiffness_n_m_per_rad", "2.5e4", "--param"},
       {"train.mesh[0].stiffness_source", "\"harmonics\"", "--set name"},  // read again
+      // A harmonic's entries: amplitude, phase.
+      {"train.mesh[1].stiffness_harmonics[1][0]", "0.02", "--from 0.02"},
+      {"train.mesh[0].stiffness_harmonics[0][1]", "-35", "--to -35"},
   };
   for (const Override& o : overrides) {
     Case set = load_case(reducer);
@@ -323,6 +327,37 @@ TEST(TrainCase, AKeySetOnALoadedTrainIsTheFileReadWithIt) {
     EXPECT_EQ(to_toml(set), to_toml(read)) << o.key;
     ASSERT_TRUE(set.train && read.train);
     EXPECT_EQ(set.train->origins, read.train->origins) << o.key;
+  }
+  // The same for the loose gear's prescribed speed: [amplitude, order, phase_deg].
+  const std::filesystem::path loose =
+      std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml";
+  for (const Override& o : std::vector<Override>{
+           {"train.speed[0].acceleration_harmonics[0][0]", "250", "--param at 250"},
+           {"train.speed[0].acceleration_harmonics[0][1]", "1.5", "--to 1.5"},
+           {"train.speed[0].acceleration_harmonics[0][2]", "30", "--from 30"}}) {
+    Case set = load_case(loose);
+    set_case_value(set, o);
+    const Case read = load_case(loose, {o});
+    EXPECT_EQ(to_toml(set), to_toml(read)) << o.key;
+    EXPECT_NE(to_toml(set), to_toml(load_case(loose))) << o.key;
+    EXPECT_EQ(set.train->origins, read.train->origins) << o.key;
+  }
+  // What the reader refuses, the same words either way: a negative amplitude, an order of 0,
+  // an entry past the harmonics given.
+  for (const Override& o :
+       std::vector<Override>{{"train.speed[0].acceleration_harmonics[0][0]", "-1", "--from -1"},
+                             {"train.speed[0].acceleration_harmonics[0][1]", "0", "--from 0"},
+                             {"train.speed[0].acceleration_harmonics[1][0]", "10", "--from 10"},
+                             {"train.mesh[0].stiffness_harmonics[0][0]", "1", "--to 1"}}) {
+    const std::filesystem::path file = o.key.find("speed") != std::string::npos ? loose : reducer;
+    Case set = load_case(file);
+    const std::string in_place = testing::error_of([&] { set_case_value(set, o); });
+    const std::string read = testing::error_of([&] { (void)load_case(file, {o}); });
+    EXPECT_FALSE(in_place.empty()) << o.key << " = " << o.value;
+    EXPECT_EQ(in_place, read) << o.key;
+    // Where the value came from, not the array's line in the file.
+    EXPECT_EQ(in_place.rfind(o.label() + ": " + o.key.substr(0, o.key.find("][") - 2), 0), 0U)
+        << in_place;
   }
   Case c = load_case(reducer);
   try {
