@@ -768,9 +768,11 @@ void check_axes_read(const Case& c, const SweepAxis& axis, const SweepAxis* axis
       return Override{x.key, fmt::format("{:.17g}", v.value), v.origin};
     };
     for (const AxisValue& x : axis_ends(a, suffix)) {
-      if (!b) out.push_back({set(a, x)});
-      if (b)
-        for (const AxisValue& y : axis_ends(*b, suffix_b)) out.push_back({set(a, x), set(*b, y)});
+      if (!b) {
+        out.push_back({set(a, x)});
+        continue;
+      }
+      for (const AxisValue& y : axis_ends(*b, suffix_b)) out.push_back({set(a, x), set(*b, y)});
     }
     return out;
   };

@@ -328,6 +328,18 @@ TEST(TrainCase, AKeySetOnALoadedTrainIsTheFileReadWithIt) {
     ASSERT_TRUE(set.train && read.train);
     EXPECT_EQ(set.train->origins, read.train->origins) << o.key;
   }
+  // A planetary set's mesh, its planets written once and copied (train.planet).
+  const std::filesystem::path planetary =
+      std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "planetary_set.toml";
+  for (const Override& o :
+       std::vector<Override>{{"train.mesh[1].stiffness_harmonics[0][0]", "0.1", "--from 0.1"},
+                             {"train.mesh[0].stiffness_harmonics[1][1]", "45", "--to 45"}}) {
+    Case set = load_case(planetary);
+    set_case_value(set, o);
+    const Case read = load_case(planetary, {o});
+    EXPECT_EQ(to_toml(set), to_toml(read)) << o.key;
+    EXPECT_EQ(set.train->origins, read.train->origins) << o.key;
+  }
   // The same for the loose gear's prescribed speed: [amplitude, order, phase_deg].
   const std::filesystem::path loose =
       std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml";

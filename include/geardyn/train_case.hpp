@@ -319,10 +319,11 @@ std::vector<std::string> train_unused_settings(const TrainCase& t);
 std::string train_toml(const TrainCase& t);
 
 // Sets a number of the train in place, as reading the case with the override would: the
-// reference speed, or a key of an element whose value is one number ("train.mesh[0].backlash_um";
-// not a whole number such as teeth, not an entry of a harmonic), within its key's bounds, the
-// key's and its element's origins the override's. False, and t unchanged, for any other key or
-// value (the caller reads the case again with it, which says what is wrong).
+// reference speed, a key of an element whose value is one number ("train.mesh[0].backlash_um";
+// not a whole number such as teeth), or an entry of an element's harmonics that is there
+// ("train.speed[0].acceleration_harmonics[0][0]"), within its key's bounds, the key's and its
+// element's origins the override's. False, and t unchanged, for any other key or value (the
+// caller reads the case again with it, which says what is wrong).
 bool set_train_number_in_place(TrainCase& t, const Override& o);
 
 }  // namespace geardyn
