@@ -1560,34 +1560,43 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
 
 namespace {
 
-// Sets element i's `leaf` of `kind` (keys its table) to v, within the key's bounds, as the
-// reader would; false when the key is not one number or v is out of bounds.
-template <class E>
-bool set_element_number(TrainCase& t, std::vector<E>& elements, std::string_view kind,
+// Hands element i's member `leaf` of `kind` (keys its table), with its key, to set(key,
+// member), which returns whether it took the value; then the element's and the key's origins
+// are `label`, as the reader gives them. False when there is no such element or key, or set
+// refused.
+template <class E, class Set>
+bool set_element_member(TrainCase& t, std::vector<E>& elements, std::string_view kind,
                         const std::vector<ElementKey<E>>& keys, std::size_t i,
-                        std::string_view leaf, double v, const std::string& label) {
+                        std::string_view leaf, const std::string& label, Set&& set) {
   if (i >= elements.size()) return false;
   for (const ElementKey<E>& key : keys) {
     if (key.leaf != leaf) continue;
-    if (!key.range.contains(v)) return false;
     E& e = elements[i];
-    bool set = false;
-    std::visit(
-        [&](auto member) {
-          using T = std::remove_reference_t<decltype(e.*member)>;
-          if constexpr (std::is_same_v<T, double> || std::is_same_v<T, std::optional<double>>) {
-            e.*member = v;
-            set = true;
-          }
-        },
-        key.field);
-    if (!set) return false;
+    if (!std::visit([&](auto member) { return set(key, e.*member); }, key.field)) return false;
     const std::string element = fmt::format("{} '{}'", kind, e.name);
     t.origins[element] = label;
     t.origins[fmt::format("{}: {}", element, leaf)] = label;
     return true;
   }
   return false;
+}
+
+// Sets element i's `leaf` to v, within the key's bounds, as the reader would; false when the
+// key is not one number or v is out of bounds.
+template <class E>
+bool set_element_number(TrainCase& t, std::vector<E>& elements, std::string_view kind,
+                        const std::vector<ElementKey<E>>& keys, std::size_t i,
+                        std::string_view leaf, double v, const std::string& label) {
+  return set_element_member(
+      t, elements, kind, keys, i, leaf, label, [v](const ElementKey<E>& key, auto& member) {
+        using T = std::remove_reference_t<decltype(member)>;
+        if constexpr (std::is_same_v<T, double> || std::is_same_v<T, std::optional<double>>) {
+          if (!key.range.contains(v)) return false;
+          member = v;
+          return true;
+        }
+        return false;
+      });
 }
 
 // A harmonic's first entry: its amplitude (a stiffness harmonic's ratio k_ai / k_m).
@@ -1608,40 +1617,27 @@ template <class E>
 bool set_element_entry(TrainCase& t, std::vector<E>& elements, std::string_view kind,
                        const std::vector<ElementKey<E>>& keys, std::size_t i, std::string_view leaf,
                        std::size_t row, std::size_t column, double v, const std::string& label) {
-  if (i >= elements.size()) return false;
-  for (const ElementKey<E>& key : keys) {
-    if (key.leaf != leaf) continue;
-    E& e = elements[i];
-    bool set = false;
-    std::visit(
-        [&](auto member) {
-          using T = std::remove_reference_t<decltype(e.*member)>;
-          if constexpr (kIsHarmonics<T>) {
-            using H = typename T::value_type;
-            constexpr std::size_t kWidth = std::is_same_v<H, OrderHarmonic> ? 3 : 2;
-            if (row >= (e.*member).size() || column >= kWidth) return;
-            H& h = (e.*member)[row];
-            if (column == 0) {
-              if (!key.range.contains(v)) return;
-              amplitude_of(h) = v;
-            } else if (column + 1 == kWidth) {
-              h.phase_deg = v;
-            } else if constexpr (kWidth == 3) {
-              if (!(v > 0)) return;
-              h.order = v;
-            }
-            set = true;
+  return set_element_member(
+      t, elements, kind, keys, i, leaf, label, [&](const ElementKey<E>& key, auto& member) {
+        using T = std::remove_reference_t<decltype(member)>;
+        if constexpr (kIsHarmonics<T>) {
+          using H = typename T::value_type;
+          constexpr std::size_t kWidth = std::is_same_v<H, OrderHarmonic> ? 3 : 2;
+          if (row >= member.size() || column >= kWidth) return false;
+          H& h = member[row];
+          if (column == 0) {
+            if (!key.range.contains(v)) return false;
+            amplitude_of(h) = v;
+          } else if (column + 1 == kWidth) {
+            h.phase_deg = v;
+          } else if constexpr (kWidth == 3) {
+            if (!(v > 0)) return false;
+            h.order = v;
           }
-        },
-        key.field);
-    if (!set) return false;
-    // The element's origin and the array's are the override's, as the reader gives them.
-    const std::string element = fmt::format("{} '{}'", kind, e.name);
-    t.origins[element] = label;
-    t.origins[fmt::format("{}: {}", element, leaf)] = label;
-    return true;
-  }
-  return false;
+          return true;
+        }
+        return false;
+      });
 }
 
 }  // namespace
