@@ -55,6 +55,8 @@ std::optional<MeshStiffness> shared_stiffness(const Case& base,
   // The non-dimensional form has no gears; a train's meshes carry their own stiffness.
   if (base.model.form == ModelForm::kNondimensional || base.model.form == ModelForm::kTrain)
     return std::nullopt;
+  // ISO 6336-1's k_m follows the load (its c' below 100 N/mm), and costs a formula to compute.
+  if (base.mesh.stiffness_source == StiffnessSource::kIso6336) return std::nullopt;
   for (const std::string& key : keys)
     if (changes_stiffness(key)) return std::nullopt;
   return case_stiffness(base);

@@ -257,6 +257,36 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
       }
   check_axes_read(c, o.axis, o.axis2 ? &*o.axis2 : nullptr);
   const std::optional<MeshStiffness> shared = shared_stiffness(c, keys);
+  // A key the contact flow does not depend on (a backlash, a torque, a transmission error: they
+  // force the motion, not its linearised flow) would chart the same multipliers everywhere:
+  // refused when the monodromy is the same, bit for bit, at both ends of its axis (at every
+  // end of the other axis of a map). A key that enters the flow changes it at its ends.
+  for (const auto& [varied, suffix, held] :
+       {std::tuple{&o.axis, "", o.axis2 ? &*o.axis2 : nullptr},
+        std::tuple{o.axis2 ? &*o.axis2 : nullptr, "2", &o.axis}}) {
+    const SweepAxis* axis = varied;  // plain pointers: a lambda below captures them
+    const SweepAxis* other = held;
+    if (!axis) continue;
+    const std::vector<AxisValue> ends = axis_ends(*axis, suffix);
+    const std::vector<AxisValue> others =
+        other ? axis_ends(*other, suffix[0] ? "" : "2") : std::vector<AxisValue>{{0.0, ""}};
+    bool enters = false;
+    for (const AxisValue& at : others) {
+      const Case row = other ? case_at(c, *other, at.value) : c;
+      const auto flow = [&](double v) {
+        return elastic_contact_monodromy(case_at(row, *axis, v), o.tolerance, 0,
+                                         shared ? &*shared : nullptr);
+      };
+      enters = enters || flow(ends.front().value) != flow(ends.back().value);
+    }
+    if (!enters)
+      throw InputError(fmt::format(
+          "--param{} {}: the stability in permanent contact does not depend on it: the contact "
+          "flow's monodromy is the same at {} and at {} (a backlash, a torque or a transmission "
+          "error forces the motion without entering its linearised flow; `geardyn sweep` and "
+          "`geardyn continue` read it)",
+          suffix, axis->key, ends.front().origin, ends.back().origin));
+  }
   for (const double row : rows) {
     const Case base = o.axis2 ? case_at(c, *o.axis2, row) : c;
     auto monodromy = [&](double p) {

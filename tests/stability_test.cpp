@@ -14,6 +14,7 @@
 #include <complex>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "geardyn/coupled_model.hpp"
@@ -23,6 +24,7 @@
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/validation.hpp"
+#include "test_support.hpp"
 
 namespace {
 
@@ -338,6 +340,56 @@ TEST(Stability, EachSampleIsItsCasesOwnWhetherTheStiffnessIsSharedOrNot) {
     }
     EXPECT_NE(moduli.front(), moduli.back()) << axis.key;  // the key moves the multipliers
   }
+  // ISO 6336-1's k_m follows the torque (c' below 100 N/mm of line load): never shared, so that
+  // a chart along the torque reads each torque's own stiffness (it once kept the first's).
+  Case iso = c;
+  geardyn::set_case_value(iso, {"mesh.stiffness_source", "\"iso6336\""});
+  EXPECT_FALSE(geardyn::shared_stiffness(iso, {"load.torque_nm"}));
+  StabilityOptions o;
+  o.axis = geardyn::SweepAxis{"load.torque_nm", 5, 40, 3, false};
+  const geardyn::StabilityResult r = geardyn::stability(iso, o);
+  ASSERT_EQ(r.samples.size(), 3U);
+  for (const geardyn::StabilitySample& s : r.samples) {
+    Case at = iso;
+    geardyn::set_case_value(at, {"load.torque_nm", fmt::format("{:.17g}", s.param)});
+    const auto mu = geardyn::floquet_multipliers(geardyn::elastic_contact_monodromy(at));
+    EXPECT_EQ(s.max_multiplier, std::abs(mu.front())) << s.param;
+  }
+  EXPECT_NE(r.samples.front().max_multiplier, r.samples.back().max_multiplier);
+}
+
+// A key the contact flow does not read (a backlash, a torque on the energy method's stiffness,
+// a loose gear's imposed acceleration: they force the motion, not its linearised flow) would
+// chart one verdict everywhere: refused, naming the key and the two ends; a key of the flow is
+// charted, on the one-degree form and on a train.
+TEST(Stability, AKeyTheContactFlowDoesNotReadIsRefused) {
+  const Case c = geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010.toml");
+  const auto refusal = [](const Case& x, const geardyn::SweepAxis& axis,
+                          std::optional<geardyn::SweepAxis> axis2 = std::nullopt) {
+    StabilityOptions o;
+    o.axis = axis;
+    o.axis2 = axis2;
+    return geardyn::testing::error_of([&] { (void)geardyn::stability(x, o); });
+  };
+  std::string msg = refusal(c, {"mesh.backlash_um", 50, 150, 3, false});
+  for (const char* part : {"--param mesh.backlash_um: the stability in permanent contact does "
+                           "not depend on it",
+                           "the same at --from 50 and at --to 150"})
+    EXPECT_NE(msg.find(part), std::string::npos) << part << "\n" << msg;
+  EXPECT_NE(refusal(c, {"load.torque_nm", 20, 150, 3, false}).find("--param load.torque_nm"),
+            std::string::npos);
+  // The second key of a map, with its own option.
+  msg = refusal(c, {"speed.shaft_frequency_hz", 500, 1500, 3, false},
+                geardyn::SweepAxis{"mesh.backlash_um", 50, 150, 2, false});
+  EXPECT_NE(msg.find("--param2 mesh.backlash_um"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("--from2 50"), std::string::npos) << msg;
+  const Case loose =
+      geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml");
+  msg = refusal(loose, {"train.speed[0].acceleration_harmonics[0][0]", 100, 300, 3, false});
+  EXPECT_NE(msg.find("does not depend on it"), std::string::npos) << msg;
+  // Keys of the flow: the speed, the mesh's damping ratio, the loose gear's drive speed.
+  EXPECT_EQ(refusal(c, {"mesh.damping_ratio", 0.01, 0.05, 3, false}), "");
+  EXPECT_EQ(refusal(loose, {"train.reference_speed_hz", 10, 20, 3, false}), "");
 }
 
 TEST(Stability, AFreelyTurningTrainHasItsMeshsMultipliersAndANeutralRate) {

@@ -149,8 +149,9 @@ Geometry case_geometry(const Case& c);
 MeshStiffness case_stiffness(const Case& c);
 
 // The mesh stiffness a study that varies only `keys` of `base` computes once for all its values:
-// empty for the nondimensional form (it has none) or when a key changes the stiffness curve
-// (changes_stiffness; each value then computes its own). Throws InputError.
+// empty for the nondimensional form (it has none), for ISO 6336-1's stiffness (a closed form of
+// the load: the torque and the application factor move it) or when a key changes the stiffness
+// curve (changes_stiffness; each value then computes its own). Throws InputError.
 std::optional<MeshStiffness> shared_stiffness(const Case& base,
                                               const std::vector<std::string>& keys);
 
