@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <boost/math/tools/toms748_solve.hpp>
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <utility>
 
 #include "geardyn/case_keys.hpp"
 #include "geardyn/coupled_model.hpp"
@@ -260,7 +262,10 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
   // A key the contact flow does not depend on (a backlash, a torque, a transmission error: they
   // force the motion, not its linearised flow) would chart the same multipliers everywhere:
   // refused when the monodromy is the same, bit for bit, at both ends of its axis (at every
-  // end of the other axis of a map). A key that enters the flow changes it at its ends.
+  // end of the other axis of a map). A key that enters the flow changes it at its ends. The
+  // monodromies found here are the chart's at those values: kept by (row, value), the row
+  // being the value of --param2 (0 without one).
+  std::map<std::pair<double, double>, ode::Matrix> found;
   for (const auto& [varied, suffix, held] :
        {std::tuple{&o.axis, "", o.axis2 ? &*o.axis2 : nullptr},
         std::tuple{o.axis2 ? &*o.axis2 : nullptr, "2", &o.axis}}) {
@@ -274,8 +279,13 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
     for (const AxisValue& at : others) {
       const Case row = other ? case_at(c, *other, at.value) : c;
       const auto flow = [&](double v) {
-        return elastic_contact_monodromy(case_at(row, *axis, v), o.tolerance, 0,
-                                         shared ? &*shared : nullptr);
+        const std::pair<double, double> at_key =
+            axis == &o.axis ? std::pair{at.value, v} : std::pair{v, at.value};
+        auto [it, fresh] = found.try_emplace(at_key);
+        if (fresh)
+          it->second = elastic_contact_monodromy(case_at(row, *axis, v), o.tolerance, 0,
+                                                 shared ? &*shared : nullptr);
+        return it->second;
       };
       enters = enters || flow(ends.front().value) != flow(ends.back().value);
     }
@@ -290,6 +300,8 @@ StabilityResult stability(const Case& c, const StabilityOptions& o) {
   for (const double row : rows) {
     const Case base = o.axis2 ? case_at(c, *o.axis2, row) : c;
     auto monodromy = [&](double p) {
+      if (const auto it = found.find({o.axis2 ? row : 0.0, p}); it != found.end())
+        return it->second;
       return elastic_contact_monodromy(case_at(base, o.axis, p), o.tolerance, 0,
                                        shared ? &*shared : nullptr);
     };
