@@ -253,6 +253,27 @@ def design(case, inputs, samples=None, method="lhs", seed=0, correlation=None):
     return out
 
 
+def _check_swept(case, param, values):
+    """A sweep analysis's key and values, before any sample runs or any file is written: a key
+    the case takes at the least and the largest value, and reads there."""
+    try:
+        v = np.asarray(values, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise StudyError(f"analysis.values: {values!r} is not a list of numbers") from None
+    if v.size == 0 or not np.all(np.isfinite(v)):
+        raise StudyError(f"analysis.values: {values!r}: at least one value, every one finite")
+    ends = (float(v.min()), float(v.max()))
+    for x in ends:
+        try:
+            case.with_({param: x})
+        except (ValueError, KeyError) as e:
+            raise StudyError(f"analysis.param = {param!r} at {x:g}: {e}") from None
+    why = case._unread_study_key([[(param, x)] for x in ends])
+    if why:
+        raise StudyError(f"analysis.param = {param!r}: the study would vary a key this case does "
+                         f"not read: {why}")
+
+
 def _check_key(case, key):
     """An input must be a numeric key of the base case."""
     try:
@@ -538,6 +559,8 @@ def study(case, inputs, samples=None, method="lhs", seed=0, analysis=None, execu
         raise StudyError(f"analysis.kind = {analysis['kind']!r}: must be run, sweep or orbit")
     if analysis.get("kind") == "sweep" and ("param" not in analysis or "values" not in analysis):
         raise StudyError("analysis (sweep): needs 'param' and 'values'")
+    if analysis.get("kind") == "sweep":
+        _check_swept(case, analysis["param"], analysis["values"])
     design_ = design(case, inputs, samples, method, seed, correlation)
     _python_sigint()  # OpenTURNS's objects, gone with design(), leave their own handler
     keys = list(design_)

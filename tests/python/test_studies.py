@@ -75,6 +75,11 @@ def test_a_scipy_frozen_distribution_and_a_correlation_are_taken():
     ({"model.zeta": {"distribution": "uniform", "lower": 0.01, "upper": 0.1}}, {},
      ["inputs.model.zeta: the study would vary a key this case does not read",
       "only \"nondimensional\" reads model.zeta"]),
+    # A sweep analysis's key: unknown, or not read by the case.
+    (INPUTS, {"analysis": {"kind": "sweep", "param": "speed.rpm", "values": [1, 2]}},
+     ["analysis.param = 'speed.rpm'"]),
+    (INPUTS, {"analysis": {"kind": "sweep", "param": "model.omega", "values": [1, 2]}},
+     ["analysis.param = 'model.omega': the study would vary a key this case does not read"]),
     (INPUTS, {"method": "halton"}, ["method = 'halton'", "lhs"]),
     (INPUTS, {"samples": 0}, ["samples = 0"]),
     (INPUTS, {"executor": "tcp://127.0.0.1:9"}, ["cannot reach the Dask scheduler"]),
