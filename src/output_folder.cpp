@@ -1,6 +1,7 @@
 #include "geardyn/output_folder.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <signal.h>
 
 #include <algorithm>
@@ -97,7 +98,46 @@ class HeldSignals {
   sigset_t old_;
 };
 
+// The files of `relative` that are in `dir` but not as a set of `manifest` recorded them: the
+// user's, or changed by the user since geardyn wrote them (a symbolic link is never ours).
+std::vector<std::string> foreign_in(const fs::path& dir, const Manifest& manifest,
+                                    const std::vector<std::string>& relative) {
+  std::vector<std::string> foreign;
+  std::error_code ec;
+  for (const std::string& f : relative) {
+    if (!fs::exists(fs::symlink_status(dir / f, ec))) continue;
+    const std::optional<Stamp> now = stamp_of(dir / f);
+    const bool ours = now && std::any_of(manifest.begin(), manifest.end(), [&](const auto& set) {
+                        const auto it = set.second.find(f);
+                        return it != set.second.end() && it->second == *now;
+                      });
+    if (!ours) foreign.push_back(f);
+  }
+  return foreign;
+}
+
+std::string foreign_message(const std::vector<std::string>& foreign) {
+  return fmt::format(
+      "{} not written by geardyn here, or changed since it was ({}): geardyn never replaces a "
+      "file it did not write, so nothing was written and the folder is as it was; move {} away, "
+      "or write to another folder",
+      foreign.size() == 1 ? "the file exists and was" : "files of this name exist and were",
+      fmt::join(foreign, ", "), foreign.size() == 1 ? "it" : "them");
+}
+
 }  // namespace
+
+std::vector<std::string> foreign_files(const fs::path& dir,
+                                       const std::vector<std::string>& relative) {
+  return foreign_in(dir, read_manifest(dir), relative);
+}
+
+void check_no_foreign_files(const fs::path& dir, const std::vector<std::string>& relative) {
+  const std::vector<std::string> foreign = foreign_files(dir, relative);
+  if (!foreign.empty())
+    throw std::runtime_error(fmt::format("{}: cannot write: {}", (dir / foreign.front()).string(),
+                                         foreign_message(foreign)));
+}
 
 OutputSet::OutputSet(const fs::path& dir, std::string name) : name_(std::move(name)) {
   std::error_code ec;
@@ -186,7 +226,8 @@ std::vector<std::string> OutputSet::commit(const RenameFunction& rename) {
     throw std::runtime_error(fmt::format("{}: cannot write: {}", p.string(), why));
   };
   // Every target checked before anything moves: a folder (or anything else that is not a
-  // file) of the user's under one of our names is never replaced.
+  // file) of the user's under one of our names is never replaced, nor, for a named set, a file
+  // that no set of the manifest records as geardyn left it (foreign_files).
   for (const fs::path& f : files) {
     const auto s = fs::symlink_status(dir_ / f, ec);
     if (fs::exists(s) && !fs::is_regular_file(s) && !fs::is_symlink(s))
@@ -196,14 +237,21 @@ std::vector<std::string> OutputSet::commit(const RenameFunction& rename) {
       if (fs::exists(u) && !fs::is_directory(u)) fail(dir_ / up, "exists and is not a folder");
     }
   }
+  Manifest manifest;
+  if (!name_.empty()) {
+    manifest = read_manifest(dir_);
+    std::vector<std::string> relative;
+    relative.reserve(files.size());
+    for (const fs::path& f : files) relative.push_back(f.generic_string());
+    const std::vector<std::string> foreign = foreign_in(dir_, manifest, relative);
+    if (!foreign.empty()) fail(dir_ / foreign.front(), foreign_message(foreign));
+  }
 
   // The previous set of this name: its files that this one does not write again go with it,
   // when still as geardyn left them.
-  Manifest manifest;
   std::vector<fs::path> stale;
   std::vector<std::string> kept;
   if (!name_.empty()) {
-    manifest = read_manifest(dir_);
     for (const auto& [path, recorded] : manifest[name_]) {
       if (std::binary_search(files.begin(), files.end(), fs::path(path))) continue;
       const std::optional<Stamp> now = stamp_of(dir_ / path);
@@ -217,13 +265,16 @@ std::vector<std::string> OutputSet::commit(const RenameFunction& rename) {
     mine.clear();
     for (const fs::path& f : files)
       if (const std::optional<Stamp> s = stamp_of(staging_ / f)) mine[f.generic_string()] = *s;
-    // Sets whose files are all gone are forgotten.
+    // Another set's file that this one replaces is this set's now; sets whose files are all
+    // gone are forgotten.
     for (auto it = manifest.begin(); it != manifest.end();) {
       if (it->first == name_) {
         ++it;
         continue;
       }
-      std::erase_if(it->second, [&](const auto& e) { return !fs::exists(dir_ / e.first); });
+      std::erase_if(it->second, [&](const auto& e) {
+        return !fs::exists(dir_ / e.first) || mine.count(e.first) > 0;
+      });
       if (it->second.empty())
         it = manifest.erase(it);
       else

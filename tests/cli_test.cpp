@@ -617,16 +617,65 @@ TEST(Cli, AFailedWriteLeavesTheOutputFolderAsItWas) {
   const fs::path d = users_folder("failed_write");
   ASSERT_EQ(cli("run --set solver.duration_s=0.002 --out " + d.string()).code, 0);
   const std::string earlier = slurp(d / "summary.json");
-  fs::remove(d / "events.csv");
-  fs::create_directories(d / "events.csv");
-  const Outcome o = cli("run --set solver.duration_s=0.003 --out " + d.string());
+  // A figure's name: the command looks for its data files' names alone before its work
+  // (AFileOfTheUsersUnderOneOfOurNamesStopsTheCommandBeforeItsWork), so this is found at the
+  // commit.
+  fs::create_directories(d / "run_time.png");
+  const Outcome o = cli("run --set solver.duration_s=0.003 --plot --out " + d.string());
   EXPECT_EQ(o.code, 1) << o.err;
-  EXPECT_NE(o.err.find("events.csv: cannot write: exists and is not a regular file"),
+  EXPECT_NE(o.err.find("run_time.png: cannot write: exists and is not a regular file"),
             std::string::npos)
       << o.err;
   EXPECT_EQ(slurp(d / "summary.json"), earlier);
-  EXPECT_TRUE(fs::is_directory(d / "events.csv"));
+  EXPECT_TRUE(fs::is_directory(d / "run_time.png"));
   expect_users_files(d, "failed write");
+}
+
+TEST(Cli, AFileOfTheUsersUnderOneOfOurNamesStopsTheCommandBeforeItsWork) {
+  // A file the command would write, but the user's (never written by geardyn there): exit 2
+  // before any work, naming the file, and the folder as it was, no manifest added. The same
+  // file once the user changed it after geardyn wrote it.
+  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"run --set solver.duration_s=0.002", "events.csv"},
+      {"run " + reducer + " --set solver.duration_s=0.002", "timeseries.csv"},
+      {"sweep --set model.form=nondimensional --param model.omega --from 0.8 --to 1.2 --points 3",
+       "strobe.csv"},
+      {"continue --set model.form=nondimensional --set model.force_alternating=0.02 "
+       "--param model.omega --from 0.5 --to 0.6",
+       "branch.csv"},
+      {"stability --param speed.shaft_frequency_hz --from 80 --to 100 --points 5",
+       "boundaries.json"},
+      {"modes " + reducer, "modes.json"},
+      {"stiffness", "harmonics.json"},
+      {"reproduce park2010 --no-figures", "study.json"},
+      {"validate --quick", "validation.json"},
+  };
+  for (const auto& [args, name] : commands) {
+    const fs::path d = users_folder("foreign");
+    std::ofstream(d / name) << "the user's own";
+    std::map<std::string, std::string> before;
+    for (const auto& e : fs::recursive_directory_iterator(d))
+      before[e.path().string()] = e.is_directory() ? "<dir>" : slurp(e.path());
+    const Outcome o = cli(args + " --out " + d.string());
+    expect_refused(o, "--out " + d.string() + ": " + name +
+                          " there was not written by geardyn, or changed since it was");
+    EXPECT_TRUE(o.out.empty()) << args << ": the work was done: " << o.out;
+    std::map<std::string, std::string> after;
+    for (const auto& e : fs::recursive_directory_iterator(d))
+      after[e.path().string()] = e.is_directory() ? "<dir>" : slurp(e.path());
+    EXPECT_EQ(after, before) << args;
+    fs::remove_all(d);
+  }
+  // Written by geardyn, then changed by the user: theirs now.
+  const fs::path d = users_folder("changed");
+  ASSERT_EQ(cli("run --set solver.duration_s=0.002 --out " + d.string()).code, 0);
+  std::ofstream(d / "case.toml", std::ios::app) << "# my notes\n";
+  const std::string edited = slurp(d / "case.toml");
+  expect_refused(cli("run --set solver.duration_s=0.002 --out " + d.string()),
+                 "case.toml there was not written by geardyn, or changed since it was");
+  EXPECT_EQ(slurp(d / "case.toml"), edited);
+  fs::remove_all(d);
 }
 
 TEST(Cli, ACaseFileAsEditorsSaveItReadsAsTheSame) {

@@ -8,6 +8,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <sstream>
 
@@ -164,6 +165,59 @@ TEST(OutputFolder, AUsersFolderUnderOneOfOurNamesIsNeverReplaced) {
         << e.what();
   }
   EXPECT_EQ(snapshot(d), before);
+}
+
+// The error of a commit refused for `name`, with the folder as `before`.
+void expect_foreign_refused(const fs::path& d, const std::map<std::string, std::string>& before,
+                            const std::function<void(const fs::path&)>& stage,
+                            const std::string& name, const std::string& what) {
+  try {
+    write_set(d, "run", stage);
+    ADD_FAILURE() << what << ": " << name << " was replaced";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(name + ": cannot write: the file exists and was not written by geardyn"),
+              std::string::npos)
+        << what << ": " << m;
+    EXPECT_NE(m.find("nothing was written"), std::string::npos) << what << ": " << m;
+  }
+  EXPECT_EQ(snapshot(d), before) << what;
+}
+
+TEST(OutputFolder, AFileGeardynDidNotWriteIsNeverReplaced) {
+  const auto stage = [](const fs::path& s) {
+    put(s / "summary.json", "ours");
+    put(s / "data.csv", "1");
+  };
+  // The user's own file under one of our names: the set is refused before anything moves.
+  fs::path d = users_folder("foreign");
+  put(d / "summary.json", "the user's summary");
+  EXPECT_EQ(foreign_files(d, {"summary.json", "data.csv", "thesis.tex"}),
+            (std::vector<std::string>{"summary.json", "thesis.tex"}));
+  expect_foreign_refused(d, snapshot(d), stage, "summary.json", "the user's file");
+  // A file geardyn wrote and the user changed since is the user's now.
+  fs::remove(d / "summary.json");
+  write_set(d, "run", stage);
+  EXPECT_TRUE(foreign_files(d, {"summary.json", "data.csv"}).empty());
+  put(d / "summary.json", "edited by the user");
+  expect_foreign_refused(d, snapshot(d), stage, "summary.json", "a file the user changed");
+  // A symbolic link under one of our names is never ours, whatever it points to.
+  fs::remove(d / "summary.json");
+  fs::create_symlink(d / "thesis.tex", d / "summary.json");
+  expect_foreign_refused(d, snapshot(d), stage, "summary.json", "a symbolic link");
+  EXPECT_EQ(slurp(d / "thesis.tex"), "draft");
+  fs::remove(d / "summary.json");
+  // Another set's file is geardyn's: replaced, and this set's from then on, so that the first
+  // set's next commit without it leaves it.
+  write_set(d, "run", stage);
+  write_set(d, "sweep", [](const fs::path& s) { put(s / "summary.json", "the sweep's"); });
+  write_set(d, "run", [](const fs::path& s) { put(s / "data.csv", "2"); });
+  EXPECT_EQ(slurp(d / "summary.json"), "the sweep's");
+  EXPECT_EQ(slurp(d / "data.csv"), "2");
+  EXPECT_EQ(slurp(d / "thesis.tex"), "draft");
+  // An unnamed set keeps no record and replaces its names (a named set's staging writers).
+  write_files_atomically(d, {{"thesis.tex", "replaced"}});
+  EXPECT_EQ(slurp(d / "thesis.tex"), "replaced");
 }
 
 TEST(OutputFolder, TheFoldersASetMadeGoWhenItFails) {

@@ -192,6 +192,39 @@ void write_output(const std::string& dir, const std::string& command,
                dir, kept, command);
 }
 
+// The files each writing command always writes (its figures aside): checked before its work
+// (check_output_folder), so that a file of the user's under one of these names stops it at once
+// rather than after the work, at the commit (output_folder.hpp, which checks every file).
+const std::map<std::string_view, std::vector<std::string>>& command_files() {
+  static const std::map<std::string_view, std::vector<std::string>> files{
+      {"run", {"summary.json", "timeseries.csv", "case.toml"}},  // and a pair's events.csv
+      {"sweep", {"sweep.csv", "strobe.csv", "summary.json"}},
+      {"continue", {"branch.csv", "bifurcations.json"}},
+      {"stability", {"stability.csv", "boundaries.json"}},
+      {"modes", {"modes.json", "campbell.csv"}},
+      {"stiffness", {"stiffness.csv", "harmonics.json"}},
+      {"reproduce", {"report.md", "report.html", "study.json"}},
+      {"validate", {"validation.md", "validation.html", "validation.json"}}};
+  return files;
+}
+
+// Refuses an output folder holding a file that `command` would have to replace and that
+// geardyn did not write there (or that changed since): exit 2 before any work, nothing written.
+void check_output_folder(const std::string& out_dir, std::string_view command,
+                         const std::vector<std::string>& more = {}) {
+  if (out_dir.empty()) return;
+  std::vector<std::string> files = command_files().at(command);
+  files.insert(files.end(), more.begin(), more.end());
+  const std::vector<std::string> foreign = geardyn::foreign_files(out_dir, files);
+  if (!foreign.empty())
+    throw geardyn::InputError(fmt::format(
+        "--out {}: {} there {} not written by geardyn, or changed since it was: `geardyn {}` "
+        "writes under {} and never replaces a file it did not write; move {} away, or give "
+        "another folder",
+        out_dir, fmt::join(foreign, ", "), foreign.size() == 1 ? "was" : "were", command,
+        foreign.size() == 1 ? "that name" : "those names", foreign.size() == 1 ? "it" : "them"));
+}
+
 std::string fmt_optional(const std::optional<double>& x, const char* spec_unit) {
   if (!x) return "none";
   return fmt::format("{:.6g}{}", *x, spec_unit);
@@ -415,6 +448,7 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
 int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets, bool json,
               const std::string& out_dir) {
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "modes");
+  check_output_folder(out_dir, "modes");
   const geardyn::train::Assembled a = geardyn::assembled_train(c);
   const std::vector<geardyn::train::TrainMode> m = geardyn::train::modes(a);
   if (json) {
@@ -458,6 +492,7 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
     throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "run");
+  check_output_folder(out_dir, "run");
   if (c.model.form == geardyn::ModelForm::kTrain || c.model.form == geardyn::ModelForm::kCoupled) {
     if (physical)
       throw geardyn::InputError(
@@ -465,6 +500,7 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
                       c.model.form == geardyn::ModelForm::kTrain ? "gear train" : "coupled pair"));
     return cmd_run_train(c, out_dir, plot);
   }
+  check_output_folder(out_dir, "run", {"events.csv"});
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
   opts.progress = [&](double fraction) { return bar(fraction) && !g_interrupted.load(); };
@@ -595,6 +631,7 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
 int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets,
               geardyn::SweepOptions o, const std::string& out_dir, bool figures) {
   const geardyn::Case base = load_model_case(case_file, parse_overrides(sets), "sweep");
+  check_output_folder(out_dir, "sweep");
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   ProgressBar bar("sweep", "points");
   o.progress = [&](std::size_t done, std::size_t total) {
@@ -705,6 +742,7 @@ int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& 
                   const std::string& mesh, const std::string& out_dir, bool json) {
   const geardyn::GearPairToRead read = pair_to_read(case_file, sets, mesh, "stiffness");
   const geardyn::Case& c = read.pair;
+  check_output_folder(out_dir, "stiffness");
   const geardyn::Geometry g = geardyn::case_geometry(c);
   const geardyn::Iso6336Stiffness iso = geardyn::iso6336_stiffness(c, g);
   const geardyn::StiffnessCycle cycle = geardyn::energy_method_cycle(c, g);
@@ -885,6 +923,7 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
                  geardyn::ContinuationOptions o, const std::string& out_dir, bool figures,
                  const std::string& overlay_dir) {
   const geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "continue");
+  check_output_folder(out_dir, "continue");
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   std::string sweep_text;
   if (!overlay_dir.empty()) {
@@ -941,6 +980,7 @@ int cmd_stability(const std::string& case_file, const std::vector<std::string>& 
                   geardyn::StabilityOptions o, const std::string& out_dir, bool json,
                   bool figures) {
   const geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "stability");
+  check_output_folder(out_dir, "stability");
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
   ProgressBar bar("stability");
   o.progress = [&](std::size_t done, std::size_t total) {
@@ -987,6 +1027,7 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
         fmt::format("reproduce {}: unknown study; available: park2010", study_name));
   const std::vector<geardyn::Override> overrides = parse_overrides(sets);
   const geardyn::Case base = load_model_case(case_file, overrides, "reproduce");
+  check_output_folder(out_dir, "reproduce");
   const geardyn::Study study = geardyn::park2010_study(base);
   // The study sets the paper's conditions per case: a --set of the same key does not reach
   // those cases, and the user is told so.
@@ -1022,6 +1063,7 @@ int cmd_reproduce(const std::string& study_name, const std::string& case_file,
 }
 
 int cmd_validate(bool quick, bool json, const std::string& out_dir) {
+  check_output_folder(out_dir, "validate");
   ProgressBar bar("validate", "checks");
   geardyn::ValidationOptions o;
   o.quick = quick;

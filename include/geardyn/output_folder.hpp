@@ -17,6 +17,11 @@
 //   commit, the files of its previous set that it does not write again are removed with it
 //   (replaced as a set), but only those still as geardyn left them: a file the user changed since
 //   is kept, and named in what commit() returns. An unnamed set records nothing.
+// - A named set never replaces a file that geardyn did not write: a file under one of its names
+//   that no set of the manifest records with its present size and modification time (the
+//   user's own, one the user changed since, a symbolic link) stops the commit before anything
+//   moves, naming the files; the folder is as it was. An unnamed set keeps no record and
+//   replaces its names (the library's writers into a named set's staging folder).
 // - The output folder may be the current folder or the user's home; it and any missing parents
 //   are created when the set is started, and removed again when it is abandoned.
 #pragma once
@@ -90,6 +95,14 @@ class OutputSet {
 std::vector<std::string> write_set(const std::filesystem::path& dir, const std::string& name,
                                    const std::function<void(const std::filesystem::path&)>& stage,
                                    const RenameFunction& rename = {});
+
+// The files among `relative` (paths relative to `dir`) that are in `dir` and that a named set
+// would refuse to replace (above): so that a command can say so before its work.
+std::vector<std::string> foreign_files(const std::filesystem::path& dir,
+                                       const std::vector<std::string>& relative);
+// Throws std::runtime_error naming them, as commit() would, when there are any.
+void check_no_foreign_files(const std::filesystem::path& dir,
+                            const std::vector<std::string>& relative);
 
 // Writes the named files into `dir` as an unnamed set.
 void write_files_atomically(const std::filesystem::path& dir,

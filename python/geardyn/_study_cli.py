@@ -65,6 +65,10 @@ def load_spec(path):
     return case, kwargs, spec.get("limits", {})
 
 
+# The files geardyn-study writes into --out beside its store, as one set.
+_WRITTEN = ("study.nc", "report.html")
+
+
 def main(argv=None):
     import geardyn
 
@@ -80,6 +84,13 @@ def main(argv=None):
         _fail(f"--workers {a.workers}: must be 1 or more")
     case, kwargs, limits = load_spec(a.spec)
     out = pathlib.Path(a.out)
+    # Checked before the work, as the commit checks again: a file of the user's under one of
+    # these names is never replaced (docs/outputs.md).
+    foreign = geardyn._geardyn._foreign_files(str(out), list(_WRITTEN))
+    if foreign:
+        _fail(f"--out {out}: {', '.join(foreign)} there not written by geardyn, or changed "
+              "since it was: geardyn-study writes under these names and never replaces a file "
+              "it did not write; move it away, or give another folder")
     client = cluster = None
     try:
         if a.workers:
@@ -110,11 +121,18 @@ def main(argv=None):
             client.close()
         if cluster is not None:
             cluster.close()
-    from .data import write_atomically
     from .studies import report
 
-    write_atomically(out / "study.nc", ds.to_netcdf, ".nc.tmp")
-    report(ds, out / "report.html", limits=limits)
+    def stage(folder):
+        ds.to_netcdf(pathlib.Path(folder) / _WRITTEN[0])
+        report(ds, pathlib.Path(folder) / _WRITTEN[1], limits=limits)
+
+    try:
+        geardyn._geardyn._write_set(str(out), "geardyn-study", stage)
+    except RuntimeError as e:
+        print(f"geardyn-study: error: {e}; the samples are kept in {out / 'store'}",
+              file=sys.stderr)
+        return 1
     failed = int((ds["failure"] != "").sum()) if "failure" in ds else 0
     print(f"geardyn-study: {ds.sizes['sample']} samples ({ds.attrs['samples_computed']} "
           f"computed now, {failed} failed) in {out / 'study.nc'}")

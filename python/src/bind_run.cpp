@@ -1,5 +1,7 @@
+#include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
 #include <cstdint>
 #include <iterator>
@@ -237,7 +239,17 @@ void bind_run(py::module_& m) {
           "timeseries.csv, events.csv, case.toml and the rest are written into it. Only these "
           "files are replaced, together; the folder's other files stay (docs/outputs.md).\n\n"
           "Returns\n-------\nlist of str\n    Files of an earlier run written here that were "
-          "changed since and so kept.");
+          "changed since and so kept.\n\n"
+          "Raises\n------\nRuntimeError\n    A file of one of these names is in the folder "
+          "but geardyn did not write it there, or it was changed since: nothing is written.");
+  // The output folder's rules (output_folder.hpp) for the package's own writers.
+  m.def("_write_set", &write_set, py::arg("directory"), py::arg("name"), py::arg("stage"),
+        py::arg("rename") = RenameFunction{},
+        "Calls stage(staging_folder), then puts what it wrote into `directory` as the set "
+        "`name`, as every command's files are put (docs/outputs.md).");
+  m.def("_foreign_files", &foreign_files, py::arg("directory"), py::arg("names"),
+        "The names among `names` that are in `directory` and that a set would refuse to "
+        "replace: not written by geardyn there, or changed since.");
   // The integration runs without the GIL: other Python threads go on meanwhile.
   // Ctrl-C and `progress(fraction)` are looked at now and then (every few thousand cells).
   m.def(

@@ -612,11 +612,17 @@ def test_python_writers_keep_the_users_files(tmp_path, monkeypatch):
     r.write(".")
     _expect_users_files(here)
     assert (here / "timeseries.csv").exists()
-    # A file the run writes is ours and replaced; any other name is the user's and stays.
-    (here / "events.csv").write_text("mine now")
+    # A file geardyn wrote is replaced; one the user changed since, or wrote under one of our
+    # names, stops the write with the folder as it was; any other name is the user's and stays.
     (here / "spare.csv").write_text("not ours")
     assert r.write(".") == []
     assert (here / "events.csv").read_text().startswith("t_s,kind")
+    (here / "events.csv").write_text("mine now")
+    before = {p.name: p.read_bytes() for p in here.iterdir() if p.is_file()}
+    with pytest.raises(RuntimeError, match="events.csv: cannot write: the file exists and was "
+                                           "not written by geardyn"):
+        r.write(".")
+    assert {p.name: p.read_bytes() for p in here.iterdir() if p.is_file()} == before
     assert (here / "spare.csv").read_text() == "not ours"
 
 

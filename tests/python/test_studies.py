@@ -401,6 +401,21 @@ def test_the_study_command_writes_its_store_data_and_a_report_that_renders(tmp_p
                          str(tmp_path / "bad")], capture_output=True, text=True)
     assert r3.returncode == 2 and "sample_count: not a study key" in r3.stderr, r3.stderr
     assert not (tmp_path / "bad").exists()
+    # A report of the user's under our name: refused before any work, the folder as it was;
+    # once geardyn's own report is changed by the user, the same.
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "report.html").write_text("my report")
+    r4 = subprocess.run(cmd[:-1] + [str(mine)], capture_output=True, text=True)
+    assert r4.returncode == 2, r4.stderr
+    assert f"--out {mine}: report.html there not written by geardyn" in r4.stderr, r4.stderr
+    assert sorted(p.name for p in mine.iterdir()) == ["report.html"]
+    assert (mine / "report.html").read_text() == "my report"
+    with open(out / "report.html", "a") as f:
+        f.write("<!-- my note -->")
+    r5 = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
+    assert r5.returncode == 2 and "report.html there not written by geardyn" in r5.stderr
+    assert (out / "report.html").read_text().endswith("<!-- my note -->")
 
 
 def test_a_trains_element_key_is_an_input_and_each_mesh_is_read():
