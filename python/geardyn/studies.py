@@ -411,8 +411,14 @@ class _Store:
         self.batches = self.path / _BATCHES
         spec_file = self.path / _STORE_SPEC
         if spec_file.exists():
-            held = json.loads(spec_file.read_text())
-            if held.get("fingerprint") != spec["fingerprint"]:
+            try:
+                held = json.loads(spec_file.read_text())
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+                raise StudyError(
+                    f"store {self.path}: {_STORE_SPEC} there is no study's record ({e}); "
+                    "geardyn never replaces a file it did not write: give another store, or "
+                    "move it away") from None
+            if not isinstance(held, dict) or held.get("fingerprint") != spec["fingerprint"]:
                 raise StudyError(
                     f"store {self.path}: it holds another study (its base case, inputs or "
                     "analysis differ); give another store, or remove this one")

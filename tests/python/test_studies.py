@@ -95,6 +95,21 @@ def test_bad_input_is_named_and_nothing_is_written(tmp_path, inputs, kwargs, wor
     assert not store.exists()
 
 
+@pytest.mark.parametrize("text, words", [
+    ("my notes", "study.json there is no study's record"),
+    ('{"fingerprint": "another"}', "it holds another study"),
+])
+def test_a_store_that_holds_no_record_of_this_study_is_left_as_it_is(tmp_path, text, words):
+    store = tmp_path / "store"
+    store.mkdir()
+    (store / "study.json").write_text(text)
+    with pytest.raises(ValueError, match=f"store {store}: ") as e:
+        geardyn.study(CASE, INPUTS, samples=4, store=store)
+    assert words in str(e.value), str(e.value)
+    assert (store / "study.json").read_text() == text
+    assert sorted(p.name for p in store.iterdir()) == ["study.json"]
+
+
 def test_an_interrupted_study_resumes_with_only_the_missing_samples(tmp_path):
     full = geardyn.study(CASE, INPUTS, samples=12, seed=2, batch_size=3)
     assert full.attrs["samples_computed"] == 12
