@@ -24,7 +24,8 @@ namespace geardyn {
 std::string where(const toml::source_region& src, const std::string& fallback) {
   if (!src.path || src.path->empty()) return fallback;
   const std::string& path = *src.path;
-  if (path.rfind("--set", 0) == 0) return path;
+  for (const char* prefix : kPositionlessSources)
+    if (path.rfind(prefix, 0) == 0) return path;
   if (src.begin.line == 0) return path;
   return fmt::format("{}:{}:{}", path, src.begin.line, src.begin.column);
 }
@@ -739,14 +740,15 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
           "({}): set model.form = \"train\" or remove [train]",
           where(train->source(), source), to_string(c.model.form), form_origin()));
     c.train = std::make_shared<const TrainCase>(read_train_case(*train, source, overrides));
-  } else if (c.model.form == ModelForm::kTrain) {
+  }
+
+  // Unknown keys first: a misspelt [train] is named as the key it is.
+  r.reject_unknown();
+  if (c.model.form == ModelForm::kTrain && !c.train)
     throw InputError(fmt::format(
         "{}: model.form = \"train\" needs a [train] section: its reference_speed_hz and "
         "[[train.body]], [[train.mesh]] tables (docs/case-files.md, \"Gear trains\")",
         form_origin()));
-  }
-
-  r.reject_unknown();
 
   if (MaybeViolation v = check_ranges(c)) {
     // The bound may name other keys (a step below solver.duration_s): where each came from.

@@ -1669,6 +1669,9 @@ oil = 0.1
        {"t.toml:22:", "unknown key 'train.drag[0].oil'", "constant_nm"}},
       {"[train]\nreference_speed_hz = 5\n", {"[train] is read with model.form = \"train\""}},
       {"[model]\nform = \"train\"\n", {"t.toml:2:", "needs a [train] section"}},
+      // A misspelt [train] is named as the unknown key it is, not as a missing [train].
+      {"[model]\nform = \"train\"\n[trian]\nreference_speed_hz = 5\n",
+       {"t.toml:3:", "unknown key 'trian'; allowed at the top level:"}},
       {head + mesh + "kind = \"internal\"\n",
        {"t.toml:10:", "body 'b': is the ring gear of internal mesh 'm': give its inertia_kg_m2"}},
       {std::string(kBodyA).replace(std::string(kBodyA).find("[[train.body]]"), 0,

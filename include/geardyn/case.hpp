@@ -272,7 +272,12 @@ std::string read_input_file(const std::filesystem::path& path, const std::string
 Case load_case(const std::optional<std::filesystem::path>& path,
                const std::vector<Override>& overrides = {});
 
-// The same from TOML text; `source_name` is used in messages in place of a file name.
+// Sources named in messages without a line and column: an override (`--set k=v`) and a case
+// built in Python (`Case(...)`), whose text the user never sees.
+inline constexpr std::array<const char*, 2> kPositionlessSources = {"--set", "Case("};
+
+// The same from TOML text; `source_name` is used in messages in place of a file name (with the
+// line and column, unless it starts as one of kPositionlessSources).
 Case parse_case(const std::string& toml_text, const std::string& source_name,
                 const std::vector<Override>& overrides = {});
 

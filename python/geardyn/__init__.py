@@ -130,7 +130,8 @@ def _case_document(keys):
     by the extension): a train's form and its elements only make sense together, so they are
     read as one document rather than key by key."""
     pairs = _flat(keys)
-    if not any(k == "train" or k.startswith("train.") for k, _ in pairs):
+    if not any(k == "train" or k.startswith("train.") or (k, v) == ("model.form", "train")
+               for k, v in pairs):
         return None
     top, sections = [], {}
     for k, v in pairs:
@@ -159,7 +160,8 @@ def _set(self, key, value):
     Case
         The case itself; `with_` returns a changed copy instead.
     """
-    self.set_toml(key, _toml_value(value))
+    text = _toml_value(value)
+    self.set_toml(key, text, f'set("{key}", {text})')
     return self
 
 
@@ -179,7 +181,8 @@ def _with(self, changes=None, **keys):
     """
     c = self.copy()
     for k, v in _flat(dict(changes or {}, **keys)):
-        c.set_toml(k, _toml_value(v))
+        text = _toml_value(v)
+        c.set_toml(k, text, f'with_({{"{k}": {text}}})')
     return c
 
 

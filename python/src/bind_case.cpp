@@ -11,6 +11,10 @@ namespace py = pybind11;
 
 namespace geardyn::python {
 
+// Where a key given to Case(**keys) came from, in messages: the call (there is no file, line or
+// column to name; case.hpp, kPositionlessSources).
+constexpr const char* kPythonCaseSource = "Case(...)";
+
 void bind_case(py::module_& m) {
   py::class_<Case>(m, "Case", "A case: everything a run needs (docs/case-files.md).")
       .def(py::init([](const py::kwargs& keys) {
@@ -20,12 +24,12 @@ void bind_case(py::module_& m) {
              const py::object document =
                  py::module_::import("geardyn").attr("_case_document")(keys);
              if (!document.is_none())
-               return parse_case(document.cast<std::string>(), "(Case keys)");
+               return parse_case(document.cast<std::string>(), kPythonCaseSource);
              Case c = load_case(std::nullopt);
              const py::list pairs = py::module_::import("geardyn").attr("_case_overrides")(keys);
              for (const py::handle& kv : pairs) {
                const auto t = kv.cast<std::pair<std::string, std::string>>();
-               set_case_value(c, {t.first, t.second});
+               set_case_value(c, {t.first, t.second, kPythonCaseSource});
              }
              return c;
            }),
@@ -53,15 +57,18 @@ void bind_case(py::module_& m) {
           "Returns\n-------\nCase")
       .def(
           "set_toml",
-          [](Case& c, const std::string& key, const std::string& toml_value) {
-            set_case_value(c, {key, toml_value});
+          [](Case& c, const std::string& key, const std::string& toml_value,
+             const std::string& origin) {
+            set_case_value(c, {key, toml_value, origin});
           },
-          py::arg("key"), py::arg("toml_value"),
+          py::arg("key"), py::arg("toml_value"), py::arg("origin") = std::string(),
           "Sets a key in place from a value in TOML syntax, as ``--set key=value`` does.\n\n"
           "Parameters\n----------\nkey : str\n    A dotted key, e.g. "
           "``\"mesh.backlash_um\"``.\n"
           "toml_value : str\n    The value as TOML text (``\"150\"``, ``\"[[0.1, 0]]\"``); bare "
-          "text is taken as a string.\n\n"
+          "text is taken as a string.\n"
+          "origin : str, optional\n    How the user gave it, for messages (default: the "
+          "``--set`` it is).\n\n"
           "Raises\n------\nInputError\n    A key that does not exist or a value out of range.")
       .def(
           "_unread_study_key",

@@ -430,8 +430,20 @@ def test_errors_speak_of_the_python_arguments():
         geardyn.sweep(case, key, [[0.5, 0.6], [0.7, 0.8]])
     with pytest.raises(geardyn.InputError, match="values: must be numbers"):
         geardyn.sweep(case, key, ["a", "b"])
-    with pytest.raises(geardyn.InputError, match=r"^mesh.backlash_um = -1: mesh.backlash_um"):
+    # Each key's origin is the call that gave it, named once: no --set, no line of a text the
+    # user never saw.
+    with pytest.raises(geardyn.InputError,
+                       match=r'^with_\(\{"mesh.backlash_um": -1\}\): mesh.backlash_um = -1: must'):
         geardyn.Case().with_({"mesh.backlash_um": -1})
+    with pytest.raises(geardyn.InputError,
+                       match=r'^set\("mesh.backlash_um", -1\): mesh.backlash_um = -1: must'):
+        geardyn.Case().set("mesh.backlash_um", -1)
+    with pytest.raises(geardyn.InputError, match=r"^Case\(\.\.\.\): mesh.backlash_um = -1: must"):
+        geardyn.Case(mesh={"backlash_um": -1})
+    train = {"reference_speed_hz": 50, "body": [{"name": "a", "inertia_kg_m2": 1}]}
+    with pytest.raises(geardyn.InputError,
+                       match=r"^Case\(\.\.\.\): train.reference_speed_hz = \"fast\": must"):
+        geardyn.Case(model={"form": "train"}, train=dict(train, reference_speed_hz="fast"))
     with pytest.raises(geardyn.InputError, match=r"^periods = 0"):
         geardyn.orbit(case, periods=0)
     with pytest.raises(geardyn.InputError, match=r"from_ = 1, to = 1"):
