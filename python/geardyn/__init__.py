@@ -36,11 +36,28 @@ except ImportError as _e:  # pragma: no cover - depends on the installation
 
 __all__ = ["__version__", "Case", "InputError", "NumericalError", "RunResult", "geometry",
            "stiffness", "run", "sweep", "orbit", "continuation", "stability", "plot", "to_xarray",
-           "save", "load", "SweepResult", "TrainRunResult", "modes"]
+           "save", "load", "SweepResult", "TrainRunResult", "modes", "UnusedSettingWarning"]
 
 
 class NumericalError(RuntimeError):
     """A run did not complete (divergence, Newton-Raphson not converging); the message says why."""
+
+
+class UnusedSettingWarning(UserWarning):
+    """A case key that was set but that the case's form or method does not read, as the command
+    line's "geardyn: warning: ... not used" says it (docs/case-files.md, "Settings a case does
+    not use"); the result's summary lists them too ("unused_settings")."""
+
+
+def _warn_unused(case, stacklevel=4):
+    """Warns of each setting of `case` that it does not use (called by the functions that take
+    a case, so that the warning points at the user's call)."""
+    import warnings
+
+    if not isinstance(case, Case):
+        return  # the call refuses it with its own message
+    for line in case._unused_settings():
+        warnings.warn(line, UnusedSettingWarning, stacklevel=stacklevel)
 
 
 def _toml_value(value):
@@ -378,6 +395,7 @@ def run(case, progress=None):
     KeyboardInterrupt
         Ctrl-C; ``.result`` holds the run up to where it stopped.
     """
+    _warn_unused(case)
     if progress is True:
         def callback(fraction, _bar=_progress(True, 100, "%")):
             return _bar(round(100 * fraction))
@@ -570,6 +588,7 @@ def modes(case):
     InputError
         Bad input.
     """
+    _warn_unused(case)
     import numpy as np
     j = _json.loads(_geardyn._train_modes(case))
     ms = j["modes"]
@@ -684,6 +703,7 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
     KeyboardInterrupt
         Ctrl-C; ``.result`` holds the completed points.
     """
+    _warn_unused(case)
     options = dict(direction=direction, settle_periods=settle_periods,
                    measure_periods=measure_periods, max_settle_periods=max_settle_periods,
                    steady_tolerance=steady_tolerance, start=start, mesh=mesh)
@@ -825,6 +845,7 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
         one-degree forms ``impacts_per_period``, ``min_delta_bar``, ``max_delta_bar``,
         ``max_force_bar``, ``sequence`` (the contact events of one period) and more.
     """
+    _warn_unused(case)
     return _orbit_dict(_geardyn._orbit(case, periods, segments, settle_periods, tolerance,
                                        max_iterations,
                                        None if state is None else [float(x) for x in state],
@@ -895,6 +916,7 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     KeyboardInterrupt
         Ctrl-C (looked for every 0.05 s); ``.result`` holds the points so far.
     """
+    _warn_unused(case)
     if progress is True:
         def callback(p, n, _bar=_progress(True, 1000, "\u2030")):
             return _bar(round(1000 * min(1.0, abs(p - from_) / abs(to - from_))))
@@ -936,6 +958,7 @@ def stability(case, param, values, param2=None, values2=()):
         ``boundaries``: dicts with ``param`` (``param2``) and ``type`` (fold at +1,
         period_doubling at -1, neimark_sacker).
     """
+    _warn_unused(case)
     r = _geardyn._stability(case, param, _floats("values", values), param2 or "",
                             _floats("values2", values2), None)
     if r["interrupted"]:

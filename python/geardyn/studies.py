@@ -558,7 +558,9 @@ def study(case, inputs, samples=None, method="lhs", seed=0, analysis=None, execu
         reason, empty when the sample's analysis succeeded). Ctrl-C raises KeyboardInterrupt
         with the samples done so far in ``.result`` (and kept in the store).
     """
-    from . import _interrupted, _progress
+    from . import _interrupted, _progress, _warn_unused
+
+    _warn_unused(case, stacklevel=3)
 
     analysis = dict(analysis or {"kind": "run"})
     if analysis.get("kind", "run") not in ("run", "sweep", "orbit"):

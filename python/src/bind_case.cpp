@@ -88,6 +88,10 @@ void bind_case(py::module_& m) {
           "is unused at all of them: its unused line; else \"\" (case_keys.hpp, "
           "unread_study_key).")
       .def(
+          "_unused_settings", [](const Case& c) { return unused_settings(c); },
+          "Each setting of the case that its form or method does not read, as the command "
+          "line warns of it (case_keys.hpp, unused_settings).")
+      .def(
           "to_toml", [](const Case& c) { return to_toml(c); },
           "Every key of the case as TOML text, numbers to 17 significant digits (a case file "
           "that reads back equal).\n\nReturns\n-------\nstr")

@@ -421,6 +421,37 @@ def test_a_runs_events_are_arrays_as_events_csv_has_them(tmp_path):
     assert np.allclose([float(row.split(",")[0]) for row in rows], e["t_s"], rtol=1e-9)
 
 
+def test_a_setting_the_case_does_not_use_is_warned_of_at_the_users_call():
+    # As the command line's "geardyn: warning: ... not used", for every function that takes a
+    # case, pointing at the caller's line; a case that uses all it sets warns of nothing.
+    import warnings
+
+    pair = geardyn.Case(model={"zeta": 0.1}).with_({"solver.duration_s": 0.002})
+    reducer = geardyn.Case.from_toml(SOURCE / "cases/two_stage_reducer.toml").with_(
+        {"solver.duration_s": 0.002, "speed.shaft_frequency_hz": 10})
+    calls = [
+        ("model.zeta = 0.1 (Case(...)): not used", lambda: geardyn.run(pair)),
+        ("model.zeta = 0.1", lambda: geardyn.sweep(pair, "speed.shaft_frequency_hz", [900.0])),
+        ("model.zeta = 0.1", lambda: geardyn.stability(pair, "mesh.damping_ratio", [0.05, 0.1])),
+        ("speed.shaft_frequency_hz = 10.0 (with_({\"speed.shaft_frequency_hz\": 10})): not used",
+         lambda: geardyn.modes(reducer)),
+        ("model.zeta = 0.1", lambda: geardyn.study(
+            pair, {"mesh.backlash_um": {"distribution": "uniform", "lower": 80, "upper": 120}},
+            samples=2)),
+    ]
+    for words, call in calls:
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            call()
+        unused = [w for w in seen if issubclass(w.category, geardyn.UnusedSettingWarning)]
+        assert unused and words in str(unused[0].message), [str(w.message) for w in seen]
+        assert unused[0].filename == __file__, unused[0].filename
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        geardyn.run(geardyn.Case().with_({"solver.duration_s": 0.002}))
+    assert not [w for w in seen if issubclass(w.category, geardyn.UnusedSettingWarning)]
+
+
 def test_errors_speak_of_the_python_arguments():
     case, key, values = _ks_sweep_args(5)
     with pytest.raises(geardyn.InputError, match=r"^measure_periods = 0") as e:
