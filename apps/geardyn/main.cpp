@@ -199,7 +199,7 @@ const std::map<std::string_view, std::vector<std::string>>& command_files() {
   static const std::map<std::string_view, std::vector<std::string>> files{
       {"run", {"summary.json", "timeseries.csv", "case.toml"}},  // and a pair's events.csv
       {"sweep", {"sweep.csv", "strobe.csv", "summary.json"}},
-      {"continue", {"branch.csv", "bifurcations.json"}},
+      {"continue", {"branch.csv", "bifurcations.json", "bifurcations.csv"}},
       {"stability", {"stability.csv", "boundaries.json"}},
       {"modes", {"modes.json", "campbell.csv"}},
       {"stiffness", {"stiffness.csv", "harmonics.json"}},
@@ -970,7 +970,7 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
                geardyn::to_string(b.type), o.key, b.param, b.detail,
                0.5 * (b.orbit.reading.max_delta_bar - b.orbit.reading.min_delta_bar));
   if (!r.points.empty())
-    fmt::print("  written to {}/ (branch.csv, bifurcations.json{})\n", out_dir,
+    fmt::print("  written to {}/ (branch.csv, bifurcations.json, bifurcations.csv{})\n", out_dir,
                figures && !r.cancelled ? ", branch.png, branch.svg" : "");
   if (r.cancelled) return kExitInterrupted;
   return r.completed ? 0 : kExitNumerical;
