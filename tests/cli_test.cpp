@@ -1671,6 +1671,11 @@ TEST(Cli, TrainFormPrintsACoupledCaseAsATrainThatRunsAsIt) {
   const Outcome bad = cli("train-form " + coupled + " --set model.dof=5");
   expect_refused(bad, "--set model.dof=5: model.dof = 5: must be 3, 6 or 12");
   EXPECT_EQ(bad.out, "");
+  // A train that cannot be built is refused as a run refuses it, never printed back.
+  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const Outcome nobody = cli("train-form " + reducer + " --set 'train.mesh[1].driven=\"wheel\"'");
+  expect_refused(nobody, "mesh 'stage2': driven = \"wheel\": no body of that name");
+  EXPECT_EQ(nobody.out, "");
 }
 
 TEST(Cli, ASunStrikesItsBearingsClearanceUnderItsRunout) {

@@ -577,7 +577,11 @@ int cmd_keys(bool markdown, bool json) {
 // Prints the train form of a gear pair's case (train_form_of) as a case file.
 int cmd_train_form(const std::string& case_file, const std::vector<std::string>& sets) {
   const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
-  fmt::print("{}", geardyn::to_toml(geardyn::train_form_of(c)));
+  const geardyn::Case t = geardyn::train_form_of(c);
+  // Assembled before it is printed: a train that cannot be built (a mesh to no body, a body
+  // named twice) is refused as every command refuses it, never printed as if it were one.
+  (void)geardyn::assembled_train(t);
+  fmt::print("{}", geardyn::to_toml(t));
   return 0;
 }
 
