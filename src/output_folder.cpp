@@ -132,13 +132,6 @@ std::vector<std::string> foreign_files(const fs::path& dir,
   return foreign_in(dir, read_manifest(dir), relative);
 }
 
-void check_no_foreign_files(const fs::path& dir, const std::vector<std::string>& relative) {
-  const std::vector<std::string> foreign = foreign_files(dir, relative);
-  if (!foreign.empty())
-    throw std::runtime_error(fmt::format("{}: cannot write: {}", (dir / foreign.front()).string(),
-                                         foreign_message(foreign)));
-}
-
 OutputSet::OutputSet(const fs::path& dir, std::string name) : name_(std::move(name)) {
   std::error_code ec;
   dir_ = fs::absolute(dir, ec);

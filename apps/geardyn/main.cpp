@@ -197,7 +197,7 @@ void write_output(const std::string& dir, const std::string& command,
 // rather than after the work, at the commit (output_folder.hpp, which checks every file).
 const std::map<std::string_view, std::vector<std::string>>& command_files() {
   static const std::map<std::string_view, std::vector<std::string>> files{
-      {"run", {"summary.json", "timeseries.csv", "case.toml"}},  // and a pair's events.csv
+      {"run", {"summary.json", "timeseries.csv", "case.toml"}},  // a pair's: kPairRunFiles
       {"sweep", {"sweep.csv", "strobe.csv", "summary.json"}},
       {"continue", {"branch.csv", "bifurcations.json", "bifurcations.csv"}},
       {"stability", {"stability.csv", "boundaries.json"}},
@@ -207,6 +207,9 @@ const std::map<std::string_view, std::vector<std::string>>& command_files() {
       {"validate", {"validation.md", "validation.html", "validation.json"}}};
   return files;
 }
+
+// What the one-degree forms' run writes besides a train's run.
+const std::vector<std::string> kPairRunFiles{"events.csv"};
 
 // Refuses an output folder holding a file that `command` would have to replace and that
 // geardyn did not write there (or that changed since): exit 2 before any work, nothing written.
@@ -492,15 +495,16 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
     throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "run");
-  check_output_folder(out_dir, "run");
-  if (c.model.form == geardyn::ModelForm::kTrain || c.model.form == geardyn::ModelForm::kCoupled) {
+  const bool on_train =
+      c.model.form == geardyn::ModelForm::kTrain || c.model.form == geardyn::ModelForm::kCoupled;
+  check_output_folder(out_dir, "run", on_train ? std::vector<std::string>{} : kPairRunFiles);
+  if (on_train) {
     if (physical)
       throw geardyn::InputError(
           fmt::format("--physical: a {}'s figure shows each mesh's (d - e) / b and its force in N",
                       c.model.form == geardyn::ModelForm::kTrain ? "gear train" : "coupled pair"));
     return cmd_run_train(c, out_dir, plot);
   }
-  check_output_folder(out_dir, "run", {"events.csv"});
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
   opts.progress = [&](double fraction) { return bar(fraction) && !g_interrupted.load(); };

@@ -100,9 +100,6 @@ std::vector<std::string> write_set(const std::filesystem::path& dir, const std::
 // would refuse to replace (above): so that a command can say so before its work.
 std::vector<std::string> foreign_files(const std::filesystem::path& dir,
                                        const std::vector<std::string>& relative);
-// Throws std::runtime_error naming them, as commit() would, when there are any.
-void check_no_foreign_files(const std::filesystem::path& dir,
-                            const std::vector<std::string>& relative);
 
 // Writes the named files into `dir` as an unnamed set.
 void write_files_atomically(const std::filesystem::path& dir,

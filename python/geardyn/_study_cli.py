@@ -90,7 +90,8 @@ def main(argv=None):
     if foreign:
         _fail(f"--out {out}: {', '.join(foreign)} there not written by geardyn, or changed "
               "since it was: geardyn-study writes under these names and never replaces a file "
-              "it did not write; move it away, or give another folder")
+              f"it did not write; move {'it' if len(foreign) == 1 else 'them'} away, or give "
+              "another folder")
     client = cluster = None
     try:
         if a.workers:

@@ -243,10 +243,15 @@ void bind_run(py::module_& m) {
           "Raises\n------\nRuntimeError\n    A file of one of these names is in the folder "
           "but geardyn did not write it there, or it was changed since: nothing is written.");
   // The output folder's rules (output_folder.hpp) for the package's own writers.
-  m.def("_write_set", &write_set, py::arg("directory"), py::arg("name"), py::arg("stage"),
-        py::arg("rename") = RenameFunction{},
-        "Calls stage(staging_folder), then puts what it wrote into `directory` as the set "
-        "`name`, as every command's files are put (docs/outputs.md).");
+  m.def(
+      "_write_set",
+      [](const std::filesystem::path& dir, const std::string& name,
+         const std::function<void(const std::filesystem::path&)>& stage) {
+        return write_set(dir, name, stage);
+      },
+      py::arg("directory"), py::arg("name"), py::arg("stage"),
+      "Calls stage(staging_folder), then puts what it wrote into `directory` as the set "
+      "`name`, as every command's files are put (docs/outputs.md).");
   m.def("_foreign_files", &foreign_files, py::arg("directory"), py::arg("names"),
         "The names among `names` that are in `directory` and that a set would refuse to "
         "replace: not written by geardyn there, or changed since.");
