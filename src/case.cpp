@@ -268,8 +268,11 @@ namespace {
 // reported as unknown.
 class Reader {
  public:
-  Reader(const toml::table& root, std::string source, const std::vector<Override>& overrides)
-      : root_(root), source_(std::move(source)), overrides_(overrides) {}
+  // `known`: where each key of a case read again came from (Case::origins, set_case_value),
+  // in place of the places in the text written out for it; a key not in it is at its default.
+  Reader(const toml::table& root, std::string source, const std::vector<Override>& overrides,
+         const std::map<std::string, std::string>* known = nullptr)
+      : root_(root), source_(std::move(source)), overrides_(overrides), known_origins_(known) {}
 
   void number(std::string_view section, std::string_view key, double& out) {
     if (const toml::node* n = find(section, key)) out = as_number(*n, section, key, "a number");
@@ -413,20 +416,22 @@ class Reader {
         std::string sections;
         for (const auto& [name, keys] : schema) sections += (sections.empty() ? "" : ", ") + name;
         throw InputError(fmt::format("{}: unknown key '{}'; allowed at the top level: {}",
-                                     origin(section, k.source()), section, sections));
+                                     origin(section, k.source()).value_or("default value"), section,
+                                     sections));
       }
       const toml::table* t = node.as_table();
       if (!t)
         throw InputError(fmt::format("{}: '{}' = {}: must be a table [{}]",
-                                     origin(section, node.source()), section, node_text(node),
-                                     section));
+                                     origin(section, node.source()).value_or("default value"),
+                                     section, node_text(node), section));
       for (auto&& [kk, child] : *t) {
         const std::string full = section + "." + std::string(kk.str());
         if (used_.count(full)) continue;
         std::string keys;
         for (const auto& name : it->second) keys += (keys.empty() ? "" : ", ") + name;
         throw InputError(fmt::format("{}: unknown key '{}'; allowed in [{}]: {}",
-                                     origin(full, kk.source()), full, section, keys));
+                                     origin(full, kk.source()).value_or("default value"), full,
+                                     section, keys));
       }
     }
   }
@@ -438,7 +443,7 @@ class Reader {
     std::string path = dotted;
     while (!path.empty()) {
       toml::node_view<const toml::node> v = root_.at_path(path);
-      if (v) return origin(dotted, v.node()->source());
+      if (v) return origin(dotted, v.node()->source()).value_or("default value");
       const auto cut = path.find_last_of('[');
       if (cut == std::string::npos) break;
       path.resize(cut);
@@ -449,9 +454,15 @@ class Reader {
 
  private:
   // Where the value of a dotted key came from: the last --set that wrote it or anything under
-  // it, else the node's place in the file.
-  std::string origin(const std::string& dotted, const toml::source_region& src) const {
-    return origin_of(overrides_, dotted, src, source_);
+  // it, else the node's place in the file; for a case read again, where it came from before
+  // (nullopt: a default written out).
+  std::optional<std::string> origin(const std::string& dotted,
+                                    const toml::source_region& src) const {
+    if (!known_origins_) return origin_of(overrides_, dotted, src, source_);
+    if (std::string o = origin_of(overrides_, dotted, {}, ""); !o.empty()) return o;
+    const auto it = known_origins_->find(dotted);
+    if (it == known_origins_->end()) return std::nullopt;
+    return it->second;
   }
 
   const toml::node* find(std::string_view section, std::string_view key) {
@@ -462,7 +473,7 @@ class Reader {
     if (n) {
       const std::string full = fmt::format("{}.{}", section, key);
       used_.insert(full);
-      origins_[full] = origin(full, n->source());
+      if (std::optional<std::string> o = origin(full, n->source())) origins_[full] = *o;
     }
     return n;
   }
@@ -475,7 +486,8 @@ class Reader {
                          std::string_view allowed) const {
     const std::string full =
         section.empty() ? std::string(key) : fmt::format("{}.{}", section, key);
-    throw InputError(fmt::format("{}: {} = {}: must be {}", origin(full, n.source()), full,
+    throw InputError(fmt::format("{}: {} = {}: must be {}",
+                                 origin(full, n.source()).value_or("default value"), full,
                                  node_text(n), allowed));
   }
 
@@ -498,6 +510,7 @@ class Reader {
   const toml::table& root_;
   std::string source_;
   const std::vector<Override>& overrides_;
+  const std::map<std::string, std::string>* known_origins_;
   std::set<std::string> used_;
   std::map<std::string, std::string> origins_;
   std::map<std::string, std::vector<std::string>> known_;  // section -> keys, in reading order
@@ -702,7 +715,7 @@ void set_element(toml::table& root, const Override& o, const std::string& given)
 }
 
 Case decode(toml::table& root, const std::string& source, const std::vector<Override>& overrides,
-            std::string name) {
+            std::string name, const std::map<std::string, std::string>* known = nullptr) {
   for (const Override& o : overrides) {
     const std::string origin = o.label();
     if (o.key.find('[') != std::string::npos) {
@@ -723,7 +736,7 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
 
   Case c;
   c.name = std::move(name);
-  Reader r(root, source, overrides);
+  Reader r(root, source, overrides, known);
   for (const CaseKey& k : case_keys()) r.read(k, c);
   // Harmonics given without a source mean that those harmonics are wanted.
   if (r.has("mesh", "stiffness_harmonics") && !r.has("mesh", "stiffness_source"))
@@ -887,7 +900,10 @@ void set_case_value(Case& c, const Override& o) {
   const std::filesystem::path directory = c.directory;
   std::map<std::string, std::string> origins = c.origins;
   const std::shared_ptr<const TrainCase> train = c.train;
-  c = parse_case(to_toml(c), "(case)", {o});
+  // Read again from its text, each key's origin where it came from before (a message that names
+  // another key cites the user's file or --set, never this text).
+  toml::table root = parse_toml(to_toml(c), "(case)");
+  c = decode(root, "(case)", {o}, "", &origins);
   c.name = name;
   c.directory = directory;
   // The keys came from where they came from before; the override from itself.

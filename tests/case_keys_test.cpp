@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -238,8 +239,13 @@ TEST(CaseKeys, SettingANumberInPlaceIsDecodingTheCaseAgain) {
         Case fast = base;
         const std::string refused =
             testing::error_of([&] { (void)parse_case(to_toml(base), "(case)", {o}); });
-        if (!refused.empty()) {  // a rule tying keys together: the same message
-          EXPECT_EQ(testing::error_of([&] { set_case_value(fast, o); }), refused) << o.key;
+        if (!refused.empty()) {
+          // A rule tying keys together: the same message, but the other keys cited where they
+          // came from (base's are all defaults), not at their places in the text read again.
+          EXPECT_EQ(testing::error_of([&] { set_case_value(fast, o); }),
+                    std::regex_replace(refused, std::regex(R"( from \(case\):[0-9]+:[0-9]+)"),
+                                       ": default value"))
+              << o.key;
           continue;
         }
         set_case_value(fast, o);

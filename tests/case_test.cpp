@@ -127,6 +127,37 @@ TEST(Case, DerivedErrorsNameWhereTheirKeysCameFrom) {
   EXPECT_EQ(with_origins(Case{}, "no key of it"), "no key of it");
 }
 
+TEST(Case, AKeySetOnALoadedCaseIsRefusedCitingWhereTheOtherKeysCameFrom) {
+  // A key that is not one number (a name, an array) is set by reading the case again from its
+  // text; a refusal that names another key cites the user's file, --set or default for it,
+  // never a place in that text ("(case):32:20").
+  const Case file = parse_case(
+      "[mesh]\nstiffness_source = \"harmonics\"\nstiffness_harmonics = [[0.1, 0]]\n", "h.toml");
+  Case c = file;
+  std::string msg = error_of([&] { set_case_value(c, {"mesh.stiffness_source", "\"energy\""}); });
+  EXPECT_EQ(msg.rfind("h.toml:3:23: mesh.stiffness_harmonics = 1 harmonics: must be empty", 0), 0U)
+      << msg;
+  EXPECT_NE(msg.find("mesh.stiffness_source from --set mesh.stiffness_source=\"energy\""),
+            std::string::npos)
+      << msg;
+  c = load_case(std::nullopt);
+  msg = error_of([&] { set_case_value(c, {"mesh.stiffness_harmonics", "[[0.1, 0]]"}); });
+  EXPECT_EQ(msg.rfind("--set mesh.stiffness_harmonics=[[0.1, 0]]: mesh.stiffness_harmonics", 0), 0U)
+      << msg;
+  EXPECT_NE(msg.find("(mesh.stiffness_source: default value)"), std::string::npos) << msg;
+  for (const std::string& m : {msg, error_of([&] {
+                                 Case d = file;
+                                 set_case_value(d, {"mesh.stiffness_source", "\"energy\""});
+                               })})
+    EXPECT_EQ(m.find("(case)"), std::string::npos) << m;
+  // Read again without a refusal, the keys keep their origins and the override has its own.
+  c = file;
+  set_case_value(c, {"mesh.stiffness_harmonics", "[[0.2, 10]]"});
+  EXPECT_EQ(c.origins.at("mesh.stiffness_source"), "h.toml:2:20");
+  EXPECT_EQ(c.origins.at("mesh.stiffness_harmonics"), "--set mesh.stiffness_harmonics=[[0.2, 10]]");
+  EXPECT_EQ(c.origins.count("mesh.backlash_um"), 0U);  // a default
+}
+
 TEST(Case, OverridesUseTomlValueSyntax) {
   const Case c =
       load_case(std::nullopt,
