@@ -18,9 +18,6 @@ namespace {
 
 using Values = std::vector<double>;  // the stepper's state type
 
-// A guard counts as crossed below this fraction of its scale (the exact engine's slack).
-double crossed_below(const LinearGuard& g) { return -kGuardSlack * g.scale; }
-
 }  // namespace
 
 RegionDerivative::RegionDerivative(const LinearSwitchedSystem& s, int region)

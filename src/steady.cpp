@@ -213,6 +213,7 @@ bool FlowPieces::operator()(double stop) {
   total_.cells += f.cells;
   total_.periods += f.periods;
   total_.events += f.events;
+  total_.unsplit_steps += f.unsplit_steps;
   if (!f.ok()) return false;
   total_.state = std::move(f.state);
   total_.region = f.region;

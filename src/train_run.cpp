@@ -19,6 +19,7 @@
 #include "contact_tracker.hpp"
 #include "geardyn/adaptive.hpp"
 #include "geardyn/csv.hpp"
+#include "geardyn/newmark_flow.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_case.hpp"
 
@@ -587,16 +588,32 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
 
 TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(c) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
-  if (c.solver.method == Method::kNewmark)
-    throw InputError(with_origins(
-        c, fmt::format("solver.method = \"newmark\": a {} runs with the exact engine (\"exact\") "
-                       "or Dormand-Prince with located events (\"dopri5\")",
-                       c.model.form == ModelForm::kTrain ? "gear train"
-                                                         : "coupled pair (as its train form)")));
   // A pair's form as its train of elements (assembled_train): the same system, read per element.
   a_ = std::make_unique<train::Assembled>(assembled_train(c, stiffness));
+  fastest_period_s_ = shortest_time_scale_s(*a_);
   if (c.solver.method == Method::kDopri5) {
     adaptive_ = a_->linear_system();
+  } else if (c.solver.method == Method::kNewmark) {
+    adaptive_ = a_->linear_system();
+    // Every region of a train is (theta, theta') with theta' = the rates: the first says so.
+    if (const std::string e = ode::second_order_form_error(*adaptive_, 0); !e.empty())
+      throw std::logic_error("the train's system: " + e);
+    // The one-degree run's rule (run.cpp): a given step must resolve the fastest time scale,
+    // the automatic one takes kStepsPerFastestPeriod a period; either divides the system
+    // period, so that a run watched period by period steps on one grid.
+    const double largest = fastest_period_s_ / kMinStepsPerFastestPeriod;
+    if (c.solver.time_step_s > largest)
+      throw InputError(with_origins(
+          c, fmt::format("solver.time_step_s = {:.6g}: does not resolve the train's fastest time "
+                         "scale ({:.3g} s); at most {:.3g} s ({:g} steps a period), or 0 for the "
+                         "automatic step",
+                         c.solver.time_step_s, fastest_period_s_, largest,
+                         kMinStepsPerFastestPeriod)));
+    const double wanted = c.solver.time_step_s > 0 ? c.solver.time_step_s
+                                                   : fastest_period_s_ / kStepsPerFastestPeriod;
+    const double period = a_->system_period_s().value_or(0);
+    newmark_step_s_ =
+        period > 0 ? period / std::max(1.0, std::ceil(period / wanted - 1e-9)) : wanted;
   } else {
     ode::EngineOptions eo;
     eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
@@ -607,7 +624,6 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
       throw InputError(std::string("the train's exact engine: ") + e.what());
     }
   }
-  fastest_period_s_ = shortest_time_scale_s(*a_);
   for (const train::TrainMode& m : train::modes(*a_))
     top_frequency_rad_s_ = std::max(top_frequency_rad_s_, kTwoPi * m.frequency_hz);
   if (!(top_frequency_rad_s_ > 0)) top_frequency_rad_s_ = kTwoPi / fastest_period_s_;
@@ -626,6 +642,8 @@ ode::Vector TrainSolver::initial_state(InitialCondition initial, double t0_s) co
 ode::FlowResult TrainSolver::flow(double t0_s, const ode::Vector& y0, int region, double t1_s,
                                   const ode::OutputGrid& grid, ode::FlowObserver& observer) const {
   if (engine_) return engine_->flow(t0_s, y0, region, t1_s, grid, observer);
+  if (newmark_step_s_ > 0)
+    return ode::newmark_flow(*adaptive_, t0_s, y0, region, t1_s, newmark_step_s_, grid, observer);
   ode::AdaptiveOptions ao;
   ao.tolerance = case_.solver.tolerance;
   return ode::adaptive_flow(*adaptive_, t0_s, y0, region, t1_s, grid, observer, ao);
@@ -755,6 +773,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   result.message = pieces.total().message;
   result.cells = pieces.total().cells;
   result.events = pieces.total().events;
+  result.unsplit_steps = pieces.total().unsplit_steps;
   if (end_state) *end_state = pieces.state();
   observer.finish();
   for (TrainMeshReading& r : result.meshes) {
@@ -866,6 +885,12 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   const TrainSolver solver(c);
   const double t0 = 0, t1 = c.solver.duration_s;
   const double interval = checked_output_interval_s(c, solver.fastest_period_s(), "train");
+  if (const double step = solver.newmark_step_s();
+      step > 0 && !((t1 - t0) / step <= kMaxNewmarkSteps))
+    throw InputError(with_origins(
+        c, fmt::format("solver.time_step_s = {:.6g}: {:.3g} Newmark steps over solver.duration_s = "
+                       "{:.6g}; at most {:.0e}",
+                       step, (t1 - t0) / step, t1 - t0, kMaxNewmarkSteps)));
   const ode::Vector y0 = solver.initial_state(c.solver.initial, t0);
   const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
   TrainRunResult result =
@@ -960,6 +985,7 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
   if (!r.static_note.empty()) j["static_note"] = r.static_note;
   j["cells"] = r.cells;
   j["events"] = r.events;
+  if (r.unsplit_steps > 0) j["unsplit_steps"] = r.unsplit_steps;
   j["steady"] = {{"basis", to_string(r.steady.basis)},
                  {"from_s", r.steady.from_s},
                  {"period_multiple", r.steady.period_multiple},

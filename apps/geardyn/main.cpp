@@ -424,8 +424,11 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
             : fmt::format("; lost contact: {}", fmt::join(x.lost_contact, ", ")));
   if (!r.static_note.empty()) fmt::print("  no static state:  {}\n", r.static_note);
   fmt::print("  {:<17} {} ({} events located), {:.3g} s wall\n",
-             c.solver.method == geardyn::Method::kDopri5 ? "steps" : "cells", r.cells, r.events,
+             c.solver.method == geardyn::Method::kExact ? "cells" : "steps", r.cells, r.events,
              r.wall_time_s);
+  if (r.unsplit_steps > 0)
+    fmt::print("  note: {} steps met more contact changes than are located per step\n",
+               r.unsplit_steps);
   if (!out_dir.empty()) {
     const std::vector<std::string> unused = geardyn::unused_settings(c);
     write_output(out_dir, "run", [&](const std::filesystem::path& d) {

@@ -156,7 +156,10 @@ struct FlowResult {
   // Jumps: whole coefficient periods, or, where the coefficients are constant, blocks of about
   // one forcing period around the periodic forced response.
   std::int64_t periods = 0;
-  std::int64_t events = 0;         // region changes
+  std::int64_t events = 0;  // region changes
+  // Steps of a fixed-step flow (newmark_flow.hpp) that met more region changes than it
+  // locates in one step and took the rest unsplit (a chattering contact); 0 for the others.
+  std::int64_t unsplit_steps = 0;
   std::optional<Matrix> jacobian;  // dy(t1)/dy(t0), when asked for
   bool ok() const { return termination == Termination::kCompleted; }
 };
@@ -197,5 +200,7 @@ class ExactEngine {
 // The slack below zero at which a guard counts as crossed, relative to its scale: far below
 // any physical tolerance, far above the rounding of the state it is evaluated at.
 constexpr double kGuardSlack = 1e-13;
+// The value below which guard g counts as crossed: -kGuardSlack in its scale.
+inline double crossed_below(const LinearGuard& g) { return -kGuardSlack * g.scale; }
 
 }  // namespace geardyn::ode

@@ -226,6 +226,8 @@ struct TrainRunResult {
   ode::Termination termination = ode::Termination::kCompleted;
   std::string message;
   std::int64_t cells = 0, events = 0;
+  // "newmark": steps that met more contact changes than it locates in one (taken unsplit).
+  std::int64_t unsplit_steps = 0;
   std::vector<TrainMeshReading> meshes;
   std::vector<TrainShaftReading> shafts;
   std::vector<TrainBearingReading> bearings;
@@ -277,13 +279,16 @@ Eigen::VectorXd rest_state(const train::Assembled& a, double at_s);
 std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen::VectorXd& y);
 
 // A train case's integrator (the exact engine with solver.method = "exact", the adaptive one of
-// adaptive.hpp with "dopri5", at solver.tolerance) and its readings over any stretch: a run's
-// window, a sweep point's settling and measurement.
+// adaptive.hpp with "dopri5", at solver.tolerance, the Newmark-beta one of newmark_flow.hpp with
+// "newmark") and its readings over any stretch: a run's window, a sweep point's settling and
+// measurement.
 class TrainSolver {
  public:
   // A train case, or a pair's form as its train of elements (train_form_of; its readings are
-  // the train's, its input the case as given). Throws InputError for "newmark" or a system the
-  // exact engine cannot take.
+  // the train's, its input the case as given). Throws InputError for a given Newmark step
+  // (solver.time_step_s) that does not resolve the train's fastest time scale, or a system the
+  // exact engine cannot take. The Newmark step is the given one or the fastest time scale over
+  // kStepsPerFastestPeriod (the one-degree run's rule), made to divide the system period.
   // `stiffness`, when given, is a pair form's mesh stiffness computed beforehand (a study whose
   // key leaves the curve alone shares it: shared_stiffness); a train's meshes carry their own.
   explicit TrainSolver(const Case& c, const MeshStiffness* stiffness = nullptr);
@@ -294,6 +299,8 @@ class TrainSolver {
   const train::Assembled& assembled() const { return *a_; }
   // The train's shortest time scale (s): its fastest mode in contact or excitation.
   double fastest_period_s() const { return fastest_period_s_; }
+  // The Newmark step (s) with solver.method = "newmark", 0 with the other methods.
+  double newmark_step_s() const { return newmark_step_s_; }
   // The highest natural frequency in contact (rad/s; the fastest time scale's when no mode
   // moves): the rate scale of the section's judgement.
   double top_frequency_rad_s() const { return top_frequency_rad_s_; }
@@ -322,7 +329,8 @@ class TrainSolver {
   Case case_;
   std::unique_ptr<train::Assembled> a_;
   std::unique_ptr<ode::ExactEngine> engine_;           // "exact"
-  std::optional<ode::LinearSwitchedSystem> adaptive_;  // "dopri5"
+  std::optional<ode::LinearSwitchedSystem> adaptive_;  // "dopri5" and "newmark"
+  double newmark_step_s_ = 0;                          // "newmark": the step (s), else 0
   double fastest_period_s_ = 0, top_frequency_rad_s_ = 0;
 };
 

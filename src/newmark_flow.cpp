@@ -1,0 +1,283 @@
+#include "geardyn/newmark_flow.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <boost/math/tools/toms748_solve.hpp>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace geardyn::ode {
+namespace {
+
+// One region's acceleration a = B(t) (q, v) + s(t), B = [P R] the last N rows of A_r(t), s
+// those of u_r(t), each as its Fourier series over the system's frequencies.
+class RegionAcceleration {
+ public:
+  RegionAcceleration(const LinearSwitchedSystem& sys, int region)
+      : r_(sys.region(region)), w_(sys.frequencies_rad_s) {
+    if (std::string e = second_order_form_error(sys, region); !e.empty())
+      throw std::invalid_argument(e);
+    n_ = sys.dimension / 2;
+    b0_ = r_.a.constant.bottomRows(n_);
+    s0_ = r_.u.constant.tail(n_);
+    for (std::size_t f = 0; f < r_.a.cos.size(); ++f) {
+      bc_.push_back(r_.a.cos[f].bottomRows(n_));
+      bs_.push_back(r_.a.sin[f].bottomRows(n_));
+    }
+    for (std::size_t f = 0; f < r_.u.cos.size(); ++f) {
+      sc_.push_back(r_.u.cos[f].tail(n_));
+      ss_.push_back(r_.u.sin[f].tail(n_));
+    }
+  }
+  bool varies() const { return !bc_.empty(); }
+  // B and s at t.
+  void at(double t_s, Matrix& b, Vector& s) const {
+    b = b0_;
+    for (std::size_t f = 0; f < bc_.size(); ++f)
+      b += std::cos(w_[f] * t_s) * bc_[f] + std::sin(w_[f] * t_s) * bs_[f];
+    s = s0_;
+    for (std::size_t f = 0; f < sc_.size(); ++f)
+      s += std::cos(w_[f] * t_s) * sc_[f] + std::sin(w_[f] * t_s) * ss_[f];
+  }
+  Eigen::Index half() const { return n_; }
+
+ private:
+  const LinearRegion& r_;
+  const std::vector<double>& w_;
+  Eigen::Index n_ = 0;
+  Matrix b0_;
+  Vector s0_;
+  std::vector<Matrix> bc_, bs_;
+  std::vector<Vector> sc_, ss_;
+};
+
+// (q, v, a) at t, in a region.
+struct Point {
+  double t = 0;
+  Vector q, v, a;
+  int region = 0;
+};
+
+// Cubic Hermite interpolation on [0, h] from end values and slopes, at s (integrator.hpp's).
+Vector hermite(const Vector& y0, const Vector& dy0, const Vector& y1, const Vector& dy1, double h,
+               double s) {
+  Vector out(y0.size());
+  for (Eigen::Index i = 0; i < y0.size(); ++i)
+    out(i) = detail::hermite(y0(i), dy0(i), y1(i), dy1(i), h, s);
+  return out;
+}
+
+}  // namespace
+
+std::string second_order_form_error(const LinearSwitchedSystem& s, int region) {
+  if (s.dimension % 2 != 0)
+    return fmt::format("the Newmark method needs a second-order system, y = (q, v): dimension {}",
+                       s.dimension);
+  const Eigen::Index n = s.dimension / 2;
+  const LinearRegion& r = s.region(region);
+  const auto top_zero = [n](const auto& terms) {
+    return std::all_of(terms.begin(), terms.end(),
+                       [n](const auto& m) { return m.topRows(n).isZero(0.0); });
+  };
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < s.dimension; ++j)
+      if (r.a.constant(i, j) != (j == n + i ? 1.0 : 0.0))
+        return fmt::format(
+            "the Newmark method needs a second-order system: row {} of region {}'s A is not "
+            "q'_{} = v_{}",
+            i, region, i, i);
+  if (!top_zero(r.a.cos) || !top_zero(r.a.sin) || !r.u.constant.head(n).isZero(0.0) ||
+      !top_zero(r.u.cos) || !top_zero(r.u.sin))
+    return fmt::format(
+        "the Newmark method needs a second-order system: region {}'s rates q' vary or are forced",
+        region);
+  return {};
+}
+
+FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vector& y0, int region,
+                        double t1, double time_step_s, const OutputGrid& output,
+                        FlowObserver& observer, const NewmarkOptions& o) {
+  assert(system.validate().empty());
+  if (std::string e = check_flow_arguments(system, t0, y0, region, t1); !e.empty())
+    throw std::invalid_argument(e);
+  if (!(time_step_s > 0) || !std::isfinite(time_step_s))
+    throw std::invalid_argument(fmt::format(
+        "newmark_flow: the time step must be positive and finite, not {}", time_step_s));
+  const auto count = static_cast<std::size_t>(system.region_count());
+  std::vector<std::unique_ptr<RegionAcceleration>> acceleration(count);
+  std::vector<std::unique_ptr<FunctionalValues>> guards(count);
+  // The whole step's matrix of a region with constant coefficients, factorised once.
+  std::vector<std::optional<Eigen::PartialPivLU<Matrix>>> whole_step(count);
+  const auto acceleration_of = [&](int r) -> const RegionAcceleration& {
+    auto& a = acceleration[static_cast<std::size_t>(r)];
+    if (!a) a = std::make_unique<RegionAcceleration>(system, r);
+    return *a;
+  };
+  const auto guards_of = [&](int r) -> const FunctionalValues& {
+    auto& g = guards[static_cast<std::size_t>(r)];
+    if (!g) g = std::make_unique<FunctionalValues>(system, system.region(r).guards);
+    return *g;
+  };
+  const Eigen::Index n = system.dimension / 2;
+  const std::int64_t n_steps = std::max<std::int64_t>(
+      1, static_cast<std::int64_t>(std::ceil((t1 - t0) / time_step_s - 1e-9)));
+  const double dt = (t1 - t0) / static_cast<double>(n_steps);
+
+  Matrix b(n, 2 * n);
+  Vector s(n), y(2 * n);
+  const auto state = [&y, n](const Point& p) -> const Vector& {
+    y.head(n) = p.q;
+    y.tail(n) = p.v;
+    return y;
+  };
+  // a from the equation at (t, q, v) in p's region.
+  const auto accelerate = [&](Point& p) {
+    acceleration_of(p.region).at(p.t, b, s);
+    p.a = b.leftCols(n) * p.q + b.rightCols(n) * p.v + s;
+  };
+  // The step of length h from p in p's region; false where its matrix is singular.
+  const auto step = [&](const Point& p, double h, Point& out) {
+    const RegionAcceleration& acc = acceleration_of(p.region);
+    const double bh2 = o.beta * h * h, gh = o.gamma * h;
+    const Vector qp = p.q + h * p.v + (0.5 - o.beta) * h * h * p.a;
+    const Vector vp = p.v + (1.0 - o.gamma) * h * p.a;
+    out.t = p.t + h;
+    out.region = p.region;
+    acc.at(out.t, b, s);
+    const Vector rhs = b.leftCols(n) * qp + b.rightCols(n) * vp + s;
+    const auto matrix = [&] {
+      return Matrix(Matrix::Identity(n, n) - bh2 * b.leftCols(n) - gh * b.rightCols(n));
+    };
+    auto& cached = whole_step[static_cast<std::size_t>(p.region)];
+    if (h == dt && !acc.varies()) {
+      if (!cached) cached.emplace(matrix());
+      out.a = cached->solve(rhs);
+    } else {
+      out.a = Eigen::PartialPivLU<Matrix>(matrix()).solve(rhs);
+    }
+    out.q = qp + bh2 * out.a;
+    out.v = vp + gh * out.a;
+    return out.a.allFinite();
+  };
+
+  FlowResult result;
+  Point p{t0, y0.head(n), y0.tail(n), Vector(n), region};
+  accelerate(p);
+  const auto finish = [&](Termination why, std::string message) {
+    result.termination = why;
+    result.message = std::move(message);
+    result.end_time_s = p.t;
+    result.state = state(p);
+    result.region = p.region;
+    return result;
+  };
+  std::int64_t next = 0;
+  // The grid's samples in (from.t, to.t] (and at from.t itself when `inclusive`), interpolated
+  // over the stretch from -> to of one region.
+  const auto sample = [&](const Point& from, const Point& to, bool inclusive) {
+    const double h = to.t - from.t;
+    while (next < output.count) {
+      const double ts = output.time(next);
+      if (ts > to.t) break;
+      if (ts >= from.t && (inclusive || ts > from.t || h == 0)) {
+        if (ts == to.t || !(h > 0)) {
+          observer.on_sample(ts, state(to), to.region);
+        } else {
+          const double at = ts - from.t;
+          Point i;
+          i.q = hermite(from.q, from.v, to.q, to.v, h, at);
+          i.v = hermite(from.v, from.a, to.v, to.a, h, at);
+          observer.on_sample(ts, state(i), to.region);
+        }
+      }
+      ++next;
+    }
+  };
+  // Skip the grid's times before the flow (a piece of a longer grid).
+  while (next < output.count && output.time(next) < t0) ++next;
+  sample(p, p, true);
+
+  std::vector<double> values;
+  Point trial, sub;
+  for (std::int64_t k = 1; k <= n_steps; ++k) {
+    const double t_end = k == n_steps ? t1 : t0 + static_cast<double>(k) * dt;
+    int transitions = 0;
+    for (;;) {
+      const double h = transitions == 0 ? dt : t_end - p.t;
+      if (!step(p, h, trial) || !trial.q.allFinite() || !trial.v.allFinite())
+        return finish(Termination::kDiverged,
+                      fmt::format("the state became non-finite after t = {:.6g} s", p.t));
+      trial.t = t_end;
+      guards_of(p.region)(t_end, state(trial), values);
+      const std::vector<LinearGuard>& gs = system.region(p.region).guards;
+      bool crossed = false;
+      for (std::size_t i = 0; i < gs.size(); ++i) crossed |= values[i] < crossed_below(gs[i]);
+      if (!crossed) break;
+      if (transitions >= o.max_transitions_per_step) {
+        ++result.unsplit_steps;
+        break;
+      }
+      // The earliest crossing among the guards that ended the step below their slack.
+      int first = -1;
+      double at_h = h;
+      for (std::size_t i = 0; i < gs.size(); ++i) {
+        if (!(values[i] < crossed_below(gs[i]))) continue;
+        const std::vector<LinearGuard> single = {gs[i]};
+        const FunctionalValues one(system, single);
+        std::vector<double> v;
+        const auto g = [&](double hh) {
+          if (hh > 0) {
+            step(p, hh, sub);
+          } else {
+            sub = p;
+          }
+          one(p.t + hh, state(sub), v);
+          return v[0] - crossed_below(gs[i]);
+        };
+        double hi = 0.0;  // below at the step's start already: the region is left there
+        if (const double g0 = g(0.0); g0 > 0) {
+          std::uintmax_t iterations = kTransitionMaxIterations;
+          hi = boost::math::tools::toms748_solve(
+                   g, 0.0, h, g0, values[i] - crossed_below(gs[i]),
+                   boost::math::tools::eps_tolerance<double>(kTransitionBits), iterations)
+                   .second;  // the side on which the guard has turned negative
+        }
+        if (first < 0 || hi < at_h) {
+          first = static_cast<int>(i);
+          at_h = hi;
+        }
+      }
+      Point at = p;
+      if (at_h > 0) {
+        step(p, at_h, at);
+        ++result.cells;
+        sample(p, at, false);
+        observer.on_step(at.t, state(at), at.region);
+      }
+      const int to = gs[static_cast<std::size_t>(first)].target;
+      observer.on_event(at.t, state(at), p.region, to);
+      ++result.events;
+      ++transitions;
+      p = at;
+      p.region = to;
+      accelerate(p);
+    }
+    ++result.cells;
+    sample(p, trial, false);
+    p = trial;
+    observer.on_step(p.t, state(p), p.region);
+    if (k % o.progress_interval_steps == 0 && !observer.on_progress(p.t))
+      return finish(Termination::kCancelled, fmt::format("cancelled at t = {:.6g} s", p.t));
+  }
+  return finish(Termination::kCompleted, "");
+}
+
+}  // namespace geardyn::ode
