@@ -566,7 +566,7 @@ std::string unused_reason(const CaseKey& k, const Case& c) {
   return {};
 }
 
-std::vector<std::string> unused_settings(const Case& c) {
+std::vector<std::string> unused_settings(const Case& c, Integration integration) {
   std::vector<std::string> out;
   const Case defaults;
   for (const CaseKey& k : case_keys()) {
@@ -574,7 +574,10 @@ std::vector<std::string> unused_settings(const Case& c) {
     // A key given at its default changes nothing, used or not (a case file that writes every
     // key out, as cases/park2010.toml does, is not warned about).
     if (given == c.origins.end() || k.value_text(c) == k.value_text(defaults)) continue;
-    const std::string why = unused_reason(k, c);
+    std::string why = unused_reason(k, c);
+    if (why.empty() && integration == Integration::kExactEngine &&
+        (k.name == "solver.method" || k.name == "solver.time_step_s"))
+      why = kExactEngineOnly;
     if (!why.empty())
       out.push_back(
           fmt::format("{} = {} ({}): not used: {}", k.name, k.value_text(c), given->second, why));

@@ -754,6 +754,18 @@ TEST(Cli, ASettingTheMethodDoesNotUseIsReported) {
   ASSERT_EQ(used.code, 0) << used.err;
   EXPECT_EQ(used.err.find("not used"), std::string::npos) << used.err;
   EXPECT_TRUE(nlohmann::json::parse(slurp(d / "summary.json"))["unused_settings"].empty());
+  // An orbit (as its continuation and a stability chart) is shot with the exact engine whatever
+  // the method: the method and its step are said to be unused there, not dropped.
+  const Outcome orbit =
+      cli("orbit --set solver.method=newmark --set solver.time_step_s=1e-7 --set "
+          "speed.shaft_frequency_hz=10");
+  ASSERT_EQ(orbit.code, 0) << orbit.err;
+  for (const char* piece :
+       {"warning: solver.method = \"newmark\" (--set solver.method=newmark): not used: periodic "
+        "orbits, their continuation and stability charts are computed with the exact engine",
+        "warning: solver.time_step_s = 1e-07 (--set solver.time_step_s=1e-7): not used: periodic "
+        "orbits"})
+    EXPECT_NE(orbit.err.find(piece), std::string::npos) << orbit.err;
   // The shipped cases give nothing they do not use.
   for (const char* file : {"park2010.toml", "park2010_coupled.toml", "kahraman_singh.toml",
                            "two_stage_reducer.toml", "idler_train.toml", "loose_gear_rattle.toml",

@@ -171,7 +171,9 @@ geardyn::Case load_model_case(const std::string& file,
                               std::string_view command) {
   geardyn::Case c = geardyn::load_case(case_path(file), overrides);
   check_command_takes(c, command);
-  for (const std::string& w : geardyn::unused_settings(c))
+  const bool exact = command == "orbit" || command == "continue" || command == "stability";
+  for (const std::string& w : geardyn::unused_settings(
+           c, exact ? geardyn::Integration::kExactEngine : geardyn::Integration::kCaseMethod))
     fmt::print(stderr, "geardyn: warning: {}\n", w);
   return c;
 }

@@ -113,12 +113,23 @@ std::string unused_reason(const CaseKey& k, const Case& c);
 // train.reference_speed_hz; mesh.backlash_um in the non-dimensional form), else empty.
 std::string unread_study_key(const Case& c, const std::vector<std::vector<Override>>& corners);
 
+// What integrates a command's motion: the case's solver.method (a run, a sweep, a study's
+// samples), or the exact engine whatever the method (a periodic orbit, its continuation, a
+// stability chart: their Jacobians need its saltation at every impact).
+enum class Integration { kCaseMethod, kExactEngine };
+
 // One line per key the user gave (Case::origins: a file or a --set), at a value other than its
 // default (which changes nothing either way), that the case does not use:
-// "solver.time_step_s = 1e-06 (--set solver.time_step_s=1e-6): not used: ...". The command line
+// "solver.time_step_s = 1e-06 (--set solver.time_step_s=1e-6): not used: ...". With
+// kExactEngine, also solver.method and a Newmark step (kExactEngineOnly). The command line
 // prints them as warnings and summary.json lists them ("unused_settings"): a setting is never
 // dropped silently.
-std::vector<std::string> unused_settings(const Case& c);
+std::vector<std::string> unused_settings(const Case& c,
+                                         Integration integration = Integration::kCaseMethod);
+// Why solver.method and solver.time_step_s do nothing under Integration::kExactEngine.
+constexpr std::string_view kExactEngineOnly =
+    "periodic orbits, their continuation and stability charts are computed with the exact "
+    "engine whatever solver.method says (their Jacobians need its saltation at every impact)";
 
 // The key tables of docs/case-files.md: one "## [section]" table per section, columns key, unit,
 // default, allowed, meaning.

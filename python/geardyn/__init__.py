@@ -49,14 +49,15 @@ class UnusedSettingWarning(UserWarning):
     not use"); the result's summary lists them too ("unused_settings")."""
 
 
-def _warn_unused(case, stacklevel=4):
+def _warn_unused(case, stacklevel=4, exact_engine=False):
     """Warns of each setting of `case` that it does not use (called by the functions that take
-    a case, so that the warning points at the user's call)."""
+    a case, so that the warning points at the user's call); with exact_engine (orbit,
+    continuation, stability), also of solver.method and a Newmark step, which they do not use."""
     import warnings
 
     if not isinstance(case, Case):
         return  # the call refuses it with its own message
-    for line in case._unused_settings():
+    for line in case._unused_settings(exact_engine):
         warnings.warn(line, UnusedSettingWarning, stacklevel=stacklevel)
 
 
@@ -845,7 +846,7 @@ def orbit(case, periods=1, segments=0, settle_periods=100, tolerance=1e-10, max_
         one-degree forms ``impacts_per_period``, ``min_delta_bar``, ``max_delta_bar``,
         ``max_force_bar``, ``sequence`` (the contact events of one period) and more.
     """
-    _warn_unused(case)
+    _warn_unused(case, exact_engine=True)
     return _orbit_dict(_geardyn._orbit(case, periods, segments, settle_periods, tolerance,
                                        max_iterations,
                                        None if state is None else [float(x) for x in state],
@@ -916,7 +917,7 @@ def continuation(case, param, from_, to, periods=1, segments=0, settle_periods=1
     KeyboardInterrupt
         Ctrl-C (looked for every 0.05 s); ``.result`` holds the points so far.
     """
-    _warn_unused(case)
+    _warn_unused(case, exact_engine=True)
     if progress is True:
         def callback(p, n, _bar=_progress(True, 1000, "\u2030")):
             return _bar(round(1000 * min(1.0, abs(p - from_) / abs(to - from_))))
@@ -958,7 +959,7 @@ def stability(case, param, values, param2=None, values2=()):
         ``boundaries``: dicts with ``param`` (``param2``) and ``type`` (fold at +1,
         period_doubling at -1, neimark_sacker).
     """
-    _warn_unused(case)
+    _warn_unused(case, exact_engine=True)
     r = _geardyn._stability(case, param, _floats("values", values), param2 or "",
                             _floats("values2", values2), None)
     if r["interrupted"]:

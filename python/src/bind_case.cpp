@@ -88,9 +88,15 @@ void bind_case(py::module_& m) {
           "is unused at all of them: its unused line; else \"\" (case_keys.hpp, "
           "unread_study_key).")
       .def(
-          "_unused_settings", [](const Case& c) { return unused_settings(c); },
+          "_unused_settings",
+          [](const Case& c, bool exact_engine) {
+            return unused_settings(
+                c, exact_engine ? Integration::kExactEngine : Integration::kCaseMethod);
+          },
+          py::arg("exact_engine") = false,
           "Each setting of the case that its form or method does not read, as the command "
-          "line warns of it (case_keys.hpp, unused_settings).")
+          "line warns of it (case_keys.hpp, unused_settings); with exact_engine, also the "
+          "method's keys, for a study that integrates with the exact engine whatever the method.")
       .def(
           "to_toml", [](const Case& c) { return to_toml(c); },
           "Every key of the case as TOML text, numbers to 17 significant digits (a case file "

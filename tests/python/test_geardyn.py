@@ -429,6 +429,7 @@ def test_a_setting_the_case_does_not_use_is_warned_of_at_the_users_call():
     pair = geardyn.Case(model={"zeta": 0.1}).with_({"solver.duration_s": 0.002})
     reducer = geardyn.Case.from_toml(SOURCE / "cases/two_stage_reducer.toml").with_(
         {"solver.duration_s": 0.002, "speed.shaft_frequency_hz": 10})
+    slow = geardyn.Case().with_({"speed.shaft_frequency_hz": 10})  # an orbit in contact
     calls = [
         ("model.zeta = 0.1 (Case(...)): not used", lambda: geardyn.run(pair)),
         ("model.zeta = 0.1", lambda: geardyn.sweep(pair, "speed.shaft_frequency_hz", [900.0])),
@@ -438,6 +439,10 @@ def test_a_setting_the_case_does_not_use_is_warned_of_at_the_users_call():
         ("model.zeta = 0.1", lambda: geardyn.study(
             pair, {"mesh.backlash_um": {"distribution": "uniform", "lower": 80, "upper": 120}},
             samples=2)),
+        # An orbit is shot with the exact engine whatever the method (the command line's words).
+        ('solver.method = "newmark" (with_({"solver.method": "newmark"})): not used: periodic '
+         "orbits, their continuation and stability charts are computed with the exact engine",
+         lambda: geardyn.orbit(slow.with_({"solver.method": "newmark"}))),
     ]
     for words, call in calls:
         with warnings.catch_warnings(record=True) as seen:
@@ -449,6 +454,7 @@ def test_a_setting_the_case_does_not_use_is_warned_of_at_the_users_call():
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
         geardyn.run(geardyn.Case().with_({"solver.duration_s": 0.002}))
+        geardyn.run(slow.with_({"solver.method": "newmark", "solver.duration_s": 0.002}))
     assert not [w for w in seen if issubclass(w.category, geardyn.UnusedSettingWarning)]
 
 
