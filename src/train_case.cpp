@@ -671,8 +671,10 @@ namespace {
       matched = label;
     }
   }
-  throw InputError(where_given.empty() ? fmt::format("train: {}", message)
-                                       : fmt::format("{}: train: {}", where_given, message));
+  // "train: mesh 'm': ...", but "the train: ..." as it is (not "train: the train: ...").
+  const std::string said =
+      message.rfind("the train", 0) == 0 ? message : fmt::format("train: {}", message);
+  throw InputError(where_given.empty() ? said : fmt::format("{}: {}", where_given, said));
 }
 
 struct GearGeometry {

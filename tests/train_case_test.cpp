@@ -1733,7 +1733,7 @@ oil = 0.1
     (void)assembled_train(parse_case(head + mesh, "t.toml", {{"train.reference", "\"nobody\""}}));
     ADD_FAILURE() << "a reference to no body was taken";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()).rfind("--set train.reference=\"nobody\": train: the train: "
+    EXPECT_EQ(std::string(e.what()).rfind("--set train.reference=\"nobody\": the train: "
                                           "reference = \"nobody\": no body of that name",
                                           0),
               0U)
