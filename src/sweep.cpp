@@ -198,27 +198,40 @@ class PointRunner {
     set(c, o_.axis.key, value, where);
     if (o_.axis2) set(c, o_.axis2->key, value2, where2);
     const std::string both = where2.empty() ? where : where + " with " + where2;
-    double period = 0, fastest = 0;
+    double period = 0, fastest = 0, step = 0;
     if (as_train(c)) {
       const TrainSolver solver(c);
       period = train_section_period_s(solver, nullptr);
       fastest = solver.fastest_period_s();
+      step = solver.newmark_step_s();
       if (o_.start_static)  // every sequence starts from the static state
         (void)solver.initial_state(InitialCondition::kStatic);
     } else {
       const GearPairModel model = build_model(c, nullptr, stiffness());
       period = period_s(model);
       fastest = fastest_period_s(model.parameters());
+      if (c.solver.method == Method::kNewmark) step = Solver(model, c.solver, period).time_step_s();
     }
-    const double periods =
-        (static_cast<double>(o_.max_settle_periods) + o_.measure_periods) * period / fastest;
+    const int most = o_.max_settle_periods + o_.measure_periods;
+    const double window_s = static_cast<double>(most) * period;
+    const double periods = window_s / fastest;
     if (!(periods <= kMaxFastestPeriods))
       throw InputError(fmt::format(
           "{}: a point runs up to {} system periods (--max-settle-periods + --measure-periods) "
           "of {:.3g} s each, {:.3g} periods of the case's fastest time scale ({:.3g} s); at "
           "most {:.0e}",
-          both, o_.max_settle_periods + o_.measure_periods, period, periods, fastest,
-          kMaxFastestPeriods));
+          both, most, period, periods, fastest, kMaxFastestPeriods));
+    // The run's bound on Newmark steps (run.hpp), over a point's longest window.
+    if (step > 0 && !(window_s / step <= kMaxNewmarkSteps))
+      throw InputError(with_origins(
+          c, fmt::format("{}: {}: a point runs up to {} system periods (--max-settle-periods + "
+                         "--measure-periods) of {:.3g} s each, {:.3g} Newmark steps of {:.3g} s; "
+                         "at most {:.0e}",
+                         both,
+                         c.solver.time_step_s > 0
+                             ? fmt::format("solver.time_step_s = {:.6g}", c.solver.time_step_s)
+                             : std::string("the automatic Newmark step"),
+                         most, period, window_s / step, step, kMaxNewmarkSteps)));
   }
 
   // Runs one point from `carry` (the previous point's end state) or from the case's initial

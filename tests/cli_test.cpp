@@ -197,6 +197,24 @@ std::vector<BadInput> bad_inputs(const fs::path& d) {
       {"sweep --param speed.shaft_frequency_hz --from 1e-300 --to 1e-299 --points 3" + out,
        2,
        {"--from 1e-300", "periods of the case's fastest time scale"}},
+      {"sweep --param speed.shaft_frequency_hz --from 100 --to 110 --points 2 --set "
+       "solver.method=newmark --set solver.time_step_s=1e-15" +
+           out,
+       2,
+       {"--from 100: solver.time_step_s = 1e-15: a point runs up to 210 system periods",
+        "Newmark steps", "at most 1e+10"}},
+      {"sweep " + std::string(GEARDYN_SOURCE_DIR) +
+           "/cases/two_stage_reducer.toml --param train.reference_speed_hz --from 100 --to 110 "
+           "--points 2 --set solver.method=newmark --set solver.time_step_s=1e-15" +
+           out,
+       2,
+       {"solver.time_step_s = 1e-15: a point runs up to", "Newmark steps", "at most 1e+10"}},
+      {"run " + std::string(GEARDYN_SOURCE_DIR) +
+           "/cases/two_stage_reducer.toml --set solver.method=newmark --set "
+           "solver.time_step_s=1e-300" +
+           out,
+       2,
+       {"solver.time_step_s = 1e-300", "Newmark steps over solver.duration_s", "at most 1e+10"}},
       {"sweep --param mesh.backlash_um --from 100 --to -5 --points 3" + out,
        2,
        {"--to -5", "mesh.backlash_um = -5"}},
