@@ -8,7 +8,6 @@
 #include <boost/numeric/odeint.hpp>
 #include <cassert>
 #include <cmath>
-#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -151,21 +150,9 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
   if (std::string e = check_flow_arguments(system, t0, y0, region, t1); !e.empty())
     throw std::invalid_argument(e);
   const Eigen::Index n = system.dimension;
-  // Each region's right-hand side and guards, made when the flow first enters it (a train's
-  // 3^meshes regions are mostly never visited).
-  const auto count = static_cast<std::size_t>(system.region_count());
-  std::vector<std::unique_ptr<RegionDerivative>> rhs(count);
-  std::vector<std::unique_ptr<FunctionalValues>> guards(count);
-  const auto rhs_of = [&](int r) -> const RegionDerivative& {
-    auto& d = rhs[static_cast<std::size_t>(r)];
-    if (!d) d = std::make_unique<RegionDerivative>(system, r);
-    return *d;
-  };
-  const auto guards_of = [&](int r) -> const FunctionalValues& {
-    auto& g = guards[static_cast<std::size_t>(r)];
-    if (!g) g = std::make_unique<FunctionalValues>(system, system.region(r).guards);
-    return *g;
-  };
+  // Each region's right-hand side and guards, made when the flow first enters it.
+  PerRegion<RegionDerivative> rhs_of(system);
+  PerRegion<RegionGuards> guards_of(system);
   FlowResult result;
   Values x(y0.data(), y0.data() + n), xe(x), xs(x);
   Vector y(n);

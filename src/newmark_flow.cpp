@@ -8,7 +8,6 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
-#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -111,21 +110,12 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
   if (!(time_step_s > 0) || !std::isfinite(time_step_s))
     throw std::invalid_argument(fmt::format(
         "newmark_flow: the time step must be positive and finite, not {}", time_step_s));
-  const auto count = static_cast<std::size_t>(system.region_count());
-  std::vector<std::unique_ptr<RegionAcceleration>> acceleration(count);
-  std::vector<std::unique_ptr<FunctionalValues>> guards(count);
-  // The whole step's matrix of a region with constant coefficients, factorised once.
-  std::vector<std::optional<Eigen::PartialPivLU<Matrix>>> whole_step(count);
-  const auto acceleration_of = [&](int r) -> const RegionAcceleration& {
-    auto& a = acceleration[static_cast<std::size_t>(r)];
-    if (!a) a = std::make_unique<RegionAcceleration>(system, r);
-    return *a;
-  };
-  const auto guards_of = [&](int r) -> const FunctionalValues& {
-    auto& g = guards[static_cast<std::size_t>(r)];
-    if (!g) g = std::make_unique<FunctionalValues>(system, system.region(r).guards);
-    return *g;
-  };
+  // Each region's acceleration and guards, made when the flow first enters it; the whole
+  // step's matrix of a region with constant coefficients, factorised once.
+  PerRegion<RegionAcceleration> acceleration_of(system);
+  PerRegion<RegionGuards> guards_of(system);
+  std::vector<std::optional<Eigen::PartialPivLU<Matrix>>> whole_step(
+      static_cast<std::size_t>(system.region_count()));
   const Eigen::Index n = system.dimension / 2;
   const std::int64_t n_steps = std::max<std::int64_t>(
       1, static_cast<std::int64_t>(std::ceil((t1 - t0) / time_step_s - 1e-9)));

@@ -290,6 +290,13 @@ TEST(TrainCase, RattleStartsWhereTheDragCanNoLongerHoldTheLooseGear) {
 }
 
 // The largest difference of (d - e) / b over every mesh and sample of two runs of one case.
+// A shipped case with keys set as a study sets them.
+Case shipped_case(const std::string& file, const std::vector<Override>& keys) {
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / file);
+  for (const Override& k : keys) set_case_value(c, k);
+  return c;
+}
+
 double largest_difference(const TrainRunResult& a, const TrainRunResult& b) {
   EXPECT_EQ(a.samples.t_s.size(), b.samples.t_s.size());
   double worst = 0;
@@ -440,11 +447,9 @@ TEST(TrainCase, TheAdaptiveIntegratorAgreesWithTheExactEngineThroughTheImpacts) 
   // through its first impacts, and the reducer in permanent contact with both stages' stiffness
   // and transmission error varying. The rattle is sensitive to its state (a difference grows
   // four to ten times in each 20 ms), so the window is the first 60 ms.
-  Case loose =
-      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "loose_gear_rattle.toml");
-  set_case_value(loose, {"solver.duration_s", "0.06"});
-  set_case_value(loose, {"solver.output_interval_s", "1e-4"});
-  set_case_value(loose, {"solver.tolerance", "1e-11"});
+  Case loose = shipped_case("loose_gear_rattle.toml", {{"solver.duration_s", "0.06"},
+                                                       {"solver.output_interval_s", "1e-4"},
+                                                       {"solver.tolerance", "1e-11"}});
   const TrainRunResult exact = run_train(loose);
   set_case_value(loose, {"solver.method", "dopri5"});
   const TrainRunResult adaptive = run_train(loose);
@@ -458,12 +463,10 @@ TEST(TrainCase, TheAdaptiveIntegratorAgreesWithTheExactEngineThroughTheImpacts) 
   EXPECT_LE(adaptive.meshes[0].max_force_n, exact.meshes[0].max_force_n * (1 + 1e-9));
   EXPECT_GT(adaptive.meshes[0].max_force_n, 0.99 * exact.meshes[0].max_force_n);
 
-  Case reducer =
-      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml");
-  set_case_value(reducer, {"solver.duration_s", "0.02"});
-  set_case_value(reducer, {"solver.output_interval_s", "1e-5"});
-  set_case_value(reducer, {"solver.tolerance", "1e-10"});
-  set_case_value(reducer, {"solver.method", "exact"});
+  Case reducer = shipped_case("two_stage_reducer.toml", {{"solver.duration_s", "0.02"},
+                                                         {"solver.output_interval_s", "1e-5"},
+                                                         {"solver.tolerance", "1e-10"},
+                                                         {"solver.method", "exact"}});
   const TrainRunResult contact_exact = run_train(reducer);
   set_case_value(reducer, {"solver.method", "dopri5"});
   const TrainRunResult contact_adaptive = run_train(reducer);
@@ -477,11 +480,9 @@ TEST(TrainCase, TheAdaptiveIntegratorAgreesWithTheExactEngineThroughTheImpacts) 
 // the system period, and a step that cannot resolve the train's fastest time scale is refused
 // naming the key and where it came from.
 TEST(TrainCase, NewmarkStepsATrainAtSecondOrder) {
-  Case reducer =
-      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml");
-  set_case_value(reducer, {"solver.duration_s", "0.02"});
-  set_case_value(reducer, {"solver.output_interval_s", "1e-5"});
-  set_case_value(reducer, {"solver.tolerance", "1e-12"});
+  Case reducer = shipped_case("two_stage_reducer.toml", {{"solver.duration_s", "0.02"},
+                                                         {"solver.output_interval_s", "1e-5"},
+                                                         {"solver.tolerance", "1e-12"}});
   const TrainRunResult exact = run_train(reducer);
   ASSERT_TRUE(exact.ok()) << exact.message;
   set_case_value(reducer, {"solver.method", "newmark"});

@@ -137,6 +137,32 @@ class FunctionalValues {
   mutable std::vector<RowVector> rows_;  // per functional, its row at the last time asked
 };
 
+// One T per region of a system, T(system, region) made the first time a flow asks for region's
+// (a train's 3^meshes regions are mostly never visited). The system must outlive it; one flow's
+// own (not for two threads at once).
+template <class T>
+class PerRegion {
+ public:
+  explicit PerRegion(const LinearSwitchedSystem& s)
+      : s_(&s), items_(static_cast<std::size_t>(s.region_count())) {}
+  const T& operator()(int region) {
+    std::unique_ptr<T>& item = items_[static_cast<std::size_t>(region)];
+    if (!item) item = std::make_unique<T>(*s_, region);
+    return *item;
+  }
+
+ private:
+  const LinearSwitchedSystem* s_;
+  std::vector<std::unique_ptr<T>> items_;
+};
+
+// The guards of one region as FunctionalValues (a PerRegion's item).
+class RegionGuards : public FunctionalValues {
+ public:
+  RegionGuards(const LinearSwitchedSystem& s, int region)
+      : FunctionalValues(s, s.region(region).guards) {}
+};
+
 // Interval bounds of an affine functional (a guard or an observable) over every time and every
 // state of a box lo <= y <= hi: each row entry and the offset range over their amplitudes
 // (|c cos + s sin| <= hypot(c, s)), then interval arithmetic; conservative, and attained where
