@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# The test command's short clang-tidy: the C++ sources (src/, apps/) of the newest commit that
+# changed any, at most MAX of them; src/output_folder.cpp (the code that guards the user's
+# files) when git cannot say. scripts/lint.sh checks every source.
+#
+#   tidy_recent.sh CLANG_TIDY BUILD_DIR SOURCE_DIR [MAX]
+set -euo pipefail
+tidy=$1 build=$2 source=$3 max=${4:-3}
+cd "$source"
+files=()
+if git rev-parse --git-dir >/dev/null 2>&1; then
+  while IFS= read -r f; do
+    [[ -f $f ]] && files+=("$f")
+  done < <(git log -1 --format= --name-only --diff-filter=AM -- 'src/*.cpp' 'apps/*.cpp' |
+           head -n "$max")
+fi
+((${#files[@]})) || files=(src/output_folder.cpp)
+echo "clang-tidy on: ${files[*]}"
+"$tidy" --quiet -p "$build" "${files[@]}"
