@@ -135,7 +135,7 @@ class TrainObserver : public ode::FlowObserver {
     reader(region)(t, y, values_);
     const std::vector<int>& states = region_states(region);
     s.t_s.push_back(t);
-    s.state.push_back(y);
+    s.state.push_back(split_ ? split_->lift(lift_t0_, lift_rigid0_, t, y) : y);
     const std::size_t meshes = states.size();
     double* d = s.deflection_bar.append(meshes);
     double* f = s.force_n.append(meshes);
@@ -152,12 +152,21 @@ class TrainObserver : public ode::FlowObserver {
     }
   }
 
+  // The flow it looks at next steps the complement of a free rotation (its states are
+  // split->reduced()'s, the observer's system), from t0 with the rotation's (phi, phi') = rigid0:
+  // its samples are kept as the whole train's states.
+  void lift_from(const ode::RigidSplit* split, double t0, const Eigen::Vector2d& rigid0) {
+    split_ = split;
+    lift_t0_ = t0;
+    lift_rigid0_ = rigid0;
+  }
+
   // Room in the result for `count` output samples.
   void reserve(std::int64_t count) {
     const auto rows = static_cast<std::size_t>(std::max<std::int64_t>(count, 0));
     TrainSamples& s = out_.samples;
     s.t_s.reserve(rows);
-    s.state.reserve(rows, static_cast<std::size_t>(sys_.dimension));
+    s.state.reserve(rows, 2 * static_cast<std::size_t>(a_.size()));
     s.deflection_bar.reserve(rows, states_.size());
     s.force_n.reserve(rows, states_.size());
     s.contact.reserve(rows, states_.size());
@@ -342,6 +351,9 @@ class TrainObserver : public ode::FlowObserver {
   std::vector<double> low_, high_;                                         // the last bound_all's
   std::vector<std::unique_ptr<ode::FunctionalValues>> readers_;            // per region
   std::vector<double> values_;
+  const ode::RigidSplit* split_ = nullptr;  // lift_from's
+  double lift_t0_ = 0;
+  Eigen::Vector2d lift_rigid0_ = Eigen::Vector2d::Zero();
 };
 
 // The shortest time scale of the train: its fastest mode in contact or excitation.
@@ -618,8 +630,24 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
     ode::EngineOptions eo;
     eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
     eo.cell_rate_product = kTrainCellRateProduct;
+    ode::LinearSwitchedSystem full = a_->linear_system();
+    const train::Train& t = a_->train();
+    const bool viscous = std::any_of(t.drags.begin(), t.drags.end(), [](const train::Drag& d) {
+      return d.viscous_n_m_s_per_rad != 0;
+    });
+    if (t.speeds.empty() && !t.frame_terms && !viscous) {
+      const Eigen::MatrixXd rigid = a_->rigid_motions();
+      if (rigid.cols() == 1) {
+        try {
+          split_ = std::make_unique<ode::RigidSplit>(full, rigid.col(0), a_->mass());
+        } catch (const std::invalid_argument&) {
+          split_.reset();  // an element acts on the rotation after all: the whole train is stepped
+        }
+      }
+    }
     try {
-      engine_ = std::make_unique<ode::ExactEngine>(a_->linear_system(), eo);
+      engine_ = split_ ? std::make_unique<ode::ExactEngine>(split_->reduced(), eo)
+                       : std::make_unique<ode::ExactEngine>(std::move(full), eo);
     } catch (const std::invalid_argument& e) {
       throw InputError(std::string("the train's exact engine: ") + e.what());
     }
@@ -631,6 +659,10 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
 
 TrainSolver::~TrainSolver() = default;
 
+int TrainSolver::stepped_states() const {
+  return split_ ? split_->reduced().dimension : 2 * a_->size();
+}
+
 ode::Vector TrainSolver::initial_state(InitialCondition initial, double t0_s) const {
   if (initial != InitialCondition::kStatic) return rest_state(*a_, t0_s);
   std::string why;
@@ -640,8 +672,17 @@ ode::Vector TrainSolver::initial_state(InitialCondition initial, double t0_s) co
 }
 
 ode::FlowResult TrainSolver::flow(double t0_s, const ode::Vector& y0, int region, double t1_s,
-                                  const ode::OutputGrid& grid, ode::FlowObserver& observer) const {
-  if (engine_) return engine_->flow(t0_s, y0, region, t1_s, grid, observer);
+                                  const ode::OutputGrid& grid, ode::FlowObserver& observer,
+                                  bool jacobian) const {
+  if (engine_ && !split_) return engine_->flow(t0_s, y0, region, t1_s, grid, observer, jacobian);
+  if (engine_) {
+    // The complement stepped, the rotation's quadrature added back at the end.
+    ode::FlowResult f =
+        engine_->flow(t0_s, split_->reduce(y0), region, t1_s, grid, observer, jacobian);
+    f.state = split_->lift(t0_s, split_->rigid(y0), f.end_time_s, f.state);
+    if (f.jacobian) f.jacobian = split_->lift_jacobian(t0_s, f.end_time_s, *f.jacobian);
+    return f;
+  }
   if (newmark_step_s_ > 0)
     return ode::newmark_flow(*adaptive_, t0_s, y0, region, t1_s, newmark_step_s_, grid, observer);
   ode::AdaptiveOptions ao;
@@ -658,7 +699,7 @@ ode::FlowResult TrainSolver::advance_with_jacobian(double t0_s, const ode::Vecto
                                                    double t1_s) const {
   if (!engine_) throw std::logic_error("TrainSolver: a Jacobian needs the exact engine");
   ode::FlowObserver nothing;
-  return engine_->flow(t0_s, y0, a_->classify(t0_s, y0), t1_s, ode::OutputGrid{}, nothing, true);
+  return flow(t0_s, y0, a_->classify(t0_s, y0), t1_s, ode::OutputGrid{}, nothing, true);
 }
 
 void add_parts(const train::Assembled& a, const std::optional<Eigen::VectorXd>& rest,
@@ -755,6 +796,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   FlowPieces pieces(
       t0_s, y0, region, t1_s, grid,
       [&](double from, const ode::Vector& y, int r, double to, const ode::OutputGrid& piece) {
+        if (split_) observer.lift_from(split_.get(), from, split_->rigid(y));
         return flow(from, y, r, to, piece, observer);
       },
       progress);

@@ -6,10 +6,11 @@
 // away from the train's nominal rotation at constant speed, counted positive in the body's own
 // nominal direction of rotation (so that one sign rule serves external and internal meshes).
 // The train's rigid rotation is kept as a coordinate: a train whose torques balance on average
-// has it as a free mode (zero frequency), as the gear pair's u leaves it out. A planar body
-// (Body::planar) also moves in the plane of the gears: its centre's displacement (x_i, y_i) (m)
-// in a frame fixed to the ground, the reference body turning counterclockwise (+z) in it. The
-// coordinates are every body's theta first, in the bodies' order, then (x, y) of each planar
+// has it as a free mode (zero frequency), as the gear pair's u leaves it out. (Its solver steps a
+// freely turning train on the complement of that rotation: train_run.hpp, rigid_split.hpp.) A
+// planar body (Body::planar) also moves in the plane of the gears: its centre's displacement (x_i,
+// y_i) (m) in a frame fixed to the ground, the reference body turning counterclockwise (+z) in it.
+// The coordinates are every body's theta first, in the bodies' order, then (x, y) of each planar
 // body in that order (w alone for one held to its line, Body::line: u = n w along its mesh's
 // line of action n), and after them a spatial body's (Body::spatial) z (m, along the axes) and
 // its tilts tx, ty (rad, about x and y): a torsional train's coordinates are its bodies'.

@@ -18,6 +18,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/engine.hpp"
+#include "geardyn/rigid_split.hpp"
 #include "geardyn/steady.hpp"
 #include "geardyn/train.hpp"
 
@@ -285,7 +286,11 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
 class TrainSolver {
  public:
   // A train case, or a pair's form as its train of elements (train_form_of; its readings are
-  // the train's, its input the case as given). Throws InputError for a given Newmark step
+  // the train's, its input the case as given). With the exact engine, a train that turns freely
+  // (its rigid rotation free: no prescribed speed, support, pin or viscous drag on it) is stepped
+  // on the complement of its rotation (rigid_split.hpp: the pair's two states, not four), the
+  // rotation a closed-form quadrature; states, samples and Jacobians are the whole train's all
+  // the same. Throws InputError for a given Newmark step
   // (solver.time_step_s) that does not resolve the train's fastest time scale, or a system the
   // exact engine cannot take. The Newmark step is the given one or the fastest time scale over
   // kStepsPerFastestPeriod (the one-degree run's rule), made to divide the system period.
@@ -299,6 +304,9 @@ class TrainSolver {
   const train::Assembled& assembled() const { return *a_; }
   // The train's shortest time scale (s): its fastest mode in contact or excitation.
   double fastest_period_s() const { return fastest_period_s_; }
+  // The number of states the integrator steps: the whole train's 2 n, or 2 (n - 1) when its free
+  // rotation is split off (the exact engine on a train that turns freely).
+  int stepped_states() const;
   // The Newmark step (s) with solver.method = "newmark", 0 with the other methods.
   double newmark_step_s() const { return newmark_step_s_; }
   // The highest natural frequency in contact (rad/s; the fastest time scale's when no mode
@@ -325,10 +333,12 @@ class TrainSolver {
 
  private:
   ode::FlowResult flow(double t0_s, const ode::Vector& y0, int region, double t1_s,
-                       const ode::OutputGrid& grid, ode::FlowObserver& observer) const;
+                       const ode::OutputGrid& grid, ode::FlowObserver& observer,
+                       bool jacobian = false) const;
   Case case_;
   std::unique_ptr<train::Assembled> a_;
   std::unique_ptr<ode::ExactEngine> engine_;           // "exact"
+  std::unique_ptr<ode::RigidSplit> split_;             // its free rotation split off, or none
   std::optional<ode::LinearSwitchedSystem> adaptive_;  // "dopri5" and "newmark"
   double newmark_step_s_ = 0;                          // "newmark": the step (s), else 0
   double fastest_period_s_ = 0, top_frequency_rad_s_ = 0;
