@@ -257,29 +257,30 @@ TEST(RigidSplit, TheLiftedJacobianIsTheWholeFlows) {
   }
 }
 
+// The refusal of splitting r = (1, 1, 1) off the line `x`, "" when it splits.
+std::string refusal(const Line& x) {
+  try {
+    RigidSplit(line_system(x), kFree, kMass);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
 // A direction a term acts on (a ground spring) or an observable reads (one body's coordinate
 // alone) is not free: refused saying which.
 TEST(RigidSplit, ADirectionSomethingActsOnOrReadsIsRefused) {
+  EXPECT_EQ(refusal(Line{}), "");
   Line grounded;
   grounded.ground = 1e3;
-  try {
-    RigidSplit(line_system(grounded), kFree, kMass);
-    FAIL() << "a ground spring was split off";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("acts on the free motion through the coordinates"),
-              std::string::npos)
-        << e.what();
-  }
+  EXPECT_NE(refusal(grounded).find("acts on the free motion through the coordinates"),
+            std::string::npos)
+      << refusal(grounded);
   Line read;
   read.read_body = 2;
-  try {
-    RigidSplit(line_system(read), kFree, kMass);
-    FAIL() << "an observable of the rotation was split off";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("observable 2 reads the free motion's coordinate"),
-              std::string::npos)
-        << e.what();
-  }
+  EXPECT_NE(refusal(read).find("observable 2 reads the free motion's coordinate"),
+            std::string::npos)
+      << refusal(read);
   EXPECT_THROW(RigidSplit(line_system(Line{}), Vector::Ones(2), kMass), std::invalid_argument);
 }
 
