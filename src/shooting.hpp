@@ -187,11 +187,14 @@ class CoupledShooting {
 //   body's state at any time is its prescription's, g);
 // - turning freely (no prescribed speed), the train's orbits are periodic modulo its rigid
 //   rotation, which no force of the train changes: the reference's angle is taken as 0 (each
-//   other angle counted from the rigid turn that keeps it so, theta_i - r_i theta_ref), and,
+//   other angle counted from the rigid turn that keeps it so, theta_i - (r_i / r_ref)
+//   theta_ref, and each other rate from the rigid rate that goes with the reference's,
+//   theta_i' - (r_i / r_ref) theta_ref'), and,
 //   when no viscous drag acts, the rigid momentum p = r^T J theta' is not an unknown either:
 //   the torques alone change it, p' = r^T T(t), and the phase condition that the train turns at
 //   its nominal speed on average (the mean of p over the period 0) fixes it, p(t) = sum r_q
-//   (A / w) sin(w t + phi) over the torques' harmonics, carried by the reference's rate. With a
+//   (A / w) sin(w t + phi) over the torques' harmonics, carried by the rigid rate
+//   r p(t) / (r^T J r) of every body. With a
 //   viscous drag the reference's rate stays an unknown (the drag damps the rigid rate).
 // Not copyable (the flow refers to the solver).
 class TrainShooting {
@@ -233,7 +236,8 @@ class TrainShooting {
   ode::Matrix lift_, project_;      // F and R above
   bool free_turning_ = false;
   int momentum_row_ = -1;         // the state's index that carries p(t) (the reference's rate)
-  HarmonicSeries momentum_rate_;  // p(t) / J_ref: the reference's rate at z' = 0
+  HarmonicSeries momentum_rate_;  // p(t) r_ref / (r^T J r): the reference's rate at z' = 0
+  Eigen::VectorXd rigid_rates_;   // r / r_ref: each rate's share of the reference's rigid rate
   std::vector<std::string> names_;
   int periods_;
   double system_period_s_ = 0, period_s_ = 0;

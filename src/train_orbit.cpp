@@ -66,22 +66,43 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
   lift_ = ode::Matrix::Zero(dim, k);
   project_ = ode::Matrix::Zero(k, dim);
   for (Eigen::Index j = 0; j < k; ++j) {
-    lift_(free_[static_cast<std::size_t>(j)], j) = 1;
-    project_(j, free_[static_cast<std::size_t>(j)]) = 1;
-    // An angle counted from the rigid turn that keeps the reference's at 0.
-    if (free_turning_ && free_[static_cast<std::size_t>(j)] < n)
-      project_(j, ref) -= r(free_[static_cast<std::size_t>(j)]) / r(ref);
+    const Eigen::Index i = free_[static_cast<std::size_t>(j)];
+    lift_(i, j) = 1;
+    project_(j, i) = 1;
+    // An angle counted from the rigid turn that keeps the reference's at 0, and a rate from
+    // the rigid rate that goes with the reference's: z_i = y_i - (r_i / r_ref) y_ref, so that
+    // y_i = z_i + (r_i / r_ref) y_ref. Measured so, the unknowns of the pair as a train are the
+    // one-degree model's deflection and its rate over the mesh's lever.
+    const Eigen::Index at = i % n, own_ref = i < n ? ref : n + ref;
+    if (free_turning_ && at != ref) project_(j, own_ref) -= r(at) / r(ref);
+  }
+  if (free_turning_ && viscous) {
+    // The reference's rate is an unknown: each other rate follows it.
+    const auto jr =
+        static_cast<Eigen::Index>(std::find(free_.begin(), free_.end(), n + ref) - free_.begin());
+    for (Eigen::Index j = 0; j < k; ++j) {
+      const Eigen::Index i = free_[static_cast<std::size_t>(j)];
+      if (i >= n && i != n + ref) lift_(i, jr) = r(i - n) / r(ref);
+    }
   }
   if (free_turning_ && !viscous) {
-    // The reference's rate carries the momentum: r_ref J_ref theta'_ref = p(t) - sum_i r_i J_i
-    // theta'_i over the others (the mass matrix is diagonal).
+    // The reference's rate carries the momentum: p(t) = sum_i r_i J_i theta'_i with each other
+    // rate theta'_i = z_i + (r_i / r_ref) theta'_ref, so theta'_ref (r^T J r) / r_ref = p(t) -
+    // sum_i r_i J_i z_i (the mass matrix is diagonal), and each other rate follows it.
     momentum_row_ = n + ref;
     const Eigen::MatrixXd& m = a.mass();
-    const double own = r(ref) * m(ref, ref);
+    const double own = r.dot(m.diagonal().cwiseProduct(r)) / r(ref);
     for (Eigen::Index j = 0; j < k; ++j) {
       const Eigen::Index i = free_[static_cast<std::size_t>(j)];
       if (i >= n) lift_(momentum_row_, j) = -r(i - n) * m(i - n, i - n) / own;
     }
+    for (Eigen::Index j = 0; j < k; ++j) {
+      const Eigen::Index i = free_[static_cast<std::size_t>(j)];
+      if (i < n) continue;
+      for (Eigen::Index col = 0; col < k; ++col)
+        lift_(i, col) += r(i - n) / r(ref) * lift_(momentum_row_, col);
+    }
+    rigid_rates_ = r / r(ref);
     for (std::size_t q = 0; q < t.torques.size(); ++q) {
       const double rq = r(a.index(t.torques[q].body));
       for (const Harmonic& h : a.torque_series(static_cast<int>(q)).terms)
@@ -116,7 +137,7 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
 
 ode::Vector TrainShooting::full(double t_s, const ode::Vector& z) const {
   ode::Vector y = lift_ * z;
-  if (momentum_row_ >= 0) y(momentum_row_) += momentum_rate_(t_s);
+  if (momentum_row_ >= 0) y.tail(rigid_rates_.size()) += momentum_rate_(t_s) * rigid_rates_;
   solver_.assembled().prescribe(t_s, y);
   return y;
 }

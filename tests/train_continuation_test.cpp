@@ -245,6 +245,11 @@ TEST(TrainContinuation, AFreelyTurningPairContinuesAsTheOneDegreeModel) {
   // impact a period, continued in speed: taken modulo its rigid rotation (train_orbit.hpp),
   // each point's orbit is the one-degree model's at that speed, its amplitude and impacts to
   // 1e-7 b. A mutant that keeps the rigid rotation among the unknowns makes Newton singular.
+  // Its unknowns, the wheel's angle and rate each counted from the rigid turn, are the one-degree
+  // model's delta and delta' over the mesh's lever, measured alike (b and b w_n): its branch
+  // takes the one-degree branch's steps, each point's speed to 1e-10 and state to 1e-8 of its
+  // scale. A mutant that takes the wheel's whole rate as the unknown (its measure then half the
+  // one-degree's: the pinion's rate shares it) moves the steps by some 1e-7.
   const auto [pair, train] = testing::light_pair();
   ContinuationOptions o;
   o.key = "train.reference_speed_hz";
@@ -254,6 +259,23 @@ TEST(TrainContinuation, AFreelyTurningPairContinuesAsTheOneDegreeModel) {
   ASSERT_TRUE(r.completed) << r.message;
   EXPECT_EQ(r.state_names, (std::vector<std::string>{"wheel_rad", "wheel_rad_s"}));
   ASSERT_GE(r.points.size(), 3U);
+  ContinuationOptions po = o;
+  po.key = "speed.shaft_frequency_hz";
+  const ContinuationResult q = continuation(pair, po);
+  ASSERT_TRUE(q.completed) << q.message;
+  ASSERT_EQ(q.points.size(), r.points.size());
+  const train::Assembled a = assembled_train(train);
+  const double lever = a.mesh_vector(0)(a.index("wheel")), b = a.train().meshes[0].backlash_m;
+  double w = 0;
+  for (const train::TrainMode& m : train::modes(a))
+    w = std::max(w, 2 * std::numbers::pi * m.frequency_hz);
+  for (std::size_t k = 0; k < r.points.size(); ++k) {
+    SCOPED_TRACE(k);
+    EXPECT_NEAR(r.points[k].param, q.points[k].param, 1e-10 * q.points[k].param);
+    EXPECT_NEAR(lever * r.points[k].orbit.state(0) / b, q.points[k].orbit.state(0) / b, 1e-8);
+    EXPECT_NEAR(lever * r.points[k].orbit.state(1) / (b * w), q.points[k].orbit.state(1) / (b * w),
+                1e-8);
+  }
   for (const std::size_t k : {std::size_t{0}, r.points.size() / 2, r.points.size() - 1}) {
     const BranchPoint& p = r.points[k];
     SCOPED_TRACE(p.param);
@@ -267,6 +289,42 @@ TEST(TrainContinuation, AFreelyTurningPairContinuesAsTheOneDegreeModel) {
     EXPECT_NEAR(p.orbit.reading.max_delta_bar, one.reading.max_delta_bar, 1e-7);
     EXPECT_NEAR(p.orbit.reading.min_delta_bar, one.reading.min_delta_bar, 1e-7);
   }
+}
+
+TEST(TrainContinuation, ThePapersPairAsATrainHasTheOneDegreeBranch) {
+  // The shipped Fig. 4(c) pair (docs/orbits.md's example) continued from 1000 down to 200 Hz,
+  // on the one-degree path and as its train (train_form_of): the branch turns back past the
+  // grazing at about 671 Hz on both, with as many points (104), the same stability at each, each
+  // point's speed and amplitude to 1e-7 and the grazing to 1e-11 of itself. Measured: 1e-8 at
+  // the turn, 4e-13 at the grazing. Before the train's rates were counted from the rigid rate,
+  // its branch had 103 points and its grazing was 2e-11 off.
+  const Case pair = load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010.toml");
+  ContinuationOptions o;
+  o.key = "speed.shaft_frequency_hz";
+  o.from = 1000;
+  o.to = 200;
+  const ContinuationResult one = continuation(pair, o);
+  o.key = "train.reference_speed_hz";
+  const ContinuationResult two = continuation(train_form_of(pair), o);
+  ASSERT_EQ(one.points.size(), two.points.size()) << one.message << " / " << two.message;
+  for (const ContinuationResult* r : {&one, &two})
+    EXPECT_NE(r->message.find("turned back"), std::string::npos) << r->message;
+  for (std::size_t k = 0; k < one.points.size(); ++k) {
+    SCOPED_TRACE(k);
+    const BranchPoint &p = one.points[k], &q = two.points[k];
+    EXPECT_NEAR(q.param, p.param, 1e-7 * p.param);
+    EXPECT_NEAR(q.orbit.reading.max_delta_bar, p.orbit.reading.max_delta_bar, 1e-7);
+    EXPECT_NEAR(q.orbit.reading.min_delta_bar, p.orbit.reading.min_delta_bar, 1e-7);
+    EXPECT_EQ(q.orbit.stable, p.orbit.stable);
+    EXPECT_EQ(q.orbit.reading.impacts, p.orbit.reading.impacts);
+  }
+  const auto grazing = [](const ContinuationResult& r) {
+    for (const Bifurcation& b : r.bifurcations)
+      if (b.type == BifurcationType::kGrazing) return b.param;
+    return 0.0;
+  };
+  ASSERT_GT(grazing(one), 600);
+  EXPECT_NEAR(grazing(two), grazing(one), 1e-11 * grazing(one));
 }
 
 }  // namespace
@@ -366,7 +424,8 @@ TEST(TrainContinuation, ALightlyLoadedPlanetarySetGrazesAndFolds) {
         solver.advance(0.0, static_state(solver.assembled()).value(), 200 * *period);
     ASSERT_TRUE(settled.ok()) << settled.message;
     // The orbit's unknowns: every coordinate but the reference's, counted from the rigid turn
-    // that keeps the reference's at 0, then their rates (train_orbit.hpp).
+    // that keeps the reference's at 0, then their rates, counted from the rigid rate that goes
+    // with the reference's (train_orbit.hpp).
     const train::Assembled& a = solver.assembled();
     const Eigen::VectorXd rigid = a.rigid_motions().col(0);
     const int n = a.size(), ref = a.index(a.train().reference);
@@ -374,7 +433,7 @@ TEST(TrainContinuation, ALightlyLoadedPlanetarySetGrazesAndFolds) {
     for (int i = 0; i < n; ++i) {
       if (i == ref) continue;
       z.push_back(settled.state(i) - rigid(i) / rigid(ref) * settled.state(ref));
-      rates.push_back(settled.state(n + i));
+      rates.push_back(settled.state(n + i) - rigid(i) / rigid(ref) * settled.state(n + ref));
     }
     z.insert(z.end(), rates.begin(), rates.end());
     o.start = Eigen::Map<const Eigen::VectorXd>(z.data(), static_cast<Eigen::Index>(z.size()));

@@ -295,13 +295,15 @@ TEST(TrainOrbit, AFreelyTurningTrainsMeanRigidSpeedIsItsNominalOne) {
   EXPECT_GT(*hi - *lo, 0);
   EXPECT_LT(std::abs(mean), 1e-6 * (*hi - *lo));
   // The multipliers against central differences of the period map of the unknowns (the idler's
-  // and the driven gear's angles with the driver's at 0, and their rates, the driver's rate
-  // from the momentum the orbit holds at the section), built here from the state.
+  // and the driven gear's angles and rates, each counted from the rigid turn that goes with the
+  // driver's: with the driver's angle at 0, its rate from the momentum the orbit holds at the
+  // section), built here from the state.
   const double p0 = momentum.dot(orbit.state.tail(3));
+  const Eigen::Vector3d share = r / r(0);  // each body's turn per turn of the driver
   const auto lift = [&](const Eigen::VectorXd& z) {
     ode::Vector y = ode::Vector::Zero(6);
-    y << 0, z(0), z(1), 0, z(2), z(3);
-    y(3) = (p0 - momentum(1) * z(2) - momentum(2) * z(3)) / momentum(0);
+    const double driver = (p0 - momentum(1) * z(2) - momentum(2) * z(3)) / momentum.dot(share);
+    y << 0, z(0), z(1), driver, z(2) + share(1) * driver, z(3) + share(2) * driver;
     return y;
   };
   const auto map = [&](const Eigen::VectorXd& z) {
@@ -309,7 +311,8 @@ TEST(TrainOrbit, AFreelyTurningTrainsMeanRigidSpeedIsItsNominalOne) {
     const ode::Vector y = lift(z);
     const ode::Vector e =
         engine.flow(0.0, y, a.classify(0.0, y), orbit.period_s, ode::OutputGrid{}, nothing).state;
-    return Eigen::Vector4d(e(1) - r(1) * e(0), e(2) - r(2) * e(0), e(4), e(5));
+    return Eigen::Vector4d(e(1) - share(1) * e(0), e(2) - share(2) * e(0), e(4) - share(1) * e(3),
+                           e(5) - share(2) * e(3));
   };
   EXPECT_LT((lift(orbit.unknowns) - orbit.state).norm(), 1e-12 * orbit.state.norm());
   double w = 0;

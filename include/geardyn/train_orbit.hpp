@@ -8,7 +8,9 @@
 // with no prescribed body turns freely: its orbits are periodic modulo its rigid rotation,
 // which no force of the train changes (a multiplier 1 that no damping moves) and which the
 // torques alone accelerate. They are taken with the reference's angle at 0 (every other angle
-// counted from the rigid turn that keeps it so) and, without a viscous drag, with the rigid
+// counted from the rigid turn that keeps it so, every other rate from the rigid rate that goes
+// with the reference's: the pair's unknowns are then the one-degree model's delta and delta'
+// over the mesh's lever) and, without a viscous drag, with the rigid
 // momentum fixed by the phase condition that the train turns at its nominal speed on average
 // (shooting.hpp, TrainShooting): the two neutral multipliers of the rigid rotation are then
 // not among the multipliers. With a viscous drag the reference's rate is an unknown and its
