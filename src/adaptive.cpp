@@ -4,18 +4,24 @@
 
 #include <Eigen/QR>
 #include <algorithm>
-#include <boost/math/tools/toms748_solve.hpp>
 #include <boost/numeric/odeint.hpp>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "guard_crossing.hpp"
 
 namespace geardyn::ode {
 namespace {
 
 using Values = std::vector<double>;  // the stepper's state type
+// A contact change is located in time to this many bits, in at most so many evaluations of the
+// dense output (guard_crossing.hpp).
+constexpr int kCrossingBits = 50;
+constexpr std::uintmax_t kCrossingMaxIterations = 100;
 
 }  // namespace
 
@@ -218,33 +224,16 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
     guard_values(te, xe);
     const std::vector<LinearGuard>& gs = system.region(region).guards;
     // The earliest crossing among the guards that ended the step below their slack.
-    int crossed = -1;
-    double tc = te;
-    for (std::size_t i = 0; i < gs.size(); ++i) {
-      if (!(values[i] < crossed_below(gs[i]))) continue;
-      const std::vector<LinearGuard> single = {gs[i]};
-      const FunctionalValues one(system, single);
-      std::vector<double> v;
-      const auto g = [&](double tt) {
-        stepper.calc_state(tt, xs);
-        one(tt, as_vector(xs), v);
-        return v[0] - crossed_below(gs[i]);
-      };
-      double at = te;
-      const double ta = std::max(t, stepper.previous_time());
-      if (g(ta) < 0) {
-        at = ta;  // below at the step's start already: the region is left there
-      } else {
-        std::uintmax_t iterations = 100;
-        at = boost::math::tools::toms748_solve(
-                 g, ta, te, boost::math::tools::eps_tolerance<double>(50), iterations)
-                 .second;
-      }
-      if (crossed < 0 || at < tc) {
-        crossed = static_cast<int>(i);
-        tc = at;
-      }
-    }
+    const GuardCrossing c = earliest_crossing(
+        system, gs, values, std::max(t, stepper.previous_time()), te,
+        [&](double tt, Vector& at) {
+          stepper.calc_state(tt, xs);
+          at = Eigen::Map<const Vector>(xs.data(), n);
+          return tt;
+        },
+        kCrossingBits, kCrossingMaxIterations);
+    const int crossed = c.guard;
+    const double tc = c.at;
     if (crossed >= 0) {
       stepper.calc_state(tc, xe);
       sample_until(tc, false);

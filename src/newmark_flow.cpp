@@ -4,7 +4,6 @@
 
 #include <Eigen/LU>
 #include <algorithm>
-#include <boost/math/tools/toms748_solve.hpp>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -12,6 +11,8 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "guard_crossing.hpp"
 
 namespace geardyn::ode {
 namespace {
@@ -216,35 +217,20 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
         break;
       }
       // The earliest crossing among the guards that ended the step below their slack.
-      int first = -1;
-      double at_h = h;
-      for (std::size_t i = 0; i < gs.size(); ++i) {
-        if (!(values[i] < crossed_below(gs[i]))) continue;
-        const std::vector<LinearGuard> single = {gs[i]};
-        const FunctionalValues one(system, single);
-        std::vector<double> v;
-        const auto g = [&](double hh) {
-          if (hh > 0) {
-            step(p, hh, sub);
-          } else {
-            sub = p;
-          }
-          one(p.t + hh, state(sub), v);
-          return v[0] - crossed_below(gs[i]);
-        };
-        double hi = 0.0;  // below at the step's start already: the region is left there
-        if (const double g0 = g(0.0); g0 > 0) {
-          std::uintmax_t iterations = kTransitionMaxIterations;
-          hi = boost::math::tools::toms748_solve(
-                   g, 0.0, h, g0, values[i] - crossed_below(gs[i]),
-                   boost::math::tools::eps_tolerance<double>(kTransitionBits), iterations)
-                   .second;  // the side on which the guard has turned negative
-        }
-        if (first < 0 || hi < at_h) {
-          first = static_cast<int>(i);
-          at_h = hi;
-        }
-      }
+      const GuardCrossing c = earliest_crossing(
+          system, gs, values, 0.0, h,
+          [&](double hh, Vector& y_at) {
+            if (hh > 0) {
+              step(p, hh, sub);
+            } else {
+              sub = p;
+            }
+            y_at = state(sub);
+            return p.t + hh;
+          },
+          kTransitionBits, kTransitionMaxIterations);
+      const int first = c.guard;
+      const double at_h = c.at;
       Point at = p;
       if (at_h > 0) {
         step(p, at_h, at);
