@@ -330,6 +330,41 @@ TEST(TrainOrbit, AFreelyTurningTrainsMeanRigidSpeedIsItsNominalOne) {
   EXPECT_GT((d.inverse() * orbit.monodromy * d).norm(), 1e-8);  // not nothing
 }
 
+TEST(TrainOrbit, AViscousDragKeepsTheRigidRateAnUnknownThatTheOtherRatesFollow) {
+  // The light pair as a train with an oil drag on the wheel's speed fluctuation: the drag damps
+  // the rigid rate, so the reference's (the pinion's) rate is an unknown beside the wheel's
+  // angle and rate, each counted from the rigid turn and rate that go with the pinion's. Its
+  // three multipliers are inside the unit circle. The whole state at the section is the unknowns
+  // lifted (the wheel's rate its own unknown plus its share of the pinion's), and taking the
+  // unknowns of that state gives it back. A mutant whose lift leaves out the wheel's share of the
+  // pinion's rate fails both.
+  Case train = testing::light_pair().second;
+  set_case_value(train, {"train.drag",
+                         "[{name = \"oil\", body = \"wheel\", "
+                         "viscous_n_m_s_per_rad = 0.01}]"});
+  OrbitOptions o;
+  o.settle_periods = 200;
+  const TrainOrbit orbit = find_train_orbit(train, o);
+  ASSERT_TRUE(orbit.converged) << orbit.message;
+  EXPECT_TRUE(orbit.modulo_rotation);
+  ASSERT_EQ(orbit.coordinates,
+            (std::vector<std::string>{"wheel_rad", "pinion_rad_s", "wheel_rad_s"}));
+  ASSERT_EQ(orbit.multipliers.size(), 3U);
+  EXPECT_LT(orbit.max_multiplier(), 1);
+  const train::Assembled a = assembled_train(train);
+  const Eigen::VectorXd r = a.rigid_motions().col(0);
+  const int pinion = a.index("pinion"), wheel = a.index("wheel"), n = a.size();
+  const double share = r(wheel) / r(pinion);
+  EXPECT_EQ(orbit.state(pinion), 0);
+  EXPECT_NEAR(orbit.state(wheel), orbit.unknowns(0), 1e-15);
+  EXPECT_NEAR(orbit.state(n + pinion), orbit.unknowns(1), 1e-15);
+  EXPECT_NEAR(orbit.state(n + wheel), orbit.unknowns(2) + share * orbit.unknowns(1),
+              1e-12 * std::abs(orbit.state(n + wheel)) + 1e-15);
+  EXPECT_GT(std::abs(orbit.unknowns(1)), 1e-6 * std::abs(orbit.unknowns(2)));  // not nothing
+  const ode::Vector back = train_orbit_state(train, train_orbit_unknowns(train, orbit.state));
+  EXPECT_LT((back - orbit.state).norm(), 1e-12 * orbit.state.norm());
+}
+
 TEST(TrainOrbit, NewtonStartsWhereItIsToldAndFindsTheSameOrbit) {
   // The loose gear's unstable rattle (above): from its own unknowns Newton has nothing to do;
   // from a start 1e-4 of the section's scale away (no settling: an unstable orbit that the run
