@@ -111,10 +111,79 @@ void write_load_sharing_figure(const fs::path& dir, const TrainRunResult& r) {
                 300 * static_cast<int>(std::max<std::size_t>(r.load_sharing.size(), 1)));
 }
 
+// Each mesh's amplitude spectra over the steady part (mesh_spectra), a row per mesh on log axes
+// as the one-degree run's run_spectrum: F / (b k_m) and (d - e) / b, the mesh's own orders
+// i f_z dashed and the other meshes' frequencies dotted in their colours, from
+// train_spectrum.csv (frequency_hz, then each mesh's <mesh>_force_bar and <mesh>_deflection_bar
+// amplitudes). Nothing without a spectrum (fewer than 4 samples in the steady part).
+void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r) {
+  std::vector<MeshSpectra> spectra;
+  for (std::size_t m = 0; m < r.meshes.size(); ++m) spectra.push_back(mesh_spectra(r, m));
+  if (spectra.empty() || spectra[0].force_n.frequency_hz.size() < 2) return;
+  const std::vector<double>& f = spectra[0].force_n.frequency_hz;
+  std::string csv = "frequency_hz";
+  for (const TrainMeshReading& m : r.meshes)
+    csv += fmt::format(",{0}_force_bar,{0}_deflection_bar", m.name);
+  csv += "\n";
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    fmt::format_to(std::back_inserter(csv), "{:.10g}", f[k]);
+    for (std::size_t m = 0; m < r.meshes.size(); ++m) {
+      const TrainMeshReading& x = r.meshes[m];
+      fmt::format_to(std::back_inserter(csv), ",{:.6e},{:.6e}",
+                     spectra[m].force_n.amplitude[k] / (x.backlash_m * x.mean_stiffness_n_per_m),
+                     spectra[m].deflection_bar.amplitude[k]);
+    }
+    csv += "\n";
+  }
+  write_files_atomically(dir, {{"train_spectrum.csv", [&](std::ostream& o) { o << csv; }}});
+  double top = 0;
+  for (const TrainMeshReading& m : r.meshes) top = std::max(top, m.mesh_frequency_hz);
+  const double x_min = f[1], x_max = std::min(f.back(), 4.0 * std::max(top, f[1]));
+  std::string g =
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set logscale xy\nset key bottom left font ',9' opaque\nset ylabel 'amplitude'\n";
+  fmt::format_to(std::back_inserter(g),
+                 "set multiplot layout {},1 title \"{}: spectra over the steady part, t >= {:.4g} "
+                 "ms\"\nset xrange [{}:{}]\n",
+                 r.meshes.size(), quoted(r.input.name), r.steady.from_s * 1e3, x_min, x_max);
+  for (std::size_t m = 0; m < r.meshes.size(); ++m) {
+    const TrainMeshReading& x = r.meshes[m];
+    std::string marks;
+    for (int i = 1; i <= 20 && i * x.mesh_frequency_hz <= x_max; ++i)
+      if (i * x.mesh_frequency_hz >= x_min)
+        fmt::format_to(std::back_inserter(marks),
+                       "set arrow from {0}, graph 0 to {0}, graph 1 nohead dt 2 lc rgb 'gray40'\n",
+                       i * x.mesh_frequency_hz);
+    for (std::size_t o = 0; o < r.meshes.size(); ++o) {
+      const double fo = r.meshes[o].mesh_frequency_hz;
+      if (o != m && fo >= x_min && fo <= x_max)
+        fmt::format_to(std::back_inserter(marks),
+                       "set arrow from {0}, graph 0 to {0}, graph 1 nohead dt 3 lc rgb '{1}'\n", fo,
+                       colour(o));
+    }
+    // Its columns: the force, then the deflection.
+    const std::size_t force = 2 + 2 * m, deflection = force + 1;
+    fmt::format_to(
+        std::back_inserter(g),
+        "unset arrow\n{0}set title \"mesh {1} ({2:.6g} Hz)\" font ',10'\n{3}"
+        "plot 'train_spectrum.csv' using 1:((${4}>0)?${4}:NaN) skip 1 with lines lw 1.2 lc rgb "
+        "'{6}' title 'F / (b k_m)', '' using 1:((${5}>0)?${5}:NaN) skip 1 with lines lw 1 lc "
+        "rgb 'gray40' title '(d − e) / b', NaN with lines dt 2 lc rgb 'gray40' title 'mesh "
+        "orders i f_z'\n",
+        marks, quoted(x.name), x.mesh_frequency_hz,
+        m + 1 == r.meshes.size() ? "set xlabel 'frequency (Hz)'\n" : "unset xlabel\n", force,
+        deflection, colour(m));
+  }
+  g += "unset multiplot\n";
+  render_figure(dir, "train_spectrum", g, 1000,
+                260 * static_cast<int>(std::max<std::size_t>(r.meshes.size(), 1)));
+}
+
 }  // namespace
 
 void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
   if (!r.load_sharing.empty()) write_load_sharing_figure(dir, r);
+  write_train_spectrum_figure(dir, r);
   const TrainSamples& s = r.samples;
   const std::size_t meshes = r.meshes.size(), shafts = r.shafts.size(),
                     bearings = r.bearings.size();

@@ -177,6 +177,7 @@ bool TrainShooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& s
     return false;
   }
   orbit.readings = r.meshes;
+  orbit.sequence = r.contact_events;
   orbit.clearances.clear();
   orbit.clearance_readings.clear();
   const train::Assembled& a = solver_.assembled();
@@ -291,6 +292,19 @@ ode::Vector train_orbit_unknowns(const Case& c, const ode::Vector& state) {
   return s.reduce(state);
 }
 
+namespace {
+// One part's contact changes of an orbit's period, as the one-degree orbit's sequence (orbit.hpp):
+// [{t_s, event, velocity_m_s}].
+nlohmann::json sequence_json(const std::vector<TrainContactEvent>& sequence, int part) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const TrainContactEvent& e : sequence)
+    if (e.part == part)
+      out.push_back(
+          {{"t_s", e.t_s}, {"event", to_string(e.kind)}, {"velocity_m_s", e.velocity_m_s}});
+  return out;
+}
+}  // namespace
+
 std::string train_orbit_json(const TrainOrbit& o, int indent) {
   nlohmann::json j = detail::periodic_json(o);
   j["model"] = "train";
@@ -308,19 +322,24 @@ std::string train_orbit_json(const TrainOrbit& o, int indent) {
       mesh["impacts_per_period"] = o.impacts_per_period[m];
       mesh["backside_impacts_per_period"] = o.backside_impacts_per_period[m];
       const TrainMeshReading& x = o.readings[m];
+      mesh["separations_per_period"] = x.separations;
       mesh["min_deflection_bar"] = x.min_deflection_m / x.backlash_m;
       mesh["max_deflection_bar"] = x.max_deflection_m / x.backlash_m;
       mesh["min_force_n"] = x.min_force_n;
       mesh["max_force_n"] = x.max_force_n;
+      mesh["max_impact_velocity_m_s"] = x.max_impact_velocity_m_s;
+      mesh["sequence"] = sequence_json(o.sequence, static_cast<int>(m));
     }
     meshes.push_back(mesh);
   }
   j["meshes"] = meshes;
   nlohmann::json clearances = nlohmann::json::array();
   for (std::size_t k = 0; k < o.clearances.size(); ++k)
-    clearances.push_back({{"name", o.clearances[k]},
-                          {"impacts_per_period", o.clearance_readings[k].impacts},
-                          {"separations_per_period", o.clearance_readings[k].separations}});
+    clearances.push_back(
+        {{"name", o.clearances[k]},
+         {"impacts_per_period", o.clearance_readings[k].impacts},
+         {"separations_per_period", o.clearance_readings[k].separations},
+         {"sequence", sequence_json(o.sequence, static_cast<int>(o.meshes.size() + k))}});
   j["clearances"] = clearances;
   return j.dump(indent);
 }

@@ -62,6 +62,19 @@ class TrainObserver : public ode::FlowObserver {
         whole_parts_(sys.region(0).observables.size() - first_part_, kNoExtremes),
         sys_(sys) {
     for (const int state : states_) trackers_.emplace_back(t0, t1, final_from, state);
+    // The rows whose product with q' is each nonlinearity's rate: a mesh's V (less its error's
+    // rate), a clearance direction's row of its bearing's B.
+    const Eigen::Index n = a.size();
+    rate_rows_.resize(static_cast<Eigen::Index>(states_.size() + a.clearances().size()), n);
+    for (std::size_t m = 0; m < states_.size(); ++m) {
+      rate_rows_.row(static_cast<Eigen::Index>(m)) = a.mesh_vector(static_cast<int>(m));
+      errors_.push_back(a.error_series(static_cast<int>(m)));
+    }
+    for (std::size_t j = 0; j < a.clearances().size(); ++j) {
+      const auto [bearing, axis] = a.clearances()[j];
+      rate_rows_.row(static_cast<Eigen::Index>(states_.size() + j)) =
+          a.bearing_matrix(bearing).row(axis);
+    }
     clearance_states_ = a.clearance_states(region);
     for (const int state : clearance_states_) gaps_.emplace_back(t0, t1, final_from, state);
     // Each region's readers, made when the flow first enters it (region()).
@@ -79,7 +92,7 @@ class TrainObserver : public ode::FlowObserver {
     for (const int state : states_) part_trackers_.emplace_back(t, t1_, t, state);
     part_gaps_.clear();
     for (const int state : clearance_states_) part_gaps_.emplace_back(t, t1_, t, state);
-    part_.assign(states_.size(), Extremes{});
+    part_.assign(states_.size(), Tally{});
     part_parts_.assign(whole_parts_.size(), kNoExtremes);
   }
 
@@ -113,12 +126,18 @@ class TrainObserver : public ode::FlowObserver {
     for (std::size_t k = 0; k < whole_parts_.size(); ++k) point_part(k, values_[first_part_ + k]);
   }
 
-  void on_event(double t, const ode::Vector&, int from, int to) override {
+  void on_event(double t, const ode::Vector& y, int from, int to) override {
     const std::vector<int> a = a_.states(from), b = a_.states(to);
     for (std::size_t m = 0; m < a.size(); ++m) {
       if (a[m] == b[m]) continue;
       trackers_[m].change(t, b[m]);
       if (!part_trackers_.empty()) part_trackers_[m].change(t, b[m]);
+      if ((a[m] == 0) == (b[m] == 0)) continue;  // clipping inside contact
+      const double v = rate(m, t, y) - errors_[m].rate(t);
+      add_event(t, m, a[m], b[m], v);
+      if (a[m] != 0) continue;
+      for (Tally* x : {&whole_[m], part_.empty() ? nullptr : &part_[m]})
+        if (x) x->max_impact_velocity = std::max(x->max_impact_velocity, std::abs(v));
     }
     states_ = b;
     const std::vector<int> c = a_.clearance_states(to);
@@ -126,6 +145,8 @@ class TrainObserver : public ode::FlowObserver {
       if (c[j] == clearance_states_[j]) continue;
       gaps_[j].change(t, c[j]);
       if (!part_gaps_.empty()) part_gaps_[j].change(t, c[j]);
+      const std::size_t k = states_.size() + j;
+      add_event(t, k, clearance_states_[j], c[j], rate(k, t, y));
     }
     clearance_states_ = c;
   }
@@ -143,6 +164,8 @@ class TrainObserver : public ode::FlowObserver {
       d[m] = values_[2 * m] / out_.meshes[m].backlash_m;
       f[m] = values_[2 * m + 1];
       point(m, values_[2 * m], f[m]);  // a sample is a point of the window too
+      whole_[m].add_sample(values_[2 * m], f[m]);
+      if (!part_.empty()) part_[m].add_sample(values_[2 * m], f[m]);
     }
     s.contact.push_back(states);
     double* parts = s.parts.append(whole_parts_.size());
@@ -233,28 +256,65 @@ class TrainObserver : public ode::FlowObserver {
   }
 
  private:
-  // The extremes of one mesh over a stretch: F (N) and d - e (m), at indices 2 m + 1 and 2 m
-  // of the observables.
-  struct Extremes {
+  // What is read of one mesh over a stretch beside its contact history: the extremes of F (N)
+  // and d - e (m), at indices 2 m + 1 and 2 m of the observables; the largest impact velocity;
+  // the sums over the output samples.
+  struct Tally {
     double max_force = -kInf, min_force = kInf, max_deflection = -kInf, min_deflection = kInf;
+    double max_impact_velocity = 0;
+    double sum_force = 0, sum_force2 = 0, sum_deflection = 0, sum_deflection2 = 0;
+    std::int64_t samples = 0;
     double& at(int k, bool maximum) {
       if (k % 2 == 1) return maximum ? max_force : min_force;
       return maximum ? max_deflection : min_deflection;
     }
+    void add_sample(double deflection, double force) {
+      sum_force += force;
+      sum_force2 += force * force;
+      sum_deflection += deflection;
+      sum_deflection2 += deflection * deflection;
+      ++samples;
+    }
   };
-  static TrainMeshPart reading(ContactTracker& tracker, const Extremes& x) {
+  static TrainMeshPart reading(ContactTracker& tracker, const Tally& x) {
     TrainMeshPart r;
     static_cast<ContactReading&>(r) = tracker.reading();
     r.max_force_n = x.max_force;
     r.min_force_n = x.min_force;
     r.max_deflection_m = x.max_deflection;
     r.min_deflection_m = x.min_deflection;
+    r.max_impact_velocity_m_s = x.max_impact_velocity;
+    if (x.samples > 0) {
+      const auto n = static_cast<double>(x.samples);
+      r.mean_force_n = x.sum_force / n;
+      r.rms_force_n = std::sqrt(x.sum_force2 / n);
+      r.mean_deflection_m = x.sum_deflection / n;
+      r.rms_deflection_m = std::sqrt(x.sum_deflection2 / n);
+    }
     return r;
+  }
+  // Nonlinearity k's rate (rate_rows_' row k times q') at an event's state y, the stepped one
+  // (lifted to the whole train's when a free rotation is split off; no mesh or clearance moves
+  // with the rotation, so its rate is the whole train's).
+  double rate(std::size_t k, double t, const ode::Vector& y) {
+    const Eigen::Index n = a_.size();
+    const auto row = rate_rows_.row(static_cast<Eigen::Index>(k));
+    if (!split_) return row.dot(y.tail(n));
+    lifted_ = split_->lift(lift_t0_, lift_rigid0_, t, y);
+    return row.dot(lifted_.tail(n));
+  }
+  // Records a contact change of nonlinearity k from state `from` to `to` (1, 0, -1; 2 and -2
+  // clipped) with its rate v.
+  void add_event(double t, std::size_t k, int from, int to, double v) {
+    const EventKind kind = from != 0 ? EventKind::kSeparation
+                           : to < 0  ? EventKind::kBacksideImpact
+                                     : EventKind::kImpact;
+    out_.contact_events.push_back({t, static_cast<int>(k), kind, v});
   }
   // The extremes a new value must beat to change a reading: the part's once marked (within the
   // whole's), else the whole's.
-  Extremes& latest(std::size_t m) { return part_.empty() ? whole_[m] : part_[m]; }
-  const Extremes& latest(std::size_t m) const { return part_.empty() ? whole_[m] : part_[m]; }
+  Tally& latest(std::size_t m) { return part_.empty() ? whole_[m] : part_[m]; }
+  const Tally& latest(std::size_t m) const { return part_.empty() ? whole_[m] : part_[m]; }
   void note(std::size_t m, int k, bool maximum, double v) {
     double& w = whole_[m].at(k, maximum);
     w = maximum ? std::max(w, v) : std::min(w, v);
@@ -275,7 +335,7 @@ class TrainObserver : public ode::FlowObserver {
   }
   bool any_room() const {
     for (std::size_t m = 0; m < states_.size(); ++m) {
-      const Extremes& x = latest(m);
+      const Tally& x = latest(m);
       const std::size_t d = 2 * m, f = d + 1;
       if (high_[f] > x.max_force || low_[f] < x.min_force) return true;
       if (high_[d] > x.max_deflection || low_[d] < x.min_deflection) return true;
@@ -326,7 +386,10 @@ class TrainObserver : public ode::FlowObserver {
   // Each clearance direction's (train::Assembled::clearances()) state now and its trackers.
   std::vector<int> clearance_states_;
   std::vector<ContactTracker> gaps_, part_gaps_;
-  std::vector<Extremes> whole_, part_;  // part_ empty until marked
+  std::vector<Tally> whole_, part_;     // part_ empty until marked
+  Eigen::MatrixXd rate_rows_;           // each mesh's V, then each clearance direction's row of B
+  std::vector<HarmonicSeries> errors_;  // each mesh's e(t)
+  ode::Vector lifted_;                  // rate()'s lifted state
   // The shafts' and bearings' observables, from first_part_ on: {max, min} of each.
   static constexpr std::array<double, 2> kNoExtremes = {-kInf, kInf};
   std::size_t first_part_;
@@ -786,7 +849,10 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     if (t.mesh_phase_from_layout) r.layout_phase = a.mesh_phases()[m];
     if (rest) r.static_force_n = static_forces[m];
     result.meshes.push_back(r);
+    result.contact_parts.push_back(r.name);
   }
+  for (int j = 0; j < static_cast<int>(a.clearances().size()); ++j)
+    result.contact_parts.push_back(a.clearance_name(j));
   add_parts(a, rest, result);
 
   const int region = a.classify(t0_s, y0);
@@ -938,9 +1004,28 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   TrainRunResult result =
       solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval), final_from,
                   solver.assembled().system_period_s().value_or(0), options.progress);
+  result.output_interval_s = interval;
+  for (std::size_t m = 0; m < result.meshes.size(); ++m) {
+    const MeshSpectra s = mesh_spectra(result, m);
+    result.meshes[m].force_peaks = dominant_peaks(s.force_n, kReportedPeaks);
+    result.meshes[m].deflection_peaks = dominant_peaks(s.deflection_bar, kReportedPeaks);
+  }
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
+}
+
+MeshSpectra mesh_spectra(const TrainRunResult& r, std::size_t m) {
+  const TrainSamples& s = r.samples;
+  std::vector<double> force, deflection;
+  for (std::size_t i = 0; i < s.t_s.size(); ++i) {
+    if (s.t_s[i] < r.steady.from_s) continue;
+    force.push_back(s.force_n[i][m]);
+    deflection.push_back(s.deflection_bar[i][m]);
+  }
+  if (!(r.output_interval_s > 0)) return {};
+  return {amplitude_spectrum(force, r.output_interval_s),
+          amplitude_spectrum(deflection, r.output_interval_s)};
 }
 
 namespace {
@@ -963,6 +1048,18 @@ void part_json(nlohmann::ordered_json& x, const TrainMeshPart& m, double backlas
   x["min_force_n"] = m.min_force_n;
   x["max_deflection_bar"] = m.max_deflection_m / backlash_m;
   x["min_deflection_bar"] = m.min_deflection_m / backlash_m;
+  x["max_impact_velocity_m_s"] = m.max_impact_velocity_m_s;
+  x["mean_force_n"] = m.mean_force_n;
+  x["rms_force_n"] = m.rms_force_n;
+  x["mean_deflection_bar"] = m.mean_deflection_m / backlash_m;
+  x["rms_deflection_bar"] = m.rms_deflection_m / backlash_m;
+}
+// Spectral peaks as the one-degree summary's: [{frequency_hz, amplitude}], largest first.
+nlohmann::ordered_json peaks_json(const std::vector<SpectralPeak>& peaks) {
+  nlohmann::ordered_json a = nlohmann::ordered_json::array();
+  for (const SpectralPeak& p : peaks)
+    a.push_back({{"frequency_hz", p.frequency_hz}, {"amplitude", p.amplitude}});
+  return a;
 }
 // A bearing clearance direction's contact history (summary.json's "clearance_x", "_y").
 nlohmann::ordered_json clearance_json(const ContactReading& whole, const ContactReading& steady) {
@@ -1052,6 +1149,8 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     x["static_force_n"] = optional_json(m.static_force_n);
     x["dynamic_factor"] = optional_json(m.dynamic_factor);
     x["dynamic_factor_with_startup"] = optional_json(m.dynamic_factor_with_startup);
+    x["spectrum"] = {{"force_n", peaks_json(m.force_peaks)},
+                     {"deflection_bar", peaks_json(m.deflection_peaks)}};
     meshes.push_back(x);
   }
   j["meshes"] = meshes;
@@ -1122,6 +1221,14 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
     csv.end_row();
   }
   csv.finish();
+}
+
+void write_train_events_csv(std::ostream& out, const TrainRunResult& r) {
+  out << "t_s,part,kind,velocity_m_s\n";
+  for (const TrainContactEvent& e : r.contact_events)
+    out << fmt::format("{:.15g},{},{},{:.10g}\n", e.t_s,
+                       r.contact_parts[static_cast<std::size_t>(e.part)], to_string(e.kind),
+                       e.velocity_m_s);
 }
 
 std::string train_modes_json(const train::Assembled& a, const std::vector<train::TrainMode>& m,

@@ -657,6 +657,7 @@ TEST(Cli, AFileOfTheUsersUnderOneOfOurNamesStopsTheCommandBeforeItsWork) {
   const std::vector<std::pair<std::string, std::string>> commands = {
       {"run --set solver.duration_s=0.002", "events.csv"},
       {"run " + reducer + " --set solver.duration_s=0.002", "timeseries.csv"},
+      {"run " + reducer + " --set solver.duration_s=0.002", "events.csv"},
       {"sweep --set model.form=nondimensional --param model.omega --from 0.8 --to 1.2 --points 3",
        "strobe.csv"},
       {"continue --set model.form=nondimensional --set model.force_alternating=0.02 "
@@ -1135,6 +1136,17 @@ TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
                        "half_shafts_torque_nm\n0,",
                        0),
             0U);
+  // The spectra: a row per mesh, each drawing its own columns of train_spectrum.csv with its
+  // orders marked.
+  const std::string spectrum = slurp(d / "train_spectrum_body.gp");
+  EXPECT_NE(spectrum.find("layout 2,1"), std::string::npos) << spectrum;
+  EXPECT_NE(spectrum.find("set title \"mesh stage2 (716.393 Hz)\""), std::string::npos);
+  EXPECT_NE(spectrum.find("using 1:(($4>0)?$4:NaN)"), std::string::npos) << spectrum;
+  EXPECT_NE(spectrum.find("set arrow from 2300, graph 0"), std::string::npos) << spectrum;
+  EXPECT_EQ(read_csv(d / "train_spectrum.csv").header,
+            "frequency_hz,stage1_force_bar,stage1_deflection_bar,stage2_force_bar,"
+            "stage2_deflection_bar");
+  EXPECT_GT(fs::file_size(d / "train_spectrum.png"), 100U);
   const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
   EXPECT_EQ(j["form"], "train");
   ASSERT_EQ(j["meshes"].size(), 2U);
@@ -1797,6 +1809,19 @@ TEST(Cli, TheLooseGearRattles) {
   EXPECT_EQ(j["regime"], "sustained");
   // 0.4 s at 25 Hz: ten periods; at least one impact in each.
   EXPECT_GE(j["impacts"].get<int>(), 10) << j;
+  // events.csv holds each of them, and each separation, by the mesh's name.
+  std::istringstream events(slurp(d / "events.csv"));
+  std::string row;
+  std::getline(events, row);
+  EXPECT_EQ(row, "t_s,part,kind,velocity_m_s");
+  std::int64_t impacts = 0, separations = 0;
+  while (std::getline(events, row)) {
+    impacts += row.find(",rattle,impact,") != std::string::npos ||
+               row.find(",rattle,backside_impact,") != std::string::npos;
+    separations += row.find(",rattle,separation,") != std::string::npos;
+  }
+  EXPECT_EQ(impacts, j["impacts"].get<std::int64_t>());
+  EXPECT_EQ(separations, j["separations"].get<std::int64_t>());
   fs::remove_all(d);
 }
 

@@ -462,6 +462,17 @@ TEST(TrainCase, TheAdaptiveIntegratorAgreesWithTheExactEngineThroughTheImpacts) 
   // exact ones, and close.
   EXPECT_LE(adaptive.meshes[0].max_force_n, exact.meshes[0].max_force_n * (1 + 1e-9));
   EXPECT_GT(adaptive.meshes[0].max_force_n, 0.99 * exact.meshes[0].max_force_n);
+  // Each located contact change, with the mesh's d' - e' there, is the exact engine's (31 of
+  // them; 2e-10 s and 4e-6 of the velocity measured, the rattle's sensitivity).
+  ASSERT_EQ(adaptive.contact_events.size(), exact.contact_events.size());
+  for (std::size_t k = 0; k < exact.contact_events.size(); ++k) {
+    const TrainContactEvent &e = exact.contact_events[k], &f = adaptive.contact_events[k];
+    EXPECT_EQ(f.kind, e.kind) << k;
+    EXPECT_NEAR(f.t_s, e.t_s, 1e-8) << k;
+    EXPECT_NEAR(f.velocity_m_s, e.velocity_m_s, 1e-4 * std::abs(e.velocity_m_s)) << k;
+  }
+  EXPECT_NEAR(adaptive.meshes[0].max_impact_velocity_m_s, exact.meshes[0].max_impact_velocity_m_s,
+              1e-4 * exact.meshes[0].max_impact_velocity_m_s);
 
   Case reducer = shipped_case("two_stage_reducer.toml", {{"solver.duration_s", "0.02"},
                                                          {"solver.output_interval_s", "1e-5"},
@@ -1426,6 +1437,118 @@ TEST(TrainCase, TheGearPairsFormsAreTrainsOfElements) {
     EXPECT_EQ(x.meshes.at(0).impacts, one.reading.impacts);
     EXPECT_GT(one.reading.impacts, 3);
   }
+}
+
+TEST(TrainCase, AMeshsEventsAndSampleMeansAreTheOneDegreeRuns) {
+  // The shipped pair with a transmission error, as its train form: every contact change the
+  // one-degree run locates is the train's (its time, its kind and delta' = d' - e' there), and
+  // the mesh's largest impact velocity, its means and RMS of F and of d - e over the output
+  // samples and its spectra's peaks are the one-degree reading's, over the window and over the
+  // steady part. A mutant
+  // that leaves e' out of the rate, or reads it from the state before the event's, fails the
+  // velocities; one that counts the start-up's samples in the part fails its means.
+  Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010.toml");
+  set_case_value(c, {"solver.duration_s", "0.1"});
+  set_case_value(c, {"mesh.transmission_error_um", "[[0.5, 30], [0.2, -60]]"});
+  const RunResult one = run(c);
+  ASSERT_TRUE(one.integration.ok()) << one.integration.message;
+  const TrainRunResult x = run_train(train_form_of(c));
+  ASSERT_TRUE(x.ok()) << x.message;
+  ASSERT_EQ(x.contact_parts, std::vector<std::string>{"mesh"});
+  ASSERT_EQ(x.contact_events.size(), one.events.size());
+  ASSERT_GT(one.events.size(), 10U);
+  double worst_t = 0, worst_v = 0;
+  for (std::size_t k = 0; k < one.events.size(); ++k) {
+    const ContactEvent& e = one.events[k];
+    const TrainContactEvent& f = x.contact_events[k];
+    EXPECT_EQ(f.part, 0);
+    EXPECT_EQ(f.kind, e.kind) << k;
+    worst_t = std::max(worst_t, std::abs(f.t_s - e.t_s));
+    worst_v =
+        std::max(worst_v, std::abs(f.velocity_m_s - e.velocity_m_s) / std::abs(e.velocity_m_s));
+  }
+  EXPECT_LT(worst_t, 1e-12);  // 1e-14 s measured
+  EXPECT_LT(worst_v, 1e-7);   // 6e-9 of itself measured, at a grazing impact
+  const GearPairParameters p = build_model(c).parameters();
+  const double b = p.backlash_m, force_scale = b * p.mean_stiffness_n_per_m();
+  const auto expect_reading = [&](const TrainMeshPart& m, const RunReading& r) {
+    EXPECT_NEAR(m.max_impact_velocity_m_s / r.max_impact_velocity_m_s, 1.0, 1e-8);
+    EXPECT_NEAR(m.mean_force_n / force_scale, r.mean_force_bar, 1e-8);
+    EXPECT_NEAR(m.rms_force_n / force_scale, r.rms_force_bar, 1e-8);
+    EXPECT_NEAR(m.mean_deflection_m / b, r.mean_delta_bar, 1e-8);
+    EXPECT_NEAR(m.rms_deflection_m / b, r.rms_delta_bar, 1e-8);
+  };
+  expect_reading(x.meshes[0], one.reading);
+  ASSERT_TRUE(x.steady.marked);
+  EXPECT_EQ(x.steady.from_s, one.steady.from_s);
+  expect_reading(x.meshes[0].steady, one.steady.reading);
+  // The spectra's peaks over the steady part are the one-degree run's: F's in b k_m, and d's.
+  const auto expect_peaks = [](const std::vector<SpectralPeak>& train,
+                               const std::vector<SpectralPeak>& pair, double scale) {
+    ASSERT_EQ(train.size(), pair.size());
+    ASSERT_EQ(pair.size(), kReportedPeaks);
+    for (std::size_t k = 0; k < pair.size(); ++k) {
+      EXPECT_NEAR(train[k].frequency_hz / pair[k].frequency_hz, 1.0, 1e-9) << k;
+      EXPECT_NEAR(train[k].amplitude / scale, pair[k].amplitude, 1e-8) << k;
+    }
+  };
+  expect_peaks(x.meshes[0].force_peaks, one.force_peaks, force_scale);
+  expect_peaks(x.meshes[0].deflection_peaks, one.delta_peaks, 1.0);
+  EXPECT_EQ(x.output_interval_s, one.derived.output_interval_s);
+}
+
+TEST(TrainCase, ABearingClearancesEventsCarryTheCentresVelocity) {
+  // The coupled pair with 5 um radial clearances at 600 Hz as its train: each clearance
+  // direction's events are its impacts and separations, in time order, and each one's rate is
+  // the centre's velocity along the direction, against a central difference of the centre's
+  // displacement flowed to just before and just after it. An impact against +c moves outwards
+  // (w' > 0), against -c inwards, and a separation leaves the side the last impact struck. A
+  // mutant that takes the other direction's row, or the mesh's, fails the differences.
+  const Case c = testing::coupled_with_clearances();
+  const TrainRunResult x = run_train(c);
+  ASSERT_TRUE(x.ok()) << x.message;
+  const TrainSolver solver(c);
+  const train::Assembled& a = solver.assembled();
+  ASSERT_EQ(x.contact_parts.size(), 1 + a.clearances().size());
+  ASSERT_GE(a.clearances().size(), 2U);
+  const ode::Vector y0 = solver.initial_state(c.solver.initial);
+  int checked = 0;
+  for (std::size_t j = 0; j < a.clearances().size(); ++j) {
+    const auto [bearing, axis] = a.clearances()[j];
+    const int part = static_cast<int>(1 + j);
+    EXPECT_EQ(x.contact_parts[static_cast<std::size_t>(part)],
+              a.clearance_name(static_cast<int>(j)));
+    const TrainBearingReading& r = x.bearings[static_cast<std::size_t>(bearing)];
+    const ContactReading& gap = axis == 0 ? r.clearance_x : r.clearance_y;
+    std::int64_t count = 0;
+    double last_t = 0;
+    EventKind last_impact = EventKind::kSeparation;
+    for (const TrainContactEvent& e : x.contact_events) {
+      if (e.part != part) continue;
+      ++count;
+      EXPECT_GE(e.t_s, last_t);
+      last_t = e.t_s;
+      const double sign = e.kind == EventKind::kImpact           ? 1.0
+                          : e.kind == EventKind::kBacksideImpact ? -1.0
+                          : last_impact == EventKind::kImpact    ? -1.0
+                                                                 : 1.0;
+      EXPECT_GT(sign * e.velocity_m_s, 0) << e.t_s;
+      if (e.kind != EventKind::kSeparation) last_impact = e.kind;
+      if (checked >= 6 || e.kind == EventKind::kSeparation) continue;
+      // w' from w at t -+ h, each flowed from the start.
+      constexpr double kH = 1e-8;
+      const auto w = [&](double t) {
+        const ode::FlowResult f = solver.advance(0, y0, t);
+        return a.bearing_matrix(bearing).row(axis).dot(f.state.head(a.size()));
+      };
+      EXPECT_NEAR(e.velocity_m_s, (w(e.t_s + kH) - w(e.t_s - kH)) / (2 * kH),
+                  1e-5 * std::abs(e.velocity_m_s))
+          << a.clearance_name(static_cast<int>(j)) << " at " << e.t_s;
+      ++checked;
+    }
+    EXPECT_EQ(count, gap.impacts + gap.separations);
+  }
+  EXPECT_GE(checked, 2);
 }
 
 TEST(TrainCase, ACoupledCaseRunsAsItsTrainWithTheCoupledModelsReadings) {

@@ -244,6 +244,20 @@ TEST(TrainOrbit, AFreelyTurningPairsRattlingOrbitIsTheOneDegreeModels) {
   ASSERT_EQ(one.multipliers.size(), 2U);
   for (std::size_t k = 0; k < 2; ++k)
     EXPECT_LT(std::abs(two.multipliers[k] - one.multipliers[k]), 1e-6) << k;
+  // Its contact sequence over the period is the one-degree orbit's: each change's kind, its
+  // time from the section and its velocity delta' = d' - e'.
+  ASSERT_EQ(two.sequence.size(), one.sequence.size());
+  ASSERT_GE(one.sequence.size(), 2U);
+  for (std::size_t k = 0; k < one.sequence.size(); ++k) {
+    EXPECT_EQ(two.sequence[k].part, 0);
+    EXPECT_EQ(two.sequence[k].kind, one.sequence[k].kind) << k;
+    EXPECT_NEAR(two.sequence[k].t_s / two.period_s, one.sequence[k].t_s / one.period_s, 1e-8);
+    EXPECT_NEAR(two.sequence[k].velocity_m_s / one.sequence[k].velocity_m_s, 1.0, 1e-6) << k;
+  }
+  EXPECT_EQ(
+      two.readings[0].max_impact_velocity_m_s,
+      std::abs(two.sequence[0].kind == EventKind::kSeparation ? two.sequence[1].velocity_m_s
+                                                              : two.sequence[0].velocity_m_s));
   // A period later the whole state is back: no drift of the rigid rotation.
   ode::EngineOptions eo;
   eo.tolerance = 1e-15;
@@ -454,6 +468,26 @@ TEST(TrainOrbit, TheCoupledPairsOrbitAsItsTrainIsTheCoupledModels) {
   const nlohmann::json j = nlohmann::json::parse(train_orbit_json(x));
   EXPECT_EQ(j["clearances"][1]["impacts_per_period"], one.reading.bearing[1].impacts);
   EXPECT_EQ(j["meshes"][0]["max_deflection_bar"].get<double>(), x.readings[0].max_deflection_m / b);
+  // Each part's sequence holds its impacts and separations of the period, in time order within
+  // the period.
+  const auto expect_sequence = [&](const nlohmann::json& part, std::int64_t impacts,
+                                   std::int64_t separations) {
+    std::int64_t hits = 0, leaves = 0;
+    double last = 0;
+    for (const nlohmann::json& e : part["sequence"]) {
+      (e["event"] == "separation" ? leaves : hits) += 1;
+      EXPECT_GE(e["t_s"].get<double>(), last);
+      last = e["t_s"].get<double>();
+    }
+    EXPECT_LE(last, x.period_s);
+    EXPECT_EQ(hits, impacts) << part["name"];
+    EXPECT_EQ(leaves, separations) << part["name"];
+  };
+  expect_sequence(j["meshes"][0], x.impacts_per_period[0], x.readings[0].separations);
+  for (std::size_t k = 0; k < 2; ++k)
+    expect_sequence(j["clearances"][k], x.clearance_readings[k].impacts,
+                    x.clearance_readings[k].separations);
+  EXPECT_GT(j["clearances"][0]["sequence"].size(), 0U);
 }
 
 }  // namespace

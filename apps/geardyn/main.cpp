@@ -199,7 +199,7 @@ void write_output(const std::string& dir, const std::string& command,
 // rather than after the work, at the commit (output_folder.hpp, which checks every file).
 const std::map<std::string_view, std::vector<std::string>>& command_files() {
   static const std::map<std::string_view, std::vector<std::string>> files{
-      {"run", {"summary.json", "timeseries.csv", "case.toml"}},  // a pair's: kPairRunFiles
+      {"run", {"summary.json", "timeseries.csv", "events.csv", "case.toml"}},
       {"sweep", {"sweep.csv", "strobe.csv", "summary.json"}},
       {"continue", {"branch.csv", "bifurcations.json", "bifurcations.csv"}},
       {"stability", {"stability.csv", "boundaries.json"}},
@@ -209,9 +209,6 @@ const std::map<std::string_view, std::vector<std::string>>& command_files() {
       {"validate", {"validation.md", "validation.html", "validation.json"}}};
   return files;
 }
-
-// What the one-degree forms' run writes besides a train's run.
-const std::vector<std::string> kPairRunFiles{"events.csv"};
 
 // Refuses an output folder holding a file that `command` would have to replace and that
 // geardyn did not write there (or that changed since): exit 2 before any work, nothing written.
@@ -355,10 +352,10 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
   print_steady_start(r.steady, "t", " s");
   for (const geardyn::TrainMeshReading& m : r.meshes) {
     fmt::print(
-        "  mesh {:<12} {:.6g} Hz: {}, {} impacts ({} back side), separated {:.2f} % of "
-        "the time\n",
+        "  mesh {:<12} {:.6g} Hz: {}, {} impacts ({} back side, max velocity {:.4g} m/s), "
+        "separated {:.2f} % of the time\n",
         m.name, m.mesh_frequency_hz, geardyn::to_string(m.regime), m.impacts, m.backside_impacts,
-        100 * m.separated_fraction);
+        m.max_impact_velocity_m_s, 100 * m.separated_fraction);
     fmt::print(
         "  {:<17} force {:.6g} to {:.6g} N, static {}, dynamic factor {} (steady part; with "
         "the start-up {})\n",
@@ -439,12 +436,14 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
           {{"summary.json",
             [&](std::ostream& o) { o << geardyn::train_summary_json(r, unused) << "\n"; }},
            {"timeseries.csv", [&](std::ostream& o) { geardyn::write_train_timeseries_csv(o, r); }},
+           {"events.csv", [&](std::ostream& o) { geardyn::write_train_events_csv(o, r); }},
            {"case.toml", [&](std::ostream& o) { o << geardyn::to_toml(c); }}});
       if (plot) geardyn::write_train_run_figures(d, r);
     });
-    fmt::print("  written to        {}/ (summary.json, timeseries.csv, case.toml)\n", out_dir);
+    fmt::print("  written to        {}/ (summary.json, timeseries.csv, events.csv, case.toml)\n",
+               out_dir);
     if (plot)
-      fmt::print("  figure            {}/train_time{} (.png, .svg, .gp)\n", out_dir,
+      fmt::print("  figures           {}/train_time, train_spectrum{} (.png, .svg, .gp)\n", out_dir,
                  r.load_sharing.empty() ? "" : ", load_sharing");
   }
   return interrupted ? kExitInterrupted : 0;
@@ -502,7 +501,7 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "run");
   const bool on_train =
       c.model.form == geardyn::ModelForm::kTrain || c.model.form == geardyn::ModelForm::kCoupled;
-  check_output_folder(out_dir, "run", on_train ? std::vector<std::string>{} : kPairRunFiles);
+  check_output_folder(out_dir, "run");
   if (on_train) {
     if (physical)
       throw geardyn::InputError(
@@ -877,6 +876,16 @@ int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
   for (std::size_t k = 0; k < r.clearances.size(); ++k)
     fmt::print("  clearance {:<12} {} impacts/period, separations {}\n", r.clearances[k],
                r.clearance_readings[k].impacts, r.clearance_readings[k].separations);
+  if (!r.sequence.empty()) {
+    fmt::print("  contact sequence  (time from the section)\n");
+    for (const geardyn::TrainContactEvent& e : r.sequence) {
+      const auto part = static_cast<std::size_t>(e.part);
+      fmt::print("    {:.9g} s  {} {}: {}, velocity {:.6g} m/s\n", e.t_s,
+                 part < r.meshes.size() ? "mesh" : "clearance",
+                 part < r.meshes.size() ? r.meshes[part] : r.clearances[part - r.meshes.size()],
+                 geardyn::to_string(e.kind), e.velocity_m_s);
+    }
+  }
   return 0;
 }
 

@@ -40,6 +40,9 @@ struct TrainOrbit : PeriodicSolution {
   // Each bearing clearance direction's (train::Assembled::clearance_name) over the period.
   std::vector<std::string> clearances;
   std::vector<ContactReading> clearance_readings;
+  // The contact changes of one period, in order, their times from the section (the one-degree
+  // orbit's sequence): each event's part indexes the meshes, then the clearances.
+  std::vector<TrainContactEvent> sequence;
 };
 
 // The orbit of N system periods (options.periods) of a train case: from a first guess settled

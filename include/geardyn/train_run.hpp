@@ -19,6 +19,7 @@
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/rigid_split.hpp"
+#include "geardyn/spectrum.hpp"
 #include "geardyn/steady.hpp"
 #include "geardyn/train.hpp"
 
@@ -30,6 +31,26 @@ namespace geardyn {
 struct TrainMeshPart : ContactReading {
   double max_force_n = 0, min_force_n = 0;            // F (N)
   double max_deflection_m = 0, min_deflection_m = 0;  // d - e (m)
+  // The largest |d' - e'| at an impact on either flank (m/s; 0 without one), as the one-degree
+  // run's max_impact_velocity_m_s.
+  double max_impact_velocity_m_s = 0;
+  // The mean and the RMS over the stretch's output samples of F (N) and of d - e (m), as the
+  // one-degree run's over its samples; 0 without a sample.
+  double mean_force_n = 0, rms_force_n = 0, mean_deflection_m = 0, rms_deflection_m = 0;
+};
+
+// A located contact change of one of a train's nonlinearities (TrainRunResult::contact_parts):
+// a mesh (kImpact onto its drive flank, kBacksideImpact onto its back flank, kSeparation into
+// its backlash) or a bearing's clearance direction (kImpact against its +c side,
+// kBacksideImpact against -c, kSeparation back inside). Clipping inside contact (a mesh that
+// clips its tension) is no contact change and no event.
+struct TrainContactEvent {
+  double t_s = 0;
+  int part = 0;  // its index in TrainRunResult::contact_parts
+  EventKind kind = EventKind::kImpact;
+  // The part's rate at the event: a mesh's d' - e' (its impact velocity), a clearance's w' (the
+  // centre's velocity along its direction), m/s.
+  double velocity_m_s = 0;
 };
 
 // One mesh of a train run: the whole window read, its steady part (TrainRunResult::steady)
@@ -48,6 +69,10 @@ struct TrainMeshReading : TrainMeshPart {
   // The largest F over the static force, over the steady part (as the one-degree run's
   // dynamic_factor) and from the start; absent without a static force > 0.
   std::optional<double> dynamic_factor, dynamic_factor_with_startup;
+  // The kReportedPeaks largest peaks of the amplitude spectra of F (N) and of (d - e) / b over
+  // the steady part's output samples (mesh_spectra), as the one-degree run's force_peaks and
+  // delta_peaks; filled by run_train, empty with fewer than 4 samples there.
+  std::vector<SpectralPeak> force_peaks, deflection_peaks;
 };
 
 // The largest and smallest value of a shaft's torque or a bearing's force component over a
@@ -230,13 +255,25 @@ struct TrainRunResult {
   // "newmark": steps that met more contact changes than it locates in one (taken unsplit).
   std::int64_t unsplit_steps = 0;
   std::vector<TrainMeshReading> meshes;
+  // The nonlinearities whose contact changes are events: each mesh's name, then each clearance
+  // direction's (train::Assembled::clearance_name); and every change located, in time order.
+  std::vector<std::string> contact_parts;
+  std::vector<TrainContactEvent> contact_events;
   std::vector<TrainShaftReading> shafts;
   std::vector<TrainBearingReading> bearings;
   std::vector<TrainLoadSharing> load_sharing;
   TrainSamples samples;
+  double output_interval_s = 0;  // the samples' spacing (s); 0 when none were asked for
   double wall_time_s = 0;
   bool ok() const { return termination == ode::Termination::kCompleted; }
 };
+
+// Mesh m's amplitude spectra (spectrum.hpp) over the output samples of r's steady part (t >=
+// r.steady.from_s), as the one-degree run's (compute_spectra): of F (N) and of (d - e) / b.
+struct MeshSpectra {
+  Spectrum force_n, deflection_bar;
+};
+MeshSpectra mesh_spectra(const TrainRunResult& r, std::size_t m);
 
 // Every quantity of r's shafts and bearings, referring into r: each shaft's torque_nm, then each
 // bearing's force_x_n and force_y_n, on a spatial body its axial_force_n, and when it tilts its
@@ -406,6 +443,9 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
                                int indent = 2);
 // timeseries.csv: t_s, each body's theta and rate, then per mesh (d - e)/b, F and contact.
 void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r);
+// events.csv: every contact change located (TrainRunResult::contact_events), t_s, the part's
+// name, the kind (impact, backside_impact, separation) and the part's rate (m/s).
+void write_train_events_csv(std::ostream& out, const TrainRunResult& r);
 
 // The modes of a train as JSON and as a table for the terminal: frequency, multiplicity, a
 // planetary set's mode type, and the strain energy in each mesh, shaft and bearing (the JSON

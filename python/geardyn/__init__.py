@@ -455,6 +455,11 @@ class TrainRunResult:
         Samples x bearings x 3: a spatial body's bearing's axial force (N) and moments about x
         and y (N m); an axial body's (dof "axial") its axial force, its moments nan; nan for a
         bearing of any other body.
+    events : dict
+        Every contact change located, as the one-degree run's: ``t_s`` (s), ``part`` (a mesh's
+        name, or a bearing clearance direction's, ``<bearing>_x`` or ``_y``), ``kind``
+        (impact, backside_impact, separation) and ``velocity_m_s`` (the part's rate there: a
+        mesh's d' - e', a clearance's centre velocity along it), as events.csv.
     ok : bool
         Whether the run completed.
     """
@@ -489,6 +494,7 @@ class TrainRunResult:
             has = sum(f"max_{q}" in b for q in ("axial_force_n", "moment_x_nm", "moment_y_nm"))
             self.bearing_axial[:, j, :has] = arrays["parts"][:, k:k + has]
             k += has
+        self.events = arrays["events"]
         self.ok = summary["termination"] == "completed"
 
     def __repr__(self):
@@ -507,7 +513,8 @@ class TrainRunResult:
             deflection_bar, force (N) and contact (t x mesh); per mesh its readings
             (mean_stiffness_n_per_m, backlash_m, impacts, separated_fraction, dynamic_factor, ...)
             and those of its steady part
-            (steady_impacts, steady_regime, steady_max_force_n, ...) as variables along mesh;
+            (steady_impacts, steady_regime, steady_max_force_n, steady_rms_force_n, ...) as
+            variables along mesh;
             the summary (JSON) as an attribute, where "steady" says where the part starts and
             why; ``layout_phase`` (cycles) along mesh with ``train.mesh_phase = "layout"``;
             where gears share their load among two or more meshes, a dimension group (the
@@ -520,13 +527,16 @@ class TrainRunResult:
                     for k in ("mesh_frequency_hz", "mean_stiffness_n_per_m", "backlash_m",
                               "impacts", "backside_impacts", "separations",
                               "separated_fraction", "max_force_n", "min_force_n",
+                              "max_impact_velocity_m_s", "mean_force_n", "rms_force_n",
+                              "mean_deflection_bar", "rms_deflection_bar",
                               "static_force_n", "dynamic_factor", "dynamic_factor_with_startup")}
         per_mesh["regime"] = ("mesh", [m["regime"] for m in meshes])
         if meshes and "layout_phase" in meshes[0]:  # train.mesh_phase = "layout"
             per_mesh["layout_phase"] = ("mesh", [m["layout_phase"] for m in meshes],
                                         {"units": "cycles"})
         # The steady part (summary "steady": where it starts and why) per mesh.
-        for k in ("impacts", "separated_fraction", "max_force_n", "min_force_n"):
+        for k in ("impacts", "separated_fraction", "max_force_n", "min_force_n",
+                  "max_impact_velocity_m_s", "mean_force_n", "rms_force_n"):
             per_mesh["steady_" + k] = ("mesh", [m["steady"][k] for m in meshes])
         per_mesh["steady_regime"] = ("mesh", [m["steady"]["regime"] for m in meshes])
         # The load-sharing groups (a sun's planets, a ring's) along group.

@@ -25,7 +25,7 @@ py::array_t<T> table(std::size_t rows, std::size_t cols, const At& at) {
 }
 
 // The run as (summary.json text, dict of arrays): t, state (samples x 2 coordinates),
-// deflection_bar, force (N) and contact (samples x meshes).
+// deflection_bar, force (N) and contact (samples x meshes), parts, and the events.
 py::tuple train_result(const TrainRunResult& r) {
   const TrainSamples& s = r.samples;
   const std::size_t n = s.t_s.size(), meshes = r.meshes.size();
@@ -46,6 +46,20 @@ py::tuple train_result(const TrainRunResult& r) {
   for (const TrainBearingReading& b : r.bearings) parts += static_cast<std::size_t>(b.part_count());
   arrays["parts"] =
       table<double>(n, parts, [&](std::size_t i, std::size_t k) { return s.parts[i][k]; });
+  // The located contact changes as the one-degree run's events: t_s, part (its name), kind and
+  // velocity_m_s (the part's rate there).
+  const auto events = static_cast<py::ssize_t>(r.contact_events.size());
+  py::array_t<double> t(events), v(events);
+  py::list part, kind;
+  for (py::ssize_t i = 0; i < events; ++i) {
+    const TrainContactEvent& e = r.contact_events[static_cast<std::size_t>(i)];
+    t.mutable_at(i) = e.t_s;
+    v.mutable_at(i) = e.velocity_m_s;
+    part.append(r.contact_parts[static_cast<std::size_t>(e.part)]);
+    kind.append(to_string(e.kind));
+  }
+  arrays["events"] = py::dict(py::arg("t_s") = t, py::arg("part") = part, py::arg("kind") = kind,
+                              py::arg("velocity_m_s") = v);
   return py::make_tuple(train_summary_json(r, unused_settings(r.input), -1), arrays);
 }
 

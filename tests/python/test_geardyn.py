@@ -758,6 +758,26 @@ def test_a_trains_orbit_from_python_is_the_command_lines():
         geardyn.orbit(case, state=[0.0])
 
 
+def test_a_rattling_trains_events_are_the_command_lines(tmp_path):
+    # The loose gear's contact changes from Python are events.csv's, each impact's velocity
+    # within the mesh's largest, and the summary's impacts those of its events.
+    path = SOURCE / "cases/loose_gear_rattle.toml"
+    case = geardyn.Case.from_toml(path).with_({"solver.duration_s": 0.06})
+    r = geardyn.run(case)
+    cli("run", str(path), "--set", "solver.duration_s=0.06", "--out", str(tmp_path))
+    rows = [x.split(",") for x in (tmp_path / "events.csv").read_text().splitlines()]
+    assert rows[0] == ["t_s", "part", "kind", "velocity_m_s"]
+    e = r.events
+    assert len(rows) - 1 == len(e["t_s"]) > 10
+    assert [x[1] for x in rows[1:]] == e["part"] and [x[2] for x in rows[1:]] == e["kind"]
+    assert [float(x[0]) for x in rows[1:]] == pytest.approx(list(e["t_s"]), rel=1e-14)
+    assert [float(x[3]) for x in rows[1:]] == pytest.approx(list(e["velocity_m_s"]), rel=1e-9)
+    mesh = r.summary["meshes"][0]
+    impacts = [k != "separation" for k in e["kind"]]
+    assert sum(impacts) == mesh["impacts"] and set(e["part"]) == {r.meshes[0]}
+    assert np.abs(e["velocity_m_s"][impacts]).max() == mesh["max_impact_velocity_m_s"]
+
+
 def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     # The idler train from its file, from the command line and from a dict built in code: the
     # same readings per mesh; its xarray has a mesh dimension.
@@ -787,6 +807,14 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert (ds["steady_max_force_n"] <= ds["max_force_n"]).all()
     assert list(ds["steady_regime"].values) == [m["steady"]["regime"]
                                                 for m in summary["meshes"]]
+    # Each mesh's means and RMS over the samples are the samples' own.
+    for m, x in enumerate(summary["meshes"]):
+        f, d = r.force[:, m], r.deflection_bar[:, m]
+        assert x["mean_force_n"] == pytest.approx(f.mean(), rel=1e-12)
+        assert x["rms_force_n"] == pytest.approx(np.sqrt((f ** 2).mean()), rel=1e-12)
+        assert x["mean_deflection_bar"] == pytest.approx(d.mean(), rel=1e-12)
+        assert x["rms_deflection_bar"] == pytest.approx(np.sqrt((d ** 2).mean()), rel=1e-12)
+    assert list(ds["rms_force_n"].values) == [x["rms_force_n"] for x in summary["meshes"]]
     fig = geardyn.plot.run(r)  # a panel per mesh
     assert [a.get_title().split(" (")[0] for a in fig.axes if a.get_title()] == ["mesh in",
                                                                                  "mesh out"]
