@@ -134,25 +134,39 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
     acceleration_of(p.region).at(p.t, b, s);
     p.a = b.leftCols(n) * p.q + b.rightCols(n) * p.v + s;
   };
+  // The step's predictors, right-hand side, matrix and its factors, kept across steps so that a
+  // step allocates nothing.
+  Vector qp(n), vp(n), rhs(n), rate_part(n);
+  Matrix step_matrix(n, n);
+  Eigen::PartialPivLU<Matrix> factors(n);
   // The step of length h from p in p's region; false where its matrix is singular.
   const auto step = [&](const Point& p, double h, Point& out) {
     const RegionAcceleration& acc = acceleration_of(p.region);
     const double bh2 = o.beta * h * h, gh = o.gamma * h;
-    const Vector qp = p.q + h * p.v + (0.5 - o.beta) * h * h * p.a;
-    const Vector vp = p.v + (1.0 - o.gamma) * h * p.a;
+    qp = p.q + h * p.v + (0.5 - o.beta) * h * h * p.a;
+    vp = p.v + (1.0 - o.gamma) * h * p.a;
     out.t = p.t + h;
     out.region = p.region;
     acc.at(out.t, b, s);
-    const Vector rhs = b.leftCols(n) * qp + b.rightCols(n) * vp + s;
-    const auto matrix = [&] {
-      return Matrix(Matrix::Identity(n, n) - bh2 * b.leftCols(n) - gh * b.rightCols(n));
+    // P qp + R vp + s, summed in that order.
+    rhs.noalias() = b.leftCols(n) * qp;
+    rate_part.noalias() = b.rightCols(n) * vp;
+    rhs += rate_part;
+    rhs += s;
+    // I - beta h^2 P - gamma h R.
+    const auto matrix = [&]() -> const Matrix& {
+      step_matrix.setIdentity();
+      step_matrix -= bh2 * b.leftCols(n);
+      step_matrix -= gh * b.rightCols(n);
+      return step_matrix;
     };
     auto& cached = whole_step[static_cast<std::size_t>(p.region)];
     if (h == dt && !acc.varies()) {
       if (!cached) cached.emplace(matrix());
       out.a = cached->solve(rhs);
     } else {
-      out.a = Eigen::PartialPivLU<Matrix>(matrix()).solve(rhs);
+      factors.compute(matrix());
+      out.a = factors.solve(rhs);
     }
     out.q = qp + bh2 * out.a;
     out.v = vp + gh * out.a;
