@@ -1201,8 +1201,10 @@ class RootFinder {
 
   // The largest value of P over [a, b], and where (x_at): a bound from the coefficients' signs
   // first (no search when it cannot exceed `floor`; the result is then <= floor), then the
-  // endpoints and every root of P' at which it turns from positive to negative (a local
-  // maximum), found by the Bernstein search.
+  // endpoints, and, unless P's Bernstein coefficients on [a, b] (its convex hull, a bound far
+  // tighter than the signs') show that nothing between them exceeds `floor` either, every root
+  // of P' at which it turns from positive to negative (a local maximum), found by the Bernstein
+  // search.
   double maximum(const std::vector<double>& c, double a, double b, double floor, double& x_at) {
     const int p = static_cast<int>(c.size()) - 1;
     // Bounds from the signs of the coefficients (0 <= a <= x <= b <= 1): an upper bound, and
@@ -1231,6 +1233,10 @@ class RootFinder {
       x_at = b;
     }
     if (p < 2) return best;
+    if (!(best > floor)) {
+      bernstein(c, a, b, hull_);
+      if (*std::max_element(hull_.begin(), hull_.end()) <= floor) return best;
+    }
     std::vector<double>& d = d_;
     std::vector<double>& minus = minus_;
     d.resize(p);
@@ -1353,7 +1359,7 @@ class RootFinder {
   const Binomials& binom_;
   int p_ = 0;
   int nodes_ = 0;
-  std::vector<double> coef_, bern_, q_, d_, minus_;
+  std::vector<double> coef_, bern_, q_, d_, minus_, hull_;
   // Per subdivision depth, held inline (a flow makes one RootFinder: no allocation for it).
   std::array<std::array<std::vector<double>, 3>, kMaxSubdivisions + 1> scratch_;
   double a_ = 0, w_ = 1;
