@@ -85,11 +85,8 @@ void RunReader::on_sample(const ode::State& s, const GearPairModel::Drive& d) {
   const double db = s.q / b_;
   const int cs = contact_state(s.region);
   const auto add = [&](Tally& x) {
-    x.sum_force += fb;
-    x.sum_force2 += fb * fb;
-    x.sum_delta += db;
-    x.sum_delta2 += db * db;
-    ++x.n_samples;
+    x.force_bar.add(fb);
+    x.delta_bar.add(db);
     x.extremes(f, s.q);
     if (cs == -1) x.back_contact = true;
   };
@@ -132,13 +129,10 @@ RunReading RunReader::read(const Tally& x) const {
   r.min_force_bar = x.min_force / force_scale_;
   r.max_delta_bar = x.max_delta / b_;
   r.min_delta_bar = x.min_delta / b_;
-  if (x.n_samples > 0) {
-    const double n = static_cast<double>(x.n_samples);
-    r.mean_force_bar = x.sum_force / n;
-    r.rms_force_bar = std::sqrt(x.sum_force2 / n);
-    r.mean_delta_bar = x.sum_delta / n;
-    r.rms_delta_bar = std::sqrt(x.sum_delta2 / n);
-  }
+  r.mean_force_bar = x.force_bar.mean();
+  r.rms_force_bar = x.force_bar.rms();
+  r.mean_delta_bar = x.delta_bar.mean();
+  r.rms_delta_bar = x.delta_bar.rms();
   const double static_force = model_.parameters().static_mesh_force_n();
   if (static_force > 0) r.dynamic_factor = x.max_force / static_force;
   return r;

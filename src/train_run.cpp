@@ -262,18 +262,14 @@ class TrainObserver : public ode::FlowObserver {
   struct Tally {
     double max_force = -kInf, min_force = kInf, max_deflection = -kInf, min_deflection = kInf;
     double max_impact_velocity = 0;
-    double sum_force = 0, sum_force2 = 0, sum_deflection = 0, sum_deflection2 = 0;
-    std::int64_t samples = 0;
+    SampleMoments force, deflection;
     double& at(int k, bool maximum) {
       if (k % 2 == 1) return maximum ? max_force : min_force;
       return maximum ? max_deflection : min_deflection;
     }
-    void add_sample(double deflection, double force) {
-      sum_force += force;
-      sum_force2 += force * force;
-      sum_deflection += deflection;
-      sum_deflection2 += deflection * deflection;
-      ++samples;
+    void add_sample(double d, double f) {
+      deflection.add(d);
+      force.add(f);
     }
   };
   static TrainMeshPart reading(ContactTracker& tracker, const Tally& x) {
@@ -284,13 +280,10 @@ class TrainObserver : public ode::FlowObserver {
     r.max_deflection_m = x.max_deflection;
     r.min_deflection_m = x.min_deflection;
     r.max_impact_velocity_m_s = x.max_impact_velocity;
-    if (x.samples > 0) {
-      const auto n = static_cast<double>(x.samples);
-      r.mean_force_n = x.sum_force / n;
-      r.rms_force_n = std::sqrt(x.sum_force2 / n);
-      r.mean_deflection_m = x.sum_deflection / n;
-      r.rms_deflection_m = std::sqrt(x.sum_deflection2 / n);
-    }
+    r.mean_force_n = x.force.mean();
+    r.rms_force_n = x.force.rms();
+    r.mean_deflection_m = x.deflection.mean();
+    r.rms_deflection_m = x.deflection.rms();
     return r;
   }
   // Nonlinearity k's rate (rate_rows_' row k times q') at an event's state y, the stepped one

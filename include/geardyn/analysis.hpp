@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -65,6 +66,22 @@ struct ContactCounts {
   std::int64_t separations = 0;             // exits from contact into separation
   std::optional<double> last_separation_s;  // time of the last exit from contact
   double separated_fraction = 0;            // time separated over the window
+};
+
+// The mean and the RMS of a run's samples of one quantity, from their running sums (the
+// one-degree run's and each mesh of a train's); 0 without a sample.
+struct SampleMoments {
+  double sum = 0, sum_squares = 0;
+  std::int64_t count = 0;
+  void add(double x) {
+    sum += x;
+    sum_squares += x * x;
+    ++count;
+  }
+  double mean() const { return count > 0 ? sum / static_cast<double>(count) : 0.0; }
+  double rms() const {
+    return count > 0 ? std::sqrt(sum_squares / static_cast<double>(count)) : 0.0;
+  }
 };
 
 // What a run reads as: its contact's counts, and force and displacement non-dimensional as in
@@ -151,8 +168,7 @@ class RunReader {
     bool separated_in_final = false;
     bool back_contact = false;
     double max_force, min_force, max_delta, min_delta;
-    double sum_force = 0, sum_force2 = 0, sum_delta = 0, sum_delta2 = 0;
-    std::int64_t n_samples = 0;
+    SampleMoments force_bar, delta_bar;
     std::int64_t impacts = 0, backside_impacts = 0, separations = 0;
     std::optional<double> last_separation;
     double max_impact_velocity = 0;
