@@ -192,31 +192,65 @@ Eigen::Vector2d RigidSplit::rigid(const Vector& y) const {
 }
 
 Eigen::Vector2d RigidSplit::rigid_at(double t0_s, const Eigen::Vector2d& rigid0, double t_s) const {
-  const double tau = t_s - t0_s;
-  const double c0 = forcing_.constant;
-  double phi = rigid0(0) + rigid0(1) * tau + 0.5 * c0 * tau * tau;
-  double rate = rigid0(1) + c0 * tau;
+  return Motion(*this, t0_s, rigid0).at(t_s);
+}
+
+Vector RigidSplit::lift(double t0_s, const Eigen::Vector2d& rigid0, double t_s,
+                        const Vector& y_r) const {
+  Vector y(2 * r_.size());
+  Motion(*this, t0_s, rigid0).lift_into(t_s, y_r, y.data());
+  return y;
+}
+
+RigidSplit::Motion::Motion(const RigidSplit& split, double t0_s, const Eigen::Vector2d& rigid0)
+    : split_(&split),
+      t0_s_(t0_s),
+      rigid0_(rigid0),
+      cos0_(split.w_.size(), 0.0),
+      sin0_(split.w_.size(), 0.0) {
+  const FourierTerms<double>& f = split.forcing_;
+  for (std::size_t k = 0; k < f.cos.size(); ++k) {
+    if (f.cos[k] == 0 && f.sin[k] == 0) continue;
+    cos0_[k] = std::cos(split.w_[k] * t0_s);
+    sin0_[k] = std::sin(split.w_[k] * t0_s);
+  }
+}
+
+Eigen::Vector2d RigidSplit::Motion::at(double t_s) const {
+  const FourierTerms<double>& forcing = split_->forcing_;
+  const double tau = t_s - t0_s_;
+  const double c0 = forcing.constant;
+  double phi = rigid0_(0) + rigid0_(1) * tau + 0.5 * c0 * tau * tau;
+  double rate = rigid0_(1) + c0 * tau;
   // phi'' = c cos(w t) + s sin(w t), integrated twice from t0.
-  for (std::size_t f = 0; f < forcing_.cos.size(); ++f) {
-    const double c = forcing_.cos[f], s = forcing_.sin[f];
+  for (std::size_t f = 0; f < forcing.cos.size(); ++f) {
+    const double c = forcing.cos[f], s = forcing.sin[f];
     if (c == 0 && s == 0) continue;
-    const double w = w_[f];
+    const double w = split_->w_[f];
     const double c1 = std::cos(w * t_s), s1 = std::sin(w * t_s);
-    const double c_0 = std::cos(w * t0_s), s_0 = std::sin(w * t0_s);
+    const double c_0 = cos0_[f], s_0 = sin0_[f];
     rate += (c * (s1 - s_0) - s * (c1 - c_0)) / w;
     phi += (-c * (c1 - c_0) - s * (s1 - s_0)) / (w * w) + (-c * s_0 + s * c_0) * tau / w;
   }
   return {phi, rate};
 }
 
-Vector RigidSplit::lift(double t0_s, const Eigen::Vector2d& rigid0, double t_s,
-                        const Vector& y_r) const {
-  const Eigen::Index n = r_.size(), m = n - 1;
-  const Eigen::Vector2d x = rigid_at(t0_s, rigid0, t_s);
-  Vector y(2 * n);
-  y.head(n) = l_ * y_r.head(m) + r_ * x(0);
-  y.tail(n) = l_ * y_r.tail(m) + r_ * x(1);
-  return y;
+void RigidSplit::Motion::lift_into(double t_s, const Vector& y_r, double* y) const {
+  const Matrix& l = split_->l_;
+  const Vector& r = split_->r_;
+  const Eigen::Index n = r.size(), m = n - 1;
+  const Eigen::Vector2d x = at(t_s);
+  // L p + r phi and L p' + r phi', summed in plain loops: a train's L is small, and Eigen's
+  // general product costs more than the sums at these sizes.
+  for (Eigen::Index i = 0; i < n; ++i) {
+    double q = 0, v = 0;
+    for (Eigen::Index j = 0; j < m; ++j) {
+      q += l(i, j) * y_r(j);
+      v += l(i, j) * y_r(m + j);
+    }
+    y[i] = q + r(i) * x(0);
+    y[n + i] = v + r(i) * x(1);
+  }
 }
 
 Matrix RigidSplit::lift_jacobian(double t0_s, double t1_s, const Matrix& jacobian_r) const {

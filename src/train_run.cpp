@@ -102,6 +102,7 @@ class TrainObserver : public ode::FlowObserver {
   }
 
   void on_cell(const ode::CellView& cell) override {
+    looks_at_cells_ = true;
     if (!(cell.t_end_s > cell.t_begin_s)) return;
     bound_all(cell);
     if (!any_room()) return;
@@ -118,9 +119,11 @@ class TrainObserver : public ode::FlowObserver {
     }
   }
 
-  // A step's end is a point of the window (the adaptive integrator's only ones besides events
-  // and samples; inside the exact engine's cells on_cell has seen it already).
+  // A step's end is a point of the window: the adaptive integrator's and Newmark's only ones
+  // besides events and samples. The exact engine's cells end at its steps, and on_cell has
+  // looked at each (or its bounds left no room for a new extreme there).
   void on_step(double t, const ode::Vector& y, int region) override {
+    if (looks_at_cells_) return;
     reader(region)(t, y, values_);
     for (std::size_t m = 0; m < states_.size(); ++m) point(m, values_[2 * m], values_[2 * m + 1]);
     for (std::size_t k = 0; k < whole_parts_.size(); ++k) point_part(k, values_[first_part_ + k]);
@@ -156,7 +159,11 @@ class TrainObserver : public ode::FlowObserver {
     reader(region)(t, y, values_);
     const std::vector<int>& states = region_states(region);
     s.t_s.push_back(t);
-    s.state.push_back(split_ ? split_->lift(lift_t0_, lift_rigid0_, t, y) : y);
+    if (lifted_from_) {
+      lift_.lift_into(t, y, s.state.append(2 * static_cast<std::size_t>(a_.size())));
+    } else {
+      s.state.push_back(y);
+    }
     const std::size_t meshes = states.size();
     double* d = s.deflection_bar.append(meshes);
     double* f = s.force_n.append(meshes);
@@ -178,10 +185,9 @@ class TrainObserver : public ode::FlowObserver {
   // The flow it looks at next steps the complement of a free rotation (its states are
   // split->reduced()'s, the observer's system), from t0 with the rotation's (phi, phi') = rigid0:
   // its samples are kept as the whole train's states.
-  void lift_from(const ode::RigidSplit* split, double t0, const Eigen::Vector2d& rigid0) {
-    split_ = split;
-    lift_t0_ = t0;
-    lift_rigid0_ = rigid0;
+  void lift_from(const ode::RigidSplit& split, double t0, const Eigen::Vector2d& rigid0) {
+    lift_ = ode::RigidSplit::Motion(split, t0, rigid0);
+    lifted_from_ = true;
   }
 
   // Room in the result for `count` output samples.
@@ -292,8 +298,9 @@ class TrainObserver : public ode::FlowObserver {
   double rate(std::size_t k, double t, const ode::Vector& y) {
     const Eigen::Index n = a_.size();
     const auto row = rate_rows_.row(static_cast<Eigen::Index>(k));
-    if (!split_) return row.dot(y.tail(n));
-    lifted_ = split_->lift(lift_t0_, lift_rigid0_, t, y);
+    if (!lifted_from_) return row.dot(y.tail(n));
+    lifted_.resize(2 * n);
+    lift_.lift_into(t, y, lifted_.data());
     return row.dot(lifted_.tail(n));
   }
   // Records a contact change of nonlinearity k from state `from` to `to` (1, 0, -1; 2 and -2
@@ -407,9 +414,9 @@ class TrainObserver : public ode::FlowObserver {
   std::vector<double> low_, high_;                                         // the last bound_all's
   std::vector<std::unique_ptr<ode::FunctionalValues>> readers_;            // per region
   std::vector<double> values_;
-  const ode::RigidSplit* split_ = nullptr;  // lift_from's
-  double lift_t0_ = 0;
-  Eigen::Vector2d lift_rigid0_ = Eigen::Vector2d::Zero();
+  ode::RigidSplit::Motion lift_;  // lift_from's, when lifted_from_
+  bool looks_at_cells_ = false;   // on_cell was called: the flow is the exact engine's
+  bool lifted_from_ = false;
 };
 
 // The shortest time scale of the train: its fastest mode in contact or excitation.
@@ -855,7 +862,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   FlowPieces pieces(
       t0_s, y0, region, t1_s, grid,
       [&](double from, const ode::Vector& y, int r, double to, const ode::OutputGrid& piece) {
-        if (split_) observer.lift_from(split_.get(), from, split_->rigid(y));
+        if (split_) observer.lift_from(*split_, from, split_->rigid(y));
         return flow(from, y, r, to, piece, observer);
       },
       progress);

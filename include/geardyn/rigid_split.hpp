@@ -21,6 +21,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "geardyn/linear_system.hpp"
 
@@ -51,6 +52,24 @@ class RigidSplit {
   // The full state at t: (L p + r phi, L p' + r phi'), y_r = (p, p') the reduced state at t and
   // (phi, phi') = rigid_at(t0, rigid0, t).
   Vector lift(double t0_s, const Eigen::Vector2d& rigid0, double t_s, const Vector& y_r) const;
+
+  // The free motion that had `rigid0` at t0, read at many times (a flow's samples): at(t) is
+  // rigid_at(t0, rigid0, t) and lift_into(t, y_r, y) writes lift(t0, rigid0, t, y_r) into y (its
+  // 2 n entries), with the forcing's phases at t0 computed once and nothing allocated. The
+  // split must outlive it.
+  class Motion {
+   public:
+    Motion() = default;
+    Motion(const RigidSplit& split, double t0_s, const Eigen::Vector2d& rigid0);
+    Eigen::Vector2d at(double t_s) const;
+    void lift_into(double t_s, const Vector& y_r, double* y) const;
+
+   private:
+    const RigidSplit* split_ = nullptr;
+    double t0_s_ = 0;
+    Eigen::Vector2d rigid0_ = Eigen::Vector2d::Zero();
+    std::vector<double> cos0_, sin0_;  // cos and sin of w t0 per frequency
+  };
   // dy(t1)/dy(t0) of the full flow from the reduced flow's dy_r(t1)/dy_r(t0).
   Matrix lift_jacobian(double t0_s, double t1_s, const Matrix& jacobian_r) const;
 
