@@ -253,6 +253,74 @@ double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, dou
          evaluate(g.offset, s.frequencies_rad_s, t_s);
 }
 
+namespace {
+// phases_at's and keep_phases' last table and time, on this thread.
+struct KeptPhases {
+  std::vector<double> w, cos_wt, sin_wt;
+  double t_s = std::numeric_limits<double>::quiet_NaN();  // equal to no time
+};
+thread_local KeptPhases kept_phases;
+}  // namespace
+
+void keep_phases(const std::vector<double>& w, double t_s, const std::vector<double>& cos_wt,
+                 const std::vector<double>& sin_wt) {
+  KeptPhases& kept = kept_phases;
+  kept.w = w;
+  kept.t_s = t_s;
+  kept.cos_wt = cos_wt;
+  kept.sin_wt = sin_wt;
+}
+
+PhaseGrid::PhaseGrid(const std::vector<double>& w, double t0_s, double dt_s)
+    : w_(&w),
+      t0_s_(t0_s),
+      dt_s_(dt_s),
+      rot_cos_(w.size()),
+      rot_sin_(w.size()),
+      cos_(w.size()),
+      sin_(w.size()) {
+  for (std::size_t f = 0; f < w.size(); ++f) {
+    rot_cos_[f] = std::cos(w[f] * dt_s);
+    rot_sin_[f] = std::sin(w[f] * dt_s);
+    cos_[f] = std::cos(w[f] * t0_s);
+    sin_[f] = std::sin(w[f] * t0_s);
+  }
+}
+
+void PhaseGrid::advance(std::int64_t k) {
+  const std::vector<double>& w = *w_;
+  if (k % kResyncSteps == 0) {
+    const double t = t0_s_ + static_cast<double>(k) * dt_s_;
+    for (std::size_t f = 0; f < w.size(); ++f) {
+      cos_[f] = std::cos(w[f] * t);
+      sin_[f] = std::sin(w[f] * t);
+    }
+    return;
+  }
+  for (std::size_t f = 0; f < w.size(); ++f) {
+    const double c = cos_[f] * rot_cos_[f] - sin_[f] * rot_sin_[f];
+    sin_[f] = sin_[f] * rot_cos_[f] + cos_[f] * rot_sin_[f];
+    cos_[f] = c;
+  }
+}
+
+void phases_at(const std::vector<double>& w, double t_s, std::vector<double>& cos_wt,
+               std::vector<double>& sin_wt) {
+  KeptPhases& kept = kept_phases;
+  if (!(kept.t_s == t_s && kept.w == w)) {
+    kept.w = w;
+    kept.t_s = t_s;
+    kept.cos_wt.resize(w.size());
+    kept.sin_wt.resize(w.size());
+    for (std::size_t f = 0; f < w.size(); ++f) {
+      kept.cos_wt[f] = std::cos(w[f] * t_s);
+      kept.sin_wt[f] = std::sin(w[f] * t_s);
+    }
+  }
+  cos_wt.assign(kept.cos_wt.begin(), kept.cos_wt.end());
+  sin_wt.assign(kept.sin_wt.begin(), kept.sin_wt.end());
+}
+
 FunctionalValues::FunctionalValues(const LinearSwitchedSystem& s,
                                    const std::vector<LinearGuard>& gs)
     : s_(&s),
@@ -285,11 +353,7 @@ FunctionalValues::FunctionalValues(const LinearSwitchedSystem& s,
 
 void FunctionalValues::operator()(double t_s, const Vector& y, std::vector<double>& values) const {
   assert(y.size() == s_->dimension);
-  const std::vector<double>& w = s_->frequencies_rad_s;
-  for (const std::size_t f : any_) {
-    cos_wt_[f] = std::cos(w[f] * t_s);
-    sin_wt_[f] = std::sin(w[f] * t_s);
-  }
+  if (!any_.empty()) phases_at(s_->frequencies_rad_s, t_s, cos_wt_, sin_wt_);
   // The operations of evaluate(), in its order, for the harmonics that are not zero.
   const std::vector<LinearGuard>& gs = *gs_;
   values.resize(gs.size());

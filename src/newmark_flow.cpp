@@ -36,16 +36,29 @@ class RegionAcceleration {
       sc_.push_back(r_.u.cos[f].tail(n_));
       ss_.push_back(r_.u.sin[f].tail(n_));
     }
-  }
-  bool varies() const { return !bc_.empty(); }
-  // B and s at t.
-  void at(double t_s, Matrix& b, Vector& s) const {
-    b = b0_;
     for (std::size_t f = 0; f < bc_.size(); ++f)
-      b += std::cos(w_[f] * t_s) * bc_[f] + std::sin(w_[f] * t_s) * bs_[f];
-    s = s0_;
+      if (bc_[f].any() || bs_[f].any()) b_used_.push_back(f);
     for (std::size_t f = 0; f < sc_.size(); ++f)
-      s += std::cos(w_[f] * t_s) * sc_[f] + std::sin(w_[f] * t_s) * ss_[f];
+      if (sc_[f].any() || ss_[f].any()) s_used_.push_back(f);
+  }
+  bool varies() const { return !b_used_.empty(); }
+  // B and s at t, summed over the frequencies whose terms are not zero, entry by entry (a
+  // train's matrices are small: Eigen's expressions cost more than the sums).
+  void at(double t_s, Matrix& b, Vector& s) const {
+    if (!b_used_.empty() || !s_used_.empty()) phases_at(w_, t_s, cos_wt_, sin_wt_);
+    b = b0_;
+    double* bb = b.data();
+    const Eigen::Index b_size = b.size();
+    for (const std::size_t f : b_used_) {
+      const double c = cos_wt_[f], z = sin_wt_[f];
+      const double *mc = bc_[f].data(), *ms = bs_[f].data();
+      for (Eigen::Index i = 0; i < b_size; ++i) bb[i] += c * mc[i] + z * ms[i];
+    }
+    s = s0_;
+    for (const std::size_t f : s_used_) {
+      const double c = cos_wt_[f], z = sin_wt_[f];
+      for (Eigen::Index i = 0; i < n_; ++i) s(i) += c * sc_[f](i) + z * ss_[f](i);
+    }
   }
   Eigen::Index half() const { return n_; }
 
@@ -57,6 +70,8 @@ class RegionAcceleration {
   Vector s0_;
   std::vector<Matrix> bc_, bs_;
   std::vector<Vector> sc_, ss_;
+  std::vector<std::size_t> b_used_, s_used_;     // the frequencies whose terms are not zero
+  mutable std::vector<double> cos_wt_, sin_wt_;  // at()'s
 };
 
 // (q, v, a) at t, in a region.
@@ -139,13 +154,14 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
   Vector qp(n), vp(n), rhs(n), rate_part(n);
   Matrix step_matrix(n, n);
   Eigen::PartialPivLU<Matrix> factors(n);
-  // The step of length h from p in p's region; false where its matrix is singular.
-  const auto step = [&](const Point& p, double h, Point& out) {
+  // The step of length h from p in p's region, to the time t_out (p.t + h, or the grid's time
+  // that it rounds to); false where its matrix is singular.
+  const auto step = [&](const Point& p, double h, double t_out, Point& out) {
     const RegionAcceleration& acc = acceleration_of(p.region);
     const double bh2 = o.beta * h * h, gh = o.gamma * h;
     qp = p.q + h * p.v + (0.5 - o.beta) * h * h * p.a;
     vp = p.v + (1.0 - o.gamma) * h * p.a;
-    out.t = p.t + h;
+    out.t = t_out;
     out.region = p.region;
     acc.at(out.t, b, s);
     // P qp + R vp + s, summed in that order.
@@ -212,15 +228,20 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
 
   std::vector<double> values;
   Point trial, sub;
+  // The phases at the grid's times, by rotation: the step's acceleration, its guards and the
+  // observer's look at its end read them (keep_phases).
+  PhaseGrid phases(system.frequencies_rad_s, t0, dt);
   for (std::int64_t k = 1; k <= n_steps; ++k) {
     const double t_end = k == n_steps ? t1 : t0 + static_cast<double>(k) * dt;
+    phases.advance(k);
+    if (k < n_steps) keep_phases(system.frequencies_rad_s, t_end, phases.cos_wt(), phases.sin_wt());
     int transitions = 0;
     for (;;) {
       const double h = transitions == 0 ? dt : t_end - p.t;
-      if (!step(p, h, trial) || !trial.q.allFinite() || !trial.v.allFinite())
+      // The step ends at the grid's t_end: its acceleration, guards and end are read there.
+      if (!step(p, h, t_end, trial) || !trial.q.allFinite() || !trial.v.allFinite())
         return finish(Termination::kDiverged,
                       fmt::format("the state became non-finite after t = {:.6g} s", p.t));
-      trial.t = t_end;
       guards_of(p.region)(t_end, state(trial), values);
       const std::vector<LinearGuard>& gs = system.region(p.region).guards;
       bool crossed = false;
@@ -235,7 +256,7 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
           system, gs, values, 0.0, h,
           [&](double hh, Vector& y_at) {
             if (hh > 0) {
-              step(p, hh, sub);
+              step(p, hh, p.t + hh, sub);
             } else {
               sub = p;
             }
@@ -247,7 +268,7 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
       const double at_h = c.at;
       Point at = p;
       if (at_h > 0) {
-        step(p, at_h, at);
+        step(p, at_h, p.t + at_h, at);
         ++result.cells;
         sample(p, at, false);
         observer.on_step(at.t, state(at), at.region);

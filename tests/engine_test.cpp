@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -116,6 +117,52 @@ TEST(LinearSystem, FunctionalValuesAreEachFunctionalsValueToTheLastBit) {
     for (std::size_t k = 0; k < gs.size(); ++k)
       EXPECT_EQ(values[k], geardyn::ode::functional_value(s, gs[k], t, y)) << k << " at " << t;
   }
+}
+
+TEST(LinearSystem, PhasesAreTheDirectOnesOrThoseKeptForTheirTableAndTime) {
+  // phases_at computes cos(w t) and sin(w t) to the bit, and returns what keep_phases gave only
+  // for the same table and time: a reader at another time, or of another table at that time,
+  // is not handed them. A PhaseGrid's rotation stays within 1e-13 of the direct values over
+  // three resynchronisations and equals them at each; a mutant that rotates by -w dt, or never
+  // resynchronises, fails.
+  using geardyn::ode::PhaseGrid;
+  const std::vector<double> w = {3.0, 1234.5, 2.0e4};
+  std::vector<double> c, z;
+  geardyn::ode::phases_at(w, 0.731, c, z);
+  ASSERT_EQ(c.size(), w.size());
+  for (std::size_t f = 0; f < w.size(); ++f) {
+    EXPECT_EQ(c[f], std::cos(w[f] * 0.731));
+    EXPECT_EQ(z[f], std::sin(w[f] * 0.731));
+  }
+  const std::vector<double> given_c = {0.5, -0.25, 1.0}, given_z = {0.125, 0.75, -1.0};
+  geardyn::ode::keep_phases(w, 0.9, given_c, given_z);
+  geardyn::ode::phases_at(w, 0.9, c, z);
+  EXPECT_EQ(c, given_c);
+  EXPECT_EQ(z, given_z);
+  const std::vector<double> other = {3.0, 1234.5, 2.0e4 + 1.0};
+  geardyn::ode::phases_at(other, 0.9, c, z);
+  EXPECT_EQ(c[2], std::cos(other[2] * 0.9));
+  geardyn::ode::keep_phases(w, 0.9, given_c, given_z);
+  geardyn::ode::phases_at(w, 0.9 + 1e-15, c, z);
+  EXPECT_EQ(c[0], std::cos(w[0] * (0.9 + 1e-15)));
+
+  const double t0 = 0.0123, dt = 1.0e-6;
+  PhaseGrid grid(w, t0, dt);
+  double worst = 0;
+  for (std::int64_t k = 1; k <= 3 * PhaseGrid::kResyncSteps + 5; ++k) {
+    grid.advance(k);
+    const double t = t0 + static_cast<double>(k) * dt;
+    for (std::size_t f = 0; f < w.size(); ++f) {
+      worst = std::max({worst, std::abs(grid.cos_wt()[f] - std::cos(w[f] * t)),
+                        std::abs(grid.sin_wt()[f] - std::sin(w[f] * t))});
+      if (k % PhaseGrid::kResyncSteps == 0) {
+        EXPECT_EQ(grid.cos_wt()[f], std::cos(w[f] * t)) << k;
+        EXPECT_EQ(grid.sin_wt()[f], std::sin(w[f] * t)) << k;
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-13);
+  EXPECT_GT(worst, 0.0);  // the rotation is not the direct evaluation
 }
 
 TEST(LinearSystem, FunctionalBoundsHoldEveryPhaseAndStateOfTheBox) {

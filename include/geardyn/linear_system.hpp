@@ -20,6 +20,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -115,11 +116,43 @@ RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double
 // The value of any affine functional of the system (a guard or an observable) at (t, y).
 double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, double t_s,
                         const Vector& y);
+// cos(w_f t) and sin(w_f t) of every frequency of the table w, into cos_wt and sin_wt (resized
+// to w's size), each std::cos(w[f] * t_s) and std::sin(w[f] * t_s) bit for bit, or what
+// keep_phases gave for this table and time. The last table and time asked or given on a thread
+// are kept (the table by value): a stepper's acceleration, guards and observables at one time
+// compute them once between them.
+void phases_at(const std::vector<double>& w, double t_s, std::vector<double>& cos_wt,
+               std::vector<double>& sin_wt);
+// Makes phases_at return cos_wt and sin_wt (of w's size) for (w, t_s) on this thread until
+// another table or time is asked: a stepper on a uniform grid advances them by rotation
+// (PhaseGrid).
+void keep_phases(const std::vector<double>& w, double t_s, const std::vector<double>& cos_wt,
+                 const std::vector<double>& sin_wt);
+
+// cos(w_f t) and sin(w_f t) of a frequency table at t0 + k dt, k = 1, 2, ... in turn, advanced by
+// a rotation each step and computed afresh every kResyncSteps steps: within about 1e-13 of the
+// direct values (HarmonicGrid's scheme, harmonic_series.hpp), for two products a frequency. The
+// table must outlive it.
+class PhaseGrid {
+ public:
+  static constexpr std::int64_t kResyncSteps = 1024;
+  PhaseGrid(const std::vector<double>& w, double t0_s, double dt_s);
+  // Advances to step k (the previous call's k + 1, from 1); the phases at t0 + k dt.
+  void advance(std::int64_t k);
+  const std::vector<double>& cos_wt() const { return cos_; }
+  const std::vector<double>& sin_wt() const { return sin_; }
+
+ private:
+  const std::vector<double>* w_;
+  double t0_s_, dt_s_;
+  std::vector<double> rot_cos_, rot_sin_, cos_, sin_;
+};
+
 // The values of a list of functionals (a region's guards or observables) at many (t, y), each
 // equal to the last bit to functional_value's: built once per list, it keeps the frequencies
 // each functional's row or offset holds (a harmonic whose terms are zero adds nothing) and the
 // entries where its row varies (a mesh's row reads a few of the state's), sums only those, in
-// functional_value's order, and computes the cosines and sines once per call, without
+// functional_value's order, and reads the cosines and sines once per call (phases_at), without
 // allocating. The system and the list must outlive the reader.
 class FunctionalValues {
  public:
