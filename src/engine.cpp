@@ -256,8 +256,9 @@ double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, dou
 namespace {
 // phases_at's and keep_phases' last table and time, on this thread.
 struct KeptPhases {
-  std::vector<double> w, cos_wt, sin_wt;
+  std::vector<double> w;
   double t_s = std::numeric_limits<double>::quiet_NaN();  // equal to no time
+  Phases phases;
 };
 thread_local KeptPhases kept_phases;
 }  // namespace
@@ -267,8 +268,8 @@ void keep_phases(const std::vector<double>& w, double t_s, const std::vector<dou
   KeptPhases& kept = kept_phases;
   kept.w = w;
   kept.t_s = t_s;
-  kept.cos_wt = cos_wt;
-  kept.sin_wt = sin_wt;
+  kept.phases.cos_wt = cos_wt;
+  kept.phases.sin_wt = sin_wt;
 }
 
 PhaseGrid::PhaseGrid(const std::vector<double>& w, double t0_s, double dt_s)
@@ -304,31 +305,24 @@ void PhaseGrid::advance(std::int64_t k) {
   }
 }
 
-void phases_at(const std::vector<double>& w, double t_s, std::vector<double>& cos_wt,
-               std::vector<double>& sin_wt) {
+const Phases& phases_at(const std::vector<double>& w, double t_s) {
   KeptPhases& kept = kept_phases;
   if (!(kept.t_s == t_s && kept.w == w)) {
     kept.w = w;
     kept.t_s = t_s;
-    kept.cos_wt.resize(w.size());
-    kept.sin_wt.resize(w.size());
+    kept.phases.cos_wt.resize(w.size());
+    kept.phases.sin_wt.resize(w.size());
     for (std::size_t f = 0; f < w.size(); ++f) {
-      kept.cos_wt[f] = std::cos(w[f] * t_s);
-      kept.sin_wt[f] = std::sin(w[f] * t_s);
+      kept.phases.cos_wt[f] = std::cos(w[f] * t_s);
+      kept.phases.sin_wt[f] = std::sin(w[f] * t_s);
     }
   }
-  cos_wt.assign(kept.cos_wt.begin(), kept.cos_wt.end());
-  sin_wt.assign(kept.sin_wt.begin(), kept.sin_wt.end());
+  return kept.phases;
 }
 
 FunctionalValues::FunctionalValues(const LinearSwitchedSystem& s,
                                    const std::vector<LinearGuard>& gs)
-    : s_(&s),
-      gs_(&gs),
-      used_(gs.size()),
-      varies_(gs.size()),
-      cos_wt_(s.frequencies_rad_s.size()),
-      sin_wt_(s.frequencies_rad_s.size()) {
+    : s_(&s), gs_(&gs), used_(gs.size()), varies_(gs.size()) {
   std::vector<bool> any(s.frequencies_rad_s.size(), false);
   for (std::size_t i = 0; i < gs.size(); ++i) {
     const LinearGuard& g = gs[i];
@@ -353,7 +347,10 @@ FunctionalValues::FunctionalValues(const LinearSwitchedSystem& s,
 
 void FunctionalValues::operator()(double t_s, const Vector& y, std::vector<double>& values) const {
   assert(y.size() == s_->dimension);
-  if (!any_.empty()) phases_at(s_->frequencies_rad_s, t_s, cos_wt_, sin_wt_);
+  static const Phases kNone;  // no functional reads a harmonic
+  const Phases& phases = any_.empty() ? kNone : phases_at(s_->frequencies_rad_s, t_s);
+  const std::vector<double>& cos_wt = phases.cos_wt;
+  const std::vector<double>& sin_wt = phases.sin_wt;
   // The operations of evaluate(), in its order, for the harmonics that are not zero.
   const std::vector<LinearGuard>& gs = *gs_;
   values.resize(gs.size());
@@ -366,8 +363,8 @@ void FunctionalValues::operator()(double t_s, const Vector& y, std::vector<doubl
       double x = g.row.constant(j);
       for (const std::size_t f : used_[i]) {
         if (f < g.row.cos.size()) {
-          x += g.row.cos[f](j) * cos_wt_[f];
-          x += g.row.sin[f](j) * sin_wt_[f];
+          x += g.row.cos[f](j) * cos_wt[f];
+          x += g.row.sin[f](j) * sin_wt[f];
         }
       }
       row(j) = x;
@@ -375,8 +372,8 @@ void FunctionalValues::operator()(double t_s, const Vector& y, std::vector<doubl
     double offset = g.offset.constant;
     for (const std::size_t f : used_[i]) {
       if (f < g.offset.cos.size()) {
-        offset += g.offset.cos[f] * cos_wt_[f];
-        offset += g.offset.sin[f] * sin_wt_[f];
+        offset += g.offset.cos[f] * cos_wt[f];
+        offset += g.offset.sin[f] * sin_wt[f];
       }
     }
     values[i] = row.dot(y) + offset;

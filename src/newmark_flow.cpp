@@ -45,18 +45,20 @@ class RegionAcceleration {
   // B and s at t, summed over the frequencies whose terms are not zero, entry by entry (a
   // train's matrices are small: Eigen's expressions cost more than the sums).
   void at(double t_s, Matrix& b, Vector& s) const {
-    if (!b_used_.empty() || !s_used_.empty()) phases_at(w_, t_s, cos_wt_, sin_wt_);
     b = b0_;
+    s = s0_;
+    if (b_used_.empty() && s_used_.empty()) return;
+    const Phases& phases = phases_at(w_, t_s);
+    const std::vector<double>&cos_wt = phases.cos_wt, &sin_wt = phases.sin_wt;
     double* bb = b.data();
     const Eigen::Index b_size = b.size();
     for (const std::size_t f : b_used_) {
-      const double c = cos_wt_[f], z = sin_wt_[f];
+      const double c = cos_wt[f], z = sin_wt[f];
       const double *mc = bc_[f].data(), *ms = bs_[f].data();
       for (Eigen::Index i = 0; i < b_size; ++i) bb[i] += c * mc[i] + z * ms[i];
     }
-    s = s0_;
     for (const std::size_t f : s_used_) {
-      const double c = cos_wt_[f], z = sin_wt_[f];
+      const double c = cos_wt[f], z = sin_wt[f];
       for (Eigen::Index i = 0; i < n_; ++i) s(i) += c * sc_[f](i) + z * ss_[f](i);
     }
   }
@@ -70,8 +72,7 @@ class RegionAcceleration {
   Vector s0_;
   std::vector<Matrix> bc_, bs_;
   std::vector<Vector> sc_, ss_;
-  std::vector<std::size_t> b_used_, s_used_;     // the frequencies whose terms are not zero
-  mutable std::vector<double> cos_wt_, sin_wt_;  // at()'s
+  std::vector<std::size_t> b_used_, s_used_;  // the frequencies whose terms are not zero
 };
 
 // (q, v, a) at t, in a region.

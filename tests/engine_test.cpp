@@ -127,24 +127,22 @@ TEST(LinearSystem, PhasesAreTheDirectOnesOrThoseKeptForTheirTableAndTime) {
   // resynchronises, fails.
   using geardyn::ode::PhaseGrid;
   const std::vector<double> w = {3.0, 1234.5, 2.0e4};
-  std::vector<double> c, z;
-  geardyn::ode::phases_at(w, 0.731, c, z);
-  ASSERT_EQ(c.size(), w.size());
+  using geardyn::ode::phases_at;
+  const geardyn::ode::Phases direct = phases_at(w, 0.731);
+  ASSERT_EQ(direct.cos_wt.size(), w.size());
+  ASSERT_EQ(direct.sin_wt.size(), w.size());
   for (std::size_t f = 0; f < w.size(); ++f) {
-    EXPECT_EQ(c[f], std::cos(w[f] * 0.731));
-    EXPECT_EQ(z[f], std::sin(w[f] * 0.731));
+    EXPECT_EQ(direct.cos_wt[f], std::cos(w[f] * 0.731));
+    EXPECT_EQ(direct.sin_wt[f], std::sin(w[f] * 0.731));
   }
   const std::vector<double> given_c = {0.5, -0.25, 1.0}, given_z = {0.125, 0.75, -1.0};
   geardyn::ode::keep_phases(w, 0.9, given_c, given_z);
-  geardyn::ode::phases_at(w, 0.9, c, z);
-  EXPECT_EQ(c, given_c);
-  EXPECT_EQ(z, given_z);
+  EXPECT_EQ(phases_at(w, 0.9).cos_wt, given_c);
+  EXPECT_EQ(phases_at(w, 0.9).sin_wt, given_z);
   const std::vector<double> other = {3.0, 1234.5, 2.0e4 + 1.0};
-  geardyn::ode::phases_at(other, 0.9, c, z);
-  EXPECT_EQ(c[2], std::cos(other[2] * 0.9));
+  EXPECT_EQ(phases_at(other, 0.9).cos_wt[2], std::cos(other[2] * 0.9));
   geardyn::ode::keep_phases(w, 0.9, given_c, given_z);
-  geardyn::ode::phases_at(w, 0.9 + 1e-15, c, z);
-  EXPECT_EQ(c[0], std::cos(w[0] * (0.9 + 1e-15)));
+  EXPECT_EQ(phases_at(w, 0.9 + 1e-15).cos_wt[0], std::cos(w[0] * (0.9 + 1e-15)));
 
   const double t0 = 0.0123, dt = 1.0e-6;
   PhaseGrid grid(w, t0, dt);

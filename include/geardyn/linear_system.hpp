@@ -116,13 +116,16 @@ RowVector guard_row(const LinearSwitchedSystem& s, int region, int guard, double
 // The value of any affine functional of the system (a guard or an observable) at (t, y).
 double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, double t_s,
                         const Vector& y);
-// cos(w_f t) and sin(w_f t) of every frequency of the table w, into cos_wt and sin_wt (resized
-// to w's size), each std::cos(w[f] * t_s) and std::sin(w[f] * t_s) bit for bit, or what
-// keep_phases gave for this table and time. The last table and time asked or given on a thread
-// are kept (the table by value): a stepper's acceleration, guards and observables at one time
-// compute them once between them.
-void phases_at(const std::vector<double>& w, double t_s, std::vector<double>& cos_wt,
-               std::vector<double>& sin_wt);
+// cos(w_f t) and sin(w_f t) of every frequency of a table, one entry per frequency.
+struct Phases {
+  std::vector<double> cos_wt, sin_wt;
+};
+// The phases of the table w at t_s: each std::cos(w[f] * t_s) and std::sin(w[f] * t_s) bit for
+// bit, or what keep_phases gave for this table and time. The last table and time asked or given
+// on a thread are kept (the table by value), so that a stepper's acceleration, guards and
+// observables at one time compute them once between them; the reference is this thread's and
+// valid until its next call of phases_at or keep_phases.
+const Phases& phases_at(const std::vector<double>& w, double t_s);
 // Makes phases_at return cos_wt and sin_wt (of w's size) for (w, t_s) on this thread until
 // another table or time is asked: a stepper on a uniform grid advances them by rotation
 // (PhaseGrid).
@@ -166,8 +169,7 @@ class FunctionalValues {
   std::vector<std::vector<std::size_t>> used_;     // per functional, the frequencies it holds
   std::vector<std::size_t> any_;                   // frequencies some functional holds
   std::vector<std::vector<Eigen::Index>> varies_;  // per functional, where its row varies
-  mutable std::vector<double> cos_wt_, sin_wt_;
-  mutable std::vector<RowVector> rows_;  // per functional, its row at the last time asked
+  mutable std::vector<RowVector> rows_;            // per functional, its row at the last time asked
 };
 
 // One T per region of a system, T(system, region) made the first time a flow asks for region's
