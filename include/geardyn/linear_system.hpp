@@ -133,9 +133,9 @@ void keep_phases(const std::vector<double>& w, double t_s, const std::vector<dou
                  const std::vector<double>& sin_wt);
 
 // cos(w_f t) and sin(w_f t) of a frequency table at t0 + k dt, k = 1, 2, ... in turn, advanced by
-// a rotation each step and computed afresh every kResyncSteps steps: within about 1e-13 of the
-// direct values (HarmonicGrid's scheme, harmonic_series.hpp), for two products a frequency. The
-// table must outlive it.
+// a rotation each step (four products a frequency instead of a cosine and a sine) and computed
+// afresh every kResyncSteps steps: within about 1e-13 of the direct values (HarmonicGrid's
+// scheme, harmonic_series.hpp). The table must outlive it.
 class PhaseGrid {
  public:
   static constexpr std::int64_t kResyncSteps = 1024;
