@@ -259,6 +259,7 @@ struct KeptPhases {
   std::vector<double> w;
   double t_s = std::numeric_limits<double>::quiet_NaN();  // equal to no time
   Phases phases;
+  bool direct = false;  // computed by phases_at, not given by keep_phases
 };
 thread_local KeptPhases kept_phases;
 }  // namespace
@@ -270,6 +271,12 @@ void keep_phases(const std::vector<double>& w, double t_s, const std::vector<dou
   kept.t_s = t_s;
   kept.phases.cos_wt = cos_wt;
   kept.phases.sin_wt = sin_wt;
+  kept.direct = false;
+}
+
+const Phases* kept_direct_phases(const std::vector<double>& w, double t_s) {
+  const KeptPhases& kept = kept_phases;
+  return kept.direct && kept.t_s == t_s && kept.w == w ? &kept.phases : nullptr;
 }
 
 PhaseGrid::PhaseGrid(const std::vector<double>& w, double t0_s, double dt_s)
@@ -316,6 +323,7 @@ const Phases& phases_at(const std::vector<double>& w, double t_s) {
       kept.phases.cos_wt[f] = std::cos(w[f] * t_s);
       kept.phases.sin_wt[f] = std::sin(w[f] * t_s);
     }
+    kept.direct = true;
   }
   return kept.phases;
 }

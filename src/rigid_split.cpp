@@ -211,6 +211,7 @@ RigidSplit::Motion::Motion(const RigidSplit& split, double t0_s, const Eigen::Ve
   const FourierTerms<double>& f = split.forcing_;
   for (std::size_t k = 0; k < f.cos.size(); ++k) {
     if (f.cos[k] == 0 && f.sin[k] == 0) continue;
+    forced_.push_back(k);
     cos0_[k] = std::cos(split.w_[k] * t0_s);
     sin0_[k] = std::sin(split.w_[k] * t0_s);
   }
@@ -222,12 +223,14 @@ Eigen::Vector2d RigidSplit::Motion::at(double t_s) const {
   const double c0 = forcing.constant;
   double phi = rigid0_(0) + rigid0_(1) * tau + 0.5 * c0 * tau * tau;
   double rate = rigid0_(1) + c0 * tau;
-  // phi'' = c cos(w t) + s sin(w t), integrated twice from t0.
-  for (std::size_t f = 0; f < forcing.cos.size(); ++f) {
+  // phi'' = c cos(w t) + s sin(w t), integrated twice from t0; the phases at t those a sample's
+  // observables have just computed, when they have (the same values).
+  const Phases* kept = forced_.empty() ? nullptr : kept_direct_phases(split_->w_, t_s);
+  for (const std::size_t f : forced_) {
     const double c = forcing.cos[f], s = forcing.sin[f];
-    if (c == 0 && s == 0) continue;
     const double w = split_->w_[f];
-    const double c1 = std::cos(w * t_s), s1 = std::sin(w * t_s);
+    const double c1 = kept ? kept->cos_wt[f] : std::cos(w * t_s);
+    const double s1 = kept ? kept->sin_wt[f] : std::sin(w * t_s);
     const double c_0 = cos0_[f], s_0 = sin0_[f];
     rate += (c * (s1 - s_0) - s * (c1 - c_0)) / w;
     phi += (-c * (c1 - c_0) - s * (s1 - s_0)) / (w * w) + (-c * s_0 + s * c_0) * tau / w;

@@ -122,9 +122,9 @@ TEST(LinearSystem, FunctionalValuesAreEachFunctionalsValueToTheLastBit) {
 TEST(LinearSystem, PhasesAreTheDirectOnesOrThoseKeptForTheirTableAndTime) {
   // phases_at computes cos(w t) and sin(w t) to the bit, and returns what keep_phases gave only
   // for the same table and time: a reader at another time, or of another table at that time,
-  // is not handed them. A PhaseGrid's rotation stays within 1e-13 of the direct values over
-  // three resynchronisations and equals them at each; a mutant that rotates by -w dt, or never
-  // resynchronises, fails.
+  // is not handed them, nor is a reader of kept_direct_phases. A PhaseGrid's rotation stays within
+  // 1e-13 of the direct values over three resynchronisations and equals them at each; a mutant that
+  // rotates by -w dt, or never resynchronises, fails.
   using geardyn::ode::PhaseGrid;
   const std::vector<double> w = {3.0, 1234.5, 2.0e4};
   using geardyn::ode::phases_at;
@@ -143,6 +143,20 @@ TEST(LinearSystem, PhasesAreTheDirectOnesOrThoseKeptForTheirTableAndTime) {
   EXPECT_EQ(phases_at(other, 0.9).cos_wt[2], std::cos(other[2] * 0.9));
   geardyn::ode::keep_phases(w, 0.9, given_c, given_z);
   EXPECT_EQ(phases_at(w, 0.9 + 1e-15).cos_wt[0], std::cos(w[0] * (0.9 + 1e-15)));
+  // kept_direct_phases hands back only what phases_at computed, for its table and time: not
+  // what keep_phases gave, not another time's, not another table's.
+  using geardyn::ode::kept_direct_phases;
+  (void)phases_at(w, 0.5);
+  const geardyn::ode::Phases* kept = kept_direct_phases(w, 0.5);
+  ASSERT_NE(kept, nullptr);
+  for (std::size_t f = 0; f < w.size(); ++f) {
+    EXPECT_EQ(kept->cos_wt[f], std::cos(w[f] * 0.5));
+    EXPECT_EQ(kept->sin_wt[f], std::sin(w[f] * 0.5));
+  }
+  EXPECT_EQ(kept_direct_phases(w, 0.5 + 1e-15), nullptr);
+  EXPECT_EQ(kept_direct_phases(other, 0.5), nullptr);
+  geardyn::ode::keep_phases(w, 0.5, given_c, given_z);
+  EXPECT_EQ(kept_direct_phases(w, 0.5), nullptr);
 
   const double t0 = 0.0123, dt = 1.0e-6;
   PhaseGrid grid(w, t0, dt);

@@ -193,6 +193,36 @@ TEST(RigidSplit, TheComplementsFlowLiftedIsTheWholeFlow) {
   }
 }
 
+// A Motion's reading at t takes the phases phases_at has just computed there (a sample's
+// observables asked them first) and is then the same to the bit as computing its own; it takes
+// no phases kept for another time, nor values keep_phases gave (a stepper's rotated ones). A
+// mutant that reads any kept phases, or kept phases of another time, fails.
+TEST(RigidSplit, AMotionReadsTheKeptPhasesOnlyWhereTheyAreItsOwn) {
+  const LinearSwitchedSystem full = line_system(Line{});
+  const RigidSplit split(full, kFree, kMass);
+  const Eigen::Vector2d rigid0(0.25, 3.0);
+  const double t0 = 0.013;
+  const RigidSplit::Motion motion(split, t0, rigid0);
+  const Vector y_r{{0.0004, -0.0001, 0.2, -0.3}};
+  const std::vector<double> unrelated = {1.0};
+  for (const double t : {0.013, 0.2371, 1.9}) {
+    (void)phases_at(unrelated, t);  // nothing kept for this table
+    const Eigen::Vector2d own = motion.at(t);
+    const Vector lifted_own = split.lift(t0, rigid0, t, y_r);
+    EXPECT_EQ(own, split.rigid_at(t0, rigid0, t));
+    (void)phases_at(full.frequencies_rad_s, t);  // a sample's observables, first
+    EXPECT_EQ(motion.at(t), own) << t;
+    Vector lifted(6);
+    motion.lift_into(t, y_r, lifted.data());
+    EXPECT_EQ(lifted, lifted_own) << t;
+    (void)phases_at(full.frequencies_rad_s, t + 1e-3);
+    EXPECT_EQ(motion.at(t), own) << t;
+    const std::vector<double> wrong(full.frequencies_rad_s.size(), 0.5);
+    keep_phases(full.frequencies_rad_s, t, wrong, wrong);
+    EXPECT_EQ(motion.at(t), own) << t;
+  }
+}
+
 // With constant coefficients in contact, the complement's A0 is invertible: once the start-up
 // has passed, the engine jumps whole forcing periods around its forced response. The whole
 // system's A0 is singular (the free rotation) and its rotation, at rest or turning, does not

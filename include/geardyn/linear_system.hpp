@@ -131,6 +131,11 @@ const Phases& phases_at(const std::vector<double>& w, double t_s);
 // (PhaseGrid).
 void keep_phases(const std::vector<double>& w, double t_s, const std::vector<double>& cos_wt,
                  const std::vector<double>& sin_wt);
+// The phases phases_at computed directly for (w, t_s), when this thread keeps them (not those
+// keep_phases gave); else null. A reader of a few of the table's frequencies at a time whose
+// phases were just asked (a sample's lift after its observables) takes them from here, bit
+// for bit its own std::cos and std::sin, without computing the whole table.
+const Phases* kept_direct_phases(const std::vector<double>& w, double t_s);
 
 // cos(w_f t) and sin(w_f t) of a frequency table at t0 + k dt, k = 1, 2, ... in turn, advanced by
 // a rotation each step (four products a frequency instead of a cosine and a sine) and computed

@@ -69,6 +69,7 @@ class RigidSplit {
     double t0_s_ = 0;
     Eigen::Vector2d rigid0_ = Eigen::Vector2d::Zero();
     std::vector<double> cos0_, sin0_;  // cos and sin of w t0 per frequency
+    std::vector<std::size_t> forced_;  // the frequencies the forcing holds
   };
   // dy(t1)/dy(t0) of the full flow from the reduced flow's dy_r(t1)/dy_r(t0).
   Matrix lift_jacobian(double t0_s, double t1_s, const Matrix& jacobian_r) const;
