@@ -204,13 +204,17 @@ class SampleRows {
   // Room for `rows` rows of `width` values (a run knows its output samples beforehand).
   void reserve(std::size_t rows, std::size_t width) { values_.reserve(rows * width); }
   // Appends a row of `width` values (every row the first one's width) and returns where they
-  // go, to be written before the next append.
+  // go, to be written before the next append. The buffer takes all the room reserved at once,
+  // then grows by doubling, so that an append within it only counts the row.
   T* append(std::size_t width) {
     if (rows_ == 0) width_ = width;
-    if (width != width_) throw std::logic_error("SampleRows: rows of different widths");
+    if (width != width_) [[unlikely]]
+      widths_differ();
+    const std::size_t end = rows_ * width_;
+    if (end + width_ > values_.size()) [[unlikely]]
+      values_.resize(std::max({values_.capacity(), 2 * values_.size(), end + width_}));
     ++rows_;
-    values_.resize(values_.size() + width_);
-    return values_.data() + values_.size() - width_;
+    return values_.data() + end;
   }
   // Appends a copy of any contiguous range of T (an Eigen vector, a std::vector).
   template <class Range>
@@ -220,6 +224,9 @@ class SampleRows {
   }
 
  private:
+  [[noreturn, gnu::cold, gnu::noinline]] static void widths_differ() {
+    throw std::logic_error("SampleRows: rows of different widths");
+  }
   std::vector<T> values_;
   std::size_t width_ = 0, rows_ = 0;
 };
