@@ -42,24 +42,24 @@ class RegionAcceleration {
       if (sc_[f].any() || ss_[f].any()) s_used_.push_back(f);
   }
   bool varies() const { return !b_used_.empty(); }
-  // B and s at t, summed over the frequencies whose terms are not zero, entry by entry (a
-  // train's matrices are small: Eigen's expressions cost more than the sums).
-  void at(double t_s, Matrix& b, Vector& s) const {
-    b = b0_;
-    s = s0_;
+  // B and s at t into b (N x 2N, column-major) and s (N), summed over the frequencies whose
+  // terms are not zero, entry by entry (a train's matrices are small: Eigen's expressions cost
+  // more than the sums).
+  void at(double t_s, double* b, double* s) const {
+    const Eigen::Index b_size = b0_.size();
+    std::copy(b0_.data(), b0_.data() + b_size, b);
+    std::copy(s0_.data(), s0_.data() + n_, s);
     if (b_used_.empty() && s_used_.empty()) return;
     const Phases& phases = phases_at(w_, t_s);
     const std::vector<double>&cos_wt = phases.cos_wt, &sin_wt = phases.sin_wt;
-    double* bb = b.data();
-    const Eigen::Index b_size = b.size();
     for (const std::size_t f : b_used_) {
       const double c = cos_wt[f], z = sin_wt[f];
       const double *mc = bc_[f].data(), *ms = bs_[f].data();
-      for (Eigen::Index i = 0; i < b_size; ++i) bb[i] += c * mc[i] + z * ms[i];
+      for (Eigen::Index i = 0; i < b_size; ++i) b[i] += c * mc[i] + z * ms[i];
     }
     for (const std::size_t f : s_used_) {
       const double c = cos_wt[f], z = sin_wt[f];
-      for (Eigen::Index i = 0; i < n_; ++i) s(i) += c * sc_[f](i) + z * ss_[f](i);
+      for (Eigen::Index i = 0; i < n_; ++i) s[i] += c * sc_[f](i) + z * ss_[f](i);
     }
   }
   Eigen::Index half() const { return n_; }
@@ -75,21 +75,39 @@ class RegionAcceleration {
   std::vector<std::size_t> b_used_, s_used_;  // the frequencies whose terms are not zero
 };
 
+// The step's vectors and matrices for N degrees of freedom: of fixed size for a small system
+// (up to 6: Eigen's fixed-size products and factors, no allocation; a two-stage reducer's six
+// bodies), dynamic (Eigen::Dynamic) above.
+template <int N>
+struct Sized {
+  using Vec = Eigen::Matrix<double, N, 1>;
+  using Mat = Eigen::Matrix<double, N, N>;
+  using Rows = Eigen::Matrix<double, N, N == Eigen::Dynamic ? Eigen::Dynamic : 2 * N>;  // [P R]
+};
+
 // (q, v, a) at t, in a region.
+template <int N>
 struct Point {
   double t = 0;
-  Vector q, v, a;
+  typename Sized<N>::Vec q, v, a;
   int region = 0;
 };
 
 // Cubic Hermite interpolation on [0, h] from end values and slopes, at s (integrator.hpp's).
-Vector hermite(const Vector& y0, const Vector& dy0, const Vector& y1, const Vector& dy1, double h,
-               double s) {
-  Vector out(y0.size());
+template <class V>
+V hermite(const V& y0, const V& dy0, const V& y1, const V& dy1, double h, double s) {
+  V out(y0.size());
   for (Eigen::Index i = 0; i < y0.size(); ++i)
     out(i) = detail::hermite(y0(i), dy0(i), y1(i), dy1(i), h, s);
   return out;
 }
+
+// The flow itself (newmark_flow's contract), its steps in N degrees of freedom (n at run time,
+// equal to N where N is fixed), n_steps of dt from t0.
+template <int N>
+FlowResult newmark_steps(const LinearSwitchedSystem& system, double t0, const Vector& y0,
+                         int region, double t1, std::int64_t n_steps, double dt,
+                         const OutputGrid& output, FlowObserver& observer, const NewmarkOptions& o);
 
 }  // namespace
 
@@ -127,34 +145,72 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
   if (!(time_step_s > 0) || !std::isfinite(time_step_s))
     throw std::invalid_argument(fmt::format(
         "newmark_flow: the time step must be positive and finite, not {}", time_step_s));
+  const std::int64_t n_steps = std::max<std::int64_t>(
+      1, static_cast<std::int64_t>(std::ceil((t1 - t0) / time_step_s - 1e-9)));
+  const double dt = (t1 - t0) / static_cast<double>(n_steps);
+  switch (system.dimension / 2) {
+    case 1:
+      return newmark_steps<1>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
+    case 2:
+      return newmark_steps<2>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
+    case 3:
+      return newmark_steps<3>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
+    case 4:
+      return newmark_steps<4>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
+    case 5:
+      return newmark_steps<5>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
+    case 6:
+      return newmark_steps<6>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
+    default:
+      return newmark_steps<Eigen::Dynamic>(system, t0, y0, region, t1, n_steps, dt, output,
+                                           observer, o);
+  }
+}
+
+namespace {
+
+template <int N>
+FlowResult newmark_steps(const LinearSwitchedSystem& system, double t0, const Vector& y0,
+                         int region, double t1, std::int64_t n_steps, double dt,
+                         const OutputGrid& output, FlowObserver& observer,
+                         const NewmarkOptions& o) {
+  using Vec = typename Sized<N>::Vec;
+  using Mat = typename Sized<N>::Mat;
+  using Rows = typename Sized<N>::Rows;
+  using Point = geardyn::ode::Point<N>;
   // Each region's acceleration and guards, made when the flow first enters it; the whole
   // step's matrix of a region with constant coefficients, factorised once.
   PerRegion<RegionAcceleration> acceleration_of(system);
   PerRegion<RegionGuards> guards_of(system);
-  std::vector<std::optional<Eigen::PartialPivLU<Matrix>>> whole_step(
+  std::vector<std::optional<Eigen::PartialPivLU<Mat>>> whole_step(
       static_cast<std::size_t>(system.region_count()));
   const Eigen::Index n = system.dimension / 2;
-  const std::int64_t n_steps = std::max<std::int64_t>(
-      1, static_cast<std::int64_t>(std::ceil((t1 - t0) / time_step_s - 1e-9)));
-  const double dt = (t1 - t0) / static_cast<double>(n_steps);
 
-  Matrix b(n, 2 * n);
-  Vector s(n), y(2 * n);
+  // A vector or matrix of the run's size (resize: a no-op where the size is fixed).
+  const auto sized = [n](auto x, Eigen::Index cols) {
+    x.resize(n, cols);
+    return x;
+  };
+  Rows b = sized(Rows(), 2 * n);
+  Vec s = sized(Vec(), 1);
+  Vector y(2 * n);
   const auto state = [&y, n](const Point& p) -> const Vector& {
     y.head(n) = p.q;
     y.tail(n) = p.v;
     return y;
   };
+  const auto p_of = [n](const Rows& m) { return m.template leftCols<N>(n); };
+  const auto r_of = [n](const Rows& m) { return m.template rightCols<N>(n); };
   // a from the equation at (t, q, v) in p's region.
   const auto accelerate = [&](Point& p) {
-    acceleration_of(p.region).at(p.t, b, s);
-    p.a = b.leftCols(n) * p.q + b.rightCols(n) * p.v + s;
+    acceleration_of(p.region).at(p.t, b.data(), s.data());
+    p.a = p_of(b) * p.q + r_of(b) * p.v + s;
   };
   // The step's predictors, right-hand side, matrix and its factors, kept across steps so that a
   // step allocates nothing.
-  Vector qp(n), vp(n), rhs(n), rate_part(n);
-  Matrix step_matrix(n, n);
-  Eigen::PartialPivLU<Matrix> factors(n);
+  Vec qp = sized(Vec(), 1), vp = qp, rhs = qp, rate_part = qp;
+  Mat step_matrix = sized(Mat(), n);
+  Eigen::PartialPivLU<Mat> factors(n);
   // The step of length h from p in p's region, to the time t_out (p.t + h, or the grid's time
   // that it rounds to); false where its matrix is singular.
   const auto step = [&](const Point& p, double h, double t_out, Point& out) {
@@ -164,17 +220,17 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
     vp = p.v + (1.0 - o.gamma) * h * p.a;
     out.t = t_out;
     out.region = p.region;
-    acc.at(out.t, b, s);
+    acc.at(out.t, b.data(), s.data());
     // P qp + R vp + s, summed in that order.
-    rhs.noalias() = b.leftCols(n) * qp;
-    rate_part.noalias() = b.rightCols(n) * vp;
+    rhs.noalias() = p_of(b) * qp;
+    rate_part.noalias() = r_of(b) * vp;
     rhs += rate_part;
     rhs += s;
     // I - beta h^2 P - gamma h R.
-    const auto matrix = [&]() -> const Matrix& {
+    const auto matrix = [&]() -> const Mat& {
       step_matrix.setIdentity();
-      step_matrix -= bh2 * b.leftCols(n);
-      step_matrix -= gh * b.rightCols(n);
+      step_matrix -= bh2 * p_of(b);
+      step_matrix -= gh * r_of(b);
       return step_matrix;
     };
     auto& cached = whole_step[static_cast<std::size_t>(p.region)];
@@ -191,7 +247,7 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
   };
 
   FlowResult result;
-  Point p{t0, y0.head(n), y0.tail(n), Vector(n), region};
+  Point p{t0, y0.head(n), y0.tail(n), qp, region};
   accelerate(p);
   const auto finish = [&](Termination why, std::string message) {
     result.termination = why;
@@ -291,5 +347,7 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
   }
   return finish(Termination::kCompleted, "");
 }
+
+}  // namespace
 
 }  // namespace geardyn::ode

@@ -65,6 +65,56 @@ TEST(NewmarkFlow, TurnsAnOscillatorByTheClosedFormOfAverageAcceleration) {
   EXPECT_EQ(r.events, 0);
 }
 
+// On a linear system with constant coefficients, average acceleration is the trapezoidal rule
+// on y' = A y: y_(k+1) = (I - h A / 2)^-1 (I + h A / 2) y_k. A damped chain of 1 to 8 bodies
+// (the step's sizes fixed at compile time up to 6, dynamic above) steps as that map does, each
+// body coupled to the next through stiffness and damping so that every entry of P and R acts.
+// A mutant that takes R for P, drops the damping's rows or misreads a size fails.
+TEST(NewmarkFlow, EverySizeStepsAsTheTrapezoidalRule) {
+  for (int n = 1; n <= 8; ++n) {
+    Matrix m = Matrix::Zero(n, n), k = Matrix::Zero(n, n), c = Matrix::Zero(n, n);
+    for (int i = 0; i < n; ++i) {
+      m(i, i) = 1.0 + 0.3 * i;
+      k(i, i) += 2e4 * (1 + 0.1 * i);  // to the ground
+      c(i, i) += 3.0;
+      if (i + 1 < n) {
+        const double ki = 1e4 * (1 + 0.2 * i), ci = 2.0 + i;
+        k(i, i) += ki;
+        k(i + 1, i + 1) += ki;
+        k(i, i + 1) -= ki;
+        k(i + 1, i) -= ki;
+        c(i, i) += ci;
+        c(i + 1, i + 1) += ci;
+        c(i, i + 1) -= ci;
+        c(i + 1, i) -= ci;
+      }
+    }
+    LinearSwitchedSystem s = undamped(m, k);
+    s.regions[0].a.constant.bottomRightCorner(n, n) = -m.inverse() * c;
+    const Matrix a = s.regions[0].a.constant;
+    const double h = 2e-3;
+    const Matrix id = Matrix::Identity(2 * n, 2 * n);
+    const Matrix map = (id - 0.5 * h * a).partialPivLu().solve(id + 0.5 * h * a);
+    Vector y0(2 * n);
+    for (int i = 0; i < 2 * n; ++i) y0(i) = (i % 2 == 0 ? 1e-3 : -2e-3) * (1 + 0.25 * i);
+    Ends ends;
+    const int steps = 300;
+    const FlowResult r = newmark_flow(s, 0, y0, 0, steps * h, h, {}, ends);
+    ASSERT_TRUE(r.ok()) << n << ": " << r.message;
+    ASSERT_EQ(ends.y.size(), static_cast<std::size_t>(steps)) << n;
+    Vector y = y0;
+    double worst = 0, size = 0, moved = 0;
+    for (int j = 0; j < steps; ++j) {
+      y = map * y;
+      worst = std::max(worst, (ends.y[static_cast<std::size_t>(j)] - y).cwiseAbs().maxCoeff());
+      size = std::max(size, y.cwiseAbs().maxCoeff());
+      moved = std::max(moved, std::abs(y(0) - y0(0)));
+    }
+    EXPECT_LT(worst, 1e-11 * size) << n;
+    EXPECT_GT(moved, std::abs(y0(0))) << n;  // the first body swings through its rest
+  }
+}
+
 // Two bodies on three springs, undamped: 1/2 v' M v + 1/2 q' K q is a quadratic invariant that
 // the trapezoidal rule keeps exactly, whatever the step.
 TEST(NewmarkFlow, KeepsTheEnergyOfAnUndampedLinearSystem) {
