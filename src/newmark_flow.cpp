@@ -4,6 +4,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -148,23 +149,17 @@ FlowResult newmark_flow(const LinearSwitchedSystem& system, double t0, const Vec
   const std::int64_t n_steps = std::max<std::int64_t>(
       1, static_cast<std::int64_t>(std::ceil((t1 - t0) / time_step_s - 1e-9)));
   const double dt = (t1 - t0) / static_cast<double>(n_steps);
-  switch (system.dimension / 2) {
-    case 1:
-      return newmark_steps<1>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
-    case 2:
-      return newmark_steps<2>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
-    case 3:
-      return newmark_steps<3>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
-    case 4:
-      return newmark_steps<4>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
-    case 5:
-      return newmark_steps<5>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
-    case 6:
-      return newmark_steps<6>(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
-    default:
-      return newmark_steps<Eigen::Dynamic>(system, t0, y0, region, t1, n_steps, dt, output,
-                                           observer, o);
-  }
+  // The step of the system's degrees of freedom where a fixed size is compiled, else dynamic.
+  using Steps =
+      FlowResult (*)(const LinearSwitchedSystem&, double, const Vector&, int, double, std::int64_t,
+                     double, const OutputGrid&, FlowObserver&, const NewmarkOptions&);
+  static constexpr std::array<Steps, 7> kFixedSize = {
+      nullptr,           &newmark_steps<1>, &newmark_steps<2>, &newmark_steps<3>,
+      &newmark_steps<4>, &newmark_steps<5>, &newmark_steps<6>};
+  const auto n = static_cast<std::size_t>(system.dimension / 2);
+  const Steps steps =
+      n >= 1 && n < kFixedSize.size() ? kFixedSize[n] : &newmark_steps<Eigen::Dynamic>;
+  return steps(system, t0, y0, region, t1, n_steps, dt, output, observer, o);
 }
 
 namespace {
