@@ -181,13 +181,8 @@ FlowResult newmark_steps(const LinearSwitchedSystem& system, double t0, const Ve
       static_cast<std::size_t>(system.region_count()));
   const Eigen::Index n = system.dimension / 2;
 
-  // A vector or matrix of the run's size (resize: a no-op where the size is fixed).
-  const auto sized = [n](auto x, Eigen::Index cols) {
-    x.resize(n, cols);
-    return x;
-  };
-  Rows b = sized(Rows(), 2 * n);
-  Vec s = sized(Vec(), 1);
+  Rows b = Rows::Zero(n, 2 * n);  // the sizes are checked against N where it is fixed
+  Vec s = Vec::Zero(n);
   Vector y(2 * n);
   const auto state = [&y, n](const Point& p) -> const Vector& {
     y.head(n) = p.q;
@@ -203,8 +198,8 @@ FlowResult newmark_steps(const LinearSwitchedSystem& system, double t0, const Ve
   };
   // The step's predictors, right-hand side, matrix and its factors, kept across steps so that a
   // step allocates nothing.
-  Vec qp = sized(Vec(), 1), vp = qp, rhs = qp, rate_part = qp;
-  Mat step_matrix = sized(Mat(), n);
+  Vec qp = Vec::Zero(n), vp = qp, rhs = qp, rate_part = qp;
+  Mat step_matrix = Mat::Zero(n, n);
   Eigen::PartialPivLU<Mat> factors(n);
   // The step of length h from p in p's region, to the time t_out (p.t + h, or the grid's time
   // that it rounds to); false where its matrix is singular.
