@@ -181,9 +181,50 @@ void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r) {
 
 }  // namespace
 
+// train_phase: each mesh's phase portrait, (d - e) / b against d' - e' (m/s), the whole run
+// light and its steady part in the mesh's colour, the contact edges at +-1 dashed, read from
+// the timeseries.csv beside it (write_train_timeseries_csv's columns).
+void write_train_phase_figure(const fs::path& dir, const TrainRunResult& r) {
+  const std::size_t meshes = r.meshes.size();
+  if (meshes == 0) return;
+  const TrainSamples& s = r.samples;
+  std::size_t steady_row = 0;
+  while (steady_row < s.t_s.size() && s.t_s[steady_row] < r.steady.from_s) ++steady_row;
+  // timeseries.csv's columns (from 1): t_s, the coordinates, their rates, three per mesh (its
+  // (d - e) / b first), the parts, and each mesh's d' - e'.
+  const std::size_t coordinates = r.coordinates.size();
+  const std::size_t parts = s.parts.empty() ? 0 : s.parts.width();
+  const std::size_t columns = std::min<std::size_t>(meshes, 3);
+  const std::size_t rows = (meshes + columns - 1) / columns;
+  std::string g =
+      "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
+      "set key top right font ',9' opaque\n";
+  fmt::format_to(std::back_inserter(g),
+                 "set multiplot layout {},{} title \"{}: phase portraits, the steady part from "
+                 "t = {:.4g} ms\"\nset xlabel '(d − e) / b'\nset ylabel 'd′ − e′ (m/s)'\n"
+                 "set arrow 1 from 1, graph 0 to 1, graph 1 nohead dt 2 lc rgb 'gray40'\n"
+                 "set arrow 2 from -1, graph 0 to -1, graph 1 nohead dt 2 lc rgb 'gray40'\n",
+                 rows, columns, quoted(r.input.name), r.steady.from_s * 1e3);
+  for (std::size_t m = 0; m < meshes; ++m) {
+    const std::size_t deflection = 2 + 2 * coordinates + 3 * m;
+    const std::size_t rate = 2 + 2 * coordinates + 3 * meshes + parts + m;
+    fmt::format_to(std::back_inserter(g),
+                   "set title \"mesh {}\" font ',10'\n"
+                   "plot 'timeseries.csv' every ::1 using {}:{} with lines lc rgb '#c8c8c8' "
+                   "title 'whole run', '' every ::{} using {}:{} with lines lw 1.2 lc rgb '{}' "
+                   "title 'steady part'\n",
+                   quoted(r.meshes[m].name), deflection, rate, steady_row + 1, deflection, rate,
+                   colour(m));
+  }
+  g += "unset multiplot\n";
+  render_figure(dir, "train_phase", g, 560 * static_cast<int>(columns),
+                480 * static_cast<int>(rows));
+}
+
 void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
   if (!r.load_sharing.empty()) write_load_sharing_figure(dir, r);
   write_train_spectrum_figure(dir, r);
+  write_train_phase_figure(dir, r);
   const TrainSamples& s = r.samples;
   const std::size_t meshes = r.meshes.size(), shafts = r.shafts.size(),
                     bearings = r.bearings.size();

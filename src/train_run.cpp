@@ -988,6 +988,33 @@ void TrainSections::add(double t_s, const ode::Vector& y) {
   }
 }
 
+namespace {
+
+// Fills s.deflection_rate_m_s from the samples' states: each mesh's d' - e' = V q' - e'(t).
+void mesh_rates(const train::Assembled& a, TrainSamples& s) {
+  const auto n = static_cast<std::size_t>(a.size());
+  const std::size_t meshes = a.train().meshes.size();
+  std::vector<double> rows(meshes * n);  // each mesh's V, row by row
+  std::vector<HarmonicSeries> errors;
+  for (std::size_t m = 0; m < meshes; ++m) {
+    const Eigen::VectorXd v = a.mesh_vector(static_cast<int>(m));
+    std::copy(v.data(), v.data() + n, rows.data() + m * n);
+    errors.push_back(a.error_series(static_cast<int>(m)));
+  }
+  s.deflection_rate_m_s.reserve(s.t_s.size(), meshes);
+  for (std::size_t i = 0; i < s.t_s.size(); ++i) {
+    const double* q_rate = s.state[i].data() + n;
+    double* out = s.deflection_rate_m_s.append(meshes);
+    for (std::size_t m = 0; m < meshes; ++m) {
+      double rate = 0;
+      for (std::size_t j = 0; j < n; ++j) rate += rows[m * n + j] * q_rate[j];
+      out[m] = rate - errors[m].rate(s.t_s[i]);
+    }
+  }
+}
+
+}  // namespace
+
 TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   const TrainSolver solver(c);
@@ -1005,6 +1032,7 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
       solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval), final_from,
                   solver.assembled().system_period_s().value_or(0), options.progress);
   result.output_interval_s = interval;
+  mesh_rates(solver.assembled(), result.samples);
   for (std::size_t m = 0; m < result.meshes.size(); ++m) {
     const MeshSpectra s = mesh_spectra(result, m);
     result.meshes[m].force_peaks = dominant_peaks(s.force_n, kReportedPeaks);
@@ -1198,6 +1226,9 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
 }
 
 void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
+  if (r.samples.deflection_rate_m_s.size() != r.samples.t_s.size())
+    throw std::invalid_argument("write_train_timeseries_csv: the samples' mesh rates are not "
+                                "filled (run_train fills them)");
   out << "t_s";
   for (const std::string& q : r.coordinates) out << ',' << q;
   for (const std::string& q : r.coordinates) out << ',' << q << "_s";
@@ -1209,6 +1240,7 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
     if (m.spatial) out << ',' << m.name << "_axial_force_n";
     if (m.tilts) out << ',' << m.name << "_moment_x_nm," << m.name << "_moment_y_nm";
   }
+  for (const TrainMeshReading& m : r.meshes) out << ',' << m.name << "_deflection_rate_m_s";
   out << '\n';
   const TrainSamples& s = r.samples;
   CsvWriter csv(out);
@@ -1218,6 +1250,7 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
     for (std::size_t m = 0; m < r.meshes.size(); ++m)
       csv.number(s.deflection_bar[i][m]).number(s.force_n[i][m]).integer(s.contact[i][m]);
     for (const double x : s.parts[i]) csv.number(x);
+    for (std::size_t m = 0; m < r.meshes.size(); ++m) csv.number(s.deflection_rate_m_s[i][m]);
     csv.end_row();
   }
   csv.finish();

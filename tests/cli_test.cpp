@@ -1149,6 +1149,31 @@ TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
   EXPECT_GT(fs::file_size(d / "train_spectrum.png"), 100U);
   const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
   EXPECT_EQ(j["form"], "train");
+  // The phase portraits: a panel per mesh, each drawing timeseries.csv's columns of its own
+  // (d - e) / b against its own d' - e', the steady part from the first sample at or after
+  // where the summary says it starts.
+  const CsvTable series = read_csv(d / "timeseries.csv");
+  std::size_t steady_row = 0;
+  while (std::stod(series.rows[steady_row][0]) < j["steady"]["from_s"].get<double>()) ++steady_row;
+  const std::string phase = slurp(d / "train_phase_body.gp");
+  EXPECT_NE(phase.find("layout 1,2"), std::string::npos) << phase;
+  for (const std::string mesh : {"stage1", "stage2"}) {
+    const std::size_t x = series.column(mesh + "_deflection_bar") + 1,
+                      y = series.column(mesh + "_deflection_rate_m_s") + 1;
+    ASSERT_LE(y, series.names.size()) << series.header;
+    EXPECT_NE(phase.find(fmt::format("set title \"mesh {}\" font ',10'\nplot 'timeseries.csv' "
+                                     "every ::1 using {}:{} with lines",
+                                     mesh, x, y)),
+              std::string::npos)
+        << mesh << "\n"
+        << phase;
+    EXPECT_NE(phase.find(
+                  fmt::format("'' every ::{} using {}:{} with lines lw 1.2", steady_row + 1, x, y)),
+              std::string::npos)
+        << mesh << "\n"
+        << phase;
+  }
+  EXPECT_GT(fs::file_size(d / "train_phase.png"), 100U);
   ASSERT_EQ(j["meshes"].size(), 2U);
   EXPECT_EQ(j["meshes"][0]["name"], "stage1");
   EXPECT_EQ(j["meshes"][1]["name"], "stage2");

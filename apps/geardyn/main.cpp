@@ -443,8 +443,9 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, events.csv, case.toml)\n",
                out_dir);
     if (plot)
-      fmt::print("  figures           {}/train_time, train_spectrum{} (.png, .svg, .gp)\n", out_dir,
-                 r.load_sharing.empty() ? "" : ", load_sharing");
+      fmt::print(
+          "  figures           {}/train_time, train_spectrum, train_phase{} (.png, .svg, .gp)\n",
+          out_dir, r.load_sharing.empty() ? "" : ", load_sharing");
   }
   return interrupted ? kExitInterrupted : 0;
 }

@@ -83,10 +83,12 @@ void write_stiffness_figure(const std::filesystem::path& dir, const std::string&
 // F / (b k_m).
 void write_run_figures(const std::filesystem::path& dir, const RunResult& r, bool physical = false);
 
-// The figure of a gear train's run, into a directory: train_time, one row per mesh with its
-// deflection (d - e) / b and its force (N), with train_plot.csv beside it; with load-sharing
-// groups (a planetary set), load_sharing too: a row per group with each planet's mesh force
-// and the factor over time, with load_sharing_plot.csv.
+// The figures of a gear train's run, into a directory that already holds its timeseries.csv
+// (write_train_timeseries_csv): train_time, one row per mesh with its deflection (d - e) / b
+// and its force (N), with train_plot.csv beside it; train_spectrum (train_spectrum.csv);
+// train_phase, each mesh's phase portrait ((d - e) / b against d' - e', from timeseries.csv);
+// with load-sharing groups (a planetary set), load_sharing too: a row per group with each
+// planet's mesh force and the factor over time, with load_sharing_plot.csv.
 void write_train_run_figures(const std::filesystem::path& dir, const TrainRunResult& r);
 
 // The Campbell diagram of a train (campbell .png .svg .gp, campbell.csv): its modes in contact

@@ -236,7 +236,9 @@ struct TrainSamples {
   SampleRows<double> state;           // (q, q'): rad, m and their rates
   SampleRows<double> deflection_bar;  // per sample, per mesh: (d - e) / b
   SampleRows<double> force_n;         // per sample, per mesh: F
-  SampleRows<int> contact;            // per sample, per mesh: 1, 0, -1
+  // Per sample, per mesh: d' - e' (m/s), from the state's rates (a run's: run_train).
+  SampleRows<double> deflection_rate_m_s;
+  SampleRows<int> contact;  // per sample, per mesh: 1, 0, -1
   // Per sample: each shaft's torque (N m), then each bearing's force in x and y (N).
   SampleRows<double> parts;
 };
@@ -448,7 +450,9 @@ std::optional<double> part_dynamic_factor(const TrainRunResult& r, const TrainEx
 // summary.json of a train run (docs/outputs.md): the run, then one object per mesh.
 std::string train_summary_json(const TrainRunResult& r, const std::vector<std::string>& unused,
                                int indent = 2);
-// timeseries.csv: t_s, each body's theta and rate, then per mesh (d - e)/b, F and contact.
+// timeseries.csv: t_s, each body's theta and rate, then per mesh (d - e)/b, F and contact, the
+// parts' readings, and last each mesh's d' - e' (m/s). r is run_train's (std::invalid_argument
+// when its samples' rates are not filled).
 void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r);
 // events.csv: every contact change located (TrainRunResult::contact_events), t_s, the part's
 // name, the kind (impact, backside_impact, separation) and the part's rate (m/s).

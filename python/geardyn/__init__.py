@@ -445,6 +445,8 @@ class TrainRunResult:
     deflection_bar, force, contact : numpy.ndarray
         Samples x meshes: (d - e) / b, the mesh force (N) and the contact state (1 drive side,
         0 separated, -1 back side).
+    deflection_rate : numpy.ndarray
+        Samples x meshes: d' - e' (m/s), the rate of (d - e).
     shafts, bearings : list of str
         The shafts' and the bearings' names.
     shaft_torque : numpy.ndarray
@@ -478,6 +480,7 @@ class TrainRunResult:
         self.deflection_bar = arrays["deflection_bar"]
         self.force = arrays["force"]
         self.contact = arrays["contact"]
+        self.deflection_rate = arrays["deflection_rate"]
         self.shafts = [x["name"] for x in summary["shafts"]]
         self.bearings = [x["name"] for x in summary["bearings"]]
         ns = len(self.shafts)
@@ -510,7 +513,8 @@ class TrainRunResult:
         xarray.Dataset
             Dimensions t (s), body, coordinate and mesh (their names); theta and rate (t x
             body), q and q_rate (t x coordinate, rad or m as the name says, and their rates),
-            deflection_bar, force (N) and contact (t x mesh); per mesh its readings
+            deflection_bar, force (N), contact and deflection_rate (m/s) (t x mesh); per mesh
+            its readings
             (mean_stiffness_n_per_m, backlash_m, impacts, separated_fraction, dynamic_factor, ...)
             and those of its steady part
             (steady_impacts, steady_regime, steady_max_force_n, steady_rms_force_n, ...) as
@@ -551,7 +555,9 @@ class TrainRunResult:
                   "deflection_bar": (("t", "mesh"), self.deflection_bar,
                                      {"long_name": "(d - e) / b"}),
                   "force": (("t", "mesh"), self.force, {"units": "N"}),
-                  "contact": (("t", "mesh"), self.contact)}, **per_mesh,
+                  "contact": (("t", "mesh"), self.contact),
+                  "deflection_rate": (("t", "mesh"), self.deflection_rate,
+                                      {"units": "m/s", "long_name": "d' - e'"})}, **per_mesh,
                  **(per_group if groups else {})),
             coords={"t": ("t", self.t, {"units": "s"}), "body": self.bodies,
                     "coordinate": self.coordinates, "mesh": self.meshes,

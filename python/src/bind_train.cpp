@@ -25,7 +25,8 @@ py::array_t<T> table(std::size_t rows, std::size_t cols, const At& at) {
 }
 
 // The run as (summary.json text, dict of arrays): t, state (samples x 2 coordinates),
-// deflection_bar, force (N) and contact (samples x meshes), parts, and the events.
+// deflection_bar, force (N), contact and deflection_rate (m/s) (samples x meshes), parts, and
+// the events.
 py::tuple train_result(const TrainRunResult& r) {
   const TrainSamples& s = r.samples;
   const std::size_t n = s.t_s.size(), meshes = r.meshes.size();
@@ -40,6 +41,8 @@ py::tuple train_result(const TrainRunResult& r) {
       table<double>(n, meshes, [&](std::size_t i, std::size_t m) { return s.force_n[i][m]; });
   arrays["contact"] =
       table<int>(n, meshes, [&](std::size_t i, std::size_t m) { return s.contact[i][m]; });
+  arrays["deflection_rate"] = table<double>(
+      n, meshes, [&](std::size_t i, std::size_t m) { return s.deflection_rate_m_s[i][m]; });
   // Each shaft's torque (N m), then each bearing's force in x and y (N), a spatial body's
   // followed by its axial force (N) and, when it tilts, its moments about x and y (N m).
   std::size_t parts = r.shafts.size();

@@ -815,6 +815,16 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
         assert x["mean_deflection_bar"] == pytest.approx(d.mean(), rel=1e-12)
         assert x["rms_deflection_bar"] == pytest.approx(np.sqrt((d ** 2).mean()), rel=1e-12)
     assert list(ds["rms_force_n"].values) == [x["rms_force_n"] for x in summary["meshes"]]
+    # Each mesh's d' - e' at every sample, as the command line's timeseries.csv has it.
+    rows = [x.split(",") for x in (tmp_path / "timeseries.csv").read_text().splitlines()]
+    assert r.deflection_rate.shape == r.force.shape
+    for m, name in enumerate(r.meshes):
+        k = rows[0].index(name + "_deflection_rate_m_s")
+        assert [float(x[k]) for x in rows[1:]] == pytest.approx(list(r.deflection_rate[:, m]),
+                                                                rel=1e-9)
+    assert np.abs(r.deflection_rate).max() > 0
+    assert ds["deflection_rate"].dims == ("t", "mesh")
+    assert ds["deflection_rate"].attrs["units"] == "m/s"
     fig = geardyn.plot.run(r)  # a panel per mesh
     assert [a.get_title().split(" (")[0] for a in fig.axes if a.get_title()] == ["mesh in",
                                                                                  "mesh out"]
