@@ -1227,8 +1227,9 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
 
 void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
   if (r.samples.deflection_rate_m_s.size() != r.samples.t_s.size())
-    throw std::invalid_argument("write_train_timeseries_csv: the samples' mesh rates are not "
-                                "filled (run_train fills them)");
+    throw std::invalid_argument(
+        "write_train_timeseries_csv: the samples' mesh rates are not "
+        "filled (run_train fills them)");
   out << "t_s";
   for (const std::string& q : r.coordinates) out << ',' << q;
   for (const std::string& q : r.coordinates) out << ',' << q << "_s";
