@@ -1,5 +1,5 @@
 """Figures for notebooks, with matplotlib: a run (one-degree, or a gear train: a coupled case's
-too), a frequency response, a branch of orbits."""
+too) and its phase portraits, a frequency response, a branch of orbits."""
 import numpy as np
 
 
@@ -141,6 +141,60 @@ def train_run(r, title=None):
         a.set_ylabel("axial force (N)")
         a.set_title("axial bearing forces", fontsize=9)
     return _finish_stack(fig, ax, title)
+
+
+def phase(r, title=None):
+    """Phase portraits, as `geardyn run --plot` draws them (run_phase, train_phase): delta / b
+    against delta' for a one-degree run, and for a train's run one panel per mesh, its
+    (d - e) / b against d' - e' (m/s); the whole run light grey, the part from where the
+    summary's steady part starts in colour, the contact edges at +-1 dashed.
+
+    Parameters
+    ----------
+    r : RunResult or TrainRunResult
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    if hasattr(r, "meshes"):
+        panels = [(f"mesh {name}", r.deflection_bar[:, m], r.deflection_rate[:, m])
+                  for m, name in enumerate(r.meshes)]
+        labels = ("(d - e) / b", "d' - e' (m/s)")
+    else:
+        from .data import _nondimensional
+        panels = [(None, r.delta_bar, r.velocity)]
+        labels = ("delta / b", "d delta / d tau (b omega_n)" if _nondimensional(r.case_toml)
+                  else "delta' (m/s)")
+    steady = r.t >= r.summary["steady"]["from_s"]
+    columns = min(len(panels), 3)
+    rows = -(-len(panels) // columns)
+    fig, ax = plt.subplots(rows, columns, figsize=(4.5 * columns, 4 * rows), squeeze=False)
+    colours = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad", "#d35400", "#16a085"]
+    for k, (name, x, v) in enumerate(panels):
+        a = ax[k // columns][k % columns]
+        a.plot(x, v, color="#c8c8c8", linewidth=0.7, label="whole run")
+        a.plot(x[steady], v[steady], color=colours[k % 6], linewidth=0.9, label="steady part")
+        for edge in (-1, 1):
+            a.axvline(edge, color="gray", linestyle="--", linewidth=0.8)
+        # The limits follow the data, not the contact edges.
+        pad = 0.05 * (x.max() - x.min()) + 1e-12
+        a.set_xlim(x.min() - pad, x.max() + pad)
+        a.set_xlabel(labels[0])
+        a.set_ylabel(labels[1])
+        a.grid(color="#dddddd")
+        a.legend(loc="upper right", fontsize=8)
+        if name:
+            a.set_title(name, fontsize=9)
+    for k in range(len(panels), rows * columns):
+        ax[k // columns][k % columns].set_visible(False)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
 
 
 def load_sharing(r, title=None):

@@ -124,6 +124,16 @@ def test_plots(tmp_path):
     matplotlib.use("Agg")
     r = geardyn.run(geardyn.Case.default().set("solver.duration_s", 0.005))
     geardyn.plot.run(r).savefig(tmp_path / "run.png")
+    # The phase portrait: delta / b against delta', the steady part over the whole run.
+    fig = geardyn.plot.phase(r)
+    whole, steady = fig.axes[0].get_lines()[:2]
+    part = r.t >= r.summary["steady"]["from_s"]
+    assert 0 < part.sum() < len(r.t)
+    assert np.array_equal(whole.get_xdata(), r.delta_bar)
+    assert np.array_equal(whole.get_ydata(), r.velocity)
+    assert np.array_equal(steady.get_xdata(), r.delta_bar[part])
+    assert np.array_equal(steady.get_ydata(), r.velocity[part])
+    assert fig.axes[0].get_ylabel() == "delta' (m/s)"
     s = geardyn.sweep(geardyn.Case.default().set("model.form", "nondimensional"), "model.omega",
                       [0.8, 1.0, 1.2])
     geardyn.plot.frequency_response(s, "Omega").savefig(tmp_path / "fr.png")
@@ -825,6 +835,13 @@ def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
     assert np.abs(r.deflection_rate).max() > 0
     assert ds["deflection_rate"].dims == ("t", "mesh")
     assert ds["deflection_rate"].attrs["units"] == "m/s"
+    phase = geardyn.plot.phase(r)  # a panel per mesh: (d - e) / b against d' - e'
+    assert [a.get_title() for a in phase.axes] == ["mesh in", "mesh out"]
+    part = r.t >= summary["steady"]["from_s"]
+    for m, a in enumerate(phase.axes):
+        steady = a.get_lines()[1]
+        assert np.array_equal(steady.get_xdata(), r.deflection_bar[part, m])
+        assert np.array_equal(steady.get_ydata(), r.deflection_rate[part, m])
     fig = geardyn.plot.run(r)  # a panel per mesh
     assert [a.get_title().split(" (")[0] for a in fig.axes if a.get_title()] == ["mesh in",
                                                                                  "mesh out"]
