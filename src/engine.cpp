@@ -926,10 +926,14 @@ template <class M>
 bool converged(const std::vector<M>& terms, double tol) {
   const int k = static_cast<int>(terms.size()) - 1;
   if (k < 4) return false;
-  const M sum = sum_abs(terms);
-  const auto last = (terms[k].cwiseAbs() + terms[k - 1].cwiseAbs()).eval();
-  for (Eigen::Index i = 0; i < last.size(); ++i)
-    if (last.data()[i] > tol * sum.data()[i]) return false;
+  // Entry by entry, with nothing allocated: the sum of magnitudes in sum_abs's order.
+  for (Eigen::Index i = 0; i < terms[0].size(); ++i) {
+    double sum = std::abs(terms[0].data()[i]);
+    for (int j = 1; j <= k; ++j) sum += std::abs(terms[static_cast<std::size_t>(j)].data()[i]);
+    const double last = std::abs(terms[static_cast<std::size_t>(k)].data()[i]) +
+                        std::abs(terms[static_cast<std::size_t>(k - 1)].data()[i]);
+    if (last > tol * sum) return false;
+  }
   return true;
 }
 
@@ -959,9 +963,6 @@ struct VaryingBlock {
   bool pays() const {
     return !rows.empty() && 2 * rows.size() * cols.size() <= static_cast<std::size_t>(n * n);
   }
-  Matrix gather(const Matrix& m) const { return m(rows, cols); }
-  Matrix columns_of(const Matrix& m) const { return m(cols, Eigen::all); }
-  Vector columns_of(const Vector& v) const { return v(cols); }
   // out(rows, :) += x.
   template <class X, class Out>
   void scatter_add(const X& x, Out& out) const {
@@ -1017,12 +1018,19 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   std::vector<Matrix> phi_cols;                // Phi_k's rows at the block's columns
   std::vector<std::vector<Vector>> resp_cols;  // the same for the forced responses
   if (blocked)
-    for (int m = 0; m <= a_terms; ++m) A_block.push_back(block.gather(Matrix(A[m])));
+    for (int m = 0; m <= a_terms; ++m) A_block.emplace_back(A[m](block.rows, block.cols));
 
   // Forcing series, per basis: u0; per forced frequency the cos-phase and the sin-phase parts.
   const int nf = static_cast<int>(rc.forced.size());
-  auto forcing = [&](int basis, int k) -> V {
-    if (basis == 0) return k == 0 ? V(reg.u.constant) : V::Zero(n);
+  // Written into `out` (of size n: its storage kept from one call to the next).
+  auto forcing = [&](int basis, int k, V& out) {
+    if (basis == 0) {
+      if (k == 0)
+        out = reg.u.constant;
+      else
+        out.setZero();
+      return;
+    }
     const int f = rc.forced[(basis - 1) / 2];
     const bool sin_phase = ((basis - 1) % 2) == 1;
     double fk = 1;
@@ -1031,7 +1039,10 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
     const V& uc = reg.u.cos[f];
     const V& us = reg.u.sin[f];
     // cos basis: uc cos(w s) + us sin(w s); sin basis: -uc sin(w s) + us cos(w s).
-    return sin_phase ? V(fk * (-uc * sk + us * ck)) : V(fk * (uc * ck + us * sk));
+    if (sin_phase)
+      out = fk * (-uc * sk + us * ck);
+    else
+      out = fk * (uc * ck + us * sk);
   };
   // The guards' and observables' own time-varying parts (a transmission error in an offset,
   // the stiffness in a row) are expanded to the cell's order too (functional_terms): the order
@@ -1052,16 +1063,19 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   for (int b = 0; b < bases; ++b) resp[b].assign(1, V::Zero(n));
 
   if (blocked) {
-    phi_cols.push_back(block.columns_of(Matrix(cell.phi[0])));
+    phi_cols.emplace_back(cell.phi[0](block.cols, Eigen::all));
     resp_cols.resize(bases);
-    for (int b = 0; b < bases; ++b) resp_cols[b].push_back(block.columns_of(Vector(resp[b][0])));
+    for (int b = 0; b < bases; ++b) resp_cols[b].emplace_back(resp[b][0](block.cols));
   }
   bool done = false;
+  // Kept from one order to the next, so that their storage is allocated once per cell.
   Matrix acc;
   Vector acc_v;
+  M next = M::Zero(n, n);
+  V v = V::Zero(n);
   for (int k = 0; k < p_max && !done; ++k) {
     const double scale = h / (k + 1);
-    M next = M::Zero(n, n);
+    next.setZero();
     const int m_last = std::min(k, a_terms);
     if (blocked) {
       next.noalias() += A[0] * cell.phi[k];
@@ -1072,9 +1086,9 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
       for (int m = 0; m <= m_last; ++m) next.noalias() += A[m] * cell.phi[k - m];
     }
     cell.phi.push_back(scale * next);
-    if (blocked) phi_cols.push_back(block.columns_of(Matrix(cell.phi.back())));
+    if (blocked) phi_cols.emplace_back(cell.phi.back()(block.cols, Eigen::all));
     for (int b = 0; b < bases; ++b) {
-      V v = forcing(b, k);
+      forcing(b, k, v);
       if (blocked) {
         v.noalias() += A[0] * resp[b][k];
         acc_v = Vector::Zero(block.rows.size());
@@ -1084,7 +1098,7 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
         for (int m = 0; m <= m_last; ++m) v.noalias() += A[m] * resp[b][k - m];
       }
       resp[b].push_back(scale * v);
-      if (blocked) resp_cols[b].push_back(block.columns_of(Vector(resp[b].back())));
+      if (blocked) resp_cols[b].emplace_back(resp[b].back()(block.cols));
     }
     done = k + 1 >= functional_order && converged(cell.phi, tol);
     for (int b = 0; b < bases && done; ++b) done = converged(resp[b], tol);
