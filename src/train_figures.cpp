@@ -179,8 +179,6 @@ void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r) {
                 260 * static_cast<int>(std::max<std::size_t>(r.meshes.size(), 1)));
 }
 
-}  // namespace
-
 // train_phase: each mesh's phase portrait, (d - e) / b against d' - e' (m/s), the whole run
 // light and its steady part in the mesh's colour, the contact edges at +-1 dashed, read from
 // the timeseries.csv beside it (write_train_timeseries_csv's columns).
@@ -220,6 +218,8 @@ void write_train_phase_figure(const fs::path& dir, const TrainRunResult& r) {
   render_figure(dir, "train_phase", g, 560 * static_cast<int>(columns),
                 480 * static_cast<int>(rows));
 }
+
+}  // namespace
 
 void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
   if (!r.load_sharing.empty()) write_load_sharing_figure(dir, r);
