@@ -661,17 +661,81 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
   return f;
 }
 
+namespace {
+
+// What dopri5's absolute tolerance, tolerance x b (the key's meaning on every path), is on each
+// state the train steps: a coordinate's scale is the smallest b_m / |dd_m/dp_j| of the meshes
+// it moves (d = V L p: an angle of the whole train has b / (cos beta_b R_b)); one no mesh moves,
+// the smallest s_i / |L_ij| of the whole train's coordinates it moves, s as train_state_scale's; a
+// rate, its coordinate's scale (per second), as the one-degree run's dopri5 takes tolerance x b on
+// delta'.
+ode::Vector adaptive_scale(const train::Assembled& a, const ode::RigidSplit* split) {
+  const train::Train& t = a.train();
+  const Eigen::Index n = a.size();
+  const Eigen::MatrixXd l =
+      split ? split->complement() : Eigen::MatrixXd(Eigen::MatrixXd::Identity(n, n));
+  const ode::Vector whole = train_state_scale(a, 1.0);
+  const Eigen::Index m = l.cols();
+  ode::Vector scale(2 * m);
+  for (Eigen::Index j = 0; j < m; ++j) {
+    double size = kInf;
+    for (std::size_t k = 0; k < t.meshes.size(); ++k) {
+      const double v = std::abs(a.mesh_vector(static_cast<int>(k)).dot(l.col(j)));
+      if (v >
+          ode::kFreeMotionTolerance * a.mesh_vector(static_cast<int>(k)).norm() * l.col(j).norm())
+        size = std::min(size, t.meshes[k].backlash_m / v);
+    }
+    if (!std::isfinite(size))
+      for (Eigen::Index i = 0; i < n; ++i)
+        if (l(i, j) != 0) size = std::min(size, whole(i) / std::abs(l(i, j)));
+    scale(j) = scale(m + j) = size;
+  }
+  return scale;
+}
+
+}  // namespace
+
 TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(c) {
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
   // A pair's form as its train of elements (assembled_train): the same system, read per element.
   a_ = std::make_unique<train::Assembled>(assembled_train(c, stiffness));
   fastest_period_s_ = shortest_time_scale_s(*a_);
-  if (c.solver.method == Method::kDopri5) {
-    adaptive_ = a_->linear_system();
-  } else if (c.solver.method == Method::kNewmark) {
-    adaptive_ = a_->linear_system();
-    // Every region of a train is (theta, theta') with theta' = the rates: the first says so.
-    if (const std::string e = ode::second_order_form_error(*adaptive_, 0); !e.empty())
+  // A train that turns freely is stepped, by every method, on the complement of its rotation
+  // (rigid_split.hpp): the rotation's quadrature is exact, and an adaptive step's error is
+  // measured on the motions the train's terms act on, not on an angle that grows without end.
+  ode::LinearSwitchedSystem full = a_->linear_system();
+  const train::Train& t = a_->train();
+  const bool viscous = std::any_of(t.drags.begin(), t.drags.end(), [](const train::Drag& d) {
+    return d.viscous_n_m_s_per_rad != 0;
+  });
+  if (t.speeds.empty() && !t.frame_terms && !viscous) {
+    const Eigen::MatrixXd rigid = a_->rigid_motions();
+    if (rigid.cols() == 1) {
+      try {
+        split_ = std::make_unique<ode::RigidSplit>(full, rigid.col(0), a_->mass());
+      } catch (const std::invalid_argument&) {
+        split_.reset();  // an element acts on the rotation after all: the whole train is stepped
+      }
+    }
+  }
+  if (c.solver.method == Method::kExact) {
+    ode::EngineOptions eo;
+    eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
+    eo.cell_rate_product = kTrainCellRateProduct;
+    try {
+      engine_ = split_ ? std::make_unique<ode::ExactEngine>(split_->reduced(), eo)
+                       : std::make_unique<ode::ExactEngine>(std::move(full), eo);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("the train's exact engine: ") + e.what());
+    }
+  } else {
+    if (!split_) whole_ = std::move(full);
+    if (c.solver.method == Method::kDopri5) adaptive_scale_ = adaptive_scale(*a_, split_.get());
+  }
+  if (c.solver.method == Method::kNewmark) {
+    // Every region of a train is (theta, theta') with theta' = the rates, and so is its
+    // complement's: the first says so.
+    if (const std::string e = ode::second_order_form_error(stepped(), 0); !e.empty())
       throw std::logic_error("the train's system: " + e);
     // The one-degree run's rule (run.cpp): a given step must resolve the fastest time scale,
     // the automatic one takes kStepsPerFastestPeriod a period; either divides the system
@@ -689,31 +753,6 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
     const double period = a_->system_period_s().value_or(0);
     newmark_step_s_ =
         period > 0 ? period / std::max(1.0, std::ceil(period / wanted - 1e-9)) : wanted;
-  } else {
-    ode::EngineOptions eo;
-    eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
-    eo.cell_rate_product = kTrainCellRateProduct;
-    ode::LinearSwitchedSystem full = a_->linear_system();
-    const train::Train& t = a_->train();
-    const bool viscous = std::any_of(t.drags.begin(), t.drags.end(), [](const train::Drag& d) {
-      return d.viscous_n_m_s_per_rad != 0;
-    });
-    if (t.speeds.empty() && !t.frame_terms && !viscous) {
-      const Eigen::MatrixXd rigid = a_->rigid_motions();
-      if (rigid.cols() == 1) {
-        try {
-          split_ = std::make_unique<ode::RigidSplit>(full, rigid.col(0), a_->mass());
-        } catch (const std::invalid_argument&) {
-          split_.reset();  // an element acts on the rotation after all: the whole train is stepped
-        }
-      }
-    }
-    try {
-      engine_ = split_ ? std::make_unique<ode::ExactEngine>(split_->reduced(), eo)
-                       : std::make_unique<ode::ExactEngine>(std::move(full), eo);
-    } catch (const std::invalid_argument& e) {
-      throw InputError(std::string("the train's exact engine: ") + e.what());
-    }
   }
   for (const train::TrainMode& m : train::modes(*a_))
     top_frequency_rad_s_ = std::max(top_frequency_rad_s_, kTwoPi * m.frequency_hz);
@@ -746,11 +785,19 @@ ode::FlowResult TrainSolver::flow(double t0_s, const ode::Vector& y0, int region
     if (f.jacobian) f.jacobian = split_->lift_jacobian(t0_s, f.end_time_s, *f.jacobian);
     return f;
   }
-  if (newmark_step_s_ > 0)
-    return ode::newmark_flow(*adaptive_, t0_s, y0, region, t1_s, newmark_step_s_, grid, observer);
-  ode::AdaptiveOptions ao;
-  ao.tolerance = case_.solver.tolerance;
-  return ode::adaptive_flow(*adaptive_, t0_s, y0, region, t1_s, grid, observer, ao);
+  // dopri5 or Newmark, on the complement as the exact engine is when a rotation is split off.
+  const ode::Vector y = split_ ? split_->reduce(y0) : y0;
+  ode::FlowResult f;
+  if (newmark_step_s_ > 0) {
+    f = ode::newmark_flow(stepped(), t0_s, y, region, t1_s, newmark_step_s_, grid, observer);
+  } else {
+    ode::AdaptiveOptions ao;
+    ao.tolerance = case_.solver.tolerance;
+    ao.scale = adaptive_scale_;
+    f = ode::adaptive_flow(stepped(), t0_s, y, region, t1_s, grid, observer, ao);
+  }
+  if (split_) f.state = split_->lift(t0_s, split_->rigid(y0), f.end_time_s, f.state);
+  return f;
 }
 
 ode::FlowResult TrainSolver::advance(double t0_s, const ode::Vector& y0, double t1_s) const {
@@ -856,7 +903,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   add_parts(a, rest, result);
 
   const int region = a.classify(t0_s, y0);
-  const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : *adaptive_;
+  const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : stepped();
   TrainObserver observer(a, sys, result, t0_s, t1_s, final_from_s, region, progress);
   observer.reserve(grid.count);
   FlowPieces pieces(

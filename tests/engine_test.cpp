@@ -957,6 +957,70 @@ TEST(ExactEngine, AFlowFromAStateOfTheWrongSizeOrABadRegionOrTimeIsRefused) {
   EXPECT_EQ(check_flow_arguments(s, 0, Vector::Zero(2), 0, 1.0), "");
 }
 
+// x'' + c x' + x = cos(w t) against a stop at x = gap (stiffness k_stop beyond it), in the
+// units w = D y of y = (x, x'): A D^-1 left and D right, u and the guards' rows likewise.
+LinearSwitchedSystem stop_oscillator(const Eigen::Vector2d& d) {
+  const double c = 0.05, k_stop = 100, gap = 0.5, w = 0.9;
+  LinearSwitchedSystem s;
+  s.dimension = 2;
+  s.frequencies_rad_s = {w};
+  const Matrix to = d.asDiagonal(), from = d.cwiseInverse().asDiagonal();
+  for (const bool touching : {false, true}) {
+    LinearRegion r;
+    Matrix a(2, 2);
+    a << 0, 1, -1 - (touching ? k_stop : 0), -c;
+    r.a.constant = to * a * from;
+    r.u.constant = to * Eigen::Vector2d(0.0, touching ? k_stop * gap : 0.0);
+    r.u.cos = {Vector(to * Eigen::Vector2d(0.0, 1.0))};
+    r.u.sin = {Vector::Zero(2)};
+    LinearGuard g;  // gap - x until it meets the stop, x - gap while touching it
+    g.row.constant = Eigen::RowVector2d(touching ? 1.0 : -1.0, 0.0) * from;
+    g.offset.constant = touching ? -gap : gap;
+    g.target = touching ? 0 : 1;
+    r.guards = {g};
+    s.regions.push_back(r);
+  }
+  return s;
+}
+
+TEST(Dopri5, AScaleMeasuresEachStatesErrorInItsOwnUnit) {
+  // AdaptiveOptions::scale: the same impacting oscillator stepped in y and in w = D y (metres to
+  // micrometres, and metres per second to kilometres per second), each with its scale in its
+  // own units (s and D s), takes the same steps and events and ends at the same state. Without
+  // the scale, the absolute tolerance means another error in each unit, and the steps differ.
+  const Eigen::Vector2d d(1e6, 1e-3), s(1e-3, 1e-3);
+  const Vector y0 = Eigen::Vector2d(0.2, 0.0);
+  const auto flow = [&](const Eigen::Vector2d& units, const Vector& scale, Recorder& rec) {
+    geardyn::ode::AdaptiveOptions o;
+    o.tolerance = 1e-9;
+    o.scale = scale;
+    const Vector w0 = units.asDiagonal() * y0;
+    return adaptive_flow(stop_oscillator(units), 0, w0, 0, 60, OutputGrid{0, 0.5, 121}, rec, o);
+  };
+  Recorder in_y, in_w, plain_y, plain_w;
+  const FlowResult a = flow(Eigen::Vector2d::Ones(), s, in_y);
+  const FlowResult b = flow(d, d.cwiseProduct(s), in_w);
+  ASSERT_TRUE(a.ok() && b.ok()) << a.message << b.message;
+  ASSERT_GT(a.events, 10);  // it strikes the stop
+  EXPECT_EQ(b.cells, a.cells);
+  EXPECT_EQ(b.events, a.events);
+  ASSERT_EQ(in_w.event_t.size(), in_y.event_t.size());
+  for (std::size_t i = 0; i < in_y.event_t.size(); ++i)
+    EXPECT_NEAR(in_w.event_t[i], in_y.event_t[i], 1e-12 * 60) << i;
+  ASSERT_EQ(in_w.y.size(), in_y.y.size());
+  for (std::size_t i = 0; i < in_y.y.size(); ++i)
+    for (Eigen::Index j = 0; j < 2; ++j)
+      EXPECT_NEAR(in_w.y[i](j) / d(j), in_y.y[i](j), 1e-11) << i << " " << j;
+  EXPECT_NEAR(b.state(0) / d(0), a.state(0), 1e-11);
+  const FlowResult c = flow(Eigen::Vector2d::Ones(), Vector(), plain_y);
+  const FlowResult e = flow(d, Vector(), plain_w);
+  EXPECT_NE(c.cells, e.cells);
+  // A scale of the wrong size or not positive is refused.
+  Recorder rec;
+  EXPECT_THROW((void)flow(Eigen::Vector2d::Ones(), Vector::Ones(3), rec), std::invalid_argument);
+  EXPECT_THROW((void)flow(Eigen::Vector2d::Ones(), Eigen::Vector2d(1.0, 0.0), rec), std::invalid_argument);
+}
+
 TEST(Dopri5, TheNondimensionalCaseThatLoopedForeverEndsAtOnce) {
   // It used to switch forever at one instant until memory ran out.
   geardyn::Case c;

@@ -383,10 +383,13 @@ class TrainSolver {
                        bool jacobian = false) const;
   Case case_;
   std::unique_ptr<train::Assembled> a_;
-  std::unique_ptr<ode::ExactEngine> engine_;           // "exact"
-  std::unique_ptr<ode::RigidSplit> split_;             // its free rotation split off, or none
-  std::optional<ode::LinearSwitchedSystem> adaptive_;  // "dopri5" and "newmark"
-  double newmark_step_s_ = 0;                          // "newmark": the step (s), else 0
+  std::unique_ptr<ode::ExactEngine> engine_;        // "exact"
+  std::unique_ptr<ode::RigidSplit> split_;          // its free rotation split off, or none
+  std::optional<ode::LinearSwitchedSystem> whole_;  // "dopri5" and "newmark" without split_
+  // The system dopri5 and Newmark step: the split's complement, or the whole train.
+  const ode::LinearSwitchedSystem& stepped() const { return split_ ? split_->reduced() : *whole_; }
+  double newmark_step_s_ = 0;   // "newmark": the step (s), else 0
+  ode::Vector adaptive_scale_;  // "dopri5": its error's scale per stepped state (m or rad)
   double fastest_period_s_ = 0, top_frequency_rad_s_ = 0;
 };
 
