@@ -14,7 +14,8 @@
 // and back within one step is not seen (the step length, set by the tolerance, is the
 // resolution), and on_cell is never called (an observer reads its extremes at step ends,
 // events and samples). Its accuracy is the tolerance's, relative and absolute on every state
-// component as Boost.Odeint's controlled stepper takes them.
+// component (times its scale, AdaptiveOptions::scale) as Boost.Odeint's controlled stepper
+// takes them.
 #pragma once
 
 #include <Eigen/Core>
