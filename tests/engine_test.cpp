@@ -1018,7 +1018,8 @@ TEST(Dopri5, AScaleMeasuresEachStatesErrorInItsOwnUnit) {
   // A scale of the wrong size or not positive is refused.
   Recorder rec;
   EXPECT_THROW((void)flow(Eigen::Vector2d::Ones(), Vector::Ones(3), rec), std::invalid_argument);
-  EXPECT_THROW((void)flow(Eigen::Vector2d::Ones(), Eigen::Vector2d(1.0, 0.0), rec), std::invalid_argument);
+  EXPECT_THROW((void)flow(Eigen::Vector2d::Ones(), Eigen::Vector2d(1.0, 0.0), rec),
+               std::invalid_argument);
 }
 
 TEST(Dopri5, TheNondimensionalCaseThatLoopedForeverEndsAtOnce) {

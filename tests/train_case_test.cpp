@@ -1682,8 +1682,9 @@ TEST(TrainCase, ATrainThatTurnsFreelyStepsAsItsReducedPairDoes) {
 
 TEST(TrainCase, AFreelyTurningTrainIsSteppedWithoutItsRotation) {
   // rigid_split.hpp: a train that turns freely is stepped on the complement of its rotation,
-  // two states fewer, by every method; one whose rotation something holds, drives or drags is
-  // stepped whole.
+  // two states fewer, by the exact engine and Newmark; one whose rotation something holds,
+  // drives or drags is stepped whole, as is every train by dopri5 (whose steps the whole
+  // train's sparse matrices make cheaper).
   const auto states = [](const Case& c) { return TrainSolver(c).stepped_states(); };
   EXPECT_EQ(states(park2010_pair_as_train()), 2);
   EXPECT_EQ(states(shipped_case("two_stage_reducer.toml", {{"solver.method", "exact"}})),
@@ -1707,20 +1708,20 @@ TEST(TrainCase, AFreelyTurningTrainIsSteppedWithoutItsRotation) {
   for (const char* method : {"dopri5", "newmark"}) {
     Case other = park2010_pair_as_train();
     set_case_value(other, {"solver.method", method});
-    EXPECT_EQ(states(other), 2) << method;
-    set_case_value(other, {"train.drag", "[{name = \"oil\", body = \"wheel\", viscous_n_m_s_per_rad = 0.01}]"});
+    EXPECT_EQ(states(other), std::string(method) == "dopri5" ? 4 : 2) << method;
+    set_case_value(other, {"train.drag",
+                           "[{name = \"oil\", body = \"wheel\", viscous_n_m_s_per_rad = 0.01}]"});
     EXPECT_EQ(states(other), 4) << method;
   }
 }
 
 TEST(TrainCase, DopriMeasuresAPairAsItsTrainAsTheOneDegreeRunMeasuresIt) {
   // solver.tolerance means for dopri5 on a train what it means on the one-degree model: its
-  // relative tolerance, and tolerance x b its absolute one on each mesh's deflection and rate
-  // (TrainSolver steps the complement of the rotation, each state scaled by its meshes'
-  // backlash). So the paper's pair as its train takes the one-degree run's steps to 1 % and
-  // its error, against the exact engine at 1e-13, to 20 %. Before, the train's error was
-  // measured in radians on angles that grow with every turn: 12 % fewer steps and 3.7 to 4.7
-  // times the error.
+  // relative tolerance, and tolerance x b its absolute one (AdaptiveOptions::scale: each angle
+  // scaled by b / (cos beta_b R_b), its rate alike). So the paper's pair as its train takes the
+  // one-degree run's steps to 2 % (1.1 and 1.2 % measured) and its error, against the exact
+  // engine at 1e-13, within a factor 2.5 (0.54 and 1.46 times). With the absolute tolerance in
+  // radians instead (as it was), half the steps and 6 to 9 times the error.
   Case pair = park2010_pair_case();
   Case train = park2010_pair_as_train();
   for (Case* c : {&pair, &train}) set_case_value(*c, {"solver.duration_s", "0.05"});
@@ -1736,15 +1737,15 @@ TEST(TrainCase, DopriMeasuresAPairAsItsTrainAsTheOneDegreeRunMeasuresIt) {
     const TrainRunResult x = run_train(train);
     ASSERT_TRUE(one.integration.ok()) << one.integration.message;
     EXPECT_EQ(x.meshes.at(0).impacts, one.reading.impacts);
-    EXPECT_NEAR(static_cast<double>(x.cells) / static_cast<double>(one.integration.steps), 1,
-                0.01);
+    EXPECT_NEAR(static_cast<double>(x.cells) / static_cast<double>(one.integration.steps), 1, 0.02);
     double error_one = 0;
     for (std::size_t i = 0; i < one.samples.delta_bar.size(); ++i)
       error_one =
           std::max(error_one, std::abs(one.samples.delta_bar[i] - reference.samples.delta_bar[i]));
     const double error_train = worst_against(reference.samples.delta_bar, x);
     EXPECT_GT(error_one, 1e-10);  // dopri5's error, not rounding
-    EXPECT_NEAR(error_train / error_one, 1, 0.2);
+    EXPECT_GT(error_train / error_one, 0.4);
+    EXPECT_LT(error_train / error_one, 2.5);
   }
 }
 

@@ -42,8 +42,6 @@ class RigidSplit {
   // The reduced system (lazy: region r built from the full system's region r on first use).
   const LinearSwitchedSystem& reduced() const { return reduced_; }
   int full_dimension() const { return static_cast<int>(2 * l_.rows()); }
-  // L: q = L p + r phi (n x (n-1)).
-  const Matrix& complement() const { return l_; }
 
   // y_r = (P q, P v) of a full state.
   Vector reduce(const Vector& y) const;
