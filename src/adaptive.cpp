@@ -156,23 +156,14 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
   if (std::string e = check_flow_arguments(system, t0, y0, region, t1); !e.empty())
     throw std::invalid_argument(e);
   const Eigen::Index n = system.dimension;
-  const bool scaled = options.scale.size() > 0;
-  if (scaled && (options.scale.size() != n || !(options.scale.array() > 0).all() ||
-                 !options.scale.allFinite()))
-    throw std::invalid_argument(fmt::format(
-        "adaptive_flow: a scale of {} entries, each finite and > 0, for a system of dimension {}",
-        options.scale.size(), n));
   // Each region's right-hand side and guards, made when the flow first enters it.
   PerRegion<RegionDerivative> rhs_of(system);
   PerRegion<RegionGuards> guards_of(system);
   FlowResult result;
-  // The stepper's state: y, or z = y / scale (its error measured per entry's scale).
   Values x(y0.data(), y0.data() + n), xe(x), xs(x);
-  if (scaled) Eigen::Map<Vector>(x.data(), n).array() /= options.scale.array();
   Vector y(n);
   const auto as_vector = [&](const Values& s) -> const Vector& {
     y = Eigen::Map<const Vector>(s.data(), n);
-    if (scaled) y.array() *= options.scale.array();
     return y;
   };
   std::vector<double> values;
@@ -205,7 +196,7 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
     result.termination = why;
     result.message = std::move(message);
     result.end_time_s = t;
-    result.state = as_vector(x);
+    result.state = Eigen::Map<const Vector>(x.data(), n);
     result.region = region;
     result.cells = steps;
     return result;
@@ -218,18 +209,10 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
       return finish(Termination::kStepUnderflow,
                     fmt::format("more than {} steps by t = {:.6g} s", options.max_steps, t));
     const RegionDerivative& f = rhs_of(region);
-    if (scaled) {
-      stepper.do_step([&](const Values& s, Values& ds, double tt) {
-        ds.resize(static_cast<std::size_t>(n));
-        f(as_vector(s).data(), ds.data(), tt);
-        Eigen::Map<Vector>(ds.data(), n).array() /= options.scale.array();
-      });
-    } else {
-      stepper.do_step([&f, n](const Values& s, Values& ds, double tt) {
-        ds.resize(static_cast<std::size_t>(n));
-        f(s.data(), ds.data(), tt);
-      });
-    }
+    stepper.do_step([&f, n](const Values& s, Values& ds, double tt) {
+      ds.resize(static_cast<std::size_t>(n));
+      f(s.data(), ds.data(), tt);
+    });
     double te = std::min(stepper.current_time(), t1);
     stepper.calc_state(te, xe);
     if (!std::all_of(xe.begin(), xe.end(), [](double v) { return std::isfinite(v); }))
@@ -245,7 +228,7 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
         system, gs, values, std::max(t, stepper.previous_time()), te,
         [&](double tt, Vector& at) {
           stepper.calc_state(tt, xs);
-          at = as_vector(xs);
+          at = Eigen::Map<const Vector>(xs.data(), n);
           return tt;
         },
         kCrossingBits, kCrossingMaxIterations);

@@ -695,11 +695,8 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
     } catch (const std::invalid_argument& e) {
       throw InputError(std::string("the train's exact engine: ") + e.what());
     }
-  } else {
-    if (!split_) whole_ = std::move(full);
-    // dopri5's absolute tolerance, tolerance x b (the key's meaning, as on the one-degree
-    // model), on each coordinate: b / |v_i| of the meshes that move it, and on its rate alike.
-    if (c.solver.method == Method::kDopri5) adaptive_scale_ = train_state_scale(*a_, 1.0);
+  } else if (!split_) {
+    whole_ = std::move(full);
   }
   if (c.solver.method == Method::kNewmark) {
     // Every region of a train is (theta, theta') with theta' = the rates, and so is its
@@ -762,7 +759,6 @@ ode::FlowResult TrainSolver::flow(double t0_s, const ode::Vector& y0, int region
   } else {
     ode::AdaptiveOptions ao;
     ao.tolerance = case_.solver.tolerance;
-    ao.scale = adaptive_scale_;
     f = ode::adaptive_flow(stepped(), t0_s, y, region, t1_s, grid, observer, ao);
   }
   if (split_) f.state = split_->lift(t0_s, split_->rigid(y0), f.end_time_s, f.state);

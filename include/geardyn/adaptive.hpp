@@ -14,8 +14,7 @@
 // and back within one step is not seen (the step length, set by the tolerance, is the
 // resolution), and on_cell is never called (an observer reads its extremes at step ends,
 // events and samples). Its accuracy is the tolerance's, relative and absolute on every state
-// component (times its scale, AdaptiveOptions::scale) as Boost.Odeint's controlled stepper
-// takes them.
+// component as Boost.Odeint's controlled stepper takes them.
 #pragma once
 
 #include <Eigen/Core>
@@ -80,11 +79,7 @@ class RegionDerivative {
 };
 
 struct AdaptiveOptions {
-  // The error allowed per step on state entry i: tolerance x (scale_i + |y_i|), scale_i = 1
-  // when `scale` is empty (Boost.Odeint's controlled stepper on y / scale). A scale gives each
-  // entry its own absolute tolerance in its own unit (a train's: tolerance x b on each mesh).
-  double tolerance = 1e-8;
-  Vector scale;  // empty, or the system's dimension, every entry > 0 (std::invalid_argument)
+  double tolerance = 1e-8;  // relative and absolute error per step
   // Events in a row that each advance time by less than 1e-12 of the window before the flow
   // ends with kNoProgress (a chattering contact), never a hang.
   int max_stalled_events = 64;

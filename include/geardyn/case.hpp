@@ -149,8 +149,8 @@ struct SolverData {
   Method method = Method::kExact;
   double duration_s = 0.05;
   double time_step_s = 0.0;        // 0: automatic (docs/numerics.md)
-  double tolerance = 1e-10;        // accuracy: dopri5's relative tolerance (absolute: times b);
-                                   // the exact engine's truncation of its series
+  double tolerance = 1e-10;        // accuracy: dopri5's relative and absolute tolerance; the exact
+                                   // engine's truncation of its series
   double output_interval_s = 0.0;  // 0: automatic, duration / 5000
   double final_fraction = 0.1;     // final part of the window in which separation is "sustained"
   InitialCondition initial = InitialCondition::kCenter;

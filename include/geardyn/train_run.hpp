@@ -388,8 +388,7 @@ class TrainSolver {
   std::optional<ode::LinearSwitchedSystem> whole_;  // "dopri5", and "newmark" without split_
   // The system dopri5 and Newmark step: the split's complement, or the whole train.
   const ode::LinearSwitchedSystem& stepped() const { return split_ ? split_->reduced() : *whole_; }
-  double newmark_step_s_ = 0;   // "newmark": the step (s), else 0
-  ode::Vector adaptive_scale_;  // "dopri5": its error scale per state (AdaptiveOptions)
+  double newmark_step_s_ = 0;  // "newmark": the step (s), else 0
   double fastest_period_s_ = 0, top_frequency_rad_s_ = 0;
 };
 
@@ -398,8 +397,7 @@ class TrainSolver {
 // v the mesh's row of V), one no mesh moves by a milliradian (a body joined by shafts alone) or
 // the smallest b (a centre); each rate by its coordinate's times rate_rad_s (the train's highest
 // natural frequency in contact). The orbits' unknowns (train_orbit.hpp) and a sweep point's
-// periodic response in contact are measured in it, and with rate_rad_s = 1 dopri5's error on a
-// train (AdaptiveOptions::scale: its absolute tolerance tolerance x b, as on the pair).
+// periodic response in contact are measured in it.
 ode::Vector train_state_scale(const train::Assembled& a, double rate_rad_s);
 
 // A train's state as the section judges it (steady.hpp): every mesh's d - e and every shaft's
