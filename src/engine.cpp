@@ -254,23 +254,34 @@ double functional_value(const LinearSwitchedSystem& s, const LinearGuard& g, dou
 }
 
 namespace {
-// phases_at's and keep_phases' last table and time, on this thread.
+// phases_at's and GivenPhases' last table and time, on this thread: the phases phases_at
+// computed (`direct`, of the table `w`, kept by value), or those a GivenPhases gave (of the
+// table at `given_w`, both by address, while it lives).
 struct KeptPhases {
   std::vector<double> w;
   double t_s = std::numeric_limits<double>::quiet_NaN();  // equal to no time
   Phases phases;
-  bool direct = false;  // computed by phases_at, not given by keep_phases
+  bool direct = false;
+  const std::vector<double>* given_w = nullptr;
+  const Phases* given = nullptr;
 };
 thread_local KeptPhases kept_phases;
 }  // namespace
 
-void keep_phases(const std::vector<double>& w, double t_s, const std::vector<double>& cos_wt,
-                 const std::vector<double>& sin_wt) {
+GivenPhases::~GivenPhases() {
   KeptPhases& kept = kept_phases;
-  kept.w = w;
+  if (!kept.given) return;
+  kept.given = nullptr;
+  kept.given_w = nullptr;
+  kept.t_s = std::numeric_limits<double>::quiet_NaN();
+}
+
+void GivenPhases::give(const std::vector<double>& w, double t_s, const Phases& phases) {
+  assert(phases.cos_wt.size() == w.size() && phases.sin_wt.size() == w.size());
+  KeptPhases& kept = kept_phases;
+  kept.given_w = &w;
+  kept.given = &phases;
   kept.t_s = t_s;
-  kept.phases.cos_wt = cos_wt;
-  kept.phases.sin_wt = sin_wt;
   kept.direct = false;
 }
 
@@ -285,35 +296,43 @@ PhaseGrid::PhaseGrid(const std::vector<double>& w, double t0_s, double dt_s)
       dt_s_(dt_s),
       rot_cos_(w.size()),
       rot_sin_(w.size()),
-      cos_(w.size()),
-      sin_(w.size()) {
+      now_{std::vector<double>(w.size()), std::vector<double>(w.size())} {
   for (std::size_t f = 0; f < w.size(); ++f) {
     rot_cos_[f] = std::cos(w[f] * dt_s);
     rot_sin_[f] = std::sin(w[f] * dt_s);
-    cos_[f] = std::cos(w[f] * t0_s);
-    sin_[f] = std::sin(w[f] * t0_s);
+    now_.cos_wt[f] = std::cos(w[f] * t0_s);
+    now_.sin_wt[f] = std::sin(w[f] * t0_s);
   }
 }
 
 void PhaseGrid::advance(std::int64_t k) {
   const std::vector<double>& w = *w_;
+  double* cos_wt = now_.cos_wt.data();
+  double* sin_wt = now_.sin_wt.data();
   if (k % kResyncSteps == 0) {
     const double t = t0_s_ + static_cast<double>(k) * dt_s_;
     for (std::size_t f = 0; f < w.size(); ++f) {
-      cos_[f] = std::cos(w[f] * t);
-      sin_[f] = std::sin(w[f] * t);
+      cos_wt[f] = std::cos(w[f] * t);
+      sin_wt[f] = std::sin(w[f] * t);
     }
     return;
   }
   for (std::size_t f = 0; f < w.size(); ++f) {
-    const double c = cos_[f] * rot_cos_[f] - sin_[f] * rot_sin_[f];
-    sin_[f] = sin_[f] * rot_cos_[f] + cos_[f] * rot_sin_[f];
-    cos_[f] = c;
+    const double c = cos_wt[f] * rot_cos_[f] - sin_wt[f] * rot_sin_[f];
+    sin_wt[f] = sin_wt[f] * rot_cos_[f] + cos_wt[f] * rot_sin_[f];
+    cos_wt[f] = c;
   }
 }
 
 const Phases& phases_at(const std::vector<double>& w, double t_s) {
   KeptPhases& kept = kept_phases;
+  // Given phases are of the table at their address (or an equal one) while their giver lives.
+  if (kept.given) {
+    if (kept.t_s == t_s && (kept.given_w == &w || *kept.given_w == w)) return *kept.given;
+    kept.given = nullptr;
+    kept.given_w = nullptr;
+    kept.t_s = std::numeric_limits<double>::quiet_NaN();
+  }
   if (!(kept.t_s == t_s && kept.w == w)) {
     kept.w = w;
     kept.t_s = t_s;
@@ -330,59 +349,68 @@ const Phases& phases_at(const std::vector<double>& w, double t_s) {
 
 FunctionalValues::FunctionalValues(const LinearSwitchedSystem& s,
                                    const std::vector<LinearGuard>& gs)
-    : s_(&s), gs_(&gs), used_(gs.size()), varies_(gs.size()) {
-  std::vector<bool> any(s.frequencies_rad_s.size(), false);
-  for (std::size_t i = 0; i < gs.size(); ++i) {
-    const LinearGuard& g = gs[i];
+    : s_(&s), gs_(&gs) {
+  for (const LinearGuard& g : gs) {
+    // The frequencies the functional holds, in the table's order.
+    std::vector<std::size_t> used;
     RowVector spread = RowVector::Zero(s.dimension);
     for (std::size_t f = 0; f < s.frequencies_rad_s.size(); ++f) {
       const bool row = f < g.row.cos.size() && (g.row.cos[f].any() || g.row.sin[f].any());
       const bool offset = f < g.offset.cos.size() && (g.offset.cos[f] != 0 || g.offset.sin[f] != 0);
       if (row) spread += g.row.cos[f].cwiseAbs() + g.row.sin[f].cwiseAbs();
-      if (row || offset) {
-        used_[i].push_back(f);
-        any[f] = true;
-      }
+      if (row || offset) used.push_back(f);
     }
-    for (Eigen::Index j = 0; j < s.dimension; ++j)
-      if (spread(j) != 0) varies_[i].push_back(j);
+    any_ = any_ || !used.empty();
+    Functional x{entries_.size(), 0, g.offset.constant, 0, 0};
+    // Each entry where the row varies: the terms of every frequency held, as functional_value
+    // adds them (a frequency whose row terms are zero at this entry adds 0 c + 0 s there).
+    for (Eigen::Index j = 0; j < s.dimension; ++j) {
+      if (spread(j) == 0) continue;
+      Entry e{j, g.row.constant(j), terms_.size(), 0};
+      for (const std::size_t f : used)
+        if (f < g.row.cos.size()) terms_.push_back({g.row.cos[f](j), g.row.sin[f](j), f});
+      e.end = terms_.size();
+      entries_.push_back(e);
+    }
+    x.entry_end = entries_.size();
+    x.term_begin = terms_.size();
+    for (const std::size_t f : used)
+      if (f < g.offset.cos.size()) terms_.push_back({g.offset.cos[f], g.offset.sin[f], f});
+    x.term_end = terms_.size();
+    functionals_.push_back(x);
     // Where the row does not vary it is its constant at every time (0 + 0 c + 0 s = 0 there).
     rows_.push_back(g.row.constant);
   }
-  for (std::size_t f = 0; f < any.size(); ++f)
-    if (any[f]) any_.push_back(f);
 }
 
 void FunctionalValues::operator()(double t_s, const Vector& y, std::vector<double>& values) const {
   assert(y.size() == s_->dimension);
   static const Phases kNone;  // no functional reads a harmonic
-  const Phases& phases = any_.empty() ? kNone : phases_at(s_->frequencies_rad_s, t_s);
-  const std::vector<double>& cos_wt = phases.cos_wt;
-  const std::vector<double>& sin_wt = phases.sin_wt;
-  // The operations of evaluate(), in its order, for the harmonics that are not zero.
-  const std::vector<LinearGuard>& gs = *gs_;
-  values.resize(gs.size());
-  for (std::size_t i = 0; i < gs.size(); ++i) {
-    const LinearGuard& g = gs[i];
+  const Phases& phases = any_ ? phases_at(s_->frequencies_rad_s, t_s) : kNone;
+  const double* cos_wt = phases.cos_wt.data();
+  const double* sin_wt = phases.sin_wt.data();
+  // The operations of evaluate(), in its order, for the harmonics that are not zero: entry by
+  // entry those of `row = constant; row += cos c; row += sin s` per frequency, where they
+  // change anything; then the offset's.
+  const std::size_t count = functionals_.size();
+  if (values.size() != count) values.resize(count);
+  const Term* terms = terms_.data();
+  for (std::size_t i = 0; i < count; ++i) {
+    const Functional& x = functionals_[i];
     RowVector& row = rows_[i];
-    // Entry by entry the operations of `row = constant; row += cos c; row += sin s` per
-    // frequency, on the entries where they change anything.
-    for (const Eigen::Index j : varies_[i]) {
-      double x = g.row.constant(j);
-      for (const std::size_t f : used_[i]) {
-        if (f < g.row.cos.size()) {
-          x += g.row.cos[f](j) * cos_wt[f];
-          x += g.row.sin[f](j) * sin_wt[f];
-        }
+    for (std::size_t k = x.entry_begin; k < x.entry_end; ++k) {
+      const Entry& e = entries_[k];
+      double v = e.constant;
+      for (std::size_t m = e.begin; m < e.end; ++m) {
+        v += terms[m].c * cos_wt[terms[m].f];
+        v += terms[m].s * sin_wt[terms[m].f];
       }
-      row(j) = x;
+      row(e.j) = v;
     }
-    double offset = g.offset.constant;
-    for (const std::size_t f : used_[i]) {
-      if (f < g.offset.cos.size()) {
-        offset += g.offset.cos[f] * cos_wt[f];
-        offset += g.offset.sin[f] * sin_wt[f];
-      }
+    double offset = x.offset;
+    for (std::size_t m = x.term_begin; m < x.term_end; ++m) {
+      offset += terms[m].c * cos_wt[terms[m].f];
+      offset += terms[m].s * sin_wt[terms[m].f];
     }
     values[i] = row.dot(y) + offset;
   }

@@ -276,12 +276,13 @@ FlowResult newmark_steps(const LinearSwitchedSystem& system, double t0, const Ve
   std::vector<double> values;
   Point trial, sub;
   // The phases at the grid's times, by rotation: the step's acceleration, its guards and the
-  // observer's look at its end read them (keep_phases).
+  // observer's look at its end read them (phases_at hands them out while `given` lives).
   PhaseGrid phases(system.frequencies_rad_s, t0, dt);
+  GivenPhases given;
   for (std::int64_t k = 1; k <= n_steps; ++k) {
     const double t_end = k == n_steps ? t1 : t0 + static_cast<double>(k) * dt;
     phases.advance(k);
-    if (k < n_steps) keep_phases(system.frequencies_rad_s, t_end, phases.cos_wt(), phases.sin_wt());
+    if (k < n_steps) given.give(system.frequencies_rad_s, t_end, phases.phases());
     int transitions = 0;
     for (;;) {
       const double h = transitions == 0 ? dt : t_end - p.t;
@@ -289,8 +290,9 @@ FlowResult newmark_steps(const LinearSwitchedSystem& system, double t0, const Ve
       if (!step(p, h, t_end, trial) || !trial.q.allFinite() || !trial.v.allFinite())
         return finish(Termination::kDiverged,
                       fmt::format("the state became non-finite after t = {:.6g} s", p.t));
-      guards_of(p.region)(t_end, state(trial), values);
-      const std::vector<LinearGuard>& gs = system.region(p.region).guards;
+      const RegionGuards& guards = guards_of(p.region);
+      guards(t_end, state(trial), values);
+      const std::vector<LinearGuard>& gs = guards.functionals();
       bool crossed = false;
       for (std::size_t i = 0; i < gs.size(); ++i) crossed |= values[i] < crossed_below(gs[i]);
       if (!crossed) break;

@@ -119,11 +119,12 @@ TEST(LinearSystem, FunctionalValuesAreEachFunctionalsValueToTheLastBit) {
   }
 }
 
-TEST(LinearSystem, PhasesAreTheDirectOnesOrThoseKeptForTheirTableAndTime) {
-  // phases_at computes cos(w t) and sin(w t) to the bit, and returns what keep_phases gave only
-  // for the same table and time: a reader at another time, or of another table at that time,
-  // is not handed them, nor is a reader of kept_direct_phases. A PhaseGrid's rotation stays within
-  // 1e-13 of the direct values over three resynchronisations and equals them at each; a mutant that
+TEST(LinearSystem, PhasesAreTheDirectOnesOrThoseGivenForTheirTableAndTime) {
+  // phases_at computes cos(w t) and sin(w t) to the bit, and returns what a GivenPhases gave only
+  // for the same table (that one, or an equal one) and time, and only while it lives: a reader
+  // at another time, or of another table at that time, or after the giver's end, is not handed
+  // them, nor is a reader of kept_direct_phases. A PhaseGrid's rotation stays within 1e-13 of
+  // the direct values over three resynchronisations and equals them at each; a mutant that
   // rotates by -w dt, or never resynchronises, fails.
   using geardyn::ode::PhaseGrid;
   const std::vector<double> w = {3.0, 1234.5, 2.0e4};
@@ -136,15 +137,27 @@ TEST(LinearSystem, PhasesAreTheDirectOnesOrThoseKeptForTheirTableAndTime) {
     EXPECT_EQ(direct.sin_wt[f], std::sin(w[f] * 0.731));
   }
   const std::vector<double> given_c = {0.5, -0.25, 1.0}, given_z = {0.125, 0.75, -1.0};
-  geardyn::ode::keep_phases(w, 0.9, given_c, given_z);
-  EXPECT_EQ(phases_at(w, 0.9).cos_wt, given_c);
-  EXPECT_EQ(phases_at(w, 0.9).sin_wt, given_z);
+  const geardyn::ode::Phases given_phases{given_c, given_z};
   const std::vector<double> other = {3.0, 1234.5, 2.0e4 + 1.0};
-  EXPECT_EQ(phases_at(other, 0.9).cos_wt[2], std::cos(other[2] * 0.9));
-  geardyn::ode::keep_phases(w, 0.9, given_c, given_z);
-  EXPECT_EQ(phases_at(w, 0.9 + 1e-15).cos_wt[0], std::cos(w[0] * (0.9 + 1e-15)));
+  {
+    geardyn::ode::GivenPhases given;
+    given.give(w, 0.9, given_phases);
+    EXPECT_EQ(phases_at(w, 0.9).cos_wt, given_c);
+    EXPECT_EQ(phases_at(w, 0.9).sin_wt, given_z);
+    EXPECT_EQ(&phases_at(w, 0.9), &given_phases);  // handed out, not copied
+    const std::vector<double> equal = w;           // an equal table elsewhere
+    EXPECT_EQ(phases_at(equal, 0.9).cos_wt, given_c);
+    EXPECT_EQ(phases_at(other, 0.9).cos_wt[2], std::cos(other[2] * 0.9));
+    EXPECT_EQ(phases_at(w, 0.9).cos_wt[1], std::cos(w[1] * 0.9));  // another table was asked
+    given.give(w, 0.9, given_phases);
+    EXPECT_EQ(phases_at(w, 0.9 + 1e-15).cos_wt[0], std::cos(w[0] * (0.9 + 1e-15)));
+    given.give(w, 0.9, given_phases);
+  }
+  // Its end forgets them: the same table and time are then the direct phases.
+  EXPECT_EQ(phases_at(w, 0.9).cos_wt[0], std::cos(w[0] * 0.9));
+  EXPECT_EQ(phases_at(w, 0.9).sin_wt[2], std::sin(w[2] * 0.9));
   // kept_direct_phases hands back only what phases_at computed, for its table and time: not
-  // what keep_phases gave, not another time's, not another table's.
+  // what a GivenPhases gave, not another time's, not another table's.
   using geardyn::ode::kept_direct_phases;
   (void)phases_at(w, 0.5);
   const geardyn::ode::Phases* kept = kept_direct_phases(w, 0.5);
@@ -155,7 +168,11 @@ TEST(LinearSystem, PhasesAreTheDirectOnesOrThoseKeptForTheirTableAndTime) {
   }
   EXPECT_EQ(kept_direct_phases(w, 0.5 + 1e-15), nullptr);
   EXPECT_EQ(kept_direct_phases(other, 0.5), nullptr);
-  geardyn::ode::keep_phases(w, 0.5, given_c, given_z);
+  {
+    geardyn::ode::GivenPhases given;
+    given.give(w, 0.5, given_phases);
+    EXPECT_EQ(kept_direct_phases(w, 0.5), nullptr);
+  }
   EXPECT_EQ(kept_direct_phases(w, 0.5), nullptr);
 
   const double t0 = 0.0123, dt = 1.0e-6;

@@ -195,7 +195,7 @@ TEST(RigidSplit, TheComplementsFlowLiftedIsTheWholeFlow) {
 
 // A Motion's reading at t takes the phases phases_at has just computed there (a sample's
 // observables asked them first) and is then the same to the bit as computing its own; it takes
-// no phases kept for another time, nor values keep_phases gave (a stepper's rotated ones). A
+// no phases kept for another time, nor values a GivenPhases gave (a stepper's rotated ones). A
 // mutant that reads any kept phases, or kept phases of another time, fails.
 TEST(RigidSplit, AMotionReadsTheKeptPhasesOnlyWhereTheyAreItsOwn) {
   const LinearSwitchedSystem full = line_system(Line{});
@@ -218,7 +218,9 @@ TEST(RigidSplit, AMotionReadsTheKeptPhasesOnlyWhereTheyAreItsOwn) {
     (void)phases_at(full.frequencies_rad_s, t + 1e-3);
     EXPECT_EQ(motion.at(t), own) << t;
     const std::vector<double> wrong(full.frequencies_rad_s.size(), 0.5);
-    keep_phases(full.frequencies_rad_s, t, wrong, wrong);
+    const geardyn::ode::Phases wrong_phases{wrong, wrong};
+    geardyn::ode::GivenPhases given;
+    given.give(full.frequencies_rad_s, t, wrong_phases);
     EXPECT_EQ(motion.at(t), own) << t;
   }
 }

@@ -121,18 +121,29 @@ struct Phases {
   std::vector<double> cos_wt, sin_wt;
 };
 // The phases of the table w at t_s: each std::cos(w[f] * t_s) and std::sin(w[f] * t_s) bit for
-// bit, or what keep_phases gave for this table and time. The last table and time asked or given
-// on a thread are kept (the table by value), so that a stepper's acceleration, guards and
-// observables at one time compute them once between them; the reference is this thread's and
-// valid until its next call of phases_at or keep_phases.
+// bit, or what a GivenPhases gave for this table and time. The last table and time asked or
+// given on a thread are kept (a table asked by value, a given one by address), so that a
+// stepper's acceleration, guards and observables at one time compute them once between them;
+// the reference is valid until this thread's next call of phases_at or GivenPhases::give, or
+// the end of the GivenPhases that gave it.
 const Phases& phases_at(const std::vector<double>& w, double t_s);
-// Makes phases_at return cos_wt and sin_wt (of w's size) for (w, t_s) on this thread until
-// another table or time is asked: a stepper on a uniform grid advances them by rotation
-// (PhaseGrid).
-void keep_phases(const std::vector<double>& w, double t_s, const std::vector<double>& cos_wt,
-                 const std::vector<double>& sin_wt);
-// The phases phases_at computed directly for (w, t_s), when this thread keeps them (not those
-// keep_phases gave); else null. A reader of a few of the table's frequencies at a time whose
+// While it lives, makes phases_at return the phases last given for (w, t_s) on this thread, by
+// reference and without copying them, until another table or time is asked: a stepper on a
+// uniform grid advances them by rotation (PhaseGrid) and gives them once a step to its
+// acceleration, its guards and its observer. The table and the phases given must outlive it
+// (or the next give); its end forgets them, so that no reader is handed them afterwards. One
+// at a time on a thread (a flow's own).
+class GivenPhases {
+ public:
+  GivenPhases() = default;
+  GivenPhases(const GivenPhases&) = delete;
+  GivenPhases& operator=(const GivenPhases&) = delete;
+  ~GivenPhases();
+  // phases: of w's size, the phases of w at t_s (a stepper's rotated ones).
+  void give(const std::vector<double>& w, double t_s, const Phases& phases);
+};
+// The phases phases_at computed directly for (w, t_s), when this thread keeps them (not those a
+// GivenPhases gave); else null. A reader of a few of the table's frequencies at a time whose
 // phases were just asked (a sample's lift after its observables) takes them from here, bit
 // for bit its own std::cos and std::sin, without computing the whole table.
 const Phases* kept_direct_phases(const std::vector<double>& w, double t_s);
@@ -147,34 +158,57 @@ class PhaseGrid {
   PhaseGrid(const std::vector<double>& w, double t0_s, double dt_s);
   // Advances to step k (the previous call's k + 1, from 1); the phases at t0 + k dt.
   void advance(std::int64_t k);
-  const std::vector<double>& cos_wt() const { return cos_; }
-  const std::vector<double>& sin_wt() const { return sin_; }
+  const Phases& phases() const { return now_; }
+  const std::vector<double>& cos_wt() const { return now_.cos_wt; }
+  const std::vector<double>& sin_wt() const { return now_.sin_wt; }
 
  private:
   const std::vector<double>* w_;
   double t0_s_, dt_s_;
-  std::vector<double> rot_cos_, rot_sin_, cos_, sin_;
+  std::vector<double> rot_cos_, rot_sin_;
+  Phases now_;
 };
 
 // The values of a list of functionals (a region's guards or observables) at many (t, y), each
 // equal to the last bit to functional_value's: built once per list, it keeps the frequencies
 // each functional's row or offset holds (a harmonic whose terms are zero adds nothing) and the
-// entries where its row varies (a mesh's row reads a few of the state's), sums only those, in
-// functional_value's order, and reads the cosines and sines once per call (phases_at), without
-// allocating. The system and the list must outlive the reader.
+// entries where its row varies (a mesh's row reads a few of the state's), each with its terms
+// in one contiguous table, sums only those, in functional_value's order, and reads the cosines
+// and sines once per call (phases_at), without allocating. The system and the list must
+// outlive the reader.
 class FunctionalValues {
  public:
   FunctionalValues(const LinearSwitchedSystem& s, const std::vector<LinearGuard>& gs);
   // Requires y of the system's dimension (asserted in debug builds); `values` is resized.
   void operator()(double t_s, const Vector& y, std::vector<double>& values) const;
+  // The list read (a region's guards or observables).
+  const std::vector<LinearGuard>& functionals() const { return *gs_; }
 
  private:
+  // A harmonic's coefficients of cos(w_f t) and sin(w_f t), f its frequency's index.
+  struct Term {
+    double c, s;
+    std::size_t f;
+  };
+  // A varying entry j of a functional's row: its constant and its terms [begin, end).
+  struct Entry {
+    Eigen::Index j;
+    double constant;
+    std::size_t begin, end;
+  };
+  // A functional's varying entries [entry_begin, entry_end) and its offset's terms.
+  struct Functional {
+    std::size_t entry_begin, entry_end;
+    double offset;
+    std::size_t term_begin, term_end;
+  };
   const LinearSwitchedSystem* s_;
   const std::vector<LinearGuard>* gs_;
-  std::vector<std::vector<std::size_t>> used_;     // per functional, the frequencies it holds
-  std::vector<std::size_t> any_;                   // frequencies some functional holds
-  std::vector<std::vector<Eigen::Index>> varies_;  // per functional, where its row varies
-  mutable std::vector<RowVector> rows_;            // per functional, its row at the last time asked
+  std::vector<Functional> functionals_;
+  std::vector<Entry> entries_;
+  std::vector<Term> terms_;
+  bool any_ = false;                     // some functional holds a harmonic
+  mutable std::vector<RowVector> rows_;  // per functional, its row at the last time asked
 };
 
 // One T per region of a system, T(system, region) made the first time a flow asks for region's
