@@ -175,7 +175,8 @@ class PhaseGrid {
 // entries where its row varies (a mesh's row reads a few of the state's), each with its terms
 // in one contiguous table, sums only those, in functional_value's order, and reads the cosines
 // and sines once per call (phases_at), without allocating. The system and the list must
-// outlive the reader.
+// outlive the reader; the list's coefficients are copied when it is built (a list changed
+// afterwards needs a new reader).
 class FunctionalValues {
  public:
   FunctionalValues(const LinearSwitchedSystem& s, const std::vector<LinearGuard>& gs);
