@@ -176,12 +176,10 @@ std::string summary_json(const RunResult& r, int indent) {
 void write_timeseries_csv(std::ostream& out, const Timeseries& s, ModelForm form) {
   out << fmt::format("{},delta_bar,{},force_bar,contact\n", form_key("t_s", form),
                      form_key("velocity_m_s", form));
-  CsvWriter csv(out);
-  for (std::size_t i = 0; i < s.size(); ++i) {
+  write_csv_rows(out, s.size(), [&s](CsvWriter& csv, std::size_t i) {
     csv.number(s.t_s[i]).number(s.delta_bar[i]).number(s.velocity_m_s[i]).number(s.force_bar[i]);
     csv.integer(s.contact[i]).end_row();
-  }
-  csv.finish();
+  });
 }
 
 std::string timeseries_csv(const Timeseries& s, ModelForm form) {

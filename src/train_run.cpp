@@ -1256,8 +1256,7 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
   for (const TrainMeshReading& m : r.meshes) out << ',' << m.name << "_deflection_rate_m_s";
   out << '\n';
   const TrainSamples& s = r.samples;
-  CsvWriter csv(out);
-  for (std::size_t i = 0; i < s.t_s.size(); ++i) {
+  write_csv_rows(out, s.t_s.size(), [&s, &r](CsvWriter& csv, std::size_t i) {
     csv.number(s.t_s[i]);
     for (Eigen::Index k = 0; k < s.state[i].size(); ++k) csv.number(s.state[i](k));
     for (std::size_t m = 0; m < r.meshes.size(); ++m)
@@ -1265,8 +1264,7 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
     for (const double x : s.parts[i]) csv.number(x);
     for (std::size_t m = 0; m < r.meshes.size(); ++m) csv.number(s.deflection_rate_m_s[i][m]);
     csv.end_row();
-  }
-  csv.finish();
+  });
 }
 
 void write_train_events_csv(std::ostream& out, const TrainRunResult& r) {

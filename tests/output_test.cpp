@@ -3,12 +3,17 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "geardyn/csv.hpp"
 
 namespace geardyn {
 namespace {
@@ -88,6 +93,35 @@ TEST(Output, TimeseriesCsvHasTheDocumentedHeader) {
   s.contact = {0, 1};
   EXPECT_EQ(timeseries_csv(s),
             "t_s,delta_bar,velocity_m_s,force_bar,contact\n0,0,0,0,0\n1e-05,0.5,0.1,0.02,1\n");
+}
+
+TEST(Output, RowsFormattedInBlocksOnThreadsAreTheRowsWrittenOneByOne) {
+  // Rows of numbers of every size, zeros, negative zeros and integers, written by one
+  // CsvWriter row by row and by write_csv_rows on 1, 2 and 3 threads: the same text, for a count
+  // of whole blocks, for one row past them and for none. A mutant that hands a batch's blocks
+  // to the stream out of order, drops the last partial block or formats a row twice fails.
+  const auto row = [](CsvWriter& csv, std::size_t i) {
+    const double x = static_cast<double>(i);
+    csv.number(std::sin(x) * std::pow(10.0, static_cast<double>(i % 23) - 11.0));
+    csv.number(i % 5 == 0 ? (i % 2 == 0 ? 0.0 : -0.0) : 1.0 / (x + 0.5))
+        .integer(static_cast<long long>(i % 3) - 1);
+    csv.number(x * 1e-6).end_row();
+  };
+  for (const std::size_t count : {std::size_t{0}, 1 + 5 * kCsvRowsPerBlock, 8 * kCsvRowsPerBlock,
+                                  1 + 27 * kCsvRowsPerBlock}) {
+    SCOPED_TRACE(count);
+    std::ostringstream one;
+    CsvWriter csv(one);
+    for (std::size_t i = 0; i < count; ++i) row(csv, i);
+    csv.finish();
+    const std::string text = one.str();
+    EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<std::ptrdiff_t>(count));
+    for (const unsigned threads : {1U, 2U, 3U}) {
+      std::ostringstream blocks;
+      write_csv_rows(blocks, count, row, threads);
+      EXPECT_EQ(blocks.str(), text) << threads << " threads";
+    }
+  }
 }
 
 TEST(Output, WritesAllFilesAndLeavesNoTemporaries) {

@@ -2,11 +2,13 @@
 //
 // Numbers are written with std::to_chars at 10 significant digits, the text printf's "%.10g"
 // gives, without a format string read for every number; rows collect in a buffer handed to the
-// stream in large blocks.
+// stream in large blocks. write_csv_rows formats a file's rows in blocks on several threads and
+// hands them to the stream in order: the same text as one writer row by row.
 #pragma once
 
 #include <charconv>
 #include <cstddef>
+#include <functional>
 #include <ostream>
 #include <string>
 #include <string_view>
@@ -16,7 +18,10 @@ namespace geardyn {
 class CsvWriter {
  public:
   static constexpr int kSignificantDigits = 10;
-  explicit CsvWriter(std::ostream& out) : out_(out) { buffer_.reserve(kBlockBytes + 1024); }
+  // Rows handed to `out` in blocks of about kBlockBytes.
+  explicit CsvWriter(std::ostream& out) : out_(&out) { buffer_.reserve(kBlockBytes + 1024); }
+  // Rows kept in text() until taken.
+  CsvWriter() = default;
   CsvWriter(const CsvWriter&) = delete;
   CsvWriter& operator=(const CsvWriter&) = delete;
   // The rows not yet handed to the stream are lost unless finish() was called.
@@ -46,10 +51,12 @@ class CsvWriter {
   void end_row() {
     buffer_.push_back('\n');
     first_ = true;
-    if (buffer_.size() >= kBlockBytes) flush();
+    if (out_ && buffer_.size() >= kBlockBytes) flush();
   }
   // Hands every complete row to the stream.
   void finish() { flush(); }
+  // The rows written so far, without a stream.
+  std::string& text() { return buffer_; }
 
  private:
   static constexpr std::size_t kBlockBytes = std::size_t{1} << 16;
@@ -58,12 +65,24 @@ class CsvWriter {
     first_ = false;
   }
   void flush() {
-    out_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+    if (!out_) return;
+    out_->write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
     buffer_.clear();
   }
-  std::ostream& out_;
+  std::ostream* out_ = nullptr;
   std::string buffer_;
   bool first_ = true;
 };
+
+// Writes rows 0 .. count - 1 to `out` in order, row i by write_row(csv, i) (its fields, then
+// csv.end_row()). Past kCsvRowsPerBlock rows, blocks of that many rows are formatted on up to
+// `threads` threads at a time (0: every core; parallel.hpp) and handed to the stream in their
+// order, a few blocks per thread in memory at once. write_row is called once per row, from any
+// of those threads, and must only read what it shares. The text is the same whatever the
+// threads (tests/output_test.cpp).
+constexpr std::size_t kCsvRowsPerBlock = 4096;
+void write_csv_rows(std::ostream& out, std::size_t count,
+                    const std::function<void(CsvWriter&, std::size_t)>& write_row,
+                    unsigned threads = 0);
 
 }  // namespace geardyn
