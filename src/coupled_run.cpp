@@ -16,7 +16,6 @@
 
 #include "contact_tracker.hpp"
 #include "geardyn/case_keys.hpp"
-#include "geardyn/csv.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
