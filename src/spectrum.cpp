@@ -14,9 +14,10 @@ namespace {
 // FFTW's planner is not thread-safe; execution of a plan is. A plan is made once per length
 // (planning a new length costs more than a transform of a run's samples) on arrays of FFTW's own
 // alignment, and each transform runs on this thread's arrays of that alignment (fftw_malloc)
-// through the new-array interface: a plan for any alignment (FFTW_UNALIGNED) took three times as
-// long to make for a run's 67 200 samples, and its transform 1.6 times as long
-// (docs/performance.md). The cache is emptied when it holds kMaxCachedPlans lengths.
+// through the new-array interface: a plan for any alignment (FFTW_UNALIGNED) took twice the
+// instructions to make for the paper's pair's spectra over 0.3 s, and its transforms 1.7 times
+// (docs/performance.md, "A run's files"). The cache is emptied when it holds kMaxCachedPlans
+// lengths.
 constexpr std::size_t kMaxCachedPlans = 64;
 
 struct PlanCache {
