@@ -11,6 +11,9 @@ namespace geardyn {
 namespace {
 // Blocks formatted per thread before the batch is handed to the stream.
 constexpr std::size_t kBlocksPerThread = 4;
+// Fewer blocks than this are written on the calling thread: the threads' start and the blocks'
+// strings cost more than they save on a short file (the shipped loose gear's 6,224 rows).
+constexpr std::size_t kFewestBlocksOnThreads = 4;
 }  // namespace
 
 void write_csv_rows(std::ostream& out, std::size_t count,
@@ -18,7 +21,7 @@ void write_csv_rows(std::ostream& out, std::size_t count,
                     unsigned threads) {
   if (threads == 0) threads = std::max(1U, std::thread::hardware_concurrency());
   const std::size_t blocks = (count + kCsvRowsPerBlock - 1) / kCsvRowsPerBlock;
-  if (threads == 1 || blocks <= 1) {
+  if (threads == 1 || blocks < kFewestBlocksOnThreads) {
     CsvWriter csv(out);
     for (std::size_t i = 0; i < count; ++i) write_row(csv, i);
     csv.finish();

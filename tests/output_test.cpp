@@ -98,8 +98,9 @@ TEST(Output, TimeseriesCsvHasTheDocumentedHeader) {
 TEST(Output, RowsFormattedInBlocksOnThreadsAreTheRowsWrittenOneByOne) {
   // Rows of numbers of every size, zeros, negative zeros and integers, written by one
   // CsvWriter row by row and by write_csv_rows on 1, 2 and 3 threads: the same text, for a count
-  // of whole blocks, for one row past them and for none. A mutant that hands a batch's blocks
-  // to the stream out of order, drops the last partial block or formats a row twice fails.
+  // of whole blocks, for one row past them, for a file short enough for one thread and for none. A
+  // mutant that hands a batch's blocks to the stream out of order, drops the last partial block or
+  // formats a row twice fails.
   const auto row = [](CsvWriter& csv, std::size_t i) {
     const double x = static_cast<double>(i);
     csv.number(std::sin(x) * std::pow(10.0, static_cast<double>(i % 23) - 11.0));
@@ -107,8 +108,8 @@ TEST(Output, RowsFormattedInBlocksOnThreadsAreTheRowsWrittenOneByOne) {
         .integer(static_cast<long long>(i % 3) - 1);
     csv.number(x * 1e-6).end_row();
   };
-  for (const std::size_t count : {std::size_t{0}, 1 + 5 * kCsvRowsPerBlock, 8 * kCsvRowsPerBlock,
-                                  1 + 27 * kCsvRowsPerBlock}) {
+  for (const std::size_t count : {std::size_t{0}, 3 * kCsvRowsPerBlock, 1 + 5 * kCsvRowsPerBlock,
+                                  8 * kCsvRowsPerBlock, 1 + 27 * kCsvRowsPerBlock}) {
     SCOPED_TRACE(count);
     std::ostringstream one;
     CsvWriter csv(one);

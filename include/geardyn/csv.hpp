@@ -75,9 +75,10 @@ class CsvWriter {
 };
 
 // Writes rows 0 .. count - 1 to `out` in order, row i by write_row(csv, i) (its fields, then
-// csv.end_row()). Past kCsvRowsPerBlock rows, blocks of that many rows are formatted on up to
-// `threads` threads at a time (0: every core; parallel.hpp) and handed to the stream in their
-// order, a few blocks per thread in memory at once. write_row is called once per row, from any
+// csv.end_row()). A file of a few blocks of kCsvRowsPerBlock rows or more is formatted a block
+// per job on up to `threads` threads at a time (0: every core; parallel.hpp), the blocks handed
+// to the stream in their order, a few blocks per thread in memory at once; a shorter file is
+// written on the calling thread. write_row is called once per row, from any
 // of those threads, and must only read what it shares. The text is the same whatever the
 // threads (tests/output_test.cpp).
 constexpr std::size_t kCsvRowsPerBlock = 4096;
