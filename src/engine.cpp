@@ -1894,10 +1894,26 @@ class Flow final : public CellView {
         double magnitude = 0;
         for (double c : gc_) magnitude += std::abs(c);
         gc_[0] += std::max(0.0, kGuardRounding * magnitude - slack);
-        if (horner(gc_.data(), static_cast<int>(gc_.size()) - 1, x_start) <= 0) {
-          x_end = x_start;  // already across: leaves at once
-          crossed = i;
-          break;
+        const int degree = static_cast<int>(gc_.size()) - 1;
+        if (const double at = horner(gc_.data(), degree, x_start); at <= 0) {
+          // A state just handed over at an event sits on the region's edge, where the series
+          // are exact but for their truncation: a guard's time-varying offset (a transmission
+          // error's harmonics) is expanded at the cell's start and may be off there by more
+          // than the slack, and the event's time, to the last bit, leaves the state a little
+          // short of the edge or past it. Such a state is across a guard only when its exact
+          // value says so and the motion heads out through it; otherwise it would leave at
+          // once and come back at once, again and again at one time (a chattering of stays of
+          // no length). Inside, the series is moved through the exact value at the edge.
+          const bool handed_over = t == last_t_;
+          const double exact =
+              handed_over ? guard_value(sys_, cur_.region, i, t, last_y_) + slack : at;
+          const bool inward = handed_over && horner_derivative(gc_, x_start) > 0;
+          if (exact <= 0 && !inward) {
+            x_end = x_start;  // already across: leaves at once
+            crossed = i;
+            break;
+          }
+          gc_[0] += std::max(exact, slack) - at;
         }
         if (auto x = roots_.first_crossing(gc_, x_start, x_end)) {
           if (*x < x_end || crossed < 0) {
