@@ -419,10 +419,10 @@ class TrainObserver : public ode::FlowObserver {
   bool lifted_from_ = false;
 };
 
-// The shortest time scale of the train: its fastest mode in contact or excitation.
-double shortest_time_scale_s(const train::Assembled& a) {
-  double w = 0;
-  for (const train::TrainMode& m : train::modes(a)) w = std::max(w, kTwoPi * m.frequency_hz);
+// The shortest time scale of the train: its fastest mode in contact (top_mode_rad_s, the
+// highest natural frequency of train::modes) or excitation.
+double shortest_time_scale_s(const train::Assembled& a, double top_mode_rad_s) {
+  double w = top_mode_rad_s;
   const train::Train& t = a.train();
   for (std::size_t m = 0; m < t.meshes.size(); ++m) {
     const int i = static_cast<int>(m);
@@ -665,7 +665,10 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
   if (const std::string err = validate(c); !err.empty()) throw InputError(err);
   // A pair's form as its train of elements (assembled_train): the same system, read per element.
   a_ = std::make_unique<train::Assembled>(assembled_train(c, stiffness));
-  fastest_period_s_ = shortest_time_scale_s(*a_);
+  // The highest natural frequency in contact, 0 when no mode moves.
+  for (const train::TrainMode& m : train::modes(*a_))
+    top_frequency_rad_s_ = std::max(top_frequency_rad_s_, kTwoPi * m.frequency_hz);
+  fastest_period_s_ = shortest_time_scale_s(*a_, top_frequency_rad_s_);
   // The exact engine and Newmark step a train that turns freely on the complement of its
   // rotation (rigid_split.hpp), whose quadrature is exact. dopri5 steps the whole train: the
   // complement's matrices are dense where the train's are sparse, and an adaptive step evaluates
@@ -720,8 +723,6 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
     newmark_step_s_ =
         period > 0 ? period / std::max(1.0, std::ceil(period / wanted - 1e-9)) : wanted;
   }
-  for (const train::TrainMode& m : train::modes(*a_))
-    top_frequency_rad_s_ = std::max(top_frequency_rad_s_, kTwoPi * m.frequency_hz);
   if (!(top_frequency_rad_s_ > 0)) top_frequency_rad_s_ = kTwoPi / fastest_period_s_;
 }
 
