@@ -59,19 +59,8 @@ std::vector<std::int64_t> signature(const std::vector<ContactEvent>& sequence) {
   return best;
 }
 
-// The orbits at one value of the key, of either model: their multiple shooting, and how a
-// converged one is read.
-class Family {
- public:
-  virtual ~Family() = default;
-  virtual const detail::Segments& shooting() const = 0;
-  // Reads the converged unknowns x (segments' Jacobians `seg`) into `o` and, when `json` is
-  // given, the orbit as `geardyn orbit --json` prints it. False with `why`.
-  virtual bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
-                    std::string* json, std::string& why) const = 0;
-};
-
-// A one-degree orbit as the continuation keeps it: its state, reading and contact sequence.
+// A one-degree orbit as the continuation keeps it: its state (x, x'), reading and contact
+// sequence.
 void to_branch(const Orbit& orbit, BranchOrbit& o, std::size_t /*mesh*/) {
   o.state = (ode::Vector(2) << orbit.state.q, orbit.state.v).finished();
   o.reading = orbit.reading;
@@ -79,10 +68,10 @@ void to_branch(const Orbit& orbit, BranchOrbit& o, std::size_t /*mesh*/) {
   o.contacts = {{"", orbit.reading.impacts, orbit.reading.separations}};
 }
 
-// The cases whose orbits are a train's: a gear train, and the coupled pair as its train form
-// (train_form_of), its clearances and shafts included. The one-degree forms keep their own.
-bool on_train_path(const Case& c) {
-  return c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled;
+// The one-degree forms: their orbits are their train's (find_orbit), kept and written in the
+// one-degree model's terms (state (delta, delta'), its contact sequence the grazing test).
+bool one_degree(const Case& c) {
+  return c.model.form == ModelForm::kGearPair || c.model.form == ModelForm::kNondimensional;
 }
 
 // A train's orbit as the continuation keeps it: the unknowns (its free coordinates' state),
@@ -114,55 +103,60 @@ void to_branch(const TrainOrbit& orbit, BranchOrbit& o, std::size_t mesh) {
   }
 }
 
-std::string json_of(const Orbit& o) { return orbit_json(o, -1); }
-std::string json_of(const TrainOrbit& o) { return train_orbit_json(o, -1); }
-
-// The family of one model: its shooting (detail::Shooting or TrainShooting) and its orbit
-// record (Orbit or TrainOrbit).
-template <class ShootingT, class OrbitT>
-class FamilyOf final : public Family {
+// The orbits at one value of the key, of any form (its train's: TrainShooting): their
+// multiple shooting, and how a converged one is read.
+class Family {
  public:
-  FamilyOf(const Case& c, int periods, int segments, const ode::Vector& scale,
-           double engine_tolerance, const MeshStiffness* stiffness, std::size_t mesh)
+  // Scale and stiffness as for TrainShooting (empty scale: this case's; no stiffness: this
+  // case's); `mesh` the mesh read.
+  Family(const Case& c, int periods, int segments, const ode::Vector& scale,
+         double engine_tolerance, const MeshStiffness* stiffness, std::size_t mesh)
       : s_(c, periods, segments, scale, engine_tolerance, stiffness),
         periods_(periods),
-        mesh_(mesh) {}
-  const detail::Segments& shooting() const override { return s_.shooting(); }
+        mesh_(mesh),
+        one_degree_(one_degree(c)) {}
+  const detail::Segments& shooting() const { return s_.shooting(); }
+  const detail::TrainShooting& train() const { return s_; }
+  // Reads the converged unknowns x (segments' Jacobians `seg`) into `o` and, when `json` is
+  // given, the orbit as `geardyn orbit --json` prints it. False with `why`. The periodic
+  // solution kept (its monodromy) is in the unknowns, as BranchOrbit::unknowns.
   bool read(const ode::Vector& x, const std::vector<ode::Matrix>& seg, BranchOrbit& o,
-            std::string* json, std::string& why) const override {
-    OrbitT orbit;
+            std::string* json, std::string& why) const {
+    TrainOrbit orbit;
     if (!s_.read(x, seg, orbit, why)) return false;
     orbit.converged = true;
     orbit.periods = periods_;
-    if (json) *json = json_of(orbit);
     static_cast<PeriodicSolution&>(o) = orbit;
-    to_branch(orbit, o, mesh_);
+    if (one_degree_) {
+      const Orbit one = detail::one_degree_orbit(s_, orbit);
+      if (json) *json = orbit_json(one, -1);
+      to_branch(one, o, mesh_);
+    } else {
+      if (json) *json = train_orbit_json(orbit, -1);
+      to_branch(orbit, o, mesh_);
+    }
+    o.unknowns = orbit.unknowns;
     return true;
   }
 
  private:
-  ShootingT s_;
+  detail::TrainShooting s_;
   int periods_;
   std::size_t mesh_;  // the train's mesh read
+  bool one_degree_;
 };
 
-// The family of case c's model; scale and stiffness as for Shooting (empty scale: this
-// case's; no stiffness: this case's).
+// The family of case c; scale and stiffness as for Family.
 std::unique_ptr<Family> family(const Case& c, int periods, int segments, const ode::Vector& scale,
                                double engine_tolerance, const MeshStiffness* stiffness,
                                std::size_t mesh) {
-  if (on_train_path(c))
-    return std::make_unique<FamilyOf<detail::TrainShooting, TrainOrbit>>(
-        c, periods, segments, scale, engine_tolerance, stiffness, mesh);
-  return std::make_unique<FamilyOf<detail::Shooting, Orbit>>(c, periods, segments, scale,
-                                                             engine_tolerance, stiffness, mesh);
+  return std::make_unique<Family>(c, periods, segments, scale, engine_tolerance, stiffness, mesh);
 }
 
 // The names of a case's state entries (ContinuationResult::state_names).
 std::vector<std::string> state_names(const Case& c) {
-  if (on_train_path(c))
-    return detail::TrainShooting(c, 1, 1, ode::Vector{}, c.solver.tolerance).coordinates();
-  return {"delta_m", "velocity_m_s"};
+  if (one_degree(c)) return {"delta_m", "velocity_m_s"};
+  return detail::TrainShooting(c, 1, 1, ode::Vector{}, c.solver.tolerance).coordinates();
 }
 
 // The periodic orbit of case c (period and segments of `o`) from a state y0 on the section:
@@ -264,30 +258,23 @@ class Continuer {
     const Case c0 = case_at(o_.from);
     OrbitOptions oo = o_.orbit;
     oo.segments = segments_;
-    ode::Vector y0;
-    if (on_train_path(c0)) {
-      const TrainOrbit first = find_train_orbit(c0, oo, o_.start);
-      if (!first.converged) {
-        why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
-        return false;
-      }
-      y0 = first.unknowns;
-    } else {
-      if (o_.start && o_.start->size() != 2)
-        throw InputError(fmt::format(
-            "the start state has {} values; a one-degree case takes 2 (delta and delta', SI)",
-            o_.start->size()));
-      std::optional<ode::State> s0;
-      if (o_.start) s0 = ode::State{0.0, (*o_.start)[0], (*o_.start)[1], 0.0, 0};
-      const Orbit first = find_orbit(c0, oo, s0);
-      if (!first.converged) {
-        why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
-        return false;
-      }
-      y0 = (ode::Vector(2) << first.state.q, first.state.v).finished();
-    }
     const auto s = family(c0, o_.orbit.periods, segments_, ode::Vector{}, engine_tolerance_,
                           stiffness_ ? &*stiffness_ : nullptr, mesh_);
+    // The start given: a one-degree form's (delta, delta'), its train's unknowns.
+    std::optional<ode::Vector> start = o_.start;
+    if (start && one_degree(c0)) {
+      if (start->size() != 2)
+        throw InputError(fmt::format(
+            "the start state has {} values; a one-degree case takes 2 (delta and delta', SI)",
+            start->size()));
+      start = s->train().one_degree_unknowns(*start, "the start state");
+    }
+    const TrainOrbit first = find_train_orbit(c0, oo, start);
+    if (!first.converged) {
+      why = fmt::format("no orbit at {} = {:.17g}: {}", o_.key, o_.from, first.message);
+      return false;
+    }
+    const ode::Vector y0 = first.unknowns;
     scale_ = s->shooting().scale();
     ode::Vector x;
     if (!s->shooting().guess(y0, x, why)) return false;
@@ -935,12 +922,12 @@ std::optional<Switch> switch_branch(const Case& base, const ContinuationOptions&
     oo.segments = 2 * (o.orbit.segments > 0 ? o.orbit.segments : o.orbit.periods);
     for (const double amount : kSwitchDisplacements)
       for (const double sign : {1.0, -1.0}) {
-        const ode::Vector y = pd.orbit.state + sign * amount * dir.cwiseProduct(scale);
+        const ode::Vector y = pd.orbit.unknowns + sign * amount * dir.cwiseProduct(scale);
         const std::optional<BranchOrbit> orbit = orbit_from(c, oo, y, scale, mesh);
         if (!orbit) continue;
         ode::Vector f;
         std::string why;
-        if (!single->shooting().residual(single->shooting().scaled(orbit->state), f, nullptr,
+        if (!single->shooting().residual(single->shooting().scaled(orbit->unknowns), f, nullptr,
                                          nullptr, why))
           continue;
         if (f.lpNorm<Eigen::Infinity>() > kDistinctOrbit)
@@ -972,7 +959,7 @@ ContinuationResult continuation(const Case& c, const ContinuationOptions& option
   Continuer k(c, options, lo, hi);
   ContinuationResult res = k.run();
   res.state_names = state_names(c);
-  if (on_train_path(c))
+  if (!one_degree(c))
     res.mesh = assembled_train(c).train().meshes[mesh_to_read(c, options.mesh)].name;
   const auto finish = [&]() -> ContinuationResult& {
     res.wall_time_s =

@@ -399,8 +399,8 @@ std::string orbit_json(const Orbit& o, int indent) {
   return j.dump(indent);
 }
 
-Orbit find_orbit(const Case& c, const OrbitOptions& options,
-                 const std::optional<ode::State>& start) {
+Orbit find_one_degree_orbit(const Case& c, const OrbitOptions& options,
+                            const std::optional<ode::State>& start) {
   if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
   const int segments = options.segments > 0 ? options.segments : options.periods;
   const double engine_tolerance =

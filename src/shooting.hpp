@@ -221,6 +221,12 @@ class TrainShooting {
   ode::Vector reduce(const ode::Vector& y) const;
   // Whether the train turns freely (its unknowns taken modulo the rigid rotation).
   bool turns_freely() const { return free_turning_; }
+  // A one-degree form's (model.form "gear_pair" or "nondimensional": its train is the two gears
+  // on one mesh): the one-degree model's section state (x, x') = (d - e, d' - e') at t = 0 of
+  // the unknowns z, affine in z, and the unknowns of such a state. Throws InputError naming
+  // `what` for a train whose unknowns are not two, or which x does not determine.
+  ode::Vector one_degree_state(const ode::Vector& z) const;
+  ode::Vector one_degree_unknowns(const ode::Vector& x, const std::string& what) const;
 
   // Fills an orbit's coordinates, section state (the unknowns' and every body's), monodromy,
   // multipliers, stability and each mesh's reading over one period (flown and read). False with
@@ -243,6 +249,12 @@ class TrainShooting {
   double system_period_s_ = 0, period_s_ = 0;
   Segments segments_;
 };
+
+// A one-degree form's orbit (orbit.hpp) read from its train's, t found by shooting s: the
+// periodic solution's numbers, the monodromy in (x, x') (S M S^-1, S = dx/dz), the section
+// state (x, x', x'' and the mesh's region), the mesh's contact sequence and its reading in the
+// one-degree units (b, b k_m).
+Orbit one_degree_orbit(const TrainShooting& s, const TrainOrbit& t);
 
 // The Newton matrix solve shared by the orbit and the continuation: false when singular.
 bool solve_newton(const ode::Matrix& jacobian, const ode::Vector& f, ode::Vector& step);

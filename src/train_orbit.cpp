@@ -116,10 +116,14 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
     names_.push_back(a.coordinate_names()[static_cast<std::size_t>(i % n)] + (i < n ? "" : "_s"));
   std::string why;
   const std::optional<double> t0 = a.system_period_s(&why);
-  if (!t0) throw InputError(with_origins(c, "the train has no periodic orbit to find: " + why));
+  if (!t0) throw InputError(with_origins(c, "the case has no periodic orbit to find: " + why));
   if (!(*t0 > 0))
     throw InputError(
-        with_origins(c, "nothing in the train varies in time: its one orbit is its static state"));
+        with_origins(c,
+                     "nothing in the model varies in time (no mesh stiffness harmonic, "
+                     "transmission error or runout, no torque fluctuation, no prescribed speed "
+                     "harmonic): "
+                     "the motion settles to its static state and has no period"));
   system_period_s_ = *t0;
   period_s_ = periods * *t0;
   if (scale.size() > 0) {
@@ -152,6 +156,72 @@ ode::FlowResult TrainShooting::flow(int i, const ode::Vector& z) const {
   r.state = reduce(r.state);
   if (r.jacobian) r.jacobian = ode::Matrix(project_ * *r.jacobian * lift_);
   return r;
+}
+
+ode::Vector TrainShooting::one_degree_state(const ode::Vector& z) const {
+  const train::Assembled& a = solver_.assembled();
+  const ode::Vector y = full(0.0, z);
+  const Eigen::RowVectorXd v = a.mesh_vector(0);
+  const HarmonicSeries e = a.error_series(0);
+  const Eigen::Index n = v.size();
+  return (ode::Vector(2) << v.dot(y.head(n)) - e(0.0), v.dot(y.tail(n)) - e.rate(0.0)).finished();
+}
+
+namespace {
+// dx/dz of TrainShooting::one_degree_state (exact: x is affine in z), a 2 x 2 matrix.
+ode::Matrix one_degree_derivative(const TrainShooting& s, const std::string& what) {
+  const auto k = static_cast<Eigen::Index>(s.coordinates().size());
+  if (k != 2 || s.solver().assembled().train().meshes.size() != 1)
+    throw InputError(fmt::format(
+        "{}: a one-degree state (delta, delta') is a state of a pair on "
+        "one mesh; this train has {} unknowns ({}) and {} meshes",
+        what, k, fmt::join(s.coordinates(), ", "), s.solver().assembled().train().meshes.size()));
+  const ode::Vector x0 = s.one_degree_state(ode::Vector::Zero(k));
+  ode::Matrix d(2, k);
+  for (Eigen::Index j = 0; j < k; ++j) d.col(j) = s.one_degree_state(ode::Vector::Unit(k, j)) - x0;
+  return d;
+}
+}  // namespace
+
+ode::Vector TrainShooting::one_degree_unknowns(const ode::Vector& x,
+                                               const std::string& what) const {
+  const ode::Matrix d = one_degree_derivative(*this, what);
+  const Eigen::FullPivLU<ode::Matrix> lu(d);
+  if (!lu.isInvertible())
+    throw InputError(
+        fmt::format("{}: the pair's deflection and its rate do not determine its "
+                    "train's unknowns ({})",
+                    what, fmt::join(coordinates(), ", ")));
+  return lu.solve(x - one_degree_state(ode::Vector::Zero(d.cols())));
+}
+
+Orbit one_degree_orbit(const TrainShooting& s, const TrainOrbit& t) {
+  Orbit o;
+  static_cast<PeriodicSolution&>(o) = t;
+  if (!t.converged) return o;
+  const train::Assembled& a = s.solver().assembled();
+  const ode::Matrix d = one_degree_derivative(s, "the orbit's one-degree reading");
+  o.monodromy = d * t.monodromy * d.inverse();
+  const ode::Vector x = s.one_degree_state(t.unknowns);
+  // The mesh's region at the section (its contact state, clipped or not, as the one-degree
+  // model numbers them) and x'' = d'' - e'' there.
+  const int region = a.classify(0.0, t.state);
+  const Eigen::Index n = a.size();
+  const ode::Vector rate = ode::derivative(a.linear_system(), region, 0.0, t.state);
+  const double acceleration =
+      a.mesh_vector(0).dot(rate.tail(n)) - a.error_series(0).second_rate(0.0);
+  o.state = {0.0, x[0], x[1], acceleration, a.states(region)[0]};
+  for (const TrainContactEvent& e : t.sequence)
+    if (e.part == 0) o.sequence.push_back({e.t_s, e.kind, e.velocity_m_s});
+  const TrainMeshReading& r = t.readings.front();
+  const double b = r.backlash_m, bk = b * r.mean_stiffness_n_per_m;
+  static_cast<ContactCounts&>(o.reading) = r;
+  o.reading.max_impact_velocity_m_s = r.max_impact_velocity_m_s;
+  o.reading.min_delta_bar = r.min_deflection_m / b;
+  o.reading.max_delta_bar = r.max_deflection_m / b;
+  o.reading.min_force_bar = r.min_force_n / bk;
+  o.reading.max_force_bar = r.max_force_n / bk;
+  return o;
 }
 
 bool TrainShooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
@@ -198,13 +268,20 @@ bool TrainShooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& s
 
 }  // namespace detail
 
-TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
-                            const std::optional<ode::Vector>& start) {
-  if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
-  const int segments = options.segments > 0 ? options.segments : options.periods;
-  const detail::TrainShooting shooting(
-      c, options.periods, segments, ode::Vector{},
-      std::min(c.solver.tolerance, options.tolerance * detail::kEngineToleranceFraction));
+namespace {
+
+// The segments of a shooting for `options`, and its engine's tolerance (finer than Newton's).
+int segments_of(const OrbitOptions& options) {
+  return options.segments > 0 ? options.segments : options.periods;
+}
+double engine_tolerance_of(const Case& c, const OrbitOptions& options) {
+  return std::min(c.solver.tolerance, options.tolerance * detail::kEngineToleranceFraction);
+}
+
+// find_train_orbit on its shooting (built from c and options).
+TrainOrbit train_orbit(const detail::TrainShooting& shooting, const Case& c,
+                       const OrbitOptions& options, const std::optional<ode::Vector>& start) {
+  const int segments = segments_of(options);
   TrainOrbit orbit;
   orbit.coordinates = shooting.coordinates();
   orbit.periods = options.periods;
@@ -273,6 +350,33 @@ TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
   }
   orbit.converged = true;
   return orbit;
+}
+
+}  // namespace
+
+TrainOrbit find_train_orbit(const Case& c, const OrbitOptions& options,
+                            const std::optional<ode::Vector>& start) {
+  if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
+  const detail::TrainShooting shooting(c, options.periods, segments_of(options), ode::Vector{},
+                                       engine_tolerance_of(c, options));
+  return train_orbit(shooting, c, options, start);
+}
+
+Orbit find_orbit(const Case& c, const OrbitOptions& options,
+                 const std::optional<ode::State>& start) {
+  if (c.model.form != ModelForm::kGearPair && c.model.form != ModelForm::kNondimensional)
+    throw InputError(
+        fmt::format("find_orbit: model.form = \"{}\" is no one-degree form (\"gear_pair\", "
+                    "\"nondimensional\"); find_train_orbit finds its orbits",
+                    to_string(c.model.form)));
+  if (const std::string e = options.validate(); !e.empty()) throw InputError(e);
+  const detail::TrainShooting shooting(c, options.periods, segments_of(options), ode::Vector{},
+                                       engine_tolerance_of(c, options));
+  std::optional<ode::Vector> z0;
+  if (start)
+    z0 = shooting.one_degree_unknowns((ode::Vector(2) << start->q, start->v).finished(),
+                                      "the start state");
+  return detail::one_degree_orbit(shooting, train_orbit(shooting, c, options, z0));
 }
 
 ode::Vector train_orbit_state(const Case& c, const ode::Vector& unknowns) {

@@ -177,6 +177,84 @@ TEST(Orbit, PaperGearAtFig4cRattlesOnceAPeriodWithTheMonodromyOfItsMap) {
                                        b * model.parameters().natural_angular_frequency_rad_s());
 }
 
+TEST(Orbit, AOneDegreeFormsOrbitIsItsTrainsReadAsTheOneDegreeModelsOwn) {
+  // find_orbit finds a one-degree form's orbit on its train (the one path) and reads it in the
+  // one-degree model's terms; find_one_degree_orbit finds it by the one-degree model's own
+  // shooting. They agree on a one-sided rattle, a double-sided one, an unstable one, the
+  // paper's gear at Fig. 4(c), and that gear with a transmission error that makes it impact
+  // once a mesh cycle (56 times a period; x = d - e at the section needs e(0), x' needs e'(0),
+  // x'' needs e''(0)): the section state, its region, the multipliers, the monodromy (scaled
+  // by b and b w_n), the contact sequence and the reading. From the orbit's own state Newton
+  // has at most one iteration to do (a start mapped to the train's unknowns without e(0) is
+  // 4 um off). A mutant that drops e, e' or e'' from the reading, or the offset from the
+  // start's map, fails.
+  struct Row {
+    const char* name;
+    Case c;
+    OrbitOptions o;
+  };
+  Case paper =
+      geardyn::load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases/park2010.toml");
+  paper.speed.shaft_frequency_hz = 1000;
+  Case te = paper;
+  geardyn::set_case_value(te, {"mesh.transmission_error_um", "[[5, 30], [2, 0]]"});
+  OrbitOptions settled;
+  settled.settle_periods = 40;
+  const std::vector<Row> rows = {
+      {"one-sided rattle", nondimensional(0.05, 0.1, 0.02, 0.95), shooting()},
+      {"double-sided rattle", nondimensional(0.05, 0.02, 0.5, 0.5), shooting()},
+      {"unstable", nondimensional(0.05, 0.1, 0.2, 1.0), shooting()},
+      {"paper, Fig. 4(c)", paper, shooting()},
+      {"transmission error", te, settled},
+  };
+  for (const Row& row : rows) {
+    SCOPED_TRACE(row.name);
+    const Orbit one = geardyn::find_one_degree_orbit(row.c, row.o);
+    const Orbit two = geardyn::find_orbit(row.c, row.o);
+    ASSERT_TRUE(one.converged) << one.message;
+    ASSERT_TRUE(two.converged) << two.message;
+    const geardyn::GearPairModel model = geardyn::build_model(row.c);
+    const double b = model.parameters().backlash_m;
+    const double w = model.parameters().natural_angular_frequency_rad_s();
+    EXPECT_NEAR(two.state.q / b, one.state.q / b, 1e-9);
+    EXPECT_NEAR(two.state.v / (b * w), one.state.v / (b * w), 1e-9);
+    EXPECT_NEAR(two.state.a / (b * w * w), one.state.a / (b * w * w), 1e-7);
+    EXPECT_EQ(two.state.region, one.state.region);
+    ASSERT_EQ(two.multipliers.size(), 2U);
+    for (const std::complex<double>& mu : one.multipliers)
+      EXPECT_LT(std::min(std::abs(mu - two.multipliers[0]), std::abs(mu - two.multipliers[1])),
+                1e-8 * std::max(1.0, std::abs(mu)));
+    EXPECT_EQ(two.stable, one.stable);
+    const Eigen::Vector2d s(b, b * w);
+    const Eigen::Matrix2d scaled_one =
+        s.cwiseInverse().asDiagonal() * one.monodromy * s.asDiagonal();
+    const Eigen::Matrix2d scaled_two =
+        s.cwiseInverse().asDiagonal() * two.monodromy * s.asDiagonal();
+    EXPECT_LT((scaled_two - scaled_one).cwiseAbs().maxCoeff(), 1e-7 * scaled_one.norm());
+    ASSERT_EQ(two.sequence.size(), one.sequence.size());
+    for (std::size_t k = 0; k < one.sequence.size(); ++k) {
+      EXPECT_EQ(two.sequence[k].kind, one.sequence[k].kind) << k;
+      EXPECT_NEAR(two.sequence[k].t_s / one.period_s, one.sequence[k].t_s / one.period_s, 1e-9);
+      EXPECT_NEAR(two.sequence[k].velocity_m_s / (b * w), one.sequence[k].velocity_m_s / (b * w),
+                  1e-8);
+    }
+    EXPECT_EQ(two.reading.impacts, one.reading.impacts);
+    EXPECT_EQ(two.reading.backside_impacts, one.reading.backside_impacts);
+    EXPECT_EQ(two.reading.separations, one.reading.separations);
+    EXPECT_NEAR(two.reading.min_delta_bar, one.reading.min_delta_bar, 1e-9);
+    EXPECT_NEAR(two.reading.max_delta_bar, one.reading.max_delta_bar, 1e-9);
+    EXPECT_NEAR(two.reading.min_force_bar, one.reading.min_force_bar, 1e-9);
+    EXPECT_NEAR(two.reading.max_force_bar, one.reading.max_force_bar, 1e-9);
+    OrbitOptions from_state = row.o;
+    from_state.settle_periods = 0;
+    const Orbit again = geardyn::find_orbit(row.c, from_state, one.state);
+    ASSERT_TRUE(again.converged) << again.message;
+    EXPECT_LE(again.iterations, 1);
+    EXPECT_NEAR(again.state.q / b, one.state.q / b, 1e-9);
+  }
+  EXPECT_EQ(geardyn::find_orbit(te, settled).reading.impacts, 56);
+}
+
 TEST(FlowSensitivity, KeyDerivativesOfTheLinearOscillatorMatchTheClosedForm) {
   // Always in contact, x'' + 2 zeta x' + (x - 1) = F_m + F_a cos(Omega t) from (x0, v0): the
   // response is linear in F_m and F_a, d/dF_a the response from rest to cos(Omega t), d/dF_m

@@ -283,7 +283,7 @@ TEST(TrainContinuation, AFreelyTurningPairContinuesAsTheOneDegreeModel) {
     set_case_value(at, {"speed.shaft_frequency_hz", fmt::format("{:.17g}", p.param)});
     OrbitOptions oo;
     oo.settle_periods = 200;
-    const Orbit one = find_orbit(at, oo);
+    const Orbit one = find_one_degree_orbit(at, oo);
     ASSERT_TRUE(one.converged) << one.message;
     EXPECT_EQ(p.orbit.reading.impacts, one.reading.impacts);
     EXPECT_NEAR(p.orbit.reading.max_delta_bar, one.reading.max_delta_bar, 1e-7);

@@ -226,7 +226,7 @@ TEST(TrainOrbit, AFreelyTurningPairsRattlingOrbitIsTheOneDegreeModels) {
   const auto [pair, train] = testing::light_pair();
   OrbitOptions o;
   o.settle_periods = 200;
-  const Orbit one = find_orbit(pair, o);
+  const Orbit one = find_one_degree_orbit(pair, o);
   const TrainOrbit two = find_train_orbit(train, o);
   ASSERT_TRUE(one.converged) << one.message;
   ASSERT_TRUE(two.converged) << two.message;

@@ -23,11 +23,13 @@
 // M the monodromy. Each is located by bisection along the branch, re-correcting at every
 // trial point, to a width in p of kLocateWidth p_scale.
 //
-// Every model is continued: the one-degree forms on the shooting of orbit.hpp, a gear train
-// and the coupled pair (model.form = "coupled", as its train: train_form_of) on that of
-// train_orbit.hpp, its unknowns its free coordinates and rates (modulo the rigid rotation where
-// it turns freely). A train's grazing is a change in the impacts or separations per period of
-// any mesh or clearance direction (its readings are one mesh's: ContinuationOptions::mesh).
+// Every form is continued on one shooting, its train's (train_orbit.hpp; the gear pair's forms
+// as their train: train_form_of), its unknowns the train's free coordinates and rates (modulo
+// the rigid rotation where it turns freely). A train's grazing is a change in the impacts or
+// separations per period of any mesh or clearance direction (its readings are one mesh's:
+// ContinuationOptions::mesh). The one-degree forms ("gear_pair", "nondimensional") are kept
+// and written in the one-degree model's terms, as find_orbit reads them: their state (delta,
+// delta'), their grazing a change in the mesh's contact sequence.
 #pragma once
 
 #include <complex>
@@ -56,8 +58,12 @@ enum class BifurcationType { kFold, kBranchPoint, kPeriodDoubling, kNeimarkSacke
 const char* to_string(BifurcationType t);
 
 // What the continuation keeps of an orbit, of either model.
+// Its periodic solution (monodromy, multipliers) is in the unknowns.
 struct BranchOrbit : PeriodicSolution {
   ode::Vector state;  // on the section t = 0, SI: (delta, delta'), or a train's unknowns
+  // The shooting's unknowns on the section (TrainOrbit::unknowns): a train's are its state; a
+  // one-degree form's are its train's, which `state` reads as (delta, delta').
+  ode::Vector unknowns;
   // The mesh's over one period: impacts, separations, extremes of delta_bar ((d - e)/b in a
   // train) and of F_bar.
   RunReading reading;

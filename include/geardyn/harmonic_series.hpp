@@ -40,6 +40,14 @@ struct HarmonicSeries {
            std::sin(h.angular_frequency_rad_s * t_s + h.phase_rad);
     return x;
   }
+  // The second time derivative at t_s.
+  double second_rate(double t_s) const {
+    double x = 0;
+    for (const Harmonic& h : terms)
+      x -= h.amplitude * h.angular_frequency_rad_s * h.angular_frequency_rad_s *
+           std::cos(h.angular_frequency_rad_s * t_s + h.phase_rad);
+    return x;
+  }
   // The highest angular frequency of a term with a non-zero amplitude; 0 for a constant.
   double max_angular_frequency_rad_s() const {
     double w = 0;
