@@ -223,8 +223,8 @@ class TrainShooting {
   bool turns_freely() const { return free_turning_; }
   // A one-degree form's (model.form "gear_pair" or "nondimensional": its train is the two gears
   // on one mesh): the one-degree model's section state (x, x') = (d - e, d' - e') at t = 0 of
-  // the unknowns z, affine in z, and the unknowns of such a state. Throws InputError naming
-  // `what` for a train whose unknowns are not two, or which x does not determine.
+  // the unknowns z, affine in z, and the unknowns of such a state (which throws InputError
+  // naming `what` for a train whose unknowns are not two, or which x does not determine).
   ode::Vector one_degree_state(const ode::Vector& z) const;
   ode::Vector one_degree_unknowns(const ode::Vector& x, const std::string& what) const;
 

@@ -3,7 +3,8 @@
 //
 // The gear model is periodic in time with the system period T0 (the common period of the mesh
 // stiffness and the torque). A periodic motion of period T = N T0 is a fixed point of the
-// stroboscopic (Poincare) map P: y(t0) -> y(t0 + T), y = (delta, delta'). find_orbit solves
+// stroboscopic (Poincare) map P: y(t0) -> y(t0 + T), y = (delta, delta'). find_orbit (on the
+// pair's train, train_orbit.hpp, read back in y) and find_one_degree_orbit (on y) solve
 // P(y) = y by Newton's method with the exact engine's Jacobian (the product of the cells'
 // transition matrices and of a saltation matrix at every contact event), on M shooting
 // segments of length T / M (multiple shooting: unknowns y_0 .. y_{M-1}, residuals
@@ -12,8 +13,10 @@
 // the segments' Jacobians, has the Floquet multipliers as its eigenvalues: the orbit is stable
 // when all of them lie inside the unit circle.
 //
-// The state is scaled for the Newton residual: delta by the backlash b, delta' by b w_n
-// (w_n the linearised contact natural frequency); the tolerance is on that scaled residual.
+// The one-degree shooting scales its state for the Newton residual: delta by the backlash b,
+// delta' by b w_n (w_n the linearised contact natural frequency); the tolerance is on that
+// scaled residual (the train's: train_state_scale, which for the pair is the same measure over
+// the mesh's lever).
 #pragma once
 
 #include <complex>
