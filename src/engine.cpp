@@ -1521,21 +1521,27 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
       rc.K = 1;
       rc.h = options.cell_rate_product / rho;
     }
+    // A cell whose forced excursion along a guard exceeds the guard's scale sums large terms to
+    // a small state (free flight under a large force): shorter cells keep the digits. A force
+    // that moves the state across many scales in any cell (or a non-finite one) is left to the
+    // flow after kMaxExcursionHalvings, which reports it.
+    const auto short_enough = [&](const Cell<D>& cell) {
+      for (const LinearGuard& q : reg.guards)
+        if (!(q.row.constant.cwiseAbs().dot(cell.beta) <= kMaxCellExcursion * q.scale))
+          return false;
+      return true;
+    };
     for (int halving = 0;; ++halving) {
       rc.cells.assign(rc.K, Cell<D>{});
+      // Each cell is judged as it is made: a length too long is given up at its first cell
+      // that fails, not after the whole period (a planetary set's region, whose 41 cells all
+      // failed their excursion, cost as much again as the 82 kept).
+      const bool excursion_checked = halving < kMaxExcursionHalvings;
       bool ok = true;
-      for (int k = 0; k < rc.K && ok; ++k)
+      for (int k = 0; k < rc.K && ok; ++k) {
         ok = expand_cell<D>(sys, reg, rc, k * rc.h, rc.h, tol, options.max_order, rc.cells[k]);
-      // A cell whose forced excursion along a guard exceeds the guard's scale sums large
-      // terms to a small state (free flight under a large force): shorter cells keep the
-      // digits.
-      bool short_enough = true;
-      for (const LinearGuard& q : reg.guards)
-        for (const Cell<D>& cell : rc.cells)
-          short_enough &= q.row.constant.cwiseAbs().dot(cell.beta) <= kMaxCellExcursion * q.scale;
-      // A force that moves the state across many scales in any cell (or a non-finite one) is
-      // left to the flow, which reports it.
-      if (ok && !short_enough && halving < kMaxExcursionHalvings) ok = false;
+        if (ok && excursion_checked) ok = short_enough(rc.cells[k]);
+      }
       if (ok) break;
       if (halving >= kMaxHalvings || rc.K * 2 > kMaxCellsPerPeriod)
         throw std::invalid_argument(fmt::format(

@@ -513,6 +513,56 @@ TEST(ExactEngine, ResultsDoNotDependOnTheCellLength) {
   }
 }
 
+// x'' + x' + k0 (1 + 0.9 sin(2 pi t)) x = 1000 (m, s): a stiffness that peaks a quarter period
+// in, so that the cells there swing further from the static state than the first; a guard that
+// never fires (x + 1e9 >= 0) of the given scale.
+LinearSwitchedSystem stiffening_oscillator(double guard_scale) {
+  const double w = 2 * std::numbers::pi, k0 = std::pow(3 * w, 2);
+  LinearSwitchedSystem s;
+  s.dimension = 2;
+  s.frequencies_rad_s = {w};
+  s.coefficient_period_s = 1.0;
+  LinearRegion r;
+  r.a.constant = Matrix::Zero(2, 2);
+  r.a.constant << 0, 1, -k0, -1;
+  r.a.cos = {Matrix::Zero(2, 2)};
+  r.a.sin = {Matrix::Zero(2, 2)};
+  r.a.sin[0](1, 0) = -0.9 * k0;
+  r.u.constant = Vector::Zero(2);
+  r.u.constant(1) = 1000;
+  LinearGuard g;
+  g.row.constant = RowVector::Zero(2);
+  g.row.constant(0) = 1;
+  g.offset.constant = 1e9;
+  g.scale = guard_scale;
+  g.target = 1;
+  r.guards = {g};
+  s.regions = {r, r};  // a second region that is never entered
+  s.regions[1].guards[0].target = 0;
+  return s;
+}
+
+TEST(ExactEngine, EveryCellOfAPeriodIsHeldToItsGuardsExcursionBound) {
+  // A cell whose forced excursion along a guard exceeds the guard's scale is halved, with every
+  // cell of the period judged, not only the first (whose stiffness is the mean here): the
+  // smaller the scale, the shorter the cells, and the flow the same whatever they are.
+  std::vector<int> cells;
+  std::vector<Vector> ends;
+  for (const double scale : {1e12, 1.0, 0.3}) {
+    const ExactEngine e(stiffening_oscillator(scale));
+    cells.push_back(e.cells_per_period(0));
+    Recorder rec;
+    const FlowResult r = e.flow(0, Vector::Zero(2), 0, 2.0, OutputGrid{}, rec);
+    ASSERT_TRUE(r.ok()) << r.message;
+    ends.push_back(r.state);
+  }
+  EXPECT_GE(cells[1], 2 * cells[0]) << "a guard of scale 1 m against excursions of about 1 m";
+  EXPECT_GE(cells[2], 2 * cells[1]) << "a guard of scale 0.3 m";
+  for (std::size_t j = 1; j < ends.size(); ++j)
+    for (int i = 0; i < 2; ++i)
+      EXPECT_NEAR(ends[j][i], ends[0][i], 1e-11 * ends[0].cwiseAbs().maxCoeff());
+}
+
 // The flow map y(t1) of a system and its Jacobian against central differences.
 void expect_jacobian_matches_differences(const ExactEngine& e, const Vector& y0, int region,
                                          double t1, const Vector& step, int min_events) {
