@@ -1025,12 +1025,18 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   // A(t0 + x h) = sum_m Ahat_m x^m.
   std::vector<M> A(p_max + 1, M::Zero(n, n));
   A[0] = reg.a.constant;
-  std::vector<double> tc, ts;
+  // Each varying frequency's Taylor coefficients of cos(w_f t) and sin(w_f t) over the cell.
+  struct Varying {
+    std::size_t f;
+    std::vector<double> tc, ts;
+  };
+  std::vector<Varying> varying;
   if (reg.a.varies()) {
     for (std::size_t f = 0; f < w.size(); ++f) {
       if (!reg.a.cos[f].any() && !reg.a.sin[f].any()) continue;
-      trig_taylor(w[f], t0, h, p_max, tc, ts);
-      for (int m = 0; m <= p_max; ++m) A[m] += tc[m] * reg.a.cos[f] + ts[m] * reg.a.sin[f];
+      Varying& v = varying.emplace_back(Varying{f, {}, {}});
+      trig_taylor(w[f], t0, h, p_max, v.tc, v.ts);
+      for (int m = 0; m <= p_max; ++m) A[m] += v.tc[m] * reg.a.cos[f] + v.ts[m] * reg.a.sin[f];
     }
   }
   int a_terms = 0;  // A[m] == 0 for m > a_terms
@@ -1045,8 +1051,18 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   std::vector<Matrix> A_block;                 // A[m] on the block, m >= 1
   std::vector<Matrix> phi_cols;                // Phi_k's rows at the block's columns
   std::vector<std::vector<Vector>> resp_cols;  // the same for the forced responses
-  if (blocked)
+  // On the block, sum_m A[m] Phi_{k-m} (m >= 1) is also sum_f (Ac_f S^c_f + As_f S^s_f) with
+  // S^c_f = sum_m tc_f[m] Phi_{k-m}: two products per varying frequency instead of one per
+  // term, once the terms outnumber twice the frequencies (a planetary set's contact region:
+  // two frequencies and cells of order 25).
+  std::vector<std::array<Matrix, 2>> cos_sin_block;  // per entry of `varying`: Ac_f, As_f
+  if (blocked) {
     for (int m = 0; m <= a_terms; ++m) A_block.emplace_back(A[m](block.rows, block.cols));
+    for (const Varying& v : varying)
+      cos_sin_block.push_back({Matrix(reg.a.cos[v.f](block.rows, block.cols)),
+                               Matrix(reg.a.sin[v.f](block.rows, block.cols))});
+  }
+  const int factored_from = 2 * static_cast<int>(varying.size());
 
   // Forcing series, per basis: u0; per forced frequency the cos-phase and the sin-phase parts.
   const int nf = static_cast<int>(rc.forced.size());
@@ -1097,7 +1113,7 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
   }
   bool done = false;
   // Kept from one order to the next, so that their storage is allocated once per cell.
-  Matrix acc;
+  Matrix acc, sum_cos, sum_sin;
   Vector acc_v;
   M next = M::Zero(n, n);
   V v = V::Zero(n);
@@ -1108,7 +1124,21 @@ bool expand_cell(const LinearSwitchedSystem& sys, const LinearRegion& reg, const
     if (blocked) {
       next.noalias() += A[0] * cell.phi[k];
       acc = Matrix::Zero(block.rows.size(), n);
-      for (int m = 1; m <= m_last; ++m) acc.noalias() += A_block[m] * phi_cols[k - m];
+      if (m_last > factored_from) {
+        for (std::size_t j = 0; j < varying.size(); ++j) {
+          const Varying& term = varying[j];
+          sum_cos = term.tc[1] * phi_cols[k - 1];
+          sum_sin = term.ts[1] * phi_cols[k - 1];
+          for (int m = 2; m <= m_last; ++m) {
+            sum_cos += term.tc[m] * phi_cols[k - m];
+            sum_sin += term.ts[m] * phi_cols[k - m];
+          }
+          acc.noalias() += cos_sin_block[j][0] * sum_cos;
+          acc.noalias() += cos_sin_block[j][1] * sum_sin;
+        }
+      } else {
+        for (int m = 1; m <= m_last; ++m) acc.noalias() += A_block[m] * phi_cols[k - m];
+      }
       block.scatter_add(acc, next);
     } else {
       for (int m = 0; m <= m_last; ++m) next.noalias() += A[m] * cell.phi[k - m];
