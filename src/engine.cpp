@@ -1564,8 +1564,8 @@ RegionCells<D> build_region(const LinearSwitchedSystem& sys, std::size_t r, doub
     for (int halving = 0;; ++halving) {
       rc.cells.assign(rc.K, Cell<D>{});
       // Each cell is judged as it is made: a length too long is given up at its first cell
-      // that fails, not after the whole period (a planetary set's region, whose 41 cells all
-      // failed their excursion, cost as much again as the 82 kept).
+      // that fails, not after the whole period (a planetary set's contact region built 41
+      // cells, to throw them all away for 82, where its first cell already fails).
       const bool excursion_checked = halving < kMaxExcursionHalvings;
       bool ok = true;
       for (int k = 0; k < rc.K && ok; ++k) {
