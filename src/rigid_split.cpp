@@ -96,6 +96,12 @@ RigidSplit::RigidSplit(const LinearSwitchedSystem& full, const Vector& r, const 
   if (const std::string e = not_free(first, 0, r_, rho_); !e.empty())
     throw std::invalid_argument("rigid split: " + e);
   forcing_ = free_forcing(first, rho_);
+  // A forcing that overflowed (a torque of 1e307 fluctuating 1e300 times over) cannot be
+  // compared region to region: the whole system is stepped, and fails as its state does.
+  bool finite = first.u.constant.allFinite();
+  for (const auto* terms : {&first.u.cos, &first.u.sin})
+    for (const Vector& v : *terms) finite = finite && v.allFinite();
+  if (!finite) throw std::invalid_argument("rigid split: the forcing is not finite");
   w_ = full.frequencies_rad_s;
 
   // L: the W-orthogonal projector I - r rho without the column of r's largest entry (the

@@ -329,6 +329,22 @@ TEST(Cli, BadInputsAreRefusedWithTheirKeyAndNothingWritten) {
   }
 }
 
+TEST(Cli, ATrainWhoseTorqueOverflowsFailsNumericallyNotAsBadInput) {
+  // The coupled pair runs as its train, whose free rotation is split off: a torque that
+  // overflows (1e307 fluctuating 1e300 times over) made that split refuse the forcing as
+  // "region 0 forces the free motion unlike region 0", exit 2. It is the run that fails, as the
+  // one-degree run does: exit 1, why, nothing written.
+  const fs::path d = fresh("diverge_train");
+  const Outcome o = cli(std::string("run ") + GEARDYN_SOURCE_DIR +
+                        "/cases/park2010_coupled.toml --set load.torque_nm=1e307 --set "
+                        "load.fluctuation_ratio=1e300 --out " +
+                        d.string());
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_NE(o.err.find("numerical failure"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("non-finite"), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(d));
+}
+
 TEST(Cli, NumericalFailureExitsWithOneAndTheReason) {
   const fs::path d = fresh("diverge");
   const Outcome o =

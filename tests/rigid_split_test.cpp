@@ -7,6 +7,7 @@
 
 #include <Eigen/LU>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -314,6 +315,17 @@ TEST(RigidSplit, ADirectionSomethingActsOnOrReadsIsRefused) {
             std::string::npos)
       << refusal(read);
   EXPECT_THROW(RigidSplit(line_system(Line{}), Vector::Ones(2), kMass), std::invalid_argument);
+}
+
+// A forcing that overflowed cannot be compared region to region, so the split is refused when
+// it is made (its user then steps the whole system, which fails as its state does), not when a
+// later region is built from it.
+TEST(RigidSplit, AForcingThatOverflowedIsRefusedAtOnce) {
+  Line huge;
+  huge.fluctuation = std::numeric_limits<double>::infinity();
+  EXPECT_NE(refusal(huge).find("the forcing is not finite"), std::string::npos) << refusal(huge);
+  huge.fluctuation = 1e300;
+  EXPECT_EQ(refusal(huge), "");  // large, and finite
 }
 
 }  // namespace

@@ -33,10 +33,11 @@ constexpr double kFreeMotionTolerance = 1e-10;
 
 class RigidSplit {
  public:
-  // Throws std::invalid_argument saying why when `full` is not in second-order form or r is not
-  // free in it (checked on its region 0 here, and on each other region as the reduced system
-  // builds it: a region that breaks the split then throws std::logic_error). r non-zero, W
-  // symmetric positive definite, both of size n = full.dimension / 2 >= 2.
+  // Throws std::invalid_argument saying why when `full` is not in second-order form, its region
+  // 0's forcing is not finite, or r is not free in it (checked on its region 0 here, and on each
+  // other region as the reduced system builds it: a region that breaks the split then throws
+  // std::logic_error). r non-zero, W symmetric positive definite, both of size n =
+  // full.dimension / 2 >= 2.
   RigidSplit(const LinearSwitchedSystem& full, const Vector& r, const Matrix& metric);
 
   // The reduced system (lazy: region r built from the full system's region r on first use).
