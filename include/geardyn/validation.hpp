@@ -100,7 +100,8 @@ Case park2010_pair_as_train();
 
 // A test-only switch, so that the tests can show which checks catch a broken element: true when
 // the environment variable GEARDYN_TEST_MUTANT names `mutant`. Known mutants:
-// "gear_pair_damping_sign" (the one-degree gear pair's mesh damping negated). Never set in use.
+// "gear_pair_damping_sign" (the gear pair's mesh damping negated: in the one-degree model and
+// in the pair's train, assembled_train). Never set in use.
 bool test_mutant(std::string_view mutant);
 
 }  // namespace geardyn
