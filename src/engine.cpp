@@ -422,28 +422,74 @@ FunctionalBounds::FunctionalBounds(const LinearGuard& g) : offset_(g.offset.cons
   for (std::size_t f = 0; f < g.row.cos.size(); ++f)
     spread += (g.row.cos[f].array().square() + g.row.sin[f].array().square()).sqrt().matrix();
   for (Eigen::Index j = 0; j < mid.size(); ++j) {
-    if (spread[j] != 0)
+    if (spread[j] != 0) {
       varying_.emplace_back(j, mid[j] - spread[j], mid[j] + spread[j]);
-    else if (mid[j] != 0)
+      if (mid[j] != 0) varying_constant_.emplace_back(j, mid[j]);
+    } else if (mid[j] != 0) {
       fixed_.emplace_back(j, mid[j]);
+    }
   }
   for (std::size_t f = 0; f < g.offset.cos.size(); ++f)
     offset_spread_ += std::hypot(g.offset.cos[f], g.offset.sin[f]);
+  // Each frequency's cos and sin coefficients (row entries and offset) where any is not zero.
+  const std::size_t frequencies = std::max(g.row.cos.size(), g.offset.cos.size());
+  for (std::size_t f = 0; f < frequencies; ++f) {
+    Harmonic h;
+    h.first = harmonic_entries_.size();
+    if (f < g.offset.cos.size()) {
+      h.offset_cos = g.offset.cos[f];
+      h.offset_sin = g.offset.sin[f];
+    }
+    if (f < g.row.cos.size())
+      for (Eigen::Index j = 0; j < mid.size(); ++j)
+        if (g.row.cos[f][j] != 0 || g.row.sin[f][j] != 0)
+          harmonic_entries_.emplace_back(j, g.row.cos[f][j], g.row.sin[f][j]);
+    h.last = harmonic_entries_.size();
+    if (h.last > h.first || h.offset_cos != 0 || h.offset_sin != 0) harmonics_.push_back(h);
+  }
 }
 
 void FunctionalBounds::bounds(const Vector& lo, const Vector& hi, double& low, double& high) const {
-  low = offset_ - offset_spread_;
-  high = offset_ + offset_spread_;
+  // The constant entries, which both bounds below share.
+  double fixed_low = 0, fixed_high = 0;
   for (const auto& [j, c] : fixed_) {
     const double p = c * lo[j], q = c * hi[j];
-    low += std::min(p, q);
-    high += std::max(p, q);
+    fixed_low += std::min(p, q);
+    fixed_high += std::max(p, q);
   }
+  // Entry by entry: each varying entry over its whole range of values.
+  low = fixed_low + offset_ - offset_spread_;
+  high = fixed_high + offset_ + offset_spread_;
   for (const auto& [j, a, b] : varying_) {
     const double p[4] = {a * lo[j], a * hi[j], b * lo[j], b * hi[j]};
     low += std::min({p[0], p[1], p[2], p[3]});
     high += std::max({p[0], p[1], p[2], p[3]});
   }
+  if (harmonics_.empty()) return;
+  // Harmonic by harmonic: the constant part over the box, plus each frequency's amplitude
+  // hypot(max |A|, max |B|) of its coefficients A = c . y + c0, B = s . y + s0 over the box.
+  // A row and an offset that vary together (a mesh force k(t) (d - b)) then bound as one, where
+  // entry by entry they bound apart. Either bound holds; their intersection is kept.
+  const auto add = [&](double c, Eigen::Index j, double& l, double& h) {
+    const double p = c * lo[j], q = c * hi[j];
+    l += std::min(p, q);
+    h += std::max(p, q);
+  };
+  double constant_low = fixed_low + offset_, constant_high = fixed_high + offset_;
+  for (const auto& [j, c] : varying_constant_) add(c, j, constant_low, constant_high);
+  double amplitude = 0;
+  for (const Harmonic& h : harmonics_) {
+    double cl = h.offset_cos, ch = h.offset_cos, sl = h.offset_sin, sh = h.offset_sin;
+    for (std::size_t e = h.first; e < h.last; ++e) {
+      const auto& [j, c, s] = harmonic_entries_[e];
+      add(c, j, cl, ch);
+      add(s, j, sl, sh);
+    }
+    amplitude +=
+        std::hypot(std::max(std::abs(cl), std::abs(ch)), std::max(std::abs(sl), std::abs(sh)));
+  }
+  low = std::max(low, constant_low - amplitude);
+  high = std::min(high, constant_high + amplitude);
 }
 
 std::string EngineOptions::validate() const {

@@ -234,6 +234,55 @@ TEST(LinearSystem, FunctionalBoundsHoldEveryPhaseAndStateOfTheBox) {
   EXPECT_NEAR(high, geardyn::ode::functional_value(s, constant, 0, at_high), 1e-15);
 }
 
+TEST(LinearSystem, AForceWhoseStiffnessRipplesBoundsByItsDeflectionNotItsBacklash) {
+  // A mesh force in contact, F = k(t) (d - b) + c d', with k(t) = k0 + k1 cos(w1 t) + k2 sin(w2 t)
+  // and d a few um past a backlash of 100 um. Row and offset vary together: bounded apart, each
+  // would range over k's ripple times d and b (tens of times F's swing); bounded harmonic by
+  // harmonic, over k's ripple times d - b.
+  const double k0 = 2.3e8, k1 = 0.3 * k0, k2 = 0.1 * k0, b = 100e-6, c = 800.0;
+  LinearSwitchedSystem s;
+  s.dimension = 2;
+  s.frequencies_rad_s = {6283.0, 12566.0};
+  LinearGuard f;
+  f.row.constant = RowVector::Zero(2);
+  f.row.constant << k0, c;
+  f.row.cos = {RowVector::Zero(2), RowVector::Zero(2)};
+  f.row.sin = {RowVector::Zero(2), RowVector::Zero(2)};
+  f.row.cos[0](0) = k1;
+  f.row.sin[1](0) = k2;
+  f.offset.constant = -k0 * b;
+  f.offset.cos = {-k1 * b, 0.0};
+  f.offset.sin = {0.0, -k2 * b};
+  Vector lo(2), hi(2);
+  lo << b + 2e-6, -0.01;
+  hi << b + 5e-6, 0.02;
+  double low = 0, high = 0;
+  geardyn::ode::FunctionalBounds(f).bounds(lo, hi, low, high);
+  // The closed form over the box: (d - b) in [2, 5] um, k in [k0 - k1 - k2, k0 + k1 + k2]
+  // (attained: the two phases are independent over time), c d' in [-8, 16] N.
+  const double true_low = (k0 - k1 - k2) * 2e-6 - c * 0.01;
+  const double true_high = (k0 + k1 + k2) * 5e-6 + c * 0.02;
+  const double rounding = 1e-12 * k0 * b;
+  EXPECT_LE(low, true_low + rounding);
+  EXPECT_GE(high, true_high - rounding);
+  // Close to it: here 276 N below (the ripple's amplitude is taken at the box's largest
+  // d - b, where the true low has it at the smallest), 0 above, against a span of 1358 N.
+  // Bounded entry by entry, k's ripple times b alone (9.2e3 N) is nearly seven spans.
+  const double span = true_high - true_low;
+  EXPECT_LT(true_low - low, 0.4 * span);
+  EXPECT_LT(high - true_high, 0.4 * span);
+  // Every sampled time and state inside.
+  for (int i = 0; i < 2000; ++i) {
+    const double t = 1.3e-5 * i;
+    Vector y(2);
+    y << lo(0) + (hi(0) - lo(0)) * std::fmod(0.618034 * i, 1.0),
+        lo(1) + (hi(1) - lo(1)) * std::fmod(0.414214 * i, 1.0);
+    const double v = geardyn::ode::functional_value(s, f, t, y);
+    EXPECT_LE(low, v + rounding);
+    EXPECT_GE(high, v - rounding);
+  }
+}
+
 TEST(ExactEngine, FreeFlightMatchesItsClosedForm) {
   // x'' = F0 + Fa cos(w t): x = x0 + v0 t + F0 t^2 / 2 + Fa (1 - cos w t) / w^2.
   const double F0 = 3.0, Fa = 2.0, w = 7.0, x0 = 0.3, v0 = -1.1;

@@ -239,9 +239,13 @@ class RegionGuards : public FunctionalValues {
 };
 
 // Interval bounds of an affine functional (a guard or an observable) over every time and every
-// state of a box lo <= y <= hi: each row entry and the offset range over their amplitudes
-// (|c cos + s sin| <= hypot(c, s)), then interval arithmetic; conservative, and attained where
-// the functional is constant. Built once per functional, cheap to apply (zero entries skipped).
+// state of a box lo <= y <= hi, the tighter of two, each conservative: each row entry and the
+// offset ranging apart over their amplitudes (|c cos + s sin| <= hypot(c, s)), then interval
+// arithmetic; and the constant part by interval arithmetic plus, per frequency, the amplitude
+// of its coefficients' largest values over the box, row and offset together (a force
+// k(t) (d - b) near contact then bounds by k's ripple times d - b, not by k's ripple times d
+// and b apart). Attained where the functional is constant. Built once per functional, cheap to
+// apply (zero entries skipped).
 class FunctionalBounds {
  public:
   explicit FunctionalBounds(const LinearGuard& g);
@@ -251,6 +255,14 @@ class FunctionalBounds {
   std::vector<std::pair<Eigen::Index, double>> fixed_;             // constant entries: index, value
   std::vector<std::tuple<Eigen::Index, double, double>> varying_;  // index, least, largest
   double offset_ = 0, offset_spread_ = 0;
+  // A frequency's offset coefficients and its row entries [first, last) of harmonic_entries_.
+  struct Harmonic {
+    std::size_t first = 0, last = 0;
+    double offset_cos = 0, offset_sin = 0;
+  };
+  std::vector<Harmonic> harmonics_;
+  std::vector<std::pair<Eigen::Index, double>> varying_constant_;  // varying entries' constants
+  std::vector<std::tuple<Eigen::Index, double, double>> harmonic_entries_;  // index, cos, sin
 };
 
 }  // namespace geardyn::ode
