@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -13,6 +14,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <ostream>
 #include <stdexcept>
 
@@ -40,6 +42,10 @@ constexpr double kBalanceTolerance = 1e-9;
 // machine's noise (docs/performance.md).
 constexpr double kTrainCellRateProduct = 3.0;
 
+// Stretches a run's observer keeps before it searches them in the middle of a flow (as
+// CellExtremes' kMaxKeptStretches): a few numbers a stretch and its observables' bounds.
+constexpr std::size_t kMaxKeptStretches = 2048;
+
 double ratio_value(const train::Ratio& r) {
   return static_cast<double>(r.num) / static_cast<double>(r.den);
 }
@@ -48,8 +54,14 @@ double ratio_value(const train::Ratio& r) {
 // the whole window and, from a mark on, over the steady part beside it.
 class TrainObserver : public ode::FlowObserver {
  public:
+  // `engine` is the exact engine whose flows it looks at (their cells' extremes are searched
+  // deferred, as CellExtremes does for the one-degree run); null for the other methods, whose
+  // flows have no cells.
+  // `grid` is the flows' output grid: under the exact engine, the observables at its times
+  // read phases advanced by rotation (give_sample_phases).
   TrainObserver(const train::Assembled& a, const ode::LinearSwitchedSystem& sys,
-                TrainRunResult& out, double t0, double t1, double final_from, int region,
+                const ode::ExactEngine* engine, const ode::OutputGrid& grid, TrainRunResult& out,
+                double t0, double t1, double final_from, int region,
                 const std::function<bool(double)>& progress)
       : a_(a),
         out_(out),
@@ -60,7 +72,9 @@ class TrainObserver : public ode::FlowObserver {
         whole_(states_.size()),
         first_part_(2 * states_.size()),
         whole_parts_(sys.region(0).observables.size() - first_part_, kNoExtremes),
-        sys_(sys) {
+        sys_(sys),
+        engine_(engine),
+        grid_(grid) {
     for (const int state : states_) trackers_.emplace_back(t0, t1, final_from, state);
     // The rows whose product with q' is each nonlinearity's rate: a mesh's V (less its error's
     // rate), a clearance direction's row of its bearing's B.
@@ -88,6 +102,7 @@ class TrainObserver : public ode::FlowObserver {
   // contact history and its extremes, found against the part's own (a later mark starts it
   // afresh).
   void mark(double t) {
+    search_kept();  // the stretches kept so far are the whole's alone
     part_trackers_.clear();
     for (const int state : states_) part_trackers_.emplace_back(t, t1_, t, state);
     part_gaps_.clear();
@@ -96,27 +111,36 @@ class TrainObserver : public ode::FlowObserver {
     part_parts_.assign(whole_parts_.size(), kNoExtremes);
   }
 
+  // Judged against every extreme of the flow so far: the kept stretches are searched first when
+  // the span's bounds leave room beyond the extremes seen.
   bool needs_detail(const ode::CellView& span) override {
     bound_all(span);
+    if (!any_room() || kept_.size() == 0) return any_room();
+    search_kept();
     return any_room();
   }
 
+  // A cell whose bounds leave room for a new extreme is kept, to be searched later (search_kept)
+  // only while its bounds still reach beyond the extremes found: of a run's many crests, only
+  // the few that may hold the largest are searched.
   void on_cell(const ode::CellView& cell) override {
     looks_at_cells_ = true;
     if (!(cell.t_end_s > cell.t_begin_s)) return;
     bound_all(cell);
     if (!any_room()) return;
-    for (std::size_t m = 0; m < states_.size(); ++m) {
-      const int d = static_cast<int>(2 * m), f = d + 1;
-      search(cell, m, f, true);
-      search(cell, m, f, false);
-      search(cell, m, d, true);
-      search(cell, m, d, false);
-    }
-    for (std::size_t k = 0; k < whole_parts_.size(); ++k) {
-      search_part(cell, k, true);
-      search_part(cell, k, false);
-    }
+    // The cell's own bounds of the observables with room, tighter than the state's.
+    double low = 0, high = 0;
+    for (std::size_t i = 0; i < low_.size(); ++i)
+      if (room(i) && cell.range(static_cast<int>(i), low, high)) {
+        low_[i] = std::max(low_[i], low);
+        high_[i] = std::min(high_[i], high);
+      }
+    if (!any_room()) return;
+    assert(engine_ != nullptr);  // cells are the exact engine's
+    cell.keep(kept_);
+    kept_bounds_.insert(kept_bounds_.end(), low_.begin(), low_.end());
+    kept_bounds_.insert(kept_bounds_.end(), high_.begin(), high_.end());
+    if (kept_.size() >= kMaxKeptStretches) search_kept();
   }
 
   // A step's end is a point of the window: the adaptive integrator's and Newmark's only ones
@@ -156,6 +180,7 @@ class TrainObserver : public ode::FlowObserver {
 
   void on_sample(double t, const ode::Vector& y, int region) override {
     TrainSamples& s = out_.samples;
+    give_sample_phases(t);
     reader(region)(t, y, values_);
     const std::vector<int>& states = region_states(region);
     s.t_s.push_back(t);
@@ -215,6 +240,7 @@ class TrainObserver : public ode::FlowObserver {
 
   // The readings into the result: the whole window, and the steady part when it was marked.
   void finish() {
+    search_kept();
     for (std::size_t m = 0; m < trackers_.size(); ++m) {
       TrainMeshReading& r = out_.meshes[m];
       static_cast<TrainMeshPart&>(r) = reading(trackers_[m], whole_[m]);
@@ -270,6 +296,10 @@ class TrainObserver : public ode::FlowObserver {
     double max_impact_velocity = 0;
     SampleMoments force, deflection;
     double& at(int k, bool maximum) {
+      if (k % 2 == 1) return maximum ? max_force : min_force;
+      return maximum ? max_deflection : min_deflection;
+    }
+    double at(int k, bool maximum) const {
       if (k % 2 == 1) return maximum ? max_force : min_force;
       return maximum ? max_deflection : min_deflection;
     }
@@ -333,18 +363,83 @@ class TrainObserver : public ode::FlowObserver {
     for (std::size_t k = 0; k < low_.size(); ++k)
       ranges(cell.region)[k].bounds(*cell.lower, *cell.upper, low_[k], high_[k]);
   }
+  // Whether the last bound_all's bounds of observable i reach beyond its extremes seen.
+  bool room(std::size_t i) const { return high_[i] > seen(i, true) || low_[i] < seen(i, false); }
   bool any_room() const {
-    for (std::size_t m = 0; m < states_.size(); ++m) {
-      const Tally& x = latest(m);
-      const std::size_t d = 2 * m, f = d + 1;
-      if (high_[f] > x.max_force || low_[f] < x.min_force) return true;
-      if (high_[d] > x.max_deflection || low_[d] < x.min_deflection) return true;
-    }
+    for (std::size_t i = 0; i < low_.size(); ++i)
+      if (room(i)) return true;
+    return false;
+  }
+  // The extreme of observable i a new value must beat: a mesh's (i < first_part_: 2 m for
+  // d - e, 2 m + 1 for F) or a shaft's or bearing's, the steady part's once marked.
+  double seen(std::size_t i, bool maximum) const {
+    if (i < first_part_) return latest(i / 2).at(static_cast<int>(i), maximum);
     const std::vector<std::array<double, 2>>& parts =
         part_parts_.empty() ? whole_parts_ : part_parts_;
-    for (std::size_t k = 0; k < parts.size(); ++k)
-      if (high_[first_part_ + k] > parts[k][0] || low_[first_part_ + k] < parts[k][1]) return true;
-    return false;
+    return parts[i - first_part_][maximum ? 0 : 1];
+  }
+  void note_any(std::size_t i, bool maximum, double v) {
+    if (i < first_part_) {
+      note(i / 2, static_cast<int>(i), maximum, v);
+    } else {
+      note_part(i - first_part_, maximum, v);
+    }
+  }
+  static bool beyond(bool maximum, double bound, double seen) {
+    return maximum ? bound > seen : bound < seen;
+  }
+  // Searches the kept stretches for every observable's extremes: for each, the stretch of the
+  // widest bound first (its extreme is the one most others must beat), then those whose bound
+  // still beats the extreme found, widest first. A stretch searched for the maximum is searched
+  // for the minimum in the same visit where its bound leaves room (the engine reads both from
+  // one series), and not again. Their bounds were taken against the extremes then seen; a
+  // search finds the same extreme whenever it is made.
+  void search_kept() {
+    if (kept_.size() == 0) return;
+    const std::size_t q = low_.size();
+    // Stretch s's bound of observable i: its lows, then its highs (on_cell).
+    const auto bound = [&](std::size_t s, std::size_t i, bool maximum) {
+      return kept_bounds_[2 * q * s + (maximum ? q : 0) + i];
+    };
+    const auto has_room = [&](std::size_t s, std::size_t i, bool maximum) {
+      return beyond(maximum, bound(s, i, maximum), seen(i, maximum));
+    };
+    for (std::size_t i = 0; i < q; ++i) {
+      minimum_searched_.assign(kept_.size(), 0);
+      for (const bool maximum : {true, false}) {
+        const auto look = [&](std::size_t s, const ode::CellView& cell) {
+          if (!has_room(s, i, maximum)) return false;
+          if (maximum) {
+            search(cell, i, true);
+            if (has_room(s, i, false)) {
+              search(cell, i, false);
+              minimum_searched_[s] = 1;
+            }
+          } else if (minimum_searched_[s] == 0) {
+            search(cell, i, false);
+          }
+          return true;
+        };
+        std::size_t top = kept_.size();
+        for (std::size_t s = 0; s < kept_.size(); ++s)
+          if (has_room(s, i, maximum) &&
+              (top == kept_.size() ||
+               beyond(maximum, bound(s, i, maximum), bound(top, i, maximum))))
+            top = s;
+        if (top == kept_.size()) continue;
+        order_.assign(1, top);
+        engine_->revisit(kept_, order_, look);
+        order_.clear();
+        for (std::size_t s = 0; s < kept_.size(); ++s)
+          if (s != top && has_room(s, i, maximum)) order_.push_back(s);
+        std::sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
+          return beyond(maximum, bound(a, i, maximum), bound(b, i, maximum));
+        });
+        engine_->revisit(kept_, order_, look);
+      }
+    }
+    kept_.clear();
+    kept_bounds_.clear();
   }
   // A shaft's or bearing's observable k (after the meshes'): its extremes {max, min}.
   void note_part(std::size_t k, bool maximum, double v) {
@@ -358,21 +453,28 @@ class TrainObserver : public ode::FlowObserver {
     note_part(k, true, v);
     note_part(k, false, v);
   }
-  void search_part(const ode::CellView& cell, std::size_t k, bool maximum) {
-    const std::vector<std::array<double, 2>>& parts =
-        part_parts_.empty() ? whole_parts_ : part_parts_;
-    const double seen = parts[k][maximum ? 0 : 1];
-    const std::size_t i = first_part_ + k;
-    if (maximum ? !(high_[i] > seen) : !(low_[i] < seen)) return;
-    double v = 0, t = 0;
-    if (cell.extreme(static_cast<int>(i), maximum, seen, v, t)) note_part(k, maximum, v);
+  // Under the exact engine, whose flows give no phases of their own, gives the phases of the
+  // system's frequencies at output grid time t to the observables' reader: advanced from the
+  // last sample's by rotation (ode::PhaseGrid, within about 1e-13 of the direct values) when t
+  // is the grid's next time, computed afresh otherwise.
+  void give_sample_phases(double t) {
+    if (!engine_ || !(grid_.interval_s > 0) || sys_.frequencies_rad_s.empty()) return;
+    const auto k = static_cast<std::int64_t>(std::llround((t - grid_.t0_s) / grid_.interval_s));
+    if (grid_.t0_s + static_cast<double>(k) * grid_.interval_s != t) return;  // not a grid time
+    if (sample_phases_ && k == sample_index_ + 1) {
+      sample_phases_->advance(k - sample_base_);
+    } else {
+      sample_phases_.emplace(sys_.frequencies_rad_s, t, grid_.interval_s);
+      sample_base_ = k;
+    }
+    sample_index_ = k;
+    given_.give(sys_.frequencies_rad_s, t, sample_phases_->phases());
   }
-  void search(const ode::CellView& cell, std::size_t m, int k, bool maximum) {
-    const double seen = latest(m).at(k, maximum);
-    const std::size_t i = static_cast<std::size_t>(k);
-    if (maximum ? !(high_[i] > seen) : !(low_[i] < seen)) return;
+
+  // Searches the stretch for an extreme of observable i beyond those seen.
+  void search(const ode::CellView& cell, std::size_t i, bool maximum) {
     double v = 0, t = 0;
-    if (cell.extreme(k, maximum, seen, v, t)) note(m, k, maximum, v);
+    if (cell.extreme(static_cast<int>(i), maximum, seen(i, maximum), v, t)) note_any(i, maximum, v);
   }
 
   const train::Assembled& a_;
@@ -395,6 +497,19 @@ class TrainObserver : public ode::FlowObserver {
   std::size_t first_part_;
   std::vector<std::array<double, 2>> whole_parts_, part_parts_;
   const ode::LinearSwitchedSystem& sys_;
+  // The deferred search (on_cell, search_kept): the stretches kept, each one's bounds of every
+  // observable (lows, then highs), and search_kept's order.
+  const ode::ExactEngine* engine_;
+  ode::KeptStretches kept_;
+  std::vector<double> kept_bounds_;
+  std::vector<std::size_t> order_;
+  std::vector<char> minimum_searched_;  // per kept stretch, in search_kept
+  // give_sample_phases': the grid, the phases at its last sample (index sample_index_, advanced
+  // from sample_base_'s), and what gives them.
+  ode::OutputGrid grid_;
+  std::optional<ode::PhaseGrid> sample_phases_;
+  std::int64_t sample_index_ = 0, sample_base_ = 0;
+  ode::GivenPhases given_;
   // Region r's readers of its observables, made on first use.
   const ode::FunctionalValues& reader(int r) {
     auto& x = readers_[static_cast<std::size_t>(r)];
@@ -870,7 +985,8 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
 
   const int region = a.classify(t0_s, y0);
   const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : stepped();
-  TrainObserver observer(a, sys, result, t0_s, t1_s, final_from_s, region, progress);
+  TrainObserver observer(a, sys, engine_.get(), grid, result, t0_s, t1_s, final_from_s, region,
+                         progress);
   observer.reserve(grid.count);
   FlowPieces pieces(
       t0_s, y0, region, t1_s, grid,
