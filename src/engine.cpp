@@ -485,8 +485,11 @@ void FunctionalBounds::bounds(const Vector& lo, const Vector& hi, double& low, d
       add(c, j, cl, ch);
       add(s, j, sl, sh);
     }
-    amplitude +=
-        std::hypot(std::max(std::abs(cl), std::abs(ch)), std::max(std::abs(sl), std::abs(sh)));
+    // hypot's value without its cost (a bound taken every cell): the larger times
+    // sqrt(1 + r^2), r <= 1, which neither overflows nor underflows.
+    const double a = std::max(std::abs(cl), std::abs(ch)), b = std::max(std::abs(sl), std::abs(sh));
+    const double large = std::max(a, b), small = std::min(a, b);
+    if (large > 0) amplitude += large * std::sqrt(1.0 + (small / large) * (small / large));
   }
   low = std::max(low, constant_low - amplitude);
   high = std::min(high, constant_high + amplitude);
