@@ -714,6 +714,38 @@ void set_element(toml::table& root, const Override& o, const std::string& given)
   }
 }
 
+// A dotted key that runs through an array of the case (`train.torque.0.mean_nm`,
+// `train.torque.mean_nm`), which TOML would read as a table in the array's place: refused, with
+// the element's address (`train.torque[0].mean_nm`, set_element). Keys that do not reach an
+// array are left to TOML.
+void refuse_key_through_array(const toml::table& root, const Override& o,
+                              const std::string& origin) {
+  const toml::node* node = nullptr;
+  const toml::table* table = &root;
+  for (std::size_t pos = 0; table != nullptr;) {
+    const std::size_t dot = o.key.find('.', pos);
+    if (dot == std::string::npos) return;  // the key itself: a whole array may be replaced
+    node = table->get(o.key.substr(pos, dot - pos));
+    if (node == nullptr) return;
+    if (const toml::array* array = node->as_array()) {
+      const std::string prefix = o.key.substr(0, dot), rest = o.key.substr(dot + 1);
+      const std::string next = rest.substr(0, rest.find('.'));
+      const bool index =
+          !next.empty() && next.size() <= 6 &&
+          std::all_of(next.begin(), next.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
+      const std::string address =
+          index ? fmt::format("{}[{}]{}", prefix, next, rest.substr(next.size()))
+                : fmt::format("{}[0].{}", prefix, rest);
+      throw InputError(fmt::format(
+          "{}: {} is an array{}, whose elements --set addresses by index, from 0: write {}", origin,
+          prefix, array->is_array_of_tables() ? fmt::format(" of tables ([[{}]])", prefix) : "",
+          address));
+    }
+    table = node->as_table();
+    pos = dot + 1;
+  }
+}
+
 Case decode(toml::table& root, const std::string& source, const std::vector<Override>& overrides,
             std::string name, const std::map<std::string, std::string>* known = nullptr) {
   for (const Override& o : overrides) {
@@ -722,6 +754,7 @@ Case decode(toml::table& root, const std::string& source, const std::vector<Over
       set_element(root, o, origin);
       continue;
     }
+    refuse_key_through_array(root, o, origin);
     toml::table patch;
     try {
       patch = parse_toml(o.key + " = " + bare_text_quoted(o.value), origin);

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "geardyn/run.hpp"
+#include "geardyn/train_case.hpp"
 #include "test_support.hpp"
 
 namespace geardyn {
@@ -296,6 +297,38 @@ TEST(Case, AnArrayElementIsSetByItsIndex) {
       EXPECT_NE(std::string(e.what()).find(bad[i].second), std::string::npos) << e.what();
     }
   }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Case, AKeyWrittenThroughAnArrayNamesTheElementsAddress) {
+  // `--set train.torque.0.mean_nm=...` reads in TOML as a table where the case has its array
+  // of tables [[train.torque]]: refused with the address that sets it, which does.
+  const std::filesystem::path reducer = geardyn::kCases / "two_stage_reducer.toml";
+  const std::pair<const char*, const char*> bad[] = {
+      {"train.torque.0.mean_nm", "write train.torque[0].mean_nm"},
+      {"train.torque.mean_nm", "write train.torque[0].mean_nm"},
+      {"train.mesh.1.backlash_um", "write train.mesh[1].backlash_um"}};
+  for (const auto& [key, address] : bad) {
+    try {
+      (void)geardyn::load_case(reducer, {{key, "160"}});
+      ADD_FAILURE() << key << " accepted";
+    } catch (const geardyn::InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(std::string("--set ") + key + "=160"), std::string::npos) << what;
+      EXPECT_NE(what.find("of tables ([["), std::string::npos) << what;
+      EXPECT_NE(what.find(address), std::string::npos) << what;
+    }
+  }
+  const geardyn::Case c = geardyn::load_case(reducer, {{"train.torque[0].mean_nm", "160"}});
+  ASSERT_TRUE(c.train);
+  EXPECT_EQ(c.train->torques.at(0).mean_nm, 160.0);
+  // A key that reaches no array is TOML's as before.
+  EXPECT_EQ(
+      geardyn::load_case(reducer, {{"train.reference_speed_hz", "40"}}).train->reference_speed_hz,
+      40.0);
 }
 
 }  // namespace
