@@ -459,8 +459,12 @@ class TrainObserver : public ode::FlowObserver {
   // is the grid's next time, computed afresh otherwise.
   void give_sample_phases(double t) {
     if (!engine_ || !(grid_.interval_s > 0) || sys_.frequencies_rad_s.empty()) return;
-    const auto k = static_cast<std::int64_t>(std::llround((t - grid_.t0_s) / grid_.interval_s));
-    if (grid_.t0_s + static_cast<double>(k) * grid_.interval_s != t) return;  // not a grid time
+    // The grid's next time first, as the engine computes it, without rounding a quotient.
+    std::int64_t k = sample_index_ + 1;
+    if (!sample_phases_ || grid_.t0_s + static_cast<double>(k) * grid_.interval_s != t) {
+      k = static_cast<std::int64_t>(std::llround((t - grid_.t0_s) / grid_.interval_s));
+      if (grid_.t0_s + static_cast<double>(k) * grid_.interval_s != t) return;  // not a grid time
+    }
     if (sample_phases_ && k == sample_index_ + 1) {
       sample_phases_->advance(k - sample_base_);
     } else {

@@ -212,7 +212,7 @@ class SampleRows {
       widths_differ();
     const std::size_t end = rows_ * width_;
     if (end + width_ > values_.size()) [[unlikely]]
-      values_.resize(std::max({values_.capacity(), 2 * values_.size(), end + width_}));
+      grow(end + width_);
     ++rows_;
     return values_.data() + end;
   }
@@ -224,6 +224,11 @@ class SampleRows {
   }
 
  private:
+  // Room for at least `size` values: all the room reserved at once, else twice the buffer
+  // (out of line: the append within room stays a few instructions, inlined).
+  [[gnu::cold, gnu::noinline]] void grow(std::size_t size) {
+    values_.resize(std::max({values_.capacity(), 2 * values_.size(), size}));
+  }
   [[noreturn, gnu::cold, gnu::noinline]] static void widths_differ() {
     throw std::logic_error("SampleRows: rows of different widths");
   }
