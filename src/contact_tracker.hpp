@@ -7,7 +7,6 @@
 #include <optional>
 
 #include "geardyn/analysis.hpp"
-#include "geardyn/coupled_run.hpp"
 
 namespace geardyn {
 

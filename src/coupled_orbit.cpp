@@ -12,6 +12,43 @@
 namespace geardyn {
 namespace detail {
 
+// The coupled model's counterpart of Shooting: one case value, its exact engine (the case's
+// solver with method "exact" at engine_tolerance) and the residual of M segments over T = N T0.
+// Not copyable (the flow refers to the solver).
+class CoupledShooting {
+ public:
+  // `scale` and `stiffness` as for Shooting (empty scale: coupled_orbit_scale of this case;
+  // without a stiffness the case's is computed once for the pair and the solver). Throws
+  // InputError.
+  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                  double engine_tolerance, const MeshStiffness* stiffness = nullptr);
+  CoupledShooting(const CoupledShooting&) = delete;
+  CoupledShooting& operator=(const CoupledShooting&) = delete;
+
+  const CoupledSolver& solver() const { return solver_; }
+  double system_period_s() const { return system_period_s_; }
+  double period_s() const { return period_s_; }
+  const Segments& shooting() const { return segments_; }
+
+  // Fills an orbit's coordinates, section state, monodromy, multipliers, stability and reading
+  // (one period flown and read). False with `why` when that flow fails.
+  bool read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
+            CoupledOrbit& orbit, std::string& why) const;
+
+ private:
+  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                  double engine_tolerance, const MeshStiffness& stiffness);
+  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
+                  double engine_tolerance, const MeshStiffness& stiffness,
+                  const GearPairParameters& pair);
+  CoupledSolver solver_;
+  int periods_;
+  double system_period_s_, period_s_;
+  Segments segments_;
+};
+
+// The coupled model's unknowns' scale: b for a coordinate in m, b / R_b1 for one in rad, a
+// rate by the same times the one-degree contact natural frequency w_n.
 ode::Vector coupled_orbit_scale(const CoupledParameters& p, double natural_rad_s) {
   const Eigen::Index n = p.size();
   ode::Vector scale(2 * n);
@@ -22,13 +59,6 @@ ode::Vector coupled_orbit_scale(const CoupledParameters& p, double natural_rad_s
     scale[n + j] = scale[j] * natural_rad_s;
   }
   return scale;
-}
-
-Case exact_case(const Case& c, double engine_tolerance) {
-  Case e = c;
-  e.solver.method = Method::kExact;
-  e.solver.tolerance = std::max(engine_tolerance, kFinestEngineCaseTolerance);
-  return e;
 }
 
 CoupledShooting::CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,

@@ -379,27 +379,6 @@ double coupled_section_period_s(const Case& c, const MeshStiffness* stiffness) {
   }
 }
 
-double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what) {
-  const double t1 = c.solver.duration_s;
-  const double interval =
-      c.solver.output_interval_s > 0
-          ? c.solver.output_interval_s
-          : std::max(t1 / kMaxAutomaticSamples,
-                     std::min(t1 / kAutomaticSamples, fastest_period_s / kSamplesPerFastestPeriod));
-  const double samples = t1 / interval + 1;
-  if (!(samples <= kMaxSamples))
-    throw InputError(
-        with_origins(c, fmt::format("solver.output_interval_s = {:.6g}: {:.3g} samples over "
-                                    "solver.duration_s = {:.6g}; at most {:.0e}",
-                                    interval, samples, t1, kMaxSamples)));
-  if (!(t1 / fastest_period_s <= kMaxFastestPeriods))
-    throw InputError(with_origins(
-        c, fmt::format("solver.duration_s = {:.6g}: {:.3g} periods of the {}'s fastest time "
-                       "scale ({:.3g} s); at most {:.0e}",
-                       t1, t1 / fastest_period_s, what, fastest_period_s, kMaxFastestPeriods)));
-  return interval;
-}
-
 CoupledRunResult run_coupled(const Case& c, const CoupledRunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   const CoupledSolver solver(c);

@@ -106,6 +106,13 @@ std::vector<std::complex<double>> floquet_multipliers(const ode::Matrix& monodro
 
 namespace detail {
 
+Case exact_case(const Case& c, double engine_tolerance) {
+  Case e = c;
+  e.solver.method = Method::kExact;
+  e.solver.tolerance = std::max(engine_tolerance, kFinestEngineCaseTolerance);
+  return e;
+}
+
 ode::Vector orbit_scale(const GearPairModel& model) {
   const GearPairParameters& p = model.parameters();
   ode::Vector scale(2);

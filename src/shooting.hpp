@@ -1,7 +1,8 @@
 // geardyn internal: the multiple-shooting residual of periodic orbits and Newton's method on
 // it, for any flow of the exact engine (the one-degree model's, the coupled model's and a gear
 // train's), shared by find_orbit, find_coupled_orbit, find_train_orbit and the continuation
-// (orbit.hpp, coupled_orbit.hpp, train_orbit.hpp, continuation.hpp).
+// (orbit.hpp, coupled_orbit.hpp, train_orbit.hpp, continuation.hpp). The coupled model's own
+// shooting is coupled_orbit.cpp's: no other path takes it.
 #pragma once
 
 #include <Eigen/Core>
@@ -11,8 +12,6 @@
 #include <string>
 #include <vector>
 
-#include "geardyn/coupled_orbit.hpp"
-#include "geardyn/coupled_run.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_orbit.hpp"
@@ -33,9 +32,6 @@ Case exact_case(const Case& c, double engine_tolerance);
 
 // The Newton iteration's unknowns are scaled: delta by b, delta' by b w_n: (b, b w_n).
 ode::Vector orbit_scale(const GearPairModel& model);
-// The coupled model's (coupled_orbit.hpp): b for a coordinate in m, b / R_b1 for one in rad, a
-// rate by the same times the one-degree contact natural frequency w_n.
-ode::Vector coupled_orbit_scale(const CoupledParameters& p, double natural_rad_s);
 
 // M segments of a period T of any flow: the unknowns are the scaled states at the segments'
 // starts, x_i = y_i / scale (state dimension d = scale.size()), and the residual is
@@ -142,41 +138,6 @@ class Shooting {
  private:
   GearPairModel model_;
   Solver solver_;
-  double system_period_s_, period_s_;
-  Segments segments_;
-};
-
-// The coupled model's counterpart of Shooting: one case value, its exact engine (the case's
-// solver with method "exact" at engine_tolerance) and the residual of M segments over T = N T0.
-// Not copyable (the flow refers to the solver).
-class CoupledShooting {
- public:
-  // `scale` and `stiffness` as for Shooting (empty scale: coupled_orbit_scale of this case;
-  // without a stiffness the case's is computed once for the pair and the solver). Throws
-  // InputError.
-  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                  double engine_tolerance, const MeshStiffness* stiffness = nullptr);
-  CoupledShooting(const CoupledShooting&) = delete;
-  CoupledShooting& operator=(const CoupledShooting&) = delete;
-
-  const CoupledSolver& solver() const { return solver_; }
-  double system_period_s() const { return system_period_s_; }
-  double period_s() const { return period_s_; }
-  const Segments& shooting() const { return segments_; }
-
-  // Fills an orbit's coordinates, section state, monodromy, multipliers, stability and reading
-  // (one period flown and read). False with `why` when that flow fails.
-  bool read(const ode::Vector& x, const std::vector<ode::Matrix>& segment_jacobians,
-            CoupledOrbit& orbit, std::string& why) const;
-
- private:
-  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                  double engine_tolerance, const MeshStiffness& stiffness);
-  CoupledShooting(const Case& c, int periods, int segments, const ode::Vector& scale,
-                  double engine_tolerance, const MeshStiffness& stiffness,
-                  const GearPairParameters& pair);
-  CoupledSolver solver_;
-  int periods_;
   double system_period_s_, period_s_;
   Segments segments_;
 };

@@ -13,7 +13,6 @@
 #include <utility>
 
 #include "geardyn/case_keys.hpp"
-#include "geardyn/coupled_model.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/orbit.hpp"

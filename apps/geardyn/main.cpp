@@ -27,7 +27,6 @@
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/continuation.hpp"
-#include "geardyn/coupled_run.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/orbit.hpp"

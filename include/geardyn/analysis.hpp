@@ -57,7 +57,7 @@ struct Timeseries {
 };
 
 // What one contact did over a window: the reading of the one-degree mesh and of each
-// nonlinearity of the coupled model (the mesh, each clearance bearing).
+// nonlinearity of a train (each mesh, each clearance direction of a bearing).
 struct ContactCounts {
   Regime regime = Regime::kNone;
   bool double_sided = false;                // back-side contact occurred at all
@@ -66,6 +66,13 @@ struct ContactCounts {
   std::int64_t separations = 0;             // exits from contact into separation
   std::optional<double> last_separation_s;  // time of the last exit from contact
   double separated_fraction = 0;            // time separated over the window
+};
+
+// One nonlinearity of a train (or of the coupled reference model, coupled_run.hpp) read as the
+// one-degree run is: contact entered from the free state is an impact (on the back side: a
+// backside impact), left is a separation.
+struct ContactReading : ContactCounts {
+  bool present = false;  // false: a bearing without clearance (always in contact)
 };
 
 // The mean and the RMS of a run's samples of one quantity, from their running sums (the

@@ -1,5 +1,7 @@
 // geardyn: a run of the coupled model (coupled_model.hpp) with the exact engine, read per
-// nonlinearity (the mesh and each bearing clearance), pipeline stages 5 and 6 beside run.hpp.
+// nonlinearity (the mesh and each bearing clearance). No run, sweep or study goes through it: a
+// coupled case runs as its train (train_presets.cpp, run_train); `geardyn validate` and the
+// tests run it as the independent reference that train is checked against.
 #pragma once
 
 #include <Eigen/Core>
@@ -20,12 +22,6 @@
 #include "geardyn/steady.hpp"
 
 namespace geardyn {
-
-// One nonlinearity read as the one-degree run is (analysis.hpp): contact entered from the
-// free state is an impact (on the back side: a backside impact), left is a separation.
-struct ContactReading : ContactCounts {
-  bool present = false;  // false: a bearing without clearance (always in contact)
-};
 
 struct CoupledSamples {
   std::vector<double> t_s;
@@ -139,13 +135,6 @@ class CoupledSections {
 // The section period of a coupled case: its one-degree pair's (the same stiffness, torques and
 // transmission error), 0 when the excitations have no common period.
 double coupled_section_period_s(const Case& c, const MeshStiffness* stiffness = nullptr);
-
-// The output interval of a run of `c` whose fastest time scale is `fastest_period_s` (the
-// model's fastest natural period in contact or excitation): solver.output_interval_s, or when it
-// is 0 the automatic one (run.hpp, kAutomaticSamples). Throws InputError, naming the key and
-// where it was given, past the work bounds of run.hpp (kMaxSamples samples, kMaxFastestPeriods
-// periods of the fastest scale in the window); `what` names the model in that message.
-double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what);
 
 // Runs the case's coupled model over [0, solver.duration_s] with the exact engine from
 // solver.initial ("center": at rest in the middle of the backlash and the clearances;

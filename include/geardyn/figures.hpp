@@ -11,7 +11,6 @@
 #include <string>
 #include <vector>
 
-#include "geardyn/coupled_run.hpp"
 #include "geardyn/output_folder.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"

@@ -164,6 +164,13 @@ GearPairModel build_model(const Case& c, Geometry* geometry_out = nullptr,
 // contact), with its region.
 ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s = 0);
 
+// The output interval of a run of `c` whose fastest time scale is `fastest_period_s` (the
+// model's fastest natural period in contact or excitation): solver.output_interval_s, or when it
+// is 0 the automatic one (kAutomaticSamples). Throws InputError, naming the key and
+// where it was given, past the work bounds above (kMaxSamples samples, kMaxFastestPeriods
+// periods of the fastest scale in the window); `what` names the model in that message.
+double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what);
+
 // Fills r's spectra and their peaks from r.samples over t >= r.steady_start_s, sampled every
 // r.derived.output_interval_s (run calls it; so does a result read back from storage).
 void compute_spectra(RunResult& r);

@@ -15,15 +15,18 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/analysis.hpp"
 #include "geardyn/case.hpp"
-#include "geardyn/coupled_run.hpp"
 #include "geardyn/engine.hpp"
+#include "geardyn/integrator.hpp"
 #include "geardyn/rigid_split.hpp"
 #include "geardyn/spectrum.hpp"
 #include "geardyn/steady.hpp"
 #include "geardyn/train.hpp"
 
 namespace geardyn {
+
+struct MeshStiffness;  // stiffness.hpp
 
 // What one mesh did over a stretch of a train run: its contact history (impacts, separations,
 // regime) and its extremes (with the exact engine exact, on the engine's polynomial in every
