@@ -13,6 +13,7 @@
 #include <numbers>
 #include <optional>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -97,6 +98,43 @@ Train pair_train(const Case& c, const Geometry& g, const GearPairParameters& p) 
   t.reference = "pinion";
   t.reference_speed_hz = c.speed.shaft_frequency_hz;
   return t;
+}
+
+// A run's sample table: rows appended past the room reserved (the buffer grows, out of line)
+// keep every value, in order, whichever way they were appended; a row of another width is
+// refused; rows of no value (a train without shafts or bearings) are counted all the same.
+TEST(SampleRows, RowsAppendedPastTheRoomReservedKeepTheirValues) {
+  geardyn::SampleRows<double> rows;
+  rows.reserve(3, 2);
+  constexpr std::size_t kRows = 1000;
+  for (std::size_t i = 0; i < kRows; ++i) {
+    const auto x = static_cast<double>(i);
+    if (i % 2 == 0) {
+      double* row = rows.append(2);
+      row[0] = x;
+      row[1] = -x - 0.5;
+    } else {
+      rows.push_back(std::vector<double>{x, -x - 0.5});
+    }
+  }
+  ASSERT_EQ(rows.size(), kRows);
+  EXPECT_EQ(rows.width(), 2U);
+  std::size_t i = 0;
+  for (const auto row : rows) {
+    ASSERT_EQ(row.size(), 2);
+    EXPECT_EQ(row[0], static_cast<double>(i));
+    EXPECT_EQ(row[1], -static_cast<double>(i) - 0.5);
+    ++i;
+  }
+  EXPECT_EQ(i, kRows);
+  EXPECT_THROW(rows.append(3), std::logic_error);
+  EXPECT_EQ(rows.size(), kRows);
+
+  geardyn::SampleRows<int> none;
+  none.reserve(2, 0);
+  for (int k = 0; k < 5; ++k) none.append(0);
+  EXPECT_EQ(none.size(), 5U);
+  EXPECT_EQ(none.width(), 0U);
 }
 
 TEST(Train, AOneMeshTrainIsTheOneDegreeModel) {
