@@ -1,9 +1,11 @@
 """Samples per second of a study (docs/performance.md, "Studies"): a run study of the paper's
-gear over 20 ms and a sweep study, in this process and on 1 and 2 Dask worker processes, and
-the overhead of a Dask task (batches of 1 sample against batches of 32).
+gear over 20 ms and a sweep study, in this process and on 1 and 2 Dask worker processes, the
+overhead of a Dask task (batches of 1 sample against batches of 32), and a run study of the
+shipped loose-gear train against its runs one by one and the library's own time for them.
 
     PYTHONPATH=build/release/python python3 bench/study_throughput.py
 """
+import pathlib
 import time
 
 import geardyn
@@ -11,6 +13,10 @@ import geardyn
 RUN = geardyn.Case.default().set("solver.duration_s", 0.02)
 INPUTS = {"mesh.backlash_um": {"distribution": "uniform", "lower": 80, "upper": 120},
           "load.fluctuation_ratio": {"distribution": "uniform", "lower": 0.1, "upper": 0.4}}
+LOOSE = geardyn.Case.from_toml(str(pathlib.Path(__file__).parent.parent / "cases"
+                                   / "loose_gear_rattle.toml"))
+LOOSE_INPUTS = {"train.speed[0].acceleration_harmonics[0][0]":
+                {"distribution": "uniform", "lower": 200, "upper": 320}}
 SWEEP = {"kind": "sweep", "param": "speed.shaft_frequency_hz",
          "values": [1500 + 50 * i for i in range(21)], "direction": "up"}
 
@@ -37,6 +43,18 @@ def main():
         geardyn.run(RUN.with_({k: float(v[i]) for k, v in d.items()}))
     line("the same 200 cases by geardyn.run, one by one", time.perf_counter() - t, 200)
     line("sweep study (21 points), in-process", *timed(samples=8, analysis=SWEEP))
+    # A train's run samples go through geardyn.run, one by one (no batch in the library yet).
+    geardyn.study(LOOSE, LOOSE_INPUTS, samples=4, seed=1)
+    t = time.perf_counter()
+    geardyn.study(LOOSE, LOOSE_INPUTS, samples=64, seed=1)
+    line("loose-gear train run study, in-process", time.perf_counter() - t, 64)
+    d = geardyn.design(LOOSE, LOOSE_INPUTS, 64, "lhs", seed=1)
+    t, own = time.perf_counter(), 0.0
+    for i in range(64):
+        r = geardyn.run(LOOSE.with_({k: float(v[i]) for k, v in d.items()}))
+        own += r.summary["wall_time_s"]
+    line("the same 64 cases by geardyn.run, one by one", time.perf_counter() - t, 64)
+    line("  of which run_train's own (wall_time_s)", own, 64)
     for workers in (1, 2):
         with LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None) as c, \
                 Client(c) as client:
