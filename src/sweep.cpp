@@ -119,11 +119,6 @@ double train_section_period_s(const TrainSolver& solver, std::string* quasi) {
   return 1.0 / solver.assembled().train().reference_speed_hz;
 }
 
-// Whether a case's points run as a train: a train, or a coupled pair as its train form.
-bool as_train(const Case& c) {
-  return c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled;
-}
-
 struct PointJob {
   std::size_t slot;  // index into the result's points
   double value, value2;
@@ -136,7 +131,7 @@ class PointRunner {
   // whole sweep (shared_stiffness).
   PointRunner(const Case& base, const SweepOptions& o) : base_(base), o_(o) {
     mesh_ = mesh_to_read(base, o.mesh);
-    if (as_train(base)) {
+    if (runs_as_train(base)) {
       // A train's meshes come from its own stiffness sources; the mesh read is named. A coupled
       // pair runs as its train (train_form_of), whose bearings and shafts it has.
       const train::Assembled a = assembled_train(base);
@@ -166,7 +161,7 @@ class PointRunner {
   std::string period_note_at(double value, double value2) const {
     std::string note;
     const Case c = case_at(value, value2);
-    if (as_train(c)) train_section_period_s(TrainSolver(c), &note);
+    if (runs_as_train(c)) train_section_period_s(TrainSolver(c), &note);
     return note;
   }
 
@@ -185,7 +180,7 @@ class PointRunner {
   }
   double period_at(double value, double value2) const {
     const Case c = case_at(value, value2);
-    if (as_train(c)) return train_section_period_s(TrainSolver(c), nullptr);
+    if (runs_as_train(c)) return train_section_period_s(TrainSolver(c), nullptr);
     return period_s(build_model(c, nullptr, stiffness()));
   }
 
@@ -199,7 +194,7 @@ class PointRunner {
     if (o_.axis2) set(c, o_.axis2->key, value2, where2);
     const std::string both = where2.empty() ? where : where + " with " + where2;
     double period = 0, fastest = 0, step = 0;
-    if (as_train(c)) {
+    if (runs_as_train(c)) {
       const TrainSolver solver(c);
       period = train_section_period_s(solver, nullptr);
       fastest = solver.fastest_period_s();
@@ -238,7 +233,7 @@ class PointRunner {
   // condition, and leaves its end state in `carry`.
   SweepPoint run(const PointJob& job, Carry& carry) const {
     const Case c = case_at(job.value, job.value2);
-    if (as_train(c)) return run_train_point(c, job, carry);
+    if (runs_as_train(c)) return run_train_point(c, job, carry);
     const GearPairModel model = build_model(c, nullptr, stiffness());
     const double period = period_s(model);
     // With Newmark, a whole number of steps per period: block ends fall on period ends.

@@ -182,29 +182,27 @@ class TrainObserver : public ode::FlowObserver {
     TrainSamples& s = out_.samples;
     give_sample_phases(t);
     reader(region)(t, y, values_);
-    const std::vector<int>& states = region_states(region);
     s.t_s.push_back(t);
-    if (lifted_from_) {
-      lift_.lift_into(t, y, s.state.append(2 * static_cast<std::size_t>(a_.size())));
-    } else {
-      s.state.push_back(y);
-    }
-    const std::size_t meshes = states.size();
-    double* d = s.deflection_bar.append(meshes);
+    const std::size_t meshes = states_.size();
     double* f = s.force_n.append(meshes);
     for (std::size_t m = 0; m < meshes; ++m) {
-      d[m] = values_[2 * m] / out_.meshes[m].backlash_m;
       f[m] = values_[2 * m + 1];
       point(m, values_[2 * m], f[m]);  // a sample is a point of the window too
       whole_[m].add_sample(values_[2 * m], f[m]);
       if (!part_.empty()) part_[m].add_sample(values_[2 * m], f[m]);
     }
-    s.contact.push_back(states);
-    double* parts = s.parts.append(whole_parts_.size());
-    for (std::size_t k = 0; k < whole_parts_.size(); ++k) {
-      parts[k] = values_[first_part_ + k];
-      point_part(k, parts[k]);
+    for (std::size_t k = 0; k < whole_parts_.size(); ++k) point_part(k, values_[first_part_ + k]);
+    if (!keep_samples_) return;  // a study's sample: its time and forces (for load sharing)
+    if (lifted_from_) {
+      lift_.lift_into(t, y, s.state.append(2 * static_cast<std::size_t>(a_.size())));
+    } else {
+      s.state.push_back(y);
     }
+    double* d = s.deflection_bar.append(meshes);
+    for (std::size_t m = 0; m < meshes; ++m) d[m] = values_[2 * m] / out_.meshes[m].backlash_m;
+    s.contact.push_back(region_states(region));
+    double* parts = s.parts.append(whole_parts_.size());
+    for (std::size_t k = 0; k < whole_parts_.size(); ++k) parts[k] = values_[first_part_ + k];
   }
 
   // The flow it looks at next steps the complement of a free rotation (its states are
@@ -215,14 +213,17 @@ class TrainObserver : public ode::FlowObserver {
     lifted_from_ = true;
   }
 
-  // Room in the result for `count` output samples.
-  void reserve(std::int64_t count) {
+  // Room in the result for `count` output samples, all their rows kept or (keep false) only
+  // their times and mesh forces.
+  void reserve(std::int64_t count, bool keep) {
+    keep_samples_ = keep;
     const auto rows = static_cast<std::size_t>(std::max<std::int64_t>(count, 0));
     TrainSamples& s = out_.samples;
     s.t_s.reserve(rows);
+    s.force_n.reserve(rows, states_.size());
+    if (!keep) return;
     s.state.reserve(rows, 2 * static_cast<std::size_t>(a_.size()));
     s.deflection_bar.reserve(rows, states_.size());
-    s.force_n.reserve(rows, states_.size());
     s.contact.reserve(rows, states_.size());
     s.parts.reserve(rows, whole_parts_.size());
   }
@@ -536,6 +537,7 @@ class TrainObserver : public ode::FlowObserver {
   ode::RigidSplit::Motion lift_;  // lift_from's, when lifted_from_
   bool looks_at_cells_ = false;   // on_cell was called: the flow is the exact engine's
   bool lifted_from_ = false;
+  bool keep_samples_ = true;  // reserve's: every row of a sample, or its time and forces alone
 };
 
 // The shortest time scale of the train: its fastest mode in contact (top_mode_rad_s, the
@@ -957,7 +959,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
                                  const ode::OutputGrid& grid, double final_from_s,
                                  std::optional<double> watch_period_s,
                                  const std::function<bool(double)>& progress,
-                                 ode::Vector* end_state) const {
+                                 ode::Vector* end_state, bool keep_samples) const {
   const train::Assembled& a = *a_;
   const train::Train& t = a.train();
   TrainRunResult result;
@@ -991,7 +993,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : stepped();
   TrainObserver observer(a, sys, engine_.get(), grid, result, t0_s, t1_s, final_from_s, region,
                          progress);
-  observer.reserve(grid.count);
+  observer.reserve(grid.count, keep_samples);
   FlowPieces pieces(
       t0_s, y0, region, t1_s, grid,
       [&](double from, const ode::Vector& y, int r, double to, const ode::OutputGrid& piece) {
@@ -1148,9 +1150,13 @@ void mesh_rates(const train::Assembled& a, TrainSamples& s) {
 
 }  // namespace
 
+bool runs_as_train(const Case& c) {
+  return c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled;
+}
+
 TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const TrainSolver solver(c);
+  const TrainSolver solver(c, options.stiffness);
   const double t0 = 0, t1 = c.solver.duration_s;
   const double interval = checked_output_interval_s(c, solver.fastest_period_s(), "train");
   if (const double step = solver.newmark_step_s();
@@ -1161,15 +1167,17 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
                        step, (t1 - t0) / step, t1 - t0, kMaxNewmarkSteps)));
   const ode::Vector y0 = solver.initial_state(c.solver.initial, t0);
   const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
-  TrainRunResult result =
-      solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval), final_from,
-                  solver.assembled().system_period_s().value_or(0), options.progress);
+  TrainRunResult result = solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval),
+                                      final_from, solver.assembled().system_period_s().value_or(0),
+                                      options.progress, nullptr, options.keep_samples);
   result.output_interval_s = interval;
-  mesh_rates(solver.assembled(), result.samples);
-  for (std::size_t m = 0; m < result.meshes.size(); ++m) {
-    const MeshSpectra s = mesh_spectra(result, m);
-    result.meshes[m].force_peaks = dominant_peaks(s.force_n, kReportedPeaks);
-    result.meshes[m].deflection_peaks = dominant_peaks(s.deflection_bar, kReportedPeaks);
+  if (options.keep_samples) {
+    mesh_rates(solver.assembled(), result.samples);
+    for (std::size_t m = 0; m < result.meshes.size(); ++m) {
+      const MeshSpectra s = mesh_spectra(result, m);
+      result.meshes[m].force_peaks = dominant_peaks(s.force_n, kReportedPeaks);
+      result.meshes[m].deflection_peaks = dominant_peaks(s.deflection_bar, kReportedPeaks);
+    }
   }
   result.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

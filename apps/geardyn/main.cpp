@@ -499,10 +499,8 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
     throw geardyn::InputError("--plot: needs --out DIR, the directory the figures go to");
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "run");
-  const bool on_train =
-      c.model.form == geardyn::ModelForm::kTrain || c.model.form == geardyn::ModelForm::kCoupled;
   check_output_folder(out_dir, "run");
-  if (on_train) {
+  if (geardyn::runs_as_train(c)) {
     if (physical)
       throw geardyn::InputError(
           fmt::format("--physical: a {}'s figure shows each mesh's (d - e) / b and its force in N",
@@ -892,8 +890,7 @@ int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
 int cmd_orbit(const std::string& case_file, const std::vector<std::string>& sets,
               const geardyn::OrbitOptions& o, const std::vector<double>& state, bool json) {
   const geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "orbit");
-  if (c.model.form == geardyn::ModelForm::kCoupled || c.model.form == geardyn::ModelForm::kTrain)
-    return cmd_train_orbit(c, o, state, json);
+  if (geardyn::runs_as_train(c)) return cmd_train_orbit(c, o, state, json);
   std::optional<geardyn::ode::State> start;
   if (!state.empty()) {
     if (state.size() != 2)

@@ -303,9 +303,20 @@ std::vector<TrainPartQuantity> part_quantities(const TrainRunResult& r);
 void add_parts(const train::Assembled& a, const std::optional<Eigen::VectorXd>& rest,
                TrainRunResult& r);
 
+// Whether a case runs as a gear train (run_train, TrainSolver): a train, or a coupled pair as its
+// train form (train_form_of); the one-degree forms run on their own model (run.hpp).
+bool runs_as_train(const Case& c);
+
 struct TrainRunOptions {
   // Called now and then with the fraction of the window done; false cancels.
   std::function<bool(double)> progress;
+  // False for a study's sample (study_sample.hpp), whose readings are the same either way: of
+  // the output samples only the times and the mesh forces are kept (the load-sharing factors
+  // read them), no states, deflections, contact, rates, parts or spectra.
+  bool keep_samples = true;
+  // A pair form's mesh stiffness computed once for a study's samples (shared_stiffness; as
+  // TrainSolver takes it); null: the case's own. A train's meshes carry their own.
+  const MeshStiffness* stiffness = nullptr;
 };
 
 // The static state (theta, theta') of the train in drive contact at every mesh's mean
@@ -379,11 +390,12 @@ class TrainSolver {
   // final_from is "sustained"); with watch_period_s (> 0, or 0: no common period) integrated
   // once while the steady part is sought on the section t0 + k period (integrate_watching),
   // read beside the whole and giving the dynamic factors. The end state into *end_state when
-  // given; wall_time_s is left 0.
+  // given; wall_time_s is left 0. With keep_samples false only the samples' times and mesh
+  // forces are kept (TrainRunOptions::keep_samples).
   TrainRunResult read(double t0_s, const ode::Vector& y0, double t1_s, const ode::OutputGrid& grid,
                       double final_from_s, std::optional<double> watch_period_s,
                       const std::function<bool(double)>& progress = {},
-                      ode::Vector* end_state = nullptr) const;
+                      ode::Vector* end_state = nullptr, bool keep_samples = true) const;
 
  private:
   ode::FlowResult flow(double t0_s, const ode::Vector& y0, int region, double t1_s,
