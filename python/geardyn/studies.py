@@ -287,60 +287,15 @@ def _check_key(case, key):
 
 # ---- the analyses -------------------------------------------------------------------------
 
-# What a run keeps by default: its readings that are numbers (summary.json's keys, docs/
-# outputs.md), and whether it rattles (regime "sustained").
-_RUN_OUTPUTS = ("impacts", "backside_impacts", "separations", "separated_fraction",
-                "max_force_bar", "max_delta_bar", "max_impact_velocity_m_s", "dynamic_factor",
-                "dynamic_factor_with_startup", "rattle", "natural_frequency_hz")
-
-
-_MESH_OUTPUTS = ("impacts", "backside_impacts", "separations", "separated_fraction",
-                 "max_force_n", "dynamic_factor", "dynamic_factor_with_startup", "rattle")
-
-
-# A train's load-sharing group (a sun's planets): "<label>.load_sharing_<reading>".
-_GROUP_OUTPUTS = ("static_factor", "factor", "factor_with_startup")
-
-
-def _readings(d, names, prefix=""):
-    out = {}
-    for k in names:
-        if k == "rattle":
-            out[prefix + k] = 1.0 if d.get("regime") == "sustained" else 0.0
-        elif k == "natural_frequency_hz":
-            out[prefix + k] = float(d.get("derived", {}).get(k, float("nan")))
-        elif k in d:
-            out[prefix + k] = float("nan") if d[k] is None else float(d[k])
-    return out
-
-
-def _run_outputs(summary):
-    """A run's readings: the one-degree run's (_RUN_OUTPUTS); each mesh of a train as
-    "<mesh name>.<reading>" and each load-sharing group as "<label>.load_sharing_<reading>";
-    the coupled model's mesh as "mesh.<reading>"."""
-    if "meshes" in summary:
-        out = {}
-        for m in summary["meshes"]:
-            out.update(_readings(m, _MESH_OUTPUTS, m["name"] + "."))
-        for g in summary.get("load_sharing", []):
-            out.update(_readings(g, _GROUP_OUTPUTS, g["label"] + ".load_sharing_"))
-        return out
-    if isinstance(summary.get("mesh"), dict):
-        return _readings(summary["mesh"], _MESH_OUTPUTS, "mesh.")
-    return _readings(summary, _RUN_OUTPUTS)
-
-
 def _evaluate(case, keys, values, analysis):
-    """One sample: the base case with its inputs set, analysed. A sample whose analysis fails
-    numerically keeps NaN outputs and its reason (a study does not stop for one sample)."""
+    """One sample of an orbit or sweep study: the base case with its inputs set, analysed. A
+    sample whose analysis fails numerically keeps NaN outputs and its reason (a study does not
+    stop for one sample)."""
     import geardyn
 
     c = case.with_({k: float(v) for k, v in zip(keys, values)})
-    kind = analysis.get("kind", "run")
     try:
-        if kind == "run":
-            return _run_outputs(geardyn.run(c).summary), ""
-        if kind == "orbit":
+        if analysis["kind"] == "orbit":
             o = geardyn.orbit(c, periods=analysis.get("periods", 1))
             return {"converged": float(o["converged"]), "stable": float(o["stable"]),
                     "max_multiplier": float(o["max_multiplier"])}, ""
@@ -367,19 +322,29 @@ def _sweep_outputs(s):
             "rattle_to": float(rattling.max()) if rattling.size else float("nan")}
 
 
+class _BatchInterrupted(KeyboardInterrupt):
+    """Ctrl-C inside a batch, holding the samples it completed as `_batch` returns them."""
+
+    def __init__(self, done):
+        super().__init__()
+        self.done = done
+
+
 def _batch(case, keys, first, values, analysis):
     """A task: samples first, first + 1, ... (values: one row per sample). Returns
-    (first, outputs as dict of lists, failures as list of str). The gear pair's runs go to the
-    library in one call (no samples kept, the mesh stiffness computed once when no input
-    changes it); the other forms and analyses through the Python functions."""
-    from . import _form, _geardyn
+    (first, outputs as dict of lists, failures as list of str). A run's samples, of any form,
+    go to the library in one call (study_sample.hpp: no samples kept, a pair form's mesh
+    stiffness computed once when no input changes it; Ctrl-C raises _BatchInterrupted with
+    the samples done); an orbit's and a sweep's through the Python functions."""
+    from . import _geardyn
 
-    if analysis.get("kind", "run") == "run" and _form(case) == "gear_pair":
+    if analysis.get("kind", "run") == "run":
         outputs, failures, done, interrupted = _geardyn._run_batch(
             case, list(keys), np.asarray(values, dtype=float).reshape(len(values), len(keys)))
+        result = first, {k: v.tolist() for k, v in outputs.items()}, list(failures)
         if interrupted:
-            raise KeyboardInterrupt
-        return first, {k: v.tolist() for k, v in outputs.items()}, list(failures)
+            raise _BatchInterrupted(result)
+        return result
     results = [_evaluate(case, keys, row, analysis) for row in values]
     names = sorted({k for out, _ in results for k in out})
     outputs = {k: [out.get(k, float("nan")) for out, _ in results] for k in names}
@@ -476,6 +441,7 @@ _OUTPUT_UNITS = {
     "separations": ("1", "separations in the window"),
     "max_delta_bar": ("1", "maximum of delta / b"),
     "max_impact_velocity_m_s": ("m/s", "largest impact velocity"),
+    "max_impact_velocity": ("1", "largest impact velocity over b w_n"),
     "dynamic_factor_with_startup": ("1", "max F_G over the static mesh force, whole window"),
     "max_force_n": ("N", "largest mesh force"),
     "rattle": ("1", "1 when the regime is sustained rattle"),
@@ -606,7 +572,12 @@ def study(case, inputs, samples=None, method="lhs", seed=0, analysis=None, execu
     try:
         if client is None:
             for first, count in batches:
-                stored(*_batch(case, keys, first, rows[first:first + count], analysis))
+                try:
+                    stored(*_batch(case, keys, first, rows[first:first + count], analysis))
+                except _BatchInterrupted as e:
+                    if e.done[2]:  # the batch's samples completed before Ctrl-C are kept
+                        stored(*e.done)
+                    raise
         else:
             from dask.distributed import as_completed
 

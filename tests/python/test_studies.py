@@ -469,6 +469,66 @@ def test_a_samples_readings_are_those_of_its_own_run():
                                     err_msg=f"sample {i}: {k}")
 
 
+def test_every_forms_samples_go_to_the_library_and_read_as_their_own_runs():
+    # The non-dimensional form (its velocity in b w_n; no natural frequency, its unit of time)
+    # and the coupled pair (its train's mesh "mesh") run in the library's batch as the gear
+    # pair does: each sample's readings are those of geardyn.run of its own case, bit for bit.
+    src = os.environ.get("GEARDYN_SOURCE_DIR", ".")
+    ks = geardyn.Case.from_toml(os.path.join(src, "cases", "kahraman_singh.toml"))
+    inputs = {"model.force_alternating": {"distribution": "uniform", "lower": 0.05,
+                                          "upper": 0.15}}
+    ds = geardyn.study(ks, inputs, samples=3, seed=3)
+    assert "natural_frequency_hz" not in ds and "max_impact_velocity_m_s" not in ds
+    for i in range(3):
+        s = geardyn.run(ks.with_({"model.force_alternating":
+                                  float(ds["model.force_alternating"][i])})).summary
+        for k in ("impacts", "separated_fraction", "max_force_bar", "max_delta_bar",
+                  "max_impact_velocity", "dynamic_factor", "dynamic_factor_with_startup"):
+            assert float(ds[k][i]) == s[k], (i, k)
+        assert float(ds["rattle"][i]) == (s["regime"] == "sustained")
+    assert ds["max_impact_velocity"].attrs["units"] == "1"
+    coupled = geardyn.Case.from_toml(os.path.join(src, "cases", "park2010_coupled.toml")) \
+        .with_({"solver.duration_s": 0.004})
+    dc = geardyn.study(coupled, {"mesh.backlash_um": {"distribution": "uniform", "lower": 80,
+                                                      "upper": 120}}, samples=2, seed=4)
+    for i in range(2):
+        m = geardyn.run(coupled.with_({"mesh.backlash_um": float(dc["mesh.backlash_um"][i])})) \
+            .summary["meshes"][0]
+        for k in ("impacts", "separations", "separated_fraction", "max_force_n",
+                  "dynamic_factor", "dynamic_factor_with_startup"):
+            np.testing.assert_equal(float(dc["mesh." + k][i]),
+                                    np.nan if m[k] is None else m[k], err_msg=f"{i} {k}")
+
+
+def test_ctrl_c_inside_a_batch_keeps_the_samples_it_completed(tmp_path, monkeypatch):
+    # Ctrl-C while a batch of 5 runs its third sample: the two done are stored and kept in the
+    # result; resuming computes the other ten alone and gives the uninterrupted study.
+    from geardyn import _geardyn
+
+    full = geardyn.study(CASE, INPUTS, samples=12, seed=6, batch_size=5)
+    batch = _geardyn._run_batch
+    calls = []
+
+    def stopped_at_third(case, keys, rows, progress=None):
+        def stop(done, total):
+            if done == 2:
+                raise KeyboardInterrupt
+        calls.append(len(rows))
+        return batch(case, keys, rows, stop)
+
+    monkeypatch.setattr(_geardyn, "_run_batch", stopped_at_third)
+    with pytest.raises(KeyboardInterrupt) as e:
+        geardyn.study(CASE, INPUTS, samples=12, seed=6, batch_size=5, store=tmp_path / "s")
+    assert calls == [5]
+    assert e.value.result.attrs["samples_computed"] == 2
+    assert [f.name for f in (tmp_path / "s" / "batches").iterdir()] == ["samples_00000000_00000001.nc"]
+    monkeypatch.setattr(_geardyn, "_run_batch", batch)
+    resumed = geardyn.study(CASE, INPUTS, samples=12, seed=6, batch_size=5,
+                            store=tmp_path / "s", resume=True)
+    assert resumed.attrs["samples_computed"] == 10
+    same_outputs(resumed, full)
+
+
 def test_the_outputs_kept_are_those_named():
     ds = geardyn.study(CASE, INPUTS, samples=3, outputs=["rattle", "dynamic_factor"])
     assert set(ds.data_vars) == set(INPUTS) | {"rattle", "dynamic_factor", "failure"}
@@ -507,13 +567,15 @@ def test_ctrl_c_stops_the_study_command_keeping_the_store_and_resume_completes_i
     _, err = p.communicate(timeout=60)
     assert p.returncode == 130, err
     assert "--resume continues" in err
-    kept = len(list(batches.glob("samples_*.nc")))
+    files = list(batches.glob("samples_*.nc"))
     assert sorted(f.name for f in batches.iterdir() if not f.name.startswith("samples_")) == []
-    assert 2 <= kept < 100
+    assert 2 <= len(files) < 100
+    # The samples kept: whole batches, and those of the batch Ctrl-C stopped that completed.
+    kept = sum(int(f.stem.split("_")[2]) - int(f.stem.split("_")[1]) + 1 for f in files)
     assert not (out / "study.nc").exists()
     r = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert f"({400 - 4 * kept} computed now" in r.stdout, r.stdout
+    assert f"({400 - kept} computed now" in r.stdout, r.stdout
 
 
 def test_a_killed_scheduler_stops_the_study_command_keeping_the_store_and_resume_completes_it(
