@@ -1,7 +1,8 @@
 """Samples per second of a study (docs/performance.md, "Studies"): a run study of the paper's
 gear over 20 ms and a sweep study, in this process and on 1 and 2 Dask worker processes, the
 overhead of a Dask task (batches of 1 sample against batches of 32), and a run study of the
-shipped loose-gear train against its runs one by one and the library's own time for them.
+shipped loose-gear train (its samples in the library's batch, as every form's) against its runs
+by geardyn.run one by one and the library's own time for those runs.
 
     PYTHONPATH=build/release/python python3 bench/study_throughput.py
 """
@@ -43,7 +44,7 @@ def main():
         geardyn.run(RUN.with_({k: float(v[i]) for k, v in d.items()}))
     line("the same 200 cases by geardyn.run, one by one", time.perf_counter() - t, 200)
     line("sweep study (21 points), in-process", *timed(samples=8, analysis=SWEEP))
-    # A train's run samples go through geardyn.run, one by one (no batch in the library yet).
+    # A train's run study (the library's batch, no time series kept) against geardyn.run.
     geardyn.study(LOOSE, LOOSE_INPUTS, samples=4, seed=1)
     t = time.perf_counter()
     geardyn.study(LOOSE, LOOSE_INPUTS, samples=64, seed=1)
