@@ -184,6 +184,29 @@ TEST(StudySample, APairFormsSampleIsItsRunsReadingNamedInItsForm) {
   }
 }
 
+TEST(StudySample, ARunThatFailsReadsNaNUnderTheSameNamesAndSaysWhy) {
+  // A torque that overflows the forces: the run fails (non-finite readings), as `geardyn run`
+  // reports it; the sample keeps its names, every value NaN, and the reason.
+  const std::vector<Override> overflow = {{"load.torque_nm", "1e307"},
+                                          {"load.fluctuation_ratio", "1e300"}};
+  Case pair;
+  for (const Override& k : overflow) set_case_value(pair, k);
+  for (const Case& c : {shipped("park2010_coupled.toml", overflow), pair}) {
+    SCOPED_TRACE(to_string(c.model.form));
+    const SampleReadings s = run_sample(c);
+    EXPECT_FALSE(s.cancelled);
+    EXPECT_NE(s.failure.find("numerical failure"), std::string::npos) << s.failure;
+    EXPECT_NE(s.failure.find("non-finite"), std::string::npos) << s.failure;
+    Case good = c;
+    set_case_value(good, {"load.torque_nm", "50"});
+    set_case_value(good, {"load.fluctuation_ratio", "0.25"});
+    set_case_value(good, {"solver.duration_s", "0.004"});
+    EXPECT_EQ(s.names, run_sample(good).names);
+    ASSERT_FALSE(s.values.empty());
+    for (const double x : s.values) EXPECT_TRUE(std::isnan(x));
+  }
+}
+
 TEST(StudySample, ARunStoppedByItsProgressIsCancelledAndReadsNothing) {
   for (const Case& c :
        {shipped("loose_gear_rattle.toml", {{"solver.duration_s", "0.05"}}), Case{}}) {
