@@ -449,6 +449,21 @@ def test_a_trains_element_key_is_an_input_and_each_mesh_is_read():
         assert ds["rattle.impacts"][i] == r.summary["meshes"][0]["impacts"]
 
 
+def test_a_trains_study_on_two_dask_workers_is_the_in_process_one_bit_for_bit(cluster):
+    # A train's samples run in the library's batch on the workers as in this process.
+    c = geardyn.Case.from_toml(os.path.join(os.environ.get("GEARDYN_SOURCE_DIR", "."), "cases",
+                                            "loose_gear_rattle.toml")).with_(
+        {"solver.duration_s": 0.05})
+    inputs = {"train.drag[0].constant_nm": {"distribution": "uniform", "lower": 0.1,
+                                            "upper": 0.4}}
+    local = geardyn.study(c, inputs, samples=6, seed=2)
+    dask = geardyn.study(c, inputs, samples=6, seed=2, executor=cluster, batch_size=2)
+    assert "rattle.impacts" in local and local["rattle.rattle"].sum() > 0
+    for k in local.data_vars:
+        if k != "failure":
+            np.testing.assert_array_equal(dask[k].values, local[k].values, err_msg=k)
+
+
 def test_a_samples_readings_are_those_of_its_own_run():
     # The gear pair's samples go to the library in one call per batch, with the stiffness
     # shared: each sample's readings equal, to the last bit, geardyn.run's of its own case.
