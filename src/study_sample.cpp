@@ -2,9 +2,10 @@
 
 #include <fmt/format.h>
 
-#include <array>
 #include <limits>
 #include <optional>
+#include <string>
+#include <utility>
 
 #include "geardyn/integrator.hpp"
 #include "geardyn/output.hpp"
