@@ -36,13 +36,22 @@ void outcome(SampleReadings& s, ode::Termination termination, const std::string&
   s.values.assign(s.values.size(), kNaN);
 }
 
-SampleReadings one_degree_sample(const Case& c, const MeshStiffness* stiffness,
-                                 const std::function<bool(double)>& progress) {
-  RunOptions o;
+// A run's options for a study's sample (RunOptions or TrainRunOptions): no output samples
+// kept, the shared stiffness and the progress hook given.
+template <class Options>
+Options sample_options(const MeshStiffness* stiffness,
+                       const std::function<bool(double)>& progress) {
+  Options o;
   o.keep_samples = false;
-  o.keep_events = false;
   o.stiffness = stiffness;
   o.progress = progress;
+  return o;
+}
+
+SampleReadings one_degree_sample(const Case& c, const MeshStiffness* stiffness,
+                                 const std::function<bool(double)>& progress) {
+  RunOptions o = sample_options<RunOptions>(stiffness, progress);
+  o.keep_events = false;
   const RunResult r = run(c, o);
   const RunReading& x = r.reading;
   const ModelForm form = c.model.form;
@@ -66,11 +75,7 @@ SampleReadings one_degree_sample(const Case& c, const MeshStiffness* stiffness,
 
 SampleReadings train_sample(const Case& c, const MeshStiffness* stiffness,
                             const std::function<bool(double)>& progress) {
-  TrainRunOptions o;
-  o.keep_samples = false;
-  o.stiffness = stiffness;
-  o.progress = progress;
-  const TrainRunResult r = run_train(c, o);
+  const TrainRunResult r = run_train(c, sample_options<TrainRunOptions>(stiffness, progress));
   SampleReadings s;
   for (const TrainMeshReading& m : r.meshes) {
     const auto named = [&](const char* reading, double value) {
