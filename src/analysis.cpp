@@ -220,43 +220,47 @@ void CellExtremes::look(const ode::CellView& cell) {
 }
 
 void CellExtremes::finish() {
+  if (kept_.size() == 0) return;
   ode::Vector& y = point_;
-  for (int q = 0; q < 4; ++q) {
-    const bool maximum = q % 2 == 0;
-    const int observable =
-        q < 2 ? GearPairModel::kObservableDelta : GearPairModel::kObservableForce;
-    // Searches the stretches of order_ while their bound beats the extreme seen.
-    const auto search = [&] {
-      engine_.revisit(kept_, order_, [&](std::size_t i, const ode::CellView& cell) {
-        const double best = seen()[q];
-        if (!beyond(q, kept_bounds_[i][q], best)) return false;
-        double value = 0, t = 0;
-        if (cell.extreme(observable, maximum, best, value, t)) {
-          cell.state_at(t, y);
-          reader_.on_point({t, y[0], y[1], 0.0, cell.region + GearPairModel::kFirstRegion},
-                           model_.drive(t));
-        }
-        return true;
+  // The four extremes' searches look through one scratch flow (a session of revisits).
+  engine_.revisit(kept_, [&](const ode::ExactEngine::Visit& visit) {
+    for (int q = 0; q < 4; ++q) {
+      const bool maximum = q % 2 == 0;
+      const int observable =
+          q < 2 ? GearPairModel::kObservableDelta : GearPairModel::kObservableForce;
+      // Searches the stretches of order_ while their bound beats the extreme seen.
+      const auto search = [&] {
+        visit(order_, [&](std::size_t i, const ode::CellView& cell) {
+          const double best = seen()[q];
+          if (!beyond(q, kept_bounds_[i][q], best)) return false;
+          double value = 0, t = 0;
+          if (cell.extreme(observable, maximum, best, value, t)) {
+            cell.state_at(t, y);
+            reader_.on_point({t, y[0], y[1], 0.0, cell.region + GearPairModel::kFirstRegion},
+                             model_.drive(t));
+          }
+          return true;
+        });
+      };
+      // The stretch of the widest bound first: its extreme is the one most others must beat.
+      std::size_t top = kept_.size();
+      for (std::size_t i = 0; i < kept_.size(); ++i)
+        if (beyond(q, kept_bounds_[i][q], seen()[q]) &&
+            (top == kept_.size() || beyond(q, kept_bounds_[i][q], kept_bounds_[top][q])))
+          top = i;
+      if (top == kept_.size()) continue;
+      order_.assign(1, top);
+      search();
+      // Then those whose bound still beats it, widest first.
+      order_.clear();
+      for (std::size_t i = 0; i < kept_.size(); ++i)
+        if (i != top && beyond(q, kept_bounds_[i][q], seen()[q])) order_.push_back(i);
+      std::sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
+        return beyond(q, kept_bounds_[a][q], kept_bounds_[b][q]);
       });
-    };
-    // The stretch of the widest bound first: its extreme is the one most others must beat.
-    std::size_t top = kept_.size();
-    for (std::size_t i = 0; i < kept_.size(); ++i)
-      if (beyond(q, kept_bounds_[i][q], seen()[q]) &&
-          (top == kept_.size() || beyond(q, kept_bounds_[i][q], kept_bounds_[top][q])))
-        top = i;
-    if (top == kept_.size()) continue;
-    order_.assign(1, top);
-    search();
-    // Then those whose bound still beats it, widest first.
-    order_.clear();
-    for (std::size_t i = 0; i < kept_.size(); ++i)
-      if (i != top && beyond(q, kept_bounds_[i][q], seen()[q])) order_.push_back(i);
-    std::sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
-      return beyond(q, kept_bounds_[a][q], kept_bounds_[b][q]);
-    });
-    search();
-  }
+      search();
+    }
+  });
   kept_.clear();
   kept_bounds_.clear();
 }

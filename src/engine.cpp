@@ -2650,14 +2650,17 @@ FlowResult ExactEngine::flow(double t0_s, const Vector& y0, int region, double t
       I, [&](auto& f) { return f.run(t0_s, y0, region, t1_s, output, observer, jacobian); });
 }
 
-void ExactEngine::revisit(const KeptStretches& kept, const std::vector<std::size_t>& order,
-                          const std::function<bool(std::size_t, const CellView&)>& look) const {
+void ExactEngine::revisit(const KeptStretches& kept,
+                          const std::function<void(const Visit&)>& session) const {
   with_flow(*impl_, [&](auto& flow) {
-    for (std::size_t i : order) {
-      assert(i < kept.size());
-      flow.load(kept, i);
-      if (!look(i, flow)) return;
-    }
+    const Visit visit = [&](const std::vector<std::size_t>& order, const Look& look) {
+      for (std::size_t i : order) {
+        assert(i < kept.size());
+        flow.load(kept, i);
+        if (!look(i, flow)) return;
+      }
+    };
+    session(visit);
   });
 }
 

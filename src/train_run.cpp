@@ -405,40 +405,43 @@ class TrainObserver : public ode::FlowObserver {
     const auto has_room = [&](std::size_t s, std::size_t i, bool maximum) {
       return beyond(maximum, bound(s, i, maximum), seen(i, maximum));
     };
-    for (std::size_t i = 0; i < q; ++i) {
-      minimum_searched_.assign(kept_.size(), 0);
-      for (const bool maximum : {true, false}) {
-        const auto look = [&](std::size_t s, const ode::CellView& cell) {
-          if (!has_room(s, i, maximum)) return false;
-          if (maximum) {
-            search(cell, i, true);
-            if (has_room(s, i, false)) {
+    // Every observable's searches look through one scratch flow (a session of revisits).
+    engine_->revisit(kept_, [&](const ode::ExactEngine::Visit& visit) {
+      for (std::size_t i = 0; i < q; ++i) {
+        minimum_searched_.assign(kept_.size(), 0);
+        for (const bool maximum : {true, false}) {
+          const auto look = [&](std::size_t s, const ode::CellView& cell) {
+            if (!has_room(s, i, maximum)) return false;
+            if (maximum) {
+              search(cell, i, true);
+              if (has_room(s, i, false)) {
+                search(cell, i, false);
+                minimum_searched_[s] = 1;
+              }
+            } else if (minimum_searched_[s] == 0) {
               search(cell, i, false);
-              minimum_searched_[s] = 1;
             }
-          } else if (minimum_searched_[s] == 0) {
-            search(cell, i, false);
-          }
-          return true;
-        };
-        std::size_t top = kept_.size();
-        for (std::size_t s = 0; s < kept_.size(); ++s)
-          if (has_room(s, i, maximum) &&
-              (top == kept_.size() ||
-               beyond(maximum, bound(s, i, maximum), bound(top, i, maximum))))
-            top = s;
-        if (top == kept_.size()) continue;
-        order_.assign(1, top);
-        engine_->revisit(kept_, order_, look);
-        order_.clear();
-        for (std::size_t s = 0; s < kept_.size(); ++s)
-          if (s != top && has_room(s, i, maximum)) order_.push_back(s);
-        std::sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
-          return beyond(maximum, bound(a, i, maximum), bound(b, i, maximum));
-        });
-        engine_->revisit(kept_, order_, look);
+            return true;
+          };
+          std::size_t top = kept_.size();
+          for (std::size_t s = 0; s < kept_.size(); ++s)
+            if (has_room(s, i, maximum) &&
+                (top == kept_.size() ||
+                 beyond(maximum, bound(s, i, maximum), bound(top, i, maximum))))
+              top = s;
+          if (top == kept_.size()) continue;
+          order_.assign(1, top);
+          visit(order_, look);
+          order_.clear();
+          for (std::size_t s = 0; s < kept_.size(); ++s)
+            if (s != top && has_room(s, i, maximum)) order_.push_back(s);
+          std::sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
+            return beyond(maximum, bound(a, i, maximum), bound(b, i, maximum));
+          });
+          visit(order_, look);
+        }
       }
-    }
+    });
     kept_.clear();
     kept_bounds_.clear();
   }

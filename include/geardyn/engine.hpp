@@ -185,12 +185,17 @@ class ExactEngine {
   FlowResult flow(double t0_s, const Vector& y0, int region, double t1_s, const OutputGrid& output,
                   FlowObserver& observer, bool jacobian = false) const;
 
-  // Hands `look` the kept stretches `order` names (indices into kept, each kept from a flow of
-  // this engine), in that order, with the index and the CellView on_cell had (state_at, extreme
-  // and range as there; lower and upper are not kept: null), until `look` returns false. May be
-  // called from inside an observer's call of a flow of this engine.
-  void revisit(const KeptStretches& kept, const std::vector<std::size_t>& order,
-               const std::function<bool(std::size_t, const CellView&)>& look) const;
+  // One look at kept stretches: `visit(order, look)` hands `look` the kept stretches `order`
+  // names (indices into kept, each kept from a flow of this engine), in that order, with the
+  // index and the CellView on_cell had (state_at, extreme and range as there; lower and upper
+  // are not kept: null), until `look` returns false.
+  using Look = std::function<bool(std::size_t, const CellView&)>;
+  using Visit = std::function<void(const std::vector<std::size_t>& order, const Look& look)>;
+  // Calls `session` with a `visit` over `kept`, which it may call as often as it likes, each
+  // order chosen after what the last found (a search of several extremes, each widest bound
+  // first): the visits share one scratch flow, built once a session. May be called from inside
+  // an observer's call of a flow of this engine; `visit` is valid only during the call.
+  void revisit(const KeptStretches& kept, const std::function<void(const Visit&)>& session) const;
 
  private:
   struct Impl;
