@@ -12,13 +12,19 @@
 //     study's run batch calls it;
 //   - files: write_run of that result into a scratch folder (summary.json, timeseries.csv,
 //     events.csv, case.toml);
-//   - odeint: the plain Boost.Odeint program at 1e-9, its setting for 1e-6.
+//   - odeint: the plain Boost.Odeint program at 1e-9, its setting for 1e-6;
+// With --train, two more columns:
+//   - train: the case as its train form (train_form_of, built outside the clock) through
+//     run_train, as `geardyn run` runs a train: what the one-degree forms' run would cost on
+//     the one path (issue 28), every sample's rows kept (the whole train's states among them);
+//   - bare: the same with only the samples' times and mesh forces kept
+//     (TrainRunOptions::keep_samples = false), as a study's sample of a train runs.
 // Sweep: the Kahraman-Singh sweep of bench/ks_sweep (401 points up and down, 240 periods settled
 // and 10 read a point at 64 samples a period, from static contact), through geardyn::sweep on
 // one thread with the same settling (settle_periods = max_settle_periods = 240), against
 // bench/ks_sweep's engine loop (build_model, Solver, advance 240 periods, read 10).
 //
-//   ./build/release/bench/user_paths [--repeat N] [--case ID]
+//   ./build/release/bench/user_paths [--repeat N] [--case ID] [--train]
 // --case times that paper case alone and skips the sweep (for a profiler).
 #include <chrono>
 #include <cmath>
@@ -33,6 +39,8 @@
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/train_case.hpp"
+#include "geardyn/train_run.hpp"
 #include "geardyn/validation.hpp"
 #include "timing.hpp"
 #include "user_odeint.hpp"
@@ -44,7 +52,9 @@ constexpr std::int64_t kSamples = 2001;
 constexpr double kEngineTolerance = 1e-3;
 constexpr double kOdeintTolerance = 1e-9;
 
-double engine_loop(const geardyn::GearPairModel& model, const geardyn::SolverData& s) {
+// Out of line, so that a profiler can count it (callgrind --toggle-collect).
+[[gnu::noinline]] double engine_loop(const geardyn::GearPairModel& model,
+                                     const geardyn::SolverData& s) {
   const geardyn::ode::OutputGrid grid{0, kWindowS / (kSamples - 1), kSamples};
   geardyn::RunReader reader(model, 0, kWindowS, 0.1, true, true);
   const geardyn::Solver solver(model, s, kWindowS);
@@ -77,7 +87,8 @@ std::vector<double> ks_engine(bool up, geardyn::ode::State& carry) {
     start.t = 0;
     const auto settled = solver.advance(start, kSettlePeriods * T);
     const double t0 = kSettlePeriods * T, t1 = t0 + kReadPeriods * T;
-    const geardyn::ode::OutputGrid grid{t0, T / kPerPeriod, kReadPeriods * kPerPeriod};
+    const geardyn::ode::OutputGrid grid{t0, T / kPerPeriod,
+                                        std::int64_t{kReadPeriods} * kPerPeriod};
     geardyn::RunReader reader(model, t0, t1, 0.1, false, true);
     const auto sum = solver.run(settled.end_state, t1, grid, reader);
     carry = sum.end_state;
@@ -102,6 +113,9 @@ geardyn::SweepResult ks_sweep() {
 int main(int argc, char** argv) {
   int repeat = 3;
   std::string_view only;
+  bool with_train = false;
+  for (int i = 1; i < argc; ++i)
+    if (std::string_view(argv[i]) == "--train") with_train = true;
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::string_view(argv[i]) == "--repeat") repeat = std::max(1, std::atoi(argv[i + 1]));
     if (std::string_view(argv[i]) == "--case") only = argv[i + 1];
@@ -112,9 +126,20 @@ int main(int argc, char** argv) {
 
   std::printf("runs: 20 ms, %lld samples, exact engine at %g; ms, best of %d\n",
               static_cast<long long>(kSamples), kEngineTolerance, repeat);
-  std::printf("%-8s %9s %9s %9s %9s %9s %12s\n", "case", "engine", "run()", "sample", "files",
+  std::printf("%-8s %9s %9s %9s %9s %9s %12s", "case", "engine", "run()", "sample", "files",
               "odeint", "run/engine");
-  double engine_sum = 0, run_sum = 0, sample_sum = 0, files_sum = 0, odeint_sum = 0;
+  if (with_train) std::printf(" %9s %9s %12s", "train", "bare", "train/run()");
+  std::printf("\n");
+  // A row: the five columns and run() / engine, then the train's two and train / run().
+  const auto row = [&](const char* id, double engine, double run, double sample, double files,
+                       double odeint, double on_train, double bare) {
+    std::printf("%-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.2f", id, 1e3 * engine, 1e3 * run,
+                1e3 * sample, 1e3 * files, 1e3 * odeint, run / engine);
+    if (with_train) std::printf(" %9.2f %9.2f %12.2f", 1e3 * on_train, 1e3 * bare, on_train / run);
+    std::printf("\n");
+  };
+  double engine_sum = 0, run_sum = 0, sample_sum = 0, files_sum = 0, odeint_sum = 0, train_sum = 0,
+         bare_sum = 0;
   for (const geardyn::StudyCase& sc : geardyn::park2010_study().cases) {
     if (!only.empty() && sc.id != only) continue;
     geardyn::Case c = sc.input;
@@ -130,23 +155,32 @@ int main(int argc, char** argv) {
     std::vector<double> times;
     for (std::int64_t k = 0; k < kSamples; ++k)
       times.push_back(kWindowS * static_cast<double>(k) / (kSamples - 1));
+    const geardyn::Case train = geardyn::train_form_of(c);
+    geardyn::TrainRunOptions bare;
+    bare.keep_samples = false;
     const bench::UserModel um = bench::user_model(model.parameters());
     const std::vector<double> best = bench::best_times_interleaved(
         repeat, [&] { engine_loop(model, c.solver); }, [&] { result = geardyn::run(c); },
         [&] { geardyn::run(c, study); }, [&] { geardyn::write_run(scratch, result); },
-        [&] { bench::user_odeint(um, kWindowS, times, kOdeintTolerance); });
+        [&] { bench::user_odeint(um, kWindowS, times, kOdeintTolerance); },
+        [&] {
+          if (with_train) geardyn::run_train(train);
+        },
+        [&] {
+          if (with_train) geardyn::run_train(train, bare);
+        });
     const double engine = best[0], run = best[1], sample = best[2], files = best[3],
-                 odeint = best[4];
-    std::printf("%-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.2f\n", sc.id.c_str(), 1e3 * engine,
-                1e3 * run, 1e3 * sample, 1e3 * files, 1e3 * odeint, run / engine);
+                 odeint = best[4], on_train = best[5], on_train_bare = best[6];
+    row(sc.id.c_str(), engine, run, sample, files, odeint, on_train, on_train_bare);
+    train_sum += on_train;
+    bare_sum += on_train_bare;
     engine_sum += engine;
     run_sum += run;
     sample_sum += sample;
     files_sum += files;
     odeint_sum += odeint;
   }
-  std::printf("%-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.2f\n", "all", 1e3 * engine_sum, 1e3 * run_sum,
-              1e3 * sample_sum, 1e3 * files_sum, 1e3 * odeint_sum, run_sum / engine_sum);
+  row("all", engine_sum, run_sum, sample_sum, files_sum, odeint_sum, train_sum, bare_sum);
   std::filesystem::remove_all(scratch);
   if (!only.empty()) return 0;
 
