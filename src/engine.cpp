@@ -416,6 +416,14 @@ void FunctionalValues::operator()(double t_s, const Vector& y, std::vector<doubl
   }
 }
 
+namespace {
+// A functional's harmonic (row and offset, cosine or sine) is its pattern scaled when each of
+// its entries is within this fraction of the scaled pattern's, and zero where the pattern is:
+// the rounding of products k_f times a geometric factor, far below any other harmonic's
+// departure from it (FunctionalBounds; what is left out is added to the bound).
+constexpr double kPatternTolerance = 1e-12;
+}  // namespace
+
 FunctionalBounds::FunctionalBounds(const LinearGuard& g) : offset_(g.offset.constant) {
   const RowVector& mid = g.row.constant;
   RowVector spread = RowVector::Zero(mid.size());
@@ -447,6 +455,46 @@ FunctionalBounds::FunctionalBounds(const LinearGuard& g) : offset_(g.offset.cons
     h.last = harmonic_entries_.size();
     if (h.last > h.first || h.offset_cos != 0 || h.offset_sin != 0) harmonics_.push_back(h);
   }
+  // The harmonics as vectors (row entries, then the offset), cosines and sines in turn; the
+  // pattern is the first not zero, each is its multiple lambda to kPatternTolerance, and the
+  // scale of frequency f is hypot(lambda_cos, lambda_sin).
+  const Eigen::Index n = mid.size();
+  std::vector<RowVector> parts;
+  for (std::size_t f = 0; f < frequencies; ++f)
+    for (const bool cosine : {true, false}) {
+      RowVector v = RowVector::Zero(n + 1);
+      if (f < g.row.cos.size()) v.head(n) = cosine ? g.row.cos[f] : g.row.sin[f];
+      if (f < g.offset.cos.size()) v(n) = cosine ? g.offset.cos[f] : g.offset.sin[f];
+      parts.push_back(std::move(v));
+    }
+  const auto pattern = std::find_if(parts.begin(), parts.end(),
+                                    [](const RowVector& v) { return (v.array() != 0).any(); });
+  if (pattern == parts.end()) return;
+  const RowVector p = *pattern;
+  Eigen::Index at = 0;
+  p.cwiseAbs().maxCoeff(&at);
+  RowVector left_out = RowVector::Zero(n + 1);
+  double scale = 0;
+  for (std::size_t f = 0; f < frequencies; ++f) {
+    double lambda[2] = {0, 0};
+    for (int k = 0; k < 2; ++k) {
+      const RowVector& v = parts[2 * f + static_cast<std::size_t>(k)];
+      lambda[k] = v(at) / p(at);
+      for (Eigen::Index i = 0; i <= n; ++i) {
+        const double d = std::abs(v(i) - lambda[k] * p(i));
+        if ((p(i) == 0 && v(i) != 0) || !(d <= kPatternTolerance * std::abs(lambda[k] * p(i))))
+          return;  // no common pattern: each harmonic is bounded on its own
+        left_out(i) += d;
+      }
+    }
+    scale += std::hypot(lambda[0], lambda[1]);
+  }
+  one_pattern_ = true;
+  pattern_scale_ = scale;
+  pattern_offset_ = p(n);
+  pattern_offset_left_out_ = left_out(n);
+  for (Eigen::Index j = 0; j < n; ++j)
+    if (p(j) != 0) pattern_.emplace_back(j, p(j), left_out(j));
 }
 
 void FunctionalBounds::bounds(const Vector& lo, const Vector& hi, double& low, double& high) const {
@@ -478,18 +526,29 @@ void FunctionalBounds::bounds(const Vector& lo, const Vector& hi, double& low, d
   double constant_low = fixed_low + offset_, constant_high = fixed_high + offset_;
   for (const auto& [j, c] : varying_constant_) add(c, j, constant_low, constant_high);
   double amplitude = 0;
-  for (const Harmonic& h : harmonics_) {
-    double cl = h.offset_cos, ch = h.offset_cos, sl = h.offset_sin, sh = h.offset_sin;
-    for (std::size_t e = h.first; e < h.last; ++e) {
-      const auto& [j, c, s] = harmonic_entries_[e];
-      add(c, j, cl, ch);
-      add(s, j, sl, sh);
+  if (one_pattern_) {
+    // Every harmonic is the pattern scaled: one interval of p y + p0 serves them all.
+    double pl = pattern_offset_, ph = pattern_offset_, left_out = pattern_offset_left_out_;
+    for (const auto& [j, c, d] : pattern_) {
+      add(c, j, pl, ph);
+      left_out += d * std::max(std::abs(lo[j]), std::abs(hi[j]));
     }
-    // hypot's value without its cost (a bound taken every cell): the larger times
-    // sqrt(1 + r^2), r <= 1, which neither overflows nor underflows.
-    const double a = std::max(std::abs(cl), std::abs(ch)), b = std::max(std::abs(sl), std::abs(sh));
-    const double large = std::max(a, b), small = std::min(a, b);
-    if (large > 0) amplitude += large * std::sqrt(1.0 + (small / large) * (small / large));
+    amplitude = pattern_scale_ * std::max(std::abs(pl), std::abs(ph)) + left_out;
+  } else {
+    for (const Harmonic& h : harmonics_) {
+      double cl = h.offset_cos, ch = h.offset_cos, sl = h.offset_sin, sh = h.offset_sin;
+      for (std::size_t e = h.first; e < h.last; ++e) {
+        const auto& [j, c, s] = harmonic_entries_[e];
+        add(c, j, cl, ch);
+        add(s, j, sl, sh);
+      }
+      // hypot's value without its cost (a bound taken every cell): the larger times
+      // sqrt(1 + r^2), r <= 1, which neither overflows nor underflows.
+      const double a = std::max(std::abs(cl), std::abs(ch)),
+                   b = std::max(std::abs(sl), std::abs(sh));
+      const double large = std::max(a, b), small = std::min(a, b);
+      if (large > 0) amplitude += large * std::sqrt(1.0 + (small / large) * (small / large));
+    }
   }
   low = std::max(low, constant_low - amplitude);
   high = std::min(high, constant_high + amplitude);

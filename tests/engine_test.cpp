@@ -234,25 +234,52 @@ TEST(LinearSystem, FunctionalBoundsHoldEveryPhaseAndStateOfTheBox) {
   EXPECT_NEAR(high, geardyn::ode::functional_value(s, constant, 0, at_high), 1e-15);
 }
 
-TEST(LinearSystem, AForceWhoseStiffnessRipplesBoundsByItsDeflectionNotItsBacklash) {
-  // A mesh force in contact, F = k(t) (d - b) + c d', with k(t) = k0 + k1 cos(w1 t) + k2 sin(w2 t)
-  // and d a few um past a backlash of 100 um. Row and offset vary together: bounded apart, each
-  // would range over k's ripple times d and b (tens of times F's swing); bounded harmonic by
-  // harmonic, over k's ripple times d - b.
-  const double k0 = 2.3e8, k1 = 0.3 * k0, k2 = 0.1 * k0, b = 100e-6, c = 800.0;
-  LinearSwitchedSystem s;
+// A mesh force in contact, F = k(t) (d - b) + c d' on the state (d, d'), with k(t) = k0 +
+// sum over f of k_cos[f] cos(w_f t) + k_sin[f] sin(w_f t), over two frequencies.
+constexpr double kForceK0 = 2.3e8, kForceB = 100e-6, kForceC = 800.0;
+LinearGuard rippling_force(const std::array<double, 2>& k_cos, const std::array<double, 2>& k_sin,
+                           LinearSwitchedSystem& s) {
   s.dimension = 2;
   s.frequencies_rad_s = {6283.0, 12566.0};
   LinearGuard f;
   f.row.constant = RowVector::Zero(2);
-  f.row.constant << k0, c;
+  f.row.constant << kForceK0, kForceC;
   f.row.cos = {RowVector::Zero(2), RowVector::Zero(2)};
   f.row.sin = {RowVector::Zero(2), RowVector::Zero(2)};
-  f.row.cos[0](0) = k1;
-  f.row.sin[1](0) = k2;
-  f.offset.constant = -k0 * b;
-  f.offset.cos = {-k1 * b, 0.0};
-  f.offset.sin = {0.0, -k2 * b};
+  f.offset.constant = -kForceK0 * kForceB;
+  f.offset.cos = {0.0, 0.0};
+  f.offset.sin = {0.0, 0.0};
+  for (std::size_t k = 0; k < 2; ++k) {
+    f.row.cos[k](0) = k_cos[k];
+    f.row.sin[k](0) = k_sin[k];
+    f.offset.cos[k] = -k_cos[k] * kForceB;
+    f.offset.sin[k] = -k_sin[k] * kForceB;
+  }
+  return f;
+}
+
+// Every sampled time and state of the box [lo, hi] inside [low, high], to `rounding`.
+void expect_samples_inside(const LinearSwitchedSystem& s, const LinearGuard& f, const Vector& lo,
+                           const Vector& hi, double low, double high, double rounding) {
+  for (int i = 0; i < 2000; ++i) {
+    const double t = 1.3e-5 * i;
+    Vector y(2);
+    y << lo(0) + (hi(0) - lo(0)) * std::fmod(0.618034 * i, 1.0),
+        lo(1) + (hi(1) - lo(1)) * std::fmod(0.414214 * i, 1.0);
+    const double v = geardyn::ode::functional_value(s, f, t, y);
+    EXPECT_LE(low, v + rounding);
+    EXPECT_GE(high, v - rounding);
+  }
+}
+
+TEST(LinearSystem, AForceWhoseStiffnessRipplesBoundsByItsDeflectionNotItsBacklash) {
+  // rippling_force with k(t) = k0 + k1 cos(w1 t) + k2 sin(w2 t) and d a few um past a backlash
+  // of 100 um. Row and offset vary together: bounded apart, each would range over k's ripple
+  // times d and b (tens of times F's swing); bounded harmonic by harmonic, over k's ripple
+  // times d - b.
+  const double k0 = kForceK0, k1 = 0.3 * k0, k2 = 0.1 * k0, b = kForceB, c = kForceC;
+  LinearSwitchedSystem s;
+  const LinearGuard f = rippling_force({k1, 0.0}, {0.0, k2}, s);
   Vector lo(2), hi(2);
   lo << b + 2e-6, -0.01;
   hi << b + 5e-6, 0.02;
@@ -271,16 +298,37 @@ TEST(LinearSystem, AForceWhoseStiffnessRipplesBoundsByItsDeflectionNotItsBacklas
   const double span = true_high - true_low;
   EXPECT_LT(true_low - low, 0.4 * span);
   EXPECT_LT(high - true_high, 0.4 * span);
-  // Every sampled time and state inside.
-  for (int i = 0; i < 2000; ++i) {
-    const double t = 1.3e-5 * i;
-    Vector y(2);
-    y << lo(0) + (hi(0) - lo(0)) * std::fmod(0.618034 * i, 1.0),
-        lo(1) + (hi(1) - lo(1)) * std::fmod(0.414214 * i, 1.0);
-    const double v = geardyn::ode::functional_value(s, f, t, y);
-    EXPECT_LE(low, v + rounding);
-    EXPECT_GE(high, v - rounding);
-  }
+  expect_samples_inside(s, f, lo, hi, low, high, rounding);
+}
+
+TEST(LinearSystem, AForceWhoseHarmonicsShareOnePatternBoundsAsHarmonicByHarmonic) {
+  // rippling_force with k(t) = k0 + k1 cos(w1 t - phi) + k2 sin(w2 t): every harmonic of row and
+  // offset is (1, -b) scaled, so FunctionalBounds takes their amplitude at once,
+  // (hypot(k1 cos phi, k1 sin phi) + k2) max|d - b|. The same functional with one harmonic's
+  // offset moved by 1e-9 of itself (no longer the pattern) is bounded harmonic by harmonic: the
+  // two bounds agree to within what that moves, and both equal the closed form. A mutant that
+  // sums |c_f| + |s_f| for hypot(c_f, s_f), or drops a frequency's scale, fails.
+  const double k0 = kForceK0, k1 = 0.3 * k0, k2 = 0.1 * k0, b = kForceB, c = kForceC, phi = 0.7;
+  LinearSwitchedSystem s;
+  const LinearGuard f = rippling_force({k1 * std::cos(phi), 0.0}, {k1 * std::sin(phi), k2}, s);
+  Vector lo(2), hi(2);
+  lo << b + 2e-6, -0.01;
+  hi << b + 5e-6, 0.02;
+  double low = 0, high = 0;
+  geardyn::ode::FunctionalBounds(f).bounds(lo, hi, low, high);
+  LinearGuard apart = f;
+  apart.offset.cos[0] *= 1 + 1e-9;
+  double apart_low = 0, apart_high = 0;
+  geardyn::ode::FunctionalBounds(apart).bounds(lo, hi, apart_low, apart_high);
+  const double span = (k0 + k1 + k2) * 5e-6 + c * 0.02 - ((k0 - k1 - k2) * 2e-6 - c * 0.01);
+  EXPECT_NEAR(low, apart_low, 1e-8 * span);
+  EXPECT_NEAR(high, apart_high, 1e-8 * span);
+  // The closed form: the constant part over the box, then the ripple's amplitude (k1 + k2)
+  // times the box's largest d - b (5 um); tighter here than entry by entry.
+  const double rounding = 1e-12 * k0 * b;
+  EXPECT_NEAR(low, k0 * 2e-6 - c * 0.01 - (k1 + k2) * 5e-6, rounding);
+  EXPECT_NEAR(high, k0 * 5e-6 + c * 0.02 + (k1 + k2) * 5e-6, rounding);
+  expect_samples_inside(s, f, lo, hi, low, high, rounding);
 }
 
 TEST(ExactEngine, FreeFlightMatchesItsClosedForm) {

@@ -245,7 +245,11 @@ class RegionGuards : public FunctionalValues {
 // of its coefficients' largest values over the box, row and offset together (a force
 // k(t) (d - b) near contact then bounds by k's ripple times d - b, not by k's ripple times d
 // and b apart). Attained where the functional is constant. Built once per functional, cheap to
-// apply (zero entries skipped).
+// apply (zero entries skipped). When every harmonic of the row and the offset is one pattern
+// (p, p0) scaled, to rounding (a mesh force k(t) (d - b) without a transmission error), the
+// second bound's amplitude is taken at once: sum over f of hypot(c_f, s_f), times the largest
+// |p y + p0| over the box, plus what the pattern leaves out of each harmonic (at rounding) over
+// the box: the same bound, one interval for all the harmonics.
 class FunctionalBounds {
  public:
   explicit FunctionalBounds(const LinearGuard& g);
@@ -263,6 +267,12 @@ class FunctionalBounds {
   std::vector<Harmonic> harmonics_;
   std::vector<std::pair<Eigen::Index, double>> varying_constant_;  // varying entries' constants
   std::vector<std::tuple<Eigen::Index, double, double>> harmonic_entries_;  // index, cos, sin
+  // The common pattern of the harmonics, when they have one: its entries (index, value, what
+  // the pattern leaves out of the harmonics there, summed), its offset and what it leaves out
+  // there, and sum over f of hypot(c_f, s_f).
+  bool one_pattern_ = false;
+  std::vector<std::tuple<Eigen::Index, double, double>> pattern_;
+  double pattern_offset_ = 0, pattern_offset_left_out_ = 0, pattern_scale_ = 0;
 };
 
 }  // namespace geardyn::ode
