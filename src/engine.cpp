@@ -2012,7 +2012,7 @@ class Flow final : public CellView {
       // The earliest guard crossing in [x_start, x_stop].
       double x_end = x_stop;
       int crossed = -1;
-      const LinearRegion& reg = sys_.region(cur_.region);
+      const LinearRegion& reg = *reg_;
       for (int i = 0; i < static_cast<int>(reg.guards.size()); ++i) {
         const LinearGuard& q = reg.guards[i];
         const double slack = kGuardSlack * q.scale;
@@ -2151,7 +2151,7 @@ class Flow final : public CellView {
   bool extreme(int observable, bool maximum, double beyond, double& value,
                double& t_s) const override {
     const RegionCells<D>& rc = *rc_;
-    const int id = static_cast<int>(sys_.region(cur_.region).guards.size()) + observable;
+    const int id = static_cast<int>(reg_->guards.size()) + observable;
     if (rc.functionals_cached) {
       // The cell's range first: most cells cannot hold a new extreme.
       observables_ready();
@@ -2232,6 +2232,7 @@ class Flow final : public CellView {
   void load(const KeptStretches& kept, std::size_t i) {
     const KeptStretches::Stretch& s = kept.stretches[i];
     rc_ = &regions_.get(s.region);
+    reg_ = &sys_.region(s.region);
     const RegionCells<D>& rc = *rc_;
     cur_.region = s.region;
     cur_.m = s.cell;
@@ -2324,6 +2325,7 @@ class Flow final : public CellView {
     last_t_ = t;
     last_y_ = y;
     rc_ = &regions_.get(r);
+    reg_ = &sys_.region(r);
     const RegionCells<D>& rc = *rc_;
     cur_.region = r;
     cur_.m = static_cast<std::int64_t>(std::floor(t / rc.h));
@@ -2379,7 +2381,7 @@ class Flow final : public CellView {
     dev_ = (cur_.z - rc.y_ref).cwiseAbs();
     delta_.noalias() = rc.alpha_T * dev_;
     delta_ += rc.beta_T;
-    const LinearRegion& reg = sys_.region(cur_.region);
+    const LinearRegion& reg = *reg_;
     for (int i = 0; i < static_cast<int>(reg.guards.size()); ++i) {
       const LinearGuard& q = reg.guards[i];
       double g0 = q.row.constant.dot(cur_.z) + q.offset.constant;
@@ -2431,7 +2433,7 @@ class Flow final : public CellView {
     for (std::size_t j = 0; j < nf; ++j) out_ += cur_.C[j] * rc.pc[j] + cur_.S[j] * rc.ps[j];
     dev_ = cur_.z - out_;
     delta_.noalias() = rc.alpha_T * dev_.cwiseAbs();
-    const LinearRegion& reg = sys_.region(cur_.region);
+    const LinearRegion& reg = *reg_;
     for (std::size_t i = 0; i < reg.guards.size(); ++i)
       if (!(rc.guard_floor[i] + kGuardSlack * reg.guards[i].scale -
                 rc.guard_abs_row[i].dot(delta_) >
@@ -2548,7 +2550,7 @@ class Flow final : public CellView {
   void functional_range(int id, double& low, double& high) const {
     const RegionCells<D>& rc = *rc_;
     const Cell<D>& cell = rc.cells[cur_.k];
-    const int guards = static_cast<int>(sys_.region(cur_.region).guards.size());
+    const int guards = static_cast<int>(reg_->guards.size());
     const typename Cell<D>::Functional& f =
         id < guards ? cell.fn[id] : cell.observable_fn[id - guards];
     double g0 = f.phi[0].dot(cur_.z) + f.r0[0];
@@ -2614,7 +2616,7 @@ class Flow final : public CellView {
     const Cell<D>& cell = rc.cells[cur_.k];
     const int p = cell.order;
     gc.resize(p + 1);
-    const LinearRegion& reg = sys_.region(cur_.region);
+    const LinearRegion& reg = *reg_;
     const int guards = static_cast<int>(reg.guards.size());
     if (rc.functionals_cached && id >= guards) observables_ready();
     if (rc.functionals_cached) {
@@ -2648,7 +2650,9 @@ class Flow final : public CellView {
   const LinearSwitchedSystem& sys_;
   const LazyRegions<D>& regions_;
   const RegionCells<D>* rc_ = nullptr;  // the current region's cells
-  double last_t_ = 0;                   // the last region entry, for a failure's report
+  // The current region (sys_.region(cur_.region), held: a lazy system's lookup is not free).
+  const LinearRegion* reg_ = nullptr;
+  double last_t_ = 0;  // the last region entry, for a failure's report
   Vector last_y_;
   const EngineOptions& opt_;
   double tol_;  // the truncation the cells were summed to
