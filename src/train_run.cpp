@@ -96,6 +96,8 @@ class TrainObserver : public ode::FlowObserver {
     readers_.resize(ranges_.size());
     low_.resize(sys.region(0).observables.size());
     high_.resize(low_.size());
+    seen_low_.resize(low_.size());
+    seen_high_.resize(low_.size());
   }
 
   // From t on (a time a flow ended at), each mesh's steady part is read beside the whole: its
@@ -117,6 +119,7 @@ class TrainObserver : public ode::FlowObserver {
     bound_all(span);
     if (!any_room() || kept_.size() == 0) return any_room();
     search_kept();
+    take_seen();  // the search may have found new extremes
     return any_room();
   }
 
@@ -360,12 +363,23 @@ class TrainObserver : public ode::FlowObserver {
     note(m, d + 1, true, force);
     note(m, d + 1, false, force);
   }
+  // Each observable's bounds over the cell, and its extremes seen now (take_seen).
   void bound_all(const ode::CellView& cell) {
+    const std::vector<ode::FunctionalBounds>& of_region = ranges(cell.region);
     for (std::size_t k = 0; k < low_.size(); ++k)
-      ranges(cell.region)[k].bounds(*cell.lower, *cell.upper, low_[k], high_[k]);
+      of_region[k].bounds(*cell.lower, *cell.upper, low_[k], high_[k]);
+    take_seen();
+  }
+  // Each observable's extremes seen, taken once for room and any_room: they change only when
+  // an extreme is noted (a sample, an event, search_kept), after which they are taken again.
+  void take_seen() {
+    for (std::size_t k = 0; k < low_.size(); ++k) {
+      seen_low_[k] = seen(k, false);
+      seen_high_[k] = seen(k, true);
+    }
   }
   // Whether the last bound_all's bounds of observable i reach beyond its extremes seen.
-  bool room(std::size_t i) const { return high_[i] > seen(i, true) || low_[i] < seen(i, false); }
+  bool room(std::size_t i) const { return high_[i] > seen_high_[i] || low_[i] < seen_low_[i]; }
   bool any_room() const {
     for (std::size_t i = 0; i < low_.size(); ++i)
       if (room(i)) return true;
@@ -535,6 +549,7 @@ class TrainObserver : public ode::FlowObserver {
 
   std::vector<std::optional<std::vector<ode::FunctionalBounds>>> ranges_;  // per region
   std::vector<double> low_, high_;                                         // the last bound_all's
+  std::vector<double> seen_low_, seen_high_;                               // take_seen's
   std::vector<std::unique_ptr<ode::FunctionalValues>> readers_;            // per region
   std::vector<double> values_;
   ode::RigidSplit::Motion lift_;  // lift_from's, when lifted_from_
