@@ -163,7 +163,7 @@ class TrainObserver : public ode::FlowObserver {
       trackers_[m].change(t, b[m]);
       if (!part_trackers_.empty()) part_trackers_[m].change(t, b[m]);
       if ((a[m] == 0) == (b[m] == 0)) continue;  // clipping inside contact
-      const double v = rate(m, t, y) - errors_[m].rate(t);
+      const double v = rate(m, y) - errors_[m].rate(t);
       add_event(t, m, a[m], b[m], v);
       if (a[m] != 0) continue;
       for (Tally* x : {&whole_[m], part_.empty() ? nullptr : &part_[m]})
@@ -176,7 +176,7 @@ class TrainObserver : public ode::FlowObserver {
       gaps_[j].change(t, c[j]);
       if (!part_gaps_.empty()) part_gaps_[j].change(t, c[j]);
       const std::size_t k = states_.size() + j;
-      add_event(t, k, clearance_states_[j], c[j], rate(k, t, y));
+      add_event(t, k, clearance_states_[j], c[j], rate(k, y));
     }
     clearance_states_ = c;
   }
@@ -196,13 +196,14 @@ class TrainObserver : public ode::FlowObserver {
     }
     for (std::size_t k = 0; k < whole_parts_.size(); ++k) point_part(k, values_[first_part_ + k]);
     if (!keep_samples_) return;  // a study's sample: its time and forces (for load sharing)
-    if (lifted_from_) {
+    if (keep_states_ && lifted_from_)
       lift_.lift_into(t, y, s.state.append(2 * static_cast<std::size_t>(a_.size())));
-    } else {
+    else if (keep_states_)
       s.state.push_back(y);
-    }
     double* d = s.deflection_bar.append(meshes);
     for (std::size_t m = 0; m < meshes; ++m) d[m] = values_[2 * m] / out_.meshes[m].backlash_m;
+    double* rates = s.deflection_rate_m_s.append(meshes);
+    for (std::size_t m = 0; m < meshes; ++m) rates[m] = rate(m, y) - errors_[m].rate(t);
     s.contact.push_back(region_states(region));
     double* parts = s.parts.append(whole_parts_.size());
     for (std::size_t k = 0; k < whole_parts_.size(); ++k) parts[k] = values_[first_part_ + k];
@@ -213,20 +214,23 @@ class TrainObserver : public ode::FlowObserver {
   // its samples are kept as the whole train's states.
   void lift_from(const ode::RigidSplit& split, double t0, const Eigen::Vector2d& rigid0) {
     lift_ = ode::RigidSplit::Motion(split, t0, rigid0);
+    if (!lifted_from_) reduced_rate_rows_ = rate_rows_ * split.complement();
     lifted_from_ = true;
   }
 
-  // Room in the result for `count` output samples, all their rows kept or (keep false) only
-  // their times and mesh forces.
-  void reserve(std::int64_t count, bool keep) {
+  // Room in the result for `count` output samples, all their rows kept, all but the states
+  // (keep_states false), or (keep false) only their times and mesh forces.
+  void reserve(std::int64_t count, bool keep, bool keep_states) {
     keep_samples_ = keep;
+    keep_states_ = keep_states;
     const auto rows = static_cast<std::size_t>(std::max<std::int64_t>(count, 0));
     TrainSamples& s = out_.samples;
     s.t_s.reserve(rows);
     s.force_n.reserve(rows, states_.size());
     if (!keep) return;
-    s.state.reserve(rows, 2 * static_cast<std::size_t>(a_.size()));
+    if (keep_states) s.state.reserve(rows, 2 * static_cast<std::size_t>(a_.size()));
     s.deflection_bar.reserve(rows, states_.size());
+    s.deflection_rate_m_s.reserve(rows, states_.size());
     s.contact.reserve(rows, states_.size());
     s.parts.reserve(rows, whole_parts_.size());
   }
@@ -326,16 +330,13 @@ class TrainObserver : public ode::FlowObserver {
     r.rms_deflection_m = x.deflection.rms();
     return r;
   }
-  // Nonlinearity k's rate (rate_rows_' row k times q') at an event's state y, the stepped one
-  // (lifted to the whole train's when a free rotation is split off; no mesh or clearance moves
-  // with the rotation, so its rate is the whole train's).
-  double rate(std::size_t k, double t, const ode::Vector& y) {
-    const Eigen::Index n = a_.size();
-    const auto row = rate_rows_.row(static_cast<Eigen::Index>(k));
-    if (!lifted_from_) return row.dot(y.tail(n));
-    lifted_.resize(2 * n);
-    lift_.lift_into(t, y, lifted_.data());
-    return row.dot(lifted_.tail(n));
+  // Nonlinearity k's rate (rate_rows_' row k times q') at a state y the flow stepped. When a
+  // free rotation is split off, y is the complement's (p, p'): no mesh or clearance moves with
+  // the rotation, so its rate is its row times L (reduced_rate_rows_) times p', without the lift.
+  double rate(std::size_t k, const ode::Vector& y) const {
+    const auto i = static_cast<Eigen::Index>(k);
+    if (!lifted_from_) return rate_rows_.row(i).dot(y.tail(a_.size()));
+    return reduced_rate_rows_.row(i).dot(y.tail(reduced_rate_rows_.cols()));
   }
   // Records a contact change of nonlinearity k from state `from` to `to` (1, 0, -1; 2 and -2
   // clipped) with its rate v.
@@ -512,8 +513,8 @@ class TrainObserver : public ode::FlowObserver {
   std::vector<ContactTracker> gaps_, part_gaps_;
   std::vector<Tally> whole_, part_;     // part_ empty until marked
   Eigen::MatrixXd rate_rows_;           // each mesh's V, then each clearance direction's row of B
+  Eigen::MatrixXd reduced_rate_rows_;   // rate_rows_ L, on a split rotation's complement
   std::vector<HarmonicSeries> errors_;  // each mesh's e(t)
-  ode::Vector lifted_;                  // rate()'s lifted state
   // The shafts' and bearings' observables, from first_part_ on: {max, min} of each.
   static constexpr std::array<double, 2> kNoExtremes = {-kInf, kInf};
   std::size_t first_part_;
@@ -556,6 +557,7 @@ class TrainObserver : public ode::FlowObserver {
   bool looks_at_cells_ = false;   // on_cell was called: the flow is the exact engine's
   bool lifted_from_ = false;
   bool keep_samples_ = true;  // reserve's: every row of a sample, or its time and forces alone
+  bool keep_states_ = true;   // reserve's: the whole train's state among the rows kept
 };
 
 // The shortest time scale of the train: its fastest mode in contact (top_mode_rad_s, the
@@ -977,7 +979,8 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
                                  const ode::OutputGrid& grid, double final_from_s,
                                  std::optional<double> watch_period_s,
                                  const std::function<bool(double)>& progress,
-                                 ode::Vector* end_state, bool keep_samples) const {
+                                 ode::Vector* end_state, bool keep_samples,
+                                 bool keep_states) const {
   const train::Assembled& a = *a_;
   const train::Train& t = a.train();
   TrainRunResult result;
@@ -1011,7 +1014,7 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : stepped();
   TrainObserver observer(a, sys, engine_.get(), grid, result, t0_s, t1_s, final_from_s, region,
                          progress);
-  observer.reserve(grid.count, keep_samples);
+  observer.reserve(grid.count, keep_samples, keep_states);
   FlowPieces pieces(
       t0_s, y0, region, t1_s, grid,
       [&](double from, const ode::Vector& y, int r, double to, const ode::OutputGrid& piece) {
@@ -1141,33 +1144,6 @@ void TrainSections::add(double t_s, const ode::Vector& y) {
   }
 }
 
-namespace {
-
-// Fills s.deflection_rate_m_s from the samples' states: each mesh's d' - e' = V q' - e'(t).
-void mesh_rates(const train::Assembled& a, TrainSamples& s) {
-  const auto n = static_cast<std::size_t>(a.size());
-  const std::size_t meshes = a.train().meshes.size();
-  std::vector<double> rows(meshes * n);  // each mesh's V, row by row
-  std::vector<HarmonicSeries> errors;
-  for (std::size_t m = 0; m < meshes; ++m) {
-    const Eigen::VectorXd v = a.mesh_vector(static_cast<int>(m));
-    std::copy(v.data(), v.data() + n, rows.data() + m * n);
-    errors.push_back(a.error_series(static_cast<int>(m)));
-  }
-  s.deflection_rate_m_s.reserve(s.t_s.size(), meshes);
-  for (std::size_t i = 0; i < s.t_s.size(); ++i) {
-    const double* q_rate = s.state[i].data() + n;
-    double* out = s.deflection_rate_m_s.append(meshes);
-    for (std::size_t m = 0; m < meshes; ++m) {
-      double rate = 0;
-      for (std::size_t j = 0; j < n; ++j) rate += rows[m * n + j] * q_rate[j];
-      out[m] = rate - errors[m].rate(s.t_s[i]);
-    }
-  }
-}
-
-}  // namespace
-
 bool runs_as_train(const Case& c) {
   return c.model.form == ModelForm::kTrain || c.model.form == ModelForm::kCoupled;
 }
@@ -1185,12 +1161,13 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
                        step, (t1 - t0) / step, t1 - t0, kMaxNewmarkSteps)));
   const ode::Vector y0 = solver.initial_state(c.solver.initial, t0);
   const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
-  TrainRunResult result = solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval),
-                                      final_from, solver.assembled().system_period_s().value_or(0),
-                                      options.progress, nullptr, options.keep_samples);
+  TrainRunResult result =
+      solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval), final_from,
+                  solver.assembled().system_period_s().value_or(0), options.progress, nullptr,
+                  options.keep_samples, options.keep_states);
   result.output_interval_s = interval;
+  result.time_step_s = solver.newmark_step_s();
   if (options.keep_samples) {
-    mesh_rates(solver.assembled(), result.samples);
     for (std::size_t m = 0; m < result.meshes.size(); ++m) {
       const MeshSpectra s = mesh_spectra(result, m);
       result.meshes[m].force_peaks = dominant_peaks(s.force_n, kReportedPeaks);

@@ -44,6 +44,9 @@ class RigidSplit {
   const LinearSwitchedSystem& reduced() const { return reduced_; }
   int full_dimension() const { return static_cast<int>(2 * l_.rows()); }
 
+  // L, whose columns span the complement of r (q = L p + r phi): a row blind to r reads a full
+  // state's q as its row times L reads p.
+  const Matrix& complement() const { return l_; }
   // y_r = (P q, P v) of a full state.
   Vector reduce(const Vector& y) const;
   // (phi, phi') = (rho q, rho v) of a full state.

@@ -241,10 +241,10 @@ class SampleRows {
 
 struct TrainSamples {
   std::vector<double> t_s;
-  SampleRows<double> state;           // (q, q'): rad, m and their rates
+  SampleRows<double> state;           // (q, q'): rad, m and their rates (unless keep_states false)
   SampleRows<double> deflection_bar;  // per sample, per mesh: (d - e) / b
   SampleRows<double> force_n;         // per sample, per mesh: F
-  // Per sample, per mesh: d' - e' (m/s), from the state's rates (a run's: run_train).
+  // Per sample, per mesh: d' - e' (m/s), V q' - e'(t) of the state's rates.
   SampleRows<double> deflection_rate_m_s;
   SampleRows<int> contact;  // per sample, per mesh: 1, 0, -1
   // Per sample: each shaft's torque (N m), then each bearing's force in x and y (N).
@@ -281,6 +281,7 @@ struct TrainRunResult {
   std::vector<TrainLoadSharing> load_sharing;
   TrainSamples samples;
   double output_interval_s = 0;  // the samples' spacing (s); 0 when none were asked for
+  double time_step_s = 0;        // the Newmark step taken (s); 0 for the other methods
   double wall_time_s = 0;
   bool ok() const { return termination == ode::Termination::kCompleted; }
 };
@@ -314,6 +315,10 @@ struct TrainRunOptions {
   // the output samples only the times and the mesh forces are kept (the load-sharing factors
   // read them), no states, deflections, contact, rates, parts or spectra.
   bool keep_samples = true;
+  // False for a run read per mesh (the one-degree forms' run, run.hpp): every row of the samples
+  // kept but the whole train's states (TrainSamples::state empty), which a train that turns
+  // freely would lift from its complement at every sample.
+  bool keep_states = true;
   // A pair form's mesh stiffness computed once for a study's samples (shared_stiffness; as
   // TrainSolver takes it); null: the case's own. A train's meshes carry their own.
   const MeshStiffness* stiffness = nullptr;
@@ -391,11 +396,12 @@ class TrainSolver {
   // once while the steady part is sought on the section t0 + k period (integrate_watching),
   // read beside the whole and giving the dynamic factors. The end state into *end_state when
   // given; wall_time_s is left 0. With keep_samples false only the samples' times and mesh
-  // forces are kept (TrainRunOptions::keep_samples).
+  // forces are kept, with keep_states false all but the states (TrainRunOptions').
   TrainRunResult read(double t0_s, const ode::Vector& y0, double t1_s, const ode::OutputGrid& grid,
                       double final_from_s, std::optional<double> watch_period_s,
                       const std::function<bool(double)>& progress = {},
-                      ode::Vector* end_state = nullptr, bool keep_samples = true) const;
+                      ode::Vector* end_state = nullptr, bool keep_samples = true,
+                      bool keep_states = true) const;
 
  private:
   ode::FlowResult flow(double t0_s, const ode::Vector& y0, int region, double t1_s,
