@@ -6,25 +6,22 @@
 // which every column runs once in turn (bench::best_times_interleaved):
 //   - engine: the engine's loop alone, as bench/work_precision times it: the model built
 //     outside the clock, the Solver (its cells) and a RunReader keeping the samples inside;
-//   - run(): geardyn::run on the case, as `geardyn run` calls it: the model, the whole reading,
-//     the events, the steady part (read in the same pass) and the spectra;
+//   - run(): geardyn::run on the case, as `geardyn run` calls it: the case as its train of
+//     elements (train_form_of), the whole reading per mesh, the events, the steady part (read in
+//     the same pass), read back in the pair's terms, and the spectra;
 //   - a study sample: geardyn::run with neither samples nor events kept (RunOptions), as a
 //     study's run batch calls it;
 //   - files: write_run of that result into a scratch folder (summary.json, timeseries.csv,
 //     events.csv, case.toml);
 //   - odeint: the plain Boost.Odeint program at 1e-9, its setting for 1e-6;
-// With --train, two more columns:
-//   - train: the case as its train form (train_form_of, built outside the clock) through
-//     run_train, as `geardyn run` runs a train: what the one-degree forms' run would cost on
-//     the one path (issue 28), every sample's rows kept (the whole train's states among them);
-//   - bare: the same with only the samples' times and mesh forces kept
-//     (TrainRunOptions::keep_samples = false), as a study's sample of a train runs.
+// With --one-degree, two more columns: the same run and study sample on the one-degree model's
+// own reader (run_one_degree_model, the reference run() is checked against), and run() over it.
 // Sweep: the Kahraman-Singh sweep of bench/ks_sweep (401 points up and down, 240 periods settled
 // and 10 read a point at 64 samples a period, from static contact), through geardyn::sweep on
 // one thread with the same settling (settle_periods = max_settle_periods = 240), against
 // bench/ks_sweep's engine loop (build_model, Solver, advance 240 periods, read 10).
 //
-//   ./build/release/bench/user_paths [--repeat N] [--case ID] [--train]
+//   ./build/release/bench/user_paths [--repeat N] [--case ID] [--one-degree]
 // --case times that paper case alone and skips the sweep (for a profiler).
 #include <chrono>
 #include <cmath>
@@ -39,8 +36,6 @@
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
-#include "geardyn/train_case.hpp"
-#include "geardyn/train_run.hpp"
 #include "geardyn/validation.hpp"
 #include "timing.hpp"
 #include "user_odeint.hpp"
@@ -113,9 +108,9 @@ geardyn::SweepResult ks_sweep() {
 int main(int argc, char** argv) {
   int repeat = 3;
   std::string_view only;
-  bool with_train = false;
+  bool with_one_degree = false;
   for (int i = 1; i < argc; ++i)
-    if (std::string_view(argv[i]) == "--train") with_train = true;
+    if (std::string_view(argv[i]) == "--one-degree") with_one_degree = true;
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::string_view(argv[i]) == "--repeat") repeat = std::max(1, std::atoi(argv[i + 1]));
     if (std::string_view(argv[i]) == "--case") only = argv[i + 1];
@@ -128,18 +123,20 @@ int main(int argc, char** argv) {
               static_cast<long long>(kSamples), kEngineTolerance, repeat);
   std::printf("%-8s %9s %9s %9s %9s %9s %12s", "case", "engine", "run()", "sample", "files",
               "odeint", "run/engine");
-  if (with_train) std::printf(" %9s %9s %12s", "train", "bare", "train/run()");
+  if (with_one_degree) std::printf(" %9s %9s %12s", "1-dof", "its smpl", "run()/1-dof");
   std::printf("\n");
-  // A row: the five columns and run() / engine, then the train's two and train / run().
+  // A row: the five columns and run() / engine, then the one-degree model's two and run() over it.
   const auto row = [&](const char* id, double engine, double run, double sample, double files,
-                       double odeint, double on_train, double bare) {
+                       double odeint, double one_degree, double one_degree_sample) {
     std::printf("%-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.2f", id, 1e3 * engine, 1e3 * run,
                 1e3 * sample, 1e3 * files, 1e3 * odeint, run / engine);
-    if (with_train) std::printf(" %9.2f %9.2f %12.2f", 1e3 * on_train, 1e3 * bare, on_train / run);
+    if (with_one_degree)
+      std::printf(" %9.2f %9.2f %12.2f", 1e3 * one_degree, 1e3 * one_degree_sample,
+                  run / one_degree);
     std::printf("\n");
   };
-  double engine_sum = 0, run_sum = 0, sample_sum = 0, files_sum = 0, odeint_sum = 0, train_sum = 0,
-         bare_sum = 0;
+  double engine_sum = 0, run_sum = 0, sample_sum = 0, files_sum = 0, odeint_sum = 0,
+         one_degree_sum = 0, one_degree_sample_sum = 0;
   for (const geardyn::StudyCase& sc : geardyn::park2010_study().cases) {
     if (!only.empty() && sc.id != only) continue;
     geardyn::Case c = sc.input;
@@ -155,32 +152,30 @@ int main(int argc, char** argv) {
     std::vector<double> times;
     for (std::int64_t k = 0; k < kSamples; ++k)
       times.push_back(kWindowS * static_cast<double>(k) / (kSamples - 1));
-    const geardyn::Case train = geardyn::train_form_of(c);
-    geardyn::TrainRunOptions bare;
-    bare.keep_samples = false;
     const bench::UserModel um = bench::user_model(model.parameters());
     const std::vector<double> best = bench::best_times_interleaved(
         repeat, [&] { engine_loop(model, c.solver); }, [&] { result = geardyn::run(c); },
         [&] { geardyn::run(c, study); }, [&] { geardyn::write_run(scratch, result); },
         [&] { bench::user_odeint(um, kWindowS, times, kOdeintTolerance); },
         [&] {
-          if (with_train) geardyn::run_train(train);
+          if (with_one_degree) geardyn::run_one_degree_model(c);
         },
         [&] {
-          if (with_train) geardyn::run_train(train, bare);
+          if (with_one_degree) geardyn::run_one_degree_model(c, study);
         });
     const double engine = best[0], run = best[1], sample = best[2], files = best[3],
-                 odeint = best[4], on_train = best[5], on_train_bare = best[6];
-    row(sc.id.c_str(), engine, run, sample, files, odeint, on_train, on_train_bare);
-    train_sum += on_train;
-    bare_sum += on_train_bare;
+                 odeint = best[4], one_degree = best[5], one_degree_sample = best[6];
+    row(sc.id.c_str(), engine, run, sample, files, odeint, one_degree, one_degree_sample);
+    one_degree_sum += one_degree;
+    one_degree_sample_sum += one_degree_sample;
     engine_sum += engine;
     run_sum += run;
     sample_sum += sample;
     files_sum += files;
     odeint_sum += odeint;
   }
-  row("all", engine_sum, run_sum, sample_sum, files_sum, odeint_sum, train_sum, bare_sum);
+  row("all", engine_sum, run_sum, sample_sum, files_sum, odeint_sum, one_degree_sum,
+      one_degree_sample_sum);
   std::filesystem::remove_all(scratch);
   if (!only.empty()) return 0;
 

@@ -11,6 +11,7 @@
 
 #include "geardyn/case_keys.hpp"
 #include "geardyn/stiffness.hpp"
+#include "geardyn/train_run.hpp"
 #include "geardyn/transmission_error.hpp"
 
 namespace geardyn {
@@ -420,14 +421,13 @@ double checked_output_interval_s(const Case& c, double fastest_period_s, const c
   return interval;
 }
 
-RunResult run(const Case& c, const RunOptions& options) {
-  const auto wall_start = std::chrono::steady_clock::now();
-  RunResult result;
-  result.input = c;
-  const GearPairModel model = build_model(c, &result.geometry, options.stiffness);
+namespace {
+
+// What both runs of a case fill before they integrate: the one-degree model's derived
+// quantities and output interval, the work bounds checked.
+void derive(const Case& c, const GearPairModel& model, RunResult& result) {
   const GearPairParameters& p = model.parameters();
   const Geometry& g = result.geometry;
-
   Derived& d = result.derived;
   d.m_eq_kg = p.equivalent_mass_kg;
   d.natural_frequency_hz = p.natural_angular_frequency_rad_s() / kTwoPi;
@@ -447,18 +447,112 @@ RunResult run(const Case& c, const RunOptions& options) {
   for (const Harmonic& h : p.transmission_error_m.terms)
     d.transmission_error_um.push_back(
         {h.amplitude / te_unit_m, h.phase_rad * 180.0 / std::numbers::pi});
-
-  const double t0 = 0.0, t1 = c.solver.duration_s;
+  const double t1 = c.solver.duration_s;
   d.output_interval_s = c.solver.output_interval_s > 0
                             ? c.solver.output_interval_s
-                            : std::max((t1 - t0) / kMaxAutomaticSamples,
-                                       std::min((t1 - t0) / kAutomaticSamples,
+                            : std::max(t1 / kMaxAutomaticSamples,
+                                       std::min(t1 / kAutomaticSamples,
                                                 d.fastest_period_s / kSamplesPerFastestPeriod));
-  check_work(c, p, d, t1 - t0);
+  check_work(c, p, d, t1);
+}
+
+// The pair's reading of its mesh from the train's: F over b k_m, d - e over b.
+RunReading pair_reading(const TrainMeshPart& x, double backlash_m, double force_scale_n,
+                        const std::optional<double>& dynamic_factor) {
+  RunReading r;
+  static_cast<ContactCounts&>(r) = x;
+  r.max_impact_velocity_m_s = x.max_impact_velocity_m_s;
+  r.max_force_bar = x.max_force_n / force_scale_n;
+  r.min_force_bar = x.min_force_n / force_scale_n;
+  r.mean_force_bar = x.mean_force_n / force_scale_n;
+  r.rms_force_bar = x.rms_force_n / force_scale_n;
+  r.max_delta_bar = x.max_deflection_m / backlash_m;
+  r.min_delta_bar = x.min_deflection_m / backlash_m;
+  r.mean_delta_bar = x.mean_deflection_m / backlash_m;
+  r.rms_delta_bar = x.rms_deflection_m / backlash_m;
+  r.dynamic_factor = dynamic_factor;
+  return r;
+}
+
+}  // namespace
+
+RunResult run(const Case& c, const RunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  RunResult result;
+  result.input = c;
+  // The mesh stiffness computed once, for the model's derived quantities and for its train.
+  std::optional<MeshStiffness> own;
+  const MeshStiffness* stiffness = options.stiffness;
+  if (!stiffness && c.model.form == ModelForm::kGearPair)
+    stiffness = &own.emplace(case_stiffness(c));
+  const GearPairModel model = build_model(c, &result.geometry, stiffness);
+  derive(c, model, result);
+  const double t1 = c.solver.duration_s;
+
+  // The pair's own output interval (its automatic one is the one-degree model's).
+  Case as_train = c;
+  as_train.solver.output_interval_s = result.derived.output_interval_s;
+  TrainRunOptions o;
+  o.progress = options.progress;
+  o.keep_samples = options.keep_samples;
+  o.keep_states = false;  // read per mesh: no body's angle is written
+  o.stiffness = stiffness;
+  const TrainRunResult x = run_train(as_train, o);
+
+  ode::IntegrationSummary& sum = result.integration;
+  sum.termination = x.termination;
+  sum.message = x.message;
+  sum.steps = x.cells;
+  sum.transitions = x.events;
+  sum.unsplit_steps = x.unsplit_steps;
+  sum.end_time_s = x.ok() || x.samples.t_s.empty() ? t1 : x.samples.t_s.back();
+  result.derived.time_step_s = x.time_step_s;
+
+  const TrainMeshReading& m = x.meshes.at(0);
+  const double b = m.backlash_m, force_scale = m.backlash_m * m.mean_stiffness_n_per_m;
+  result.reading = pair_reading(m, b, force_scale, m.dynamic_factor_with_startup);
+  if (sum.ok()) refuse_non_finite(result.reading, sum);
+  if (options.keep_events)
+    for (const TrainContactEvent& e : x.contact_events)
+      if (e.part == 0) result.events.push_back({e.t_s, e.kind, e.velocity_m_s});
+  if (options.keep_samples) {
+    const TrainSamples& s = x.samples;
+    Timeseries& ts = result.samples;
+    const std::size_t n = s.t_s.size();
+    ts.t_s = s.t_s;
+    ts.delta_bar.resize(n);
+    ts.velocity_m_s.resize(n);
+    ts.force_bar.resize(n);
+    ts.contact.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      ts.delta_bar[i] = s.deflection_bar[i][0];
+      ts.velocity_m_s[i] = s.deflection_rate_m_s[i][0];
+      ts.force_bar[i] = s.force_n[i][0] / force_scale;
+      ts.contact[i] = s.contact[i][0];
+    }
+  }
+  if (sum.ok()) {
+    static_cast<SteadyStart&>(result.steady) = x.steady;
+    result.steady.reading = pair_reading(m.steady, b, force_scale, m.dynamic_factor);
+  }
+  result.steady_start_s = sum.ok() ? result.steady.from_s : t1 - kSteadyFraction * t1;
+  if (options.keep_samples) compute_spectra(result);
+  result.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return result;
+}
+
+RunResult run_one_degree_model(const Case& c, const RunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  RunResult result;
+  result.input = c;
+  const GearPairModel model = build_model(c, &result.geometry, options.stiffness);
+  derive(c, model, result);
+  Derived& d = result.derived;
+  const double t0 = 0.0, t1 = c.solver.duration_s;
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, d.output_interval_s);
 
   const ode::State initial = initial_state(c, model, t0);
-
   RunReader reader(model, t0, t1, c.solver.final_fraction, options.keep_events,
                    options.keep_samples, options.progress);
   OnePass pass = integrate_once(c, model, initial, t1, grid, reader);

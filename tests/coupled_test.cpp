@@ -314,7 +314,7 @@ TEST(CoupledRun, RigidBearingsReproduceTheOneDegreeModel) {
   Case one;
   one.solver.duration_s = 0.02;
   one.solver.output_interval_s = 1e-5;
-  const RunResult r1 = run(one);
+  const RunResult r1 = run_one_degree_model(one);
   ASSERT_TRUE(r1.integration.ok());
   for (int dof : {3, 12}) {
     const double loose = rigid_limit_difference(one, r1, dof, 1e5);
@@ -333,7 +333,7 @@ TEST(CoupledRun, ItsSteadyPartIsTheOneDegreeRunsOnRigidBearings) {
   Case one;
   one.speed.shaft_frequency_hz = 10000;  // a rattling start-up that dies out into contact
   one.solver.duration_s = 0.08;
-  const RunResult r1 = run(one);
+  const RunResult r1 = run_one_degree_model(one);
   ASSERT_TRUE(r1.integration.ok());
   ASSERT_EQ(r1.steady.basis, SteadyBasis::kSettled);
   Case c = one;

@@ -161,7 +161,7 @@ TEST(NewmarkFlow, StepsThePairAsItsTrainAsTheOneDegreeModelsNewmark) {
   set_case_value(c, {"solver.duration_s", "0.01"});   // 10 torque periods of 1 ms
   set_case_value(c, {"solver.time_step_s", "1e-7"});  // 89 steps of the 112 kHz harmonic
   set_case_value(c, {"solver.output_interval_s", "1e-5"});
-  const RunResult pair = run(c);
+  const RunResult pair = run_one_degree_model(c);
   const TrainRunResult as_train = run_train(c);
   ASSERT_TRUE(pair.integration.ok()) << pair.integration.message;
   ASSERT_TRUE(as_train.ok()) << as_train.message;

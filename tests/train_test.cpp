@@ -145,7 +145,7 @@ TEST(Train, AOneMeshTrainIsTheOneDegreeModel) {
   const GearPairModel model = build_model(c, &g);
   const GearPairParameters& p = model.parameters();
   const Assembled a(pair_train(c, g, p));
-  const RunResult one = run(c);
+  const RunResult one = run_one_degree_model(c);
   ASSERT_TRUE(one.integration.ok()) << one.integration.message;
   ASSERT_GT(one.reading.impacts, 3);
   const Samples s = flow(a, ode::Vector::Zero(4), c.solver.duration_s, c.solver.output_interval_s);

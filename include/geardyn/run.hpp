@@ -175,8 +175,19 @@ double checked_output_interval_s(const Case& c, double fastest_period_s, const c
 // r.derived.output_interval_s (run calls it; so does a result read back from storage).
 void compute_spectra(RunResult& r);
 
-// Runs a case. Throws InputError on bad input; a numerical failure is reported in
-// result.integration (termination and message), never thrown.
+// Runs a case of the one-degree forms ("gear_pair", "nondimensional") as its train of
+// elements (train_form_of: the one path of every form, train_run.hpp), read back in the pair's
+// terms: its mesh's d - e over b as delta_bar, its rate as the velocity, F over b k_m as F_bar,
+// the mesh's contact changes as the events, its readings over the window and its steady part,
+// with the one-degree model's derived quantities and output interval beside them. Throws
+// InputError on bad input; a numerical failure is reported in result.integration (termination
+// and message), never thrown. result.integration's steps are the train's cells (exact) or steps,
+// its end state is not filled.
 RunResult run(const Case& c, const RunOptions& options = {});
+
+// The same run integrated on the one-degree model itself (model.hpp: its own reader, cells and
+// closed-form extremes), kept as the independent reference that run()'s train is checked
+// against (tests, docs/performance.md); its integration summary carries the end state.
+RunResult run_one_degree_model(const Case& c, const RunOptions& options = {});
 
 }  // namespace geardyn
