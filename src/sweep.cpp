@@ -96,10 +96,9 @@ std::optional<ode::Matrix> rigid_free(const train::Assembled& a) {
   return p;
 }
 
-// The state a point hands to the next one of its sequence: the one-degree model's, or the
-// coordinates and rates of a train (a coupled pair's as its train).
+// The state a point hands to the next one of its sequence: the coordinates and rates of its
+// train (a pair's form's as its train).
 struct Carry {
-  std::optional<ode::State> state;
   std::optional<ode::Vector> coordinates;
 };
 
@@ -144,6 +143,8 @@ class PointRunner {
       for (const TrainPartQuantity& q : part_quantities(named)) parts_.push_back({q.part, q.what});
       return;
     }
+    // A one-degree form's points run on its train too, read as its one mesh; its stiffness is
+    // computed once where the swept keys leave it alone.
     std::vector<std::string> keys{o.axis.key};
     if (o.axis2) keys.push_back(o.axis2->key);
     stiffness_ = shared_stiffness(base, keys);
@@ -157,11 +158,10 @@ class PointRunner {
     static const std::string none;
     return meshes_.empty() ? none : meshes_[mesh_];
   }
-  // Why a train's points at these values are not judged steady ("" when they are).
+  // Why the points at these values are not judged steady ("" when they are).
   std::string period_note_at(double value, double value2) const {
     std::string note;
-    const Case c = case_at(value, value2);
-    if (runs_as_train(c)) train_section_period_s(TrainSolver(c), &note);
+    train_section_period_s(TrainSolver(case_at(value, value2), stiffness()), &note);
     return note;
   }
 
@@ -172,16 +172,9 @@ class PointRunner {
     return c;
   }
 
-  // The period the point's blocks and strobe are taken at: the system period T0 (the common
-  // period of every excitation), or, when nothing varies in time, the linearised contact period
-  // (any period shows rest).
-  static double period_s(const GearPairModel& model) {
-    return section_period_s(model.parameters());
-  }
+  // The period the point's blocks and strobe are taken at (train_section_period_s).
   double period_at(double value, double value2) const {
-    const Case c = case_at(value, value2);
-    if (runs_as_train(c)) return train_section_period_s(TrainSolver(c), nullptr);
-    return period_s(build_model(c, nullptr, stiffness()));
+    return train_section_period_s(TrainSolver(case_at(value, value2), stiffness()), nullptr);
   }
 
   // The work one point may do, against the run's bound on the periods of the fastest time
@@ -193,20 +186,11 @@ class PointRunner {
     set(c, o_.axis.key, value, where);
     if (o_.axis2) set(c, o_.axis2->key, value2, where2);
     const std::string both = where2.empty() ? where : where + " with " + where2;
-    double period = 0, fastest = 0, step = 0;
-    if (runs_as_train(c)) {
-      const TrainSolver solver(c);
-      period = train_section_period_s(solver, nullptr);
-      fastest = solver.fastest_period_s();
-      step = solver.newmark_step_s();
-      if (o_.start_static)  // every sequence starts from the static state
-        (void)solver.initial_state(InitialCondition::kStatic);
-    } else {
-      const GearPairModel model = build_model(c, nullptr, stiffness());
-      period = period_s(model);
-      fastest = fastest_period_s(model.parameters());
-      if (c.solver.method == Method::kNewmark) step = Solver(model, c.solver, period).time_step_s();
-    }
+    const TrainSolver solver(c, stiffness());
+    const double period = train_section_period_s(solver, nullptr);
+    const double fastest = solver.fastest_period_s(), step = solver.newmark_step_s();
+    if (o_.start_static)  // every sequence starts from the static state
+      (void)solver.initial_state(InitialCondition::kStatic);
     const int most = o_.max_settle_periods + o_.measure_periods;
     const double window_s = static_cast<double>(most) * period;
     const double periods = window_s / fastest;
@@ -230,63 +214,9 @@ class PointRunner {
   }
 
   // Runs one point from `carry` (the previous point's end state) or from the case's initial
-  // condition, and leaves its end state in `carry`.
+  // condition, and leaves its end state in `carry`: every form as its train (run_train_point).
   SweepPoint run(const PointJob& job, Carry& carry) const {
-    const Case c = case_at(job.value, job.value2);
-    if (runs_as_train(c)) return run_train_point(c, job, carry);
-    const GearPairModel model = build_model(c, nullptr, stiffness());
-    const double period = period_s(model);
-    // With Newmark, a whole number of steps per period: block ends fall on period ends.
-    const Solver solver(model, c.solver, period);
-
-    ode::State s = start_state(c, model);
-    if (carry.state) {
-      // A block ends after whole periods, where every excitation is back at phase 0.
-      s = *carry.state;
-      s.t = 0;
-    }
-    auto fail = [&](const ode::IntegrationSummary& sum) {
-      return failed(job, carry, ode::to_string(sum.termination), sum.message);
-    };
-    // Settle period by period on the section, until the predicted distance to a periodic
-    // response is below the tolerance or the periods run out.
-    const GearPairParameters& p = model.parameters();
-    const double b = p.backlash_m;
-    SectionSeries section(b, p.natural_angular_frequency_rad_s(), c.solver.tolerance);
-    section.add(s);
-    SteadyVerdict verdict;
-    std::optional<ode::IntegrationSummary> failure;
-    // Section times k T0 from the point's start, not sums of periods (whose rounding would
-    // keep the engine from ending a flow with a whole-period jump).
-    int sections = 0;
-    const auto to_section = [&](int periods) {
-      sections += periods;
-      const auto sum = solver.advance(s, sections * period);
-      if (!sum.ok()) {
-        failure = sum;
-        return false;
-      }
-      s = sum.end_state;
-      section.add(s);
-      return true;
-    };
-    const int k = settle([&] { return section.judge(o_.steady_tolerance); }, verdict,
-                         [&] { return to_section(1); }, to_section);
-    if (failure) return fail(*failure);
-    const int q_settled = verdict.period_multiple;
-    const double error = verdict.error;
-    const Measurement w = measurement(verdict, s.t, period);
-    RunReader reader(model, s.t, w.t1_s, 1.0 / w.periods, /*keep_events=*/false,
-                     /*keep_samples=*/true);
-    const auto sum = solver.run(s, w.t1_s, w.grid, reader);
-    if (!sum.ok()) return fail(sum);
-    SweepPoint pt = read_block(reader, job, w.periods, w.samples_per_period);
-    pt.settle_periods = k;
-    pt.settled = q_settled > 0;
-    pt.period_multiple = q_settled;
-    pt.steady_error = error;
-    carry.state = sum.end_state;
-    return pt;
+    return run_train_point(case_at(job.value, job.value2), job, carry);
   }
 
  private:
@@ -378,7 +308,7 @@ class PointRunner {
     return pt;
   }
 
-  // A point of a gear train (or a coupled pair as its train): settled on the section by every
+  // A point of a gear train (or of a pair's form as its train): settled on the section by every
   // mesh's d - e, every shaft's twist and every centre with their rates (TrainSections), or,
   // where the last period stayed in one contact region, by the exact distance of the whole state
   // (modulo the rigid rotation) to that region's periodic response (region_response); measured
@@ -387,7 +317,7 @@ class PointRunner {
   // point's own statistics, as the one-degree point's (F / (b k_m) with the mesh's mean
   // stiffness).
   SweepPoint run_train_point(const Case& c, const PointJob& job, Carry& carry) const {
-    const TrainSolver solver(c);
+    const TrainSolver solver(c, stiffness());
     const train::Assembled& a = solver.assembled();
     std::string quasi;
     const double period = train_section_period_s(solver, &quasi);
@@ -454,7 +384,8 @@ class PointRunner {
     const int m = w.periods, spp = w.samples_per_period;
     ode::Vector end;
     const TrainRunResult r =
-        solver.read(t, y, w.t1_s, w.grid, w.t1_s - period, std::nullopt, {}, &end);
+        solver.read(t, y, w.t1_s, w.grid, w.t1_s - period, std::nullopt, {}, &end,
+                    /*keep_samples=*/true, /*keep_states=*/false);
     if (!r.ok()) return failed_train(ode::to_string(r.termination), r.message);
     SweepPoint pt = point_of(job);
     const TrainSamples& smp = r.samples;
@@ -516,8 +447,7 @@ class PointRunner {
       sf2 += f * f;
       if (i % static_cast<std::size_t>(spp) == 0) {
         pt.strobe_delta_bar.push_back(smp.deflection_bar[i][mesh_]);
-        pt.strobe_velocity_m_s.push_back(
-            section.mesh(static_cast<int>(mesh_), smp.t_s[i], smp.state[i]).v);
+        pt.strobe_velocity_m_s.push_back(smp.deflection_rate_m_s[i][mesh_]);
         pt.strobe_force_bar.push_back(f);
       }
     }
@@ -542,6 +472,8 @@ class PointRunner {
     if (pt.settled && contact_only) pt.period_multiple = 1;
     pt.steady_error = verdict.error;
     carry.coordinates = end;
+    // A one-degree form's point is its mesh's statistics alone, as its sweep.csv names no mesh.
+    if (meshes_.empty()) pt.meshes.clear();
     return pt;
   }
 
@@ -552,38 +484,6 @@ class PointRunner {
   }
 
   // The state a sequence starts from (and restarts from after a failed point).
-  ode::State start_state(const Case& c, const GearPairModel& model) const {
-    if (!o_.start_static) return initial_state(c, model);
-    Case statically = c;
-    statically.solver.initial = InitialCondition::kStatic;
-    return initial_state(statically, model);
-  }
-
-  static SweepPoint read_block(RunReader& reader, const PointJob& job, int m, int spp) {
-    const RunReading x = reader.reading();
-    SweepPoint pt = point_of(job);
-    pt.mean_delta_bar = x.mean_delta_bar;
-    pt.rms_delta_bar = x.rms_delta_bar;
-    pt.pp_delta_bar = x.max_delta_bar - x.min_delta_bar;
-    pt.min_delta_bar = x.min_delta_bar;
-    pt.mean_force_bar = x.mean_force_bar;
-    pt.rms_force_bar = x.rms_force_bar;
-    pt.pp_force_bar = x.max_force_bar - x.min_force_bar;
-    pt.max_force_bar = x.max_force_bar;
-    pt.dynamic_factor = x.dynamic_factor;
-    pt.separated_fraction = x.separated_fraction;
-    pt.impacts_per_period = static_cast<double>(x.impacts) / m;
-    pt.regime = x.regime;
-    pt.double_sided = x.double_sided;
-    const Timeseries& ts = reader.samples();
-    for (std::size_t k = 0; k < ts.size(); k += static_cast<std::size_t>(spp)) {
-      pt.strobe_delta_bar.push_back(ts.delta_bar[k]);
-      pt.strobe_velocity_m_s.push_back(ts.velocity_m_s[k]);
-      pt.strobe_force_bar.push_back(ts.force_bar[k]);
-    }
-    return pt;
-  }
-
   const Case& base_;
   const SweepOptions& o_;
   // The shared stiffness, or null (each point computes its own).
