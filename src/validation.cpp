@@ -108,11 +108,17 @@ class Rows {
   std::string check_;
 };
 
-RunResult checked_run(const Case& c) {
-  RunResult r = run(c);
+RunResult checked(RunResult r) {
   if (!r.integration.ok()) throw std::runtime_error(r.integration.message);
   return r;
 }
+
+// A run on the user's path (run: a pair's form as its train).
+RunResult checked_run(const Case& c) { return checked(run(c)); }
+
+// A run on the one-degree model's own reader (run_one_degree_model): the independent reference
+// of the checks that set a train or the coupled model against the one-degree model.
+RunResult checked_one_degree_run(const Case& c) { return checked(run_one_degree_model(c)); }
 
 // The mean normal mesh force and its fluctuation's amplitude of the one-degree model, from the
 // gear data alone (MODEL.md eq. 8): F = T1 cos(beta_b) / R_b1.
@@ -565,7 +571,7 @@ void coupled_rigid(Rows& rows, bool) {
   Case one;
   one.solver.duration_s = 0.02;
   one.solver.output_interval_s = 1e-5;
-  const RunResult r1 = checked_run(one);
+  const RunResult r1 = checked_one_degree_run(one);
   for (const int dof : {3, 12}) {
     Case c = one;
     c.model.form = ModelForm::kCoupled;
@@ -716,7 +722,7 @@ output_interval_s = 2e-5
 
 void train_pair(Rows& rows, bool) {
   const Case pair = park2010_pair_case();
-  const RunResult one = checked_run(pair);
+  const RunResult one = checked_one_degree_run(pair);
   const TrainRunResult train = run_train(park2010_pair_as_train());
   if (!train.ok()) throw std::runtime_error(train.message);
   if (train.samples.t_s.size() != one.samples.size())
@@ -766,7 +772,7 @@ void pair_forms(Rows& rows, bool quick) {
   pair.mesh.transmission_error_um = {{0.5, 30.0}, {0.2, -60.0}};
   pair.mesh.tension = TensionRule::kClip;
   pair.mesh.damping_ratio = 0.15;
-  const RunResult one = checked_run(pair);
+  const RunResult one = checked_one_degree_run(pair);
   const TrainRunResult train = run_train(train_form_of(pair));
   if (!train.ok()) throw std::runtime_error(train.message);
   const std::string source = "the one-degree model of the same pair";
@@ -797,7 +803,7 @@ void pair_forms(Rows& rows, bool quick) {
   nd.model.stiffness_harmonics = {{0.2, 10.0}, {0.05, 0.0}};
   nd.model.transmission_error = {{0.1, 45.0}};
   nd.solver.duration_s = 60;
-  const RunResult oscillator = checked_run(nd);
+  const RunResult oscillator = checked_one_degree_run(nd);
   const TrainRunResult as_train = run_train(train_form_of(nd));
   if (!as_train.ok()) throw std::runtime_error(as_train.message);
   const std::string of = "the non-dimensional model";
