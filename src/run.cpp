@@ -497,7 +497,7 @@ RunResult run(const Case& c, const RunOptions& options) {
   o.keep_samples = options.keep_samples;
   o.keep_states = false;  // read per mesh: no body's angle is written
   o.stiffness = stiffness;
-  const TrainRunResult x = run_train(as_train, o);
+  TrainRunResult x = run_train(as_train, o);
 
   ode::IntegrationSummary& sum = result.integration;
   sum.termination = x.termination;
@@ -508,7 +508,8 @@ RunResult run(const Case& c, const RunOptions& options) {
   sum.end_time_s = x.ok() || x.samples.t_s.empty() ? t1 : x.samples.t_s.back();
   result.derived.time_step_s = x.time_step_s;
 
-  const TrainMeshReading& m = x.meshes.at(0);
+  if (x.meshes.size() != 1) throw std::logic_error("run: a pair's train has one mesh");
+  const TrainMeshReading& m = x.meshes.front();
   const double b = m.backlash_m, force_scale = m.backlash_m * m.mean_stiffness_n_per_m;
   result.reading = pair_reading(m, b, force_scale, m.dynamic_factor_with_startup);
   if (sum.ok()) refuse_non_finite(result.reading, sum);
@@ -516,20 +517,16 @@ RunResult run(const Case& c, const RunOptions& options) {
     for (const TrainContactEvent& e : x.contact_events)
       if (e.part == 0) result.events.push_back({e.t_s, e.kind, e.velocity_m_s});
   if (options.keep_samples) {
-    const TrainSamples& s = x.samples;
+    // The train's one mesh makes each row one value wide: its columns are moved, not copied,
+    // so that a run holds its samples once.
+    TrainSamples& s = x.samples;
     Timeseries& ts = result.samples;
-    const std::size_t n = s.t_s.size();
-    ts.t_s = s.t_s;
-    ts.delta_bar.resize(n);
-    ts.velocity_m_s.resize(n);
-    ts.force_bar.resize(n);
-    ts.contact.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      ts.delta_bar[i] = s.deflection_bar[i][0];
-      ts.velocity_m_s[i] = s.deflection_rate_m_s[i][0];
-      ts.force_bar[i] = s.force_n[i][0] / force_scale;
-      ts.contact[i] = s.contact[i][0];
-    }
+    ts.t_s = std::move(s.t_s);
+    ts.delta_bar = s.deflection_bar.release();
+    ts.velocity_m_s = s.deflection_rate_m_s.release();
+    ts.force_bar = s.force_n.release();
+    for (double& f : ts.force_bar) f /= force_scale;
+    ts.contact = s.contact.release();
   }
   if (sum.ok()) {
     static_cast<SteadyStart&>(result.steady) = x.steady;

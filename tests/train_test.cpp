@@ -137,6 +137,25 @@ TEST(SampleRows, RowsAppendedPastTheRoomReservedKeepTheirValues) {
   EXPECT_EQ(none.width(), 0U);
 }
 
+// Released, a table gives its values row after row, no more (the buffer grown past the rows
+// holds room beyond them), and is empty; rows appended afterwards start afresh.
+TEST(SampleRows, ReleasedRowsAreTheirValuesInOrder) {
+  geardyn::SampleRows<double> column;
+  column.reserve(4, 1);
+  for (int i = 0; i < 7; ++i) *column.append(1) = 0.5 * i;  // grown past the room reserved
+  const std::vector<double> values = column.release();
+  ASSERT_EQ(values.size(), 7U);
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(values[static_cast<std::size_t>(i)], 0.5 * i);
+  EXPECT_TRUE(column.empty());
+  *column.append(1) = 9.0;
+  ASSERT_EQ(column.size(), 1U);
+  EXPECT_EQ(column[0][0], 9.0);
+
+  geardyn::SampleRows<int> pairs;
+  for (int i = 0; i < 3; ++i) pairs.push_back(std::vector<int>{i, -i});
+  EXPECT_EQ(pairs.release(), (std::vector<int>{0, 0, 1, -1, 2, -2}));
+}
+
 TEST(Train, AOneMeshTrainIsTheOneDegreeModel) {
   // The pair rattles from the middle of the backlash into contact: the train's mesh deflection
   // R_1 theta_1 - R_2 theta_2 follows the one-degree model's delta through every impact.

@@ -225,6 +225,15 @@ class SampleRows {
     T* to = append(static_cast<std::size_t>(row.size()));
     std::copy(row.data(), row.data() + row.size(), to);
   }
+  // The values, row after row, moved out without a copy (rows of width 1: a column); the rows
+  // are empty afterwards.
+  std::vector<T> release() {
+    values_.resize(rows_ * width_);
+    std::vector<T> out = std::move(values_);
+    values_.clear();
+    rows_ = 0;
+    return out;
+  }
 
  private:
   // Room for at least `size` values: all the room reserved at once, else twice the buffer
