@@ -201,6 +201,18 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
     result.cells = steps;
     return result;
   };
+  // The dense output's points inside (t, te), for the observer's extremes, in time order with
+  // the samples among them.
+  const auto points_until = [&](double te) {
+    const int count = std::max(0, options.points_per_step);
+    for (int k = 1; k <= count; ++k) {
+      const double tp = t + (te - t) * k / (count + 1);
+      if (!(tp > t && tp < te)) continue;
+      sample_until(tp, false);
+      stepper.calc_state(tp, xs);
+      observer.on_point(tp, as_vector(xs), region);
+    }
+  };
   sample_until(t0, true);
   while (t < t1) {
     if (++steps % options.progress_interval_steps == 0 && !observer.on_progress(t))
@@ -235,6 +247,7 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
     const int crossed = c.guard;
     const double tc = c.at;
     if (crossed >= 0) {
+      points_until(tc);
       stepper.calc_state(tc, xe);
       sample_until(tc, false);
       observer.on_step(tc, as_vector(xe), region);
@@ -254,6 +267,7 @@ FlowResult adaptive_flow(const LinearSwitchedSystem& system, double t0, const Ve
       sample_until(t, true);
       continue;
     }
+    points_until(te);
     sample_until(te, true);
     x = xe;
     t = te;

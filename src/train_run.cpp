@@ -151,6 +151,10 @@ class TrainObserver : public ode::FlowObserver {
   // looked at each (or its bounds left no room for a new extreme there).
   void on_step(double t, const ode::Vector& y, int region) override {
     if (looks_at_cells_) return;
+    on_point(t, y, region);
+  }
+  // A point inside an adaptive step (its dense output): a point of the window as a step's end.
+  void on_point(double t, const ode::Vector& y, int region) override {
     reader(region)(t, y, values_);
     for (std::size_t m = 0; m < states_.size(); ++m) point(m, values_[2 * m], values_[2 * m + 1]);
     for (std::size_t k = 0; k < whole_parts_.size(); ++k) point_part(k, values_[first_part_ + k]);

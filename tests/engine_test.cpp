@@ -554,8 +554,9 @@ TEST(ExactEngine, MeetsTheDefaultAccuracyOnEveryPaperCase) {
       err = std::max(err, std::abs(re.samples.delta_bar[i] - rd.samples.delta_bar[i]));
     EXPECT_LT(err, 1e-8) << sc.id;
     EXPECT_EQ(re.reading.impacts, rd.reading.impacts) << sc.id;
-    // dopri5 reads the force at its step ends, below the true peak; the exact engine finds the
-    // peak inside its cells: never below dopri5's, and within dopri5's sampling error of it.
+    // dopri5 reads the force at its step ends and points inside its steps, below the true
+    // peak; the exact engine finds the peak inside its cells: never below dopri5's, and within
+    // dopri5's sampling error of it.
     EXPECT_GE(re.reading.max_force_bar, rd.reading.max_force_bar * (1 - 1e-12)) << sc.id;
     EXPECT_NEAR(re.reading.max_force_bar, rd.reading.max_force_bar, 1e-4 * rd.reading.max_force_bar)
         << sc.id;
@@ -1132,6 +1133,51 @@ TEST(ExactEngine, AFlowFromAStateOfTheWrongSizeOrABadRegionOrTimeIsRefused) {
   refused(Vector::Zero(2), 2, 1.0, "region 2 is not one of the system's 2");
   refused(Vector::Zero(2), 0, -1.0, "from 0 s to -1 s");
   EXPECT_EQ(check_flow_arguments(s, 0, Vector::Zero(2), 0, 1.0), "");
+}
+
+// What reads extremes from an adaptive flow: the greatest x at step ends and, apart, at the
+// points inside the steps, every call's time checked against the last.
+struct CrestReader : FlowObserver {
+  double last_t = 0, at_ends = -1e300, at_points = -1e300;
+  std::int64_t ends = 0, points = 0;
+  bool in_order = true, inside = true;
+  void on_step(double t_s, const Vector& y, int) override {
+    in_order = in_order && t_s >= last_t;
+    last_t = t_s;
+    at_ends = std::max(at_ends, y(0));
+    ++ends;
+  }
+  void on_point(double t_s, const Vector& y, int) override {
+    inside = inside && t_s > last_t;  // strictly after the step's start
+    last_t = t_s;
+    at_points = std::max(at_points, y(0));
+    ++points;
+  }
+};
+
+TEST(AdaptiveFlow, ThePointsInsideEachStepReadACrestItsStepEndsMiss) {
+  // x'' + x = 0 from (0, 1): x = sin t, one crest of 1 at pi/2 in [0, 3]. At a loose tolerance
+  // the steps are long, and their ends miss the crest by the step's curvature; the dense
+  // output's points inside each step read it to (1 + points)^-2 of that.
+  const LinearSwitchedSystem s = oscillator(1, 0, 0, 0, 1);
+  const Vector y0 = (Vector(2) << 0.0, 1.0).finished();
+  geardyn::ode::AdaptiveOptions o;
+  o.tolerance = 1e-6;
+  o.points_per_step = 0;
+  CrestReader ends_only;
+  ASSERT_TRUE(adaptive_flow(s, 0, y0, 0, 3.0, OutputGrid{}, ends_only, o).ok());
+  EXPECT_EQ(ends_only.points, 0);
+  const double missed = 1.0 - ends_only.at_ends;
+  EXPECT_GT(missed, 1e-4) << "the steps are too short to show the points' worth";
+  o.points_per_step = 3;
+  CrestReader reader;
+  ASSERT_TRUE(adaptive_flow(s, 0, y0, 0, 3.0, OutputGrid{}, reader, o).ok());
+  EXPECT_EQ(reader.points, 3 * reader.ends);
+  EXPECT_TRUE(reader.in_order && reader.inside);
+  EXPECT_DOUBLE_EQ(reader.at_ends, ends_only.at_ends);  // the same steps
+  const double read = 1.0 - std::max(reader.at_ends, reader.at_points);
+  EXPECT_GE(read, -1e-6);  // the dense output's own error
+  EXPECT_LT(read, missed / 8) << "missed at step ends " << missed;
 }
 
 TEST(Dopri5, TheNondimensionalCaseThatLoopedForeverEndsAtOnce) {

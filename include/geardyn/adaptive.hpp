@@ -13,7 +13,8 @@
 // products A_r(t) y. What it gives up: the exact engine's bounds, so a guard that goes negative
 // and back within one step is not seen (the step length, set by the tolerance, is the
 // resolution), and on_cell is never called (an observer reads its extremes at step ends,
-// events and samples). Its accuracy is the tolerance's, relative and absolute on every state
+// events, samples and AdaptiveOptions::points_per_step points of the dense output inside each
+// step, on_point). Its accuracy is the tolerance's, relative and absolute on every state
 // component as Boost.Odeint's controlled stepper takes them.
 #pragma once
 
@@ -83,6 +84,9 @@ struct AdaptiveOptions {
   // Events in a row that each advance time by less than 1e-12 of the window before the flow
   // ends with kNoProgress (a chattering contact), never a hang.
   int max_stalled_events = 64;
+  // Points of the dense output inside every step handed to FlowObserver::on_point, evenly
+  // spaced: a crest between step ends is read to (1 + points)^-2 of the step ends' error.
+  int points_per_step = 3;
   std::int64_t max_steps = 2'000'000'000;       // kStepUnderflow past it
   std::int64_t progress_interval_steps = 4096;  // steps between calls of on_progress
 };

@@ -110,6 +110,10 @@ class FlowObserver {
   virtual bool needs_detail(const CellView& /*span*/) { return false; }
   // At the end of every cell and at every event (still in the old region).
   virtual void on_step(double /*t_s*/, const Vector& /*y*/, int /*region*/) {}
+  // A point inside a step of an integrator without cells (adaptive.hpp: its dense output), for
+  // an observer that reads extremes, which step ends alone would miss by the step's curvature.
+  // Never called by the exact engine, whose on_cell gives the whole stretch.
+  virtual void on_point(double /*t_s*/, const Vector& /*y*/, int /*region*/) {}
   // A located region change; y is the state at the event.
   virtual void on_event(double /*t_s*/, const Vector& /*y*/, int /*from*/, int /*to*/) {}
   // At the output grid's times.
