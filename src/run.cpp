@@ -496,6 +496,7 @@ RunResult run(const Case& c, const RunOptions& options) {
   o.progress = options.progress;
   o.keep_samples = options.keep_samples;
   o.keep_states = false;  // read per mesh: no body's angle is written
+  o.read_peaks = false;   // compute_spectra reads them in the pair's units
   o.stiffness = stiffness;
   TrainRunResult x = run_train(as_train, o);
 

@@ -1171,7 +1171,7 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
                   options.keep_samples, options.keep_states);
   result.output_interval_s = interval;
   result.time_step_s = solver.newmark_step_s();
-  if (options.keep_samples) {
+  if (options.keep_samples && options.read_peaks) {
     for (std::size_t m = 0; m < result.meshes.size(); ++m) {
       const MeshSpectra s = mesh_spectra(result, m);
       result.meshes[m].force_peaks = dominant_peaks(s.force_n, kReportedPeaks);

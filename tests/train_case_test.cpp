@@ -1436,6 +1436,32 @@ TEST(TrainCase, APairFormsRunIsItsTrainsReadInThePairsTerms) {
   }
 }
 
+TEST(TrainCase, ARunThatReadsItsOwnSpectraLeavesTheMeshesPeaksUnread) {
+  // The one-degree forms' run reads its spectra in the pair's units (compute_spectra), so its
+  // train's run skips its own (TrainRunOptions::read_peaks): the same samples, no peaks.
+  const Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "park2010.toml");
+  TrainRunOptions o;
+  o.keep_states = false;
+  const TrainRunResult with = run_train(c, o);
+  o.read_peaks = false;
+  const TrainRunResult without = run_train(c, o);
+  ASSERT_TRUE(with.ok() && without.ok());
+  ASSERT_EQ(with.meshes.size(), 1U);
+  EXPECT_FALSE(with.meshes[0].force_peaks.empty());
+  EXPECT_FALSE(with.meshes[0].deflection_peaks.empty());
+  EXPECT_TRUE(without.meshes[0].force_peaks.empty());
+  EXPECT_TRUE(without.meshes[0].deflection_peaks.empty());
+  EXPECT_EQ(without.samples.t_s, with.samples.t_s);
+  EXPECT_EQ(without.meshes[0].max_force_n, with.meshes[0].max_force_n);
+  // The pair's run reads the same peaks from the same samples, in its own units.
+  const RunResult r = run(c);
+  ASSERT_FALSE(r.force_peaks.empty());
+  const double force_scale = with.meshes[0].backlash_m * with.meshes[0].mean_stiffness_n_per_m;
+  EXPECT_NEAR(r.force_peaks[0].frequency_hz, with.meshes[0].force_peaks[0].frequency_hz, 1e-9);
+  EXPECT_NEAR(r.force_peaks[0].amplitude * force_scale, with.meshes[0].force_peaks[0].amplitude,
+              1e-9 * with.meshes[0].force_peaks[0].amplitude);
+}
+
 TEST(TrainCase, APairsDopri5RunReadsItsDynamicFactorAsTheExactEngineDoes) {
   // The pair's run with dopri5 (run() on its train, adaptive.hpp) at 1e-10 reads the steady
   // dynamic factor of the shipped pair within 1e-5 of the exact engine's (measured 1e-7): its

@@ -328,6 +328,9 @@ struct TrainRunOptions {
   // kept but the whole train's states (TrainSamples::state empty), which a train that turns
   // freely would lift from its complement at every sample.
   bool keep_states = true;
+  // False where the caller reads the samples' spectra itself (the one-degree forms' run, in the
+  // pair's units): no mesh's force_peaks or deflection_peaks.
+  bool read_peaks = true;
   // A pair form's mesh stiffness computed once for a study's samples (shared_stiffness; as
   // TrainSolver takes it); null: the case's own. A train's meshes carry their own.
   const MeshStiffness* stiffness = nullptr;
