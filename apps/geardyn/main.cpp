@@ -154,15 +154,34 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 // A gear train (model.form = "train") is taken by `run`, `sweep`, `continue`, `modes`, `orbit`,
 // `stability`, and by `geometry` and `stiffness` for one of its meshes (--mesh) so far; every
 // other command says so.
+// Every command takes every form but `reproduce park2010`: the paper's study of its dimensional
+// gear pair, whose panels set the pair's keys (speed.shaft_frequency_hz, mesh.damping_ratio,
+// load.fluctuation_ratio, mesh.backlash_um). The non-dimensional form does not read them, the
+// coupled form is another model than the paper's, and a train spreads them over its elements:
+// each is refused before any case runs, naming its form and where it was set.
 void check_command_takes(const geardyn::Case& c, std::string_view command) {
-  static constexpr std::array<std::string_view, 8> kTakeTrains{
-      "run", "sweep", "continue", "modes", "orbit", "stability", "geometry", "stiffness"};
-  if (c.model.form == geardyn::ModelForm::kTrain &&
-      std::find(kTakeTrains.begin(), kTakeTrains.end(), command) == kTakeTrains.end())
-    throw geardyn::InputError(geardyn::with_origins(
-        c, fmt::format("model.form = \"train\": `geardyn {}` does not take gear trains yet; "
-                       "`geardyn {}` do",
-                       command, fmt::join(kTakeTrains, "`, `"))));
+  if (command != "reproduce" || c.model.form == geardyn::ModelForm::kGearPair) return;
+  const char* why = "";
+  switch (c.model.form) {
+    case geardyn::ModelForm::kNondimensional:
+      why = "this form reads none of them, so every case would be the same";
+      break;
+    case geardyn::ModelForm::kCoupled:
+      why = "this form is the pair on its bearings, another model than the paper's";
+      break;
+    case geardyn::ModelForm::kTrain:
+      why = "a train spreads them over its elements (its reference speed, each mesh, each torque)";
+      break;
+    case geardyn::ModelForm::kGearPair:
+      break;
+  }
+  throw geardyn::InputError(geardyn::with_origins(
+      c, fmt::format("model.form = \"{}\": `geardyn reproduce park2010` is the paper's study of "
+                     "its gear pair, whose panels set the pair's shaft speed, damping ratio, "
+                     "torque fluctuation and backlash; {}. It "
+                     "takes a case of model.form = \"gear_pair\" (each of its cases runs on the "
+                     "pair's train); `geardyn sweep` and `continue` study any form",
+                     geardyn::to_string(c.model.form), why)));
 }
 
 geardyn::Case load_model_case(const std::string& file,
