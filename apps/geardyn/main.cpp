@@ -151,9 +151,6 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 
 // The case a model command works on; every setting it gives that the model does not use is
 // said (case_keys.hpp, unused_settings), never dropped silently.
-// A gear train (model.form = "train") is taken by `run`, `sweep`, `continue`, `modes`, `orbit`,
-// `stability`, and by `geometry` and `stiffness` for one of its meshes (--mesh) so far; every
-// other command says so.
 // Every command takes every form but `reproduce park2010`: the paper's study of its dimensional
 // gear pair, whose panels set the pair's keys (speed.shaft_frequency_hz, mesh.damping_ratio,
 // load.fluctuation_ratio, mesh.backlash_um). The non-dimensional form does not read them, the
