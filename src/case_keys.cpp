@@ -291,9 +291,10 @@ std::vector<CaseKey> make_keys() {
        "(0: automatic; else below solver.duration_s)",
        "Newmark step; 0: automatic (docs/numerics.md)"},
       {"solver.tolerance", &field<kSolver, &S::tolerance>, "", closed(1e-14, 1e-3), "tolerance", "",
-       "exact: series truncated at 1e-4 x tolerance (floor 1e-16); dopri5: relative tolerance "
-       "(absolute: tolerance x b); Newmark: its steps set the accuracy, the tolerance only "
-       "the floor of the steady part's settling test"},
+       "exact: series truncated at 1e-4 x tolerance (floor 1e-16); dopri5: relative and "
+       "absolute tolerance of every state component (the train's angles in rad and rates in "
+       "rad/s, a pair's too); Newmark: its steps set the accuracy, the tolerance only the floor "
+       "of the steady part's settling test"},
       {"solver.output_interval_s", &field<kSolver, &S::output_interval_s>, "s", at_least(0),
        "interval", "(0: automatic, duration / 5000; else at most solver.duration_s)",
        "sample spacing"},
