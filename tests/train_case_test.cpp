@@ -128,8 +128,8 @@ TEST(TrainCase, ARattlingLooseGearReadsItsFinalHalf) {
 TEST(TrainCase, TheIdlersSteadyPartIsTheSameThroughEitherIntegrator) {
   // The exact engine and dopri5 (adaptive.hpp) find the idler train's steady part at the same
   // section time, and read its forces alike: dopri5's extremes are those of its step ends,
-  // samples and the points inside its steps, within 5e-5 of the force's swing of the exact ones
-  // (1e-5 here; 2e-4 at the step ends and samples alone).
+  // samples and each step's midpoint, within 5e-5 of the force's swing of the exact ones (2.2e-5
+  // here; 1.3e-4 at the step ends and samples alone).
   Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "idler_train.toml");
   const TrainRunResult exact = run_train(c);
   set_case_value(c, {"solver.method", "dopri5"});
@@ -460,10 +460,10 @@ TEST(TrainCase, TheAdaptiveIntegratorAgreesWithTheExactEngineThroughTheImpacts) 
   EXPECT_EQ(adaptive.meshes[0].impacts, exact.meshes[0].impacts);
   EXPECT_EQ(adaptive.meshes[0].backside_impacts, exact.meshes[0].backside_impacts);
   EXPECT_LT(largest_difference(exact, adaptive), 1e-6);
-  // The extremes of the adaptive run are read at its step ends, events, samples and points
-  // inside its steps: below the exact ones, and close (5e-8 here).
+  // The extremes of the adaptive run are read at its step ends, events, samples and each step's
+  // midpoint: below the exact ones, and close (3.3e-5 here).
   EXPECT_LE(adaptive.meshes[0].max_force_n, exact.meshes[0].max_force_n * (1 + 1e-9));
-  EXPECT_GT(adaptive.meshes[0].max_force_n, (1 - 1e-6) * exact.meshes[0].max_force_n);
+  EXPECT_GT(adaptive.meshes[0].max_force_n, (1 - 1e-4) * exact.meshes[0].max_force_n);
   // Each located contact change, with the mesh's d' - e' there, is the exact engine's (31 of
   // them; 2e-10 s and 4e-6 of the velocity measured, the rattle's sensitivity).
   ASSERT_EQ(adaptive.contact_events.size(), exact.contact_events.size());
@@ -1465,9 +1465,9 @@ TEST(TrainCase, ARunThatReadsItsOwnSpectraLeavesTheMeshesPeaksUnread) {
 TEST(TrainCase, APairsDopri5RunReadsItsDynamicFactorAsTheExactEngineDoes) {
   // The pair's run with dopri5 (run() on its train, adaptive.hpp) at 1e-10 reads the steady
   // dynamic factor of the shipped pair within 1e-5 of the exact engine's (measured 1e-7): its
-  // extremes are read at the points inside each step too, which step ends alone miss by 3e-4
-  // here. The one-degree model's own dopri5 (run_one_degree_model, its step ends) read it to
-  // 4e-5 before the pair ran on its train: no closer than this run.
+  // extremes are read at each step's midpoint too, which step ends alone miss by 3e-4 here. The
+  // one-degree model's own dopri5 (run_one_degree_model, its step ends) read it to 4e-5 before the
+  // pair ran on its train: no closer than this run.
   Case c = load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "park2010.toml");
   const RunResult exact = run(c);
   set_case_value(c, {"solver.method", "dopri5"});
@@ -1478,8 +1478,9 @@ TEST(TrainCase, APairsDopri5RunReadsItsDynamicFactorAsTheExactEngineDoes) {
   const double error = std::abs(adaptive.steady.reading.dynamic_factor.value() - df);
   EXPECT_LT(error, 1e-5 * df);
   EXPECT_LE(error, std::abs(one.steady.reading.dynamic_factor.value() - df));
+  // The start-up's largest crest falls away from its step's midpoint: 5e-5 of itself.
   EXPECT_NEAR(adaptive.reading.dynamic_factor.value(), exact.reading.dynamic_factor.value(),
-              1e-5 * df);
+              1e-4 * df);
 }
 
 TEST(TrainCase, ThePapersElevenCasesRunAsTheirTrainsToRounding) {

@@ -85,8 +85,10 @@ struct AdaptiveOptions {
   // ends with kNoProgress (a chattering contact), never a hang.
   int max_stalled_events = 64;
   // Points of the dense output inside every step handed to FlowObserver::on_point, evenly
-  // spaced: a crest between step ends is read to (1 + points)^-2 of the step ends' error.
-  int points_per_step = 3;
+  // spaced: a crest between step ends is read to (1 + points)^-2 of the step ends' error at
+  // most. One (the midpoint) by default: more cost a train's run more than they gain
+  // (docs/performance.md, "dopri5's extremes inside its steps").
+  int points_per_step = 1;
   std::int64_t max_steps = 2'000'000'000;       // kStepUnderflow past it
   std::int64_t progress_interval_steps = 4096;  // steps between calls of on_progress
 };
