@@ -147,9 +147,10 @@ class TrainObserver : public ode::FlowObserver {
     if (kept_.size() >= kMaxKeptStretches) search_kept();
   }
 
-  // A step's end is a point of the window: the adaptive integrator's and Newmark's only ones
-  // besides events and samples. The exact engine's cells end at its steps, and on_cell has
-  // looked at each (or its bounds left no room for a new extreme there).
+  // A step's end is a point of the window: Newmark's only one besides events and samples, the
+  // adaptive integrator's besides those and the points inside its steps (on_point). The exact
+  // engine's cells end at its steps, and on_cell has looked at each (or its bounds left no room
+  // for a new extreme there).
   void on_step(double t, const ode::Vector& y, int region) override {
     if (looks_at_cells_) return;
     reader(region)(t, y, values_);

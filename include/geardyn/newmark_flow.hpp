@@ -28,7 +28,8 @@
 // Average acceleration (beta 1/4, gamma 1/2, the default) is unconditionally stable and of
 // second order, and keeps the energy of an undamped linear system with constant coefficients
 // exactly (to rounding). on_cell and needs_detail are never called: an observer reads its
-// extremes at step ends, events and samples, as of the adaptive integrator.
+// extremes at step ends, events and samples (the adaptive integrator gives points inside its
+// steps too, on_point; Newmark has no dense output to give them).
 #pragma once
 
 #include "geardyn/engine.hpp"

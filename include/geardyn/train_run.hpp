@@ -30,7 +30,8 @@ struct MeshStiffness;  // stiffness.hpp
 
 // What one mesh did over a stretch of a train run: its contact history (impacts, separations,
 // regime) and its extremes (with the exact engine exact, on the engine's polynomial in every
-// cell; with dopri5 at step ends, events and samples).
+// cell; with dopri5 at step ends, events, samples and each step's midpoint; with Newmark at step
+// ends, events and samples).
 struct TrainMeshPart : ContactReading {
   double max_force_n = 0, min_force_n = 0;            // F (N)
   double max_deflection_m = 0, min_deflection_m = 0;  // d - e (m)
