@@ -496,7 +496,8 @@ void read_array(const toml::table& train, const std::string& source,
   const toml::node* n = train.get(kind);
   if (!n) return;
   const toml::array* a = n->as_array();
-  if (!a || !a->is_array_of_tables())
+  // An empty array is none of the elements (Python's `mesh=[]` writes one), not a wrong type.
+  if (!a || (!a->empty() && !a->is_array_of_tables()))
     throw InputError(fmt::format("{}: train.{} = {}: must be tables [[train.{}]], one per {}",
                                  where(n->source(), source), kind, node_text(*n), kind, kind));
   for (std::size_t i = 0; i < a->size(); ++i) {

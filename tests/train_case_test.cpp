@@ -2089,6 +2089,11 @@ TEST(TrainCase, BadArrangementsAreNamedWithTheirElementKeyAndPlace) {
   const std::string head = std::string(kBodyA) + kBodyB;
   const std::string mesh = kMeshAB;
   EXPECT_EQ(error_of(head + mesh), "");
+  // An empty array of elements is none of them: no torque is a train without torques.
+  EXPECT_EQ(error_of(std::string(kBodyA).replace(std::string(kBodyA).find("[[train.body]]"), 0,
+                                                 "torque = []\n") +
+                     kBodyB + mesh),
+            "");
   // The ring of an internal mesh with its inertia given: the pair turns the same way.
   const Case internal =
       parse_case(head + "inertia_kg_m2 = 0.02\n" + mesh + "kind = \"internal\"\n", "t.toml");
@@ -2111,6 +2116,10 @@ inertia_kg_m2 = 1
 )",
        {"t.toml:20:", "body 'a'", "named twice"}},
       {head, {"has no mesh"}},
+      // An empty array is no element, not a wrong type: no mesh is refused as no mesh.
+      {std::string(kBodyA).replace(std::string(kBodyA).find("[[train.body]]"), 0, "mesh = []\n") +
+           kBodyB,
+       {"has no mesh"}},
       {head + mesh + R"([[train.shaft]]
 from = "a"
 to = "b"

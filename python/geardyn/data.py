@@ -401,8 +401,23 @@ def load(path):
     Returns
     -------
     xarray.Dataset
+
+    Raises
+    ------
+    ValueError
+        When `path` is no NetCDF file (a case file names `geardyn.Case.from_toml`).
     """
+    import os
+
     import xarray as xr
 
-    with xr.open_dataset(path) as ds:
-        return ds.load()
+    try:
+        with xr.open_dataset(path) as ds:
+            return ds.load()
+    except ValueError as e:  # xarray found no reader for the file
+        name = os.fspath(path)
+        case = name.endswith(".toml")
+        raise ValueError(
+            f"geardyn.load({name!r}): reads the NetCDF file geardyn.save writes, and this is "
+            + ("a case file: read it with geardyn.Case.from_toml" if case else "none")
+        ) from e
