@@ -298,10 +298,10 @@ def test_results_label_themselves_and_sweeps_pickle(tmp_path):
     assert geardyn.load(tmp_path / "r.nc").identical(r.to_xarray())
     # A case file given to load is named as one, and what reads it.
     (tmp_path / "c.toml").write_text(r.case_toml)
-    with pytest.raises(ValueError, match=r"this is a case file: read it with geardyn.Case.from_toml"):
+    with pytest.raises(ValueError, match=r"a case file: read it with geardyn.Case.from_toml"):
         geardyn.load(tmp_path / "c.toml")
     (tmp_path / "c.txt").write_text("not a dataset")
-    with pytest.raises(ValueError, match=r"reads the NetCDF file geardyn.save writes, and this is none"):
+    with pytest.raises(ValueError, match=r"the NetCDF file geardyn.save writes, and this is none"):
         geardyn.load(tmp_path / "c.txt")
 
 
