@@ -22,6 +22,7 @@
 #include "geardyn/adaptive.hpp"
 #include "geardyn/csv.hpp"
 #include "geardyn/newmark_flow.hpp"
+#include "geardyn/output_folder.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_case.hpp"
 
@@ -1425,6 +1426,15 @@ void write_train_events_csv(std::ostream& out, const TrainRunResult& r) {
     out << fmt::format("{:.15g},{},{},{:.10g}\n", e.t_s,
                        r.contact_parts[static_cast<std::size_t>(e.part)], to_string(e.kind),
                        e.velocity_m_s);
+}
+
+void write_train_run(const std::filesystem::path& dir, const TrainRunResult& r,
+                     const std::vector<std::string>& unused) {
+  write_files_atomically(
+      dir, {{"summary.json", [&](std::ostream& o) { o << train_summary_json(r, unused) << "\n"; }},
+            {"timeseries.csv", [&](std::ostream& o) { write_train_timeseries_csv(o, r); }},
+            {"events.csv", [&](std::ostream& o) { write_train_events_csv(o, r); }},
+            {"case.toml", [&](std::ostream& o) { o << to_toml(r.input); }}});
 }
 
 std::string train_modes_json(const train::Assembled& a, const std::vector<train::TrainMode>& m,

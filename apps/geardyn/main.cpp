@@ -446,13 +446,7 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
   if (!out_dir.empty()) {
     const std::vector<std::string> unused = geardyn::unused_settings(c);
     write_output(out_dir, "run", [&](const std::filesystem::path& d) {
-      geardyn::write_files_atomically(
-          d,
-          {{"summary.json",
-            [&](std::ostream& o) { o << geardyn::train_summary_json(r, unused) << "\n"; }},
-           {"timeseries.csv", [&](std::ostream& o) { geardyn::write_train_timeseries_csv(o, r); }},
-           {"events.csv", [&](std::ostream& o) { geardyn::write_train_events_csv(o, r); }},
-           {"case.toml", [&](std::ostream& o) { o << geardyn::to_toml(c); }}});
+      geardyn::write_train_run(d, r, unused);
       if (plot) geardyn::write_train_run_figures(d, r);
     });
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, events.csv, case.toml)\n",

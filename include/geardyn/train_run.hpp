@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <iosfwd>
 #include <iterator>
@@ -498,6 +499,13 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r);
 // events.csv: every contact change located (TrainRunResult::contact_events), t_s, the part's
 // name, the kind (impact, backside_impact, separation) and the part's rate (m/s).
 void write_train_events_csv(std::ostream& out, const TrainRunResult& r);
+// The files of `geardyn run --out` of a train into dir, each atomically (output_folder.hpp):
+// summary.json (with `unused`, the settings the case gives and the run does not read),
+// timeseries.csv, events.csv and case.toml (the case run). The command line and Python's
+// TrainRunResult.write call it inside their output set; the figures are apart
+// (write_train_run_figures).
+void write_train_run(const std::filesystem::path& dir, const TrainRunResult& r,
+                     const std::vector<std::string>& unused);
 
 // The modes of a train as JSON and as a table for the terminal: frequency, multiplicity, a
 // planetary set's mode type, and the strain energy in each mesh, shaft and bearing (the JSON

@@ -467,6 +467,7 @@ class TrainRunResult:
     """
 
     def __init__(self, summary, arrays):
+        self._write = arrays.get("write")
         self.summary = summary
         self.bodies = [b["name"] for b in summary["bodies"]]
         self.meshes = [m["name"] for m in summary["meshes"]]
@@ -499,6 +500,40 @@ class TrainRunResult:
             k += has
         self.events = arrays["events"]
         self.ok = summary["termination"] == "completed"
+
+    def write(self, directory):
+        """Writes the run's files as `geardyn run --out` does (docs/outputs.md, "Gear trains").
+
+        Parameters
+        ----------
+        directory : str or path-like
+            Created if needed; summary.json, timeseries.csv, events.csv and case.toml are
+            written into it. Only these files are replaced, together; the folder's other files
+            stay (docs/outputs.md).
+
+        Returns
+        -------
+        list of str
+            Files of an earlier run written here that were changed since and so kept.
+
+        Raises
+        ------
+        RuntimeError
+            A file of one of these names is in the folder but geardyn did not write it there, or
+            it was changed since: nothing is written. Or the result was unpickled (sent from
+            another process, a Dask worker's): the run's files are written where it ran, and
+            `save` writes its Dataset anywhere.
+        """
+        if self._write is None:
+            raise RuntimeError("TrainRunResult.write: this result was unpickled and holds no "
+                               "run to write; write it in the process that ran it, or save() "
+                               "its Dataset")
+        import os
+        return self._write(os.fspath(directory))
+
+    def __getstate__(self):
+        # The run behind write() stays in the process that ran it.
+        return dict(self.__dict__, _write=None)
 
     def __repr__(self):
         parts = ", ".join(f"{m['name']} {m['regime']} ({m['impacts']} impacts)"
@@ -1064,3 +1099,4 @@ for _f, _name in ((_run_to_xarray, "to_xarray"), (_run_to_pandas, "to_pandas")):
 RunResult.to_xarray = _run_to_xarray
 RunResult.to_pandas = _run_to_pandas
 RunResult.save = _result_save
+TrainRunResult.save = _result_save

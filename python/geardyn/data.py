@@ -292,8 +292,9 @@ def to_xarray(result, param=None, param2=None):
 
     Parameters
     ----------
-    result : RunResult or dict
-        What `geardyn.run` or `geardyn.sweep` returned.
+    result : RunResult, TrainRunResult or dict
+        What `geardyn.run` or `geardyn.sweep` returned (a TrainRunResult: its own
+        `TrainRunResult.to_xarray`).
     param, param2 : str, optional
         The swept keys (taken from the sweep's dict when not given).
 
@@ -309,6 +310,10 @@ def to_xarray(result, param=None, param2=None):
         period as ``period_s``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
         and contact, attributes ``summary`` (JSON) and ``case`` (TOML).
     """
+    from . import TrainRunResult
+
+    if isinstance(result, TrainRunResult):  # a train's own Dataset, along mesh and body
+        return result.to_xarray()
     if isinstance(result, dict):
         param = param or result.get("param")
         param2 = param2 or result.get("param2")
@@ -323,7 +328,7 @@ def save(result, path):
 
     Parameters
     ----------
-    result : RunResult, dict or xarray.Dataset
+    result : RunResult, TrainRunResult, dict or xarray.Dataset
     path : str or path-like
         The file written; `load` reads back an identical Dataset. It is written under a
         temporary name in the same folder and moved into place whole, so a failure leaves an

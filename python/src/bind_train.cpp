@@ -1,11 +1,16 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
+#include <filesystem>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bindings.hpp"
 #include "geardyn/case_keys.hpp"
+#include "geardyn/output_folder.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
 
@@ -25,9 +30,10 @@ py::array_t<T> table(std::size_t rows, std::size_t cols, const At& at) {
 }
 
 // The run as (summary.json text, dict of arrays): t, state (samples x 2 coordinates),
-// deflection_bar, force (N), contact and deflection_rate (m/s) (samples x meshes), parts, and
-// the events.
-py::tuple train_result(const TrainRunResult& r) {
+// deflection_bar, force (N), contact and deflection_rate (m/s) (samples x meshes), parts, the
+// events, and "write": write(directory), the run's files as `geardyn run --out` writes them
+// (write_train_run, in the output set "run"), the run moved into it.
+py::tuple train_result(TrainRunResult& r) {
   const TrainSamples& s = r.samples;
   const std::size_t n = s.t_s.size(), meshes = r.meshes.size();
   const std::size_t width = 2 * r.coordinates.size();
@@ -63,7 +69,16 @@ py::tuple train_result(const TrainRunResult& r) {
   }
   arrays["events"] = py::dict(py::arg("t_s") = t, py::arg("part") = part, py::arg("kind") = kind,
                               py::arg("velocity_m_s") = v);
-  return py::make_tuple(train_summary_json(r, unused_settings(r.input), -1), arrays);
+  std::vector<std::string> unused = unused_settings(r.input);
+  std::string summary = train_summary_json(r, unused, -1);
+  auto run = std::make_shared<const TrainRunResult>(std::move(r));
+  arrays["write"] = py::cpp_function(
+      [run, unused](const std::filesystem::path& dir) {
+        return write_set(dir, "run",
+                         [&](const std::filesystem::path& d) { write_train_run(d, *run, unused); });
+      },
+      py::arg("directory"));
+  return py::make_tuple(summary, arrays);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@ import json
 import math
 import os
 import pathlib
+import pickle
 import subprocess
 import sys
 import threading
@@ -793,6 +794,39 @@ def test_a_rattling_trains_events_are_the_command_lines(tmp_path):
     impacts = [k != "separation" for k in e["kind"]]
     assert sum(impacts) == mesh["impacts"] and set(e["part"]) == {r.meshes[0]}
     assert np.abs(e["velocity_m_s"][impacts]).max() == mesh["max_impact_velocity_m_s"]
+
+
+def test_a_trains_run_writes_saves_and_pickles_as_the_pairs_does(tmp_path):
+    # write() puts the command line's files, byte for byte (the wall time aside), and refuses a
+    # folder holding a file of those names that geardyn did not write; save() and to_xarray()
+    # give the train's own Dataset; a pickled result keeps its arrays and says it cannot write.
+    path = SOURCE / "cases/idler_train.toml"
+    r = geardyn.run(geardyn.Case.from_toml(path).with_({"solver.duration_s": 0.01}))
+    cli("run", str(path), "--set", "solver.duration_s=0.01", "--out", str(tmp_path / "cli"))
+    assert r.write(tmp_path / "py") == []
+    for name in ("timeseries.csv", "events.csv", "case.toml"):
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes()
+    written = [json.loads((tmp_path / d / "summary.json").read_text()) for d in ("py", "cli")]
+    for s in written:
+        s.pop("wall_time_s")
+    assert written[0] == written[1]
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "summary.json").write_text("mine")
+    with pytest.raises(RuntimeError, match="summary.json"):
+        r.write(user)
+    assert [p.name for p in user.iterdir()] == ["summary.json"]
+    assert (user / "summary.json").read_text() == "mine"
+
+    r.save(tmp_path / "train.nc")
+    assert geardyn.load(tmp_path / "train.nc").identical(r.to_xarray())
+    assert geardyn.to_xarray(r).identical(r.to_xarray())
+
+    back = pickle.loads(pickle.dumps(r))
+    assert np.array_equal(back.force, r.force) and back.summary == r.summary
+    with pytest.raises(RuntimeError, match="unpickled"):
+        back.write(tmp_path / "back")
+    assert not (tmp_path / "back").exists()
 
 
 def test_a_gear_train_from_a_file_and_from_code_is_the_command_lines(tmp_path):
