@@ -315,6 +315,12 @@ def to_xarray(result, param=None, param2=None):
     if isinstance(result, TrainRunResult):  # a train's own Dataset, along mesh and body
         return result.to_xarray()
     if isinstance(result, dict):
+        if "value" not in result or "direction" not in result:
+            raise ValueError(
+                "to_xarray and save take a run, a sweep or a map; this dict is none ("
+                + ("a continuation's branch or a stability chart: its arrays are NumPy "
+                   "already, and `geardyn continue --out` writes branch.csv)"
+                   if "stable" in result else f"its keys: {', '.join(result)})"))
         param = param or result.get("param")
         param2 = param2 or result.get("param2")
         if param is None:
