@@ -287,16 +287,54 @@ _result_save.__name__ = "save"
 SweepResult.save = _result_save
 
 
+def _jsonable(x):
+    """json.dumps's default: an array as its list, a complex number as [re, im]."""
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, complex):
+        return [x.real, x.imag]
+    if isinstance(x, np.generic):
+        return x.item()
+    raise TypeError(f"{type(x).__name__} is not JSON serializable")
+
+
+def _points_dataset(d, param=None, param2=None):
+    """A continuation's branch or a stability chart (a dict of per-point arrays) along point."""
+    import xarray as xr
+
+    n = len(d["param"])
+    variables, attrs = {}, {}
+    for k, v in d.items():
+        if isinstance(v, np.ndarray) and v.shape[:1] == (n,):
+            if np.iscomplexobj(v):  # NetCDF has no complex numbers: re and im apart
+                variables[k + "_re"] = (("point", "multiplier"), v.real)
+                variables[k + "_im"] = (("point", "multiplier"), v.imag)
+            else:
+                variables[k] = (("point",) + tuple(f"{k}_{i}" for i in range(v.ndim - 1)), v)
+        elif isinstance(v, (list, dict)):
+            attrs[k] = json.dumps(v, default=_jsonable)
+        elif isinstance(v, (bool, np.bool_)):
+            attrs[k] = int(v)
+        else:
+            attrs[k] = v
+    if param:
+        attrs["param_key"] = param
+    if param2:
+        attrs["param2_key"] = param2
+    return xr.Dataset(variables, coords={"point": np.arange(n)}, attrs=attrs)
+
+
 def to_xarray(result, param=None, param2=None):
     """A run or a sweep (or map) as an xarray.Dataset with units.
 
     Parameters
     ----------
     result : RunResult, TrainRunResult or dict
-        What `geardyn.run` or `geardyn.sweep` returned (a TrainRunResult: its own
-        `TrainRunResult.to_xarray`).
+        What `geardyn.run`, `geardyn.sweep`, `geardyn.continuation` or `geardyn.stability`
+        returned (a TrainRunResult: its own `TrainRunResult.to_xarray`).
     param, param2 : str, optional
-        The swept keys (taken from the sweep's dict when not given).
+        The swept keys (taken from the sweep's dict when not given; a branch's or a chart's
+        dict holds their values only, so given here they are recorded as its attributes).
 
     Returns
     -------
@@ -308,19 +346,25 @@ def to_xarray(result, param=None, param2=None):
         the jumps, the hysteresis intervals and the runs of points that did not settle as
         the JSON attributes ``jumps``, ``hysteresis`` and ``unsettled_ranges``, the system
         period as ``period_s``. A run: dimension ``t`` (s), variables delta_bar, force_bar, velocity (m/s)
-        and contact, attributes ``summary`` (JSON) and ``case`` (TOML).
+        and contact, attributes ``summary`` (JSON) and ``case`` (TOML). A continuation's
+        branch or a stability chart: dimension ``point``, each per-point array a variable
+        (``param``, ``stable``, ...), the complex multipliers as ``multipliers_re`` and
+        ``multipliers_im`` over ``point`` and ``multiplier``, the lists (``bifurcations``,
+        ``boundaries``) as JSON attributes (an array as a list, a complex number as [re, im])
+        and the rest (``completed``, ``message``, ...) as
+        attributes, a flag as 0 or 1.
     """
     from . import TrainRunResult
 
     if isinstance(result, TrainRunResult):  # a train's own Dataset, along mesh and body
         return result.to_xarray()
     if isinstance(result, dict):
+        if "stable" in result and isinstance(result.get("param"), np.ndarray):
+            return _points_dataset(result, param, param2)
         if "value" not in result or "direction" not in result:
             raise ValueError(
-                "to_xarray and save take a run, a sweep or a map; this dict is none ("
-                + ("a continuation's branch or a stability chart: its arrays are NumPy "
-                   "already, and `geardyn continue --out` writes branch.csv)"
-                   if "stable" in result else f"its keys: {', '.join(result)})"))
+                "to_xarray and save take a run, a sweep or a map, a continuation's branch or a "
+                f"stability chart; this dict is none (its keys: {', '.join(result)})")
         param = param or result.get("param")
         param2 = param2 or result.get("param2")
         if param is None:
@@ -330,7 +374,8 @@ def to_xarray(result, param=None, param2=None):
 
 
 def save(result, path):
-    """Writes a run, a sweep or their Dataset as NetCDF.
+    """Writes a run, a sweep, a continuation's branch, a stability chart or their Dataset
+    (`to_xarray`) as NetCDF.
 
     Parameters
     ----------

@@ -821,12 +821,10 @@ def test_a_trains_run_writes_saves_and_pickles_as_the_pairs_does(tmp_path):
     r.save(tmp_path / "train.nc")
     assert geardyn.load(tmp_path / "train.nc").identical(r.to_xarray())
     assert geardyn.to_xarray(r).identical(r.to_xarray())
-    # What is no run or sweep is refused by what it is, nothing written.
-    with pytest.raises(ValueError, match="this dict is none .a continuation's branch"):
-        geardyn.save({"param": np.zeros(2), "stable": np.ones(2)}, tmp_path / "branch.nc")
+    # A dict that is no run, sweep, branch or chart is refused with its keys, nothing written.
     with pytest.raises(ValueError, match="this dict is none .its keys: a, b."):
-        geardyn.to_xarray({"a": 1, "b": 2})
-    assert not (tmp_path / "branch.nc").exists()
+        geardyn.save({"a": 1, "b": 2}, tmp_path / "other.nc")
+    assert not (tmp_path / "other.nc").exists()
 
     back = pickle.loads(pickle.dumps(r))
     assert np.array_equal(back.force, r.force) and back.summary == r.summary

@@ -110,6 +110,18 @@ def test_a_trains_continuation_is_the_command_lines_and_grazes_at_the_rattle_ons
     assert abs(first["param"] / 240.5 - 1) < 1e-3
     assert first["orbit"]["model"] == "train" and first["orbit"]["coordinates"] == [
         "loose_rad", "loose_rad_s"]
+    # As a Dataset along point, saved and read back identical: the multipliers' re and im,
+    # the bifurcations as JSON (a complex multiplier as [re, im]), the key given recorded.
+    ds = geardyn.to_xarray(b, param=key)
+    assert ds.attrs["param_key"] == key and ds.attrs["completed"] == 1
+    assert np.array_equal(ds["loose_rad"].values, b["loose_rad"])
+    assert np.array_equal(ds["multipliers_re"] + 1j * ds["multipliers_im"], b["multipliers"])
+    graze = json.loads(ds.attrs["bifurcations"])[0]
+    assert graze["param"] == first["param"]
+    assert graze["orbit"]["floquet_multipliers"] == [
+        [z.real, z.imag] for z in first["orbit"]["floquet_multipliers"]]
+    geardyn.save(b, tmp_path / "branch.nc")
+    assert geardyn.load(tmp_path / "branch.nc").identical(geardyn.to_xarray(b))
 
 
 def test_progress_stops_and_ctrl_c_raises_with_the_points_kept():
@@ -167,6 +179,10 @@ def test_a_trains_stability_is_the_command_lines(tmp_path):
     s = geardyn.stability(case, "train.mesh[0].damping_ratio", list(rows["param"]))
     assert np.array_equal(s["max_multiplier"], rows["max_multiplier"])
     assert (s["stable"] == 1).all() and (np.diff(s["max_multiplier"]) < 0).all()
+    geardyn.save(s, tmp_path / "chart.nc")
+    chart = geardyn.load(tmp_path / "chart.nc")
+    assert chart.identical(geardyn.to_xarray(s)) and chart.attrs["boundaries"] == "[]"
+    assert np.array_equal(chart["max_multiplier"], s["max_multiplier"])
     with pytest.raises(geardyn.InputError, match=r"train.mesh\[0\].name: not a real number"):
         geardyn.stability(case, "train.mesh[0].name", [0.01, 0.1])
 
