@@ -325,7 +325,8 @@ def _points_dataset(d, param=None, param2=None):
 
 
 def to_xarray(result, param=None, param2=None):
-    """A run or a sweep (or map) as an xarray.Dataset with units.
+    """A run, a sweep (or map), a continuation's branch or a stability chart as an
+    xarray.Dataset.
 
     Parameters
     ----------
