@@ -1109,6 +1109,12 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
   const Outcome plain = cli("modes");
   ASSERT_EQ(plain.code, 0) << plain.err;
   EXPECT_NE(plain.out.find("(gear pair, as a train)"), std::string::npos) << plain.out;
+  // The non-dimensional form's, in its units, said so.
+  const Outcome tau = cli("modes --set model.form='\"nondimensional\"'");
+  ASSERT_EQ(tau.code, 0) << tau.err;
+  EXPECT_NE(tau.out.find("(non-dimensional, as a train: a second is a tau, Hz are cycles per tau)"),
+            std::string::npos)
+      << tau.out;
   const Outcome run = cli("run");
   ASSERT_EQ(run.code, 0) << run.err;
   const std::size_t at = run.out.find("contact natural frequency ");

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -23,6 +24,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
@@ -149,6 +151,40 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
   return std::filesystem::path(s);
 }
 
+// What the command line says of each model form, one row a form: its name as the train it
+// runs as (`{dof}` the coupled form's degrees of freedom; empty for a train itself), what its
+// modes' units are when they are not SI, and why `geardyn reproduce park2010` refuses it
+// (empty: it takes it).
+struct FormWords {
+  geardyn::ModelForm form;
+  const char* name;
+  const char* units;
+  const char* reproduce_refused;
+};
+constexpr std::array<FormWords, 4> kFormWords = {{
+    {geardyn::ModelForm::kGearPair, "gear pair", "", ""},
+    {geardyn::ModelForm::kNondimensional, "non-dimensional",
+     "a second is a tau, Hz are cycles per tau",
+     "this form reads none of them, so every case would be the same"},
+    {geardyn::ModelForm::kCoupled, "coupled, dof {dof}", "",
+     "this form is the pair on its bearings, another model than the paper's"},
+    {geardyn::ModelForm::kTrain, "", "",
+     "a train spreads them over its elements (its reference speed, each mesh, each torque)"},
+}};
+
+const FormWords& form_words(geardyn::ModelForm form) {
+  for (const FormWords& w : kFormWords)
+    if (w.form == form) return w;
+  throw std::logic_error("a model form without its row in kFormWords");
+}
+
+// "train", or a pair's form named as the train it runs as ("coupled, dof 12, as a train").
+std::string as_train(const geardyn::Case& c) {
+  const FormWords& w = form_words(c.model.form);
+  if (*w.name == '\0') return "train";
+  return fmt::format(fmt::runtime(w.name), fmt::arg("dof", c.model.dof)) + ", as a train";
+}
+
 // The case a model command works on; every setting it gives that the model does not use is
 // said (case_keys.hpp, unused_settings), never dropped silently.
 // Every command takes every form but `reproduce park2010`: the paper's study of its dimensional
@@ -157,21 +193,8 @@ std::optional<std::filesystem::path> case_path(const std::string& s) {
 // coupled form is another model than the paper's, and a train spreads them over its elements:
 // each is refused before any case runs, naming its form and where it was set.
 void check_command_takes(const geardyn::Case& c, std::string_view command) {
-  if (command != "reproduce" || c.model.form == geardyn::ModelForm::kGearPair) return;
-  const char* why = "";
-  switch (c.model.form) {
-    case geardyn::ModelForm::kNondimensional:
-      why = "this form reads none of them, so every case would be the same";
-      break;
-    case geardyn::ModelForm::kCoupled:
-      why = "this form is the pair on its bearings, another model than the paper's";
-      break;
-    case geardyn::ModelForm::kTrain:
-      why = "a train spreads them over its elements (its reference speed, each mesh, each torque)";
-      break;
-    case geardyn::ModelForm::kGearPair:
-      break;
-  }
+  const char* why = form_words(c.model.form).reproduce_refused;
+  if (command != "reproduce" || *why == '\0') return;
   throw geardyn::InputError(geardyn::with_origins(
       c, fmt::format("model.form = \"{}\": `geardyn reproduce park2010` is the paper's study of "
                      "its gear pair, whose panels set the pair's shaft speed, damping ratio, "
@@ -355,11 +378,8 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
   const geardyn::TrainRunResult r =
       run_with_progress<geardyn::TrainRunOptions>(c, out_dir, geardyn::run_train, interrupted);
   if (!r.ok() && !interrupted) return kExitNumerical;
-  fmt::print("geardyn run: {} ({}train: {} bodies, {} mesh{})\n", c.name,
-             c.model.form == geardyn::ModelForm::kCoupled
-                 ? fmt::format("coupled, dof {}, as a ", c.model.dof)
-                 : "",
-             r.bodies.size(), r.meshes.size(), r.meshes.size() == 1 ? "" : "es");
+  fmt::print("geardyn run: {} ({}: {} bodies, {} mesh{})\n", c.name, as_train(c), r.bodies.size(),
+             r.meshes.size(), r.meshes.size() == 1 ? "" : "es");
   if (r.system_period_s)
     fmt::print("  system period     {:.6g} s\n", *r.system_period_s);
   else
@@ -471,20 +491,8 @@ int cmd_modes(const std::string& case_file, const std::vector<std::string>& sets
   if (json) {
     fmt::print("{}\n", geardyn::train_modes_json(a, m));
   } else {
-    std::string form = "train";
-    switch (c.model.form) {
-      case geardyn::ModelForm::kCoupled:
-        form = fmt::format("coupled, dof {}, as a train", c.model.dof);
-        break;
-      case geardyn::ModelForm::kGearPair:
-        form = "gear pair, as a train";
-        break;
-      case geardyn::ModelForm::kNondimensional:
-        form = "non-dimensional, as a train: a second is a tau, Hz are cycles per tau";
-        break;
-      case geardyn::ModelForm::kTrain:
-        break;
-    }
+    const char* units = form_words(c.model.form).units;
+    const std::string form = as_train(c) + (*units == '\0' ? "" : fmt::format(": {}", units));
     const bool held = c.model.form == geardyn::ModelForm::kTrain && !c.train->speeds.empty();
     fmt::print("modes of {} ({}), every mesh in contact at its mean stiffness{}\n", c.name, form,
                held ? ", the prescribed bodies held" : "");
@@ -854,10 +862,7 @@ int cmd_train_orbit(const geardyn::Case& c, const geardyn::OrbitOptions& o,
     fmt::print("{}\n", geardyn::train_orbit_json(r));
     return r.converged ? 0 : kExitNumerical;
   }
-  fmt::print("geardyn orbit: {} ({}){}\n", c.name,
-             c.model.form == geardyn::ModelForm::kCoupled
-                 ? fmt::format("coupled, dof {}, as a train", c.model.dof)
-                 : std::string("train"),
+  fmt::print("geardyn orbit: {} ({}){}\n", c.name, as_train(c),
              c.description.empty() ? "" : " - " + c.description);
   if (!r.converged) {
     fmt::print(stderr, "geardyn: the orbit was not found: {}\n", r.message);
