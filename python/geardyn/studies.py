@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import pathlib
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -489,6 +490,21 @@ def _dataset(design_, parts, spec, computed):
     return ds
 
 
+def _analysis_of(analysis):
+    """The analysis as a dict: None (a run), the kind's name ("run", "sweep", "orbit"), or a
+    mapping as a study file's [analysis] table writes it; anything else is refused naming the
+    argument."""
+    if analysis is None:
+        return {"kind": "run"}
+    if isinstance(analysis, str):
+        return {"kind": analysis}
+    if isinstance(analysis, Mapping):
+        return dict(analysis)
+    raise StudyError(f"analysis = {analysis!r}: must be the analysis's kind (\"run\", "
+                     f"\"sweep\" or \"orbit\") or a dict such as {{\"kind\": \"sweep\", "
+                     f"\"param\": key, \"values\": [...]}}")
+
+
 def study(case, inputs, samples=None, method="lhs", seed=0, analysis=None, executor=None,
           store=None, resume=False, batch_size=None, correlation=None, progress=None,
           outputs=None):
@@ -500,8 +516,8 @@ def study(case, inputs, samples=None, method="lhs", seed=0, analysis=None, execu
         The base case.
     inputs, samples, method, seed, correlation
         The design (see `design`).
-    analysis : dict, optional
-        ``{"kind": "run"}`` (the default: the run's readings), ``{"kind": "sweep", "param":
+    analysis : str or dict, optional
+        ``"run"`` or ``{"kind": "run"}`` (the default: the run's readings), ``{"kind": "sweep", "param":
         key, "values": [...]}`` (the frequency response's peak, jumps, rattle range) or
         ``{"kind": "orbit"}`` (converged, stable, largest multiplier).
     executor : None, dask.distributed.Client or str
@@ -528,7 +544,7 @@ def study(case, inputs, samples=None, method="lhs", seed=0, analysis=None, execu
 
     _warn_unused(case, stacklevel=3)
 
-    analysis = dict(analysis or {"kind": "run"})
+    analysis = _analysis_of(analysis)
     if analysis.get("kind", "run") not in ("run", "sweep", "orbit"):
         raise StudyError(f"analysis.kind = {analysis['kind']!r}: must be run, sweep or orbit")
     if analysis.get("kind") == "sweep" and ("param" not in analysis or "values" not in analysis):

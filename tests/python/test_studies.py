@@ -551,6 +551,14 @@ def test_the_outputs_kept_are_those_named():
         geardyn.study(CASE, INPUTS, samples=3, outputs=["dynamic_factr"])
 
 
+def test_the_analysis_is_taken_as_a_user_writes_it():
+    by_name = geardyn.study(CASE, INPUTS, samples=2, analysis="run", outputs=["rattle"])
+    by_dict = geardyn.study(CASE, INPUTS, samples=2, analysis={"kind": "run"}, outputs=["rattle"])
+    assert by_name.identical(by_dict)
+    with pytest.raises(geardyn.StudyError, match=r"analysis = \['run'\]: must be the analysis's kind"):
+        geardyn.study(CASE, INPUTS, samples=2, analysis=["run"])
+
+
 def test_a_sweep_study_reads_each_samples_frequency_response():
     values = list(np.linspace(1500, 3500, 11))
     analysis = {"kind": "sweep", "param": "speed.shaft_frequency_hz", "values": values}
