@@ -15,6 +15,7 @@
 
 #include "geardyn/case_keys.hpp"
 #include "geardyn/harmonic_series.hpp"
+#include "geardyn/suggest.hpp"
 #include "geardyn/train_case.hpp"
 #include "toml_source.hpp"
 
@@ -415,9 +416,11 @@ class Reader {
       if (it == schema.end()) {
         std::string sections;
         for (const auto& [name, keys] : schema) sections += (sections.empty() ? "" : ", ") + name;
-        throw InputError(fmt::format("{}: unknown key '{}'; allowed at the top level: {}",
+        std::vector<std::string> names;
+        for (const auto& [name, keys] : schema) names.push_back(name);
+        throw InputError(fmt::format("{}: unknown key '{}'{}; allowed at the top level: {}",
                                      origin(section, k.source()).value_or("default value"), section,
-                                     sections));
+                                     did_you_mean(section, names), sections));
       }
       const toml::table* t = node.as_table();
       if (!t)
@@ -429,9 +432,9 @@ class Reader {
         if (used_.count(full)) continue;
         std::string keys;
         for (const auto& name : it->second) keys += (keys.empty() ? "" : ", ") + name;
-        throw InputError(fmt::format("{}: unknown key '{}'; allowed in [{}]: {}",
+        throw InputError(fmt::format("{}: unknown key '{}'{}; allowed in [{}]: {}",
                                      origin(full, kk.source()).value_or("default value"), full,
-                                     section, keys));
+                                     did_you_mean(kk.str(), it->second), section, keys));
       }
     }
   }

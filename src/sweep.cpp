@@ -185,7 +185,10 @@ class PointRunner {
     Case c = base_;
     set(c, o_.axis.key, value, where);
     if (o_.axis2) set(c, o_.axis2->key, value2, where2);
-    const std::string both = where2.empty() ? where : where + " with " + where2;
+    // Each end named with the key it sets: "--from 1e-300 of speed.shaft_frequency_hz".
+    const std::string first = fmt::format("{} of {}", where, o_.axis.key);
+    const std::string both =
+        where2.empty() ? first : fmt::format("{} with {} of {}", first, where2, o_.axis2->key);
     const TrainSolver solver(c, stiffness());
     const double period = train_section_period_s(solver, nullptr);
     const double fastest = solver.fastest_period_s(), step = solver.newmark_step_s();
@@ -354,7 +357,7 @@ class PointRunner {
     const ode::Vector scale = train_state_scale(a, solver.top_frequency_rad_s());
     const double gain = section.gain(scale);
     const std::optional<ode::Matrix> project =
-        c.solver.method == Method::kExact ? rigid_free(a) : std::nullopt;
+        solver.method() == Method::kExact ? rigid_free(a) : std::nullopt;
     std::map<int, std::optional<RegionResponse>> responses;
     std::optional<int> steady_region;  // the region of a last period without events
     const auto judge = [&] {

@@ -41,22 +41,6 @@ constexpr double kRealEigenvalueFraction = 1e-10;
 // whole numbers, equal to rounding).
 constexpr double kSameFrequency = 1e-12;
 
-Ratio reduced(std::int64_t num, std::int64_t den) {
-  const std::int64_t g = std::gcd(num, den);
-  return {num / g, den / g};
-}
-
-Ratio times(Ratio a, std::int64_t num, std::int64_t den) {
-  const Ratio x = reduced(num, den);
-  // Cross-reduce first, so that products of teeth counts stay far from overflow.
-  const std::int64_t g1 = std::gcd(a.num, x.den), g2 = std::gcd(x.num, a.den);
-  return reduced((a.num / g1) * (x.num / g2), (a.den / g2) * (x.den / g1));
-}
-
-bool same(Ratio a, Ratio b) { return a.num == b.num && a.den == b.den; }
-
-double value(Ratio r) { return static_cast<double>(r.num) / static_cast<double>(r.den); }
-
 // A periodic signal as complex amplitudes of the harmonics of one angular frequency w:
 // x(t) = Re sum_n c_n e^(i n w t), n >= 0 (c_0 real).
 using Spectrum = std::map<int, Complex>;
@@ -290,88 +274,59 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
   const int ref = body("the train", "reference", t_.reference);
   if (!(t_.reference_speed_hz > 0)) bad("the train", "reference_speed_hz must be > 0");
 
-  // Speeds over the reference's, from the mesh and shaft graph: a loop whose ratios disagree
-  // locks the train. Each external mesh reverses the sense of rotation, a shaft keeps it.
+  // The nominal motion: every body's speed, every mesh's and body's frame (kinematics.hpp).
   const int n = body_count();
-  std::vector<std::optional<Ratio>> speed(n);
-  sense_.assign(static_cast<std::size_t>(n), 1);
-  speed[ref] = Ratio{1, 1};
-  std::queue<int> open;
-  open.push(ref);
-  while (!open.empty()) {
-    const int i = open.front();
-    open.pop();
-    const auto visit = [&](int j, Ratio r, const std::string& element, int sense) {
-      if (r.num == 0) sense = 1;  // a body at rest counts its rotation counterclockwise
-      if (speed[j] && (r.num == 0) != (speed[j]->num == 0))
-        bad(element,
-            fmt::format("body '{}' carries bodies on pins, so it is at rest in the train's frame "
-                        "(its carrier's), but {}: a carrier neither meshes nor is the reference, "
-                        "and shafts join it to bodies at rest only",
-                        t_.bodies[j].name,
-                        j == ref ? "it is the reference" : "meshes or shafts turn it"));
-      if (!speed[j]) {
-        speed[j] = r;
-        sense_[static_cast<std::size_t>(j)] = sense;
-        open.push(j);
-      } else if (sense_[static_cast<std::size_t>(j)] != sense) {
-        bad(element, fmt::format("closes a loop whose senses of rotation disagree (body '{}' "
-                                 "would turn both ways; an odd loop of external meshes): the "
-                                 "train is locked and cannot turn",
-                                 t_.bodies[j].name));
-      } else if (!same(*speed[j], r)) {
-        bad(element, fmt::format("closes a loop whose speed ratios disagree ({} against {} for "
-                                 "body '{}'): the train is locked and cannot turn",
-                                 value(r), value(*speed[j]), t_.bodies[j].name));
-      }
-    };
-    for (const Mesh& m : t_.meshes) {
-      const int a = index(m.driving), b = index(m.driven);
-      const std::string e = fmt::format("mesh '{}'", m.name);
-      // An external mesh reverses the sense of rotation, an internal one keeps it.
-      const int next = (m.internal ? 1 : -1) * sense_[static_cast<std::size_t>(i)];
-      if (a == i) visit(b, times(*speed[i], m.teeth_driving, m.teeth_driven), e, next);
-      if (b == i) visit(a, times(*speed[i], m.teeth_driven, m.teeth_driving), e, next);
-    }
-    for (const Shaft& s : t_.shafts) {
-      if (s.b == kGround) continue;  // a support: it holds the deviation, not the speed
-      const int a = index(s.a), b = index(s.b);
-      const std::string e = fmt::format("shaft '{}'", s.name);
-      if (a == i) visit(b, *speed[i], e, sense_[static_cast<std::size_t>(i)]);
-      if (b == i) visit(a, *speed[i], e, sense_[static_cast<std::size_t>(i)]);
-    }
-    // A pin's carrier is at rest in the train's frame; the body on the pin turns freely on it.
-    for (const Bearing& x : t_.bearings) {
-      if (x.on.empty()) continue;
-      const int carried = index(x.body), carrier = index(x.on);
-      const std::string e = fmt::format("bearing '{}'", x.name);
-      if (carried == i) visit(carrier, Ratio{0, 1}, e, 1);
-    }
+  {
+    KinematicGraph g;
+    for (const Body& b : t_.bodies) g.bodies.push_back(b.name);
+    g.reference = ref;
+    for (const Mesh& m : t_.meshes)
+      g.meshes.push_back({fmt::format("mesh '{}'", m.name), index(m.driving), index(m.driven),
+                          m.teeth_driving, m.teeth_driven, m.internal});
+    for (const Shaft& s : t_.shafts)
+      g.shafts.push_back({fmt::format("shaft '{}'", s.name), index(s.a),
+                          s.b == kGround ? KinematicGraph::kToGround : index(s.b)});
+    for (const Bearing& x : t_.bearings)
+      if (!x.on.empty())
+        g.pins.push_back({fmt::format("bearing '{}'", x.name), index(x.body), index(x.on)});
+    motion_ = solve_nominal_motion(g);
+    graph_ = std::move(g);
   }
-  for (int i = 0; i < n; ++i) {
-    if (!speed[i])
-      bad(fmt::format("body '{}'", t_.bodies[i].name),
-          fmt::format("is joined to the reference '{}' by no mesh, shaft or pin", t_.reference));
-    speed_.push_back(*speed[i]);
-  }
+  speed_ = motion_.speed;
+  sense_ = motion_.sense;
+  for (int i = 0; i < body_count(); ++i)
+    if (t_.bodies[static_cast<std::size_t>(i)].planar && frame(i) == kMixedFrame)
+      bad(fmt::format("body '{}'", t_.bodies[static_cast<std::size_t>(i)].name),
+          "is planar but meshes in two frames (a planetary set's carrier's and another's, or the "
+          "ground's): its translations are read in one frame; give it dof = \"torsion\"");
+  // A mesh whose driving gear turns backward in its sense (a part of the train whose bodies'
+  // relative speeds disagree in sign across frames) has its teeth placed the wrong way by the
+  // layout's rule, which assumes forward rolling.
+  if (t_.mesh_phase_from_layout)
+    for (int m = 0; m < static_cast<int>(t_.meshes.size()); ++m)
+      if (motion_.relative(index(t_.meshes[m].driving), mesh_frame(m)).num < 0)
+        bad(fmt::format("mesh '{}'", t_.meshes[m].name),
+            "mesh_phase = \"layout\": its driving gear turns backward relative to its frame "
+            "(the train's senses of rotation disagree across a carrier), which the layout's rule "
+            "does not place; give each mesh's phases instead");
   // Orders of a body at rest have no frequency: a fluctuation there is refused, not dropped.
   for (const Torque& q : t_.torques)
     if (speed_[static_cast<std::size_t>(index(q.body))].num == 0 && !q.harmonics.empty())
       bad(fmt::format("torque '{}'", q.name),
-          fmt::format("body = \"{}\" is at rest in the train's frame: harmonics at orders of "
-                      "its speed have no frequency (give its mean torque only)",
+          fmt::format("body = \"{}\" is at rest (held, or turned by nothing): harmonics at "
+                      "orders of its speed have no frequency (give its mean torque only)",
                       q.body));
   for (const Drag& d : t_.drags)
     if (speed_[static_cast<std::size_t>(index(d.body))].num == 0 && d.constant_nm != 0)
       bad(fmt::format("drag '{}'", d.name),
-          fmt::format("body = \"{}\" is at rest in the train's frame: a constant drag has no "
-                      "rotation to oppose (give its viscous part only)",
+          fmt::format("body = \"{}\" is at rest: a constant drag has no rotation to oppose "
+                      "(give its viscous part only)",
                       d.body));
   for (const Speed& v : t_.speeds)
     if (speed_[static_cast<std::size_t>(index(v.body))].num == 0)
       bad(fmt::format("speed '{}'", v.name),
-          fmt::format("body = \"{}\" is at rest in the train's frame: its speed cannot be "
-                      "prescribed at orders of its speed",
+          fmt::format("body = \"{}\" is at rest: its speed cannot be prescribed at orders of "
+                      "its speed",
                       v.body));
   // The coordinates: every rotation, then each planar body's x and y (its w when held to its
   // line, along its one mesh's line of action).
@@ -421,42 +376,48 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (const int x = tilt(i); x >= 0)
       m_(x, x) = m_(x + 1, x + 1) = t_.bodies[i].tilt_inertia_kg_m2;
   }
-  // The frame's speed from the bodies held to the ground (the housing at rest).
-  // (Without a planar body the terms act on nothing: case_keys reports the key unused.)
-  if (t_.frame_terms &&
-      std::any_of(t_.bodies.begin(), t_.bodies.end(), [](const Body& b) { return b.planar; })) {
-    std::optional<double> omega;
-    std::string first;
-    for (const Shaft& s : t_.shafts) {
-      if (s.b != kGround) continue;
-      const int i = index(s.a);
-      const double w =
-          -sense(i) * value(speed_[static_cast<std::size_t>(i)]) * kTwoPi * t_.reference_speed_hz;
-      if (omega && std::abs(w - *omega) > kSameFrequency * std::max(std::abs(w), 1.0))
-        bad("the train",
-            fmt::format("frame_terms = true: shafts '{}' and '{}' hold bodies turning at "
-                        "different speeds in the frame to the ground, which has one speed",
-                        first, s.name));
-      if (!omega) first = s.name;
-      omega = w;
-    }
-    if (!omega)
-      bad("the train",
-          "frame_terms = true: no shaft holds a body to the ground (its housing), from whose "
-          "speed in the frame the frame's own is read");
-    frame_rate_ = *omega;
-  }
+  // The frames' rotation terms: each planar body in a carrier's frame turns with its carrier's
+  // absolute speed. (Without a planar body in one the terms act on nothing: case_keys reports
+  // the key unused.)
+  frame_rates_.assign(static_cast<std::size_t>(n), 0.0);
+  if (t_.frame_terms)
+    for (int i = 0; i < n; ++i)
+      if (const int c = frame(i); c >= 0 && t_.bodies[static_cast<std::size_t>(i)].planar) {
+        frame_rates_[static_cast<std::size_t>(i)] = body_speed_hz(c) * kTwoPi;
+        if (frame_rate_ == 0) frame_rate_ = frame_rates_[static_cast<std::size_t>(i)];
+      }
 }
+
+double Assembled::body_speed_hz(int body) const {
+  // + 0.0: a body at rest turning the reference's way back reads 0, not -0.
+  return sense(body) * value(speed_[static_cast<std::size_t>(body)]) * t_.reference_speed_hz + 0.0;
+}
+
+double Assembled::constant_drag_nm(int drag) const {
+  const Drag& d = t_.drags[static_cast<std::size_t>(drag)];
+  return (speed_[static_cast<std::size_t>(index(d.body))].num < 0 ? 1 : -1) * d.constant_nm;
+}
+
+double Assembled::mean_power_nm() const {
+  double p = 0;
+  for (const Torque& q : t_.torques)
+    p += q.mean_nm * value(speed_[static_cast<std::size_t>(index(q.body))]);
+  for (std::size_t d = 0; d < t_.drags.size(); ++d)
+    p += constant_drag_nm(static_cast<int>(d)) *
+         value(speed_[static_cast<std::size_t>(index(t_.drags[d].body))]);
+  return p;
+}
+
+double Assembled::turning_hz(int body) const { return std::abs(body_speed_hz(body)); }
 
 Eigen::MatrixXd Assembled::frame_stiffness() const {
   Eigen::MatrixXd k = Eigen::MatrixXd::Zero(size(), size());
-  if (frame_rate_ == 0) return k;
-  const double w2 = frame_rate_ * frame_rate_;
   for (int i = 0; i < body_count(); ++i)
     if (const int x = translation(i); x >= 0) {
+      const double w = frame_rate_rad_s(i);
       const Eigen::MatrixXd& p = plane_basis(i);
       k.block(x, x, p.cols(), p.cols()) -=
-          w2 * t_.bodies[static_cast<std::size_t>(i)].mass_kg * p.transpose() * p;
+          w * w * t_.bodies[static_cast<std::size_t>(i)].mass_kg * p.transpose() * p;
     }
   // A carried body's softening on its displacement from its pin's turned place, v = u - theta_c
   // d_c (d_c = -B's column of theta_c: w = u - ... - theta_c d_c): -m Omega^2 v v^T adds to the
@@ -466,7 +427,8 @@ Eigen::MatrixXd Assembled::frame_stiffness() const {
     const Bearing& b = t_.bearings[k_b];
     if (b.on.empty()) continue;
     const int carried = index(b.body), carrier = index(b.on), x = translation(carried);
-    const double mw2 = w2 * t_.bodies[static_cast<std::size_t>(carried)].mass_kg;
+    const double w = frame_rate_rad_s(carried);
+    const double mw2 = w * w * t_.bodies[static_cast<std::size_t>(carried)].mass_kg;
     const Eigen::Vector2d d = -bearing_matrix(static_cast<int>(k_b)).block(0, carrier, 2, 1);
     k.block(x, carrier, 2, 1) += mw2 * d;
     k.block(carrier, x, 1, 2) += mw2 * d.transpose();
@@ -477,12 +439,11 @@ Eigen::MatrixXd Assembled::frame_stiffness() const {
 
 Eigen::MatrixXd Assembled::frame_damping() const {
   Eigen::MatrixXd c = Eigen::MatrixXd::Zero(size(), size());
-  if (frame_rate_ == 0) return c;
   for (int i = 0; i < body_count(); ++i)
     if (const int x = translation(i); x >= 0) {
       // 2 m Omega [[0, -1], [1, 0]] on u = P q_p (nothing on a body held to its line).
       const Eigen::MatrixXd& p = plane_basis(i);
-      const double g = 2 * frame_rate_ * t_.bodies[static_cast<std::size_t>(i)].mass_kg;
+      const double g = 2 * frame_rate_rad_s(i) * t_.bodies[static_cast<std::size_t>(i)].mass_kg;
       c.block(x, x, p.cols(), p.cols()) +=
           g * p.transpose() * (Eigen::Matrix2d() << 0, -1, 1, 0).finished() * p;
     }
@@ -491,13 +452,13 @@ Eigen::MatrixXd Assembled::frame_damping() const {
 
 Eigen::VectorXd Assembled::frame_load() const {
   Eigen::VectorXd q = Eigen::VectorXd::Zero(size());
-  if (frame_rate_ == 0) return q;
   for (const Bearing& b : t_.bearings) {
     if (b.on.empty()) continue;
     const int carried = index(b.body);
+    const double w = frame_rate_rad_s(carried);
     q.segment(translation(carried), 2) +=
-        frame_rate_ * frame_rate_ * t_.bodies[static_cast<std::size_t>(carried)].mass_kg *
-        b.pin_radius_m * Eigen::Vector2d(std::cos(b.pin_angle_rad), std::sin(b.pin_angle_rad));
+        w * w * t_.bodies[static_cast<std::size_t>(carried)].mass_kg * b.pin_radius_m *
+        Eigen::Vector2d(std::cos(b.pin_angle_rad), std::sin(b.pin_angle_rad));
   }
   return q;
 }
@@ -691,7 +652,7 @@ namespace {
 
 // The prescribed rotation of a speed element, theta(t), at its body's own speed.
 HarmonicSeries rotation_series(const Assembled& a, const Speed& v) {
-  const double w = kTwoPi * a.train().reference_speed_hz * value(a.speed_ratios()[a.index(v.body)]);
+  const double w = kTwoPi * a.turning_hz(a.index(v.body));
   HarmonicSeries s;
   for (const SpeedHarmonic& h : v.harmonics)
     s.terms.push_back({h.amplitude_rad, h.order * w, h.phase_rad});
@@ -712,8 +673,8 @@ void Assembled::prescribe(double t_s, Eigen::VectorXd& y) const {
 
 std::vector<Ratio> Assembled::mesh_frequency_ratios() const {
   std::vector<Ratio> out;
-  for (const Mesh& m : t_.meshes)
-    out.push_back(times(speed_[index(m.driving)], m.teeth_driving, 1));
+  for (std::size_t m = 0; m < t_.meshes.size(); ++m)
+    out.push_back(motion_.mesh_frequency(static_cast<int>(m), graph_));
   return out;
 }
 
@@ -772,7 +733,7 @@ std::optional<double> Assembled::system_period_s(std::string* why) const {
   const auto orders = [&](const std::string& element, const std::string& body, double order,
                           double amplitude) {
     if (amplitude == 0) return true;
-    const Ratio speed = speed_[index(body)];
+    const Ratio speed = absolute(speed_[static_cast<std::size_t>(index(body))]);
     const std::optional<Ratio> o = as_fraction(order);
     if (!o) {
       if (why)
@@ -793,12 +754,13 @@ std::optional<double> Assembled::system_period_s(std::string* why) const {
     for (const SpeedHarmonic& h : v.harmonics)
       if (!orders(fmt::format("speed '{}'", v.name), v.body, h.order, h.amplitude_rad))
         return std::nullopt;
-  // A turning gear's runout, once per its turn.
-  for (const Mesh& m : t_.meshes)
-    for (const std::string& gear : {m.driving, m.driven})
+  // A turning gear's runout, once per its turn relative to its mesh's frame.
+  for (std::size_t m = 0; m < t_.meshes.size(); ++m)
+    for (const std::string& gear : {t_.meshes[m].driving, t_.meshes[m].driven})
       if (t_.bodies[static_cast<std::size_t>(index(gear))].eccentricity_m > 0)
-        ratios.emplace_back(speed_[static_cast<std::size_t>(index(gear))],
-                            fmt::format("body '{}' (its runout)", gear));
+        ratios.emplace_back(
+            absolute(motion_.relative(index(gear), mesh_frame(static_cast<int>(m)))),
+            fmt::format("body '{}' (its runout)", gear));
   if (ratios.empty()) return 0.0;
   // gcd of p_i / q_i = gcd(p_i) / lcm(q_i); past the bound, the excitations are quasi-periodic.
   std::int64_t num = 0, den = 1;
@@ -1061,7 +1023,9 @@ MeshSignals mesh_signals(const Assembled& a, int mesh) {
   const auto runout = [&](int body, int teeth, double sign) {
     const Body& b = t.bodies[static_cast<std::size_t>(body)];
     if (!(b.eccentricity_m > 0)) return;
-    const double turn = a.sense(body);
+    // Its direction of turning in the mesh's frame, counterclockwise positive.
+    const double turn =
+        a.sense(body) * (a.relative_speed_ratio(body, a.mesh_frame(mesh)).num < 0 ? -1 : 1);
     s.e[stride / teeth] -= sign * cb * b.eccentricity_m * Complex(n.x(), -turn * n.y()) *
                            std::polar(1.0, turn * b.eccentricity_angle_rad);
   };
@@ -1084,7 +1048,7 @@ HarmonicSeries Assembled::error_series(int mesh) const {
 
 HarmonicSeries Assembled::torque_series(int torque) const {
   const Torque& q = t_.torques[torque];
-  const double w = kTwoPi * t_.reference_speed_hz * value(speed_[index(q.body)]);
+  const double w = kTwoPi * turning_hz(index(q.body));
   HarmonicSeries s;
   s.offset = q.mean_nm;
   for (const TorqueHarmonic& h : q.harmonics)
@@ -1156,7 +1120,8 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
   stamp_common(*this, k_common, c_common, false);
   // The drags, and the loads of the bearings' seat errors k B^T o.
   Eigen::VectorXd q_common = Eigen::VectorXd::Zero(n);
-  for (const Drag& d : t_.drags) q_common(index(d.body)) -= d.constant_nm;
+  for (std::size_t d = 0; d < t_.drags.size(); ++d)
+    q_common(index(t_.drags[d].body)) += constant_drag_nm(static_cast<int>(d));
   for (std::size_t k = 0; k < t_.bearings.size(); ++k)
     if (!(t_.bearings[k].clearance_m > 0))
       q_common += t_.bearings[k].stiffness_n_per_m *

@@ -18,6 +18,7 @@
 #include <variant>
 
 #include "geardyn/case_keys.hpp"
+#include "geardyn/suggest.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/validation.hpp"
 #include "toml_source.hpp"
@@ -46,7 +47,7 @@ Range closed(double lo, double hi) { return {lo, hi, true, true}; }
 template <class E>
 struct ElementKey {
   std::string_view leaf;
-  std::variant<std::string E::*, double E::*, std::optional<double> E::*, int E::*,
+  std::variant<std::string E::*, double E::*, std::optional<double> E::*, int E::*, bool E::*,
                std::vector<StiffnessHarmonic> E::*, std::vector<ErrorHarmonic> E::*,
                std::vector<OrderHarmonic> E::*>
       field;
@@ -233,12 +234,18 @@ const std::vector<ElementKey<TrainShaftData>>& shaft_keys() {
        "",
        {},
        true,
-       "the other, or \"ground\": a torsional support holding the body's rotation (a ring "
-       "gear in its housing)"},
+       "the other, or \"ground\": a torsional support holding the body at rest (a ring gear "
+       "in its housing), about which it vibrates"},
       {"stiffness_n_m_per_rad", &S::stiffness_n_m_per_rad, "N m/rad", above(0), true,
        "torsional stiffness"},
       {"damping_ratio", &S::damping_ratio, "", closed_open(0, 1), false,
-       "against the reduced inertia of the two bodies (the body's own, to the ground)"},
+       "against the reduced inertia of the two bodies (the body's own, to the ground): the "
+       "shaft and its two bodies on their own"},
+      {"mode_damping_ratio", &S::mode_damping_ratio, "", closed_open(0, 1), false,
+       "instead: the damping ratio the shaft alone gives the train's mode whose strain energy "
+       "it holds most of (a drivetrain's first mode), at the mean mesh stiffnesses"},
+      {"damping_n_m_s_per_rad", &S::damping_n_m_s_per_rad, "N m s/rad", at_least(0), false,
+       "instead: the damping coefficient on the twist's rate"},
   };
   return keys;
 }
@@ -256,10 +263,12 @@ const std::vector<ElementKey<TrainBearingData>>& bearing_keys() {
        "",
        {},
        false,
-       "the body whose pin carries it (a planet's carrier, at rest in the train's frame); "
+       "the body whose pin carries it (a planet's carrier, whose frame its meshes turn in); "
        "absent: the ground"},
       {"pin_radius_mm", &G::pin_radius_mm, "mm", at_least(0), false,
-       "where the pin is on that body: its distance from the body's centre"},
+       "where the pin is on that body: its distance from the body's centre; absent (or 0): the "
+       "centre distance of the carried gear's mesh with its sun or ring, from their teeth and "
+       "module (a radius more than 0.1 % off it is warned of)"},
       {"pin_angle_deg", &G::pin_angle_deg, "deg", closed(-360, 360), false,
        "and its direction, counterclockwise from x (on the ground: the direction its errors "
        "are read in)"},
@@ -299,6 +308,13 @@ const std::vector<ElementKey<TrainTorqueData>>& torque_keys() {
        {},
        false,
        "mean torque: > 0 along the body's rotation (a drive), < 0 against it (a load)"},
+      {"balances",
+       &T::balances,
+       "",
+       {},
+       false,
+       "true: its mean is the reaction that balances every other mean torque and drag at the "
+       "train's speeds (computed and reported; mean_nm unread), as a generator's or a brake's"},
       {"harmonics", &T::harmonics, "N m", at_least(0), false,
        "[[amplitude, order, phase_deg], ...] at orders of the body's own speed"},
   };
@@ -363,6 +379,8 @@ std::string allowed(const ElementKey<E>& key) {
             return words;
           }
           return key.file ? "a file's path in quotes" : "a name in quotes";
+        } else if constexpr (std::is_same_v<T, bool>) {
+          return "true or false";
         } else if constexpr (std::is_same_v<T, int>) {
           return fmt::format("a whole number {}", bound);
         } else if constexpr (std::is_same_v<T, std::vector<OrderHarmonic>>) {
@@ -393,11 +411,14 @@ class ElementReader {
       for (const ElementKey<E>& key : keys) known = known || key.leaf == k.str();
       if (!known) {
         std::string allowed;
-        for (const ElementKey<E>& key : keys)
+        std::vector<std::string> leaves;
+        for (const ElementKey<E>& key : keys) {
           allowed += fmt::format("{}{}", allowed.empty() ? "" : ", ", key.leaf);
-        throw InputError(fmt::format("{}: unknown key '{}.{}'; allowed: {}",
+          leaves.emplace_back(key.leaf);
+        }
+        throw InputError(fmt::format("{}: unknown key '{}.{}'{}; allowed: {}",
                                      origin(fmt::format("{}.{}", prefix_, k.str()), k.source()),
-                                     prefix_, k.str(), allowed));
+                                     prefix_, k.str(), did_you_mean(k.str(), leaves), allowed));
       }
     }
     for (const ElementKey<E>& key : keys) {
@@ -446,6 +467,11 @@ class ElementReader {
   template <class E>
   void set(const toml::node& n, const ElementKey<E>& key, std::optional<double>& out) const {
     out = number(n, key, key.range);
+  }
+  template <class E>
+  void set(const toml::node& n, const ElementKey<E>& key, bool& out) const {
+    if (!n.is_boolean()) fail(n, key);
+    out = *n.value<bool>();
   }
   template <class E>
   void set(const toml::node& n, const ElementKey<E>& key, int& out) const {
@@ -550,8 +576,9 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
                                                    "speed"};
   for (auto&& [k, v] : *train) {
     if (!known.count(k.str()))
-      throw InputError(fmt::format("{}: unknown key 'train.{}'; allowed in [train]: {}",
-                                   where(k.source(), source), k.str(), kTrainKeys));
+      throw InputError(fmt::format(
+          "{}: unknown key 'train.{}'{}; allowed in [train]: {}", where(k.source(), source),
+          k.str(), did_you_mean(k.str(), {known.begin(), known.end()}), kTrainKeys));
   }
   // A body's name given in [train] (its reference, its planet), with where it was given.
   const auto body_name = [&](std::string_view leaf, std::string& out) {
@@ -742,6 +769,32 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
 
 }  // namespace
 
+std::optional<double> pin_radius_from_gears_mm(const TrainCase& t, const TrainBearingData& b) {
+  if (b.on.empty()) return std::nullopt;
+  const auto find = [&](const std::string& name) -> const TrainBodyData* {
+    for (const TrainBodyData& x : t.bodies)
+      if (x.name == name) return &x;
+    return nullptr;
+  };
+  const auto pinned = [&](const std::string& name) {
+    return std::any_of(t.bearings.begin(), t.bearings.end(),
+                       [&](const TrainBearingData& x) { return x.body == name && !x.on.empty(); });
+  };
+  for (const TrainMeshData& m : t.meshes) {
+    const std::string other = m.driving == b.body  ? m.driven
+                              : m.driven == b.body ? m.driving
+                                                   : std::string();
+    if (other.empty() || pinned(other)) continue;
+    const TrainBodyData *x = find(b.body), *y = find(other);
+    if (!x || !y || x->teeth <= 0 || y->teeth <= 0 || !(x->normal_module_mm > 0)) continue;
+    // The reference centre distance m_n (z_a +- z_b) / (2 cos beta): the base radii's sum (or
+    // difference) over cos(alpha_t), the geometry the meshes' lines of action are drawn with.
+    const int teeth = m.kind == "internal" ? std::abs(x->teeth - y->teeth) : x->teeth + y->teeth;
+    return x->normal_module_mm * teeth / (2 * std::cos(x->helix_angle_deg * kDegToRad));
+  }
+  return std::nullopt;
+}
+
 TrainCase expand_planets(const TrainCase& written) {
   if (written.planet.empty() && written.planets == 0 && written.planet_angles_deg.empty() &&
       written.planet_pin_errors_um.empty())
@@ -884,8 +937,12 @@ void iso_meshes_at_their_load(const TrainCase& t, train::Train& out) {
         rethrow_with_origin(
             t, fmt::format("mesh '{}': stiffness_source = \"iso6336\": the mesh carries {:.4g} N "
                            "at the train's static state; ISO 6336-1's stiffness needs a load "
-                           "on its drive flank",
-                           m.name, force[i]));
+                           "on its drive flank{}",
+                           m.name, force[i],
+                           force[i] < 0 ? " (it is loaded on its back flank: are its driving and "
+                                          "driven gears the wrong way round? The driving gear's "
+                                          "torque pushes the other)"
+                                        : ""));
       // The normal force's torque on the driving gear: F cos(beta_b) r_b.
       const double torque = force[i] * std::cos(x.base_helix_angle_rad) * x.base_radius_driving_m;
       PairMeshStiffness k;
@@ -905,6 +962,40 @@ void iso_meshes_at_their_load(const TrainCase& t, train::Train& out) {
   rethrow_with_origin(t, fmt::format("mesh '{}': stiffness_source = \"iso6336\": the meshes' "
                                      "stiffnesses and static loads did not settle in {} passes",
                                      t.meshes[iso.front()].name, kIsoLoadPasses));
+}
+
+}  // namespace
+
+namespace {
+
+// Each shaft with a mode_damping_ratio zeta: c = 2 zeta w / (v . phi)^2 on the mode phi (mass
+// normalised, of angular frequency w) whose strain energy it holds most of, so that its own
+// share of that mode's damping ratio, phi^T C phi / (2 w), is zeta. The modes are the train's at
+// its mean mesh stiffnesses, every other damper as given.
+void damp_shafts_by_their_modes(const TrainCase& t, train::Train& out) {
+  std::vector<std::size_t> which;
+  for (std::size_t k = 0; k < t.shafts.size(); ++k)
+    if (t.shafts[k].mode_damping_ratio) which.push_back(k);
+  if (which.empty()) return;
+  try {
+    const train::Assembled a(out);
+    const std::vector<train::TrainMode> modes = train::modes(a);
+    for (const std::size_t k : which) {
+      const train::TrainMode* best = nullptr;
+      for (const train::TrainMode& m : modes)
+        if (m.frequency_hz > 0 && (!best || m.shaft_energy[k] > best->shaft_energy[k])) best = &m;
+      const double s = best ? a.shaft_vector(static_cast<int>(k)).dot(best->shape) : 0.0;
+      if (!best || !(best->shaft_energy[k] > 0) || s == 0)
+        throw InputError(
+            fmt::format("shaft '{}': mode_damping_ratio: no mode of the train "
+                        "strains it; give damping_n_m_s_per_rad",
+                        t.shafts[k].name));
+      out.shafts[k].damping_n_m_s_per_rad =
+          2 * *t.shafts[k].mode_damping_ratio * 2 * kPi * best->frequency_hz / (s * s);
+    }
+  } catch (const InputError& e) {
+    rethrow_with_origin(t, e.what());
+  }
 }
 
 }  // namespace
@@ -1061,7 +1152,20 @@ train::Train train_of(const Case& c) {
     out.meshes.push_back(std::move(x));
   }
   for (const TrainShaftData& s : t.shafts) {
+    // One way of damping at most: a ratio given beside another is refused, not overridden.
+    const bool ratio_given = t.origins.count(fmt::format("shaft '{}': damping_ratio", s.name)) > 0;
+    if (static_cast<int>(ratio_given) + static_cast<int>(s.mode_damping_ratio.has_value()) +
+            static_cast<int>(s.damping_n_m_s_per_rad.has_value()) >
+        1)
+      rethrow_with_origin(t, fmt::format("shaft '{}': give one of damping_ratio, "
+                                         "mode_damping_ratio and damping_n_m_s_per_rad",
+                                         s.name));
     train::Shaft x{s.name, s.from, s.to, s.stiffness_n_m_per_rad, 0.0};
+    if (s.damping_n_m_s_per_rad || s.mode_damping_ratio) {
+      x.damping_n_m_s_per_rad = s.damping_n_m_s_per_rad.value_or(0.0);  // a mode's: below
+      out.shafts.push_back(std::move(x));
+      continue;
+    }
     const auto a = gears.find(s.from), b = gears.find(s.to);
     if (a != gears.end() && b != gears.end()) {
       const double ja = a->second.inertia_kg_m2, jb = b->second.inertia_kg_m2;
@@ -1074,12 +1178,16 @@ train::Train train_of(const Case& c) {
     out.shafts.push_back(std::move(x));
   }
   for (const TrainBearingData& b : t.bearings) {
+    // A pin written without its radius holds its planet where the teeth mesh.
+    const double pin_radius_mm = b.on.empty() || b.pin_radius_mm != 0
+                                     ? b.pin_radius_mm
+                                     : pin_radius_from_gears_mm(t, b).value_or(0.0);
     train::Bearing x{b.name,
                      b.body,
                      b.stiffness_n_per_m,
                      0.0,
                      b.on,
-                     b.pin_radius_mm * kMmToM,
+                     pin_radius_mm * kMmToM,
                      b.pin_angle_deg * kDegToRad,
                      b.pin_error_radial_um * kUmToM,
                      b.pin_error_tangential_um * kUmToM,
@@ -1110,7 +1218,7 @@ train::Train train_of(const Case& c) {
     out.bearings.push_back(std::move(x));
   }
   for (const TrainTorqueData& q : t.torques) {
-    train::Torque x{q.name, q.body, q.mean_nm, {}};
+    train::Torque x{q.name, q.body, q.balances ? 0.0 : q.mean_nm, {}};
     for (const OrderHarmonic& h : q.harmonics)
       x.harmonics.push_back({h.amplitude, h.order, h.phase_deg * kDegToRad});
     out.torques.push_back(std::move(x));
@@ -1124,19 +1232,36 @@ train::Train train_of(const Case& c) {
     const train::Assembled speeds_only(out);
     for (std::size_t i = 0; i < t.speeds.size(); ++i) {
       const int body = speeds_only.index(t.speeds[i].body);
-      const train::Ratio r = speeds_only.speed_ratios()[static_cast<std::size_t>(body)];
-      const double omega =
-          2 * kPi * t.reference_speed_hz * static_cast<double>(r.num) / static_cast<double>(r.den);
+      const double omega = 2 * kPi * speeds_only.turning_hz(body);
       for (const OrderHarmonic& h : t.speeds[i].acceleration_harmonics) {
         const double w = h.order * omega;
         out.speeds[i].harmonics.push_back(
             {h.amplitude / (w * w), h.order, h.phase_deg * kDegToRad + kPi});
       }
     }
+    // The reaction: the torque that balances the others' power at the train's speeds.
+    for (std::size_t k = 0; k < t.torques.size(); ++k) {
+      if (!t.torques[k].balances) continue;
+      const int body = speeds_only.index(t.torques[k].body);
+      const double speed = train::value(speeds_only.speed_ratios()[static_cast<std::size_t>(body)]);
+      if (speed == 0)
+        throw InputError(
+            fmt::format("torque '{}': balances = true on body '{}', which is at "
+                        "rest: a torque there does no work and balances nothing",
+                        t.torques[k].name, t.torques[k].body));
+      for (std::size_t j = k + 1; j < t.torques.size(); ++j)
+        if (t.torques[j].balances)
+          throw InputError(
+              fmt::format("torque '{}': balances = true, as torque '{}' has: one "
+                          "torque is the reaction to the others",
+                          t.torques[j].name, t.torques[k].name));
+      out.torques[k].mean_nm = -speeds_only.mean_power_nm() / speed;
+    }
   } catch (const InputError& e) {
     rethrow_with_origin(t, e.what());
   }
   iso_meshes_at_their_load(t, out);
+  damp_shafts_by_their_modes(t, out);
   return out;
 }
 
@@ -1191,6 +1316,7 @@ std::string toml_value(const std::string& v) {
 }
 std::string toml_value(double v) { return fmt::format("{}", v); }
 std::string toml_value(int v) { return fmt::format("{}", v); }
+std::string toml_value(bool v) { return v ? "true" : ""; }  // false: the default, left out
 std::string toml_value(const std::optional<double>& v) { return v ? toml_value(*v) : ""; }
 std::string toml_value(const std::vector<StiffnessHarmonic>& v) {
   std::string out;
@@ -1236,16 +1362,17 @@ const std::vector<TrainKeyInfo>& train_key_list() {
     std::vector<TrainKeyInfo> out = {
         {"", "reference", "", "the first body", "a body's name in quotes",
          "the body whose speed is given"},
-        {"", "reference_speed_hz", "Hz", "(required)", "a number > 0", "its rotation frequency"},
+        {"", "reference_speed_hz", "Hz", "(required)", "a number > 0",
+         "its absolute rotation frequency (every other body's follows from the meshes, shafts "
+         "and supports, Willis's equation for each planetary set)"},
         {"", "mesh_phase", "", "\"given\"", "\"given\" or \"layout\"",
          "\"given\": each mesh's harmonic phases about t = 0 as written; \"layout\": about a "
          "tooth pair passing the mesh's pitch point, each mesh delayed by where the position "
          "angles put its gears' teeth"},
         {"", "frame_terms", "", "false", "true or false",
-         "the frame's rotation terms on the planar bodies (a planetary set's carrier frame): "
-         "Coriolis and centripetal forces and the planets' centrifugal load, at the frame's "
-         "speed read from the bodies held to the ground (docs/model.md, \"The carrier's "
-         "rotation\")"},
+         "each carrier's frame's rotation terms on the planar bodies in it (a planetary set's): "
+         "Coriolis and centripetal forces and the planets' centrifugal load, at the carrier's "
+         "speed (docs/model.md, \"The carrier's rotation\")"},
         {"", "planet", "", "(none)", "a body's name in quotes",
          "a planetary set's planet, written once: it and every element naming it stand for "
          "train.planets copies, named <name>1 ... <name>N"},
@@ -1404,13 +1531,17 @@ std::string key_origin(const TrainCase& t, std::string_view kind, const std::str
 
 std::vector<std::string> train_unused_settings(const TrainCase& t) {
   std::vector<std::string> out;
-  if (t.frame_terms && std::none_of(t.bodies.begin(), t.bodies.end(),
-                                    [](const TrainBodyData& b) { return keeps_plane(b); })) {
+  const bool no_carrier = std::none_of(t.bearings.begin(), t.bearings.end(),
+                                       [](const TrainBearingData& b) { return !b.on.empty(); });
+  if (t.frame_terms &&
+      (no_carrier || std::none_of(t.bodies.begin(), t.bodies.end(),
+                                  [](const TrainBodyData& b) { return keeps_plane(b); }))) {
     const auto where_given = t.origins.find("the train: frame_terms");
     out.push_back(fmt::format(
-        "train.frame_terms = true ({}): not used: no body is planar, and the frame's terms act on "
-        "the planar bodies' centres",
-        where_given == t.origins.end() ? "" : where_given->second));
+        "train.frame_terms = true ({}): not used: {}, and the frame's terms act on the planar "
+        "bodies' centres in a turning carrier's frame",
+        where_given == t.origins.end() ? "" : where_given->second,
+        no_carrier ? "no body carries others on pins (every axis is fixed)" : "no body is planar"));
   }
   // The gears whose layout a mesh's line of action reaches: planar, or with a runout.
   std::set<std::string> placed;

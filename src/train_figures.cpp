@@ -78,8 +78,10 @@ void write_load_sharing_figure(const fs::path& dir, const TrainRunResult& r) {
                                })}});
   std::string g =
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set key top right font ',9' opaque\nset ytics nomirror\nset y2tics\n"
-      "set ylabel 'mesh force (N)'\nset y2label 'load-sharing factor'\n";
+      "set key outside right top font ',9'\nset ytics nomirror\nset y2tics\n"
+      "set ylabel 'mesh force (N)'\nset y2label 'load-sharing factor'\n"
+      // A factor of 1 to rounding reads 1.000 on an axis of at least 0.98 to 1.02, not "1 1 1".
+      "set format y2 '%.3f'\nset y2range [* < 0.98 : 1.02 < *]\n";
   fmt::format_to(std::back_inserter(g),
                  "set multiplot layout {},1 title \"{}: load sharing\"\nset xrange [0:{}]\n",
                  r.load_sharing.size(), quoted(r.input.name), r.input.solver.duration_s * 1e3);
@@ -116,22 +118,26 @@ void write_load_sharing_figure(const fs::path& dir, const TrainRunResult& r) {
 // i f_z dashed and the other meshes' frequencies dotted in their colours, from
 // train_spectrum.csv (frequency_hz, then each mesh's <mesh>_force_bar and <mesh>_deflection_bar
 // amplitudes). Nothing without a spectrum (fewer than 4 samples in the steady part).
-void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r) {
+void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r, bool physical) {
   std::vector<MeshSpectra> spectra;
   for (std::size_t m = 0; m < r.meshes.size(); ++m) spectra.push_back(mesh_spectra(r, m));
   if (spectra.empty() || spectra[0].force_n.frequency_hz.size() < 2) return;
   const std::vector<double>& f = spectra[0].force_n.frequency_hz;
   std::string csv = "frequency_hz";
   for (const TrainMeshReading& m : r.meshes)
-    csv += fmt::format(",{0}_force_bar,{0}_deflection_bar", m.name);
+    csv += physical ? fmt::format(",{0}_force_n,{0}_deflection_um", m.name)
+                    : fmt::format(",{0}_force_bar,{0}_deflection_bar", m.name);
   csv += "\n";
   for (std::size_t k = 0; k < f.size(); ++k) {
     fmt::format_to(std::back_inserter(csv), "{:.10g}", f[k]);
     for (std::size_t m = 0; m < r.meshes.size(); ++m) {
       const TrainMeshReading& x = r.meshes[m];
+      // F in N or over b k_m; d - e over b, or in um.
+      const double force = spectra[m].force_n.amplitude[k],
+                   deflection = spectra[m].deflection_bar.amplitude[k];
       fmt::format_to(std::back_inserter(csv), ",{:.6e},{:.6e}",
-                     spectra[m].force_n.amplitude[k] / (x.backlash_m * x.mean_stiffness_n_per_m),
-                     spectra[m].deflection_bar.amplitude[k]);
+                     physical ? force : force / (x.backlash_m * x.mean_stiffness_n_per_m),
+                     physical ? deflection * x.backlash_m * 1e6 : deflection);
     }
     csv += "\n";
   }
@@ -141,7 +147,8 @@ void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r) {
   const double x_min = f[1], x_max = std::min(f.back(), 4.0 * std::max(top, f[1]));
   std::string g =
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set logscale xy\nset key bottom left font ',9' opaque\nset ylabel 'amplitude'\n";
+      "set logscale xy\nset key bottom left font ',9' opaque\n";
+  g += physical ? "set ylabel 'force (N), d − e (um)'\n" : "set ylabel 'amplitude'\n";
   fmt::format_to(std::back_inserter(g),
                  "set multiplot layout {},1 title \"{}: spectra over the steady part, t >= {:.4g} "
                  "ms\"\nset xrange [{}:{}]\n",
@@ -167,12 +174,13 @@ void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r) {
         std::back_inserter(g),
         "unset arrow\n{0}set title \"mesh {1} ({2:.6g} Hz)\" font ',10'\n{3}"
         "plot 'train_spectrum.csv' using 1:((${4}>0)?${4}:NaN) skip 1 with lines lw 1.2 lc rgb "
-        "'{6}' title 'F / (b k_m)', '' using 1:((${5}>0)?${5}:NaN) skip 1 with lines lw 1 lc "
-        "rgb 'gray40' title '(d − e) / b', NaN with lines dt 2 lc rgb 'gray40' title 'mesh "
+        "'{6}' title '{7}', '' using 1:((${5}>0)?${5}:NaN) skip 1 with lines lw 1 lc "
+        "rgb 'gray40' title '{8}', NaN with lines dt 2 lc rgb 'gray40' title 'mesh "
         "orders i f_z'\n",
         marks, quoted(x.name), x.mesh_frequency_hz,
         m + 1 == r.meshes.size() ? "set xlabel 'frequency (Hz)'\n" : "unset xlabel\n", force,
-        deflection, colour(m));
+        deflection, colour(m), physical ? "F (N)" : "F / (b k_m)",
+        physical ? "d − e (um)" : "(d − e) / b");
   }
   g += "unset multiplot\n";
   render_figure(dir, "train_spectrum", g, 1000,
@@ -221,9 +229,9 @@ void write_train_phase_figure(const fs::path& dir, const TrainRunResult& r) {
 
 }  // namespace
 
-void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
+void write_train_run_figures(const fs::path& dir, const TrainRunResult& r, bool physical) {
   if (!r.load_sharing.empty()) write_load_sharing_figure(dir, r);
-  write_train_spectrum_figure(dir, r);
+  write_train_spectrum_figure(dir, r, physical);
   write_train_phase_figure(dir, r);
   const TrainSamples& s = r.samples;
   const std::size_t meshes = r.meshes.size(), shafts = r.shafts.size(),
@@ -269,7 +277,8 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r) {
                  })}});
   std::string g =
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
-      "set key top right font ',9' opaque\nset ytics nomirror\nset y2tics\n";
+      // The key beside each panel, never over the traces.
+      "set key outside right top font ',9'\nset ytics nomirror\nset y2tics\n";
   fmt::format_to(std::back_inserter(g),
                  "set multiplot layout {},1 title \"{}: gear train, {} bodies, {} mesh{}\"\n"
                  "set xrange [0:{}]\n",

@@ -34,6 +34,9 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // The mean torques balance when their power at the train's speeds is this small against the
 // largest term's.
 constexpr double kBalanceTolerance = 1e-9;
+// A static mesh force below minus this fraction of the train's force scale is on the back flank
+// (train_plausibility); rounding leaves some 1e-16 of it.
+constexpr double kBackFlankFraction = 1e-9;
 
 // A train's cells are twice the one-degree model's in h times the fastest rate, as the coupled
 // model's (coupled_run.cpp, kCoupledCellRateProduct): a coupled case, which runs as its train,
@@ -46,10 +49,6 @@ constexpr double kTrainCellRateProduct = 3.0;
 // Stretches a run's observer keeps before it searches them in the middle of a flow (as
 // CellExtremes' kMaxKeptStretches): a few numbers a stretch and its observables' bounds.
 constexpr std::size_t kMaxKeptStretches = 2048;
-
-double ratio_value(const train::Ratio& r) {
-  return static_cast<double>(r.num) / static_cast<double>(r.den);
-}
 
 // Looks at the engine's flow: samples, each mesh's contact changes and its exact extremes, over
 // the whole window and, from a mark on, over the steady part beside it.
@@ -602,8 +601,7 @@ double shortest_time_scale_s(const train::Assembled& a, double top_mode_rad_s) {
   for (std::size_t q = 0; q < t.torques.size(); ++q)
     w = std::max(w, a.torque_series(static_cast<int>(q)).max_angular_frequency_rad_s());
   for (const train::Speed& v : t.speeds) {
-    const double omega = kTwoPi * t.reference_speed_hz *
-                         ratio_value(a.speed_ratios()[static_cast<std::size_t>(a.index(v.body))]);
+    const double omega = kTwoPi * a.turning_hz(a.index(v.body));
     for (const train::SpeedHarmonic& h : v.harmonics) w = std::max(w, h.order * omega);
   }
   return kTwoPi / w;
@@ -755,13 +753,27 @@ std::optional<Eigen::VectorXd> quasi_static(const train::Assembled& a,
     const Eigen::VectorXd scale = rigid.cwiseAbs().transpose() * q_load.cwiseAbs();
     for (Eigen::Index c = 0; c < rigid.cols(); ++c) {
       if (std::abs(power(c)) <= kBalanceTolerance * scale(c)) continue;
-      if (why)
+      if (why) {
+        // The last torque on a turning body, at the mean that balances the rest.
+        std::string balancing;
+        for (std::size_t k = t.torques.size(); k-- > 0;) {
+          const double s =
+              train::value(a.speed_ratios()[static_cast<std::size_t>(a.index(t.torques[k].body))]);
+          if (s == 0) continue;
+          balancing = fmt::format(
+              "; torque '{}' balances them at mean_nm = {:.12g} (or write balances = true in "
+              "it, and geardyn computes it)",
+              t.torques[k].name, t.torques[k].mean_nm - a.mean_power_nm() / s);
+          break;
+        }
         *why = fmt::format(
             "the mean torques do not balance (their net power is {:.6g} W at the train's "
-            "speeds{}): the train speeds up or slows down, so it has no static state",
+            "speeds{}): the train speeds up or slows down, so it has no static state{}",
             power(c) * kTwoPi * t.reference_speed_hz,
             rigid.cols() > 1 ? fmt::format(", on its rigid motion {} of {}", c + 1, rigid.cols())
-                             : "");
+                             : "",
+            balancing);
+      }
       return std::nullopt;
     }
   }
@@ -790,7 +802,8 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
   const int n = a.size();
   Eigen::VectorXd q_load = Eigen::VectorXd::Zero(n), rate_load = q_load;
   for (const train::Torque& q : t.torques) q_load(a.index(q.body)) += q.mean_nm;
-  for (const train::Drag& d : t.drags) q_load(a.index(d.body)) -= d.constant_nm;
+  for (std::size_t d = 0; d < t.drags.size(); ++d)
+    q_load(a.index(t.drags[d].body)) += a.constant_drag_nm(static_cast<int>(d));
   for (std::size_t b = 0; b < t.bearings.size(); ++b)
     q_load += t.bearings[b].stiffness_n_per_m * a.bearing_matrix(static_cast<int>(b)).transpose() *
               a.bearing_offset(static_cast<int>(b));
@@ -839,6 +852,31 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
   for (const train::TrainMode& m : train::modes(*a_))
     top_frequency_rad_s_ = std::max(top_frequency_rad_s_, kTwoPi * m.frequency_hz);
   fastest_period_s_ = shortest_time_scale_s(*a_, top_frequency_rad_s_);
+  // The method (method()): the exact engine's cells a contact region, one coefficient period
+  // cut into cells of kTrainCellRateProduct over the fastest rate.
+  method_ = c.solver.method;
+  const bool asked = c.origins.count("solver.method") > 0;
+  const double coefficient_period_s = a_->coefficient_period_s();
+  const double cells = coefficient_period_s *
+                       std::max(top_frequency_rad_s_, kTwoPi / fastest_period_s_) /
+                       kTrainCellRateProduct;
+  if (method_ == Method::kExact && cells > kMaxDefaultExactCells) {
+    if (asked && cells > kMaxExactCells)
+      throw InputError(with_origins(
+          c, fmt::format("solver.method = \"exact\": the exact engine would cut the meshes' "
+                         "common period of {:.4g} s into some {:.3g} cells a contact region, "
+                         "more than the {:g} it can hold; use solver.method = \"dopri5\" (or "
+                         "leave solver.method out to have it chosen)",
+                         coefficient_period_s, cells, kMaxExactCells)));
+    if (!asked) {
+      method_ = Method::kDopri5;
+      method_note_ = fmt::format(
+          "chosen by the default: the exact engine would cut the meshes' common period of {:.4g} "
+          "s into some {:.3g} cells a contact region (more than {:g}); dopri5's memory does not "
+          "grow with the period (solver.method chooses)",
+          coefficient_period_s, cells, kMaxDefaultExactCells);
+    }
+  }
   // The exact engine and Newmark step a train that turns freely on the complement of its
   // rotation (rigid_split.hpp), whose quadrature is exact. dopri5 steps the whole train: the
   // complement's matrices are dense where the train's are sparse, and an adaptive step evaluates
@@ -848,7 +886,7 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
   const bool viscous = std::any_of(t.drags.begin(), t.drags.end(), [](const train::Drag& d) {
     return d.viscous_n_m_s_per_rad != 0;
   });
-  if (c.solver.method != Method::kDopri5 && t.speeds.empty() && !t.frame_terms && !viscous) {
+  if (method_ != Method::kDopri5 && t.speeds.empty() && !t.frame_terms && !viscous) {
     const Eigen::MatrixXd rigid = a_->rigid_motions();
     if (rigid.cols() == 1) {
       try {
@@ -858,7 +896,7 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
       }
     }
   }
-  if (c.solver.method == Method::kExact) {
+  if (method_ == Method::kExact) {
     ode::EngineOptions eo;
     eo.tolerance = std::max(ode::kRoundingLimit, c.solver.tolerance * kExactToleranceFraction);
     eo.cell_rate_product = kTrainCellRateProduct;
@@ -866,12 +904,22 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
       engine_ = split_ ? std::make_unique<ode::ExactEngine>(split_->reduced(), eo)
                        : std::make_unique<ode::ExactEngine>(std::move(full), eo);
     } catch (const std::invalid_argument& e) {
-      throw InputError(std::string("the train's exact engine: ") + e.what());
+      if (asked)
+        throw InputError(std::string("the train's exact engine: ") + e.what() +
+                         "; solver.method = \"dopri5\" integrates any train (or leave "
+                         "solver.method out to have it chosen)");
+      // The default changes its mind: dopri5 steps the whole train.
+      method_ = Method::kDopri5;
+      method_note_ = fmt::format(
+          "chosen by the default: the exact engine cannot take this train ({}); dopri5 steps it "
+          "(solver.method chooses)",
+          e.what());
+      split_.reset();
+      full = a_->linear_system();
     }
-  } else if (!split_) {
-    whole_ = std::move(full);
   }
-  if (c.solver.method == Method::kNewmark) {
+  if (method_ != Method::kExact && !split_) whole_ = std::move(full);
+  if (method_ == Method::kNewmark) {
     // Every region of a train is (theta, theta') with theta' = the rates, and so is its
     // complement's: the first says so.
     if (const std::string e = ode::second_order_form_error(stepped(), 0); !e.empty())
@@ -1014,10 +1062,19 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
   const train::Train& t = a.train();
   TrainRunResult result;
   result.input = case_;
+  result.method = method_;
+  result.method_note = method_note_;
   for (int i = 0; i < a.body_count(); ++i) {
     result.bodies.push_back(t.bodies[static_cast<std::size_t>(i)].name);
-    result.body_speed_hz.push_back(t.reference_speed_hz *
-                                   ratio_value(a.speed_ratios()[static_cast<std::size_t>(i)]));
+    result.body_speed_hz.push_back(a.body_speed_hz(i));
+    result.body_inertia_kg_m2.push_back(t.bodies[static_cast<std::size_t>(i)].inertia_kg_m2);
+    result.body_mass_kg.push_back(t.bodies[static_cast<std::size_t>(i)].planar
+                                      ? t.bodies[static_cast<std::size_t>(i)].mass_kg
+                                      : 0.0);
+  }
+  for (const train::Torque& q : t.torques) {
+    result.torques.push_back(q.name);
+    result.torque_mean_nm.push_back(q.mean_nm);
   }
   result.coordinates = a.coordinate_names();
   result.system_period_s = a.system_period_s(&result.system_period_note);
@@ -1308,7 +1365,8 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
   // A pair's form run as its train (TrainSolver) keeps its name: "coupled".
   j["form"] = to_string(c.model.form);
   if (c.model.form == ModelForm::kCoupled) j["dof"] = c.model.dof;
-  j["method"] = to_string(c.solver.method);
+  j["method"] = to_string(r.method);
+  if (!r.method_note.empty()) j["method_note"] = r.method_note;
   j["termination"] = ode::to_string(r.termination);
   j["message"] = r.message;
   j["duration_s"] = c.solver.duration_s;
@@ -1324,8 +1382,15 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
                  {"steady_error", finite_json(r.steady.error)}};
   nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < r.bodies.size(); ++i)
-    bodies.push_back({{"name", r.bodies[i]}, {"speed_hz", r.body_speed_hz[i]}});
+    bodies.push_back({{"name", r.bodies[i]},
+                      {"speed_hz", r.body_speed_hz[i]},
+                      {"inertia_kg_m2", r.body_inertia_kg_m2[i]},
+                      {"mass_kg", r.body_mass_kg[i]}});
   j["bodies"] = bodies;
+  nlohmann::ordered_json torques = nlohmann::ordered_json::array();
+  for (std::size_t k = 0; k < r.torques.size(); ++k)
+    torques.push_back({{"name", r.torques[k]}, {"mean_nm", r.torque_mean_nm[k]}});
+  j["torques"] = torques;
   j["coordinates"] = r.coordinates;
   nlohmann::ordered_json meshes = nlohmann::ordered_json::array();
   for (const TrainMeshReading& m : r.meshes) {
@@ -1510,6 +1575,54 @@ std::string train_modes_table(const train::Assembled& a, const std::vector<train
     for (double e : m[i].shaft_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     for (double e : m[i].bearing_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     out += "\n";
+  }
+  return out;
+}
+
+std::vector<std::string> train_plausibility(const Case& c) {
+  std::vector<std::string> out;
+  if (c.model.form != ModelForm::kTrain || !c.train) return out;
+  const TrainCase& written = *c.train;
+  const auto origin = [&](const std::string& label) {
+    const auto o = written.origins.find(label);
+    return o == written.origins.end() ? std::string() : fmt::format(" ({})", o->second);
+  };
+  // A pin off the centre distance its planet's teeth mesh at.
+  for (std::size_t i = 0; i < written.bearings.size(); ++i) {
+    const TrainBearingData& b = written.bearings[i];
+    if (b.on.empty() || b.pin_radius_mm == 0) continue;
+    const std::optional<double> gears = pin_radius_from_gears_mm(written, b);
+    if (gears && std::abs(b.pin_radius_mm - *gears) > kPinRadiusTolerance * *gears)
+      out.push_back(fmt::format(
+          "train.bearing[{}].pin_radius_mm = {}{}: bearing '{}' holds its pin {:.3g} % off the "
+          "centre distance its gears' teeth and module give, {:.6g} mm: the planet does not sit "
+          "where its teeth mesh (leave pin_radius_mm out to have it from the gears)",
+          i, b.pin_radius_mm, origin(fmt::format("bearing '{}': pin_radius_mm", b.name)), b.name,
+          100 * (b.pin_radius_mm - *gears) / *gears, *gears));
+  }
+  // A mesh on its back flank at rest.
+  try {
+    const train::Assembled a = assembled_train(c);
+    const std::optional<Eigen::VectorXd> rest = static_state(a);
+    if (!rest) return out;
+    const std::vector<double> f = static_mesh_forces_n(a, *rest);
+    // Against the largest static force or the mesh's force across its backlash: rounding leaves
+    // some 1e-11 N on a train with no torque.
+    double scale = 0;
+    for (std::size_t m = 0; m < f.size(); ++m)
+      scale =
+          std::max({scale, std::abs(f[m]),
+                    a.train().meshes[m].mean_stiffness_n_per_m * a.train().meshes[m].backlash_m});
+    for (std::size_t m = 0; m < f.size(); ++m)
+      if (f[m] < -kBackFlankFraction * scale)
+        out.push_back(fmt::format(
+            "mesh '{}'{}: loaded on its back flank at rest (static force {:.6g} N): are its "
+            "driving and driven gears the wrong way round (the driving gear's torque pushes the "
+            "other), or a torque's sign (a drive > 0 along its body's rotation, a load < 0)?",
+            a.train().meshes[m].name, origin(fmt::format("mesh '{}'", a.train().meshes[m].name)),
+            f[m]));
+  } catch (const InputError&) {
+    // The run names what does not assemble.
   }
   return out;
 }

@@ -204,7 +204,18 @@ INSTANTIATE_TEST_SUITE_P(
                  {"bad.toml:2", "mesh.backlash_um", "-5", "at least 0.001 um"}},
         BadInput{"[mesh]\nbacklashum = 5\n",
                  {"bad.toml:2", "unknown key", "mesh.backlashum", "backlash_um"}},
-        BadInput{"[gears]\nteeth = [1, 2]\n", {"bad.toml:1", "unknown key", "gears", "gear"}},
+        // A slip of the keyboard is answered with the key it nearly is.
+        BadInput{"[mesh]\nbacklash_mu = 5\n",
+                 {"bad.toml:2", "unknown key 'mesh.backlash_mu' (did you mean 'backlash_um'?)"}},
+        BadInput{"[gears]\nteeth = [1, 2]\n",
+                 {"bad.toml:1", "unknown key 'gears' (did you mean 'gear'?)"}},
+        BadInput{"[model]\nform = \"train\"\n[train]\nreference_sped_hz = 5\n",
+                 {"bad.toml:4",
+                  "unknown key 'train.reference_sped_hz' (did you mean "
+                  "'reference_speed_hz'?)"}},
+        BadInput{"[model]\nform = \"train\"\n[train]\nreference_speed_hz = 5\n[[train.body]]\n"
+                 "name = \"a\"\ninertia_kgm2 = 1\n",
+                 {"bad.toml:7", "(did you mean 'inertia_kg_m2'?)"}},
         BadInput{"[mesh]\nbacklash_um = \"big\"\n",
                  {"bad.toml:2", "mesh.backlash_um", "\"big\"", "a number"}},
         BadInput{"[mesh]\nbacklash_um = nan\n", {"bad.toml:2", "mesh.backlash_um", "nan"}},

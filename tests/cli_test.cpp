@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <set>
@@ -84,6 +85,116 @@ fs::path fresh(const std::string& name) {
 }
 
 const std::string kCase = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010.toml";
+
+// The shipped wind-turbine gearbox as its user runs it: the generator at 1800 rpm is the
+// reference, the rotor drives the planetary stage's carrier, the ring is held, two parallel
+// stages follow. Every speed and mesh frequency is the ratio chain's and Willis's (the
+// parallel stages' at the sun's absolute speed, not at its speed relative to the carrier), the
+// rotor's mean torque the reaction to the generator's 750 kW, printed and in summary.json, and
+// the case draws no warning.
+TEST(Cli, AWindTurbineGearboxRunsAtTheSpeedsOfItsRatioChain) {
+  const fs::path d = fresh("wind_turbine");
+  const Outcome o =
+      cli("run " + std::string(GEARDYN_SOURCE_DIR) +
+          "/cases/wind_turbine_grc750.toml --set solver.duration_s=0.02 --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_EQ(o.err.find("warning"), std::string::npos) << o.err;
+  const double ratio = (1 + 99.0 / 21) * (82.0 / 23) * (88.0 / 22);  // 81.49
+  const double carrier_hz = 30 / ratio, sun_hz = carrier_hz * (1 + 99.0 / 21);
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+  std::map<std::string, double> speed, mesh, torque;
+  for (const auto& b : j["bodies"]) speed[b["name"]] = b["speed_hz"];
+  for (const auto& m : j["meshes"]) mesh[m["name"]] = m["mesh_frequency_hz"];
+  for (const auto& q : j["torques"]) torque[q["name"]] = q["mean_nm"];
+  EXPECT_NEAR(speed["generator"], 30, 1e-12);
+  EXPECT_NEAR(std::abs(speed["rotor"]) / carrier_hz, 1.0, 1e-14);
+  EXPECT_NEAR(std::abs(speed["sun"]) / sun_hz, 1.0, 1e-14);
+  EXPECT_EQ(speed["ring"], 0.0);
+  EXPECT_NEAR(mesh["high_speed"] / 660, 1.0, 1e-14);
+  EXPECT_NEAR(mesh["intermediate"] / (82 * sun_hz), 1.0, 1e-14);
+  EXPECT_NEAR(mesh["planet_sun1"] / (99 * carrier_hz), 1.0, 1e-14);
+  EXPECT_NEAR(mesh["ring_planet3"] / (99 * carrier_hz), 1.0, 1e-14);
+  EXPECT_NEAR(torque["rotor"] / (3979 * ratio), 1.0, 1e-12);
+  EXPECT_NE(o.out.find("speeds (rpm)      rotor 22.0884"), std::string::npos) << o.out;
+  EXPECT_NE(o.out.find("mesh high_speed   660 Hz"), std::string::npos) << o.out;
+  // Its meshes' common period (437 s) is too long for the exact engine's cells: the default
+  // takes dopri5 and says why; the exact engine asked for is refused before any work.
+  EXPECT_EQ(j["method"], "dopri5");
+  EXPECT_NE(o.out.find("method            dopri5: chosen by the default: the exact engine would "
+                       "cut the meshes' common period of 437.3 s"),
+            std::string::npos)
+      << o.out;
+  const fs::path e = fresh("wind_turbine_exact");
+  expect_refused(
+      cli("run " + std::string(GEARDYN_SOURCE_DIR) +
+          "/cases/wind_turbine_grc750.toml --set solver.method=exact --out " + e.string()),
+      "more than the 65536 it can hold; use solver.method = \"dopri5\"");
+  EXPECT_FALSE(fs::exists(e));
+}
+
+// `geardyn describe`: what the wind-turbine gearbox assembles to, before any run: each body's
+// frame (the planetary stage's in its carrier's, the parallel stages' in the ground's) and
+// speed, the pins where the gears put them (m_n (z_s + z_p) / (2 cos beta), written without a
+// radius), the derived inertias, the shafts' damping coefficients, and no warning.
+TEST(Cli, DescribeSaysWhatTheCaseAssemblesTo) {
+  const std::string file = std::string(GEARDYN_SOURCE_DIR) + "/cases/wind_turbine_grc750.toml";
+  const Outcome o = cli("describe " + file + " --json");
+  ASSERT_EQ(o.code, 0) << o.err;
+  const nlohmann::json j = nlohmann::json::parse(o.out);
+  std::map<std::string, nlohmann::json> body, bearing, shaft, mesh;
+  for (const auto& b : j["bodies"]) body[b["name"]] = b;
+  for (const auto& b : j["bearings"]) bearing[b["name"]] = b;
+  for (const auto& s : j["shafts"]) shaft[s["name"]] = s;
+  for (const auto& m : j["meshes"]) mesh[m["name"]] = m;
+  EXPECT_EQ(body["planet2"]["frame"], "carrier");
+  EXPECT_EQ(body["sun"]["frame"], "carrier");
+  EXPECT_EQ(body["wheel1"]["frame"], "ground");
+  EXPECT_EQ(mesh["ring_planet1"]["frame"], "carrier");
+  EXPECT_EQ(mesh["high_speed"]["frame"], "ground");
+  EXPECT_NEAR(body["generator"]["speed_rpm"].get<double>(), 1800, 1e-9);
+  const double pin_m = 0.010 * (21 + 39) / (2 * std::cos(7.5 * std::numbers::pi / 180));
+  EXPECT_NEAR(bearing["pin3"]["pin_radius_m"].get<double>(), pin_m, 1e-15);
+  // A planet's blank: a cylinder of the reference diameter and face width, less its bore.
+  const double d = 0.010 * 39 / std::cos(7.5 * std::numbers::pi / 180), di = 0.18, w = 0.2275;
+  EXPECT_NEAR(body["planet1"]["mass_kg"].get<double>() /
+                  (7850 * std::numbers::pi * w * (d * d - di * di) / 4),
+              1.0, 1e-12);
+  EXPECT_GT(shaft["main_shaft"]["damping_n_m_s_per_rad"].get<double>(), 0);
+  EXPECT_GT(mesh["high_speed"]["static_force_n"].get<double>(), 0);
+  EXPECT_TRUE(j["warnings"].empty()) << j["warnings"];
+  const Outcome text = cli("describe " + file);
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("reference 'generator' at 30 Hz (1800 rpm)"), std::string::npos)
+      << text.out;
+}
+
+// A train's spectra with --physical: each mesh's force in N and d - e in um, the normalised
+// spectra times b k_m and b (the same run, the same samples).
+TEST(Cli, ATrainsSpectraAreInPhysicalUnitsWhenAsked) {
+  const std::string file = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const fs::path bar = fresh("spectra_bar"), si = fresh("spectra_si");
+  ASSERT_EQ(
+      cli("run " + file + " --set solver.duration_s=0.02 --out " + bar.string() + " --plot").code,
+      0);
+  const Outcome o = cli("run " + file + " --set solver.duration_s=0.02 --out " + si.string() +
+                        " --plot --physical");
+  ASSERT_EQ(o.code, 0) << o.err;
+  const CsvTable a = read_csv(bar / "train_spectrum.csv"), b = read_csv(si / "train_spectrum.csv");
+  const nlohmann::json j = nlohmann::json::parse(slurp(si / "summary.json"));
+  const double km = j["meshes"][1]["mean_stiffness_n_per_m"],
+               backlash = j["meshes"][1]["backlash_m"];
+  ASSERT_EQ(a.rows.size(), b.rows.size());
+  const std::size_t f_bar = a.column("stage2_force_bar"), f_n = b.column("stage2_force_n"),
+                    d_bar = a.column("stage2_deflection_bar"),
+                    d_um = b.column("stage2_deflection_um");
+  for (std::size_t k = 1; k < a.rows.size(); k += 17) {
+    EXPECT_NEAR(std::stod(b.rows[k][f_n]), std::stod(a.rows[k][f_bar]) * backlash * km,
+                1e-5 * std::stod(b.rows[k][f_n]));
+    EXPECT_NEAR(std::stod(b.rows[k][d_um]), std::stod(a.rows[k][d_bar]) * backlash * 1e6,
+                1e-5 * std::stod(b.rows[k][d_um]));
+  }
+  EXPECT_NE(slurp(si / "train_spectrum_body.gp").find("title 'F (N)'"), std::string::npos);
+}
 
 TEST(Cli, RunWritesSummaryTimeseriesAndEvents) {
   const fs::path d = fresh("run");
@@ -197,12 +308,14 @@ std::vector<BadInput> bad_inputs(const fs::path& d) {
        {"--points = 0"}},
       {"sweep --param speed.shaft_frequency_hz --from 1e-300 --to 1e-299 --points 3" + out,
        2,
-       {"--from 1e-300", "periods of the case's fastest time scale"}},
+       {"--from 1e-300 of speed.shaft_frequency_hz: a point runs up to",
+        "periods of the case's fastest time scale"}},
       {"sweep --param speed.shaft_frequency_hz --from 100 --to 110 --points 2 --set "
        "solver.method=newmark --set solver.time_step_s=1e-15" +
            out,
        2,
-       {"--from 100: solver.time_step_s = 1e-15: a point runs up to 210 system periods",
+       {"--from 100 of speed.shaft_frequency_hz: solver.time_step_s = 1e-15: a point runs up "
+        "to 210 system periods",
         "Newmark steps", "at most 1e+10"}},
       {"sweep " + std::string(GEARDYN_SOURCE_DIR) +
            "/cases/two_stage_reducer.toml --param train.reference_speed_hz --from 100 --to 110 "
@@ -562,19 +675,22 @@ TEST(Cli, ReadmeSweepShowsTheJump) {
 }
 
 TEST(Cli, InterruptedSweepKeepsTheCompletedPoints) {
-  const fs::path d = fresh("sweep_int");
-  // SIGINT after a second, into a sweep that takes far longer (Newmark at a fine step).
-  const Outcome o =
-      cli("sweep --set solver.initial='\"static\"' --set solver.method='\"newmark\"' "
-          "--set solver.time_step_s=1e-8 --param speed.shaft_frequency_hz "
-          "--from 1000 --to 4000 --points 400 --out " +
-          d.string() + " & pid=$!; sleep 1; kill -INT $pid; wait $pid");
-  EXPECT_EQ(o.code, 130) << o.err;
-  EXPECT_NE(o.err.find("interrupted"), std::string::npos) << o.err;
-  const std::string csv = slurp(d / "sweep.csv");
-  EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 1);  // header and some points
-  const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
-  EXPECT_TRUE(j["cancelled"].get<bool>());
+  // SIGINT (Ctrl-C) or SIGTERM (a polite kill: a batch system's) after a second, into a sweep
+  // that takes far longer (Newmark at a fine step).
+  for (const char* signal : {"INT", "TERM"}) {
+    const fs::path d = fresh(std::string("sweep_int_") + signal);
+    const Outcome o =
+        cli("sweep --set solver.initial='\"static\"' --set solver.method='\"newmark\"' "
+            "--set solver.time_step_s=1e-8 --param speed.shaft_frequency_hz "
+            "--from 1000 --to 4000 --points 400 --out " +
+            d.string() + " & pid=$!; sleep 1; kill -" + signal + " $pid; wait $pid");
+    EXPECT_EQ(o.code, 130) << signal << o.err;
+    EXPECT_NE(o.err.find("interrupted"), std::string::npos) << o.err;
+    const std::string csv = slurp(d / "sweep.csv");
+    EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 1);  // header and some points
+    const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
+    EXPECT_TRUE(j["cancelled"].get<bool>());
+  }
 }
 
 // A folder the user works in: a file, a folder with a file, and a file under one of our names in

@@ -223,7 +223,7 @@ TEST(Planetary, PinAndSupportStampLinParkersCouplings) {
 
 // With the ring held and sun and carrier free, one motion is free (Table 2's 0 Hz mode): the set
 // turning about its ring, the carrier by theta_c and the sun by 2 r_c cos(alpha) / r_s theta_c
-// (Lin and Parker's kinematics: u_s = 2 u_c cos alpha); without the support, two.
+// (Lin and Parker's kinematics: u_s = 2 u_c cos alpha).
 TEST(Planetary, RigidMotionsOfTheSet) {
   const Assembled held(lin_parker(3));
   const Eigen::MatrixXd r = held.rigid_motions();
@@ -235,29 +235,34 @@ TEST(Planetary, RigidMotionsOfTheSet) {
   EXPECT_NEAR(g(held.index("carrier")) * 2 * kCarrier.base_radius_m * std::cos(kPressureAngle) /
                   kSun.base_radius_m,
               1.0, 1e-9);
+  // Without the support the set's nominal motion is not fixed (a differential): refused.
   Train free = lin_parker(3);
   free.shafts.clear();
-  EXPECT_EQ(Assembled(free).rigid_motions().cols(), 2);
+  EXPECT_THROW(Assembled{free}, InputError);
 }
 
 // The frame's rotation terms on one planar body on an isotropic bearing k, its mesh always in
 // its (wide) backlash: in a frame turning at Omega an isotropic oscillator of w0 = sqrt(k / m)
 // whirls at w0 - Omega and w0 + Omega exactly (its two circular motions, +-w0 in the absolute);
 // released at x0 at rest in the frame, its centre is the absolute motion x0 cos(w0 t) e_x +
-// (Omega x0 / w0) sin(w0 t) e_y turned back by -Omega t. The frame's speed is read from the
-// wheel a shaft holds to the ground: the pinion (20 teeth) turns at 100 Hz in the frame, the
-// wheel (40) at -50 Hz, so the frame turns at +50 Hz.
+// (Omega x0 / w0) sin(w0 t) e_y turned back by -Omega t. The frame is a carrier's: the pinion
+// (20 teeth) rides on a pin at the centre of an arm (pin radius 0: no centrifugal load), the
+// arm, the reference, turning at 50 Hz (its rotation held to the nominal by a prescribed
+// speed) about the wheel (40) a shaft holds to the ground: the pinion turns at 150 Hz, 100 Hz
+// relative to the arm.
 Train whirling_centre() {
   Train t;
   t.bodies.push_back({"pinion", 1e-3, true, 2.0});
   t.bodies.push_back({"wheel", 4e-3});
-  t.bearings.push_back({"bearing", "pinion", 8e7, 0.0});
+  t.bodies.push_back({"arm", 1.0});
+  t.bearings.push_back({"bearing", "pinion", 8e7, 0.0, "arm", 0.0, 0.0});
   t.shafts.push_back({"held", "wheel", kGround, 1e3, 0.0});
+  t.speeds.push_back({"arm_speed", "arm", {}});
   Mesh m = geardyn::testing::mesh("mesh", "pinion", "wheel", {20, 40}, {0.02, 0.04}, 1.0, 1e8);
   m.transverse_pressure_angle_rad = 20 * kDeg;
   t.meshes.push_back(m);
-  t.reference = "pinion";
-  t.reference_speed_hz = 100;
+  t.reference = "arm";
+  t.reference_speed_hz = 50;
   t.frame_terms = true;
   return t;
 }
@@ -323,8 +328,9 @@ TEST(FrameTerms, TheSetKeepsItsRigidTurnAndSplitsItsTranslationalPairs) {
   t.frame_terms = true;
   const Assembled turning(t);
   const Assembled still(lin_parker(3));
-  // The ring (108 teeth) turns at -10 x 30 / 108 Hz in the frame: the frame at +2.78 Hz.
-  const double omega = 2 * kPi * 10 * 30 / 108.0;
+  // The sun (30 teeth) turns at 10 Hz, the ring (108) is held: the carrier, and its frame,
+  // at 10 x 30 / 138 = 2.17 Hz (Willis).
+  const double omega = 2 * kPi * 10 * 30 / 138.0;
   ASSERT_NEAR(turning.frame_rate_rad_s() / omega, 1.0, 1e-15);
   const Eigen::MatrixXd r = turning.rigid_motions();
   ASSERT_EQ(r.cols(), 1);
@@ -346,18 +352,18 @@ TEST(FrameTerms, TheSetKeepsItsRigidTurnAndSplitsItsTranslationalPairs) {
                    kCarrier.base_radius_m * std::pow(r(turning.index("carrier"), 0), 2)),
               1.0, 1e-8);  // r from the eigensolver, to some 1e-9
 
-  // The frame's speed needs a held body, and held bodies that agree.
+  // The frame's speed needs the set's motion fixed: a member held, and no more than one.
   Train unheld = t;
   unheld.shafts.clear();
   EXPECT_NE(geardyn::testing::error_of([&] {
               const Assembled x(unheld);
-            }).find("the train: frame_terms = true: no shaft holds a body to the ground"),
+            }).find("the train: the reference's speed leaves the speeds of 'ring', 'carrier'"),
             std::string::npos);
   Train twice = t;
   twice.shafts.push_back({"sun_held", "sun", kGround, 1e3, 0.0});
   EXPECT_NE(geardyn::testing::error_of([&] { const Assembled x(twice); })
-                .find("shafts 'ring_support' and 'sun_held' hold bodies turning at different "
-                      "speeds in the frame"),
+                .find("shaft 'sun_held': holds body 'sun' to the ground (a support: it cannot "
+                      "turn), but the train turns it at 1 times the reference's speed"),
             std::string::npos);
   // At rest in the frame the centrifugal load moves each planet outward on its pin.
   const std::optional<Eigen::VectorXd> rest = geardyn::static_state(turning);
@@ -490,8 +496,8 @@ TEST(Planetary, UnequalSpacingMixesTheTypes) {
   EXPECT_GT(mixed, 0);
 }
 
-// Refused, naming the element: a pin on a body that meshes (a carrier is at rest in the train's
-// frame), a pin on its own body, a body named "ground".
+// Refused, naming the element: a planet on a pin of a gear it meshes with, a pin on its own
+// body, a body named "ground".
 TEST(Planetary, PinsAndSupportsAreChecked) {
   Train t = lin_parker(3);
   t.bearings.back().on = "sun";
@@ -688,16 +694,18 @@ TEST(PlanetaryLoadSharing, ASweepReadsEachGroupPerPoint) {
                      "ring_lost_contact,"),
             std::string::npos);
 
-  // The shipped varying stiffness at 40 Hz: a point reads the factor the run reads in its
-  // steady part (the same periodic response at the same phases: the run samples 64 times a
-  // system period, 1 / 960 s, as the point does), above the static one.
+  // The shipped varying stiffness with the sun at 40 Hz relative to its carrier (40 x 102 / 78
+  // Hz its own, by Willis's equation with the ring held): a point reads the factor the run reads
+  // in its steady part (the same periodic response at the same phases: the run samples 64 times
+  // a system period, one mesh cycle at 24 x 40 Hz, as the point does), above the static one.
+  const double mesh_hz = 24 * 40, sun_hz = 40 * 102 / 78.0;
   Case varying = shipped_stage({{"train.planet_pin_errors_um", "[[0, 20], [0, 0], [0, 0]]"},
-                                {"train.reference_speed_hz", "40"},
+                                {"train.reference_speed_hz", fmt::format("{}", sun_hz)},
                                 {"solver.duration_s", "0.05"},
-                                {"solver.output_interval_s", fmt::format("{}", 1.0 / 960 / 64)}});
+                                {"solver.output_interval_s", fmt::format("{}", 1 / mesh_hz / 64)}});
   const TrainRunResult run = run_train(varying);
   ASSERT_TRUE(run.ok() && run.steady.marked) << run.message;
-  o.axis = {"train.reference_speed_hz", 40, 40, 1};
+  o.axis = {"train.reference_speed_hz", sun_hz, sun_hz, 1};
   const SweepResult dynamic = sweep(varying, o);
   ASSERT_TRUE(dynamic.points[0].settled);
   for (std::size_t g = 0; g < 2; ++g) {
@@ -1065,7 +1073,8 @@ TEST(Eccentricity, ACarriersEccentricityIsItsPinsErrors) {
 // lowest mode), the sun's meshes at each instant carry what they carry at rest with the sun's
 // bearing seat moved by its runout there, epsilon(t) = e (cos w t, sin w t) (its centre of
 // teeth and its seat play the same part at rest), up to the inertia's share (f / f_n)^2, from
-// the first sample on.
+// the first sample on; w the sun's speed relative to its carrier, in whose frame the set's
+// translations are read (2 x 78 / 102 Hz with the ring held).
 TEST(Eccentricity, ASunsRunoutIsQuasiStaticallyAMovedSeat) {
   constexpr double kSpeedHz = 2, kE = 20e-6;
   Case c = shipped_stage({{"train.mesh[0].stiffness_harmonics", "[]"},
@@ -1088,7 +1097,7 @@ TEST(Eccentricity, ASunsRunoutIsQuasiStaticallyAMovedSeat) {
     for (train::Body& b : moved.bodies) b.eccentricity_m = 0;
     moved.bearings[static_cast<std::size_t>(sun_bearing)].pin_error_radial_m = kE;
     moved.bearings[static_cast<std::size_t>(sun_bearing)].pin_angle_rad =
-        2 * std::numbers::pi * kSpeedHz * t;
+        2 * std::numbers::pi * kSpeedHz * 78 / 102 * t;
     const train::Assembled b(moved);
     const std::optional<Eigen::VectorXd> rest = static_state(b);
     ASSERT_TRUE(rest);
@@ -1135,8 +1144,11 @@ TEST(PlanetaryPhasing, PhasingSuppressesTheInstabilitiesItsRulesSay) {
     set_case_value(c, {"train.reference_speed_hz", fmt::format("{}", speed_hz)});
     return contact_monodromy(c).eigenvalues().cwiseAbs().maxCoeff();
   };
-  // Mesh frequencies over the sun's 85 teeth: 2 x 11775.3 Hz, and 11775.3 + 9647.9 Hz.
-  const double primary_hz = 2 * 11775.3 / 85, combination_hz = (11775.3 + 9647.9) / 85;
+  // Mesh frequencies 2 x 11775.3 Hz and 11775.3 + 9647.9 Hz, over the sun's 85 teeth and its
+  // speed relative to the carrier, 305 / 390 of its own with the ring held (Willis).
+  const double relative = 305.0 / 390;
+  const double primary_hz = 2 * 11775.3 / 85 / relative,
+               combination_hz = (11775.3 + 9647.9) / 85 / relative;
   constexpr double kNeutral = 1e-9;  // the rigid rotation's rate keeps a multiplier of 1
   EXPECT_GT(largest_multiplier("given", primary_hz), 1.04);
   EXPECT_LT(largest_multiplier("layout", primary_hz), 1 + kNeutral);

@@ -29,6 +29,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/continuation.hpp"
+#include "geardyn/describe.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/orbit.hpp"
@@ -213,6 +214,8 @@ geardyn::Case load_model_case(const std::string& file,
   for (const std::string& w : geardyn::unused_settings(
            c, exact ? geardyn::Integration::kExactEngine : geardyn::Integration::kCaseMethod))
     fmt::print(stderr, "geardyn: warning: {}\n", w);
+  for (const std::string& w : geardyn::train_plausibility(c))
+    fmt::print(stderr, "geardyn: warning: {}\n", w);
   return c;
 }
 
@@ -358,8 +361,10 @@ auto run_with_progress(const geardyn::Case& c, const std::string& out_dir, const
   Options opts;
   opts.progress = [&](double fraction) { return bar(fraction) && !g_interrupted.load(); };
   std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);  // a polite kill stops as Ctrl-C does
   auto r = run(c, opts);
   std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
   bar.finish();
   interrupted = r.termination == geardyn::ode::Termination::kCancelled;
   if (interrupted)
@@ -373,7 +378,7 @@ auto run_with_progress(const geardyn::Case& c, const std::string& out_dir, const
 
 // A run of a gear train, or of the coupled pair as its train form (train_form_of): each mesh
 // read as the one-degree run reads its mesh, each shaft and bearing by its name.
-int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot) {
+int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot, bool physical) {
   bool interrupted = false;
   const geardyn::TrainRunResult r =
       run_with_progress<geardyn::TrainRunOptions>(c, out_dir, geardyn::run_train, interrupted);
@@ -384,6 +389,17 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
     fmt::print("  system period     {:.6g} s\n", *r.system_period_s);
   else
     fmt::print("  system period     none: {}\n", r.system_period_note);
+  if (!r.method_note.empty())
+    fmt::print("  method            {}: {}\n", geardyn::to_string(r.method), r.method_note);
+  // Every body's absolute speed, the reference's direction positive (summary.json's bodies).
+  std::vector<std::string> speeds;
+  for (std::size_t i = 0; i < r.bodies.size(); ++i)
+    speeds.push_back(fmt::format("{} {:.6g}", r.bodies[i], 60 * r.body_speed_hz[i]));
+  fmt::print("  speeds (rpm)      {}\n", fmt::join(speeds, ", "));
+  std::vector<std::string> torques;
+  for (std::size_t k = 0; k < r.torques.size(); ++k)
+    torques.push_back(fmt::format("{} {:.6g}", r.torques[k], r.torque_mean_nm[k]));
+  if (!torques.empty()) fmt::print("  mean torques (N m) {}\n", fmt::join(torques, ", "));
   print_steady_start(r.steady, "t", " s");
   for (const geardyn::TrainMeshReading& m : r.meshes) {
     fmt::print(
@@ -458,7 +474,7 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
             : fmt::format("; lost contact: {}", fmt::join(x.lost_contact, ", ")));
   if (!r.static_note.empty()) fmt::print("  no static state:  {}\n", r.static_note);
   fmt::print("  {:<17} {} ({} events located), {:.3g} s wall\n",
-             c.solver.method == geardyn::Method::kExact ? "cells" : "steps", r.cells, r.events,
+             r.method == geardyn::Method::kExact ? "cells" : "steps", r.cells, r.events,
              r.wall_time_s);
   if (r.unsplit_steps > 0)
     fmt::print("  note: {} steps met more contact changes than are located per step\n",
@@ -467,7 +483,7 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot)
     const std::vector<std::string> unused = geardyn::unused_settings(c);
     write_output(out_dir, "run", [&](const std::filesystem::path& d) {
       geardyn::write_train_run(d, r, unused);
-      if (plot) geardyn::write_train_run_figures(d, r);
+      if (plot) geardyn::write_train_run_figures(d, r, physical);
     });
     fmt::print("  written to        {}/ (summary.json, timeseries.csv, events.csv, case.toml)\n",
                out_dir);
@@ -518,19 +534,15 @@ int cmd_run(const std::string& case_file, const std::vector<std::string>& sets,
   if (physical && !plot) throw geardyn::InputError("--physical: needs --plot (it sets its units)");
   geardyn::Case c = load_model_case(case_file, parse_overrides(sets), "run");
   check_output_folder(out_dir, "run");
-  if (geardyn::runs_as_train(c)) {
-    if (physical)
-      throw geardyn::InputError(
-          fmt::format("--physical: a {}'s figure shows each mesh's (d - e) / b and its force in N",
-                      c.model.form == geardyn::ModelForm::kTrain ? "gear train" : "coupled pair"));
-    return cmd_run_train(c, out_dir, plot);
-  }
+  if (geardyn::runs_as_train(c)) return cmd_run_train(c, out_dir, plot, physical);
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
   opts.progress = [&](double fraction) { return bar(fraction) && !g_interrupted.load(); };
   std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);  // a polite kill stops as Ctrl-C does
   geardyn::RunResult r = geardyn::run(c, opts);
   std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
   bar.finish();
   print_warnings(r.geometry.warnings);
   const bool interrupted = r.integration.termination == geardyn::ode::Termination::kCancelled;
@@ -656,6 +668,13 @@ int cmd_geometry(const std::string& case_file, const std::vector<std::string>& s
   return 0;
 }
 
+// What the case assembles to, before any run (describe.hpp): the warnings are in it.
+int cmd_describe(const std::string& case_file, const std::vector<std::string>& sets, bool json) {
+  const geardyn::Case c = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  fmt::print("{}", json ? geardyn::describe_json(c) + "\n" : geardyn::describe_text(c));
+  return 0;
+}
+
 int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets,
               geardyn::SweepOptions o, const std::string& out_dir, bool figures) {
   const geardyn::Case base = load_model_case(case_file, parse_overrides(sets), "sweep");
@@ -667,8 +686,10 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
     return !g_interrupted.load();
   };
   std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);  // a polite kill stops as Ctrl-C does
   const geardyn::SweepResult r = geardyn::sweep(base, o);
   std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
   bar.finish();
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} completed points\n", r.points.size());
@@ -978,8 +999,10 @@ int cmd_continue(const std::string& case_file, const std::vector<std::string>& s
     return !g_interrupted.load();
   };
   std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);  // a polite kill stops as Ctrl-C does
   const geardyn::ContinuationResult r = geardyn::continuation(c, o);
   std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
   bar.finish();
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} points computed\n", r.points.size());
@@ -1022,8 +1045,10 @@ int cmd_stability(const std::string& case_file, const std::vector<std::string>& 
     return !g_interrupted.load();
   };
   std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);  // a polite kill stops as Ctrl-C does
   const geardyn::StabilityResult r = geardyn::stability(c, o);
   std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
   bar.finish();
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} samples computed\n", r.samples.size());
@@ -1113,8 +1138,10 @@ int cmd_validate(bool quick, bool json, const std::string& out_dir) {
     return !g_interrupted.load();
   };
   std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);  // a polite kill stops as Ctrl-C does
   const geardyn::ValidationResult r = geardyn::validate(o);
   std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
   bar.finish();
   if (r.cancelled) fmt::print(stderr, "interrupted: reporting the {} checks done\n", r.checks_run);
   if (!out_dir.empty())
@@ -1179,6 +1206,12 @@ int main(int argc, char** argv) {
   std::string pair_mesh;
   geometry->add_option("--mesh", pair_mesh,
                        "a gear train's mesh whose gear pair is read (default: the first)");
+
+  CLI::App* describe = app.add_subcommand(
+      "describe",
+      "print what the case assembles to: speeds, frames, inertias, stiffnesses, damping, loads");
+  add_case(describe);
+  describe->add_flag("--json", json, "print JSON");
 
   CLI::App* modes = app.add_subcommand(
       "modes", "natural frequencies, damping and strain energies of a gear train or a pair");
@@ -1347,6 +1380,7 @@ int main(int argc, char** argv) {
   const auto dispatch = [&]() -> int {
     if (run->parsed()) return cmd_run(case_file, sets, out_dir, plot, physical);
     if (geometry->parsed()) return cmd_geometry(case_file, sets, pair_mesh, json);
+    if (describe->parsed()) return cmd_describe(case_file, sets, json);
     if (keys->parsed()) return cmd_keys(markdown, json);
     if (train_form->parsed()) return cmd_train_form(case_file, sets);
     if (modes->parsed()) return cmd_modes(case_file, sets, json, modes_out);

@@ -87,8 +87,11 @@ void write_run_figures(const std::filesystem::path& dir, const RunResult& r, boo
 // and its force (N), with train_plot.csv beside it; train_spectrum (train_spectrum.csv);
 // train_phase, each mesh's phase portrait ((d - e) / b against d' - e', from timeseries.csv);
 // with load-sharing groups (a planetary set), load_sharing too: a row per group with each
-// planet's mesh force and the factor over time, with load_sharing_plot.csv.
-void write_train_run_figures(const std::filesystem::path& dir, const TrainRunResult& r);
+// planet's mesh force and the factor over time, with load_sharing_plot.csv. `physical`: the
+// spectra of each mesh's force in N and its deflection d - e in um (train_spectrum.csv's
+// <mesh>_force_n and <mesh>_deflection_um) in place of F / (b k_m) and (d - e) / b.
+void write_train_run_figures(const std::filesystem::path& dir, const TrainRunResult& r,
+                             bool physical = false);
 
 // The Campbell diagram of a train (campbell .png .svg .gp, campbell.csv): its modes in contact
 // against the reference body's speed, with the first three orders of every mesh's frequency;

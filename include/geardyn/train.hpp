@@ -15,18 +15,23 @@
 // line of action n), and after them a spatial body's (Body::spatial) z (m, along the axes) and
 // its tilts tx, ty (rad, about x and y): a torsional train's coordinates are its bodies'.
 //
-// The train's frame. A train whose bodies carry others on pins (a planetary set's carrier) is
-// written in the frame of its carrier, turning uniformly at the carrier's nominal speed: the
-// carrier is at rest in it (speed ratio 0), every speed is relative to it (the reference's
-// speed too), and the planets' centres stay put, so that the meshes' lines of action keep their
-// directions. The deviations theta are the same in either frame; the translations are read in
-// the carrier's. The frame's rotation terms are left out unless Train::frame_terms asks for
-// them (they scale with the carrier's speed over the lowest elastic frequency).
+// Frames and speeds (kinematics.hpp). Every body turns at its absolute nominal speed, solved
+// from the reference's by Willis's equation for each mesh seen from the carrier whose pins hold
+// one of its gears (the ground's for a fixed-axis mesh), shafts (equal speeds) and supports (a
+// shaft to the ground holds its body at rest). A mesh's frequency is its driving gear's teeth
+// times its speed relative to its carrier; a torque's or a prescribed speed's orders are of its
+// body's absolute speed. The deviations theta from the nominal rotation are the same in every
+// frame (each frame turns uniformly at its carrier's nominal speed). A planar body's
+// translations are read in its frame: a planetary set's members (carrier, planets, sun, ring) in
+// their carrier's, which turns at the carrier's speed, so that the planets' centres stay put and
+// the meshes' lines of action keep their directions; fixed-axis bodies in the ground's. Each
+// carrier's frame's rotation terms are left out unless Train::frame_terms asks for them (they
+// scale with the carrier's speed over the lowest elastic frequency).
 //
 // The frame's rotation terms (Train::frame_terms; Lin and Parker 1999, eq. 1, with the pins'
-// preloads that keep the set's rigid rotation free). The frame turns at Omega in the absolute
-// (counterclockwise positive), read from the bodies shafts hold to the ground: the housing is
-// at rest, so Omega = -(their angular speed in the frame). Each planar body's translation u then
+// preloads that keep the set's rigid rotation free). A carrier's frame turns at Omega in the
+// absolute (counterclockwise positive), its carrier's nominal speed. Each planar body's
+// translation u in it then
 // feels its Coriolis and centripetal forces, -2 m Omega z x u' + m Omega^2 u: Lin and Parker's
 // Omega G q' and -Omega^2 K_Omega q, G = 2 m [[0, -1], [1, 0]] and K_Omega = m I on (x, y),
 // with one change: a body carried on a pin at R from its carrier's centre softens on its
@@ -108,9 +113,9 @@
 // axis: each mesh's deflection gains cos(beta_b) n . (epsilon_a(t) - epsilon_b(t)), its gears'
 // runouts along the line of action as a translation of their centres would (a gear that keeps
 // torsion only too: its runout still moves its teeth), taken into the mesh's error e(t) as
-// -cos(beta_b) n . (epsilon_a - epsilon_b), at each gear's speed in the train's frame. A body
-// at rest (a carrier) shifts its pins: each bearing on them has its seat moved by epsilon, a
-// load like a pin error's.
+// -cos(beta_b) n . (epsilon_a - epsilon_b), at each gear's speed relative to its mesh's frame.
+// A carrier, at rest in its own frame, shifts its pins: each bearing on them has its seat moved
+// by epsilon, a load like a pin error's.
 //
 // Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1), a mesh
 // that clips its tension (Mesh::clips) five (-2 and 2: in contact on the back or drive side
@@ -133,6 +138,7 @@
 #include <vector>
 
 #include "geardyn/harmonic_series.hpp"
+#include "geardyn/kinematics.hpp"
 #include "geardyn/linear_system.hpp"
 
 namespace geardyn::train {
@@ -144,8 +150,8 @@ struct Body {
   double mass_kg = 0;        // m > 0 of a planar body
   // Runout: the centre of the body's teeth and pins lies eccentricity_m from its axis (its
   // bearing's seat), at eccentricity_angle_rad counterclockwise from x at t = 0, and turns with
-  // the body: epsilon(t) = e (cos(s w t + phi), sin(s w t + phi)), s w its rotation in the
-  // train's frame (constant on a body at rest: a carrier's pins all shifted). Its mass stays
+  // the body: epsilon(t) = e (cos(s w t + phi), sin(s w t + phi)), s w its rotation relative
+  // to its mesh's frame (constant on a carrier in its own: its pins all shifted). Its mass stays
   // centred on the axis (no unbalance). Below, "Eccentricity".
   double eccentricity_m = 0;
   double eccentricity_angle_rad = 0;
@@ -222,7 +228,7 @@ struct Shaft {
 // A bearing carrying a planar body's centre, the same in x and y: on the ground (`on` empty),
 // or on a pin of another body (`on`: a planet on its carrier), the pin's centre at
 // pin_radius_m from that body's centre in the direction pin_angle_rad (counterclockwise from
-// x). A body that carries pins is at rest in the train's frame (below).
+// x). A body that carries pins is a carrier: the frame of the meshes of its planets (above).
 struct Bearing {
   std::string name;
   std::string body;
@@ -297,12 +303,6 @@ struct Train {
   bool frame_terms = false;             // the frame's rotation terms (above)
 };
 
-// A ratio of whole numbers, for speeds and mesh frequencies over the reference speed: trains
-// are made of teeth counts, so their frequencies are commensurate exactly.
-struct Ratio {
-  std::int64_t num = 0, den = 1;
-};
-
 // An order given as a real number counts as a fraction p/q within this relative distance...
 constexpr double kOrderTolerance = 1e-12;
 // ...with q at most this (an engine's half orders, a gear train's ratios of teeth).
@@ -316,12 +316,13 @@ class Assembled {
  public:
   // Throws InputError (case.hpp) naming the element and the key: an unknown body, a body in two
   // places, no mesh, a non-positive inertia or radius, a train that cannot turn (a loop of
-  // meshes and shafts whose ratios disagree), a body that no mesh or shaft joins to the
+  // meshes and shafts whose ratios disagree, a support holding a body the train turns), a
+  // train whose speeds the reference's leaves free, a body that no mesh or shaft joins to the
   // reference, a bearing on a body that keeps torsion only, a planar body without a bearing
-  // (its centre would be free to wander) or without a mass, a layout whose teeth cannot
-  // interlock around a loop (with the phase from the layout), a pin on a body that meshes or
-  // shafts turn (a carrier is at rest in the train's frame), a body named kGround, a torque's
-  // harmonic or a prescribed speed on a body at rest (its orders have no frequency).
+  // (its centre would be free to wander), without a mass or meshing in two frames, a layout
+  // whose teeth cannot interlock around a loop (with the phase from the layout), a carrier that
+  // meshes with its own planets (kinematics.hpp), a body named kGround, a torque's harmonic or a
+  // prescribed speed on a body at rest (its orders have no frequency).
   explicit Assembled(Train t);
 
   const Train& train() const { return t_; }
@@ -354,12 +355,31 @@ class Assembled {
   // "<body>_x_m" and "<body>_y_m" for a planar body's centre ("<body>_line_m": its w, held to
   // its line).
   const std::vector<std::string>& coordinate_names() const { return names_; }
-  // Each body's sense of rotation in the train's frame: +1 counterclockwise (the reference's,
-  // and a body at rest's).
+  // Each body's sense of rotation, in which its coordinate is counted (kinematics.hpp): +1
+  // counterclockwise (the reference's).
   int sense(int body) const { return sense_[static_cast<std::size_t>(body)]; }
-  // Omega, the frame's angular speed in the absolute (rad/s, counterclockwise positive) with
-  // Train::frame_terms; 0 without them.
+  // The frame a body's translations are read in (a carrier's index, kGroundFrame, or
+  // kMixedFrame for a torsional body meshing in two), and a mesh's (kinematics.hpp).
+  int frame(int body) const { return motion_.frame[static_cast<std::size_t>(body)]; }
+  int mesh_frame(int mesh) const { return motion_.mesh_frame[static_cast<std::size_t>(mesh)]; }
+  // Whether the body carries others on pins.
+  bool carrier(int body) const { return motion_.is_carrier[static_cast<std::size_t>(body)]; }
+  // A body's absolute speed (Hz), positive in the reference's direction of rotation
+  // (counterclockwise); how fast it turns, |that|, which its orders are of; and its speed over
+  // the reference's relative to frame f, in its own sense.
+  double body_speed_hz(int body) const;
+  double turning_hz(int body) const;
+  Ratio relative_speed_ratio(int body, int f) const { return motion_.relative(body, f); }
+  // Drag d's constant torque on its body (N m, in the body's sense): -T_drag against its turning.
+  double constant_drag_nm(int drag) const;
+  // The net power of the mean torques and constant drags at the nominal speeds over the
+  // reference's angular speed (N m): sum T_k w_k / w_ref, 0 when they balance.
+  double mean_power_nm() const;
+  // Omega, the angular speed (rad/s, counterclockwise positive) of the first carrier's frame
+  // that Train::frame_terms turns a planar body in; 0 without them. Each body's own: its
+  // carrier's absolute speed when it is planar in a carrier's frame, 0 otherwise.
   double frame_rate_rad_s() const { return frame_rate_; }
+  double frame_rate_rad_s(int body) const { return frame_rates_[static_cast<std::size_t>(body)]; }
   // K_f, C_f and Q_f: the frame's rotation terms on K, C and the constant load (above); zero
   // without them.
   Eigen::MatrixXd frame_stiffness() const;
@@ -389,7 +409,9 @@ class Assembled {
   //   the held ring), a set with no member held two, a train a support holds none.
   Eigen::MatrixXd rigid_motions() const;
 
-  // Each body's speed over the reference speed, and each mesh's frequency over it.
+  // Each body's absolute speed over the reference speed in its own sense (negative where it
+  // turns against it, 0 at rest), and each mesh's frequency over it, z_a |w_a - w_c| of its
+  // driving gear relative to its carrier (kinematics.hpp).
   const std::vector<Ratio>& speed_ratios() const { return speed_; }
   std::vector<Ratio> mesh_frequency_ratios() const;
   double mesh_frequency_hz(int mesh) const;
@@ -483,6 +505,9 @@ class Assembled {
   std::vector<Eigen::MatrixXd> basis_;  // plane_basis
   std::vector<double> phase_;           // each mesh's, in cycles
   double frame_rate_ = 0;               // Omega, rad/s
+  std::vector<double> frame_rates_;     // each body's, rad/s
+  KinematicGraph graph_;
+  NominalMotion motion_;
   std::vector<std::array<int, 2>> clearances_;
   std::vector<std::string> names_;
   Eigen::MatrixXd m_;

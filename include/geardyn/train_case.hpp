@@ -112,7 +112,13 @@ struct TrainMeshData {
 struct TrainShaftData {
   std::string name, from, to;
   double stiffness_n_m_per_rad = 0;
-  double damping_ratio = 0.02;  // against the reduced inertia of the two bodies
+  // Its damping, one of three ways (at most one given): a ratio against the reduced inertia of
+  // its two bodies (the shaft and its bodies on their own); a ratio of the train's mode whose
+  // strain energy it holds most of, the ratio it alone gives that mode (a drivetrain's first
+  // mode damped as written, whatever the inertias); or the coefficient itself.
+  double damping_ratio = 0.02;
+  std::optional<double> mode_damping_ratio;
+  std::optional<double> damping_n_m_s_per_rad;
 };
 
 // [[train.bearing]]: a bearing carrying a planar body's centre, the same stiffness in x and y:
@@ -138,6 +144,9 @@ struct TrainTorqueData {
   std::string name, body;
   double mean_nm = 0;
   std::vector<OrderHarmonic> harmonics;
+  // Its mean is the reaction that balances every other mean torque and drag at the train's
+  // speeds (train_of computes it; mean_nm is then not read).
+  bool balances = false;
 };
 
 // [[train.drag]]: a drag torque on a body, constant and viscous (a loose gear's oil).
@@ -194,6 +203,13 @@ struct TrainCase {
 // copy keeps its template's origin for messages. Throws InputError naming the key for a planet that
 // is no body, a count without a planet (or the reverse), and angles that are not one per planet.
 TrainCase expand_planets(const TrainCase& t);
+
+// The radius at which bearing b's pin holds its body for its teeth to mesh: the centre distance
+// of the body's mesh with a gear on no pin (a planet's with its sun or its ring), (r_b,a +-
+// r_b,b) / cos(alpha_t) of their base radii and transverse pressure angle (mm, from teeth,
+// module and angles); none for a bearing on the ground or where the gear data do not give it.
+// A pin written without pin_radius_mm sits there (train_of).
+std::optional<double> pin_radius_from_gears_mm(const TrainCase& t, const TrainBearingData& b);
 
 // The train of a case with model.form = "train", in SI: base radii and inertias from the gear
 // data, each mesh's damping from its ratio. Throws InputError naming the element, its key and

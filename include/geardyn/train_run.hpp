@@ -265,12 +265,21 @@ struct TrainSamples {
 struct TrainRunResult {
   Case input;
   std::vector<std::string> bodies;  // in the case's order
-  std::vector<double> body_speed_hz;
+  // Each body's absolute speed, positive in the reference's direction of rotation, and its
+  // inertia and mass as the run took them (given, or derived from its gear data; a body that
+  // keeps torsion only has mass 0).
+  std::vector<double> body_speed_hz, body_inertia_kg_m2, body_mass_kg;
+  // Each torque's name and mean as the run applied it (a reaction's as computed: balances).
+  std::vector<std::string> torques;
+  std::vector<double> torque_mean_nm;
   // The coordinates with their units (train::Assembled::coordinate_names): the state's order.
   std::vector<std::string> coordinates;
   std::optional<double> system_period_s;  // absent: quasi-periodic (system_period_note says why)
   std::string system_period_note;
   std::string static_note;  // why there is no static force, when there is none
+  // The method the run took (TrainSolver::method) and, when the default chose it, why.
+  Method method = Method::kExact;
+  std::string method_note;
   // Where the steady part starts, as the one-degree run's (steady.hpp): the train settled on
   // the section t = k T0 (judged on every mesh's d - e, every shaft's twist and every planar
   // body's x and y, with their rates), else the final half; the distance in each mesh's b (a
@@ -351,6 +360,16 @@ struct TrainRunOptions {
 // train's rigid rotation, r the speed ratios) are left out (R^T theta = 0, R^T theta' = 0).
 // Absent, with `why`, when the mean torques do work on such a motion (the train would speed up
 // or slow down: there is no static state), or when a prescribed speed leaves one.
+// What a train case implies that is likely a mistake, said before any work (each naming the
+// element, the key and the value): a mesh loaded on its back flank at rest (its driving and
+// driven gears the wrong way round, or a torque's sign), a planet pin's radius off its gears'
+// centre distance by more than kPinRadiusTolerance. Empty for a case of another form, or one
+// whose train does not assemble or has no static state (the run says why).
+std::vector<std::string> train_plausibility(const Case& c);
+// A pin radius this far from the gears' centre distance, relative, is more than a drawing's
+// rounding: a pin that does not hold its planet where the teeth mesh.
+constexpr double kPinRadiusTolerance = 1e-3;
+
 std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why = nullptr,
                                             std::optional<double> at_s = std::nullopt);
 // solver.initial = "center" at t: at rest in the middle of every backlash relative to its mesh's
@@ -367,6 +386,15 @@ std::vector<double> static_mesh_forces_n(const train::Assembled& a, const Eigen:
 // adaptive.hpp with "dopri5", at solver.tolerance, the Newmark-beta one of newmark_flow.hpp with
 // "newmark") and its readings over any stretch: a run's window, a sweep point's settling and
 // measurement.
+// The exact engine builds its cells once per coefficient period, each of some (2 n)^2 numbers
+// for n coordinates and more per excitation frequency: past this many cells a contact region
+// (about 1 GB for a train of 24 coordinates), the default takes dopri5 instead, whose memory
+// does not grow with the period.
+constexpr double kMaxDefaultExactCells = 8192;
+// The engine's own bound on cells per period (engine.cpp): an exact engine asked for beyond it
+// cannot resolve the period and is refused.
+constexpr double kMaxExactCells = 65536;
+
 class TrainSolver {
  public:
   // A train case, or a pair's form as its train of elements (train_form_of; its readings are
@@ -386,6 +414,14 @@ class TrainSolver {
   TrainSolver& operator=(const TrainSolver&) = delete;
 
   const train::Assembled& assembled() const { return *a_; }
+  // The method it integrates with: solver.method as given; left to its default, the exact
+  // engine unless its cells over the meshes' common period would pass kMaxDefaultExactCells in a
+  // contact region (a hunting-tooth train's period of minutes), or the engine cannot take the
+  // system, and then dopri5, with method_note saying why ("" when nothing was chosen for the
+  // user). An exact engine asked for whose cells would pass the engine's own bound is refused
+  // before any work (InputError), naming the period and the count.
+  Method method() const { return method_; }
+  const std::string& method_note() const { return method_note_; }
   // The train's shortest time scale (s): its fastest mode in contact or excitation.
   double fastest_period_s() const { return fastest_period_s_; }
   // The number of states the integrator steps: the whole train's 2 n, or 2 (n - 1) when its free
@@ -422,6 +458,8 @@ class TrainSolver {
                        const ode::OutputGrid& grid, ode::FlowObserver& observer,
                        bool jacobian = false) const;
   Case case_;
+  Method method_ = Method::kExact;
+  std::string method_note_;
   std::unique_ptr<train::Assembled> a_;
   std::unique_ptr<ode::ExactEngine> engine_;        // "exact"
   std::unique_ptr<ode::RigidSplit> split_;          // its free rotation split off, or none
