@@ -417,6 +417,7 @@ class Reader {
         std::string sections;
         for (const auto& [name, keys] : schema) sections += (sections.empty() ? "" : ", ") + name;
         std::vector<std::string> names;
+        names.reserve(schema.size());
         for (const auto& [name, keys] : schema) names.push_back(name);
         throw InputError(fmt::format("{}: unknown key '{}'{}; allowed at the top level: {}",
                                      origin(section, k.source()).value_or("default value"), section,

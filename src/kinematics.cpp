@@ -14,7 +14,8 @@
 namespace geardyn::train {
 namespace {
 
-using Wide = __int128;
+// 128-bit products of 64-bit ratios, narrowed back after reduction (a GNU extension).
+__extension__ using Wide = __int128;
 
 [[noreturn]] void bad(const std::string& element, const std::string& what) {
   throw InputError(fmt::format("{}: {}", element, what));
@@ -131,7 +132,7 @@ Ratio NominalMotion::relative(int body, int f) const {
   if (f < 0) return speed[i];
   const auto c = static_cast<std::size_t>(f);
   // s_i (w_i - w_c) = speed_i - s_i s_c speed_c.
-  return minus(speed[i], times(speed[c], sense[i] * sense[c], 1));
+  return minus(speed[i], times(speed[c], static_cast<std::int64_t>(sense[i]) * sense[c], 1));
 }
 
 Ratio NominalMotion::mesh_frequency(int mesh, const KinematicGraph& g) const {

@@ -118,6 +118,45 @@ double train_section_period_s(const TrainSolver& solver, std::string* quasi) {
   return 1.0 / solver.assembled().train().reference_speed_hz;
 }
 
+// A train whose common period is more than this many periods of its slowest excitation (a
+// hunting-tooth gearbox's minutes), or that has none (quasi-periodic), is judged steady by what
+// its readings show, window by window, not on a section of its common period.
+constexpr double kMaxSectionPeriods = 20;
+// Two windows' statistics this close, relative to their scale, are the steady state's: the
+// three digits a user reads of a force.
+constexpr double kStatisticsTolerance = 1e-3;
+
+// The period of a train's slowest excitation (s): each varying mesh's stiffness and error
+// (runouts included), each torque harmonic, each prescribed speed's; 0 when nothing varies.
+double slowest_excitation_period_s(const train::Assembled& a) {
+  double w = std::numeric_limits<double>::infinity();
+  const auto slowest = [&](const HarmonicSeries& s) {
+    for (const Harmonic& h : s.terms)
+      if (h.amplitude != 0 && h.angular_frequency_rad_s > 0)
+        w = std::min(w, h.angular_frequency_rad_s);
+  };
+  const train::Train& t = a.train();
+  for (int m = 0; m < static_cast<int>(t.meshes.size()); ++m) {
+    slowest(a.stiffness_series(m));
+    slowest(a.error_series(m));
+  }
+  for (int q = 0; q < static_cast<int>(t.torques.size()); ++q) slowest(a.torque_series(q));
+  for (const train::Speed& v : t.speeds)
+    for (const train::SpeedHarmonic& h : v.harmonics)
+      if (h.amplitude_rad != 0)
+        w = std::min(w, h.order * 2 * std::numbers::pi * a.turning_hz(a.index(v.body)));
+  return std::isfinite(w) ? 2 * std::numbers::pi / w : 0.0;
+}
+
+// The window a train point's statistics are read over (its slowest excitation's period), or 0
+// when the point is judged on the section of its common period (train_section_period_s).
+double statistics_window_s(const TrainSolver& solver) {
+  const std::optional<double> t0 = solver.assembled().system_period_s();
+  const double slowest = slowest_excitation_period_s(solver.assembled());
+  if (!(slowest > 0) || (t0 && *t0 <= kMaxSectionPeriods * slowest)) return 0;
+  return slowest;
+}
+
 struct PointJob {
   std::size_t slot;  // index into the result's points
   double value, value2;
@@ -158,10 +197,21 @@ class PointRunner {
     static const std::string none;
     return meshes_.empty() ? none : meshes_[mesh_];
   }
-  // Why the points at these values are not judged steady ("" when they are).
+  // How the points at these values are judged steady when not on the section of their common
+  // period ("" when they are): by their statistics window by window, or not at all.
   std::string period_note_at(double value, double value2) const {
+    const TrainSolver solver(case_at(value, value2), stiffness());
     std::string note;
-    train_section_period_s(TrainSolver(case_at(value, value2), stiffness()), &note);
+    train_section_period_s(solver, &note);
+    if (const double window = statistics_window_s(solver); window > 0) {
+      std::string why;
+      const std::optional<double> t0 = solver.assembled().system_period_s(&why);
+      return fmt::format(
+          "{}: each point is judged steady by its meshes' mean and RMS forces over windows of "
+          "its slowest excitation's period, {:.4g} s, two in a row within {:g} of their scale, "
+          "and measured over --measure-periods such windows",
+          t0 ? fmt::format("a common period of {:.4g} s", *t0) : why, window, kStatisticsTolerance);
+    }
     return note;
   }
 
@@ -190,7 +240,8 @@ class PointRunner {
     const std::string both =
         where2.empty() ? first : fmt::format("{} with {} of {}", first, where2, o_.axis2->key);
     const TrainSolver solver(c, stiffness());
-    const double period = train_section_period_s(solver, nullptr);
+    const double window = statistics_window_s(solver);
+    const double period = window > 0 ? window : train_section_period_s(solver, nullptr);
     const double fastest = solver.fastest_period_s(), step = solver.newmark_step_s();
     if (o_.start_static)  // every sequence starts from the static state
       (void)solver.initial_state(InitialCondition::kStatic);
@@ -289,6 +340,52 @@ class PointRunner {
         judge, verdict, [&] { return to_section(1); }, to_section);
   }
 
+  // Settles a train window by window (statistics_window_s), each window read as a run reads it,
+  // until every mesh's mean and RMS force (over the larger of its static force and b k_m) agree
+  // with the window before within kStatisticsTolerance, after at least --settle-periods windows,
+  // or the windows run out (--max-settle-periods). The verdict's error is the last change; (t, y)
+  // moved on; a numerical failure's reason into `why`. The windows run.
+  int settle_statistics(const TrainSolver& solver, double window, double& t, ode::Vector& y,
+                        SteadyVerdict& verdict, std::string& why) const {
+    const int spp = o_.samples_per_period;
+    std::vector<double> last;
+    int k = 0;
+    while (k < o_.max_settle_periods) {
+      ode::Vector end;
+      const TrainRunResult r = solver.read(t, y, t + window, ode::OutputGrid{t, window / spp, spp},
+                                           t, std::nullopt, {}, &end, /*keep_samples=*/false,
+                                           /*keep_states=*/false);
+      if (!r.ok()) {
+        why = fmt::format("{}: {}", ode::to_string(r.termination), r.message);
+        return k;
+      }
+      t += window;
+      y = end;
+      ++k;
+      // Means and RMS: a window's extremes depend on where the excitations' crests fall in it,
+      // which drifts from window to window when their frequencies are not commensurate.
+      std::vector<double> now;
+      for (const TrainMeshReading& x : r.meshes) {
+        const double scale = std::max(std::abs(x.static_force_n.value_or(0.0)),
+                                      x.backlash_m * x.mean_stiffness_n_per_m);
+        for (const double v : {x.mean_force_n, x.rms_force_n}) now.push_back(v / scale);
+      }
+      double change = std::numeric_limits<double>::infinity();
+      if (last.size() == now.size()) {
+        change = 0;
+        for (std::size_t i = 0; i < now.size(); ++i)
+          change = std::max(change, std::abs(now[i] - last[i]));
+      }
+      verdict = SteadyVerdict{0, change};
+      if (k > o_.settle_periods && change <= kStatisticsTolerance) {
+        verdict.period_multiple = 1;
+        return k;
+      }
+      last = std::move(now);
+    }
+    return k;
+  }
+
   // A point of the job, its readings yet to come.
   static SweepPoint point_of(const PointJob& job) {
     SweepPoint pt;
@@ -323,7 +420,8 @@ class PointRunner {
     const TrainSolver solver(c, stiffness());
     const train::Assembled& a = solver.assembled();
     std::string quasi;
-    const double period = train_section_period_s(solver, &quasi);
+    const double window = statistics_window_s(solver);
+    const double period = window > 0 ? window : train_section_period_s(solver, &quasi);
     const auto failed_train = [&](const char* termination, const std::string& message) {
       SweepPoint pt = failed(job, carry, termination, message);
       MeshReading nan;
@@ -376,12 +474,19 @@ class PointRunner {
     };
     SteadyVerdict verdict;
     std::optional<ode::FlowResult> failure;
-    const int k =
-        settle_flows(solver, period, t, y, judge, verdict, failure, [&](const ode::FlowResult& f) {
-          // Without events over the flow, its last period had none.
-          steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
-          section.add(t, y);
-        });
+    int k = 0;
+    if (window > 0) {
+      std::string why;
+      k = settle_statistics(solver, window, t, y, verdict, why);
+      if (!why.empty()) return failed_train("failed", why);
+    } else {
+      k = settle_flows(
+          solver, period, t, y, judge, verdict, failure, [&](const ode::FlowResult& f) {
+            // Without events over the flow, its last period had none.
+            steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
+            section.add(t, y);
+          });
+    }
     if (failure) return failed_train(ode::to_string(failure->termination), failure->message);
     const Measurement w = measurement(verdict, t, period);
     const int m = w.periods, spp = w.samples_per_period;

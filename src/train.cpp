@@ -292,8 +292,6 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     motion_ = solve_nominal_motion(g);
     graph_ = std::move(g);
   }
-  speed_ = motion_.speed;
-  sense_ = motion_.sense;
   for (int i = 0; i < body_count(); ++i)
     if (t_.bodies[static_cast<std::size_t>(i)].planar && frame(i) == kMixedFrame)
       bad(fmt::format("body '{}'", t_.bodies[static_cast<std::size_t>(i)].name),
@@ -311,19 +309,19 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
             "does not place; give each mesh's phases instead");
   // Orders of a body at rest have no frequency: a fluctuation there is refused, not dropped.
   for (const Torque& q : t_.torques)
-    if (speed_[static_cast<std::size_t>(index(q.body))].num == 0 && !q.harmonics.empty())
+    if (motion_.speed[static_cast<std::size_t>(index(q.body))].num == 0 && !q.harmonics.empty())
       bad(fmt::format("torque '{}'", q.name),
           fmt::format("body = \"{}\" is at rest (held, or turned by nothing): harmonics at "
                       "orders of its speed have no frequency (give its mean torque only)",
                       q.body));
   for (const Drag& d : t_.drags)
-    if (speed_[static_cast<std::size_t>(index(d.body))].num == 0 && d.constant_nm != 0)
+    if (motion_.speed[static_cast<std::size_t>(index(d.body))].num == 0 && d.constant_nm != 0)
       bad(fmt::format("drag '{}'", d.name),
           fmt::format("body = \"{}\" is at rest: a constant drag has no rotation to oppose "
                       "(give its viscous part only)",
                       d.body));
   for (const Speed& v : t_.speeds)
-    if (speed_[static_cast<std::size_t>(index(v.body))].num == 0)
+    if (motion_.speed[static_cast<std::size_t>(index(v.body))].num == 0)
       bad(fmt::format("speed '{}'", v.name),
           fmt::format("body = \"{}\" is at rest: its speed cannot be prescribed at orders of "
                       "its speed",
@@ -390,21 +388,23 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
 
 double Assembled::body_speed_hz(int body) const {
   // + 0.0: a body at rest turning the reference's way back reads 0, not -0.
-  return sense(body) * value(speed_[static_cast<std::size_t>(body)]) * t_.reference_speed_hz + 0.0;
+  return sense(body) * value(motion_.speed[static_cast<std::size_t>(body)]) *
+             t_.reference_speed_hz +
+         0.0;
 }
 
 double Assembled::constant_drag_nm(int drag) const {
   const Drag& d = t_.drags[static_cast<std::size_t>(drag)];
-  return (speed_[static_cast<std::size_t>(index(d.body))].num < 0 ? 1 : -1) * d.constant_nm;
+  return (motion_.speed[static_cast<std::size_t>(index(d.body))].num < 0 ? 1 : -1) * d.constant_nm;
 }
 
 double Assembled::mean_power_nm() const {
   double p = 0;
   for (const Torque& q : t_.torques)
-    p += q.mean_nm * value(speed_[static_cast<std::size_t>(index(q.body))]);
+    p += q.mean_nm * value(motion_.speed[static_cast<std::size_t>(index(q.body))]);
   for (std::size_t d = 0; d < t_.drags.size(); ++d)
     p += constant_drag_nm(static_cast<int>(d)) *
-         value(speed_[static_cast<std::size_t>(index(t_.drags[d].body))]);
+         value(motion_.speed[static_cast<std::size_t>(index(t_.drags[d].body))]);
   return p;
 }
 
@@ -573,7 +573,7 @@ int Assembled::bearing_observable(int bearing) const {
 
 Eigen::VectorXd Assembled::rigid_rotation() const {
   Eigen::VectorXd r = Eigen::VectorXd::Zero(size());
-  for (int i = 0; i < body_count(); ++i) r(i) = value(speed_[static_cast<std::size_t>(i)]);
+  for (int i = 0; i < body_count(); ++i) r(i) = value(motion_.speed[static_cast<std::size_t>(i)]);
   return r;
 }
 
@@ -733,7 +733,7 @@ std::optional<double> Assembled::system_period_s(std::string* why) const {
   const auto orders = [&](const std::string& element, const std::string& body, double order,
                           double amplitude) {
     if (amplitude == 0) return true;
-    const Ratio speed = absolute(speed_[static_cast<std::size_t>(index(body))]);
+    const Ratio speed = absolute(motion_.speed[static_cast<std::size_t>(index(body))]);
     const std::optional<Ratio> o = as_fraction(order);
     if (!o) {
       if (why)

@@ -236,13 +236,15 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r, bool 
   const TrainSamples& s = r.samples;
   const std::size_t meshes = r.meshes.size(), shafts = r.shafts.size(),
                     bearings = r.bearings.size();
-  // A row for the shafts' torques and the bearings' radial forces, when there are any, and a
-  // last one for the axial forces of the bearings of bodies that move along their axis.
+  // A row for the shafts' torques (N m) and one for the bearings' radial forces (N), each on its
+  // own axis, when there are any, and a last one for the axial forces of the bearings of bodies
+  // that move along their axis.
   const bool parts = shafts + bearings > 0;
   std::vector<std::size_t> axial;  // the bearings with an axial force
   for (std::size_t q = 0; q < bearings; ++q)
     if (r.bearings[q].spatial) axial.push_back(q);
-  const std::size_t rows = meshes + (parts ? 1 : 0) + (axial.empty() ? 0 : 1);
+  const std::size_t rows =
+      meshes + (shafts > 0 ? 1 : 0) + (bearings > 0 ? 1 : 0) + (axial.empty() ? 0 : 1);
   std::string header = "t_ms";
   for (const TrainMeshReading& m : r.meshes)
     header += fmt::format(",{0}_deflection_bar,{0}_force_n", m.name);
@@ -303,37 +305,34 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r, bool 
             ? ", -1 axes x1y1 with lines dt 2 lc rgb 'gray60' notitle"
             : "");
   }
-  if (parts) {
-    // Each shaft's torque (left axis, solid) and each bearing's radial force (right, dashed).
+  // Each shaft's torque, then each bearing's radial force, a panel each in its unit.
+  std::size_t column = 2 + 2 * meshes;
+  const auto part_panel = [&](const char* title, const char* unit_label, std::size_t count,
+                              std::size_t colour_from, const char* kind, const auto& name,
+                              const char* suffix, bool last) {
     std::string plots;
-    std::size_t column = 2 + 2 * meshes;
-    for (std::size_t q = 0; q < shafts; ++q, ++column)
+    for (std::size_t q = 0; q < count; ++q, ++column)
       plots += fmt::format(
-          "{}'train_plot.csv' using 1:{} skip 1 axes x1y1 with lines lw 1.2 lc "
-          "rgb '{}' title 'shaft {} (N m)'",
-          plots.empty() ? "" : ", ", column, colour(q), quoted(r.shafts[q].name));
-    // The bearings on the right axis beside shafts, on the left without any.
-    for (std::size_t q = 0; q < bearings; ++q, ++column)
-      plots += fmt::format(
-          "{}'train_plot.csv' using 1:{} skip 1 axes x1y{} with lines dt 2 lw 1.2 lc rgb '{}' "
-          "title 'bearing {} |F| (N)'",
-          plots.empty() ? "" : ", ", column, shafts > 0 ? 2 : 1, colour(shafts + q),
-          quoted(r.bearings[q].name));
-    const bool both = shafts > 0 && bearings > 0;
+          "{}'train_plot.csv' using 1:{} skip 1 axes x1y1 with lines lw 1.2 lc rgb '{}' title "
+          "'{} {}{}'",
+          plots.empty() ? "" : ", ", column, colour(colour_from + q), kind, quoted(name(q)),
+          suffix);
     fmt::format_to(std::back_inserter(g),
-                   "set title \"{}\" font ',10'\nset ylabel '{}'\nset y2label '{}'\n{}"
-                   "{}\nplot {}\n",
-                   both         ? "shafts and bearings"
-                   : shafts > 0 ? "shafts"
-                                : "bearings",
-                   shafts > 0 ? "shaft torque (N m)" : "bearing force (N)",
-                   both ? "bearing force (N)" : "", both ? "" : "unset y2tics\n",
-                   axial.empty() ? "set xlabel 't (ms)'" : "unset xlabel", plots);
-  }
+                   "set title \"{}\" font ',10'\nset ylabel '{}'\nset y2label ''\nunset y2tics\n"
+                   "{}\nplot {}\nset y2tics\n",
+                   title, unit_label, last ? "set xlabel 't (ms)'" : "unset xlabel", plots);
+  };
+  if (shafts > 0)
+    part_panel(
+        "shafts", "torque (N m)", shafts, 0, "shaft",
+        [&](std::size_t q) { return r.shafts[q].name; }, " (N m)", bearings == 0 && axial.empty());
+  if (bearings > 0)
+    part_panel(
+        "bearings", "radial force |F| (N)", bearings, shafts, "bearing",
+        [&](std::size_t q) { return r.bearings[q].name; }, " |F| (N)", axial.empty());
   if (!axial.empty()) {
     // Each axial or spatial body's bearing's axial force (a helical mesh's thrust on it).
     std::string plots;
-    std::size_t column = 2 + 2 * meshes + shafts + bearings;
     for (std::size_t i = 0; i < axial.size(); ++i, ++column)
       plots += fmt::format(
           "{}'train_plot.csv' using 1:{} skip 1 axes x1y1 with lines lw 1.2 lc rgb '{}' title "
@@ -453,11 +452,27 @@ void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
                          turning ? speed * i * per_hz[m] : x.frequency_hz);
       }
   }
-  for (std::size_t m = 0; m < per_hz.size(); ++m)
+  // One line an order for each mesh frequency, whichever meshes share it (a planetary set's six
+  // meshes at one frequency are one line, named by the first and their count).
+  std::vector<std::pair<double, std::vector<std::string>>> frequencies;
+  for (std::size_t m = 0; m < per_hz.size(); ++m) {
+    auto same = std::find_if(frequencies.begin(), frequencies.end(), [&](const auto& f) {
+      return std::abs(f.first - per_hz[m]) <= 1e-12 * per_hz[m];
+    });
+    if (same == frequencies.end())
+      frequencies.push_back({per_hz[m], {t.meshes[m].name}});
+    else
+      same->second.push_back(t.meshes[m].name);
+  }
+  for (std::size_t k = 0; k < frequencies.size(); ++k) {
+    const auto& [ratio, names] = frequencies[k];
+    const std::string who = names.size() == 1 ? fmt::format("mesh {}", quoted(names[0]))
+                                              : fmt::format("meshes {} and {} more",
+                                                            quoted(names[0]), names.size() - 1);
     for (int i = 1; i <= kMeshOrders; ++i)
-      plots.push_back(fmt::format("{} * x with lines lw 1.2 dt {} lc rgb '{}' title '{}'",
-                                  i * per_hz[m], i, colour(m + 1),
-                                  fmt::format("mesh {} order {}", quoted(t.meshes[m].name), i)));
+      plots.push_back(fmt::format("{} * x with lines lw 1.2 dt {} lc rgb '{}' title '{} order {}'",
+                                  i * ratio, i, colour(k + 1), who, i));
+  }
   if (critical)
     plots.push_back(
         "keyentry with lines lw 2 lc rgb '#1f4e9c' title 'mode with >= 5 % energy in a mesh'");

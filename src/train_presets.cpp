@@ -493,7 +493,7 @@ Case train_form_of(const Case& c, const MeshStiffness* stiffness) {
     t.shafts.push_back({shaft[static_cast<std::size_t>(i)], end[static_cast<std::size_t>(i)],
                         gear[static_cast<std::size_t>(i)],
                         c.shafts.stiffness_n_m_per_rad[static_cast<std::size_t>(i)],
-                        c.shafts.damping_ratio});
+                        c.shafts.damping_ratio, std::nullopt, std::nullopt});
   }
   const double w1 = 2 * kPi * f1;
   const double w2 = w1 * c.gear.teeth[0] / c.gear.teeth[1];

@@ -915,10 +915,11 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
           "(solver.method chooses)",
           e.what());
       split_.reset();
-      full = a_->linear_system();
+      whole_ = a_->linear_system();
     }
+  } else if (!split_) {
+    whole_ = std::move(full);
   }
-  if (method_ != Method::kExact && !split_) whole_ = std::move(full);
   if (method_ == Method::kNewmark) {
     // Every region of a train is (theta, theta') with theta' = the rates, and so is its
     // complement's: the first says so.

@@ -357,7 +357,7 @@ class Assembled {
   const std::vector<std::string>& coordinate_names() const { return names_; }
   // Each body's sense of rotation, in which its coordinate is counted (kinematics.hpp): +1
   // counterclockwise (the reference's).
-  int sense(int body) const { return sense_[static_cast<std::size_t>(body)]; }
+  int sense(int body) const { return motion_.sense[static_cast<std::size_t>(body)]; }
   // The frame a body's translations are read in (a carrier's index, kGroundFrame, or
   // kMixedFrame for a torsional body meshing in two), and a mesh's (kinematics.hpp).
   int frame(int body) const { return motion_.frame[static_cast<std::size_t>(body)]; }
@@ -412,7 +412,7 @@ class Assembled {
   // Each body's absolute speed over the reference speed in its own sense (negative where it
   // turns against it, 0 at rest), and each mesh's frequency over it, z_a |w_a - w_c| of its
   // driving gear relative to its carrier (kinematics.hpp).
-  const std::vector<Ratio>& speed_ratios() const { return speed_; }
+  const std::vector<Ratio>& speed_ratios() const { return motion_.speed; }
   std::vector<Ratio> mesh_frequency_ratios() const;
   double mesh_frequency_hz(int mesh) const;
   // The common period of every mesh's stiffness and transmission error: 1 / (f_ref g), g the
@@ -500,8 +500,7 @@ class Assembled {
   void place_teeth();
 
   Train t_;
-  std::vector<Ratio> speed_;
-  std::vector<int> sense_, translation_;
+  std::vector<int> translation_;
   std::vector<Eigen::MatrixXd> basis_;  // plane_basis
   std::vector<double> phase_;           // each mesh's, in cycles
   double frame_rate_ = 0;               // Omega, rad/s
