@@ -233,81 +233,6 @@ TEST(TrainCase, AReactionBalancesTheOtherTorquesAtTheTrainsSpeeds) {
             std::string::npos);
 }
 
-// A shaft damped as a ratio of its mode: a heavy rotor on a soft shaft to a gear pair and a light
-// load, the drivetrain's first mode mostly in the shaft. mode_damping_ratio = 0.05 gives that
-// mode's damped eigenvalue a ratio of 0.05 (to 2 %: the first-order estimate of a damping that
-// is not proportional); the same 0.05 as damping_ratio, against the shaft's two bodies' reduced
-// inertia (the rotor's and the small gear's), gives it under 0.005; the coefficient given is
-// the coefficient taken; two of them given are refused.
-TEST(TrainCase, AShaftDampsItsModeAsWritten) {
-  const auto with = [](const std::string& damping) {
-    return parse_case(std::string(R"([model]
-form = "train"
-[train]
-reference = "rotor"
-reference_speed_hz = 0.5
-[[train.body]]
-name = "rotor"
-inertia_kg_m2 = 1e4
-[[train.body]]
-name = "a"
-teeth = 20
-normal_module_mm = 2
-face_width_mm = 10
-[[train.body]]
-name = "b"
-teeth = 40
-normal_module_mm = 2
-face_width_mm = 10
-[[train.body]]
-name = "load"
-inertia_kg_m2 = 0.5
-[[train.mesh]]
-name = "m"
-driving = "a"
-driven = "b"
-mean_stiffness_n_per_m = 2e8
-damping_ratio = 0
-[[train.shaft]]
-name = "out"
-from = "b"
-to = "load"
-stiffness_n_m_per_rad = 1e6
-damping_n_m_s_per_rad = 0
-[[train.shaft]]
-name = "main"
-from = "rotor"
-to = "a"
-stiffness_n_m_per_rad = 1e3
-)") + damping,
-                      "t.toml");
-  };
-  // The damped ratio of the mode the main shaft holds most of.
-  const auto first_mode_ratio = [](const Case& c) {
-    const train::Assembled a = assembled_train(c);
-    const std::vector<train::TrainMode> modes = train::modes(a);
-    const train::TrainMode* best = nullptr;
-    for (const train::TrainMode& m : modes)
-      if (m.frequency_hz > 0 && (!best || m.shaft_energy[1] > best->shaft_energy[1])) best = &m;
-    EXPECT_TRUE(best && best->shaft_energy[1] > 0.9);
-    double ratio = -1, miss = std::numeric_limits<double>::infinity();
-    for (const std::array<double, 2>& e : train::damped_eigenvalues(a))
-      if (std::abs(e[0] - best->frequency_hz) < miss) {
-        miss = std::abs(e[0] - best->frequency_hz);
-        ratio = e[1];
-      }
-    return ratio;
-  };
-  EXPECT_NEAR(first_mode_ratio(with("mode_damping_ratio = 0.05\n")) / 0.05, 1.0, 0.02);
-  EXPECT_LT(first_mode_ratio(with("damping_ratio = 0.05\n")), 0.005);
-  EXPECT_EQ(train_of(with("damping_n_m_s_per_rad = 123\n")).shafts[1].damping_n_m_s_per_rad, 123.0);
-  EXPECT_NE(geardyn::testing::error_of(
-                [&] { (void)train_of(with("damping_ratio = 0.05\nmode_damping_ratio = 0.05\n")); })
-                .find("shaft 'main': give one of damping_ratio, mode_damping_ratio and "
-                      "damping_n_m_s_per_rad"),
-            std::string::npos);
-}
-
 // Said before any work: a mesh whose driving and driven gears are written the wrong way round
 // is loaded on its back flank at rest; a planet's pin off the centre distance its teeth give.
 // The shipped trains draw neither.
@@ -749,6 +674,63 @@ driving = "a"
 driven = "b"
 mean_stiffness_n_per_m = 2e8
 )";
+
+// A shaft damped as a ratio of its mode: a heavy rotor on a soft shaft to a gear pair and a light
+// load, the drivetrain's first mode mostly in the shaft. mode_damping_ratio = 0.05 gives that
+// mode's damped eigenvalue a ratio of 0.05 (to 2 %: the first-order estimate of a damping that
+// is not proportional); the same 0.05 as damping_ratio, against the shaft's two bodies' reduced
+// inertia (the rotor's and the small gear's), gives it under 0.005; the coefficient given is
+// the coefficient taken; two of them given are refused.
+TEST(TrainCase, AShaftDampsItsModeAsWritten) {
+  // The test file's two gears a and b and their mesh (its own damping off), a rotor on a's
+  // shaft, a load on b's.
+  const auto with = [](const std::string& damping) {
+    return parse_case(
+        std::string(kBodyA) + kBodyB + kMeshAB + "damping_ratio = 0\n" + R"([[train.body]]
+name = "rotor"
+inertia_kg_m2 = 1e4
+[[train.body]]
+name = "load"
+inertia_kg_m2 = 0.5
+[[train.shaft]]
+name = "out"
+from = "b"
+to = "load"
+stiffness_n_m_per_rad = 1e6
+damping_n_m_s_per_rad = 0
+[[train.shaft]]
+name = "main"
+from = "rotor"
+to = "a"
+stiffness_n_m_per_rad = 1e3
+)" + damping,
+        "t.toml");
+  };
+  // The damped ratio of the mode the main shaft holds most of.
+  const auto first_mode_ratio = [](const Case& c) {
+    const train::Assembled a = assembled_train(c);
+    const std::vector<train::TrainMode> modes = train::modes(a);
+    const train::TrainMode* best = nullptr;
+    for (const train::TrainMode& m : modes)
+      if (m.frequency_hz > 0 && (!best || m.shaft_energy[1] > best->shaft_energy[1])) best = &m;
+    EXPECT_TRUE(best && best->shaft_energy[1] > 0.9);
+    double ratio = -1, miss = std::numeric_limits<double>::infinity();
+    for (const std::array<double, 2>& e : train::damped_eigenvalues(a))
+      if (std::abs(e[0] - best->frequency_hz) < miss) {
+        miss = std::abs(e[0] - best->frequency_hz);
+        ratio = e[1];
+      }
+    return ratio;
+  };
+  EXPECT_NEAR(first_mode_ratio(with("mode_damping_ratio = 0.05\n")) / 0.05, 1.0, 0.02);
+  EXPECT_LT(first_mode_ratio(with("damping_ratio = 0.05\n")), 0.005);
+  EXPECT_EQ(train_of(with("damping_n_m_s_per_rad = 123\n")).shafts[1].damping_n_m_s_per_rad, 123.0);
+  EXPECT_NE(geardyn::testing::error_of(
+                [&] { (void)train_of(with("damping_ratio = 0.05\nmode_damping_ratio = 0.05\n")); })
+                .find("shaft 'main': give one of damping_ratio, mode_damping_ratio and "
+                      "damping_n_m_s_per_rad"),
+            std::string::npos);
+}
 
 // The message of reading `text`, or "" when it reads.
 std::string error_of(const std::string& text) {
