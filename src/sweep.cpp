@@ -6,15 +6,20 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <thread>
 
 #include "geardyn/case_keys.hpp"
 #include "geardyn/figures.hpp"
@@ -126,6 +131,10 @@ constexpr double kMaxSectionPeriods = 20;
 // three digits a user reads of a force.
 constexpr double kStatisticsTolerance = 1e-3;
 
+// A shaft's or bearing's load below this share of the train's largest of its unit is judged on
+// that largest's scale: it carries next to nothing.
+constexpr double kNegligibleShare = 1e-2;
+
 // The period of a train's slowest excitation (s): each varying mesh's stiffness and error
 // (runouts included), each torque harmonic, each prescribed speed's; 0 when nothing varies.
 double slowest_excitation_period_s(const train::Assembled& a) {
@@ -156,6 +165,48 @@ double statistics_window_s(const TrainSolver& solver) {
   if (!(slowest > 0) || (t0 && *t0 <= kMaxSectionPeriods * slowest)) return 0;
   return slowest;
 }
+
+// A sweep's progress as its user hears it (SweepOptions::progress): the points done plus the
+// share done of each point under way, one call at a time, in increasing order; once a call
+// returns false, stopped() is true for every thread.
+class SweepProgress {
+ public:
+  SweepProgress(std::size_t sequences, std::size_t total, const SweepOptions::Progress& progress)
+      : share_(sequences, 0.0), total_(total), progress_(progress) {}
+
+  // The point under way in `sequence` has done `fraction` (in [0, 1)) of its most work.
+  bool under_way(std::size_t sequence, double fraction) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    share_[sequence] = std::clamp(fraction, 0.0, kMostShare);
+    return report();
+  }
+  // The point under way in `sequence` is done.
+  bool point_done(std::size_t sequence) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    share_[sequence] = 0;
+    ++done_;
+    return report();
+  }
+  bool stopped() const { return stop_.load(); }
+
+ private:
+  // A point under way counts at most this much of itself until it is done.
+  static constexpr double kMostShare = 0.99;
+  bool report() {
+    if (stop_) return false;
+    const double shares = std::accumulate(share_.begin(), share_.end(), 0.0);
+    const double done = static_cast<double>(done_) + shares;
+    if (progress_ && done >= last_ && !progress_(done, total_)) stop_ = true;
+    last_ = std::max(last_, done);
+    return !stop_;
+  }
+  std::mutex mutex_;
+  std::vector<double> share_;
+  std::size_t done_ = 0, total_;
+  double last_ = 0;
+  const SweepOptions::Progress& progress_;
+  std::atomic<bool> stop_{false};
+};
 
 struct PointJob {
   std::size_t slot;  // index into the result's points
@@ -207,9 +258,9 @@ class PointRunner {
       std::string why;
       const std::optional<double> t0 = solver.assembled().system_period_s(&why);
       return fmt::format(
-          "{}: each point is judged steady by its meshes' mean and RMS forces over windows of "
-          "its slowest excitation's period, {:.4g} s, two in a row within {:g} of their scale, "
-          "and measured over --measure-periods such windows",
+          "{}: each point is judged steady by its meshes', shafts' and bearings' mean and RMS "
+          "loads over windows of its slowest excitation's period, {:.4g} s, two in a row within "
+          "{:g} of their scale, and measured over --measure-periods such windows",
           t0 ? fmt::format("a common period of {:.4g} s", *t0) : why, window, kStatisticsTolerance);
     }
     return note;
@@ -225,6 +276,30 @@ class PointRunner {
   // The period the point's blocks and strobe are taken at (train_section_period_s).
   double period_at(double value, double value2) const {
     return train_section_period_s(TrainSolver(case_at(value, value2), stiffness()), nullptr);
+  }
+  // The window the point is judged and measured in (statistics_window_s), or 0 when it is
+  // judged on the section of period_at.
+  double window_at(double value, double value2) const {
+    return statistics_window_s(TrainSolver(case_at(value, value2), stiffness()));
+  }
+
+  // The wall time (s) of the point's first period (or window) from its start, on this machine:
+  // a sample of what its periods cost (the exact engine's regions found on the way make it an
+  // upper one). NaN when it fails.
+  double time_first_period_s(double value, double value2) const {
+    const auto start = std::chrono::steady_clock::now();
+    const Case c = case_at(value, value2);
+    const TrainSolver solver(c, stiffness());
+    const double window = statistics_window_s(solver);
+    const double period = window > 0 ? window : train_section_period_s(solver, nullptr);
+    try {
+      const ode::Vector y =
+          solver.initial_state(o_.start_static ? InitialCondition::kStatic : c.solver.initial);
+      if (!solver.advance(0, y, period).ok()) return kNaN;
+    } catch (const InputError&) {
+      return kNaN;
+    }
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
   // The work one point may do, against the run's bound on the periods of the fastest time
@@ -269,8 +344,12 @@ class PointRunner {
 
   // Runs one point from `carry` (the previous point's end state) or from the case's initial
   // condition, and leaves its end state in `carry`: every form as its train (run_train_point).
-  SweepPoint run(const PointJob& job, Carry& carry) const {
-    return run_train_point(case_at(job.value, job.value2), job, carry);
+  // under_way(fraction) hears the share of the point's most work done so far (its settling
+  // periods or windows over the most it may run, before the measurement); when it returns false
+  // the point stops and is not kept (nullopt).
+  std::optional<SweepPoint> run(const PointJob& job, Carry& carry,
+                                const std::function<bool(double)>& under_way) const {
+    return run_train_point(case_at(job.value, job.value2), job, carry, under_way);
   }
 
  private:
@@ -316,12 +395,13 @@ class PointRunner {
 
   // settle() for a model whose state is a vector (a train): from (t, y) to
   // the section times k period (k T0 from the point's start, as the one-degree point's), each a
-  // flow of solver.advance(t, y, t_next) after which seen(flow) hears it with (t, y) moved on;
-  // a numerical failure into `failure`, which ends the settling. The periods run.
-  template <class FlowSolver, class Judge, class Seen>
+  // flow of solver.advance(t, y, t_next) after which seen(flow) hears it with (t, y) moved on
+  // and going(k) that k periods are done (false ends the settling); a numerical failure into
+  // `failure`, which ends the settling. The periods run.
+  template <class FlowSolver, class Judge, class Seen, class Going>
   int settle_flows(const FlowSolver& solver, double period, double& t, ode::Vector& y,
                    Judge&& judge, SteadyVerdict& verdict, std::optional<ode::FlowResult>& failure,
-                   Seen&& seen) const {
+                   Seen&& seen, Going&& going) const {
     int sections = 0;
     const auto to_section = [&](int periods) {
       sections += periods;
@@ -334,26 +414,30 @@ class PointRunner {
       y = f.state;
       t = t_next;
       seen(f);
-      return true;
+      return going(sections);
     };
     return settle(
         judge, verdict, [&] { return to_section(1); }, to_section);
   }
 
   // Settles a train window by window (statistics_window_s), each window read as a run reads it,
-  // until every mesh's mean and RMS force (over the larger of its static force and b k_m) agree
-  // with the window before within kStatisticsTolerance, after at least --settle-periods windows,
-  // or the windows run out (--max-settle-periods). The verdict's error is the last change; (t, y)
-  // moved on; a numerical failure's reason into `why`. The windows run.
+  // until every mesh's mean and RMS force and every shaft's and bearing's mean and RMS load
+  // agree with the window before within kStatisticsTolerance of their scale (a mesh's: the
+  // larger of its static force and b k_m; a shaft's or bearing's: the largest RMS of its
+  // quantities over the two windows), after at least --settle-periods windows, or the windows
+  // run out (--max-settle-periods). The verdict's error is the last change; (t, y) moved on; a
+  // numerical failure's reason into `why`; going(k) hears each window k done (false: stop). The
+  // windows run.
+  template <class Going>
   int settle_statistics(const TrainSolver& solver, double window, double& t, ode::Vector& y,
-                        SteadyVerdict& verdict, std::string& why) const {
+                        SteadyVerdict& verdict, std::string& why, Going&& going) const {
     const int spp = o_.samples_per_period;
-    std::vector<double> last;
+    std::vector<double> last, last_scale;
     int k = 0;
     while (k < o_.max_settle_periods) {
       ode::Vector end;
       const TrainRunResult r = solver.read(t, y, t + window, ode::OutputGrid{t, window / spp, spp},
-                                           t, std::nullopt, {}, &end, /*keep_samples=*/false,
+                                           t, std::nullopt, {}, &end, /*keep_samples=*/true,
                                            /*keep_states=*/false);
       if (!r.ok()) {
         why = fmt::format("{}: {}", ode::to_string(r.termination), r.message);
@@ -364,26 +448,69 @@ class PointRunner {
       ++k;
       // Means and RMS: a window's extremes depend on where the excitations' crests fall in it,
       // which drifts from window to window when their frequencies are not commensurate.
-      std::vector<double> now;
+      std::vector<double> now, scale;
       for (const TrainMeshReading& x : r.meshes) {
-        const double scale = std::max(std::abs(x.static_force_n.value_or(0.0)),
-                                      x.backlash_m * x.mean_stiffness_n_per_m);
-        for (const double v : {x.mean_force_n, x.rms_force_n}) now.push_back(v / scale);
+        const double s = std::max(std::abs(x.static_force_n.value_or(0.0)),
+                                  x.backlash_m * x.mean_stiffness_n_per_m);
+        for (const double v : {x.mean_force_n, x.rms_force_n}) {
+          now.push_back(v);
+          scale.push_back(s);
+        }
       }
+      append_part_statistics(r, now, scale);
       double change = std::numeric_limits<double>::infinity();
       if (last.size() == now.size()) {
         change = 0;
         for (std::size_t i = 0; i < now.size(); ++i)
-          change = std::max(change, std::abs(now[i] - last[i]));
+          if (const double s = std::max(scale[i], last_scale[i]); s > 0)
+            change = std::max(change, std::abs(now[i] - last[i]) / s);
       }
       verdict = SteadyVerdict{0, change};
       if (k > o_.settle_periods && change <= kStatisticsTolerance) {
         verdict.period_multiple = 1;
         return k;
       }
+      if (!going(k)) return k;
       last = std::move(now);
+      last_scale = std::move(scale);
     }
     return k;
+  }
+
+  // Each shaft's and bearing's quantities over a window's samples: their mean and RMS into
+  // `now`, each with its part's scale (the largest RMS of the part's quantities, at least
+  // kNegligibleShare of the largest of any part in the same unit) into `scale`.
+  static void append_part_statistics(const TrainRunResult& r, std::vector<double>& now,
+                                     std::vector<double>& scale) {
+    const std::vector<TrainPartQuantity> q = part_quantities(r);
+    const SampleRows<double>& parts = r.samples.parts;
+    const std::size_t n = parts.size();
+    if (n == 0) return;
+    std::vector<double> rms(q.size());
+    for (std::size_t j = 0; j < q.size(); ++j) {
+      double sum = 0, sum2 = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        sum += parts[i][j];
+        sum2 += parts[i][j] * parts[i][j];
+      }
+      rms[j] = std::sqrt(sum2 / static_cast<double>(n));
+      now.push_back(sum / static_cast<double>(n));
+      now.push_back(rms[j]);
+    }
+    // A quantity in N m (a shaft's torque, a moment) or in N.
+    const auto torque = [&](std::size_t i) { return std::string_view(q[i].what).ends_with("_nm"); };
+    // The largest load of each unit: a part's scale is at least kNegligibleShare of it, so that
+    // a part that carries nothing (its rounding noise) does not hold the verdict back.
+    double largest[2] = {0, 0};
+    for (std::size_t i = 0; i < q.size(); ++i)
+      largest[torque(i)] = std::max(largest[torque(i)], rms[i]);
+    for (std::size_t j = 0; j < q.size(); ++j) {
+      double s = kNegligibleShare * largest[torque(j)];
+      for (std::size_t i = 0; i < q.size(); ++i)
+        if (q[i].part == q[j].part) s = std::max(s, rms[i]);
+      scale.push_back(s);
+      scale.push_back(s);
+    }
   }
 
   // A point of the job, its readings yet to come.
@@ -416,7 +543,8 @@ class PointRunner {
   // bearing's quantity into SweepPoint::parts, and the mesh read (SweepOptions::mesh) into the
   // point's own statistics, as the one-degree point's (F / (b k_m) with the mesh's mean
   // stiffness).
-  SweepPoint run_train_point(const Case& c, const PointJob& job, Carry& carry) const {
+  std::optional<SweepPoint> run_train_point(const Case& c, const PointJob& job, Carry& carry,
+                                            const std::function<bool(double)>& under_way) const {
     const TrainSolver solver(c, stiffness());
     const train::Assembled& a = solver.assembled();
     std::string quasi;
@@ -474,19 +602,28 @@ class PointRunner {
     };
     SteadyVerdict verdict;
     std::optional<ode::FlowResult> failure;
+    bool stopped = false;
+    const double most = o_.max_settle_periods + o_.measure_periods;
+    const auto going = [&](int periods) {
+      stopped = stopped || !under_way(periods / most);
+      return !stopped;
+    };
     int k = 0;
     if (window > 0) {
       std::string why;
-      k = settle_statistics(solver, window, t, y, verdict, why);
+      k = settle_statistics(solver, window, t, y, verdict, why, going);
       if (!why.empty()) return failed_train("failed", why);
     } else {
       k = settle_flows(
-          solver, period, t, y, judge, verdict, failure, [&](const ode::FlowResult& f) {
+          solver, period, t, y, judge, verdict, failure,
+          [&](const ode::FlowResult& f) {
             // Without events over the flow, its last period had none.
             steady_region = f.events == 0 ? std::optional<int>(f.region) : std::nullopt;
             section.add(t, y);
-          });
+          },
+          going);
     }
+    if (stopped) return std::nullopt;
     if (failure) return failed_train(ode::to_string(failure->termination), failure->message);
     const Measurement w = measurement(verdict, t, period);
     const int m = w.periods, spp = w.samples_per_period;
@@ -804,6 +941,69 @@ void check_axes_read(const Case& c, const SweepAxis& axis, const SweepAxis* axis
   if (axis2) check(*axis2, "2", &axis, "");
 }
 
+namespace {
+
+// Every value the sweep sets, against its key's bounds and the work a point may do, before
+// any work: the ends of each range (its values lie between them, and the work per point grows
+// toward one end: the system period shrinks with the speed faster than the fastest time scale
+// does), the corners of a map, the least and largest given value.
+void check_sweep(const Case& base, const SweepOptions& o, const PointRunner& runner) {
+  if (const std::string e = o.validate(); !e.empty()) throw InputError(e);
+  const std::vector<AxisValue> rows2 =
+      o.axis2 ? axis_ends(*o.axis2, "2") : std::vector<AxisValue>{{0.0, ""}};
+  for (const AxisValue& y : rows2)
+    for (const AxisValue& x : axis_ends(o.axis, ""))
+      runner.check_work_at(x.value, x.origin, y.value, y.origin);
+  check_axes_read(base, o.axis, o.axis2 ? &*o.axis2 : nullptr);
+}
+
+// How a point whose statistics window is `window_s` (0: judged on its section) is judged
+// steady (SweepResult::steadiness).
+std::string steadiness(const SweepOptions& o, double window_s) {
+  if (window_s > 0)
+    return fmt::format(
+        "every mesh's, shaft's and bearing's mean and RMS load within {:g} of its scale over two "
+        "windows of {:.4g} s in a row",
+        kStatisticsTolerance, window_s);
+  return fmt::format("predicted distance to the periodic response under {:g} b",
+                     o.steady_tolerance);
+}
+
+// The up and down sequences of each row (SweepOptions::direction).
+std::size_t sequence_count(const SweepOptions& o) {
+  const std::size_t rows = o.axis2 ? o.axis2->values().size() : 1;
+  return rows * (o.direction == SweepDirection::kBoth ? 2 : 1);
+}
+
+}  // namespace
+
+double SweepPlan::least_wall_s() const {
+  return static_cast<double>(points) * least_periods * first_period_wall_s / std::max(threads, 1U);
+}
+double SweepPlan::most_wall_s() const {
+  return static_cast<double>(points) * most_periods * first_period_wall_s / std::max(threads, 1U);
+}
+
+SweepPlan plan_sweep(const Case& base, const SweepOptions& o) {
+  if (const std::string e = o.validate(); !e.empty()) throw InputError(e);
+  const PointRunner runner(base, o);
+  check_sweep(base, o, runner);
+  SweepPlan p;
+  const std::size_t rows = o.axis2 ? o.axis2->values().size() : 1;
+  p.points = rows * o.axis.values().size() * (o.direction == SweepDirection::kBoth ? 2 : 1);
+  const unsigned cores =
+      o.threads > 0 ? o.threads : std::max(1U, std::thread::hardware_concurrency());
+  p.threads = static_cast<unsigned>(std::min<std::size_t>(cores, sequence_count(o)));
+  const double x = o.axis.values().front(), y = o.axis2 ? o.axis2->values().front() : 0.0;
+  const double window = runner.window_at(x, y);
+  p.period_s = window > 0 ? window : runner.period_at(x, y);
+  p.steadiness = steadiness(o, window);
+  p.least_periods = std::max(o.settle_periods, 2) + o.measure_periods;
+  p.most_periods = o.max_settle_periods + o.measure_periods;
+  p.first_period_wall_s = runner.time_first_period_s(x, y);
+  return p;
+}
+
 SweepResult sweep(const Case& base, const SweepOptions& o) {
   if (const std::string e = o.validate(); !e.empty()) throw InputError(e);
   const auto start = std::chrono::steady_clock::now();
@@ -812,17 +1012,9 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   r.form = base.model.form;
   r.unused_settings = unused_settings(base);
   const PointRunner runner(base, o);
-  // Every value the sweep sets, against its key's bounds and the work a point may do, before
-  // any work: the ends of each range (its values lie between them, and the work per point grows
-  // toward one end: the system period shrinks with the speed faster than the fastest time scale
-  // does), the corners of a map, the least and largest given value.
-  const std::vector<AxisValue> rows2 =
-      o.axis2 ? axis_ends(*o.axis2, "2") : std::vector<AxisValue>{{0.0, ""}};
-  for (const AxisValue& y : rows2)
-    for (const AxisValue& x : axis_ends(o.axis, ""))
-      runner.check_work_at(x.value, x.origin, y.value, y.origin);
-  check_axes_read(base, o.axis, o.axis2 ? &*o.axis2 : nullptr);
+  check_sweep(base, o, runner);
   const double first2 = o.axis2 ? o.axis2->values().front() : 0.0;
+  r.steadiness = steadiness(o, runner.window_at(o.axis.values().front(), first2));
   r.period_s = runner.period_at(o.axis.values().front(), first2);
   r.period_note = runner.period_note_at(o.axis.values().front(), first2);
   r.meshes = runner.meshes();
@@ -853,17 +1045,19 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   const std::size_t total = slot;
   std::vector<std::optional<SweepPoint>> done_points(total);
 
-  const ParallelRun pool = parallel_for(sequences.size(), o.threads, total, o.progress,
-                                        [&](std::size_t i, WorkTicker& ticker) {
-                                          Carry carry;
-                                          for (const PointJob& job : sequences[i]) {
-                                            if (ticker.stopped()) return;
-                                            done_points[job.slot] = runner.run(job, carry);
-                                            ticker.tick();
-                                          }
-                                        });
+  SweepProgress progress(sequences.size(), total, o.progress);
+  const ParallelRun pool =
+      parallel_for(sequences.size(), o.threads, total, {}, [&](std::size_t i, WorkTicker& ticker) {
+        Carry carry;
+        const auto under_way = [&](double fraction) { return progress.under_way(i, fraction); };
+        for (const PointJob& job : sequences[i]) {
+          if (ticker.stopped() || progress.stopped()) return;
+          done_points[job.slot] = runner.run(job, carry, under_way);
+          if (!done_points[job.slot] || !progress.point_done(i)) ticker.stop();
+        }
+      });
   r.threads = pool.threads;
-  r.cancelled = pool.stopped;
+  r.cancelled = pool.stopped || progress.stopped();
   for (auto& p : done_points)
     if (p) {
       r.unsettled += unsettled(*p);
@@ -1018,6 +1212,7 @@ std::string summary(const SweepResult& r) {
     for (const SweepPart& q : r.parts) parts.push_back({{"part", q.part}, {"quantity", q.what}});
     j["parts"] = parts;
   }
+  j["steadiness"] = r.steadiness;
   if (!r.period_note.empty()) j["period_note"] = r.period_note;
   j["settle_periods"] = o.settle_periods;
   j["measure_periods"] = o.measure_periods;

@@ -317,10 +317,36 @@ TEST(Sweep, FlagsPointsThatNeverSettle) {
 
 TEST(Sweep, StopsWhenTheProgressCallbackSaysSo) {
   SweepOptions o = omega_sweep(0.3, 1.5, 40, SweepDirection::kUp);
-  o.progress = [](std::size_t done, std::size_t) { return done < 3; };
+  o.progress = [](double done, std::size_t) { return done < 3; };
   const SweepResult r = sweep(nondimensional(0.05, 0.1, 0.1), o);
   EXPECT_TRUE(r.cancelled);
   EXPECT_EQ(r.points.size(), 3u);
+}
+
+// A point that takes long shows it moves: the progress hears each settling period's share of
+// the point, in increasing order; a stop inside a point drops that point, keeping those done.
+TEST(Sweep, ProgressMovesWithinAPointAndAStopThereDropsIt) {
+  SweepOptions o = omega_sweep(0.8, 1.2, 3, SweepDirection::kUp);
+  o.steady_tolerance = 1e-12;  // never settles: each point runs all its periods
+  o.max_settle_periods = 30;
+  o.threads = 1;
+  std::vector<double> heard;
+  o.progress = [&](double done, std::size_t total) {
+    EXPECT_EQ(total, 3u);
+    heard.push_back(done);
+    return done < 1.5;
+  };
+  const SweepResult r = sweep(nondimensional(0.05, 1.0, 0.1), o);
+  EXPECT_TRUE(r.cancelled);
+  ASSERT_EQ(r.points.size(), 1u);  // the second point stopped half-way is not kept
+  EXPECT_TRUE(std::is_sorted(heard.begin(), heard.end()));
+  // Within the first point: its periods' shares, each 1/40 of the point (30 + 10 periods).
+  const auto within =
+      std::count_if(heard.begin(), heard.end(), [](double d) { return d > 0 && d < 1; });
+  EXPECT_GE(within, 25);
+  EXPECT_NEAR(heard.front(), 1.0 / 40, 1e-12);
+  EXPECT_GE(heard.back(), 1.5);
+  EXPECT_LT(heard.back(), 2.0);
 }
 
 TEST(Sweep, BadOptionsAndKeysAreInputErrors) {

@@ -88,6 +88,12 @@ class ProgressBar {
     show(fraction, fmt::format("{:3d}%", static_cast<int>(fraction * 100.0)));
     return true;
   }
+  // `done` of `total` points, a share of each point under way included.
+  bool points(double done, std::size_t total) {
+    show(done / static_cast<double>(std::max<std::size_t>(total, 1)),
+         fmt::format("{:.1f}/{} {}", done, total, unit_));
+    return true;
+  }
   bool operator()(std::size_t done, std::size_t total) {
     show(static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(total, 1)),
          fmt::format("{}/{} {}", done, total, unit_));
@@ -675,18 +681,39 @@ int cmd_describe(const std::string& case_file, const std::vector<std::string>& s
   return 0;
 }
 
+// A wall time as a reader takes it in: seconds, minutes or hours.
+std::string duration_text(double seconds) {
+  constexpr double kMinute = 60, kHour = 3600;
+  if (seconds < 2 * kMinute) return fmt::format("{:.2g} s", seconds);
+  if (seconds < 2 * kHour) return fmt::format("{:.2g} min", seconds / kMinute);
+  return fmt::format("{:.2g} h", seconds / kHour);
+}
+
 int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets,
               geardyn::SweepOptions o, const std::string& out_dir, bool figures) {
   const geardyn::Case base = load_model_case(case_file, parse_overrides(sets), "sweep");
   check_output_folder(out_dir, "sweep");
   if (const std::string e = o.validate(); !e.empty()) throw geardyn::InputError(e);
-  ProgressBar bar("sweep", "points");
-  o.progress = [&](std::size_t done, std::size_t total) {
-    bar(done, total);
-    return !g_interrupted.load();
-  };
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);  // a polite kill stops as Ctrl-C does
+  // Its cost, before the work: one period of the first point timed, the rest bracketed.
+  const geardyn::SweepPlan plan = geardyn::plan_sweep(base, o);
+  fmt::print(
+      stderr, "sweep: {} points on {} thread{}, each {} to {} periods of {:.4g}{} (steady: {})",
+      plan.points, plan.threads, plan.threads == 1 ? "" : "s", plan.least_periods,
+      plan.most_periods, plan.period_s,
+      base.model.form == geardyn::ModelForm::kNondimensional ? " (tau)" : " s", plan.steadiness);
+  if (std::isfinite(plan.first_period_wall_s))
+    fmt::print(stderr, "; the first period took {:.3g} s: about {} to {}\n",
+               plan.first_period_wall_s, duration_text(plan.least_wall_s()),
+               duration_text(plan.most_wall_s()));
+  else
+    fmt::print(stderr, "\n");
+  ProgressBar bar("sweep", "points");
+  o.progress = [&](double done, std::size_t total) {
+    bar.points(done, total);
+    return !g_interrupted.load();
+  };
   const geardyn::SweepResult r = geardyn::sweep(base, o);
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
@@ -705,9 +732,9 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
              geardyn::to_string(o.direction), r.threads, r.wall_time_s);
   fmt::print(
       "  system period {:.6g}{} at the first point; {} points computed, {} not settled "
-      "(steady: predicted distance to the periodic response under {:g} b)\n",
+      "(steady: {})\n",
       r.period_s, r.form == geardyn::ModelForm::kNondimensional ? " (tau)" : " s", r.points.size(),
-      r.unsettled, o.steady_tolerance);
+      r.unsettled, r.steadiness);
   if (!r.mesh.empty())
     fmt::print("  each of the train's meshes read ({}); the statistics and jumps below: mesh {}\n",
                fmt::join(r.meshes, ", "), r.mesh);

@@ -84,9 +84,13 @@ struct SweepOptions {
   std::string mesh;
   int samples_per_period = 64;  // for the statistics; the strobe takes one per period
   unsigned threads = 0;         // 0: all cores
-  // Called after each point with (done, total); returning false stops the sweep after the
-  // points under way (the completed ones are kept).
-  std::function<bool(std::size_t, std::size_t)> progress;
+  // Called after each point and each settling period (or window) of the points under way with
+  // (done, total): the points done plus the share of each point under way (its settling periods
+  // over max_settle_periods + measure_periods, at most 0.99), in increasing order, so a point
+  // that takes seconds shows it moves. Returning false stops the sweep: the points under way
+  // stop too and are dropped, the completed ones are kept.
+  using Progress = std::function<bool(double, std::size_t)>;
+  Progress progress;
 
   // The bounds of every option, as Ceres does: "" when valid, else what is wrong.
   std::string validate() const;
@@ -229,6 +233,9 @@ struct SweepResult {
   // A train's shaft and bearing quantities (part_quantities' order): sweep.csv's two columns
   // each.
   std::vector<SweepPart> parts;
+  // How a point is judged steady (a phrase: "predicted distance to the periodic response under
+  // 1e-06 b", or its statistics' agreement window by window).
+  std::string steadiness;
   // Why the points were not judged steady, when a train has no common period (quasi-periodic:
   // each point runs max_settle_periods periods of its reference body's turn before it is
   // measured, flagged not settled).
@@ -254,6 +261,27 @@ struct SweepResult {
 constexpr double kHysteresisFraction = 0.05;
 constexpr double kJumpFraction = 0.3;
 constexpr double kJumpContrast = 3.0;
+
+// What a sweep will do, told before it starts: its points, the period (or statistics window)
+// its points settle and measure in, how a point is judged steady, and the wall time of its first
+// point's first period on this machine, from which its cost is bracketed.
+struct SweepPlan {
+  std::size_t points = 0;  // points in all directions and rows
+  unsigned threads = 0;    // threads its sequences run on
+  double period_s = 0;     // of the first point: its settling period or statistics window
+  std::string steadiness;  // as SweepResult::steadiness
+  // The periods a point runs: at least --settle-periods (and the two a verdict needs) with
+  // --measure-periods, at most --max-settle-periods + --measure-periods.
+  int least_periods = 0, most_periods = 0;
+  // The wall time of the first point's first period, its start included (NaN when it failed).
+  double first_period_wall_s = 0;
+  // The sweep's wall time if every period cost as much, with the points settling as soon as
+  // they may (least) or never (most), shared among the threads.
+  double least_wall_s() const;
+  double most_wall_s() const;
+};
+// Checks the options as sweep() does (throwing InputError) and times one period.
+SweepPlan plan_sweep(const Case& base, const SweepOptions& o);
 
 // Runs the sweep. Throws InputError for a bad key, value or option (naming it); a point that
 // fails numerically is kept with its reason (SweepPoint::failure) and the others go on.

@@ -702,8 +702,8 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
     threads : int
         Worker threads (0: all cores).
     progress : callable or True, optional
-        ``progress(done, total)`` after each point; a false return stops the sweep after the
-        points under way, the completed ones kept. True: a tqdm bar.
+        ``progress(done, total)`` after each point; a false return stops the sweep (the points
+        under way are dropped, the completed ones kept). True: a tqdm bar.
     param2 : str, optional
         A second key: a sweep along `param` at each of its `values2` (a map).
     values2 : sequence of float

@@ -52,7 +52,15 @@ void bind_sweep(py::module_& m) {
         o.threads = threads;
         o.mesh = mesh;
         Hook hook(progress);
-        o.progress = [&hook](std::size_t done, std::size_t total) { return hook(done, total); };
+        // Python hears whole points (a bar's update per point); the shares of points under way
+        // only give it the chance to stop.
+        std::size_t heard = 0;
+        o.progress = [&hook, &heard](double done, std::size_t total) {
+          const auto whole = static_cast<std::size_t>(done);
+          if (whole == heard) return hook.going();
+          heard = whole;
+          return hook(whole, total);
+        };
         SweepResult r;
         run_interruptible(hook, [&] { r = sweep(c, o); });
         const std::size_t n = r.points.size();

@@ -44,6 +44,8 @@ class Hook {
     }
     return !stop_;
   }
+  // False once the callback stopped the work or Ctrl-C came.
+  bool going() const { return !stop_; }
   void interrupt() {
     interrupted_ = true;
     stop_ = true;
