@@ -21,6 +21,26 @@ constexpr int kInvoluteBits = 50;
 
 double involute(double alpha_rad) { return std::tan(alpha_rad) - alpha_rad; }
 
+double internal_contact_ratio(int z1, int z2, double normal_module_m,
+                              double normal_pressure_angle_rad, double helix_angle_rad) {
+  if (z2 <= z1)
+    throw InputError(fmt::format(
+        "an internal pair needs a ring of more teeth than its pinion ({} and {} teeth)", z1, z2));
+  const double mt = normal_module_m / std::cos(helix_angle_rad);
+  const double at = std::atan(std::tan(normal_pressure_angle_rad) / std::cos(helix_angle_rad));
+  const double r1 = z1 * mt / 2, r2 = z2 * mt / 2;
+  const double rb1 = r1 * std::cos(at), rb2 = r2 * std::cos(at);
+  const double ra1 = r1 + normal_module_m, ra2 = r2 - normal_module_m;
+  if (!(ra2 > rb2))
+    throw InputError(
+        fmt::format("the ring of {} teeth has its tip circle ({:.6g} mm) inside its base circle "
+                    "({:.6g} mm): too few teeth for an involute ring",
+                    z2, 2e3 * ra2, 2e3 * rb2));
+  const double path = std::sqrt(ra1 * ra1 - rb1 * rb1) - std::sqrt(ra2 * ra2 - rb2 * rb2) +
+                      (r2 - r1) * std::sin(at);
+  return path / (std::numbers::pi * mt * std::cos(at));
+}
+
 double inverse_involute(double inv) {
   // inv(alpha) is increasing on (0, pi/2) with derivative tan^2(alpha); start from the
   // series inversion alpha ~ (3 inv)^(1/3), good for the angles of gearing.

@@ -8,6 +8,7 @@
 #include <boost/math/quadrature/gauss.hpp>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <numbers>
@@ -255,12 +256,16 @@ double StiffnessCycle::mean_pairs_in_contact() const {
   return pairs_in_contact.empty() ? 0 : s / static_cast<double>(pairs_in_contact.size());
 }
 
-Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g) {
+namespace {
+// ISO 6336-1 Method B for an external pair or (`internal`: gear 1 a ring, z_n2 infinite) an
+// internal one, with the pair's transverse contact ratio eps_alpha.
+Iso6336Stiffness iso6336(const Case& c, const Geometry& g, bool internal, double eps_alpha) {
   Iso6336Stiffness s;
   const GearData& gd = c.gear;
   const double cos_beta = std::cos(g.helix_angle_rad);
   const double cos_bb = std::cos(g.base_helix_angle_rad);
   for (int i = 0; i < 2; ++i) s.virtual_teeth[i] = gd.teeth[i] / (cos_bb * cos_bb * cos_beta);
+  if (internal) s.virtual_teeth[1] = std::numeric_limits<double>::infinity();
   const double zn1 = s.virtual_teeth[0], zn2 = s.virtual_teeth[1];
   const double x1 = gd.profile_shift[0], x2 = gd.profile_shift[1];
   s.q_prime = kIsoQ[0] + kIsoQ[1] / zn1 + kIsoQ[2] / zn2 + kIsoQ[3] * x1 + kIsoQ[4] * x1 / zn1 +
@@ -290,10 +295,19 @@ Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g) {
   s.load_factor =
       line_load < kIsoLineLoadNPerMm ? std::pow(line_load / kIsoLineLoadNPerMm, 0.25) : 1.0;
   s.c_prime = s.c_prime_th * s.c_m * s.c_r * s.c_b * cos_beta * s.material_factor * s.load_factor;
-  s.c_gamma_alpha = s.c_prime * (0.75 * g.transverse_contact_ratio + 0.25);
+  s.c_gamma_alpha = s.c_prime * (0.75 * eps_alpha + 0.25);
   s.c_gamma_beta = 0.85 * s.c_gamma_alpha;
   s.mesh_stiffness_n_per_m = s.c_gamma_alpha * gd.face_width_mm * 1e6;
   return s;
+}
+}  // namespace
+
+Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g) {
+  return iso6336(c, g, false, g.transverse_contact_ratio);
+}
+
+Iso6336Stiffness iso6336_internal_stiffness(const Case& c, const Geometry& g, double eps_alpha) {
+  return iso6336(c, g, true, eps_alpha);
 }
 
 StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const EnergyMethodOptions& o) {

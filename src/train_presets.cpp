@@ -257,9 +257,52 @@ PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyDat
   return out;
 }
 
+namespace {
+// ISO 6336-1 Method B of an internal mesh (iso6336_internal_stiffness): the pinion first, the
+// ring second, under the pinion's share of the driving torque (the same tangential force).
+PairMeshStiffness iso_internal_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
+                                              const TrainBodyData& driven,
+                                              std::optional<double> driving_torque_nm) {
+  const bool ring_drives = driving.teeth > driven.teeth;
+  const TrainBodyData& pinion = ring_drives ? driven : driving;
+  const TrainBodyData& ring = ring_drives ? driving : driven;
+  for (const TrainBodyData* b : {&pinion, &ring})
+    if (b->profile_shift != 0)
+      throw InputError(train_keys_in(
+          fmt::format("gear.profile_shift = {} on '{}': ISO 6336-1's stiffness of an internal "
+                      "mesh is computed here for unshifted gears; give the mesh's "
+                      "mean_stiffness_n_per_m and stiffness_harmonics (stiffness_source = "
+                      "\"harmonics\")",
+                      b->profile_shift, b->name),
+          driving, driven));
+  Case c = mesh_pair_case(m, pinion, ring);
+  c.mesh.stiffness_source = StiffnessSource::kIso6336;
+  c.mesh.stiffness_harmonics = m.stiffness_harmonics;
+  const double beta = pinion.helix_angle_deg / kRadToDeg;
+  const double d_m = pinion.teeth * pinion.normal_module_mm * 1e-3 / std::cos(beta);
+  const double share = ring_drives ? static_cast<double>(pinion.teeth) / ring.teeth : 1.0;
+  c.load.torque_nm = driving_torque_nm ? *driving_torque_nm * share
+                                       : 2 * kIsoFullLoadNPerMm * c.gear.face_width_mm * d_m / 2;
+  PairMeshStiffness out;
+  try {
+    const double eps =
+        internal_contact_ratio(pinion.teeth, ring.teeth, pinion.normal_module_mm * 1e-3,
+                               pinion.normal_pressure_angle_deg / kRadToDeg, beta);
+    const Iso6336Stiffness iso = iso6336_internal_stiffness(c, case_geometry(c), eps);
+    out.mean_n_per_m = iso.mesh_stiffness_n_per_m;
+    out.harmonics = m.stiffness_harmonics;
+  } catch (const InputError& e) {
+    throw InputError(train_keys_in(e.what(), driving, driven));
+  }
+  return out;
+}
+}  // namespace
+
 PairMeshStiffness iso_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                      const TrainBodyData& driven,
                                      std::optional<double> driving_torque_nm) {
+  if (m.kind == "internal")
+    return iso_internal_mesh_stiffness(m, driving, driven, driving_torque_nm);
   Case c = mesh_pair_case(m, driving, driven);
   c.mesh.stiffness_source = StiffnessSource::kIso6336;
   c.mesh.stiffness_harmonics = m.stiffness_harmonics;

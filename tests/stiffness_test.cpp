@@ -37,6 +37,45 @@ TEST(Iso6336, ReproducesTheTechnicalReportExample) {
   EXPECT_NEAR(s.c_gamma_beta, 0.85 * s.c_gamma_alpha, 1e-12);
 }
 
+// An internal pair's transverse contact ratio (ISO 21771): a spur pinion of 20 teeth in a ring
+// of 60, module 1 mm, 20 degrees, by hand 1.94966 (the external pair of the same teeth 1.67078:
+// the concave flank holds the contact longer); a ring of a million teeth is the rack, whose
+// path of contact is sqrt(r_a1^2 - r_b1^2) - r_1 sin(alpha) + m / sin(alpha).
+TEST(Iso6336, AnInternalPairsContactRatio) {
+  const double alpha = 20 * std::numbers::pi / 180;
+  EXPECT_NEAR(internal_contact_ratio(20, 60, 1e-3, alpha, 0), 1.9496623, 1e-7);
+  const double r1 = 0.01, rb1 = r1 * std::cos(alpha), ra1 = r1 + 1e-3;
+  const double rack =
+      (std::sqrt(ra1 * ra1 - rb1 * rb1) - r1 * std::sin(alpha) + 1e-3 / std::sin(alpha)) /
+      (std::numbers::pi * 1e-3 * std::cos(alpha));
+  EXPECT_NEAR(internal_contact_ratio(20, 1000000, 1e-3, alpha, 0), rack, 1e-5);
+  EXPECT_NE(testing::error_of([&] {
+              (void)internal_contact_ratio(30, 30, 1e-3, alpha, 0);
+            }).find("a ring of more teeth than its pinion (30 and 30 teeth)"),
+            std::string::npos);
+}
+
+// ISO 6336-1 Method B of an internal pair takes the ring's virtual teeth as infinite: its
+// theoretical flexibility is the external pair's less C3 / z_n2 (x = 0), so it is stiffer, and
+// its c_gamma_alpha is c' (0.75 eps_alpha + 0.25) with the internal pair's contact ratio.
+TEST(Iso6336, AnInternalPairTakesTheRingsVirtualTeethAsInfinite) {
+  const Case c = iso_tr_example_1();
+  Case unshifted = c;
+  unshifted.gear.profile_shift = {0, 0};
+  const Geometry g = compute_geometry(unshifted.gear);
+  const Iso6336Stiffness external = iso6336_stiffness(unshifted, g);
+  const double eps = 1.9;
+  const Iso6336Stiffness internal = iso6336_internal_stiffness(unshifted, g, eps);
+  EXPECT_TRUE(std::isinf(internal.virtual_teeth[1]));
+  EXPECT_EQ(internal.virtual_teeth[0], external.virtual_teeth[0]);
+  EXPECT_NEAR(internal.q_prime, external.q_prime - 0.25791 / external.virtual_teeth[1], 1e-15);
+  EXPECT_NEAR(internal.c_prime / internal.c_prime_th, external.c_prime / external.c_prime_th,
+              1e-12);
+  EXPECT_NEAR(internal.c_gamma_alpha, internal.c_prime * (0.75 * eps + 0.25), 1e-12);
+  EXPECT_NEAR(internal.mesh_stiffness_n_per_m,
+              internal.c_gamma_alpha * unshifted.gear.face_width_mm * 1e6, 1e-3);
+}
+
 TEST(Iso6336, LightLoadsReduceTheSingleStiffness) {
   Case c;  // Table 1: F_t = 664 N on 20 mm, 33 N/mm
   const Geometry g = compute_geometry(c.gear);

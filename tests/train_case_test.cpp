@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -411,6 +412,43 @@ TEST(TrainCase, TheDefaultMethodOnAWindTurbineGearboxIsAccurate) {
   ASSERT_TRUE(reference.ok()) << reference.message;
   EXPECT_TRUE(reference.method_note.empty());  // asked for: nothing chosen
   EXPECT_LT(largest_difference(by_default, reference), 1e-5);
+}
+
+// The wind-turbine gearbox's ring meshes take ISO 6336-1's stiffness as its planet-sun meshes
+// do, the ring as the standard takes an internal gear: by hand, c'_th = 1 / (C1 + C2 / z_n1)
+// of the planet's virtual teeth alone (z_n2 infinite, no shifts), c' = 0.8 C_B cos(beta) c'_th
+// (solid blanks, steel, line load above 100 N/mm), c_gamma_alpha = c' (0.75 eps_alpha + 0.25)
+// with the internal pair's contact ratio, over the 227.5 mm face width. The energy method,
+// which models convex flanks on a solid blank, refuses a ring's mesh and names iso6336.
+TEST(TrainCase, ARingsMeshTakesItsStiffnessFromIso6336) {
+  const Case c = shipped_case("wind_turbine_grc750.toml", {});
+  const train::Assembled a = assembled_train(c);
+  std::map<std::string, double> k;
+  for (const train::Mesh& m : a.train().meshes) k[m.name] = m.mean_stiffness_n_per_m;
+  const double beta = 7.5 * kPi / 180, alpha = 20 * kPi / 180;
+  const double beta_b = std::asin(std::sin(beta) * std::cos(alpha));
+  const double zn1 = 39 / (std::cos(beta_b) * std::cos(beta_b) * std::cos(beta));
+  const double c_th = 1 / (0.04723 + 0.15551 / zn1);
+  const double c_b = 1 + 0.5 * (1.2 - 1.25);
+  const double c_prime = 0.8 * c_b * std::cos(beta) * c_th;
+  const double eps = internal_contact_ratio(39, 99, 10e-3, alpha, beta);
+  EXPECT_GT(eps, 1.5);
+  const double expected = c_prime * (0.75 * eps + 0.25) * 227.5 * 1e6;
+  for (const char* ring : {"ring_planet1", "ring_planet2", "ring_planet3"}) {
+    EXPECT_NEAR(k[ring] / expected, 1.0, 1e-12) << ring;
+    EXPECT_GT(k[ring], k["planet_sun1"]) << ring;  // no sun's 21 teeth, a longer contact
+  }
+  Case energy = c;
+  set_case_value(energy, {"train.mesh[1].stiffness_source", "\"energy\"", "--set"});
+  const std::string why = testing::error_of([&] { (void)assembled_train(energy); });
+  EXPECT_NE(why.find("stiffness_source = \"energy\" takes an external mesh"), std::string::npos)
+      << why;
+  EXPECT_NE(why.find("give this internal mesh stiffness_source = \"iso6336\""), std::string::npos)
+      << why;
+  Case shifted = c;
+  set_case_value(shifted, {"train.body[2].profile_shift", "0.2", "--set"});
+  const std::string shift = testing::error_of([&] { (void)assembled_train(shifted); });
+  EXPECT_NE(shift.find("computed here for unshifted gears"), std::string::npos) << shift;
 }
 
 // A key set on a loaded train (a sweep's point, a study's sample: set_case_value) gives the case

@@ -56,6 +56,14 @@ constexpr double kMaxContactRatio = 20.0;
 // base circle, total contact ratio below 1, bore not inside the root circle).
 Geometry compute_geometry(const GearData& gear);
 
+// The transverse contact ratio of an internal pair of unshifted gears, a pinion of z1 teeth in
+// a ring of z2, at their reference centre distance a = m_t (z2 - z1) / 2 and with the standard
+// addendum m_n (ISO 21771): eps_alpha = (sqrt(r_a1^2 - r_b1^2) - sqrt(r_a2^2 - r_b2^2) +
+// a sin(alpha_t)) / p_bt, the ring's tip circle r_a2 = r_2 - m_n inside its reference circle.
+// Throws InputError when z2 <= z1 or the ring's tip circle falls inside its base circle.
+double internal_contact_ratio(int z1, int z2, double normal_module_m,
+                              double normal_pressure_angle_rad, double helix_angle_rad);
+
 // The involute function inv(alpha) = tan(alpha) - alpha and its inverse on (0, pi/2).
 double involute(double alpha_rad);
 double inverse_involute(double inv);

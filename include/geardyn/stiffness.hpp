@@ -46,6 +46,13 @@ struct Iso6336Stiffness {
 
 Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g);
 
+// The same for an internal pair, gear 0 the pinion and gear 1 the ring (c's gear data; g's
+// helix and reference diameters): the standard takes the ring's virtual number of teeth as
+// infinite (z_n2 = inf: the terms C3 / z_n2 and C7 x2 / z_n2 of q' vanish, virtual_teeth[1] is
+// infinite) and c_gamma_alpha from the internal pair's transverse contact ratio `eps_alpha`
+// (internal_contact_ratio).
+Iso6336Stiffness iso6336_internal_stiffness(const Case& c, const Geometry& g, double eps_alpha);
+
 // Numerical settings of the energy method beyond the case's positions and slices.
 struct EnergyMethodOptions {
   // Points along the path of contact at which a tooth pair's compliance is integrated (it is
