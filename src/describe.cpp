@@ -7,6 +7,7 @@
 #include <numbers>
 #include <optional>
 
+#include "geardyn/plausibility.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"

@@ -18,6 +18,7 @@
 #include <variant>
 
 #include "geardyn/case_keys.hpp"
+#include "geardyn/plausibility.hpp"
 #include "geardyn/suggest.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/validation.hpp"
@@ -668,6 +669,8 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
         "{}: train.reference_speed_hz = {}: must be a number > 0 Hz",
         origin_of(overrides, "train.reference_speed_hz", f->source(), source), node_text(*f)));
   t.reference_speed_hz = *f->value<double>();
+  t.origins["the train: reference_speed_hz"] =
+      origin_of(overrides, "train.reference_speed_hz", f->source(), source);
   read_array(*train, source, overrides, "body", body_keys(), t.bodies, t.origins);
   read_array(*train, source, overrides, "mesh", mesh_keys(), t.meshes, t.origins);
   read_array(*train, source, overrides, "shaft", shaft_keys(), t.shafts, t.origins);
@@ -749,9 +752,16 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
                          : planar && !b.mass_kg ? "mass_kg"
                                                 : "tilt_inertia_kg_m2"));
     if (!(di < d))
-      rethrow_with_origin(t, fmt::format("{}: bore_diameter_mm = {} must be below the reference "
-                                         "diameter {:.6g} mm",
-                                         label, b.bore_diameter_mm, d / kMmToM));
+      rethrow_with_origin(
+          t, fmt::format("{}: bore_diameter_mm = {} must be below the reference diameter {:.6g} "
+                         "mm{}",
+                         label, b.bore_diameter_mm, d / kMmToM,
+                         b.normal_module_mm < kFinestModuleMm
+                             ? fmt::format(" (its normal_module_mm = {} is finer than any gear "
+                                           "is cut with: a module is in millimetres; was it "
+                                           "written in metres?)",
+                                           b.normal_module_mm)
+                             : std::string()));
     // In this order: bit for bit the inertia a train has always had (a rattle depends on it).
     g.inertia_kg_m2 =
         b.density_kg_m3 * kPi * b.face_width_mm * kMmToM * (std::pow(d, 4) - std::pow(di, 4)) / 32;
@@ -1794,6 +1804,7 @@ bool set_train_number_in_place(TrainCase& t, const Override& o) {
   if (o.key == "train.reference_speed_hz") {
     if (!(v > 0)) return false;
     t.reference_speed_hz = v;
+    t.origins["the train: reference_speed_hz"] = o.label();
     return true;
   }
   // train.<kind>[i].<leaf>

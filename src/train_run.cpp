@@ -34,9 +34,6 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // The mean torques balance when their power at the train's speeds is this small against the
 // largest term's.
 constexpr double kBalanceTolerance = 1e-9;
-// A static mesh force below minus this fraction of the train's force scale is on the back flank
-// (train_plausibility); rounding leaves some 1e-16 of it.
-constexpr double kBackFlankFraction = 1e-9;
 
 // A train's cells are twice the one-degree model's in h times the fastest rate, as the coupled
 // model's (coupled_run.cpp, kCoupledCellRateProduct): a coupled case, which runs as its train,
@@ -1576,54 +1573,6 @@ std::string train_modes_table(const train::Assembled& a, const std::vector<train
     for (double e : m[i].shaft_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     for (double e : m[i].bearing_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     out += "\n";
-  }
-  return out;
-}
-
-std::vector<std::string> train_plausibility(const Case& c) {
-  std::vector<std::string> out;
-  if (c.model.form != ModelForm::kTrain || !c.train) return out;
-  const TrainCase& written = *c.train;
-  const auto origin = [&](const std::string& label) {
-    const auto o = written.origins.find(label);
-    return o == written.origins.end() ? std::string() : fmt::format(" ({})", o->second);
-  };
-  // A pin off the centre distance its planet's teeth mesh at.
-  for (std::size_t i = 0; i < written.bearings.size(); ++i) {
-    const TrainBearingData& b = written.bearings[i];
-    if (b.on.empty() || b.pin_radius_mm == 0) continue;
-    const std::optional<double> gears = pin_radius_from_gears_mm(written, b);
-    if (gears && std::abs(b.pin_radius_mm - *gears) > kPinRadiusTolerance * *gears)
-      out.push_back(fmt::format(
-          "train.bearing[{}].pin_radius_mm = {}{}: bearing '{}' holds its pin {:.3g} % off the "
-          "centre distance its gears' teeth and module give, {:.6g} mm: the planet does not sit "
-          "where its teeth mesh (leave pin_radius_mm out to have it from the gears)",
-          i, b.pin_radius_mm, origin(fmt::format("bearing '{}': pin_radius_mm", b.name)), b.name,
-          100 * (b.pin_radius_mm - *gears) / *gears, *gears));
-  }
-  // A mesh on its back flank at rest.
-  try {
-    const train::Assembled a = assembled_train(c);
-    const std::optional<Eigen::VectorXd> rest = static_state(a);
-    if (!rest) return out;
-    const std::vector<double> f = static_mesh_forces_n(a, *rest);
-    // Against the largest static force or the mesh's force across its backlash: rounding leaves
-    // some 1e-11 N on a train with no torque.
-    double scale = 0;
-    for (std::size_t m = 0; m < f.size(); ++m)
-      scale =
-          std::max({scale, std::abs(f[m]),
-                    a.train().meshes[m].mean_stiffness_n_per_m * a.train().meshes[m].backlash_m});
-    for (std::size_t m = 0; m < f.size(); ++m)
-      if (f[m] < -kBackFlankFraction * scale)
-        out.push_back(fmt::format(
-            "mesh '{}'{}: loaded on its back flank at rest (static force {:.6g} N): are its "
-            "driving and driven gears the wrong way round (the driving gear's torque pushes the "
-            "other), or a torque's sign (a drive > 0 along its body's rotation, a load < 0)?",
-            a.train().meshes[m].name, origin(fmt::format("mesh '{}'", a.train().meshes[m].name)),
-            f[m]));
-  } catch (const InputError&) {
-    // The run names what does not assemble.
   }
   return out;
 }

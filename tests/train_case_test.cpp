@@ -26,6 +26,7 @@
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/model.hpp"
+#include "geardyn/plausibility.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
@@ -263,6 +264,39 @@ TEST(TrainCase, ABackFlankAtRestAndAPinOffItsGearsAreWarnedOf) {
       << off[0];
   set_case_value(pin, {"train.bearing[3].pin_radius_mm", "51.04"});  // within 0.1 %
   EXPECT_TRUE(train_plausibility(pin).empty());
+}
+
+// A value written in another unit than its key's, said before any work with the unit the key
+// takes: a backlash in millimetres, a module in metres, a speed in rpm, a torque in N mm. Each
+// warning names the key as written and its value; at the shipped values there is none (above).
+TEST(TrainCase, AValueInTheWrongUnitIsWarnedOf) {
+  const std::filesystem::path dir = std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases";
+  const auto warned = [](const Case& c, const std::string& what) {
+    const std::vector<std::string> w = train_plausibility(c);
+    const std::string all = fmt::format("{}", fmt::join(w, "\n"));
+    EXPECT_NE(all.find(what), std::string::npos) << all;
+    return all;
+  };
+  Case backlash = load_case(dir / "two_stage_reducer.toml");
+  set_case_value(backlash, {"train.mesh[1].backlash_um", "0.04", "--set"});
+  const std::string b = warned(backlash, "train.mesh[1].backlash_um = 0.04");
+  EXPECT_NE(b.find("was it written in millimetres?"), std::string::npos) << b;
+  set_case_value(backlash, {"train.mesh[1].backlash_um", "20", "--set"});  // a tight mesh's
+  EXPECT_TRUE(train_plausibility(backlash).empty());
+  Case module = load_case(dir / "wind_turbine_grc750.toml");
+  set_case_value(module, {"train.body[4].normal_module_mm", "0.01", "--set"});
+  const std::string m = warned(module, "train.body[4].normal_module_mm = 0.01");
+  EXPECT_NE(m.find("was it written in metres?"), std::string::npos) << m;
+  Case rpm = load_case(dir / "wind_turbine_grc750.toml");
+  set_case_value(rpm, {"train.reference_speed_hz", "1800", "--set"});
+  const std::string v = warned(rpm, "mesh 'high_speed'");
+  EXPECT_NE(v.find("its pitch line runs at 641"), std::string::npos) << v;
+  EXPECT_NE(v.find("is train.reference_speed_hz = 1800 (--set) a speed in rpm?"), std::string::npos)
+      << v;
+  Case torque = load_case(dir / "wind_turbine_grc750.toml");
+  set_case_value(torque, {"train.torque[1].mean_nm", "-3979000", "--set"});
+  const std::string q = warned(torque, "mesh 'high_speed'");
+  EXPECT_NE(q.find("is a torque in N mm written as N m?"), std::string::npos) << q;
 }
 
 TEST(TrainCase, ShaftTorquesAndBearingForcesAreReadExactlyWithTheirStaticValues) {

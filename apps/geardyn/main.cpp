@@ -35,6 +35,7 @@
 #include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/output_folder.hpp"
+#include "geardyn/plausibility.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stability.hpp"

@@ -360,15 +360,6 @@ struct TrainRunOptions {
 // train's rigid rotation, r the speed ratios) are left out (R^T theta = 0, R^T theta' = 0).
 // Absent, with `why`, when the mean torques do work on such a motion (the train would speed up
 // or slow down: there is no static state), or when a prescribed speed leaves one.
-// What a train case implies that is likely a mistake, said before any work (each naming the
-// element, the key and the value): a mesh loaded on its back flank at rest (its driving and
-// driven gears the wrong way round, or a torque's sign), a planet pin's radius off its gears'
-// centre distance by more than kPinRadiusTolerance. Empty for a case of another form, or one
-// whose train does not assemble or has no static state (the run says why).
-std::vector<std::string> train_plausibility(const Case& c);
-// A pin radius this far from the gears' centre distance, relative, is more than a drawing's
-// rounding: a pin that does not hold its planet where the teeth mesh.
-constexpr double kPinRadiusTolerance = 1e-3;
 
 std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why = nullptr,
                                             std::optional<double> at_s = std::nullopt);
