@@ -53,11 +53,26 @@ std::string node_text(const toml::node& n) {
       out << v;
     }
   });
-  std::string s = out.str();
-  for (char& ch : s) {
-    if (ch == '\n') ch = ' ';
+  return printable(out.str());
+}
+
+std::string printable(std::string_view text) {
+  std::string out;
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (ch == '\n') {
+      out += "\\n";
+    } else if (ch == '\t') {
+      out += "\\t";
+    } else if (ch == '\r') {
+      out += "\\r";
+    } else if (c < 0x20 || c == 0x7f) {
+      out += fmt::format("\\u{:04X}", c);
+    } else {
+      out += ch;
+    }
   }
-  return s;
+  return out;
 }
 
 namespace {
@@ -822,6 +837,18 @@ std::string Override::label() const {
 }
 
 Override parse_override(const std::string& assignment) {
+  // A control character (a newline pasted into the shell's quotes) is no part of a one-line
+  // key=value: said here, shown escaped, before any TOML reads it.
+  const auto control = std::find_if(assignment.begin(), assignment.end(), [](char ch) {
+    const auto c = static_cast<unsigned char>(ch);
+    return ch != '\t' && (c < 0x20 || c == 0x7f);
+  });
+  if (control != assignment.end())
+    throw InputError(fmt::format(
+        "--set {}: holds the control character {} at character {}: a --set is one line, "
+        "key=value (write a newline inside a TOML string as \\n)",
+        printable(assignment), printable(std::string(1, *control)),
+        control - assignment.begin() + 1));
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0 || eq + 1 == assignment.size())
     throw InputError(fmt::format(

@@ -5,6 +5,7 @@
 #include <toml++/toml.h>
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "geardyn/case.hpp"
@@ -18,8 +19,11 @@ std::string where(const toml::source_region& src, const std::string& fallback);
 // (overrides in order), else the node's place (where).
 std::string origin_of(const std::vector<Override>& overrides, const std::string& dotted,
                       const toml::source_region& src, const std::string& source);
-// The node's value as TOML text on one line (strings quoted).
+// The node's value as TOML text on one line (strings quoted, control characters escaped).
 std::string node_text(const toml::node& n);
+// A user's text as a message shows it: each control character escaped (\n, \t, \r, \uXXXX),
+// so that a message stays one line and shows what was written.
+std::string printable(std::string_view text);
 // The document of a case file or a --set: `text` without a byte-order mark, parsed with
 // `source` as its path in messages.
 toml::table parse_toml(const std::string& text, const std::string& source);

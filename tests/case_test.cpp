@@ -86,6 +86,27 @@ TEST(Case, TomlNumbersAreTheShortestThatReadBackExactly) {
   EXPECT_EQ(parse_case(to_toml(c), "escapes").description, c.description);
 }
 
+// A control character in a --set (a newline pasted inside the shell's quotes) is refused as
+// the --set it is, shown escaped on one line; one inside a TOML string (written \n) is read,
+// and a message that echoes the value escapes it.
+TEST(Case, AControlCharacterInASetIsNamedEscaped) {
+  std::string msg = error_of([] { (void)parse_override("load.torque_nm=4\n9"); });
+  EXPECT_NE(msg.find("--set load.torque_nm=4\\n9: holds the control character \\n at "
+                     "character 17: a --set is one line"),
+            std::string::npos)
+      << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  msg = error_of([] { (void)parse_override("mesh.stiffness_source=\"iso\x07\""); });
+  EXPECT_NE(msg.find("holds the control character \\u0007 at character 27"), std::string::npos)
+      << msg;
+  msg = error_of([] {
+    (void)load_case(std::nullopt, {parse_override("mesh.stiffness_source=\"iso\\n6336\"")});
+  });
+  EXPECT_NE(msg.find("mesh.stiffness_source = \"iso\\n6336\": must be one of"), std::string::npos)
+      << msg;
+  EXPECT_NE(msg.find("--set mesh.stiffness_source="), std::string::npos) << msg;
+}
+
 TEST(Case, TextTomlPlusPlusMishandlesIsRefusedFirst) {
   // toml++ 3.3 asserts on '[' followed by NUL and reaches an unreachable branch on non-ASCII
   // bare keys: both are invalid TOML, refused with where they are before toml++ sees them.
