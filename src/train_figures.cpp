@@ -23,6 +23,8 @@ constexpr double kMeshCritical = 0.05;
 constexpr int kMeshOrders = 3;
 // The speeds at which a Campbell diagram in a turning frame (train.frame_terms) reads the modes.
 constexpr int kCampbellSpeeds = 48;
+// The Campbell diagram's speeds: from rest to this many times the case's operating speed.
+constexpr double kCampbellSpeedSpan = 1.5;
 // Distinct colours for the meshes, in turn.
 constexpr const char* kColours[] = {"#1f4e9c", "#c0392b", "#2e8b57",
                                     "#8e44ad", "#d35400", "#16a085"};
@@ -358,13 +360,18 @@ void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
     return x.mesh_energy.empty() ? 0.0
                                  : *std::max_element(x.mesh_energy.begin(), x.mesh_energy.end());
   };
-  double top = 0;
+  // The case's speed range, from rest to kCampbellSpeedSpan times its operating speed, and the
+  // frequencies its mesh orders reach there (at least the first mode a mesh strains, so that
+  // one shows).
+  double first = 0;
   for (const train::TrainMode& x : modes)
-    if (largest_mesh_energy(x) >= kMeshCritical) top = std::max(top, x.frequency_hz);
-  if (top == 0 && !modes.empty()) top = modes.back().frequency_hz;
-  const double slowest = *std::min_element(per_hz.begin(), per_hz.end());
-  const double x_max = std::max(1.5 * top / slowest, 1.2 * t.reference_speed_hz);
-  const double y_max = 1.15 * std::max(top, modes.empty() ? 1.0 : modes.back().frequency_hz);
+    if (x.frequency_hz > 0 && largest_mesh_energy(x) >= kMeshCritical) {
+      first = x.frequency_hz;
+      break;
+    }
+  const double fastest = *std::max_element(per_hz.begin(), per_hz.end());
+  const double x_max = kCampbellSpeedSpan * t.reference_speed_hz;
+  const double y_max = 1.05 * std::max(kMeshOrders * fastest * x_max, 1.1 * first);
   // With the frame's rotation terms the frequencies move with the speed: each mode (by rank)
   // over kCampbellSpeeds speeds up to x_max, the train assembled again at each.
   const bool turning = a.frame_rate_rad_s() != 0;
@@ -435,6 +442,9 @@ void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
   for (std::size_t r = 0; r < modes.size(); ++r) {
     const train::TrainMode& x = modes[r];
     if (x.frequency_hz <= 0) continue;  // the free rotation
+    // Above every mesh order in the speed range: no excitation reaches it (an arrow would be
+    // drawn outside the graph).
+    if (!turning && x.frequency_hz > y_max) continue;
     const bool excited = largest_mesh_energy(x) >= kMeshCritical;
     (excited ? critical : other) = true;
     const char* style = excited ? "lw 2 lc rgb '#1f4e9c'" : "lw 1 dt 3 lc rgb 'gray60'";

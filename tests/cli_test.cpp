@@ -132,6 +132,23 @@ TEST(Cli, AWindTurbineGearboxRunsAtTheSpeedsOfItsRatioChain) {
   EXPECT_FALSE(fs::exists(e));
 }
 
+// The wind-turbine gearbox's Campbell diagram over its own speeds: the generator from rest to
+// 1.5 times its 30 Hz, up to the high-speed mesh's third order there (3 x 22 x 45 Hz); a mode
+// above every order in that range is not drawn (it was, outside the graph, when the speed axis
+// ran to 4000 Hz to reach the modes with the planetary stage's slow orders).
+TEST(Cli, TheCampbellDiagramSpansTheCasesSpeeds) {
+  const fs::path d = fresh("wind_turbine_campbell");
+  const Outcome o = cli("modes " + std::string(GEARDYN_SOURCE_DIR) +
+                        "/cases/wind_turbine_grc750.toml --out " + d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  const std::string body = slurp(d / "campbell_body.gp");
+  EXPECT_NE(body.find("set xrange [0:45]"), std::string::npos) << body;
+  EXPECT_NE(body.find("set yrange [0:3118.5]"), std::string::npos) << body;  // 1.05 x 2970 Hz
+  EXPECT_EQ(body.find("set arrow from 0, 3220"), std::string::npos) << body;
+  EXPECT_NE(body.find("title 'meshes planet_sun1 and 5 more order 1'"), std::string::npos) << body;
+  fs::remove_all(d);
+}
+
 // `geardyn describe`: what the wind-turbine gearbox assembles to, before any run: each body's
 // frame (the planetary stage's in its carrier's, the parallel stages' in the ground's) and
 // speed, the pins where the gears put them (m_n (z_s + z_p) / (2 cos beta), written without a

@@ -94,7 +94,9 @@ void write_train_run_figures(const std::filesystem::path& dir, const TrainRunRes
                              bool physical = false);
 
 // The Campbell diagram of a train (campbell .png .svg .gp, campbell.csv): its modes in contact
-// against the reference body's speed, with the first three orders of every mesh's frequency;
+// against the reference body's speed, from rest to 1.5 times the case's operating speed and up
+// to the frequencies the mesh orders reach there, with the first three orders of every mesh's
+// frequency (one line an order for meshes of one frequency);
 // the modes that hold at least 5 % of their strain energy in some mesh bold, and where a mesh
 // order crosses one of them marked.
 void write_train_campbell_figure(const std::filesystem::path& dir, const train::Assembled& a,
