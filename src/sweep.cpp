@@ -127,43 +127,58 @@ double train_section_period_s(const TrainSolver& solver, std::string* quasi) {
 // hunting-tooth gearbox's minutes), or that has none (quasi-periodic), is judged steady by what
 // its readings show, window by window, not on a section of its common period.
 constexpr double kMaxSectionPeriods = 20;
+// A statistics window holds at least this many cycles of the train's fastest excitation.
+constexpr double kLeastFastCycles = 200;
 // Two windows' statistics this close, relative to their scale, are the steady state's: the
 // three digits a user reads of a force.
 constexpr double kStatisticsTolerance = 1e-3;
+// Two windows' standard deviations this close, relative to themselves, are the steady state's:
+// the two digits a user reads of a dynamic factor's increment or a peak-to-peak.
+constexpr double kDynamicTolerance = 1e-2;
 
 // A shaft's or bearing's load below this share of the train's largest of its unit is judged on
 // that largest's scale: it carries next to nothing.
 constexpr double kNegligibleShare = 1e-2;
 
-// The period of a train's slowest excitation (s): each varying mesh's stiffness and error
-// (runouts included), each torque harmonic, each prescribed speed's; 0 when nothing varies.
-double slowest_excitation_period_s(const train::Assembled& a) {
-  double w = std::numeric_limits<double>::infinity();
-  const auto slowest = [&](const HarmonicSeries& s) {
+// The slowest and the fastest excitations of a train (rad/s): each varying mesh's stiffness
+// and error (runouts included), each torque harmonic, each prescribed speed's; both 0 when
+// nothing varies.
+struct ExcitationRange {
+  double slowest_rad_s = 0, fastest_rad_s = 0;
+};
+ExcitationRange excitation_range(const train::Assembled& a) {
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  const auto add = [&](double w) {
+    lo = std::min(lo, w);
+    hi = std::max(hi, w);
+  };
+  const auto series = [&](const HarmonicSeries& s) {
     for (const Harmonic& h : s.terms)
-      if (h.amplitude != 0 && h.angular_frequency_rad_s > 0)
-        w = std::min(w, h.angular_frequency_rad_s);
+      if (h.amplitude != 0 && h.angular_frequency_rad_s > 0) add(h.angular_frequency_rad_s);
   };
   const train::Train& t = a.train();
   for (int m = 0; m < static_cast<int>(t.meshes.size()); ++m) {
-    slowest(a.stiffness_series(m));
-    slowest(a.error_series(m));
+    series(a.stiffness_series(m));
+    series(a.error_series(m));
   }
-  for (int q = 0; q < static_cast<int>(t.torques.size()); ++q) slowest(a.torque_series(q));
+  for (int q = 0; q < static_cast<int>(t.torques.size()); ++q) series(a.torque_series(q));
   for (const train::Speed& v : t.speeds)
     for (const train::SpeedHarmonic& h : v.harmonics)
-      if (h.amplitude_rad != 0)
-        w = std::min(w, h.order * 2 * std::numbers::pi * a.turning_hz(a.index(v.body)));
-  return std::isfinite(w) ? 2 * std::numbers::pi / w : 0.0;
+      if (h.amplitude_rad != 0) add(h.order * 2 * std::numbers::pi * a.turning_hz(a.index(v.body)));
+  return std::isfinite(lo) ? ExcitationRange{lo, hi} : ExcitationRange{};
 }
 
-// The window a train point's statistics are read over (its slowest excitation's period), or 0
-// when the point is judged on the section of its common period (train_section_period_s).
+// The window a train point's statistics are read over, or 0 when the point is judged on the
+// section of its common period (train_section_period_s): whole periods of its slowest
+// excitation, as many as hold kLeastFastCycles cycles of its fastest (a window's statistics of
+// a motion whose frequencies are not commensurate move by the part cycles at its ends).
 double statistics_window_s(const TrainSolver& solver) {
   const std::optional<double> t0 = solver.assembled().system_period_s();
-  const double slowest = slowest_excitation_period_s(solver.assembled());
-  if (!(slowest > 0) || (t0 && *t0 <= kMaxSectionPeriods * slowest)) return 0;
-  return slowest;
+  const ExcitationRange w = excitation_range(solver.assembled());
+  if (!(w.slowest_rad_s > 0)) return 0;
+  const double slowest = 2 * std::numbers::pi / w.slowest_rad_s;
+  if (t0 && *t0 <= kMaxSectionPeriods * slowest) return 0;
+  return slowest * std::ceil(kLeastFastCycles * w.slowest_rad_s / w.fastest_rad_s);
 }
 
 // A sweep's progress as its user hears it (SweepOptions::progress): the points done plus the
@@ -258,10 +273,13 @@ class PointRunner {
       std::string why;
       const std::optional<double> t0 = solver.assembled().system_period_s(&why);
       return fmt::format(
-          "{}: each point is judged steady by its meshes', shafts' and bearings' mean and RMS "
-          "loads over windows of its slowest excitation's period, {:.4g} s, two in a row within "
-          "{:g} of their scale, and measured over --measure-periods such windows",
-          t0 ? fmt::format("a common period of {:.4g} s", *t0) : why, window, kStatisticsTolerance);
+          "{}: each point is judged steady by its meshes', shafts' and bearings' mean loads and "
+          "their standard deviations over windows of whole periods of its slowest excitation "
+          "holding 200 cycles of its fastest, {:.4g} s, "
+          "two in a row within {:g} of their scale and {:g} of themselves, and measured over "
+          "--measure-periods such windows",
+          t0 ? fmt::format("a common period of {:.4g} s", *t0) : why, window, kStatisticsTolerance,
+          kDynamicTolerance);
     }
     return note;
   }
@@ -420,19 +438,27 @@ class PointRunner {
         judge, verdict, [&] { return to_section(1); }, to_section);
   }
 
+  // A statistic of a window and how far it may move to the next: a change of at most
+  // `tolerance` times `scale` (the larger of the two windows').
+  struct WindowStatistic {
+    double value, scale, tolerance;
+  };
+
   // Settles a train window by window (statistics_window_s), each window read as a run reads it,
-  // until every mesh's mean and RMS force and every shaft's and bearing's mean and RMS load
-  // agree with the window before within kStatisticsTolerance of their scale (a mesh's: the
-  // larger of its static force and b k_m; a shaft's or bearing's: the largest RMS of its
-  // quantities over the two windows), after at least --settle-periods windows, or the windows
-  // run out (--max-settle-periods). The verdict's error is the last change; (t, y) moved on; a
-  // numerical failure's reason into `why`; going(k) hears each window k done (false: stop). The
-  // windows run.
+  // until every mesh's force and every shaft's and bearing's load agree with the window before:
+  // their means within kStatisticsTolerance of their scale (a mesh's: the larger of its static
+  // force and b k_m; a part's: part_scale) and their standard deviations (the dynamic part, what
+  // the dynamic factor and the peak-to-peak read) within kDynamicTolerance of themselves (at least
+  // kStatisticsTolerance of the mean's scale, so that a part that hardly moves is not held back by
+  // its rounding), after at least --settle-periods windows, or the windows run out
+  // (--max-settle-periods). The verdict's error is the last largest change over its allowance,
+  // times kStatisticsTolerance; (t, y) moved on; a numerical failure's reason into `why`;
+  // going(k) hears each window k done (false: stop). The windows run.
   template <class Going>
   int settle_statistics(const TrainSolver& solver, double window, double& t, ode::Vector& y,
                         SteadyVerdict& verdict, std::string& why, Going&& going) const {
     const int spp = o_.samples_per_period;
-    std::vector<double> last, last_scale;
+    std::vector<WindowStatistic> last;
     int k = 0;
     while (k < o_.max_settle_periods) {
       ode::Vector end;
@@ -446,24 +472,26 @@ class PointRunner {
       t += window;
       y = end;
       ++k;
-      // Means and RMS: a window's extremes depend on where the excitations' crests fall in it,
-      // which drifts from window to window when their frequencies are not commensurate.
-      std::vector<double> now, scale;
+      // Means and standard deviations: a window's extremes depend on where the excitations'
+      // crests fall in it, which drifts from window to window when their frequencies are not
+      // commensurate.
+      std::vector<WindowStatistic> now;
       for (const TrainMeshReading& x : r.meshes) {
         const double s = std::max(std::abs(x.static_force_n.value_or(0.0)),
                                   x.backlash_m * x.mean_stiffness_n_per_m);
-        for (const double v : {x.mean_force_n, x.rms_force_n}) {
-          now.push_back(v);
-          scale.push_back(s);
-        }
+        const double sd = std::sqrt(
+            std::max(x.rms_force_n * x.rms_force_n - x.mean_force_n * x.mean_force_n, 0.0));
+        now.push_back({x.mean_force_n, s, kStatisticsTolerance});
+        now.push_back({sd, std::max(sd, kStatisticsTolerance * s), kDynamicTolerance});
       }
-      append_part_statistics(r, now, scale);
+      append_part_statistics(r, now);
       double change = std::numeric_limits<double>::infinity();
       if (last.size() == now.size()) {
         change = 0;
         for (std::size_t i = 0; i < now.size(); ++i)
-          if (const double s = std::max(scale[i], last_scale[i]); s > 0)
-            change = std::max(change, std::abs(now[i] - last[i]) / s);
+          if (const double s = std::max(now[i].scale, last[i].scale); s > 0)
+            change = std::max(change, std::abs(now[i].value - last[i].value) /
+                                          (now[i].tolerance * s) * kStatisticsTolerance);
       }
       verdict = SteadyVerdict{0, change};
       if (k > o_.settle_periods && change <= kStatisticsTolerance) {
@@ -472,44 +500,43 @@ class PointRunner {
       }
       if (!going(k)) return k;
       last = std::move(now);
-      last_scale = std::move(scale);
     }
     return k;
   }
 
-  // Each shaft's and bearing's quantities over a window's samples: their mean and RMS into
-  // `now`, each with its part's scale (the largest RMS of the part's quantities, at least
-  // kNegligibleShare of the largest of any part in the same unit) into `scale`.
-  static void append_part_statistics(const TrainRunResult& r, std::vector<double>& now,
-                                     std::vector<double>& scale) {
+  // Each shaft's and bearing's quantities over a window's samples, as settle_statistics judges
+  // them: their means, on the part's scale (the largest RMS of its quantities, at least
+  // kNegligibleShare of the largest of any part in the same unit), and their standard
+  // deviations.
+  static void append_part_statistics(const TrainRunResult& r, std::vector<WindowStatistic>& now) {
     const std::vector<TrainPartQuantity> q = part_quantities(r);
     const SampleRows<double>& parts = r.samples.parts;
     const std::size_t n = parts.size();
     if (n == 0) return;
-    std::vector<double> rms(q.size());
+    std::vector<double> mean(q.size()), rms(q.size());
     for (std::size_t j = 0; j < q.size(); ++j) {
       double sum = 0, sum2 = 0;
       for (std::size_t i = 0; i < n; ++i) {
         sum += parts[i][j];
         sum2 += parts[i][j] * parts[i][j];
       }
+      mean[j] = sum / static_cast<double>(n);
       rms[j] = std::sqrt(sum2 / static_cast<double>(n));
-      now.push_back(sum / static_cast<double>(n));
-      now.push_back(rms[j]);
     }
     // A quantity in N m (a shaft's torque, a moment) or in N.
     const auto torque = [&](std::size_t i) { return std::string_view(q[i].what).ends_with("_nm"); };
     // The largest load of each unit: a part's scale is at least kNegligibleShare of it, so that
     // a part that carries nothing (its rounding noise) does not hold the verdict back.
-    double largest[2] = {0, 0};
+    std::array<double, 2> largest{0, 0};
     for (std::size_t i = 0; i < q.size(); ++i)
       largest[torque(i)] = std::max(largest[torque(i)], rms[i]);
     for (std::size_t j = 0; j < q.size(); ++j) {
       double s = kNegligibleShare * largest[torque(j)];
       for (std::size_t i = 0; i < q.size(); ++i)
         if (q[i].part == q[j].part) s = std::max(s, rms[i]);
-      scale.push_back(s);
-      scale.push_back(s);
+      const double sd = std::sqrt(std::max(rms[j] * rms[j] - mean[j] * mean[j], 0.0));
+      now.push_back({mean[j], s, kStatisticsTolerance});
+      now.push_back({sd, std::max(sd, kStatisticsTolerance * s), kDynamicTolerance});
     }
   }
 
@@ -962,9 +989,9 @@ void check_sweep(const Case& base, const SweepOptions& o, const PointRunner& run
 std::string steadiness(const SweepOptions& o, double window_s) {
   if (window_s > 0)
     return fmt::format(
-        "every mesh's, shaft's and bearing's mean and RMS load within {:g} of its scale over two "
-        "windows of {:.4g} s in a row",
-        kStatisticsTolerance, window_s);
+        "every mesh's, shaft's and bearing's mean load within {:g} of its scale and its "
+        "standard deviation within {:g} of itself over two windows of {:.4g} s in a row",
+        kStatisticsTolerance, kDynamicTolerance, window_s);
   return fmt::format("predicted distance to the periodic response under {:g} b",
                      o.steady_tolerance);
 }
@@ -1003,6 +1030,24 @@ SweepPlan plan_sweep(const Case& base, const SweepOptions& o) {
   p.first_period_wall_s = runner.time_first_period_s(x, y);
   return p;
 }
+
+namespace {
+// Each sequence's first point with impacts (SweepResult::impact_onsets), the points being in
+// sweep order: each row's up sequence, then its down one.
+void read_impact_onsets(SweepResult& r) {
+  std::vector<std::pair<SweepDirection, double>> seen;
+  for (const SweepPoint& p : r.points) {
+    const std::pair<SweepDirection, double> sequence{p.direction, p.value2};
+    if (std::find(seen.begin(), seen.end(), sequence) != seen.end()) continue;
+    ImpactOnset onset{p.direction, p.value, p.value2, {}};
+    for (std::size_t m = 0; m < p.meshes.size(); ++m)
+      if (p.meshes[m].impacts_per_period > 0) onset.meshes.push_back(r.meshes[m]);
+    if (onset.meshes.empty() && !(p.impacts_per_period > 0)) continue;
+    seen.push_back(sequence);
+    r.impact_onsets.push_back(std::move(onset));
+  }
+}
+}  // namespace
 
 SweepResult sweep(const Case& base, const SweepOptions& o) {
   if (const std::string e = o.validate(); !e.empty()) throw InputError(e);
@@ -1073,11 +1118,42 @@ SweepResult sweep(const Case& base, const SweepOptions& o) {
   const bool clearances =
       !r.clearances.empty() || sets_clearance(o.axis) || (o.axis2 && sets_clearance(*o.axis2));
   read_jumps(r, !clearances);
+  read_impact_onsets(r);
   r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }
 
 namespace {
+// The units a key's name ends with (geardyn names every quantity with its unit), longest first,
+// as an axis shows them.
+constexpr std::array<std::pair<std::string_view, std::string_view>, 17> kUnitSuffixes{{
+    {"_n_m_s_per_rad", "N m s/rad"},
+    {"_n_m_per_rad", "N m/rad"},
+    {"_n_s_per_m", "N s/m"},
+    {"_n_per_m", "N/m"},
+    {"_kg_m2", "kg m²"},
+    {"_kg_m3", "kg/m³"},
+    {"_gpa", "GPa"},
+    {"_hz", "Hz"},
+    {"_um", "µm"},
+    {"_mm", "mm"},
+    {"_deg", "deg"},
+    {"_rad", "rad"},
+    {"_nm", "N m"},
+    {"_kg", "kg"},
+    {"_w", "W"},
+    {"_s", "s"},
+    {"_n", "N"},
+}};
+
+// A swept key as an axis names it: with its unit when its name ends with one
+// ("train.reference_speed_hz (Hz)"), else as it is (a ratio, a count, a harmonic's entry).
+std::string key_label(const std::string& key) {
+  for (const auto& [suffix, unit] : kUnitSuffixes)
+    if (key.ends_with(suffix)) return fmt::format("{} ({})", key, unit);
+  return key;
+}
+
 // A text cell: quoted when it holds a comma or a quote (RFC 4180).
 std::string csv_text(const std::string& s) {
   if (s.find_first_of(",\"\n") == std::string::npos) return s;
@@ -1243,6 +1319,13 @@ std::string summary(const SweepResult& r) {
     if (o.axis2) x["value2"] = u.value2;
     j["unsettled_ranges"].push_back(x);
   }
+  j["impact_onsets"] = nlohmann::json::array();
+  for (const ImpactOnset& x : r.impact_onsets) {
+    nlohmann::json y = {
+        {"direction", to_string(x.direction)}, {"value", x.value}, {"meshes", x.meshes}};
+    if (o.axis2) y["value2"] = x.value2;
+    j["impact_onsets"].push_back(y);
+  }
   j["jumps"] = nlohmann::json::array();
   for (const Jump& x : r.jumps) {
     nlohmann::json y = {{"direction", to_string(x.direction)},
@@ -1350,8 +1433,8 @@ std::string regime_map_body(const SweepResult& r) {
                  "set xlabel '{}'\nset ylabel '{}'\nset xrange [{}:{}]\nset yrange [{}:{}]\n"
                  "set key below font ',9'\nset multiplot layout 1,{} title 'regime map'\n{}"
                  "unset multiplot\n",
-                 o.axis.key, o.axis2->key, xe.front(), xe.back(), ye.front(), ye.back(),
-                 panels.size(), body);
+                 key_label(o.axis.key), key_label(o.axis2->key), xe.front(), xe.back(), ye.front(),
+                 ye.back(), panels.size(), body);
   return s;
 }
 
@@ -1371,7 +1454,7 @@ std::string series_body(const SweepResult& r, const std::string& title,
       r.options.axis.log ? "set logscale x\n" : "", panels.size(), title, r.options.axis.key);
   for (std::size_t k = 0; k < panels.size(); ++k) {
     fmt::format_to(std::back_inserter(s), "set xlabel '{}'\nset ylabel '{}'\nplot ",
-                   k + 1 == panels.size() ? r.options.axis.key : "", panels[k].ylabel);
+                   k + 1 == panels.size() ? key_label(r.options.axis.key) : "", panels[k].ylabel);
     bool first = true;
     for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
       if (std::none_of(r.points.begin(), r.points.end(),
@@ -1524,8 +1607,8 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
   };
   fmt::format_to(std::back_inserter(fr), "set xlabel ''\nset ylabel 'F / (b·k_m)'\n{}",
                  curves(col("rms_force_bar"), "rms F/(b·k_m)", false));
-  fmt::format_to(std::back_inserter(fr), "set xlabel '{}'\nset ylabel 'δ / b'\n{}", o.axis.key,
-                 curves(col("pp_delta_bar"), "peak-to-peak δ/b", true));
+  fmt::format_to(std::back_inserter(fr), "set xlabel '{}'\nset ylabel 'δ / b'\n{}",
+                 key_label(o.axis.key), curves(col("pp_delta_bar"), "peak-to-peak δ/b", true));
   fr += "unset multiplot\n";
   render_figure(dir, "frequency_response", fr, 1000, 750);
 
@@ -1534,7 +1617,7 @@ std::vector<std::string> write_sweep(const std::filesystem::path& dir, const Swe
   fmt::format_to(std::back_inserter(bi),
                  "set title 'bifurcation diagram: δ/b once per system period'\nset xlabel '{}'\n"
                  "set ylabel 'δ / b'\nplot ",
-                 o.axis.key);
+                 key_label(o.axis.key));
   bool first = true;
   for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
     if (std::none_of(r.points.begin(), r.points.end(),

@@ -452,6 +452,55 @@ TEST(Sweep, AMapReadsJumpsAndHysteresisRowByRow) {
   }
 }
 
+// Each sequence's first point with impacts, in its own run order (the down sweep's from its
+// top): no point before it has any, it has; summary.json lists them.
+TEST(Sweep, ImpactOnsetsAreEachSequencesFirstPointWithImpacts) {
+  const SweepResult r =
+      sweep(nondimensional(0.05, 0.1, 0.1), omega_sweep(0.3, 1.5, 25, SweepDirection::kBoth));
+  ASSERT_EQ(r.impact_onsets.size(), 2u);
+  for (const ImpactOnset& onset : r.impact_onsets) {
+    SCOPED_TRACE(to_string(onset.direction));
+    bool reached = false;
+    for (const SweepPoint& p : r.points) {
+      if (p.direction != onset.direction) continue;
+      if (p.value == onset.value) {
+        EXPECT_GT(p.impacts_per_period, 0);
+        reached = true;
+        break;
+      }
+      EXPECT_EQ(p.impacts_per_period, 0) << p.value;
+    }
+    EXPECT_TRUE(reached);
+  }
+  EXPECT_EQ(r.impact_onsets[0].direction, SweepDirection::kUp);
+  EXPECT_EQ(r.impact_onsets[1].direction, SweepDirection::kDown);
+  const auto d =
+      std::filesystem::temp_directory_path() / ("geardyn_onset_" + std::to_string(getpid()));
+  std::filesystem::remove_all(d);
+  write_sweep(d, r, /*figures=*/false);
+  std::ifstream in(d / "summary.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["impact_onsets"].size(), 2u);
+  EXPECT_EQ(j["impact_onsets"][0]["value"], r.impact_onsets[0].value);
+  std::filesystem::remove_all(d);
+}
+
+// A swept key's axis names its unit, read off the key's name.
+TEST(Sweep, AnAxisNamesItsKeysUnit) {
+  SweepOptions o;
+  o.axis = {"speed.shaft_frequency_hz", 1500, 1600, 2, false};
+  o.direction = SweepDirection::kUp;
+  const SweepResult r = sweep(Case{}, o);
+  const auto d =
+      std::filesystem::temp_directory_path() / ("geardyn_axis_" + std::to_string(getpid()));
+  std::filesystem::remove_all(d);
+  write_sweep(d, r);
+  std::ifstream in(d / "frequency_response_body.gp");
+  const std::string body(std::istreambuf_iterator<char>(in), {});
+  EXPECT_NE(body.find("set xlabel 'speed.shaft_frequency_hz (Hz)'"), std::string::npos) << body;
+  std::filesystem::remove_all(d);
+}
+
 TEST(Sweep, MapWritesItsFilesAndFigures) {
   SweepOptions o = omega_sweep(0.6, 1.4, 4, SweepDirection::kUp);
   o.axis2 = SweepAxis{"model.force_alternating", 0.05, 0.15, 3, false};

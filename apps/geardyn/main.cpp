@@ -792,6 +792,14 @@ int cmd_sweep(const std::string& case_file, const std::vector<std::string>& sets
   const auto unsettled_note = [](bool unsettled) {
     return unsettled ? " (reads a point not settled)" : "";
   };
+  // Where the teeth first strike, sequence by sequence: a rattle's or a whine's onset.
+  if (r.impact_onsets.empty()) fmt::print("  no impacts at any point\n");
+  for (const geardyn::ImpactOnset& x : r.impact_onsets)
+    fmt::print("  {}{} sweep: impacts from {} = {:.6g}{}\n", row(x.value2),
+               geardyn::to_string(x.direction), o.axis.key, x.value,
+               x.meshes.empty() ? std::string()
+                                : fmt::format(" (mesh{} {})", x.meshes.size() == 1 ? "" : "es",
+                                              fmt::join(x.meshes, ", ")));
   for (const geardyn::Hysteresis& h : r.hysteresis)
     fmt::print("  {}up and down differ from {} = {:.6g} to {:.6g}{}\n", row(h.value2), o.axis.key,
                h.from_value, h.to_value, unsettled_note(h.unsettled));

@@ -217,6 +217,16 @@ struct UnsettledRange {
   std::size_t points = 0;
 };
 
+// Where a sequence (a direction, a map's row) first reads impacts: its first point, in run
+// order, at which the mesh read or (a train) any mesh has impacts in the measurement, and the
+// meshes that do there.
+struct ImpactOnset {
+  SweepDirection direction = SweepDirection::kUp;
+  double value = 0;
+  double value2 = 0;  // the map's row (0 for a 1-D sweep)
+  std::vector<std::string> meshes;
+};
+
 struct SweepResult {
   SweepOptions options;
   double period_s = 0;                    // the system period at the first point (tau: non-dim.)
@@ -243,6 +253,8 @@ struct SweepResult {
   std::vector<SweepPoint> points;  // in sweep order: up (each row), then down
   std::vector<Hysteresis> hysteresis;
   std::vector<Jump> jumps;
+  // Each sequence's first point with impacts, in sequence order (none: no impacts there).
+  std::vector<ImpactOnset> impact_onsets;
   std::vector<UnsettledRange> unsettled_ranges;  // each row's up sequence, then its down one
   std::size_t unsettled = 0;
   std::size_t failed = 0;  // points whose integration failed (SweepPoint::failure)
