@@ -1031,6 +1031,9 @@ std::string to_toml(const Case& c) {
   std::string_view section;
   for (const CaseKey& k : case_keys()) {
     if (k.optional() && k.value_text(c) == "absent") continue;
+    // A method not given is chosen per case (a train's default may take dopri5): written, it
+    // would read as asked for.
+    if (k.name == "solver.method" && c.origins.count("solver.method") == 0) continue;
     std::string& out = k.section().empty() ? top : sections;
     if (!k.section().empty() && k.section() != section) {
       section = k.section();

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -1352,9 +1353,12 @@ std::string toml_value(const std::vector<OrderHarmonic>& v) {
   return "[" + out + "]";
 }
 
+// The elements' tables, each key with a value but those `left_out(element, leaf)` names (a
+// key whose default another key of the element replaces).
 template <class E>
 std::string toml_tables(std::string_view kind, const std::vector<ElementKey<E>>& keys,
-                        const std::vector<E>& elements) {
+                        const std::vector<E>& elements,
+                        const std::function<bool(const E&, std::string_view)>& left_out = {}) {
   std::string out;
   for (const E& e : elements) {
     out += fmt::format("\n[[train.{}]]\n", kind);
@@ -1362,7 +1366,8 @@ std::string toml_tables(std::string_view kind, const std::vector<ElementKey<E>>&
       std::visit(
           [&](auto member) {
             const std::string v = toml_value(e.*member);
-            if (!v.empty()) out += fmt::format("{} = {}\n", k.leaf, v);
+            if (!v.empty() && !(left_out && left_out(e, k.leaf)))
+              out += fmt::format("{} = {}\n", k.leaf, v);
           },
           k.field);
   }
@@ -1874,7 +1879,12 @@ std::string train_toml(const TrainCase& t) {
   }
   out += toml_tables("body", body_keys(), t.bodies);
   out += toml_tables("mesh", mesh_keys(), t.meshes);
-  out += toml_tables("shaft", shaft_keys(), t.shafts);
+  // A shaft damped by its mode's ratio or a coefficient has no damping_ratio (the reader refuses
+  // two ways of damping one shaft).
+  out += toml_tables<TrainShaftData>(
+      "shaft", shaft_keys(), t.shafts, [](const TrainShaftData& s, std::string_view leaf) {
+        return leaf == "damping_ratio" && (s.mode_damping_ratio || s.damping_n_m_s_per_rad);
+      });
   out += toml_tables("bearing", bearing_keys(), t.bearings);
   out += toml_tables("torque", torque_keys(), t.torques);
   out += toml_tables("drag", drag_keys(), t.drags);

@@ -48,7 +48,9 @@ TEST(Case, HarmonicsGivenWithoutASourceSelectTheHarmonicsSource) {
 
 TEST(Case, ShippedPark2010FileEqualsTheDefaults) {
   const Case file = load_case(kCases / "park2010.toml");
-  EXPECT_EQ(to_toml(Case{}).substr(to_toml(Case{}).find("[gear]")),
+  Case defaults;  // the file writes its method; a default one is left out (chosen per case)
+  defaults.origins["solver.method"] = "the file";
+  EXPECT_EQ(to_toml(defaults).substr(to_toml(defaults).find("[gear]")),
             to_toml(file).substr(to_toml(file).find("[gear]")));
   EXPECT_EQ(file.name, "park2010");
 }
