@@ -317,6 +317,13 @@ const std::vector<ElementKey<TrainTorqueData>>& torque_keys() {
        false,
        "true: its mean is the reaction that balances every other mean torque and drag at the "
        "train's speeds (computed and reported; mean_nm unread), as a generator's or a brake's"},
+      {"power_kw",
+       &T::power_kw,
+       "kW",
+       {},
+       false,
+       "instead of mean_nm: the mean power it delivers, > 0 a drive, < 0 a load; its mean torque "
+       "is P / (2 pi n) at its body's absolute speed n (computed and reported)"},
       {"harmonics", &T::harmonics, "N m", at_least(0), false,
        "[[amplitude, order, phase_deg], ...] at orders of the body's own speed"},
   };
@@ -1233,7 +1240,13 @@ train::Train train_of(const Case& c) {
     out.bearings.push_back(std::move(x));
   }
   for (const TrainTorqueData& q : t.torques) {
-    train::Torque x{q.name, q.body, q.balances ? 0.0 : q.mean_nm, {}};
+    // One way of giving its mean: a power beside a written mean_nm or a reaction is refused.
+    const bool mean_given = t.origins.count(fmt::format("torque '{}': mean_nm", q.name)) > 0;
+    if (q.power_kw && (mean_given || q.balances))
+      rethrow_with_origin(t, fmt::format("torque '{}': give one of mean_nm, power_kw and "
+                                         "balances = true",
+                                         q.name));
+    train::Torque x{q.name, q.body, q.balances || q.power_kw ? 0.0 : q.mean_nm, {}};
     for (const OrderHarmonic& h : q.harmonics)
       x.harmonics.push_back({h.amplitude, h.order, h.phase_deg * kDegToRad});
     out.torques.push_back(std::move(x));
@@ -1254,7 +1267,26 @@ train::Train train_of(const Case& c) {
             {h.amplitude / (w * w), h.order, h.phase_deg * kDegToRad + kPi});
       }
     }
-    // The reaction: the torque that balances the others' power at the train's speeds.
+    // A power given: its torque at its body's absolute speed.
+    for (std::size_t k = 0; k < t.torques.size(); ++k) {
+      const TrainTorqueData& q = t.torques[k];
+      if (!q.power_kw) continue;
+      const double hz = std::abs(speeds_only.turning_hz(speeds_only.index(q.body)));
+      if (hz == 0)
+        throw InputError(
+            fmt::format("torque '{}': power_kw = {} on body '{}', which is at rest: "
+                        "no torque there delivers power; give its mean_nm",
+                        q.name, *q.power_kw, q.body));
+      out.torques[k].mean_nm = *q.power_kw * 1e3 / (2 * kPi * hz);
+    }
+    // The reaction: the torque that balances the others' power at the train's speeds (those
+    // given as a power included).
+    const bool powers =
+        std::any_of(t.torques.begin(), t.torques.end(),
+                    [](const TrainTorqueData& q) { return q.power_kw.has_value(); });
+    const std::optional<train::Assembled> with_powers =
+        powers ? std::optional<train::Assembled>(std::in_place, out) : std::nullopt;
+    const train::Assembled& loaded = with_powers ? *with_powers : speeds_only;
     for (std::size_t k = 0; k < t.torques.size(); ++k) {
       if (!t.torques[k].balances) continue;
       const int body = speeds_only.index(t.torques[k].body);
@@ -1270,7 +1302,7 @@ train::Train train_of(const Case& c) {
               fmt::format("torque '{}': balances = true, as torque '{}' has: one "
                           "torque is the reaction to the others",
                           t.torques[j].name, t.torques[k].name));
-      out.torques[k].mean_nm = -speeds_only.mean_power_nm() / speed;
+      out.torques[k].mean_nm = -loaded.mean_power_nm() / speed;
     }
   } catch (const InputError& e) {
     rethrow_with_origin(t, e.what());
@@ -1886,7 +1918,11 @@ std::string train_toml(const TrainCase& t) {
         return leaf == "damping_ratio" && (s.mode_damping_ratio || s.damping_n_m_s_per_rad);
       });
   out += toml_tables("bearing", bearing_keys(), t.bearings);
-  out += toml_tables("torque", torque_keys(), t.torques);
+  // A torque whose mean is a power's or a reaction's has no mean_nm written.
+  out += toml_tables<TrainTorqueData>("torque", torque_keys(), t.torques,
+                                      [](const TrainTorqueData& q, std::string_view leaf) {
+                                        return leaf == "mean_nm" && (q.power_kw || q.balances);
+                                      });
   out += toml_tables("drag", drag_keys(), t.drags);
   out += toml_tables("speed", speed_keys(), t.speeds);
   return out;

@@ -16,6 +16,7 @@
 #include <map>
 #include <numbers>
 #include <random>
+#include <regex>
 #include <sstream>
 #include <string>
 
@@ -483,6 +484,41 @@ TEST(TrainCase, ARingsMeshTakesItsStiffnessFromIso6336) {
   set_case_value(shifted, {"train.body[2].profile_shift", "0.2", "--set"});
   const std::string shift = testing::error_of([&] { (void)assembled_train(shifted); });
   EXPECT_NE(shift.find("computed here for unshifted gears"), std::string::npos) << shift;
+}
+
+// A load given as what a user knows, the generator's power: its torque is P / (2 pi n) at the
+// generator's 30 Hz, the rotor's reaction balances it, and summary values follow; a power beside
+// a mean or a reaction, or on a body at rest, is refused naming the torque.
+TEST(TrainCase, ATorqueGivenAsAPowerIsItsTorqueAtItsBodysSpeed) {
+  Case c = shipped_case("wind_turbine_grc750.toml", {});
+  const train::Assembled given = assembled_train(c);
+  const std::string text =
+      std::regex_replace(to_toml(c), std::regex("mean_nm = -3979\n"), "power_kw = -750\n");
+  ASSERT_NE(text.find("power_kw = -750"), std::string::npos);
+  const Case powered = parse_case(text, "powered.toml");
+  const train::Assembled a = assembled_train(powered);
+  std::map<std::string, double> mean, was;
+  for (const train::Torque& q : a.train().torques) mean[q.name] = q.mean_nm;
+  for (const train::Torque& q : given.train().torques) was[q.name] = q.mean_nm;
+  EXPECT_NEAR(mean["generator"], -750e3 / (2 * kPi * 30), 1e-9);
+  EXPECT_NEAR(mean["rotor"] / was["rotor"], mean["generator"] / was["generator"], 1e-12);
+  EXPECT_NEAR(a.mean_power_nm(), 0, 1e-9 * std::abs(mean["rotor"]));
+  const std::string both = testing::error_of([&] {
+    (void)assembled_train(parse_case(std::regex_replace(text, std::regex("power_kw = -750\n"),
+                                                        "power_kw = -750\nmean_nm = -3979\n"),
+                                     "both.toml"));
+  });
+  EXPECT_NE(both.find("torque 'generator': give one of mean_nm, power_kw and balances = true"),
+            std::string::npos)
+      << both;
+  const std::string rest = testing::error_of([&] {
+    (void)assembled_train(
+        parse_case(std::regex_replace(text, std::regex("body = \"generator\"\npower_kw"),
+                                      "body = \"ring\"\npower_kw"),
+                   "rest.toml"));
+  });
+  EXPECT_NE(rest.find("power_kw = -750 on body 'ring', which is at rest"), std::string::npos)
+      << rest;
 }
 
 // A key set on a loaded train (a sweep's point, a study's sample: set_case_value) gives the case

@@ -147,6 +147,9 @@ struct TrainTorqueData {
   // Its mean is the reaction that balances every other mean torque and drag at the train's
   // speeds (train_of computes it; mean_nm is then not read).
   bool balances = false;
+  // Instead of mean_nm: the mean power it delivers (kW, > 0 a drive, < 0 a load), its mean
+  // torque P / (2 pi |n|) at its body's absolute speed n (train_of computes it).
+  std::optional<double> power_kw;
 };
 
 // [[train.drag]]: a drag torque on a body, constant and viscous (a loose gear's oil).
