@@ -116,12 +116,15 @@ TEST(CaseKeys, EveryKeyIsWrittenAndReadBack) {
   c.gear.inertia_kg_m2 = std::array<double, 2>{0.01, 0.02};
   c.load.load_torque_nm = 40.0;
   c.description = "all \"keys\"";
+  c.origins["solver.method"] = "the test";  // a method not given is not written (below)
   const std::string text = to_toml(c);
   for (const CaseKey& k : case_keys()) {
     const std::string line = fmt::format("\n{} = {}\n", k.leaf(), k.value_text(c));
     EXPECT_NE(("\n" + text).find(line), std::string::npos) << k.name << "\n" << text;
   }
   EXPECT_EQ(to_toml(parse_case(text, "all")), text);
+  // A method left to the default is chosen per case: written, it would read as asked for.
+  EXPECT_EQ(to_toml(Case{}).find("\nmethod = "), std::string::npos);
   // An optional key left absent is not written.
   EXPECT_EQ(to_toml(Case{}).find("\ninertia_kg_m2"), std::string::npos);
   EXPECT_NE(to_toml(c).find("\ninertia_kg_m2"), std::string::npos);

@@ -244,6 +244,8 @@ def _getitem(self, key):
         for part in path:
             node = node[int(part[1:-1])] if part.startswith("[") else node[part]
     except (KeyError, IndexError, TypeError):
+        if key in _UNWRITTEN_DEFAULTS:
+            return _UNWRITTEN_DEFAULTS[key]
         raise KeyError(f"{key}: not a key of this case (docs/case-files.md lists them)") from None
     return node
 
@@ -338,6 +340,10 @@ def _summary(self):
 RunResult.summary = property(_summary, doc="The reading as a dict with the keys of summary.json "
                                            "(docs/outputs.md gives each one's unit).")
 
+
+# Keys a case's text leaves out at their default because the default is chosen per case (a
+# train's default method may take dopri5, which the run reports): read as the default's name.
+_UNWRITTEN_DEFAULTS = {"solver.method": "exact"}
 
 def _progress(progress, total=None, unit="it"):
     """A progress argument as a callable: None, a callable, or True for a tqdm bar (Debian's
@@ -737,7 +743,9 @@ def sweep(case, param, values, direction="both", settle_periods=0, measure_perio
         bearings ``parts`` (``<part>_<quantity>``: ``pinion_bearing_force_y_n``,
         ``drive_shaft_torque_nm``, ...) and (points, parts) arrays ``part_peak`` (the largest
         magnitude, N or N m) and ``part_factor`` (that over the static value); ``period_note``
-        when the train is quasi-periodic),
+        when the train is quasi-periodic), ``steadiness`` (how a point was judged steady),
+        ``impact_onsets`` (each sequence's first point with impacts: dicts with
+        ``direction``, ``value`` and the ``meshes`` that strike),
         ``direction``, ``regime`` and ``failure`` (why a point failed,
         else "") as lists; ``strobe``: flat arrays ``point`` (the index of the point each
         sample belongs to), ``delta_bar``, ``velocity_m_s`` (m/s), ``force_bar``, one sample
