@@ -1443,6 +1443,10 @@ std::string regime_map_body(const SweepResult& r) {
 struct SeriesPanel {
   std::string ylabel;
   std::vector<std::pair<std::string, std::string>> series;
+  // Per series, its group (empty: every series its own): the series of one group (a set's
+  // identical planets' meshes) share a colour and one legend entry, the group's label.
+  std::vector<std::string> groups;
+  std::string settings;  // gnuplot lines before the panel's plot (its axis' range and format)
 };
 std::string series_body(const SweepResult& r, const std::string& title,
                         const std::vector<SeriesPanel>& panels) {
@@ -1453,22 +1457,42 @@ std::string series_body(const SweepResult& r, const std::string& title,
       "set key top left font ',9'\n{}set multiplot layout {},1 title \"{} along {}\"\n",
       r.options.axis.log ? "set logscale x\n" : "", panels.size(), title, r.options.axis.key);
   for (std::size_t k = 0; k < panels.size(); ++k) {
-    fmt::format_to(std::back_inserter(s), "set xlabel '{}'\nset ylabel '{}'\nplot ",
-                   k + 1 == panels.size() ? key_label(r.options.axis.key) : "", panels[k].ylabel);
+    const SeriesPanel& panel = panels[k];
+    fmt::format_to(std::back_inserter(s),
+                   "set autoscale y\nset format y '% h'\n{}set xlabel '{}'\nset ylabel '{}'\nplot ",
+                   panel.settings, k + 1 == panels.size() ? key_label(r.options.axis.key) : "",
+                   panel.ylabel);
+    // Each series' colour and legend: its group's (the first series of a group carries the
+    // title), else its own.
+    std::vector<std::string> keys;
+    std::vector<std::size_t> colour(panel.series.size());
+    std::vector<bool> titled(panel.series.size());
+    for (std::size_t m = 0; m < panel.series.size(); ++m) {
+      const std::string key = m < panel.groups.size() && !panel.groups[m].empty()
+                                  ? panel.groups[m]
+                                  : "\x01" + panel.series[m].first;
+      const auto at = std::find(keys.begin(), keys.end(), key);
+      colour[m] = static_cast<std::size_t>(at - keys.begin());
+      titled[m] = at == keys.end();
+      if (titled[m]) keys.push_back(key);
+    }
     bool first = true;
     for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
       if (std::none_of(r.points.begin(), r.points.end(),
                        [&](const SweepPoint& p) { return p.direction == d; }))
         continue;
       const bool up = d == SweepDirection::kUp;
-      for (std::size_t m = 0; m < panels[k].series.size(); ++m) {
-        const auto& [column, label] = panels[k].series[m];
+      for (std::size_t m = 0; m < panel.series.size(); ++m) {
+        const auto& [column, label] = panel.series[m];
+        const std::string& shown =
+            m < panel.groups.size() && !panel.groups[m].empty() ? panel.groups[m] : label;
         fmt::format_to(std::back_inserter(s),
                        "{}'sweep.csv' every ::1 using {}:(strcol({}) eq '{}' ? ${} : NaN) with "
-                       "linespoints dt {} pt {} ps 0.4 lc rgb '{}' title '{}: {}'",
+                       "linespoints dt {} pt {} ps 0.4 lc rgb '{}' {}",
                        first ? "" : ", \\\n     ", sweep_csv_column(r, "value"),
                        sweep_csv_column(r, "direction"), to_string(d), sweep_csv_column(r, column),
-                       up ? 1 : 2, up ? 7 : 6, kColours[m % kColours.size()], to_string(d), label);
+                       up ? 1 : 2, up ? 7 : 6, kColours[colour[m] % kColours.size()],
+                       titled[m] ? fmt::format("title '{}: {}'", to_string(d), shown) : "notitle");
         first = false;
       }
     }
@@ -1480,8 +1504,14 @@ std::string series_body(const SweepResult& r, const std::string& title,
 // A train's meshes along the key, each a curve, up and down: the peak-to-peak (d - e) / b, the
 // dynamic factor, and in a third panel the impacts per system period where any occurred.
 std::string mesh_responses_body(const SweepResult& r) {
+  // A load-sharing group's meshes (a set's identical planets') are one legend entry.
+  std::vector<std::string> group(r.meshes.size());
+  for (const LoadSharingGroup& g : r.load_sharing)
+    for (const std::size_t m : g.meshes)
+      if (m < group.size() && group[m].empty())
+        group[m] = fmt::format("{} meshes of {}", g.meshes.size(), g.gear);
   const auto per_mesh = [&](const char* ylabel, const char* column) {
-    SeriesPanel p{ylabel, {}};
+    SeriesPanel p{ylabel, {}, group, {}};
     for (const std::string& m : r.meshes) p.series.emplace_back(m + "_" + column, m);
     return p;
   };
@@ -1493,7 +1523,17 @@ std::string mesh_responses_body(const SweepResult& r) {
   });
   if (impacts) panels.push_back(per_mesh("impacts per system period", "impacts_per_period"));
   if (!r.load_sharing.empty()) {
-    SeriesPanel p{"load-sharing factor", {}};
+    // A factor is 1 when the meshes share equally: its axis from 1 to at least 1.01, with the
+    // digits that tell its values apart (near 1, autoscaling read rounding noise, "1 1 1 1").
+    double most = 1;
+    for (const SweepPoint& p : r.points)
+      for (const LoadSharingReading& x : p.load_sharing)
+        if (std::isfinite(x.factor)) most = std::max(most, x.factor);
+    const double top = std::max(1.01, 1 + 1.1 * (most - 1));
+    SeriesPanel p{"load-sharing factor",
+                  {},
+                  {},
+                  fmt::format("set yrange [0.999:{}]\nset format y '%.3f'\n", top)};
     for (const LoadSharingGroup& g : r.load_sharing)
       p.series.emplace_back(g.label + "_load_sharing_factor", g.label);
     panels.push_back(std::move(p));
@@ -1522,7 +1562,7 @@ std::string part_forces_body(const SweepResult& r) {
        {"largest shaft torque (N m)", {"torque_nm"}}}};
   std::vector<SeriesPanel> panels;
   for (const Kind& kind : kKinds) {
-    SeriesPanel p{kind.ylabel, {}};
+    SeriesPanel p{kind.ylabel, {}, {}, {}};
     for (std::size_t i = 0; i < r.parts.size(); ++i) {
       const SweepPart& q = r.parts[i];
       if (std::find_if(kind.whats.begin(), kind.whats.end(),
@@ -1534,7 +1574,7 @@ std::string part_forces_body(const SweepResult& r) {
     if (!p.series.empty()) panels.push_back(std::move(p));
   }
   if (!r.clearances.empty()) {
-    SeriesPanel p{"impacts per period in the clearance", {}};
+    SeriesPanel p{"impacts per period in the clearance", {}, {}, {}};
     for (const std::string& c : r.clearances) p.series.emplace_back(c + "_impacts_per_period", c);
     panels.push_back(std::move(p));
   }

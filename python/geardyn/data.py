@@ -173,6 +173,9 @@ def _sweep_dataset(s, param, param2=None):
         attrs["mesh_read"] = s.get("mesh", meshes[0])
     if s.get("period_note"):
         attrs["period_note"] = s["period_note"]
+    if s.get("steadiness"):
+        attrs["steadiness"] = s["steadiness"]
+    attrs["impact_onsets"] = json.dumps(s.get("impact_onsets", []))
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 

@@ -165,6 +165,15 @@ void bind_sweep(py::module_& m) {
                                          [](const PartReading& x) { return x.factor; });
         }
         if (!r.period_note.empty()) out["period_note"] = r.period_note;
+        out["steadiness"] = r.steadiness;
+        py::list onsets;
+        for (const ImpactOnset& x : r.impact_onsets) {
+          py::dict d(py::arg("direction") = to_string(x.direction), py::arg("value") = x.value,
+                     py::arg("meshes") = x.meshes);
+          if (o.axis2) d["value2"] = x.value2;
+          onsets.append(d);
+        }
+        out["impact_onsets"] = onsets;
         // The strobe (one sample per system period of each point's measurement), flat:
         // sample i belongs to point strobe["point"][i].
         std::vector<std::int64_t> owner;

@@ -104,6 +104,14 @@ def test_sweep_returns_columns_and_finds_the_jump():
     assert isinstance(s["rms_force_bar"], np.ndarray)
     assert len(s["value"]) == 122 and s["direction"].count("up") == 61
     assert any(j["direction"] == "up" for j in s["jumps"])
+    # Each sequence's first point with impacts, as the command line prints it, and how the
+    # points were judged steady.
+    assert [x["direction"] for x in s["impact_onsets"]] == ["up", "down"]
+    for onset in s["impact_onsets"]:
+        mine = [i for i, d in enumerate(s["direction"]) if d == onset["direction"]]
+        first = next(i for i in mine if s["impacts_per_period"][i] > 0)
+        assert s["value"][first] == onset["value"]
+    assert "predicted distance to the periodic response" in s["steadiness"]
 
 
 def test_the_gil_is_released_during_a_run():
