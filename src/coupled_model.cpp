@@ -227,7 +227,7 @@ CoupledParameters coupled_parameters(const Case& c, const MeshStiffness* stiffne
   p.damping = gp.damping;
   p.tension = gp.tension;
 
-  // The bodies: solid blanks of the reference diameter less the bore (MODEL.md section 1's
+  // The bodies: solid blanks of the reference diameter less the bore (docs/model.md's "Geometry":
   // blank); the tilt inertia of such a disc about a diameter.
   const BearingData& b = c.bearings;
   const double zeta = b.damping_ratio;

@@ -193,7 +193,7 @@ Geometry compute_geometry(const GearData& g) {
     if (g.inertia_kg_m2) {
       out.inertia_kg_m2[i] = (*g.inertia_kg_m2)[i];
     } else {
-      // Solid (or bored) steel cylinder of the reference diameter (MODEL.md section 1).
+      // Solid (or bored) steel cylinder of the reference diameter (docs/model.md, "Geometry").
       const double d = out.reference_diameter_m[i];
       const double di = g.bore_diameter_mm[i] * kMmToM;
       out.inertia_kg_m2[i] =

@@ -70,7 +70,7 @@ GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
   p.cos_base_helix = std::cos(g.base_helix_angle_rad);
   p.backlash_m = c.mesh.backlash_um * 1e-6;
   p.stiffness_n_per_m = stiffness_n_per_m;
-  // Damping ratio of the linearised contact oscillator (MODEL.md section 2).
+  // Damping ratio of the linearised contact oscillator (docs/model.md, "Equation of motion").
   p.damping_n_s_per_m = 2.0 * c.mesh.damping_ratio *
                         std::sqrt(p.equivalent_mass_kg * stiffness_n_per_m.offset) /
                         p.cos_base_helix;

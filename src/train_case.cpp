@@ -733,7 +733,8 @@ bool keeps_axis(const TrainBodyData& b) {
   return b.dof == "axial" || b.dof == "spatial" || b.dof == "line_axial";
 }
 
-// A body's base radius, base helix angle and inertia (MODEL.md section 1, as the gear pair's).
+// A body's base radius, base helix angle and inertia (docs/model.md, "Geometry", as the gear
+// pair's).
 GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
   GearGeometry g;
   const std::string label = fmt::format("body '{}'", b.name);

@@ -121,7 +121,7 @@ RunResult checked_run(const Case& c) { return checked(run(c)); }
 RunResult checked_one_degree_run(const Case& c) { return checked(run_one_degree_model(c)); }
 
 // The mean normal mesh force and its fluctuation's amplitude of the one-degree model, from the
-// gear data alone (MODEL.md eq. 8): F = T1 cos(beta_b) / R_b1.
+// gear data alone (docs/model.md, "Equation of motion"): F = T1 cos(beta_b) / R_b1.
 double per_pinion_torque(const Geometry& g) {
   return std::cos(g.base_helix_angle_rad) / g.base_radius_m[0];
 }
@@ -150,7 +150,7 @@ void free_flight(Rows& rows, bool) {
 
 // From static contact with a constant stiffness and a small torque fluctuation: the linear
 // damped oscillator m y'' + C y' + K y = F_a cos(W t), y(0) = y'(0) = 0, y = delta - delta_s,
-// with K = cos^2(beta_b) k_m and the damping ratio of the case's definition (MODEL.md sec. 2).
+// with K = cos^2(beta_b) k_m and the damping ratio of the case's definition (docs/model.md).
 void contact_response(Rows& rows, bool) {
   Case c;
   c.mesh.stiffness_source = StiffnessSource::kHarmonics;

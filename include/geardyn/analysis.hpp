@@ -1,6 +1,6 @@
 // geardyn: reading a run, pipeline stage 6 (integrator -> analysis).
 //
-// A run is read as contact states over time (MODEL.md section 5): drive-side contact,
+// A run is read as contact states over time (docs/model.md): drive-side contact,
 // separation, back-side contact. RunReader is the integrators' Observer for the gear model: it
 // records the located transitions (impacts and separations), the time spent separated, the
 // extremes of the response at every step, and the uniform output samples.

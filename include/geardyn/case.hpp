@@ -47,7 +47,7 @@ struct GearData {
   // blank's inertia when inertia_kg_m2 is not given.
   std::array<double, 2> bore_diameter_mm = {0.0, 0.0};
   // Polar moments of inertia; when absent they follow from density, face width, reference
-  // diameter and bore (MODEL.md section 1).
+  // diameter and bore (docs/model.md, "Geometry").
   std::optional<std::array<double, 2>> inertia_kg_m2;
   // Material and blank, for the mesh stiffness (ISO 6336-1 and the energy method).
   std::array<double, 2> youngs_modulus_gpa = {206.0, 206.0};  // ISO 6336's steel, E_st
@@ -157,7 +157,7 @@ struct SolverData {
 };
 
 enum class ModelForm {
-  kGearPair,        // the gear pair of [gear], [mesh], [load], [speed] (MODEL.md)
+  kGearPair,        // the gear pair of [gear], [mesh], [load], [speed] (docs/model.md)
   kNondimensional,  // x'' + 2 zeta x' + k(tau) f(x) = F_m + F_a cos(Omega tau), b = 1
   kCoupled,         // the gears as rigid bodies on [bearings] (coupled_model.hpp)
   kTrain,           // bodies, meshes, shafts, torques, drags and speeds of [train] (train_case.hpp)

@@ -1,9 +1,9 @@
 // geardyn: gear-pair geometry, pipeline stage 2 (case -> geometry).
 //
-// The standard involute relations of ISO 21771 for an external helical pair (MODEL.md section 1):
-// transverse and working pressure angles, reference and base circles, base helix angle, contact
-// and overlap ratios, and the inertias and equivalent mass of the torsional model (eq. 6).
-// All members are SI (m, rad, kg); the suffix names the unit.
+// The standard involute relations of ISO 21771 for an external helical pair (docs/model.md,
+// "Geometry"): transverse and working pressure angles, reference and base circles, base helix
+// angle, contact and overlap ratios, and the inertias and equivalent mass of the torsional model
+// (eq. 6). All members are SI (m, rad, kg); the suffix names the unit.
 #pragma once
 
 #include <array>

@@ -1,6 +1,6 @@
 // geardyn: the gear-pair model, pipeline stage 4 (mesh stiffness -> model).
 //
-// The one-degree-of-freedom torsional model of MODEL.md section 2 (Park 2010, eqs. 1-11), in
+// The one-degree-of-freedom torsional model of Park (2010), eqs. 1-11 (docs/model.md), in
 // the dynamic transmission error along the line of action, normal to the tooth,
 // delta = cos(beta_b) (R_b1 theta_1 + R_b2 theta_2):
 //

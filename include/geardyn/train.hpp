@@ -1,6 +1,7 @@
-// geardyn: gear trains assembled from elements (DESIGN.md, "Trains"). Pipeline stage 4 beside
-// model.hpp: physics only; the assembled train describes itself as the piecewise-linear system
-// of linear_system.hpp, which the exact engine integrates without knowing what it holds.
+// geardyn: gear trains assembled from elements (docs/model.md, "Gear trains from elements").
+// Pipeline stage 4 beside model.hpp: physics only; the assembled train describes itself as the
+// piecewise-linear system of linear_system.hpp, which the exact engine integrates without knowing
+// what it holds.
 //
 // Coordinates. Each body turns about its own axis; its coordinate theta_i (rad) is its rotation
 // away from the train's nominal rotation at constant speed, counted positive in the body's own
@@ -189,7 +190,7 @@ struct Mesh {
   int teeth_driving = 0, teeth_driven = 0;
   double base_radius_driving_m = 0, base_radius_driven_m = 0;
   // beta_b of a helical pair (0: spur): d and b are then along the normal line of action,
-  // d = cos(beta_b) (R_a theta_a - R_b theta_b), as the one-degree model's delta (MODEL.md).
+  // d = cos(beta_b) (R_a theta_a - R_b theta_b), as the one-degree model's delta (docs/model.md).
   double base_helix_angle_rad = 0;
   double backlash_m = 0;  // b, half the total normal backlash
   double mean_stiffness_n_per_m = 0;
