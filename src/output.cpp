@@ -127,6 +127,7 @@ std::string summary_json(const RunResult& r, int indent) {
   j["dynamic_factor_with_startup"] = optional_number(x.dynamic_factor);
   nlohmann::json steady = reading_json(r.steady.reading);
   steady["basis"] = to_string(r.steady.basis);
+  if (r.steady.window_s > 0) steady["window_s"] = r.steady.window_s;
   steady["from_s"] = r.steady.from_s;
   steady["period_multiple"] = r.steady.period_multiple;
   steady["steady_error"] = finite_or_null(r.steady.error);

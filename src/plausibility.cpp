@@ -101,11 +101,15 @@ void check_at_rest(const Case& c, const Origins& origin, std::vector<std::string
   const train::Assembled a = assembled_train(c);
   const train::Train& t = a.train();
   const TrainCase& written = *c.train;
-  // The written gears of each assembled mesh (a planet's copies share the written planet's).
+  // The written gears of each assembled mesh (a planet's copies, the planet's name and their
+  // number, share the written planet's).
   const auto gear = [&](const std::string& name) {
     const TrainBodyData* b = body_named(written, name);
-    if (!b && !written.planet.empty() && name.starts_with(written.planet))
-      b = body_named(written, written.planet);
+    const std::string& planet = written.planet;
+    if (!b && !planet.empty() && name.size() > planet.size() && name.starts_with(planet) &&
+        std::all_of(name.begin() + static_cast<std::ptrdiff_t>(planet.size()), name.end(),
+                    [](char ch) { return ch >= '0' && ch <= '9'; }))
+      b = body_named(written, planet);
     return b;
   };
   for (std::size_t i = 0; i < t.meshes.size(); ++i) {

@@ -141,6 +141,8 @@ const char* to_string(SteadyBasis b) {
       return "not_settled";
     case SteadyBasis::kAperiodic:
       return "aperiodic";
+    case SteadyBasis::kStatistics:
+      return "statistics";
   }
   return "?";
 }

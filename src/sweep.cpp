@@ -31,6 +31,7 @@
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_steadiness.hpp"
 #include "shooting.hpp"
 
 namespace geardyn {
@@ -123,64 +124,6 @@ double train_section_period_s(const TrainSolver& solver, std::string* quasi) {
   return 1.0 / solver.assembled().train().reference_speed_hz;
 }
 
-// A train whose common period is more than this many periods of its slowest excitation (a
-// hunting-tooth gearbox's minutes), or that has none (quasi-periodic), is judged steady by what
-// its readings show, window by window, not on a section of its common period.
-constexpr double kMaxSectionPeriods = 20;
-// A statistics window holds at least this many cycles of the train's fastest excitation.
-constexpr double kLeastFastCycles = 200;
-// Two windows' statistics this close, relative to their scale, are the steady state's: the
-// three digits a user reads of a force.
-constexpr double kStatisticsTolerance = 1e-3;
-// Two windows' standard deviations this close, relative to themselves, are the steady state's:
-// the two digits a user reads of a dynamic factor's increment or a peak-to-peak.
-constexpr double kDynamicTolerance = 1e-2;
-
-// A shaft's or bearing's load below this share of the train's largest of its unit is judged on
-// that largest's scale: it carries next to nothing.
-constexpr double kNegligibleShare = 1e-2;
-
-// The slowest and the fastest excitations of a train (rad/s): each varying mesh's stiffness
-// and error (runouts included), each torque harmonic, each prescribed speed's; both 0 when
-// nothing varies.
-struct ExcitationRange {
-  double slowest_rad_s = 0, fastest_rad_s = 0;
-};
-ExcitationRange excitation_range(const train::Assembled& a) {
-  double lo = std::numeric_limits<double>::infinity(), hi = 0;
-  const auto add = [&](double w) {
-    lo = std::min(lo, w);
-    hi = std::max(hi, w);
-  };
-  const auto series = [&](const HarmonicSeries& s) {
-    for (const Harmonic& h : s.terms)
-      if (h.amplitude != 0 && h.angular_frequency_rad_s > 0) add(h.angular_frequency_rad_s);
-  };
-  const train::Train& t = a.train();
-  for (int m = 0; m < static_cast<int>(t.meshes.size()); ++m) {
-    series(a.stiffness_series(m));
-    series(a.error_series(m));
-  }
-  for (int q = 0; q < static_cast<int>(t.torques.size()); ++q) series(a.torque_series(q));
-  for (const train::Speed& v : t.speeds)
-    for (const train::SpeedHarmonic& h : v.harmonics)
-      if (h.amplitude_rad != 0) add(h.order * 2 * std::numbers::pi * a.turning_hz(a.index(v.body)));
-  return std::isfinite(lo) ? ExcitationRange{lo, hi} : ExcitationRange{};
-}
-
-// The window a train point's statistics are read over, or 0 when the point is judged on the
-// section of its common period (train_section_period_s): whole periods of its slowest
-// excitation, as many as hold kLeastFastCycles cycles of its fastest (a window's statistics of
-// a motion whose frequencies are not commensurate move by the part cycles at its ends).
-double statistics_window_s(const TrainSolver& solver) {
-  const std::optional<double> t0 = solver.assembled().system_period_s();
-  const ExcitationRange w = excitation_range(solver.assembled());
-  if (!(w.slowest_rad_s > 0)) return 0;
-  const double slowest = 2 * std::numbers::pi / w.slowest_rad_s;
-  if (t0 && *t0 <= kMaxSectionPeriods * slowest) return 0;
-  return slowest * std::ceil(kLeastFastCycles * w.slowest_rad_s / w.fastest_rad_s);
-}
-
 // A sweep's progress as its user hears it (SweepOptions::progress): the points done plus the
 // share done of each point under way, one call at a time, in increasing order; once a call
 // returns false, stopped() is true for every thread.
@@ -269,14 +212,15 @@ class PointRunner {
     const TrainSolver solver(case_at(value, value2), stiffness());
     std::string note;
     train_section_period_s(solver, &note);
-    if (const double window = statistics_window_s(solver); window > 0) {
+    if (const double window = statistics_window_s(solver.assembled()); window > 0) {
       std::string why;
       const std::optional<double> t0 = solver.assembled().system_period_s(&why);
       return fmt::format(
           "{}: each point is judged steady by its meshes', shafts' and bearings' mean loads and "
           "their standard deviations over windows of whole periods of its slowest excitation "
           "holding 200 cycles of its fastest, {:.4g} s, "
-          "two in a row within {:g} of their scale and {:g} of themselves, and measured over "
+          "each within {:g} of their scale and {:g} of themselves of the window before's, three "
+          "in a row, with no decay of the changes predicting more, and measured over "
           "--measure-periods such windows",
           t0 ? fmt::format("a common period of {:.4g} s", *t0) : why, window, kStatisticsTolerance,
           kDynamicTolerance);
@@ -298,7 +242,7 @@ class PointRunner {
   // The window the point is judged and measured in (statistics_window_s), or 0 when it is
   // judged on the section of period_at.
   double window_at(double value, double value2) const {
-    return statistics_window_s(TrainSolver(case_at(value, value2), stiffness()));
+    return statistics_window_s(TrainSolver(case_at(value, value2), stiffness()).assembled());
   }
 
   // The wall time (s) of the point's first period (or window) from its start, on this machine:
@@ -308,7 +252,7 @@ class PointRunner {
     const auto start = std::chrono::steady_clock::now();
     const Case c = case_at(value, value2);
     const TrainSolver solver(c, stiffness());
-    const double window = statistics_window_s(solver);
+    const double window = statistics_window_s(solver.assembled());
     const double period = window > 0 ? window : train_section_period_s(solver, nullptr);
     try {
       const ode::Vector y =
@@ -333,7 +277,7 @@ class PointRunner {
     const std::string both =
         where2.empty() ? first : fmt::format("{} with {} of {}", first, where2, o_.axis2->key);
     const TrainSolver solver(c, stiffness());
-    const double window = statistics_window_s(solver);
+    const double window = statistics_window_s(solver.assembled());
     const double period = window > 0 ? window : train_section_period_s(solver, nullptr);
     const double fastest = solver.fastest_period_s(), step = solver.newmark_step_s();
     if (o_.start_static)  // every sequence starts from the static state
@@ -438,27 +382,18 @@ class PointRunner {
         judge, verdict, [&] { return to_section(1); }, to_section);
   }
 
-  // A statistic of a window and how far it may move to the next: a change of at most
-  // `tolerance` times `scale` (the larger of the two windows').
-  struct WindowStatistic {
-    double value, scale, tolerance;
-  };
-
-  // Settles a train window by window (statistics_window_s), each window read as a run reads it,
-  // until every mesh's force and every shaft's and bearing's load agree with the window before:
-  // their means within kStatisticsTolerance of their scale (a mesh's: the larger of its static
-  // force and b k_m; a part's: part_scale) and their standard deviations (the dynamic part, what
-  // the dynamic factor and the peak-to-peak read) within kDynamicTolerance of themselves (at least
-  // kStatisticsTolerance of the mean's scale, so that a part that hardly moves is not held back by
-  // its rounding), after at least --settle-periods windows, or the windows run out
-  // (--max-settle-periods). The verdict's error is the last largest change over its allowance,
-  // times kStatisticsTolerance; (t, y) moved on; a numerical failure's reason into `why`;
-  // going(k) hears each window k done (false: stop). The windows run.
+  // Settles a train window by window (train_steadiness.hpp), each window read as a run reads
+  // it, until its statistics agree with the window before's (statistics_verdict) after at least
+  // --settle-periods windows, or the windows run out
+  // (--max-settle-periods). The verdict's error is the change still to come; (t, y) moved on; a
+  // numerical failure's reason into `why`; going(k) hears each window k done (false: stop). The
+  // windows run.
   template <class Going>
   int settle_statistics(const TrainSolver& solver, double window, double& t, ode::Vector& y,
                         SteadyVerdict& verdict, std::string& why, Going&& going) const {
     const int spp = o_.samples_per_period;
     std::vector<WindowStatistic> last;
+    std::vector<double> changes;
     int k = 0;
     while (k < o_.max_settle_periods) {
       ode::Vector end;
@@ -472,72 +407,16 @@ class PointRunner {
       t += window;
       y = end;
       ++k;
-      // Means and standard deviations: a window's extremes depend on where the excitations'
-      // crests fall in it, which drifts from window to window when their frequencies are not
-      // commensurate.
-      std::vector<WindowStatistic> now;
-      for (const TrainMeshReading& x : r.meshes) {
-        const double s = std::max(std::abs(x.static_force_n.value_or(0.0)),
-                                  x.backlash_m * x.mean_stiffness_n_per_m);
-        const double sd = std::sqrt(
-            std::max(x.rms_force_n * x.rms_force_n - x.mean_force_n * x.mean_force_n, 0.0));
-        now.push_back({x.mean_force_n, s, kStatisticsTolerance});
-        now.push_back({sd, std::max(sd, kStatisticsTolerance * s), kDynamicTolerance});
-      }
-      append_part_statistics(r, now);
-      double change = std::numeric_limits<double>::infinity();
-      if (last.size() == now.size()) {
-        change = 0;
-        for (std::size_t i = 0; i < now.size(); ++i)
-          if (const double s = std::max(now[i].scale, last[i].scale); s > 0)
-            change = std::max(change, std::abs(now[i].value - last[i].value) /
-                                          (now[i].tolerance * s) * kStatisticsTolerance);
-      }
-      verdict = SteadyVerdict{0, change};
-      if (k > o_.settle_periods && change <= kStatisticsTolerance) {
-        verdict.period_multiple = 1;
-        return k;
-      }
+      std::vector<WindowStatistic> now = window_statistics(r, 0, r.samples.force_n.size());
+      const double change = statistics_change(now, last);
+      changes.push_back(change);
+      verdict = statistics_verdict(changes);
+      if (k > o_.settle_periods && verdict.settled()) return k;
+      verdict.period_multiple = 0;
       if (!going(k)) return k;
       last = std::move(now);
     }
     return k;
-  }
-
-  // Each shaft's and bearing's quantities over a window's samples, as settle_statistics judges
-  // them: their means, on the part's scale (the largest RMS of its quantities, at least
-  // kNegligibleShare of the largest of any part in the same unit), and their standard
-  // deviations.
-  static void append_part_statistics(const TrainRunResult& r, std::vector<WindowStatistic>& now) {
-    const std::vector<TrainPartQuantity> q = part_quantities(r);
-    const SampleRows<double>& parts = r.samples.parts;
-    const std::size_t n = parts.size();
-    if (n == 0) return;
-    std::vector<double> mean(q.size()), rms(q.size());
-    for (std::size_t j = 0; j < q.size(); ++j) {
-      double sum = 0, sum2 = 0;
-      for (std::size_t i = 0; i < n; ++i) {
-        sum += parts[i][j];
-        sum2 += parts[i][j] * parts[i][j];
-      }
-      mean[j] = sum / static_cast<double>(n);
-      rms[j] = std::sqrt(sum2 / static_cast<double>(n));
-    }
-    // A quantity in N m (a shaft's torque, a moment) or in N.
-    const auto torque = [&](std::size_t i) { return std::string_view(q[i].what).ends_with("_nm"); };
-    // The largest load of each unit: a part's scale is at least kNegligibleShare of it, so that
-    // a part that carries nothing (its rounding noise) does not hold the verdict back.
-    std::array<double, 2> largest{0, 0};
-    for (std::size_t i = 0; i < q.size(); ++i)
-      largest[torque(i)] = std::max(largest[torque(i)], rms[i]);
-    for (std::size_t j = 0; j < q.size(); ++j) {
-      double s = kNegligibleShare * largest[torque(j)];
-      for (std::size_t i = 0; i < q.size(); ++i)
-        if (q[i].part == q[j].part) s = std::max(s, rms[i]);
-      const double sd = std::sqrt(std::max(rms[j] * rms[j] - mean[j] * mean[j], 0.0));
-      now.push_back({mean[j], s, kStatisticsTolerance});
-      now.push_back({sd, std::max(sd, kStatisticsTolerance * s), kDynamicTolerance});
-    }
   }
 
   // A point of the job, its readings yet to come.
@@ -575,7 +454,7 @@ class PointRunner {
     const TrainSolver solver(c, stiffness());
     const train::Assembled& a = solver.assembled();
     std::string quasi;
-    const double window = statistics_window_s(solver);
+    const double window = statistics_window_s(solver.assembled());
     const double period = window > 0 ? window : train_section_period_s(solver, &quasi);
     const auto failed_train = [&](const char* termination, const std::string& message) {
       SweepPoint pt = failed(job, carry, termination, message);
@@ -990,7 +869,8 @@ std::string steadiness(const SweepOptions& o, double window_s) {
   if (window_s > 0)
     return fmt::format(
         "every mesh's, shaft's and bearing's mean load within {:g} of its scale and its "
-        "standard deviation within {:g} of itself over two windows of {:.4g} s in a row",
+        "standard deviation within {:g} of itself from window to window of {:.4g} s, three "
+        "windows in a row, with no decay of the changes predicting more",
         kStatisticsTolerance, kDynamicTolerance, window_s);
   return fmt::format("predicted distance to the periodic response under {:g} b",
                      o.steady_tolerance);
@@ -1448,6 +1328,8 @@ struct SeriesPanel {
   std::vector<std::string> groups;
   std::string settings;  // gnuplot lines before the panel's plot (its axis' range and format)
 };
+// A panel with more legend entries per direction than this has its legend beside it.
+constexpr std::size_t kLegendInside = 4;
 std::string series_body(const SweepResult& r, const std::string& title,
                         const std::vector<SeriesPanel>& panels) {
   static constexpr std::array<const char*, 6> kColours{"#1f3b73", "#b5532b", "#2e7d32",
@@ -1458,10 +1340,6 @@ std::string series_body(const SweepResult& r, const std::string& title,
       r.options.axis.log ? "set logscale x\n" : "", panels.size(), title, r.options.axis.key);
   for (std::size_t k = 0; k < panels.size(); ++k) {
     const SeriesPanel& panel = panels[k];
-    fmt::format_to(std::back_inserter(s),
-                   "set autoscale y\nset format y '% h'\n{}set xlabel '{}'\nset ylabel '{}'\nplot ",
-                   panel.settings, k + 1 == panels.size() ? key_label(r.options.axis.key) : "",
-                   panel.ylabel);
     // Each series' colour and legend: its group's (the first series of a group carries the
     // title), else its own.
     std::vector<std::string> keys;
@@ -1476,6 +1354,12 @@ std::string series_body(const SweepResult& r, const std::string& title,
       titled[m] = at == keys.end();
       if (titled[m]) keys.push_back(key);
     }
+    // A long legend beside the graph, not over its curves.
+    fmt::format_to(std::back_inserter(s),
+                   "set key {} font ',9'\nset autoscale y\nset format y '% h'\n{}set xlabel "
+                   "'{}'\nset ylabel '{}'\nplot ",
+                   keys.size() > kLegendInside ? "outside right top" : "top left", panel.settings,
+                   k + 1 == panels.size() ? key_label(r.options.axis.key) : "", panel.ylabel);
     bool first = true;
     for (SweepDirection d : {SweepDirection::kUp, SweepDirection::kDown}) {
       if (std::none_of(r.points.begin(), r.points.end(),

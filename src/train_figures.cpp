@@ -95,9 +95,12 @@ void write_load_sharing_figure(const fs::path& dir, const TrainRunResult& r) {
           "{}'load_sharing_plot.csv' using 1:{} skip 1 axes x1y1 with lines lw 1.2 lc rgb '{}' "
           "title '{}'",
           k ? ", " : "", column(x.meshes[k]), colour(k), quoted(x.meshes[k]));
-    plots += fmt::format(
-        ", '' using 1:{} skip 1 axes x1y2 with lines lw 1.5 lc rgb 'black' title 'factor'",
-        2 + meshes.size() + i);
+    // A group whose meshes carry no load (a set written for its modes) has no factor to draw.
+    const bool loaded = x.factor_with_startup.has_value();
+    if (loaded)
+      plots += fmt::format(
+          ", '' using 1:{} skip 1 axes x1y2 with lines lw 1.5 lc rgb 'black' title 'factor'",
+          2 + meshes.size() + i);
     if (x.static_factor)
       plots += fmt::format(", {} axes x1y2 with lines dt 2 lc rgb 'gray40' title 'at rest'",
                            *x.static_factor);
@@ -105,7 +108,9 @@ void write_load_sharing_figure(const fs::path& dir, const TrainRunResult& r) {
     fmt::format_to(
         std::back_inserter(g), "set title \"gear {}: {} meshes{}{}\" font ',10'\n{}plot {}\n",
         quoted(x.gear), x.meshes.size(),
-        worst ? fmt::format(", factor up to {:.4g}", *worst) : std::string(),
+        worst    ? fmt::format(", factor up to {:.4g}", *worst)
+        : loaded ? std::string()
+                 : std::string(", no factor: its meshes carry no load"),
         x.lost_contact.empty() ? std::string()
                                : fmt::format(", lost contact: {}", fmt::join(x.lost_contact, " ")),
         i + 1 == r.load_sharing.size() ? "set xlabel 't (ms)'\n" : "unset xlabel\n", plots);

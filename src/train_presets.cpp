@@ -131,7 +131,7 @@ Case nondimensional_train(const Case& c) {
   t.meshes.push_back(mesh);
   // Omega is the mesh frequency: order kTeeth of either gear's speed.
   const auto torque = [&](const char* name, const char* body, double sign) {
-    TrainTorqueData q{name, body, sign * m.force_mean, {}};
+    TrainTorqueData q{name, body, sign * m.force_mean, {}, false, std::nullopt};
     if (m.force_alternating != 0)
       q.harmonics.push_back(
           {m.force_alternating, static_cast<double>(kTeeth), sign > 0 ? 0.0 : 180.0});
@@ -541,14 +541,16 @@ Case train_form_of(const Case& c, const MeshStiffness* stiffness) {
   const double w1 = 2 * kPi * f1;
   const double w2 = w1 * c.gear.teeth[0] / c.gear.teeth[1];
   const HarmonicSeries t1 = drive_torque_nm(c);
-  t.torques.push_back({"drive", motor ? "motor" : "pinion", t1.offset, orders_of(t1, w1, 1.0)});
+  t.torques.push_back({"drive", motor ? "motor" : "pinion", t1.offset, orders_of(t1, w1, 1.0),
+                       false, std::nullopt});
   if (c.load.load_torque_nm) {
     const HarmonicSeries t2 = load_torque_nm(c);
-    t.torques.push_back({"load", load ? "load" : "wheel", -t2.offset, orders_of(t2, w2, -1.0)});
+    t.torques.push_back({"load", load ? "load" : "wheel", -t2.offset, orders_of(t2, w2, -1.0),
+                         false, std::nullopt});
   } else {
     const double ratio = g.base_radius_m[1] / g.base_radius_m[0];
-    t.torques.push_back(
-        {"load", load ? "load" : "wheel", -ratio * t1.offset, orders_of(t1, w2, -ratio)});
+    t.torques.push_back({"load", load ? "load" : "wheel", -ratio * t1.offset,
+                         orders_of(t1, w2, -ratio), false, std::nullopt});
   }
 
   if (coupled) {

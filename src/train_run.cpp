@@ -25,6 +25,7 @@
 #include "geardyn/output_folder.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_steadiness.hpp"
 
 namespace geardyn {
 namespace {
@@ -203,7 +204,10 @@ class TrainObserver : public ode::FlowObserver {
       if (!part_.empty()) part_[m].add_sample(values_[2 * m], f[m]);
     }
     for (std::size_t k = 0; k < whole_parts_.size(); ++k) point_part(k, values_[first_part_ + k]);
-    if (!keep_samples_) return;  // a study's sample: its time and forces (for load sharing)
+    double* parts = s.parts.append(whole_parts_.size());
+    for (std::size_t k = 0; k < whole_parts_.size(); ++k) parts[k] = values_[first_part_ + k];
+    // A study's sample: its time, forces (for load sharing) and loads (for its steadiness).
+    if (!keep_samples_) return;
     if (keep_states_ && lifted_from_)
       lift_.lift_into(t, y, s.state.append(2 * static_cast<std::size_t>(a_.size())));
     else if (keep_states_)
@@ -213,8 +217,6 @@ class TrainObserver : public ode::FlowObserver {
     double* rates = s.deflection_rate_m_s.append(meshes);
     for (std::size_t m = 0; m < meshes; ++m) rates[m] = rate(m, y) - errors_[m].rate(t);
     s.contact.push_back(region_states(region));
-    double* parts = s.parts.append(whole_parts_.size());
-    for (std::size_t k = 0; k < whole_parts_.size(); ++k) parts[k] = values_[first_part_ + k];
   }
 
   // The flow it looks at next steps the complement of a free rotation (its states are
@@ -227,7 +229,7 @@ class TrainObserver : public ode::FlowObserver {
   }
 
   // Room in the result for `count` output samples, all their rows kept, all but the states
-  // (keep_states false), or (keep false) only their times and mesh forces.
+  // (keep_states false), or (keep false) only their times, mesh forces and parts' loads.
   void reserve(std::int64_t count, bool keep, bool keep_states) {
     keep_samples_ = keep;
     keep_states_ = keep_states;
@@ -235,12 +237,12 @@ class TrainObserver : public ode::FlowObserver {
     TrainSamples& s = out_.samples;
     s.t_s.reserve(rows);
     s.force_n.reserve(rows, states_.size());
+    s.parts.reserve(rows, whole_parts_.size());
     if (!keep) return;
     if (keep_states) s.state.reserve(rows, 2 * static_cast<std::size_t>(a_.size()));
     s.deflection_bar.reserve(rows, states_.size());
     s.deflection_rate_m_s.reserve(rows, states_.size());
     s.contact.reserve(rows, states_.size());
-    s.parts.reserve(rows, whole_parts_.size());
   }
 
   // a_.states(region), kept for the region last asked of (samples come many to a region).
@@ -1052,7 +1054,7 @@ std::vector<TrainPartQuantity> part_quantities(const TrainRunResult& r) {
 
 TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s,
                                  const ode::OutputGrid& grid, double final_from_s,
-                                 std::optional<double> watch_period_s,
+                                 std::optional<SteadyWatch> watch,
                                  const std::function<bool(double)>& progress,
                                  ode::Vector* end_state, bool keep_samples,
                                  bool keep_states) const {
@@ -1106,14 +1108,39 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
         return flow(from, y, r, to, piece, observer);
       },
       progress);
-  if (watch_period_s) {
+  const auto mark = [&](double at) { observer.mark(at); };
+  if (watch && watch->by_statistics) {
+    // Each window's statistics against the window before's (train_steadiness.hpp), from the
+    // samples taken since the last section.
+    std::vector<WindowStatistic> before;
+    std::size_t from_row = 0;
+    bool started = false;
+    std::vector<double> changes;
+    const auto judge = [&] {
+      SteadyVerdict v;
+      const std::size_t rows = result.samples.force_n.size();
+      if (started && rows > from_row) {
+        std::vector<WindowStatistic> now = window_statistics(result, from_row, rows);
+        const double change = statistics_change(now, before);
+        changes.push_back(change);
+        v = statistics_verdict(changes);
+        before = std::move(now);
+      }
+      started = true;
+      from_row = rows;
+      return v;
+    };
+    result.steady = integrate_watching(t0_s, t1_s, watch->period_s, judge, std::ref(pieces), mark);
+    if (result.steady.basis == SteadyBasis::kSettled)
+      result.steady.basis = SteadyBasis::kStatistics;
+    result.steady.window_s = watch->period_s;
+  } else if (watch) {
     TrainSections sections(a, top_frequency_rad_s_, case_.solver.tolerance);
     const auto judge = [&] {
       sections.add(pieces.t_s(), pieces.state());
       return sections.judge(kSteadyTolerance);
     };
-    result.steady = integrate_watching(t0_s, t1_s, *watch_period_s, judge, std::ref(pieces),
-                                       [&](double at) { observer.mark(at); });
+    result.steady = integrate_watching(t0_s, t1_s, watch->period_s, judge, std::ref(pieces), mark);
   } else {
     pieces(t1_s);
   }
@@ -1245,10 +1272,33 @@ TrainRunResult run_train(const Case& c, const TrainRunOptions& options) {
                        step, (t1 - t0) / step, t1 - t0, kMaxNewmarkSteps)));
   const ode::Vector y0 = solver.initial_state(c.solver.initial, t0);
   const double final_from = t1 - c.solver.final_fraction * (t1 - t0);
+  // A train whose common period is long is judged by its statistics (train_steadiness.hpp).
+  const double window = statistics_window_s(solver.assembled());
+  const SteadyWatch watch = window > 0
+                                ? SteadyWatch{window, true}
+                                : SteadyWatch{solver.assembled().system_period_s().value_or(0)};
   TrainRunResult result =
-      solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval), final_from,
-                  solver.assembled().system_period_s().value_or(0), options.progress, nullptr,
-                  options.keep_samples, options.keep_states);
+      solver.read(t0, y0, t1, ode::make_output_grid(t0, t1, interval), final_from, watch,
+                  options.progress, nullptr, options.keep_samples, options.keep_states);
+  // The default does not fail where dopri5 would not: a contact region the exact engine cannot
+  // build on the way (its cell series do not converge) hands the whole run to dopri5, which
+  // says why. A method asked for fails as asked.
+  if (!result.ok() && result.termination != ode::Termination::kCancelled &&
+      solver.method() == Method::kExact && c.origins.count("solver.method") == 0) {
+    Case adaptive = c;
+    adaptive.solver.method = Method::kDopri5;
+    const TrainSolver fallback(adaptive, options.stiffness);
+    const std::string why =
+        fmt::format("{}: {}", ode::to_string(result.termination), result.message);
+    result = fallback.read(t0, fallback.initial_state(c.solver.initial, t0), t1,
+                           ode::make_output_grid(t0, t1, interval), final_from, watch,
+                           options.progress, nullptr, options.keep_samples, options.keep_states);
+    result.input = c;
+    result.method_note = fmt::format(
+        "chosen by the default: the exact engine failed on the way ({}); dopri5 ran the train "
+        "from the start (solver.method chooses)",
+        why);
+  }
   result.output_interval_s = interval;
   result.time_step_s = solver.newmark_step_s();
   if (options.keep_samples && options.read_peaks) {
@@ -1378,6 +1428,7 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
                  {"from_s", r.steady.from_s},
                  {"period_multiple", r.steady.period_multiple},
                  {"steady_error", finite_json(r.steady.error)}};
+  if (r.steady.window_s > 0) j["steady"]["window_s"] = r.steady.window_s;
   nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < r.bodies.size(); ++i)
     bodies.push_back({{"name", r.bodies[i]},

@@ -187,7 +187,7 @@ TEST(Run, TheDynamicFactorIsTheSteadyOneWithTheStartUpBeside) {
   EXPECT_EQ(r.steady_start_s, st.from_s);  // the spectra are of the steady part
 }
 
-TEST(Run, WithoutASteadyStateTheFinalHalfIsReadAndSaidSo) {
+TEST(Run, WithoutASteadyStateTheFinalHalfIsReadAndSaidSoAndWithoutAPeriodItsStatistics) {
   Case c;
   c.speed.shaft_frequency_hz = 100;
   c.mesh.backlash_um = 150;
@@ -195,12 +195,18 @@ TEST(Run, WithoutASteadyStateTheFinalHalfIsReadAndSaidSo) {
   EXPECT_EQ(r.steady.basis, SteadyBasis::kNotSettled);
   EXPECT_DOUBLE_EQ(r.steady.from_s, 0.5 * c.solver.duration_s);
   EXPECT_GT(r.steady.error, 0.5 * kSteadyTolerance);
-  // Torque order sqrt(2) against 56 teeth: no common period, no section.
+  // Torque order sqrt(2) against 56 teeth: no common period, no section. The pair is judged by
+  // its statistics (train_steadiness.hpp) over windows of whole torque periods holding 200
+  // cycles of its fastest excitation (the stiffness' second harmonic, 2 x 56 x f), its steady
+  // part starting at a whole window.
   c.load.fluctuation_order = std::sqrt(2.0);
   c.speed.shaft_frequency_hz = 1000;
   const RunResult q = run(c);
-  EXPECT_EQ(q.steady.basis, SteadyBasis::kAperiodic);
-  EXPECT_DOUBLE_EQ(q.steady.from_s, 0.5 * c.solver.duration_s);
+  EXPECT_EQ(q.steady.basis, SteadyBasis::kStatistics);
+  const double torque_hz = std::sqrt(2.0) * c.speed.shaft_frequency_hz;
+  EXPECT_NEAR(q.steady.window_s * torque_hz, std::ceil(200 * torque_hz / (2 * 56 * 1000.0)), 1e-9);
+  EXPECT_NEAR(std::remainder(q.steady.from_s / q.steady.window_s, 1.0), 0, 1e-9);
+  EXPECT_LE(q.steady.from_s + q.steady.window_s, c.solver.duration_s + 1e-12);
 }
 
 // The extremes of delta and F_G over every cell of a flow, each cell searched.

@@ -1522,10 +1522,12 @@ TEST(Cli, ATrainsModesAndTheFormsThePapersStudyRefuses) {
   }
   // A train that turns freely whose mean torques do not balance has no orbit to continue:
   // said, nothing written.
-  const Outcome free = cli("continue " + reducer +
-                           " --set train.torque[1].mean_nm=-1000 --param train.reference_speed_hz "
-                           "--from 50 --to 60" +
-                           out);
+  const Outcome free =
+      cli("continue " + reducer +
+          " --set train.torque[1].balances=false --set train.torque[1].mean_nm=-1000 "
+          "--param train.reference_speed_hz "
+          "--from 50 --to 60" +
+          out);
   expect_refused(free, "turns freely and has no periodic orbit");
   EXPECT_FALSE(fs::exists(d));
   // A mesh to a body that is not there: its name, key and line, exit 2, nothing written.
@@ -1850,7 +1852,7 @@ TEST(Cli, ASpatialWheelCarriesItsHelixsThrustAndMomentOnItsBearing) {
   // The shipped reducer's first wheel made spatial on a bearing with axial and tilt
   // stiffness: at rest its bearing carries the mesh's static force split by the base helix
   // angle, cos(beta_b) F radially and sin(beta_b) F axially, and the axial force's moment about
-  // the wheel's centre at its base radius, R_b sin(beta_b) F (MODEL.md's geometry: 61 teeth,
+  // the wheel's centre at its base radius, R_b sin(beta_b) F (the paper's geometry: 61 teeth,
   // m_n 1.75 mm, beta 25 deg, alpha_n 20 deg); the run reads them over time, timeseries.csv
   // and modes.json name the new coordinates.
   const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
@@ -2133,6 +2135,26 @@ TEST(Validate, ItsHtmlReportRendersItsTableInAHeadlessBrowser) {
   ASSERT_EQ(shot.code, 0) << shot.err;
   ASSERT_TRUE(fs::exists(png));
   EXPECT_GT(fs::file_size(png), 50000U);
+}
+
+}  // namespace
+
+namespace {
+
+// A planetary set written for its modes carries no load: its run's figures are drawn all the
+// same, the load-sharing panels saying there is no factor instead of plotting an undefined one
+// (gnuplot failed on it, exit 3, when every shipped case's figures were first drawn).
+TEST(Cli, AnUnloadedPlanetarySetsFiguresSayItHasNoLoadSharingFactor) {
+  const fs::path d = fresh("unloaded_planetary");
+  const Outcome o = cli("run " + std::string(GEARDYN_SOURCE_DIR) +
+                        "/cases/lin_parker_1999.toml --set solver.duration_s=0.01 --plot --out " +
+                        d.string());
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_TRUE(fs::exists(d / "load_sharing.png"));
+  const std::string body = slurp(d / "load_sharing_body.gp");
+  EXPECT_NE(body.find("no factor: its meshes carry no load"), std::string::npos) << body;
+  EXPECT_EQ(body.find("title 'factor'"), std::string::npos) << body;
+  fs::remove_all(d);
 }
 
 }  // namespace

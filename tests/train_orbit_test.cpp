@@ -416,6 +416,7 @@ TEST(TrainOrbit, WhatHasNoOrbitSaysWhy) {
   // A train that turns freely with mean torques that do not balance speeds up: no orbit.
   Case reducer =
       load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "two_stage_reducer.toml");
+  set_case_value(reducer, {"train.torque[1].balances", "false"});
   set_case_value(reducer, {"train.torque[1].mean_nm", "-1000"});
   try {
     (void)find_train_orbit(reducer, OrbitOptions{});

@@ -1,7 +1,7 @@
 // Sweeps of gear trains (sweep.hpp on a train case): a one-mesh train's sweep against the gear
 // pair's, a loose gear's rattle along its fluctuation against the closed-form onset and where it
-// does not settle, every mesh's columns and the mesh read, a quasi-periodic train, and the
-// messages.
+// does not settle, every mesh's columns and the mesh read, a quasi-periodic train, the messages,
+// and a long-period train's run and sweep judged steady by their statistics.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -16,9 +16,11 @@
 #include <vector>
 
 #include "geardyn/case.hpp"
+#include "geardyn/steady.hpp"
 #include "geardyn/sweep.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_steadiness.hpp"
 #include "geardyn/validation.hpp"
 #include "test_support.hpp"
 
@@ -265,10 +267,16 @@ TEST(TrainSweep, AQuasiPeriodicTrainIsSettledByItsStatistics) {
             std::string::npos)
       << r.steadiness;
   ASSERT_EQ(r.points.size(), 3u);
+  std::size_t settled = 0;
   for (const SweepPoint& p : r.points) {
     EXPECT_TRUE(p.failure.empty()) << p.failure;
-    EXPECT_TRUE(p.settled) << p.value << ": " << p.steady_error;
-    EXPECT_LE(p.steady_error, 1e-3);
+    // A point is settled exactly when its last change is within the tolerance; the slow beats
+    // of the sqrt(2) order against the meshes move one point's windows by 3e-3 to 5e-3 of
+    // their scale, which no window agrees to 1e-3 (the verdict on one pair of windows took a
+    // chance agreement for steady): it is listed as unsettled, its readings still those of the
+    // long run below.
+    EXPECT_EQ(p.settled, p.steady_error <= 1e-3) << p.value << ": " << p.steady_error;
+    settled += p.settled ? 1 : 0;
     const double torque_period = 1 / (1.4142135623730951 * p.value);
     Case at = c;
     set_case_value(at, {"train.reference_speed_hz", fmt::format("{:.17g}", p.value)});
@@ -299,7 +307,8 @@ TEST(TrainSweep, AQuasiPeriodicTrainIsSettledByItsStatistics) {
           << p.value << " mesh " << m;
     }
   }
-  EXPECT_EQ(r.unsettled, 0u);
+  EXPECT_GE(settled, 2u);
+  EXPECT_EQ(r.unsettled, r.points.size() - settled);
 }
 
 }  // namespace
@@ -360,6 +369,64 @@ TEST(TrainSweep, TheWindTurbineGearboxSettlesByItsStatistics) {
     // read the mean and RMS alone.
     const double run_pp = (x.steady.max_deflection_m - x.steady.min_deflection_m) / b;
     EXPECT_NEAR(p.meshes[m].pp_delta_bar, run_pp, 1e-2 * run_pp) << x.name;
+  }
+}
+
+}  // namespace
+}  // namespace geardyn
+
+namespace geardyn {
+namespace {
+
+// The standard deviation of mesh m's force over a run's samples in [from_s, to_s).
+double force_deviation_n(const TrainRunResult& r, std::size_t m, double from_s, double to_s) {
+  double sum = 0, sum2 = 0, n = 0;
+  for (std::size_t i = 0; i < r.samples.t_s.size(); ++i) {
+    if (r.samples.t_s[i] < from_s || r.samples.t_s[i] >= to_s) continue;
+    const double f = r.samples.force_n[i][static_cast<Eigen::Index>(m)];
+    sum += f;
+    sum2 += f * f;
+    n += 1;
+  }
+  return std::sqrt(std::max(sum2 / n - (sum / n) * (sum / n), 0.0));
+}
+
+// A run of the wind-turbine gearbox, whose common period is 437 s, finds its steady part by
+// its statistics: windows of whole periods of the rotor's 3P ripple, steady where they agree,
+// at a whole window, with at least one window left to read. Checked against a run twice as
+// long, window by window: its force's standard deviation (the dynamic part) beats as the
+// drivetrain's 3.1 Hz mode decays (+1.3 % and +1.6 % of its settled value in the windows from
+// 7.2 s, which agreed with each other, where the verdict on two windows in a row took the run
+// for steady), and the steady part starts no earlier than the window from which every window
+// is within 1e-2 of it, nor more than four windows later; what it reads is within 1e-2 of it.
+TEST(TrainSteadiness, ALongPeriodTrainsRunFindsItsSteadyPartByItsStatistics) {
+  Case c = shipped("wind_turbine_grc750.toml");
+  const double t1 = c.solver.duration_s;
+  const TrainRunResult r = run_train(c);
+  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_EQ(r.steady.basis, SteadyBasis::kStatistics) << r.steady.error;
+  const double w = r.steady.window_s;
+  ASSERT_EQ(r.bodies.front(), "rotor");
+  const double rotor_hz = std::abs(r.body_speed_hz.front());
+  EXPECT_NEAR(std::remainder(w * 3 * rotor_hz, 1.0), 0, 1e-9) << w;
+  EXPECT_NEAR(std::remainder(r.steady.from_s / w, 1.0), 0, 1e-9) << r.steady.from_s;
+  EXPECT_LE(r.steady.from_s + w, t1 + 1e-9);
+  set_case_value(c, {"solver.duration_s", fmt::format("{:.17g}", 2 * t1)});
+  const TrainRunResult longer = run_train(c);
+  ASSERT_TRUE(longer.ok()) << longer.message;
+  const auto windows = static_cast<int>(std::floor(2 * t1 / w + 1e-9));
+  for (std::size_t m = 0; m < r.meshes.size(); ++m) {
+    const double settled = force_deviation_n(longer, m, (windows - 1) * w, windows * w);
+    // The first window from which every window's deviation is within 1e-2 of the settled one.
+    int first = windows - 1;
+    while (first > 0 &&
+           std::abs(force_deviation_n(longer, m, (first - 1) * w, first * w) / settled - 1) <=
+               kDynamicTolerance)
+      --first;
+    EXPECT_GE(r.steady.from_s, first * w - 1e-9) << r.meshes[m].name;
+    EXPECT_LE(r.steady.from_s, (first + 4) * w + 1e-9) << r.meshes[m].name;
+    EXPECT_NEAR(force_deviation_n(r, m, r.steady.from_s, t1), settled, kDynamicTolerance * settled)
+        << r.meshes[m].name;
   }
 }
 

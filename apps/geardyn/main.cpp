@@ -44,6 +44,7 @@
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_orbit.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_steadiness.hpp"
 #include "geardyn/validation.hpp"
 
 namespace {
@@ -287,7 +288,34 @@ void print_steady_start(const geardyn::SteadyStart& st, const char* t_name, cons
       fmt::print("  steady part       from {} = {:.6g}{}: periodic (period {} x T0) to {:.2g} b\n",
                  t_name, st.from_s, t_after, st.period_multiple, st.error);
       break;
+    case geardyn::SteadyBasis::kStatistics:
+      fmt::print(
+          "  steady part       from {} = {:.6g}{}: its statistics over {:.4g} s windows agree "
+          "(means to {:g} of their scale, standard deviations to {:g} of themselves, no decay "
+          "predicting more)\n",
+          t_name, st.from_s, t_after, st.window_s, geardyn::kStatisticsTolerance,
+          geardyn::kDynamicTolerance);
+      break;
     case geardyn::SteadyBasis::kNotSettled:
+      if (st.window_s > 0 && !std::isfinite(st.error)) {
+        fmt::print(
+            "  steady part       not judged: its statistics are compared over {:.4g} s windows and "
+            "the run holds fewer than {} (a solver.duration_s of at least {:.4g} s): the final "
+            "half, from {} = {:.6g}{}\n",
+            st.window_s, geardyn::kJudgedChanges + 2,
+            static_cast<double>(geardyn::kJudgedChanges + 2) * st.window_s, t_name, st.from_s,
+            t_after);
+        break;
+      }
+      if (st.window_s > 0) {
+        fmt::print(
+            "  steady part       not reached in the window (its statistics over {:.4g} s windows "
+            "still move by {:.2g} times what is steady, the change to come predicted; a longer "
+            "solver.duration_s): the final "
+            "half, from {} = {:.6g}{}\n",
+            st.window_s, st.error / geardyn::kStatisticsTolerance, t_name, st.from_s, t_after);
+        break;
+      }
       // No distance is predicted without a decay seen over enough section times (steady.hpp).
       fmt::print(
           "  steady part       not reached in the window ({}): the final half, from {} = "

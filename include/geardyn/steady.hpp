@@ -106,6 +106,9 @@ enum class SteadyBasis {
   kSettled,     // the response reached its periodic response at from_s
   kNotSettled,  // no steady state within the window: the final half is read
   kAperiodic,   // the excitations have no common period: the final half is read
+  // A train judged by its statistics (train_steadiness.hpp): its windows of window_s agreed
+  // up to from_s.
+  kStatistics,
 };
 const char* to_string(SteadyBasis b);
 
@@ -114,6 +117,7 @@ struct SteadyStart {
   SteadyBasis basis = SteadyBasis::kNotSettled;
   double from_s = 0;
   int period_multiple = 0;  // of the periodic response, in periods (kSettled)
+  double window_s = 0;      // the statistics window (a train judged by its statistics)
   // The predicted distance to the periodic response at from_s (the series' scales); infinite
   // when no decay was seen (0 in a run that failed).
   double error = 0;

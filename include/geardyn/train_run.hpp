@@ -332,8 +332,9 @@ struct TrainRunOptions {
   // Called now and then with the fraction of the window done; false cancels.
   std::function<bool(double)> progress;
   // False for a study's sample (study_sample.hpp), whose readings are the same either way: of
-  // the output samples only the times and the mesh forces are kept (the load-sharing factors
-  // read them), no states, deflections, contact, rates, parts or spectra.
+  // the output samples only the times, the mesh forces and the parts' loads are kept (the
+  // load-sharing factors and the steadiness read them), no states, deflections, contact, rates
+  // or spectra.
   bool keep_samples = true;
   // False for a run read per mesh (the one-degree forms' run, run.hpp): every row of the samples
   // kept but the whole train's states (TrainSamples::state empty), which a train that turns
@@ -386,6 +387,14 @@ constexpr double kMaxDefaultExactCells = 8192;
 // cannot resolve the period and is refused.
 constexpr double kMaxExactCells = 65536;
 
+// How a read seeks its steady part: on the section t0 + k period_s (period_s 0: the excitations
+// have no common period, the final half is read), or by_statistics: windows of period_s whose
+// statistics agree (train_steadiness.hpp).
+struct SteadyWatch {
+  double period_s = 0;
+  bool by_statistics = false;
+};
+
 class TrainSolver {
  public:
   // A train case, or a pair's form as its train of elements (train_form_of; its readings are
@@ -433,13 +442,13 @@ class TrainSolver {
   // engine only (std::logic_error with "dopri5").
   ode::FlowResult advance_with_jacobian(double t0_s, const ode::Vector& y0, double t1_s) const;
   // From (t0, y0) to t1, sampled on `grid` and read per mesh (contact separated after
-  // final_from is "sustained"); with watch_period_s (> 0, or 0: no common period) integrated
-  // once while the steady part is sought on the section t0 + k period (integrate_watching),
-  // read beside the whole and giving the dynamic factors. The end state into *end_state when
-  // given; wall_time_s is left 0. With keep_samples false only the samples' times and mesh
-  // forces are kept, with keep_states false all but the states (TrainRunOptions').
+  // final_from is "sustained"); with a watch integrated once while the steady part is sought
+  // (integrate_watching), read beside the whole and giving the dynamic factors. The end state
+  // into *end_state when given; wall_time_s is left 0. With keep_samples false only the samples'
+  // times, mesh forces and parts' loads are kept, with keep_states false all but the states
+  // (TrainRunOptions').
   TrainRunResult read(double t0_s, const ode::Vector& y0, double t1_s, const ode::OutputGrid& grid,
-                      double final_from_s, std::optional<double> watch_period_s,
+                      double final_from_s, std::optional<SteadyWatch> watch,
                       const std::function<bool(double)>& progress = {},
                       ode::Vector* end_state = nullptr, bool keep_samples = true,
                       bool keep_states = true) const;

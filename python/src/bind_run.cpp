@@ -82,7 +82,7 @@ RunReading reading_from(const py::tuple& g) {
   return a;
 }
 
-constexpr int kPickleVersion = 3;
+constexpr int kPickleVersion = 4;
 
 std::vector<std::pair<double, double>> error_pairs(const std::vector<ErrorHarmonic>& h) {
   std::vector<std::pair<double, double>> out;
@@ -118,7 +118,7 @@ py::tuple pickled(const RunResult& r) {
                      owned(s.contact)),
       r.steady_start_s, r.wall_time_s,
       py::make_tuple(static_cast<int>(r.steady.basis), r.steady.from_s, r.steady.period_multiple,
-                     r.steady.error, reading_state(r.steady.reading)));
+                     r.steady.error, reading_state(r.steady.reading), r.steady.window_s));
 }
 
 RunResult unpickled(const py::tuple& t) {
@@ -175,6 +175,7 @@ RunResult unpickled(const py::tuple& t) {
   r.steady.period_multiple = st[2].cast<int>();
   r.steady.error = st[3].cast<double>();
   r.steady.reading = reading_from(st[4].cast<py::tuple>());
+  r.steady.window_s = st[5].cast<double>();
   compute_spectra(r);
   return r;
 }
