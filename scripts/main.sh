@@ -3,5 +3,5 @@
 # with its report and figures in results/park2010/ (open report.html).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh
+bash scripts/setup.sh --tool
 ./build/release/geardyn reproduce park2010 --out results/park2010

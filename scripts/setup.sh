@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what geardyn needs from Debian's packages (run as root; a no-op when all are there),
-# then configures and builds the optimised preset (not with --deps-only).
+# then configures and builds the optimised preset (not with --deps-only; the command alone
+# with --tool).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -25,7 +26,12 @@ if ((${#missing[@]})); then
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-# --deps-only: the packages alone (the debug check builds its own preset).
+# --deps-only: the packages alone (the debug check builds its own preset); --tool: the command
+# alone (the main job), not the tests, benchmarks and Python module.
 [[ "${1:-}" == "--deps-only" ]] && exit 0
 cmake --preset release >/dev/null
-cmake --build --preset release
+if [[ "${1:-}" == "--tool" ]]; then
+  cmake --build --preset release --target geardyn_cli
+else
+  cmake --build --preset release
+fi
