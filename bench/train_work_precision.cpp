@@ -222,15 +222,21 @@ int main(int argc, char** argv) {
   for (int k = 0; k <= 2000; ++k) times.push_back(k * window / 2000);
   const Eigen::VectorXd y0 = *geardyn::static_state(a, nullptr, 0.0);
   const UserTrain u = user_train(a);
+  // A train whose cells the exact engine cannot hold (a hunting-tooth gearbox's common period
+  // of minutes) has dopri5 for its default: the reference and the "exact" column are then
+  // dopri5's, and said so.
+  c.origins.erase("solver.method");
+  c.solver.method = geardyn::Method::kExact;
+  const bool exact = geardyn::TrainSolver(c).method() == geardyn::Method::kExact;
   c.solver.tolerance = 1e-13;
   const auto ref = geardyn_run(c);
   const auto tightest = user_run(u, y0, window, times, 1e-12);
-  std::printf("%s over %g s: reference (exact, 1e-13) against Odeint at 1e-12: %.1e\n",
-              c.name.c_str(), window, max_error(tightest, ref));
+  std::printf("%s over %g s: reference (%s, 1e-13) against Odeint at 1e-12: %.1e\n", c.name.c_str(),
+              window, exact ? "exact" : "dopri5: the default's choice", max_error(tightest, ref));
   const double target = 1e-6;
   // Each program's cheapest time to the target, and the tolerance it took.
   std::array<double, 3> best = {INFINITY, INFINITY, INFINITY}, chosen = {0, 0, 0};
-  const char* names[] = {"odeint", "exact", "dopri5"};
+  const char* names[] = {"odeint", exact ? "exact" : "default (dopri5)", "dopri5"};
   for (double tol : {1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10}) {
     std::vector<std::vector<double>> out;
     std::array<double, 3> time{}, error{};

@@ -1444,6 +1444,21 @@ std::string part_forces_body(const SweepResult& r) {
        {"largest axial force (N)", {"axial_force_n"}},
        {"largest moment (N m)", {"moment_x_nm", "moment_y_nm"}},
        {"largest shaft torque (N m)", {"torque_nm"}}}};
+  // A planet's copies of an element (its name and 1 to N, N the planets of a load-sharing
+  // group, as the set writes them) are one legend entry, as the planets' meshes are: the stem,
+  // or "" for a part that is no such copy.
+  std::size_t planets = 0;
+  for (const LoadSharingGroup& g : r.load_sharing) planets = std::max(planets, g.meshes.size());
+  const auto stem_of = [&](const std::string& part) {
+    const std::size_t end = part.find_last_not_of("0123456789");
+    if (planets < 2 || end == std::string::npos || end + 1 == part.size()) return std::string();
+    std::string stem = part.substr(0, end + 1);
+    for (std::size_t k = 1; k <= planets; ++k)
+      if (std::none_of(r.parts.begin(), r.parts.end(),
+                       [&](const SweepPart& q) { return q.part == stem + std::to_string(k); }))
+        return std::string();
+    return stem;
+  };
   std::vector<SeriesPanel> panels;
   for (const Kind& kind : kKinds) {
     SeriesPanel p{kind.ylabel, {}, {}, {}};
@@ -1454,6 +1469,9 @@ std::string part_forces_body(const SweepResult& r) {
           !loaded(i))
         continue;
       p.series.emplace_back(q.peak_column(), q.label());
+      const std::string stem = stem_of(q.part);
+      p.groups.push_back(stem.empty() ? std::string()
+                                      : fmt::format("{}1-{}_{}", stem, planets, q.what));
     }
     if (!p.series.empty()) panels.push_back(std::move(p));
   }

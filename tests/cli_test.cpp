@@ -1799,6 +1799,11 @@ TEST(Cli, APlanetarySweepReadsItsLoadSharingPerPoint) {
                                   column)),
             std::string::npos)
       << body;
+  // The planets' pins, the copies of the written "pin", are one legend entry a direction.
+  const std::string parts = slurp(d / "part_forces_body.gp");
+  EXPECT_NE(parts.find("title 'up: pin1-3_force_x_n'"), std::string::npos) << parts;
+  EXPECT_EQ(parts.find("title 'up: pin2_force_x_n'"), std::string::npos) << parts;
+  EXPECT_NE(parts.find("title 'up: sun_bearing_force_x_n'"), std::string::npos) << parts;
   // A planet's pin error is swept by its entry, [i][0] radial or [i][1] tangential; another
   // entry is refused before any work.
   const Outcome bad = cli("sweep " + set +
@@ -2146,9 +2151,9 @@ namespace {
 // (gnuplot failed on it, exit 3, when every shipped case's figures were first drawn).
 TEST(Cli, AnUnloadedPlanetarySetsFiguresSayItHasNoLoadSharingFactor) {
   const fs::path d = fresh("unloaded_planetary");
-  const Outcome o = cli("run " + std::string(GEARDYN_SOURCE_DIR) +
-                        "/cases/lin_parker_1999.toml --set solver.duration_s=0.01 --plot --out " +
-                        d.string());
+  const Outcome o =
+      cli("run " + std::string(GEARDYN_SOURCE_DIR) +
+          "/cases/lin_parker_1999.toml --set solver.duration_s=0.01 --plot --out " + d.string());
   ASSERT_EQ(o.code, 0) << o.err;
   EXPECT_TRUE(fs::exists(d / "load_sharing.png"));
   const std::string body = slurp(d / "load_sharing_body.gp");
