@@ -25,6 +25,9 @@ constexpr int kMeshOrders = 3;
 constexpr int kCampbellSpeeds = 48;
 // The Campbell diagram's speeds: from rest to this many times the case's operating speed.
 constexpr double kCampbellSpeedSpan = 1.5;
+// Samples of each part a phase portrait draws at most, consecutive: a steady orbit of many
+// periods drawn once over.
+constexpr std::size_t kMaxPhasePoints = 20000;
 // Distinct colours for the meshes, in turn.
 constexpr const char* kColours[] = {"#1f4e9c", "#c0392b", "#2e8b57",
                                     "#8e44ad", "#d35400", "#16a085"};
@@ -194,19 +197,40 @@ void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r, b
                 260 * static_cast<int>(std::max<std::size_t>(r.meshes.size(), 1)));
 }
 
-// train_phase: each mesh's phase portrait, (d - e) / b against d' - e' (m/s), the whole run
-// light and its steady part in the mesh's colour, the contact edges at +-1 dashed, read from
-// the timeseries.csv beside it (write_train_timeseries_csv's columns).
+// train_phase: each mesh's phase portrait, (d - e) / b against d' - e' (m/s), the start of the
+// run light and its steady part in the mesh's colour, the contact edges at +-1 dashed, read
+// from train_phase.csv beside it.
 void write_train_phase_figure(const fs::path& dir, const TrainRunResult& r) {
   const std::size_t meshes = r.meshes.size();
-  if (meshes == 0) return;
   const TrainSamples& s = r.samples;
+  const std::size_t n = s.t_s.size();
+  if (meshes == 0 || n == 0) return;
   std::size_t steady_row = 0;
-  while (steady_row < s.t_s.size() && s.t_s[steady_row] < r.steady.from_s) ++steady_row;
-  // timeseries.csv's columns (from 1): t_s, the coordinates, their rates, three per mesh (its
-  // (d - e) / b first), the parts, and each mesh's d' - e'.
-  const std::size_t coordinates = r.coordinates.size();
-  const std::size_t parts = s.parts.empty() ? 0 : s.parts.width();
+  while (steady_row < n && s.t_s[steady_row] < r.steady.from_s) ++steady_row;
+  // train_phase.csv: the run's first kMaxPhasePoints samples, then (a second block) the steady
+  // part's last kMaxPhasePoints, each mesh's (d - e) / b and d' - e' (m/s), consecutive samples
+  // as they are: a trajectory thinned out would cut corners off its orbit, and gnuplot drawing
+  // every sample of a long run took half a minute.
+  const std::size_t start_end = std::min(n, kMaxPhasePoints);
+  const std::size_t steady_begin = std::max(steady_row, n - std::min(n, kMaxPhasePoints));
+  write_files_atomically(dir, {{"train_phase.csv", [&](std::ostream& o) {
+                                  o << "t_s";
+                                  for (const TrainMeshReading& m : r.meshes)
+                                    o << fmt::format(",{0}_deflection_bar,{0}_deflection_rate_m_s",
+                                                     m.name);
+                                  const auto rows = [&](std::size_t from, std::size_t to) {
+                                    for (std::size_t i = from; i < to; ++i) {
+                                      o << fmt::format("\n{:.10g}", s.t_s[i]);
+                                      for (std::size_t m = 0; m < meshes; ++m)
+                                        o << fmt::format(",{:.10g},{:.10g}", s.deflection_bar[i][m],
+                                                         s.deflection_rate_m_s[i][m]);
+                                    }
+                                  };
+                                  rows(0, start_end);
+                                  o << "\n\n";
+                                  rows(steady_begin, n);
+                                  o << "\n";
+                                }}});
   const std::size_t columns = std::min<std::size_t>(meshes, 3);
   const std::size_t rows = (meshes + columns - 1) / columns;
   std::string g =
@@ -219,15 +243,13 @@ void write_train_phase_figure(const fs::path& dir, const TrainRunResult& r) {
                  "set arrow 2 from -1, graph 0 to -1, graph 1 nohead dt 2 lc rgb 'gray40'\n",
                  rows, columns, quoted(r.input.name), r.steady.from_s * 1e3);
   for (std::size_t m = 0; m < meshes; ++m) {
-    const std::size_t deflection = 2 + 2 * coordinates + 3 * m;
-    const std::size_t rate = 2 + 2 * coordinates + 3 * meshes + parts + m;
+    const std::size_t deflection = 2 + 2 * m, rate = 3 + 2 * m;
     fmt::format_to(std::back_inserter(g),
                    "set title \"mesh {}\" font ',10'\n"
-                   "plot 'timeseries.csv' every ::1 using {}:{} with lines lc rgb '#c8c8c8' "
-                   "title 'whole run', '' every ::{} using {}:{} with lines lw 1.2 lc rgb '{}' "
-                   "title 'steady part'\n",
-                   quoted(r.meshes[m].name), deflection, rate, steady_row + 1, deflection, rate,
-                   colour(m));
+                   "plot 'train_phase.csv' index 0 every ::1 using {}:{} with lines lc rgb "
+                   "'#c8c8c8' title 'start of the run', '' index 1 using {}:{} with lines lw 1.2 "
+                   "lc rgb '{}' title 'steady part'\n",
+                   quoted(r.meshes[m].name), deflection, rate, deflection, rate, colour(m));
   }
   g += "unset multiplot\n";
   render_figure(dir, "train_phase", g, 560 * static_cast<int>(columns),

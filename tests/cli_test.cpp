@@ -1305,29 +1305,51 @@ TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
   EXPECT_GT(fs::file_size(d / "train_spectrum.png"), 100U);
   const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"));
   EXPECT_EQ(j["form"], "train");
-  // The phase portraits: a panel per mesh, each drawing timeseries.csv's columns of its own
-  // (d - e) / b against its own d' - e', the steady part from the first sample at or after
-  // where the summary says it starts.
+  // The phase portraits: a panel per mesh, each drawing train_phase.csv's columns of its own
+  // (d - e) / b against its own d' - e': the run's first samples, then the steady part's last
+  // ones, each as timeseries.csv has them, at most 20000 of each.
   const CsvTable series = read_csv(d / "timeseries.csv");
   std::size_t steady_row = 0;
   while (std::stod(series.rows[steady_row][0]) < j["steady"]["from_s"].get<double>()) ++steady_row;
   const std::string phase = slurp(d / "train_phase_body.gp");
   EXPECT_NE(phase.find("layout 1,2"), std::string::npos) << phase;
+  const std::string phase_csv = slurp(d / "train_phase.csv");
+  const std::size_t gap = phase_csv.find("\n\n");
+  ASSERT_NE(gap, std::string::npos);
+  const std::size_t first_rows = static_cast<std::size_t>(
+      std::count(phase_csv.begin(), phase_csv.begin() + static_cast<std::ptrdiff_t>(gap), '\n'));
+  // Two blank lines between the blocks (gnuplot's index), each row after its line break, the
+  // file ending with one.
+  const std::size_t last_rows =
+      static_cast<std::size_t>(std::count(phase_csv.begin() + static_cast<std::ptrdiff_t>(gap) + 2,
+                                          phase_csv.end(), '\n')) -
+      1;
+  EXPECT_EQ(first_rows, std::min<std::size_t>(series.rows.size(), 20000));
+  EXPECT_EQ(last_rows, std::min<std::size_t>(series.rows.size() - steady_row, 20000));
+  // Its last row is timeseries.csv's, column by column.
+  const std::string tail = phase_csv.substr(phase_csv.rfind('\n', phase_csv.size() - 2) + 1);
   for (const std::string mesh : {"stage1", "stage2"}) {
-    const std::size_t x = series.column(mesh + "_deflection_bar") + 1,
-                      y = series.column(mesh + "_deflection_rate_m_s") + 1;
-    ASSERT_LE(y, series.names.size()) << series.header;
-    EXPECT_NE(phase.find(fmt::format("set title \"mesh {}\" font ',10'\nplot 'timeseries.csv' "
-                                     "every ::1 using {}:{} with lines",
-                                     mesh, x, y)),
+    const std::size_t column = mesh == "stage1" ? 2 : 4;
+    EXPECT_NE(phase.find(fmt::format("set title \"mesh {}\" font ',10'\nplot 'train_phase.csv' "
+                                     "index 0 every ::1 using {}:{} with lines",
+                                     mesh, column, column + 1)),
               std::string::npos)
         << mesh << "\n"
         << phase;
-    EXPECT_NE(phase.find(
-                  fmt::format("'' every ::{} using {}:{} with lines lw 1.2", steady_row + 1, x, y)),
-              std::string::npos)
+    EXPECT_NE(
+        phase.find(fmt::format("'' index 1 using {}:{} with lines lw 1.2", column, column + 1)),
+        std::string::npos)
         << mesh << "\n"
         << phase;
+    std::vector<std::string> cells;
+    std::stringstream row(tail);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    ASSERT_EQ(cells.size(), 5u) << tail;
+    EXPECT_NEAR(std::stod(cells[column - 1]),
+                std::stod(series.rows.back()[series.column(mesh + "_deflection_bar")]), 1e-9);
+    EXPECT_NEAR(std::stod(cells[column]),
+                std::stod(series.rows.back()[series.column(mesh + "_deflection_rate_m_s")]),
+                1e-9 * (1 + std::abs(std::stod(cells[column]))));
   }
   EXPECT_GT(fs::file_size(d / "train_phase.png"), 100U);
   ASSERT_EQ(j["meshes"].size(), 2U);
