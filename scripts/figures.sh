@@ -3,7 +3,7 @@
 # users run it (`geardyn run CASE --plot`) and, for a case with more than one degree of freedom,
 # its modes (`geardyn modes CASE`: the Campbell diagram), the figures copied to
 # docs/images/cases/ and docs/gallery.md written to show them with the commands that drew them.
-# About two minutes on 2 cores after the build. Files of docs/images/cases/ that no case draws
+# About 40 s on 2 cores after the build. Files of docs/images/cases/ that no case draws
 # any more are removed (the folder is this script's alone).
 set -euo pipefail
 cd "$(dirname "$0")/.."
