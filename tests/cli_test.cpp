@@ -77,6 +77,11 @@ void expect_refused(const Outcome& o, const std::string& message) {
   EXPECT_NE(o.err.find(message), std::string::npos) << "expected: " << message << "\n" << o.err;
 }
 
+// A shipped case file's path (cases/ of the sources).
+std::string case_path(const std::string& file) {
+  return std::string(GEARDYN_SOURCE_DIR) + "/cases/" + file;
+}
+
 fs::path fresh(const std::string& name) {
   const fs::path d =
       fs::temp_directory_path() / ("geardyn_cli_" + name + "_" + std::to_string(getpid()));
@@ -84,7 +89,7 @@ fs::path fresh(const std::string& name) {
   return d;
 }
 
-const std::string kCase = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010.toml";
+const std::string kCase = case_path("park2010.toml");
 
 // The shipped wind-turbine gearbox as its user runs it: the generator at 1800 rpm is the
 // reference, the rotor drives the planetary stage's carrier, the ring is held, two parallel
@@ -94,9 +99,8 @@ const std::string kCase = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010.tom
 // the case draws no warning.
 TEST(Cli, AWindTurbineGearboxRunsAtTheSpeedsOfItsRatioChain) {
   const fs::path d = fresh("wind_turbine");
-  const Outcome o =
-      cli("run " + std::string(GEARDYN_SOURCE_DIR) +
-          "/cases/wind_turbine_grc750.toml --set solver.duration_s=0.02 --out " + d.string());
+  const Outcome o = cli("run " + case_path("wind_turbine_grc750.toml") +
+                        " --set solver.duration_s=0.02 --out " + d.string());
   ASSERT_EQ(o.code, 0) << o.err;
   EXPECT_EQ(o.err.find("warning"), std::string::npos) << o.err;
   const double ratio = (1 + 99.0 / 21) * (82.0 / 23) * (88.0 / 22);  // 81.49
@@ -125,10 +129,9 @@ TEST(Cli, AWindTurbineGearboxRunsAtTheSpeedsOfItsRatioChain) {
             std::string::npos)
       << o.out;
   const fs::path e = fresh("wind_turbine_exact");
-  expect_refused(
-      cli("run " + std::string(GEARDYN_SOURCE_DIR) +
-          "/cases/wind_turbine_grc750.toml --set solver.method=exact --out " + e.string()),
-      "more than the 65536 it can hold; use solver.method = \"dopri5\"");
+  expect_refused(cli("run " + case_path("wind_turbine_grc750.toml") +
+                     " --set solver.method=exact --out " + e.string()),
+                 "more than the 65536 it can hold; use solver.method = \"dopri5\"");
   EXPECT_FALSE(fs::exists(e));
 }
 
@@ -138,8 +141,7 @@ TEST(Cli, AWindTurbineGearboxRunsAtTheSpeedsOfItsRatioChain) {
 // ran to 4000 Hz to reach the modes with the planetary stage's slow orders).
 TEST(Cli, TheCampbellDiagramSpansTheCasesSpeeds) {
   const fs::path d = fresh("wind_turbine_campbell");
-  const Outcome o = cli("modes " + std::string(GEARDYN_SOURCE_DIR) +
-                        "/cases/wind_turbine_grc750.toml --out " + d.string());
+  const Outcome o = cli("modes " + case_path("wind_turbine_grc750.toml") + " --out " + d.string());
   ASSERT_EQ(o.code, 0) << o.err;
   const std::string body = slurp(d / "campbell_body.gp");
   EXPECT_NE(body.find("set xrange [0:45]"), std::string::npos) << body;
@@ -154,7 +156,7 @@ TEST(Cli, TheCampbellDiagramSpansTheCasesSpeeds) {
 // speed, the pins where the gears put them (m_n (z_s + z_p) / (2 cos beta), written without a
 // radius), the derived inertias, the shafts' damping coefficients, and no warning.
 TEST(Cli, DescribeSaysWhatTheCaseAssemblesTo) {
-  const std::string file = std::string(GEARDYN_SOURCE_DIR) + "/cases/wind_turbine_grc750.toml";
+  const std::string file = case_path("wind_turbine_grc750.toml");
   const Outcome o = cli("describe " + file + " --json");
   ASSERT_EQ(o.code, 0) << o.err;
   const nlohmann::json j = nlohmann::json::parse(o.out);
@@ -188,7 +190,7 @@ TEST(Cli, DescribeSaysWhatTheCaseAssemblesTo) {
 // A train's spectra with --physical: each mesh's force in N and d - e in um, the normalised
 // spectra times b k_m and b (the same run, the same samples).
 TEST(Cli, ATrainsSpectraAreInPhysicalUnitsWhenAsked) {
-  const std::string file = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string file = case_path("two_stage_reducer.toml");
   const fs::path bar = fresh("spectra_bar"), si = fresh("spectra_si");
   ASSERT_EQ(
       cli("run " + file + " --set solver.duration_s=0.02 --out " + bar.string() + " --plot").code,
@@ -334,14 +336,14 @@ std::vector<BadInput> bad_inputs(const fs::path& d) {
        {"--from 100 of speed.shaft_frequency_hz: solver.time_step_s = 1e-15: a point runs up "
         "to 210 system periods",
         "Newmark steps", "at most 1e+10"}},
-      {"sweep " + std::string(GEARDYN_SOURCE_DIR) +
-           "/cases/two_stage_reducer.toml --param train.reference_speed_hz --from 100 --to 110 "
+      {"sweep " + case_path("two_stage_reducer.toml") +
+           " --param train.reference_speed_hz --from 100 --to 110 "
            "--points 2 --set solver.method=newmark --set solver.time_step_s=1e-15" +
            out,
        2,
        {"solver.time_step_s = 1e-15: a point runs up to", "Newmark steps", "at most 1e+10"}},
-      {"run " + std::string(GEARDYN_SOURCE_DIR) +
-           "/cases/two_stage_reducer.toml --set solver.method=newmark --set "
+      {"run " + case_path("two_stage_reducer.toml") +
+           " --set solver.method=newmark --set "
            "solver.time_step_s=1e-300" +
            out,
        2,
@@ -735,10 +737,10 @@ TEST(Cli, EveryWritingCommandKeepsTheUsersFilesAndWritesIntoTheCurrentFolder) {
   // The issue's reproducer, for every command that writes: an output folder that holds the
   // user's files, written twice (the second run replaces our files), then as `--out .`.
   const std::string nd = "--set model.form=nondimensional ";
-  const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
-  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
-  const std::string idler = std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml";
-  const std::string loose = std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml";
+  const std::string coupled = case_path("park2010_coupled.toml");
+  const std::string reducer = case_path("two_stage_reducer.toml");
+  const std::string idler = case_path("idler_train.toml");
+  const std::string loose = case_path("loose_gear_rattle.toml");
   const std::vector<std::pair<std::string, std::string>> commands = {
       {"run --set solver.duration_s=0.005 --plot", "run_time.png"},
       {"run " + coupled + " --set solver.duration_s=0.002 --plot", "train_time.png"},
@@ -803,7 +805,7 @@ TEST(Cli, AFileOfTheUsersUnderOneOfOurNamesStopsTheCommandBeforeItsWork) {
   // A file the command would write, but the user's (never written by geardyn there): exit 2
   // before any work, naming the file, and the folder as it was, no manifest added. The same
   // file once the user changed it after geardyn wrote it.
-  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string reducer = case_path("two_stage_reducer.toml");
   const std::vector<std::pair<std::string, std::string>> commands = {
       {"run --set solver.duration_s=0.002", "events.csv"},
       {"run " + reducer + " --set solver.duration_s=0.002", "timeseries.csv"},
@@ -939,8 +941,7 @@ TEST(Cli, ASettingTheMethodDoesNotUseIsReported) {
   for (const char* file : {"park2010.toml", "park2010_coupled.toml", "kahraman_singh.toml",
                            "two_stage_reducer.toml", "idler_train.toml", "loose_gear_rattle.toml",
                            "lin_parker_1999.toml", "planetary_set.toml"}) {
-    const Outcome shipped = cli("run " + std::string(GEARDYN_SOURCE_DIR) + "/cases/" + file +
-                                " --set solver.duration_s=0.001");
+    const Outcome shipped = cli("run " + case_path(file) + " --set solver.duration_s=0.001");
     EXPECT_EQ(shipped.err.find("not used"), std::string::npos) << file << shipped.err;
   }
   fs::remove_all(d);
@@ -975,7 +976,7 @@ TEST(Cli, SweepRejectsABadKey) {
 // A key the case does not read, in each study that varies one: refused, exit 2, nothing
 // written (a train's sweep of [speed] once ran 400 identical points and said nothing).
 TEST(Cli, AStudyOfAKeyTheCaseDoesNotReadIsRefused) {
-  const std::string train = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string train = case_path("two_stage_reducer.toml");
   const fs::path d = fresh("unread_key");
   expect_refused(
       cli("sweep " + train +
@@ -1042,7 +1043,7 @@ TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
   // found on its train (train_form_of) as every train's orbit: its JSON a train's, the unknowns
   // the 11 coordinates and rates modulo the rigid rotation (22 multipliers, as the coupled
   // model's), the state every body's (24); a --state of the wrong size is named.
-  const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
+  const std::string coupled = case_path("park2010_coupled.toml");
   const Outcome o = cli("orbit " + coupled + " --json");
   ASSERT_EQ(o.code, 0) << o.err;
   const nlohmann::json j = nlohmann::json::parse(o.out);
@@ -1084,7 +1085,7 @@ TEST(Cli, TheCoupledModelsOrbitIsFoundAndReported) {
 }
 
 TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
-  const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
+  const std::string coupled = case_path("park2010_coupled.toml");
   // Its modes are its train's (train_form_of; the coupled model's to 1e-9 beside the rigid
   // rotation: TrainCase.TheCoupledFormsTrainHasTheCoupledPairsModesAndCoordinates): 12 at dof
   // 12, the first the rigid rotation at 0 Hz. Each elastic mode's strain energy is whole over
@@ -1197,9 +1198,8 @@ TEST(Cli, TheCoupledModelRunsAndPrintsItsModes) {
             0);
   EXPECT_EQ(slurp(d / "train_time_body.gp").find("axial"), std::string::npos);
   fs::remove_all(d);
-  const Outcome one =
-      cli("run " + std::string(GEARDYN_SOURCE_DIR) +
-          "/cases/park2010.toml --set 'shafts.end_inertia_kg_m2=[0.1, 0]' --out " + d.string());
+  const Outcome one = cli("run " + case_path("park2010.toml") +
+                          " --set 'shafts.end_inertia_kg_m2=[0.1, 0]' --out " + d.string());
   EXPECT_NE(one.code, 0);
   EXPECT_NE(one.err.find("shafts.end_inertia_kg_m2[0] = 0.1"), std::string::npos) << one.err;
   EXPECT_NE(one.err.find("model.form = \"coupled\""), std::string::npos) << one.err;
@@ -1265,7 +1265,7 @@ namespace {
 TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
   // The two-stage reducer: one reading per mesh by name in summary.json, every mesh's columns
   // in timeseries.csv, and case.toml that runs to the same readings.
-  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string reducer = case_path("two_stage_reducer.toml");
   const fs::path d = users_folder("train_run");
   const Outcome o =
       cli("run " + reducer + " --set solver.duration_s=0.01 --plot --out " + d.string());
@@ -1441,7 +1441,7 @@ torque_nm = 49.5
   std::ofstream train_file(d / "t.toml");
   train_file << text;
   train_file.close();
-  const std::string shipped = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010.toml";
+  const std::string shipped = case_path("park2010.toml");
   // Every number of the two JSON documents within `rel` of each other, but those `skip` names.
   const std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)>
       expect_same = [&](const nlohmann::json& a, const nlohmann::json& b, const std::string& at) {
@@ -1486,7 +1486,7 @@ torque_nm = 49.5
               k_iso, 1e-10 * k_iso);
   // The shipped reducer's second stage, its files written; a mesh it has not, a name given to a
   // pair and an internal mesh are refused.
-  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string reducer = case_path("two_stage_reducer.toml");
   const Outcome stage2 =
       cli("stiffness " + reducer + " --mesh stage2 --out " + (d / "stage2").string());
   ASSERT_EQ(stage2.code, 0) << stage2.err;
@@ -1499,7 +1499,7 @@ torque_nm = 49.5
                  "stage2");
   expect_refused(cli("geometry " + shipped + " --mesh m"),
                  "--mesh = \"m\": names a gear train's mesh");
-  const std::string planetary = std::string(GEARDYN_SOURCE_DIR) + "/cases/lin_parker_1999.toml";
+  const std::string planetary = case_path("lin_parker_1999.toml");
   const Outcome ring = cli("geometry " + planetary + " --mesh planet_ring2");
   EXPECT_EQ(ring.code, 2) << ring.err;
   EXPECT_NE(ring.err.find("is internal: the gear pair of a mesh is an external one"),
@@ -1508,7 +1508,7 @@ torque_nm = 49.5
 }
 
 TEST(Cli, ATrainsModesAndTheFormsThePapersStudyRefuses) {
-  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string reducer = case_path("two_stage_reducer.toml");
   const Outcome m = cli("modes " + reducer + " --json");
   ASSERT_EQ(m.code, 0) << m.err;
   const nlohmann::json j = nlohmann::json::parse(m.out);
@@ -1529,7 +1529,7 @@ TEST(Cli, ATrainsModesAndTheFormsThePapersStudyRefuses) {
   // `reproduce park2010` is the paper's study of its dimensional pair: every other form is
   // refused before a case runs, its form and where it was set named, nothing written (the
   // non-dimensional form ran all 11 cases alike, its panels' keys unread).
-  const std::string cases_dir = std::string(GEARDYN_SOURCE_DIR) + "/cases/";
+  const std::string cases_dir = case_path("");
   for (const auto& [file, form, why] :
        {std::tuple{reducer, "train", "spreads them over its elements"},
         std::tuple{cases_dir + "kahraman_singh.toml", "nondimensional", "reads none of them"},
@@ -1569,7 +1569,7 @@ TEST(Cli, ATrainsSweepReadsEveryMeshAndNamesTheOneItReads) {
   // across the rattle onset (about 241 rad/s^2): the terminal names the meshes and the one
   // read, sweep.csv has its columns, the figure of every mesh is drawn; a mesh that is not
   // there is refused before any work, exit 2, nothing written.
-  const std::string loose = std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml";
+  const std::string loose = case_path("loose_gear_rattle.toml");
   const std::string args = "sweep " + loose +
                            " --param 'train.speed[0].acceleration_harmonics[0][0]' --from 200 "
                            "--to 300 --points 3 --direction up";
@@ -1605,7 +1605,7 @@ TEST(Cli, ATrainsSweepReadsEveryMeshAndNamesTheOneItReads) {
 TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
   // `geardyn orbit` of a train with a prescribed speed: its JSON as every orbit's, with the
   // meshes' impacts per period; a train that turns freely is taken modulo its rotation.
-  const std::string loose = std::string(GEARDYN_SOURCE_DIR) + "/cases/loose_gear_rattle.toml";
+  const std::string loose = case_path("loose_gear_rattle.toml");
   const Outcome o = cli("orbit " + loose +
                         " --set 'train.speed[0].acceleration_harmonics=[[290, 2, 0]]' "
                         "--segments 4 --settle-periods 200 --json");
@@ -1645,8 +1645,7 @@ TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
   // the count is the case's to check.
   std::string thirty;
   for (int k = 0; k < 30; ++k) thirty += " 0";
-  const Outcome many = cli("orbit " + std::string(GEARDYN_SOURCE_DIR) +
-                           "/cases/planetary_set.toml --state" + thirty);
+  const Outcome many = cli("orbit " + case_path("planetary_set.toml") + " --state" + thirty);
   EXPECT_EQ(many.code, 2);
   EXPECT_NE(many.err.find("--state: 30 values given; this train takes 34"), std::string::npos)
       << many.err;
@@ -1654,8 +1653,7 @@ TEST(Cli, ALooseGearsOrbitFromTheCommandLine) {
   EXPECT_EQ(one.code, 2);
   EXPECT_NE(one.err.find("--state: 1 value given; this train takes 2"), std::string::npos)
       << one.err;
-  const Outcome free =
-      cli("orbit " + std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml --json");
+  const Outcome free = cli("orbit " + case_path("idler_train.toml") + " --json");
   ASSERT_EQ(free.code, 0) << free.err;
   const nlohmann::json f = nlohmann::json::parse(free.out);
   EXPECT_TRUE(f["modulo_rotation"].get<bool>());
@@ -1668,7 +1666,7 @@ TEST(Cli, ATrainsStabilityChartFromTheCommandLine) {
   // `geardyn stability` of a train over an element's key (stability_test checks the numbers):
   // its table and figure beside a file of the user's, and a key of no element refused with
   // exit 2 before anything is written.
-  const std::string idler = std::string(GEARDYN_SOURCE_DIR) + "/cases/idler_train.toml";
+  const std::string idler = case_path("idler_train.toml");
   const fs::path d = fresh("train_stability");
   fs::create_directories(d);
   std::ofstream(d / "notes.txt") << "mine";
@@ -1700,7 +1698,7 @@ TEST(Cli, TheShippedPlanetarySetIsLinAndParkersForThreeFourAndFivePlanets) {
   // cases/lin_parker_1999.toml's modes: three planets as written, four and five by one key,
   // each with Table 2's planet modes (validation.cpp's planetary_lin_parker compares every
   // frequency); the planets written once are copied, each mesh and pin named by its copy.
-  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/lin_parker_1999.toml";
+  const std::string set = case_path("lin_parker_1999.toml");
   for (const int planets : {3, 4, 5}) {
     SCOPED_TRACE(planets);
     const Outcome o = cli(fmt::format("modes {} --json --set train.planets={}", set, planets));
@@ -1736,7 +1734,7 @@ TEST(Cli, TheShippedPlanetaryStageRattlesAtLightLoadAndSharesItsLoad) {
   // cases/planetary_set.toml at the light load and transmission error its comment gives: the
   // planets rattle (their meshes separate in the steady part); its summary's load sharing, and
   // a file of the user's kept beside ours.
-  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/planetary_set.toml";
+  const std::string set = case_path("planetary_set.toml");
   const fs::path d = fresh("planetary");
   fs::create_directories(d);
   std::ofstream(d / "notes.txt") << "mine";
@@ -1793,7 +1791,7 @@ TEST(Cli, APlanetarySweepReadsItsLoadSharingPerPoint) {
   // The shipped stage with one pin 20 um off, swept in speed: the terminal gives each group's
   // factor over the points, sweep.csv two columns per group, summary.json the groups, and the
   // mesh figure a panel of the factor drawn from its columns.
-  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/planetary_set.toml";
+  const std::string set = case_path("planetary_set.toml");
   const fs::path d = fresh("planetary_sweep");
   const Outcome o = cli("sweep " + set +
                         " --param train.reference_speed_hz --from 10 --to 20 --points 2 "
@@ -1844,7 +1842,7 @@ TEST(Cli, APlanetarySetInItsTurningFrameWhirlsAndDrawsItsModesAgainstSpeed) {
   // imaginary part, the first translational pair split; the Campbell diagram reads the modes at
   // 49 speeds from 0 (at 0, the modes at rest: the pair one frequency) and draws each as a
   // curve.
-  const std::string lp = std::string(GEARDYN_SOURCE_DIR) + "/cases/lin_parker_1999.toml";
+  const std::string lp = case_path("lin_parker_1999.toml");
   const fs::path d = fresh("frame_terms");
   const Outcome o =
       cli("modes " + lp +
@@ -1882,7 +1880,7 @@ TEST(Cli, ASpatialWheelCarriesItsHelixsThrustAndMomentOnItsBearing) {
   // the wheel's centre at its base radius, R_b sin(beta_b) F (the paper's geometry: 61 teeth,
   // m_n 1.75 mm, beta 25 deg, alpha_n 20 deg); the run reads them over time, timeseries.csv
   // and modes.json name the new coordinates.
-  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string set = case_path("two_stage_reducer.toml");
   const std::string spatial =
       " --set 'train.body[2].dof=\"spatial\"' --set 'train.bearing=[{name=\"wheel1_bearing\", "
       "body=\"wheel1\", stiffness_n_per_m=5e8, axial_stiffness_n_per_m=2e8, "
@@ -1932,7 +1930,7 @@ TEST(Cli, TrainFormPrintsACoupledCaseAsATrainThatRunsAsIt) {
   // file and run, its mesh reads as the coupled case's run (which builds the same train in
   // memory: the printed numbers lose nothing that shows; impacts, dynamic factor to 1e-6). A form
   // the train does not model is refused naming its key, exit 2, nothing printed.
-  const std::string coupled = std::string(GEARDYN_SOURCE_DIR) + "/cases/park2010_coupled.toml";
+  const std::string coupled = case_path("park2010_coupled.toml");
   const std::string shorter = " --set solver.duration_s=0.02";
   const Outcome form = cli("train-form " + coupled + shorter);
   ASSERT_EQ(form.code, 0) << form.err;
@@ -1960,7 +1958,7 @@ TEST(Cli, TrainFormPrintsACoupledCaseAsATrainThatRunsAsIt) {
   expect_refused(bad, "--set model.dof=5: model.dof = 5: must be 3, 6 or 12");
   EXPECT_EQ(bad.out, "");
   // A train that cannot be built is refused as a run refuses it, never printed back.
-  const std::string reducer = std::string(GEARDYN_SOURCE_DIR) + "/cases/two_stage_reducer.toml";
+  const std::string reducer = case_path("two_stage_reducer.toml");
   const Outcome nobody = cli("train-form " + reducer + " --set 'train.mesh[1].driven=\"wheel\"'");
   expect_refused(nobody, "mesh 'stage2': driven = \"wheel\": no body of that name");
   EXPECT_EQ(nobody.out, "");
@@ -1971,7 +1969,7 @@ TEST(Cli, ASunStrikesItsBearingsClearanceUnderItsRunout) {
   // runout: its centre strikes the clearance's edges, in x and in y; summary.json counts each
   // direction's impacts and time inside, the terminal says it; a negative clearance is refused
   // naming its key, exit 2, nothing written.
-  const std::string set = std::string(GEARDYN_SOURCE_DIR) + "/cases/planetary_set.toml";
+  const std::string set = case_path("planetary_set.toml");
   const fs::path d = fresh("clearance");
   const std::string args = "run " + set +
                            " --set solver.duration_s=0.02 --set train.body[0].eccentricity_um=5 "
@@ -2021,8 +2019,7 @@ TEST(Cli, TheLooseGearRattles) {
   // The shipped loose-gear case is above its onset of rattle: the loose gear leaves its flank
   // and strikes again in every period of the engine's firing order.
   const fs::path d = fresh("rattle");
-  const Outcome o = cli("run " + std::string(GEARDYN_SOURCE_DIR) +
-                        "/cases/loose_gear_rattle.toml --out " + d.string());
+  const Outcome o = cli("run " + case_path("loose_gear_rattle.toml") + " --out " + d.string());
   ASSERT_EQ(o.code, 0) << o.err;
   const nlohmann::json j = nlohmann::json::parse(slurp(d / "summary.json"))["meshes"][0];
   EXPECT_EQ(j["regime"], "sustained");
@@ -2173,9 +2170,8 @@ namespace {
 // (gnuplot failed on it, exit 3, when every shipped case's figures were first drawn).
 TEST(Cli, AnUnloadedPlanetarySetsFiguresSayItHasNoLoadSharingFactor) {
   const fs::path d = fresh("unloaded_planetary");
-  const Outcome o =
-      cli("run " + std::string(GEARDYN_SOURCE_DIR) +
-          "/cases/lin_parker_1999.toml --set solver.duration_s=0.01 --plot --out " + d.string());
+  const Outcome o = cli("run " + case_path("lin_parker_1999.toml") +
+                        " --set solver.duration_s=0.01 --plot --out " + d.string());
   ASSERT_EQ(o.code, 0) << o.err;
   EXPECT_TRUE(fs::exists(d / "load_sharing.png"));
   const std::string body = slurp(d / "load_sharing_body.gp");
