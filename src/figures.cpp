@@ -4,8 +4,12 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "geardyn/output.hpp"
 #include "geardyn/stiffness.hpp"
@@ -134,6 +138,43 @@ std::string decimated_csv(const std::string& header, std::size_t n,
   return out;
 }
 
+std::string log_decimated_csv(const std::string& header, const std::vector<double>& f, double x_min,
+                              double x_max,
+                              const std::function<std::vector<double>(std::size_t)>& columns) {
+  std::string out = header + "\n";
+  const auto row = [&](double x, const std::vector<double>& v) {
+    fmt::format_to(std::back_inserter(out), "{:.10g}", x);
+    for (double y : v) fmt::format_to(std::back_inserter(out), ",{:.6e}", y);
+    out += "\n";
+  };
+  const double span = std::log(x_max / x_min);
+  const auto bin = [&](double x) {
+    return static_cast<long>(std::floor(kSpectrumPlotBins * std::log(x / x_min) / span));
+  };
+  std::size_t k = 0;
+  while (k < f.size() && f[k] < x_min) ++k;
+  while (k < f.size() && f[k] <= x_max) {
+    std::size_t end = k + 1;
+    while (end < f.size() && f[end] <= x_max && bin(f[end]) == bin(f[k])) ++end;
+    if (end - k <= 2) {
+      for (; k < end; ++k) row(f[k], columns(k));
+      continue;
+    }
+    std::vector<double> low = columns(k), high = low;
+    for (std::size_t i = k + 1; i < end; ++i) {
+      const std::vector<double> v = columns(i);
+      for (std::size_t c = 0; c < v.size(); ++c) {
+        low[c] = std::min(low[c], v[c]);
+        high[c] = std::max(high[c], v[c]);
+      }
+    }
+    row(f[k], low);
+    row(f[end - 1], high);
+    k = end;
+  }
+  return out;
+}
+
 std::string contact_intervals_csv(const RunResult& r) {
   std::string out = "t_start_s,t_end_s,contact\n";
   if (r.samples.size() == 0) return out;
@@ -190,37 +231,50 @@ void render_figure(const fs::path& dir, const std::string& name, const std::stri
   // The figure's four files are one set: drawn in its staging folder (gnuplot runs in `dir`,
   // where the data are), and put in place together only when gnuplot succeeded.
   OutputSet set(dir);
-  const auto runner = [&](const std::string& prefix) {
+  // The script a user runs draws both formats; here each format is drawn by its own gnuplot,
+  // the two at once (the SVG takes as long as the PNG).
+  const auto terminal = [&](const std::string& format, const std::string& prefix) {
     return fmt::format(
-        "# Draws {0}.png and {0}.svg; the figure itself is in {0}_body.gp.\n"
-        "set terminal pngcairo size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
-        "set output '{3}{0}.png'\nload '{3}{0}_body.gp'\nset output\n"
-        "set terminal svg size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
-        "set output '{3}{0}.svg'\nload '{3}{0}_body.gp'\nset output\n",
-        name, width_px, height_px, prefix);
+        "set terminal {4} size {1},{2} font 'DejaVu Sans,10' noenhanced\n"
+        "set output '{3}{0}.{5}'\nload '{3}{0}_body.gp'\nset output\n",
+        name, width_px, height_px, prefix, format == "png" ? "pngcairo" : "svg", format);
   };
   set.write(name + "_body.gp", body);
-  set.write(name + ".gp", runner(""));
+  set.write(name + ".gp", fmt::format("# Draws {0}.png and {0}.svg; the figure itself is in "
+                                      "{0}_body.gp.\n{1}{2}",
+                                      name, terminal("png", ""), terminal("svg", "")));
   const std::string drawing = set.staging().filename().string() + "/";
-  const fs::path draw_script = set.staging() / ".draw.gp";
-  {
-    std::ofstream out(draw_script, std::ios::binary);
-    out << runner(drawing);
-    if (!out) throw FigureError(fmt::format("{}: cannot write", draw_script.string()));
+  std::vector<fs::path> scripts;
+  for (const std::string format : {"png", "svg"}) {
+    scripts.push_back(set.staging() / (".draw_" + format + ".gp"));
+    std::ofstream out(scripts.back(), std::ios::binary);
+    out << terminal(format, drawing);
+    if (!out) throw FigureError(fmt::format("{}: cannot write", scripts.back().string()));
   }
-  const std::string cmd = fmt::format("cd {} && gnuplot {} 2>&1", shell_quote(dir.string()),
-                                      shell_quote(drawing + ".draw.gp"));
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) throw FigureError("cannot start gnuplot");
-  std::string output;
-  char buffer[512];
-  while (std::fgets(buffer, sizeof buffer, pipe)) output += buffer;
-  const int status = pclose(pipe);
-  if (status != 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+  std::vector<std::pair<FILE*, fs::path>> runs;
+  for (const fs::path& draw_script : scripts) {
+    const std::string cmd = fmt::format("cd {} && gnuplot {} 2>&1", shell_quote(dir.string()),
+                                        shell_quote(drawing + draw_script.filename().string()));
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) {
+      for (auto& [started, unused] : runs) pclose(started);
+      throw FigureError("cannot start gnuplot");
+    }
+    runs.emplace_back(pipe, draw_script);
+  }
+  std::string failures;
+  for (auto& [pipe, draw_script] : runs) {
+    std::string output;
+    char buffer[512];
+    while (std::fgets(buffer, sizeof buffer, pipe)) output += buffer;
+    const int status = pclose(pipe);
+    if (status != 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) failures += output;
+    std::error_code ec;
+    fs::remove(draw_script, ec);
+  }
+  if (!failures.empty())
     throw FigureError(
-        fmt::format("gnuplot failed on {}: {}", (dir / (name + ".gp")).string(), output));
-  std::error_code ec;
-  fs::remove(draw_script, ec);
+        fmt::format("gnuplot failed on {}: {}", (dir / (name + ".gp")).string(), failures));
   set.commit();
 }
 

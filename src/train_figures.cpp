@@ -27,7 +27,7 @@ constexpr int kCampbellSpeeds = 48;
 constexpr double kCampbellSpeedSpan = 1.5;
 // Samples of each part a phase portrait draws at most, consecutive: a steady orbit of many
 // periods drawn once over.
-constexpr std::size_t kMaxPhasePoints = 20000;
+constexpr std::size_t kMaxPhasePoints = 5000;
 // Distinct colours for the meshes, in turn.
 constexpr const char* kColours[] = {"#1f4e9c", "#c0392b", "#2e8b57",
                                     "#8e44ad", "#d35400", "#16a085"};
@@ -133,28 +133,38 @@ void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r, b
   for (std::size_t m = 0; m < r.meshes.size(); ++m) spectra.push_back(mesh_spectra(r, m));
   if (spectra.empty() || spectra[0].force_n.frequency_hz.size() < 2) return;
   const std::vector<double>& f = spectra[0].force_n.frequency_hz;
-  std::string csv = "frequency_hz";
+  std::string header = "frequency_hz";
   for (const TrainMeshReading& m : r.meshes)
-    csv += physical ? fmt::format(",{0}_force_n,{0}_deflection_um", m.name)
-                    : fmt::format(",{0}_force_bar,{0}_deflection_bar", m.name);
-  csv += "\n";
-  for (std::size_t k = 0; k < f.size(); ++k) {
-    fmt::format_to(std::back_inserter(csv), "{:.10g}", f[k]);
+    header += physical ? fmt::format(",{0}_force_n,{0}_deflection_um", m.name)
+                       : fmt::format(",{0}_force_bar,{0}_deflection_bar", m.name);
+  // Each row's columns after the frequency: each mesh's F in N or over b k_m, and its d - e
+  // over b or in um.
+  const auto columns = [&](std::size_t k) {
+    std::vector<double> v;
     for (std::size_t m = 0; m < r.meshes.size(); ++m) {
       const TrainMeshReading& x = r.meshes[m];
-      // F in N or over b k_m; d - e over b, or in um.
       const double force = spectra[m].force_n.amplitude[k],
                    deflection = spectra[m].deflection_bar.amplitude[k];
-      fmt::format_to(std::back_inserter(csv), ",{:.6e},{:.6e}",
-                     physical ? force : force / (x.backlash_m * x.mean_stiffness_n_per_m),
-                     physical ? deflection * x.backlash_m * 1e6 : deflection);
+      v.push_back(physical ? force : force / (x.backlash_m * x.mean_stiffness_n_per_m));
+      v.push_back(physical ? deflection * x.backlash_m * 1e6 : deflection);
     }
-    csv += "\n";
-  }
-  write_files_atomically(dir, {{"train_spectrum.csv", [&](std::ostream& o) { o << csv; }}});
+    return v;
+  };
   double top = 0;
   for (const TrainMeshReading& m : r.meshes) top = std::max(top, m.mesh_frequency_hz);
   const double x_min = f[1], x_max = std::min(f.back(), 4.0 * std::max(top, f[1]));
+  write_files_atomically(dir, {{"train_spectrum.csv",
+                                [&](std::ostream& o) {
+                                  o << header;
+                                  for (std::size_t k = 0; k < f.size(); ++k) {
+                                    o << fmt::format("\n{:.10g}", f[k]);
+                                    for (double v : columns(k)) o << fmt::format(",{:.6e}", v);
+                                  }
+                                  o << "\n";
+                                }},
+                               {"train_spectrum_plot.csv", [&](std::ostream& o) {
+                                  o << log_decimated_csv(header, f, x_min, x_max, columns);
+                                }}});
   std::string g =
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set logscale xy\nset key bottom left font ',9' opaque\n";
@@ -180,17 +190,17 @@ void write_train_spectrum_figure(const fs::path& dir, const TrainRunResult& r, b
     }
     // Its columns: the force, then the deflection.
     const std::size_t force = 2 + 2 * m, deflection = force + 1;
-    fmt::format_to(
-        std::back_inserter(g),
-        "unset arrow\n{0}set title \"mesh {1} ({2:.6g} Hz)\" font ',10'\n{3}"
-        "plot 'train_spectrum.csv' using 1:((${4}>0)?${4}:NaN) skip 1 with lines lw 1.2 lc rgb "
-        "'{6}' title '{7}', '' using 1:((${5}>0)?${5}:NaN) skip 1 with lines lw 1 lc "
-        "rgb 'gray40' title '{8}', NaN with lines dt 2 lc rgb 'gray40' title 'mesh "
-        "orders i f_z'\n",
-        marks, quoted(x.name), x.mesh_frequency_hz,
-        m + 1 == r.meshes.size() ? "set xlabel 'frequency (Hz)'\n" : "unset xlabel\n", force,
-        deflection, colour(m), physical ? "F (N)" : "F / (b k_m)",
-        physical ? "d − e (um)" : "(d − e) / b");
+    fmt::format_to(std::back_inserter(g),
+                   "unset arrow\n{0}set title \"mesh {1} ({2:.6g} Hz)\" font ',10'\n{3}"
+                   "plot 'train_spectrum_plot.csv' using 1:((${4}>0)?${4}:NaN) skip 1 with lines "
+                   "lw 1.2 lc rgb "
+                   "'{6}' title '{7}', '' using 1:((${5}>0)?${5}:NaN) skip 1 with lines lw 1 lc "
+                   "rgb 'gray40' title '{8}', NaN with lines dt 2 lc rgb 'gray40' title 'mesh "
+                   "orders i f_z'\n",
+                   marks, quoted(x.name), x.mesh_frequency_hz,
+                   m + 1 == r.meshes.size() ? "set xlabel 'frequency (Hz)'\n" : "unset xlabel\n",
+                   force, deflection, colour(m), physical ? "F (N)" : "F / (b k_m)",
+                   physical ? "d − e (um)" : "(d − e) / b");
   }
   g += "unset multiplot\n";
   render_figure(dir, "train_spectrum", g, 1000,

@@ -1307,7 +1307,7 @@ TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
   EXPECT_EQ(j["form"], "train");
   // The phase portraits: a panel per mesh, each drawing train_phase.csv's columns of its own
   // (d - e) / b against its own d' - e': the run's first samples, then the steady part's last
-  // ones, each as timeseries.csv has them, at most 20000 of each.
+  // ones, each as timeseries.csv has them, at most 5000 of each.
   const CsvTable series = read_csv(d / "timeseries.csv");
   std::size_t steady_row = 0;
   while (std::stod(series.rows[steady_row][0]) < j["steady"]["from_s"].get<double>()) ++steady_row;
@@ -1324,8 +1324,8 @@ TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
       static_cast<std::size_t>(std::count(phase_csv.begin() + static_cast<std::ptrdiff_t>(gap) + 2,
                                           phase_csv.end(), '\n')) -
       1;
-  EXPECT_EQ(first_rows, std::min<std::size_t>(series.rows.size(), 20000));
-  EXPECT_EQ(last_rows, std::min<std::size_t>(series.rows.size() - steady_row, 20000));
+  EXPECT_EQ(first_rows, std::min<std::size_t>(series.rows.size(), 5000));
+  EXPECT_EQ(last_rows, std::min<std::size_t>(series.rows.size() - steady_row, 5000));
   // Its last row is timeseries.csv's, column by column.
   const std::string tail = phase_csv.substr(phase_csv.rfind('\n', phase_csv.size() - 2) + 1);
   for (const std::string mesh : {"stage1", "stage2"}) {

@@ -5,10 +5,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
+#include <vector>
 
 #include "geardyn/output.hpp"
 
@@ -169,6 +172,62 @@ TEST(PlotCsv, DecimatesToTheEnvelope) {
   EXPECT_LE(count, kMaxPlotPoints);
   EXPECT_EQ(fmax, 9.0);  // a one-sample spike survives
   EXPECT_NEAR(dmin, *std::min_element(s.delta_bar.begin(), s.delta_bar.end()), 1e-7);
+}
+
+// A spectrum of 20000 lines on a log axis: the figure's rows are those in the axis's range,
+// about two per bin of log f, and every bin's peak and trough survive in each column, however
+// narrow (one-line peaks at 1234.5 Hz in the first column and 3000 Hz in the second).
+TEST(LogDecimatedCsv, KeepsEveryBinsPeakAndTroughInTheAxisRange) {
+  std::vector<double> f;
+  for (int k = 0; k < 20000; ++k) f.push_back(0.25 * k);
+  const auto columns = [&](std::size_t k) {
+    const double a = f[k] == 1234.5 ? 7.0 : 1.0 / (1.0 + f[k]) * (1.0 + 0.5 * std::sin(0.9 * k));
+    const double b = f[k] == 3000.0 ? 5.0 : 1e-3 * (1.0 + 0.5 * std::cos(1.3 * k));
+    return std::vector<double>{a, b};
+  };
+  const double x_min = 0.25, x_max = 4000;
+  std::istringstream rows(log_decimated_csv("frequency_hz,a,b", f, x_min, x_max, columns));
+  std::string row;
+  std::getline(rows, row);
+  EXPECT_EQ(row, "frequency_hz,a,b");
+  std::vector<std::array<double, 3>> drawn;
+  while (std::getline(rows, row)) {
+    std::array<double, 3> v{};
+    ASSERT_EQ(std::sscanf(row.c_str(), "%lf,%lf,%lf", &v[0], &v[1], &v[2]), 3) << row;
+    drawn.push_back(v);
+  }
+  EXPECT_LE(drawn.size(), 2 * static_cast<std::size_t>(kSpectrumPlotBins) + 2);
+  EXPECT_GT(drawn.size(), static_cast<std::size_t>(kSpectrumPlotBins) / 2);
+  EXPECT_EQ(drawn.front()[0], x_min);
+  EXPECT_LE(drawn.back()[0], x_max);
+  EXPECT_GT(drawn.back()[0], x_max - 1);
+  // Each bin of the full spectrum: its largest and smallest value of each column drawn at a
+  // frequency inside the bin.
+  const double span = std::log(x_max / x_min);
+  const auto bin = [&](double x) {
+    return static_cast<long>(std::floor(kSpectrumPlotBins * std::log(x / x_min) / span));
+  };
+  std::map<long, std::array<double, 4>> full, kept;  // max a, min a, max b, min b
+  const auto add = [](std::map<long, std::array<double, 4>>& m, long key, double a, double b) {
+    auto [it, fresh] = m.try_emplace(key, std::array<double, 4>{a, a, b, b});
+    if (fresh) return;
+    it->second = {std::max(it->second[0], a), std::min(it->second[1], a),
+                  std::max(it->second[2], b), std::min(it->second[3], b)};
+  };
+  for (std::size_t k = 0; k < f.size(); ++k)
+    if (f[k] >= x_min && f[k] <= x_max) add(full, bin(f[k]), columns(k)[0], columns(k)[1]);
+  for (const auto& v : drawn) add(kept, bin(v[0]), v[1], v[2]);
+  ASSERT_EQ(kept.size(), full.size());
+  for (const auto& [key, v] : full)
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(kept[key][i], v[i], 1e-6 * std::abs(v[i])) << key;
+  EXPECT_EQ(std::max_element(drawn.begin(), drawn.end(),
+                             [](const auto& p, const auto& q) { return p[1] < q[1]; })
+                ->at(1),
+            7.0);
+  EXPECT_EQ(std::max_element(drawn.begin(), drawn.end(),
+                             [](const auto& p, const auto& q) { return p[2] < q[2]; })
+                ->at(2),
+            5.0);
 }
 
 TEST(RenderFigure, ReportsAGnuplotFailure) {

@@ -38,6 +38,19 @@ std::string decimated_csv(const std::string& header, std::size_t n,
                           const std::function<double(std::size_t)>& t_ms,
                           const std::function<std::vector<double>(std::size_t)>& columns);
 
+// Equal bins of log f a spectrum figure's axis is cut into, beyond which its rows are reduced
+// to each bin's minima and maxima: about a bin per pixel column of a 1000-pixel panel.
+constexpr double kSpectrumPlotBins = 1000;
+
+// The rows a log-frequency figure draws, `header` first: those of f (ascending) in
+// [x_min, x_max] (0 < x_min < x_max), each f[k] with its columns(k); where more than two fall
+// in one of kSpectrumPlotBins equal bins of log f, the bin's minima and its maxima column by
+// column instead, at its first and last frequency, so that the drawn envelope (every peak) is
+// the full spectrum's.
+std::string log_decimated_csv(const std::string& header, const std::vector<double>& f, double x_min,
+                              double x_max,
+                              const std::function<std::vector<double>(std::size_t)>& columns);
+
 // One panel row of a time-history figure: delta_bar and F_bar of one run.
 struct TimeHistoryPanel {
   std::string title;     // e.g. "(a) f_1 = 10 Hz"
