@@ -19,8 +19,18 @@ mkdir "$work/src"
 tar -C "$src" --exclude=./build --exclude=./out --exclude=./results --exclude=./.git \
   --exclude='*.egg-info' -cf - . | tar -C "$work/src" -xf -
 /usr/bin/python3 -m venv --system-site-packages "$work/venv"
-PIP_NO_INDEX=1 CMAKE_BUILD_PARALLEL_LEVEL=2 \
+# pip's build goes to a cache outside the sources (here the test's own, removed with it).
+before="$(cd "$work/src" && find . | sort)"
+XDG_CACHE_HOME="$work/cache" PIP_NO_INDEX=1 CMAKE_BUILD_PARALLEL_LEVEL=2 \
   "$work/venv/bin/pip" install --no-build-isolation -q "$work/src"
+# The folder installed from is left as it was, but for setuptools' metadata (*.egg-info).
+after="$(cd "$work/src" && find . -not -path '*.egg-info*' | sort)"
+if [[ "$before" != "$after" ]]; then
+  echo "pip install wrote into the folder it installs from:"
+  diff <(echo "$before") <(echo "$after") || true
+  exit 1
+fi
+test -d "$work/cache/geardyn"
 cd "$work"
 "$work/venv/bin/python" - "$work/venv" <<'PY'
 import importlib.metadata
