@@ -64,11 +64,17 @@ double involute_fn(double a) { return std::tan(a) - a; }
 struct Tooth {
   double rb, rf, psi_b, e, g;
   double theta_f, sf, h_fi;
+  // A ring gear's tooth: its flanks concave (the involute of its tooth space), the tooth
+  // thickening outwards to its root circle rf outside the contact, all of it above the base
+  // circle; psi_b is then the half angle its flank's involute would have at the base circle.
+  bool ring = false;
 
   // tan(acos(rb / r)) = sqrt(r^2 - rb^2) / rb, the pressure angle's tangent at r > rb.
   double tan_pressure(double r) const { return std::sqrt(r * r - rb * rb) / rb; }
-  // Half tooth angle at radius r: involute above the base circle, radial flank below it.
+  // Half tooth angle at radius r: involute above the base circle, radial flank below it; a
+  // ring's grows with r by the involute function.
   double psi(double r) const {
+    if (ring) return psi_b + (tan_pressure(r) - std::acos(rb / r));
     return r > rb ? psi_b - (tan_pressure(r) - std::acos(rb / r)) : psi_b;
   }
 
@@ -174,6 +180,61 @@ struct Tooth {
     }
     return beam + load_point(rc).foundation;
   }
+
+  // The compliance at rc per unit face width, in the tooth's own frame (its centre line the x
+  // axis, the loaded flank at angle psi(rc)): the unit force along the flank's normal, the line
+  // through the contact point P tangent to the base circle (at angle psi(rc) - alpha_c for a
+  // convex flank, + alpha_c for a ring's concave one), its moment about each section's centre
+  // (r cos psi(r), 0), its shear and axial parts, integrated from the contact to the root
+  // circle over the section's half thickness r sin psi(r); and the fillet foundation's
+  // compliance (Sainsot et al. 2004) at the force's angle to the section and the distance from
+  // the root circle at which its line crosses the centre line. The same energy as
+  // compliance_direct, stated without the external tooth's angles: the form a ring's tooth is
+  // computed in (`Energy.TheVectorFormIsTheExternalToothsCompliance`).
+  double compliance_vector(double rc, int intervals, bool foundation = true) const {
+    const double psi_c = psi(rc), alpha_c = std::acos(std::min(1.0, rb / rc));
+    const double px = rc * std::cos(psi_c), py = rc * std::sin(psi_c);
+    const double theta_t = ring ? psi_c + alpha_c : psi_c - alpha_c;
+    double fx = rb * std::cos(theta_t) - px, fy = rb * std::sin(theta_t) - py;
+    const double length = std::hypot(fx, fy);
+    fx /= length;
+    fy /= length;
+    const auto energy = [&](double r) {
+      const double p = psi(r);
+      const double h = r * std::sin(p), y = r * std::cos(p);
+      const double dy_dr = !(r > rb) ? std::cos(p)
+                           : ring    ? std::cos(p) - std::sin(p) * tan_pressure(r)
+                                     : std::cos(p) + std::sin(p) * tan_pressure(r);
+      const double moment = (px - y) * fy - py * fx;
+      const double bending = moment * moment / (e * (2.0 / 3.0) * h * h * h);
+      const double shear = kShearCoefficient * fy * fy / (g * 2.0 * h);
+      const double axial = fx * fx / (e * 2.0 * h);
+      return std::array<double, 1>{(bending + shear + axial) * dy_dr};
+    };
+    double beam = 0;
+    if (ring) {
+      beam = integrate(rc, rf, intervals, energy)[0];
+    } else if (rf < rb && rc > rb) {
+      beam = integrate(rf, rb, intervals, energy)[0] + integrate(rb, rc, intervals, energy)[0];
+    } else {
+      beam = integrate(rf, rc, intervals, energy)[0];
+    }
+    if (!foundation) return beam;
+    // The foundation: cos^2 of the force's angle to the section is fy^2; its line meets the
+    // centre line at px - py fx / fy, uf from the root circle towards the tip (negative for a
+    // contact below an external tooth's root circle, as load_point has it).
+    const double tan_a = std::abs(fx / fy);
+    const double cross = px - py * fx / fy;
+    const double uf = ring ? rf - cross : cross - rf;
+    double x[4];
+    for (int i = 0; i < 4; ++i) {
+      const double* k = kSainsot[i];
+      x[i] = k[0] / (theta_f * theta_f) + k[1] * h_fi * h_fi + k[2] * h_fi / theta_f +
+             k[3] / theta_f + k[4] * h_fi + k[5];
+    }
+    const double u = uf / sf;
+    return beam + fy * fy / e * (x[0] * u * u + x[1] * u + x[2] * (1 + x[3] * tan_a * tan_a));
+  }
 };
 
 // F0..F3 of a tooth tabulated at the nodes of a composite Gauss grid from rf to r_top:
@@ -235,6 +296,76 @@ Tooth make_tooth(const Case& c, const Geometry& g, int i) {
       gd.bore_diameter_mm[i] > 0 ? 0.5e-3 * gd.bore_diameter_mm[i] : t.rf / kSolidBlankHubRatio;
   t.h_fi = t.rf / r_int;
   return t;
+}
+
+// Gear 1 of an internal pair, the ring (unshifted, z teeth; transverse base radius rb and
+// pressure angle alpha_t): its tooth space is an external tooth's, so its tooth's half angle at
+// r is pi / (2 z) - inv(alpha_t) + inv(alpha_r), half the pitch at the reference circle; its
+// root circle r + m_n h_fP outside. The foundation is Sainsot's with the ring's root angle and a
+// solid body (h_fi = kSolidBlankHubRatio): a rim thick against the tooth, its own bending not
+// modelled.
+Tooth make_ring_tooth(const Case& c, double rb, double alpha_t) {
+  const GearData& gd = c.gear;
+  Tooth t;
+  t.ring = true;
+  t.rb = rb;
+  const double r = rb / std::cos(alpha_t);
+  t.rf = r + 1e-3 * gd.normal_module_mm * gd.basic_rack_dedendum[1];
+  t.psi_b = kPi / (2.0 * gd.teeth[1]) - involute_fn(alpha_t);
+  t.e = gd.youngs_modulus_gpa[1] * 1e9;
+  t.g = t.e / (2 * (1 + gd.poisson_ratio[1]));
+  t.theta_f = t.psi(t.rf);
+  t.sf = 2 * t.rf * t.theta_f;
+  t.h_fi = kSolidBlankHubRatio;
+  return t;
+}
+
+// The mesh cycle of a pair whose tooth pairs have the stiffness per unit face width k_unit
+// along the path of contact [s_a, s_e] (uniform points, the ends included): each pair's contact
+// line on the face (width b, base helix angle beta_b) cut into c.mesh.stiffness_slices slices,
+// each a spring of its width, summed over the pairs in contact at c.mesh.stiffness_positions
+// positions a base pitch p_bt apart (the normal direction: over cos^2 beta_b).
+StiffnessCycle cycle_from_path(const Case& c, double b, double beta_b, double pbt, double s_a,
+                               double s_e, const std::vector<double>& k_unit,
+                               double first_position) {
+  const double ds = (s_e - s_a) / static_cast<double>(k_unit.size() - 1);
+  const boost::math::interpolators::cardinal_cubic_b_spline<double> spline(k_unit.begin(),
+                                                                           k_unit.end(), s_a, ds);
+
+  const int n_pos = c.mesh.stiffness_positions, n_sl = c.mesh.stiffness_slices;
+  const double dw = b / n_sl;
+  const double tan_bb = std::tan(beta_b), cos_bb = std::cos(beta_b);
+  const double to_normal = 1.0 / (cos_bb * cos_bb);
+  const int n_pairs = static_cast<int>(std::ceil((s_e - s_a + b * tan_bb) / pbt)) + 1;
+
+  StiffnessCycle out;
+  out.position.resize(n_pos);
+  out.total_n_per_m.assign(n_pos, 0.0);
+  out.pair_n_per_m.assign(n_pairs, std::vector<double>(n_pos, 0.0));
+  out.pairs_in_contact.assign(n_pos, 0);
+  out.contact_length_m.assign(n_pos, 0.0);
+  for (int n = 0; n < n_pos; ++n) {
+    const double phi = first_position + static_cast<double>(n) / n_pos;
+    out.position[n] = phi;
+    // Pair j entered at position -j; those that can touch the face at phi, whatever phi is.
+    const int j_first = static_cast<int>(std::floor(-phi));
+    for (int j = j_first; j < j_first + n_pairs + 1; ++j) {
+      const double lead = s_a + (phi + j) * pbt;  // the pair's contact on the front face
+      // In contact somewhere on the face when [lead - b tan(beta_b), lead] meets [s_a, s_e].
+      if (lead >= s_a && lead - b * tan_bb <= s_e) ++out.pairs_in_contact[n];
+      double k = 0;
+      for (int sl = 0; sl < n_sl; ++sl) {
+        const double s = lead - (sl + 0.5) * dw * tan_bb;
+        if (s < s_a || s > s_e) continue;
+        k += spline(s) * dw;
+        out.contact_length_m[n] += dw / cos_bb;
+      }
+      const int slot = j - j_first;  // the pair that entered last is slot 0
+      if (slot < n_pairs) out.pair_n_per_m[slot][n] += k * to_normal;
+      out.total_n_per_m[n] += k * to_normal;
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -343,43 +474,108 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const Energ
         o.direct ? t2.compliance_direct(rc2, o.quadrature_intervals) : table2.compliance(rc2);
     k_unit[i] = 1.0 / (hertz + c1 + c2);
   }
-  const boost::math::interpolators::cardinal_cubic_b_spline<double> spline(k_unit.begin(),
-                                                                           k_unit.end(), s_a, ds);
+  return cycle_from_path(c, g.face_width_m, g.base_helix_angle_rad, pbt, s_a, s_e, k_unit,
+                         o.first_position);
+}
 
-  const int n_pos = c.mesh.stiffness_positions, n_sl = c.mesh.stiffness_slices;
-  const double b = g.face_width_m, dw = b / n_sl;
-  const double tan_bb = std::tan(g.base_helix_angle_rad), cos_bb = std::cos(g.base_helix_angle_rad);
-  const double to_normal = 1.0 / (cos_bb * cos_bb);
-  const int n_pairs = static_cast<int>(std::ceil((s_e - s_a + b * tan_bb) / pbt)) + 1;
+double tooth_compliance_vector(const Case& c, const Geometry& g, int gear, double rc, int intervals,
+                               bool foundation) {
+  return make_tooth(c, g, gear).compliance_vector(rc, intervals, foundation);
+}
 
-  StiffnessCycle out;
-  out.position.resize(n_pos);
-  out.total_n_per_m.assign(n_pos, 0.0);
-  out.pair_n_per_m.assign(n_pairs, std::vector<double>(n_pos, 0.0));
-  out.pairs_in_contact.assign(n_pos, 0);
-  out.contact_length_m.assign(n_pos, 0.0);
-  for (int n = 0; n < n_pos; ++n) {
-    const double phi = o.first_position + static_cast<double>(n) / n_pos;
-    out.position[n] = phi;
-    // Pair j entered at position -j; those that can touch the face at phi, whatever phi is.
-    const int j_first = static_cast<int>(std::floor(-phi));
-    for (int j = j_first; j < j_first + n_pairs + 1; ++j) {
-      const double lead = s_a + (phi + j) * pbt;  // the pair's contact on the front face
-      // In contact somewhere on the face when [lead - b tan(beta_b), lead] meets [s_a, s_e].
-      if (lead >= s_a && lead - b * tan_bb <= s_e) ++out.pairs_in_contact[n];
-      double k = 0;
-      for (int sl = 0; sl < n_sl; ++sl) {
-        const double s = lead - (sl + 0.5) * dw * tan_bb;
-        if (s < s_a || s > s_e) continue;
-        k += spline(s) * dw;
-        out.contact_length_m[n] += dw / cos_bb;
-      }
-      const int slot = j - j_first;  // the pair that entered last is slot 0
-      if (slot < n_pairs) out.pair_n_per_m[slot][n] += k * to_normal;
-      out.total_n_per_m[n] += k * to_normal;
-    }
+double tooth_compliance_direct(const Case& c, const Geometry& g, int gear, double rc,
+                               int intervals) {
+  return make_tooth(c, g, gear).compliance_direct(rc, intervals);
+}
+
+double ring_tooth_compliance(const Case& c, double rc, int intervals, bool foundation) {
+  const InternalPath p = internal_path(c);
+  return make_ring_tooth(c, p.rb2, p.alpha_t).compliance_vector(rc, intervals, foundation);
+}
+
+InternalPath internal_path(const Case& c) {
+  const GearData& gd = c.gear;
+  for (int i = 0; i < 2; ++i)
+    if (gd.profile_shift[i] != 0)
+      throw InputError(fmt::format(
+          "gear.profile_shift[{}] = {}: the energy method of an internal pair is computed for "
+          "unshifted gears",
+          i, gd.profile_shift[i]));
+  if (gd.teeth[1] <= gd.teeth[0])
+    throw InputError(fmt::format(
+        "gear.teeth = [{}, {}]: an internal pair needs a ring of more teeth than its pinion",
+        gd.teeth[0], gd.teeth[1]));
+  InternalPath p;
+  const double beta = gd.helix_angle_deg * kPi / 180, an = gd.normal_pressure_angle_deg * kPi / 180;
+  const double mn = 1e-3 * gd.normal_module_mm, mt = mn / std::cos(beta);
+  p.alpha_t = std::atan(std::tan(an) / std::cos(beta));
+  p.base_helix_rad = std::asin(std::sin(beta) * std::cos(an));
+  const double r1 = 0.5 * gd.teeth[0] * mt, r2 = 0.5 * gd.teeth[1] * mt;
+  p.rb1 = r1 * std::cos(p.alpha_t);
+  p.rb2 = r2 * std::cos(p.alpha_t);
+  p.ra1 = 0.5e-3 * gd.outside_diameter_mm[0];
+  p.ra2 = r2 - mn;
+  p.pbt = kPi * mt * std::cos(p.alpha_t);
+  // The working pressure angle at the centre distance a: cos(alpha_wt) = (r2 - r1) cos(alpha_t)
+  // / a, the standard one (a = r2 - r1) when none is given.
+  const double a0 = r2 - r1;
+  const double a = gd.center_distance_mm > 0 ? 1e-3 * gd.center_distance_mm : a0;
+  const double cos_w = a0 * std::cos(p.alpha_t) / a;
+  if (!(cos_w > 0 && cos_w < 1))
+    throw InputError(
+        fmt::format("gear.center_distance_mm = {}: no working pressure angle for "
+                    "an internal pair of standard centre distance {:.6g} mm",
+                    gd.center_distance_mm, 1e3 * a0));
+  p.t1t2 = a * std::sin(std::acos(cos_w));
+  if (!(p.ra2 > p.rb2))
+    throw InputError(fmt::format(
+        "gear.teeth[1] = {}: the ring's tip circle ({:.6g} mm) lies inside its base circle "
+        "({:.6g} mm): too few teeth for an involute ring",
+        gd.teeth[1], 2e3 * p.ra2, 2e3 * p.rb2));
+  p.s_e = std::sqrt(p.ra1 * p.ra1 - p.rb1 * p.rb1);
+  p.s_a = std::sqrt(p.ra2 * p.ra2 - p.rb2 * p.rb2) - p.t1t2;
+  if (!(p.s_a > 0))
+    throw InputError(fmt::format(
+        "gear.teeth = [{}, {}]: the ring's tip reaches below the pinion's base circle (involute "
+        "interference: the path of contact would start {:.4g} mm before it)",
+        gd.teeth[0], gd.teeth[1], -1e3 * p.s_a));
+  if (!(p.s_e > p.s_a))
+    throw InputError(fmt::format("gear.teeth = [{}, {}]: the pair has no path of contact",
+                                 gd.teeth[0], gd.teeth[1]));
+  return p;
+}
+
+StiffnessCycle internal_energy_method_cycle(const Case& c, const EnergyMethodOptions& o) {
+  const InternalPath p = internal_path(c);
+  // The pinion's tooth from its own geometry (its base and root circles and pressure angles).
+  Geometry g;
+  g.normal_pressure_angle_rad = c.gear.normal_pressure_angle_deg * kPi / 180;
+  g.transverse_pressure_angle_rad = p.alpha_t;
+  g.base_radius_m = {p.rb1, p.rb2};
+  const double r1 = p.rb1 / std::cos(p.alpha_t);
+  g.root_diameter_m[0] = 2 * r1 - 2e-3 * c.gear.normal_module_mm * c.gear.basic_rack_dedendum[0];
+  const Tooth t1 = make_tooth(c, g, 0), t2 = make_ring_tooth(c, p.rb2, p.alpha_t);
+  const GearData& gd = c.gear;
+  const double e_star =
+      1.0 / ((1 - gd.poisson_ratio[0] * gd.poisson_ratio[0]) / (gd.youngs_modulus_gpa[0] * 1e9) +
+             (1 - gd.poisson_ratio[1] * gd.poisson_ratio[1]) / (gd.youngs_modulus_gpa[1] * 1e9));
+  const double hertz = 2.0 / (kPi * e_star);
+  const int np = o.path_points;
+  const double ds = (p.s_e - p.s_a) / (np - 1);
+  std::vector<double> k_unit(np);
+  const ToothTable table1(t1, std::max(p.ra1, std::hypot(p.rb1, p.s_e)), o.quadrature_intervals);
+  for (int i = 0; i < np; ++i) {
+    const double s = p.s_a + i * ds;
+    // On the line of action both base tangent points lie on the same side of the contact: the
+    // ring's is t1t2 beyond the pinion's.
+    const double rc1 = std::hypot(p.rb1, s), rc2 = std::hypot(p.rb2, s + p.t1t2);
+    const double c1 =
+        o.direct ? t1.compliance_direct(rc1, o.quadrature_intervals) : table1.compliance(rc1);
+    const double c2 = t2.compliance_vector(rc2, o.quadrature_intervals);
+    k_unit[i] = 1.0 / (hertz + c1 + c2);
   }
-  return out;
+  return cycle_from_path(c, 1e-3 * gd.face_width_mm, p.base_helix_rad, p.pbt, p.s_a, p.s_e, k_unit,
+                         o.first_position);
 }
 
 std::vector<double> read_cycle_table(const Case& c, const CycleTableSpec& spec) {
@@ -509,6 +705,36 @@ StiffnessCycle cached_energy_cycle(const Case& c, const Geometry& g) {
   curves.emplace(std::move(inputs), cycle);
   return cycle;
 }
+
+// A cycle's mesh stiffness as the case keeps it: its harmonics (mesh.harmonics_kept), scaled to
+// mesh.mean_stiffness_n_per_m when given, checked to stay positive.
+MeshStiffness cycle_stiffness(const Case& c, MeshStiffness m) {
+  m.fourier = fourier_harmonics(*m.cycle, c.mesh.harmonics_kept);
+  if (c.mesh.mean_stiffness_n_per_m > 0) {
+    m.scale = c.mesh.mean_stiffness_n_per_m / m.fourier.mean_n_per_m;
+    m.fourier.mean_n_per_m = c.mesh.mean_stiffness_n_per_m;
+  }
+  // The stiffness the run uses must stay positive: kept harmonics of a steep table (or of a
+  // computed curve) can dip below zero where the curve itself does not.
+  double bound = 1;
+  for (const StiffnessHarmonic& h : m.fourier.harmonics) bound -= std::abs(h.ratio);
+  if (!(bound > 0)) {
+    double lowest = m.fourier.mean_n_per_m;
+    for (int n = 0; n < kPositivitySamples; ++n)
+      lowest = std::min(lowest, m.fourier.at(static_cast<double>(n) / kPositivitySamples));
+    if (!(lowest > 0)) {
+      const char* key = c.mesh.stiffness_source == StiffnessSource::kTable
+                            ? "mesh.stiffness_table"
+                            : "mesh.stiffness_source = \"energy\"";
+      throw InputError(fmt::format(
+          "{} with mesh.harmonics_kept = {}: the kept harmonics make the mesh stiffness "
+          "negative (down to {:.4g} N/m over a mesh cycle); keep fewer or more harmonics, or "
+          "give the harmonics",
+          key, c.mesh.harmonics_kept, lowest));
+    }
+  }
+  return m;
+}
 }  // namespace
 
 MeshStiffness mesh_stiffness(const Case& c, const Geometry& g) {
@@ -537,31 +763,13 @@ MeshStiffness mesh_stiffness(const Case& c, const Geometry& g) {
       m.cycle = table_cycle(c);
       break;
   }
-  m.fourier = fourier_harmonics(*m.cycle, c.mesh.harmonics_kept);
-  if (c.mesh.mean_stiffness_n_per_m > 0) {
-    m.scale = c.mesh.mean_stiffness_n_per_m / m.fourier.mean_n_per_m;
-    m.fourier.mean_n_per_m = c.mesh.mean_stiffness_n_per_m;
-  }
-  // The stiffness the run uses must stay positive: kept harmonics of a steep table (or of a
-  // computed curve) can dip below zero where the curve itself does not.
-  double bound = 1;
-  for (const StiffnessHarmonic& h : m.fourier.harmonics) bound -= std::abs(h.ratio);
-  if (!(bound > 0)) {
-    double lowest = m.fourier.mean_n_per_m;
-    for (int n = 0; n < kPositivitySamples; ++n)
-      lowest = std::min(lowest, m.fourier.at(static_cast<double>(n) / kPositivitySamples));
-    if (!(lowest > 0)) {
-      const char* key = c.mesh.stiffness_source == StiffnessSource::kTable
-                            ? "mesh.stiffness_table"
-                            : "mesh.stiffness_source = \"energy\"";
-      throw InputError(fmt::format(
-          "{} with mesh.harmonics_kept = {}: the kept harmonics make the mesh stiffness "
-          "negative (down to {:.4g} N/m over a mesh cycle); keep fewer or more harmonics, or "
-          "give the harmonics",
-          key, c.mesh.harmonics_kept, lowest));
-    }
-  }
-  return m;
+  return cycle_stiffness(c, std::move(m));
+}
+
+MeshStiffness internal_mesh_stiffness(const Case& c) {
+  MeshStiffness m;
+  m.cycle = internal_energy_method_cycle(c);
+  return cycle_stiffness(c, std::move(m));
 }
 
 double mesh_frequency_hz(const Case& c) { return c.gear.teeth[0] * c.speed.shaft_frequency_hz; }

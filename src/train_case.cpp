@@ -1098,15 +1098,6 @@ train::Train train_of(const Case& c) {
       const double m_n = 1.0 / (ra * ra / gears[m.driving].inertia_kg_m2 +
                                 rb * rb / gears[m.driven].inertia_kg_m2);
       if (m.stiffness_source == "energy" || m.stiffness_source == "iso6336") {
-        if (x.internal && m.stiffness_source == "energy")
-          rethrow_with_origin(
-              t, fmt::format("mesh '{}': stiffness_source = \"energy\" takes an external mesh "
-                             "(its teeth are convex flanks on a solid blank; a ring's concave "
-                             "flanks on its rim are not modelled); give this internal mesh "
-                             "stiffness_source = \"iso6336\" (ISO 6336-1 Method B, the ring as "
-                             "the standard takes it) or its k_m and harmonics "
-                             "(stiffness_source = \"harmonics\")",
-                             m.name));
         PairMeshStiffness k;
         try {
           // ISO's at its full load here; at the mesh's static load below.

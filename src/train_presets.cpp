@@ -241,8 +241,33 @@ Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& driving,
 
 }  // namespace
 
+namespace {
+// The energy method of an internal mesh (internal_mesh_stiffness): the pinion first, the ring
+// second, at the mesh's centre distance when given (else the standard r_2 - r_1).
+PairMeshStiffness internal_pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
+                                               const TrainBodyData& driven) {
+  const bool ring_drives = driving.teeth > driven.teeth;
+  const TrainBodyData& pinion = ring_drives ? driven : driving;
+  const TrainBodyData& ring = ring_drives ? driving : driven;
+  Case c = mesh_pair_case(m, pinion, ring);
+  c.gear.center_distance_mm = m.center_distance_mm.value_or(0.0);
+  HarmonicSeries k;
+  try {
+    k = mesh_stiffness_series(c, internal_mesh_stiffness(c));
+  } catch (const InputError& e) {
+    throw InputError(train_keys_in(e.what(), pinion, ring));
+  }
+  PairMeshStiffness out;
+  out.mean_n_per_m = k.offset;
+  out.harmonics = harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi * c.gear.teeth[0], 1 / k.offset,
+                                                  "stiffness_source");
+  return out;
+}
+}  // namespace
+
 PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                       const TrainBodyData& driven) {
+  if (m.kind == "internal") return internal_pair_mesh_stiffness(m, driving, driven);
   const Case c = mesh_pair_case(m, driving, driven);
   HarmonicSeries k;
   try {

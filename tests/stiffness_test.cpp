@@ -437,5 +437,146 @@ TEST(MeshStiffness, KeptHarmonicsThatMakeItNegativeAreRefused) {
   std::filesystem::remove(path);
 }
 
+// The energy method's tooth stated by its force vector (the form a ring's tooth is computed
+// in) is the tooth of the method's own angles, on both gears of the Table 1 pair and of the
+// ISO/TR example, from the base circle to the tip.
+TEST(Energy, TheVectorFormIsTheExternalToothsCompliance) {
+  for (const Case& c : {Case{}, spur(), iso_tr_example_1()}) {
+    const Geometry g = compute_geometry(c.gear);
+    for (int gear = 0; gear < 2; ++gear) {
+      const double rb = g.base_radius_m[gear], ra = g.tip_radius_m[gear];
+      for (double f : {0.02, 0.3, 0.6, 1.0}) {
+        const double rc = rb + f * (ra - rb);
+        const double direct = tooth_compliance_direct(c, g, gear, rc, 16);
+        EXPECT_NEAR(tooth_compliance_vector(c, g, gear, rc, 16), direct, 1e-11 * direct)
+            << c.name << " gear " << gear << " at " << f;
+      }
+    }
+  }
+}
+
+// A spur internal pair of module m: pinion of z1 teeth, ring of z2, standard tips, unshifted.
+Case internal_spur(int z1, int z2, double m = 2.0) {
+  Case c;
+  c.gear.helix_angle_deg = 0;
+  c.gear.normal_module_mm = m;
+  c.gear.teeth = {z1, z2};
+  c.gear.profile_shift = {0, 0};
+  c.gear.outside_diameter_mm = {(z1 + 2) * m, (z2 - 2) * m};
+  c.gear.center_distance_mm = 0;  // the standard (z2 - z1) m / 2
+  c.gear.bore_diameter_mm = {0, 0};
+  return c;
+}
+
+// The beam compliance per unit face width of a rack's tooth (straight flanks at alpha to its
+// centre line, half thickness pi m / 4 at the pitch line, the root h_f below it) loaded at the
+// pitch line along its flank's normal: bending, shear (k = 1.2) and compression by Simpson's
+// rule over the height, written here without the involute.
+double rack_tooth_beam_compliance(double m, double alpha, double h_f, double e, double nu) {
+  const double g = e / (2 * (1 + nu)), ca = std::cos(alpha), sa = std::sin(alpha);
+  const double hc = std::numbers::pi * m / 4;
+  const auto f = [&](double y) {
+    const double h = hc + (h_f - y) * std::tan(alpha);
+    const double arm = (h_f - y) * ca - hc * sa;
+    return arm * arm / (e * 2.0 / 3.0 * h * h * h) + 1.2 * ca * ca / (2 * g * h) +
+           sa * sa / (2 * e * h);
+  };
+  const int n = 20000;
+  const double dy = h_f / n;
+  double sum = f(0) + f(h_f);
+  for (int i = 1; i < n; ++i) sum += (i % 2 ? 4 : 2) * f(i * dy);
+  return sum * dy / 3;
+}
+
+// A ring's tooth, concave and thickening outwards, is stiffer than the rack's, which is stiffer
+// than an external tooth's of as many teeth (60: loaded at the reference circle, the beam alone);
+// with many teeth all three are the rack's tooth (to 1e-4 at 100000 teeth: the difference
+// falls as 1/z).
+TEST(Energy, ARingsToothIsStifferThanTheRacksAndIsItWithManyTeeth) {
+  const double m = 2e-3, alpha = 20 * std::numbers::pi / 180;
+  const double rack = rack_tooth_beam_compliance(m, alpha, 1.25 * m, 206e9, 0.3);
+  for (int z : {60, 100000}) {  // a pinion of 24 teeth
+    const Case internal = internal_spur(24, z);
+    const double r = 0.5 * z * m;
+    const double ring = ring_tooth_compliance(internal, r, 16, /*foundation=*/false);
+    Case external = internal;
+    external.gear.outside_diameter_mm = {26 * 2.0, (z + 2) * 2.0};
+    external.gear.center_distance_mm = (24 + z) * 1.0;
+    const Geometry g = compute_geometry(external.gear);
+    const double outer = tooth_compliance_vector(external, g, 1, r, 16, /*foundation=*/false);
+    if (z == 60) {
+      EXPECT_LT(ring, 0.97 * rack);
+      EXPECT_GT(outer, 1.03 * rack);
+    } else {
+      EXPECT_NEAR(ring, rack, 1e-4 * rack);
+      EXPECT_NEAR(outer, rack, 1e-4 * rack);
+    }
+  }
+}
+
+// The internal pair's cycle: its contact ratio is ISO 21771's (the share of positions with two
+// pairs), its pairs alternate as a spur pair's, converged in the quadrature, and its mean lies
+// within ISO 6336-1's c_gamma_alpha b for the internal pair as the external energy method's
+// mean lies within ISO's for external pairs (MeanAgreesWithIsoWithinThePublishedScatter); the
+// same pinion against a ring is stiffer than against an external gear of as many teeth.
+TEST(Energy, AnInternalPairsCycle) {
+  const Case c = internal_spur(24, 80);
+  const StiffnessCycle k = internal_energy_method_cycle(c);
+  const double eps = internal_contact_ratio(24, 80, 2e-3, 20 * std::numbers::pi / 180, 0);
+  const int n = static_cast<int>(k.position.size());
+  int doubles = 0;
+  for (int i = 0; i < n; ++i) doubles += k.pairs_in_contact[i] == 2;
+  EXPECT_NEAR(static_cast<double>(doubles) / n, eps - 1, 1.0 / n);
+  EXPECT_GT(k.max_n_per_m() / k.min_n_per_m(), 1.5);
+  EXPECT_LT(k.max_n_per_m() / k.min_n_per_m(), 2.1);
+  EnergyMethodOptions fine;
+  fine.quadrature_intervals = 32;
+  fine.path_points = 1025;
+  EXPECT_NEAR(internal_energy_method_cycle(c, fine).mean_n_per_m(), k.mean_n_per_m(),
+              1e-6 * k.mean_n_per_m());
+
+  Case iso = c;
+  iso.load.torque_nm = 2000;  // above 100 N/mm: ISO's load factor is 1
+  // ISO's c' of an internal pair reads the pinion's data of an external pair's geometry.
+  iso.gear.outside_diameter_mm = {52, 164};
+  iso.gear.center_distance_mm = 104;
+  const Iso6336Stiffness s = iso6336_internal_stiffness(iso, compute_geometry(iso.gear), eps);
+  EXPECT_GT(k.mean_n_per_m(), 0.7 * s.mesh_stiffness_n_per_m);
+  EXPECT_LT(k.mean_n_per_m(), 1.3 * s.mesh_stiffness_n_per_m);
+
+  Case external = c;
+  external.gear.outside_diameter_mm = {52, 164};
+  external.gear.center_distance_mm = 104;
+  const StiffnessCycle e = energy_method_cycle(external, compute_geometry(external.gear));
+  // Per pair in contact, as the two pairs' contact ratios differ.
+  EXPECT_GT(k.mean_n_per_m() / k.mean_pairs_in_contact(),
+            e.mean_n_per_m() / e.mean_pairs_in_contact());
+}
+
+// What the energy method of an internal pair does not take is refused, naming the key.
+TEST(Energy, AnInternalPairItCannotTakeIsRefused) {
+  Case shifted = internal_spur(24, 80);
+  shifted.gear.profile_shift = {0.2, 0};
+  EXPECT_NE(testing::error_of([&] { (void)internal_energy_method_cycle(shifted); })
+                .find("gear.profile_shift[0] = 0.2: the energy method of an internal pair is "
+                      "computed for unshifted gears"),
+            std::string::npos);
+  EXPECT_NE(testing::error_of([&] {
+              (void)internal_energy_method_cycle(internal_spur(20, 20));
+            }).find("an internal pair needs a ring of more teeth than its pinion"),
+            std::string::npos);
+  // A ring of 24 teeth: its tip circle inside its base circle.
+  EXPECT_NE(testing::error_of([&] {
+              (void)internal_energy_method_cycle(internal_spur(20, 24));
+            }).find("too few teeth for an involute ring"),
+            std::string::npos);
+  // A pinion of 20 teeth in a ring of 60 at standard addenda: the ring's tip cuts below the
+  // pinion's base circle.
+  EXPECT_NE(testing::error_of([&] {
+              (void)internal_energy_method_cycle(internal_spur(20, 60));
+            }).find("involute interference"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace geardyn

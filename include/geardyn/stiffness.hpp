@@ -88,6 +88,37 @@ struct StiffnessCycle {
 StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g,
                                    const EnergyMethodOptions& o = {});
 
+// One tooth's compliance per unit face width at contact radius rc (m/N per m), gear `gear` of
+// an external pair: by the energy method's angles (compliance_direct, the reference of its
+// tables) and by the force's vector in the tooth's frame (the form a ring's tooth is computed
+// in), `intervals` Gauss intervals each side of the base circle; without `foundation`, the
+// tooth's beam alone (bending, shear and compression).
+double tooth_compliance_direct(const Case& c, const Geometry& g, int gear, double rc,
+                               int intervals);
+double tooth_compliance_vector(const Case& c, const Geometry& g, int gear, double rc, int intervals,
+                               bool foundation = true);
+
+// The path of contact of an internal pair, c.gear's gear 1 the ring (its tip circle r_2 - m_n
+// inside its reference circle), both unshifted, at c.gear.center_distance_mm (0: the standard
+// r_2 - r_1): transverse radii (m), the path [s_a, s_e] measured from the pinion's base tangent
+// point T1 (the ring's T2 lies t1t2 = a sin(alpha_wt) beyond it, on the same side), its base
+// pitch. Throws InputError for a shifted gear, a ring of fewer teeth than its pinion, a ring's
+// tip inside its base circle, or involute interference (s_a <= 0).
+struct InternalPath {
+  double alpha_t = 0, base_helix_rad = 0;
+  double rb1 = 0, rb2 = 0, ra1 = 0, ra2 = 0;
+  double t1t2 = 0, s_a = 0, s_e = 0, pbt = 0;
+};
+InternalPath internal_path(const Case& c);
+
+// The ring's tooth compliance per unit face width at contact radius rc (energy method, concave
+// flank; docs/stiffness.md); without `foundation`, its beam alone.
+double ring_tooth_compliance(const Case& c, double rc, int intervals = 8, bool foundation = true);
+
+// The energy method's mesh cycle of an internal pair (internal_path): the pinion's tooth as an
+// external pair's, the ring's with its concave flanks thickening to its root circle outside.
+StiffnessCycle internal_energy_method_cycle(const Case& c, const EnergyMethodOptions& o = {});
+
 // A table over one mesh cycle, as a CSV `position,<column>`: positions increasing in [0, 1),
 // values finite (and > 0 when `positive`).
 struct CycleTableSpec {
@@ -130,6 +161,9 @@ struct MeshStiffness {
   double scale = 1;                     // applied to the cycle to reach mean_stiffness_n_per_m
 };
 MeshStiffness mesh_stiffness(const Case& c, const Geometry& g);
+// An internal pair's (internal_energy_method_cycle), kept and scaled as mesh_stiffness keeps an
+// energy cycle.
+MeshStiffness internal_mesh_stiffness(const Case& c);
 
 // k(t) in N/m as a series in time for the case's shaft speed: the i-th harmonic is at i times
 // the mesh frequency z1 f_1.

@@ -224,8 +224,9 @@ train::Train train_of(const Case& c);
 // (driving first) by the gear pair's energy method (stiffness.hpp), as the one-degree model
 // takes its own curve, its [gear] keys from the bodies' (the face width the narrower of the
 // two), its centre distance the mesh's or, absent, the one the profile shifts imply, k_m
-// scaling the curve when the mesh gives one. Throws InputError naming the mesh's or a body's
-// key.
+// scaling the curve when the mesh gives one; an internal mesh's by the internal pair's energy
+// method (internal_energy_method_cycle: the pinion first, the ring second, its centre distance
+// the mesh's or the standard r_2 - r_1). Throws InputError naming the mesh's or a body's key.
 struct PairMeshStiffness {
   double mean_n_per_m = 0;
   std::vector<StiffnessHarmonic> harmonics;
