@@ -41,7 +41,7 @@ constexpr double kBalanceTolerance = 1e-9;
 // then steps the coupled model's cells (12982 for the shipped case over 0.05 s, against 23119
 // with the one-degree model's 1.5; the same cells and events, TrainCase test), about 10 %
 // faster in one process; the shipped trains' runs measured the same either way within the
-// machine's noise (docs/performance.md).
+// machine's noise (commit b6d87d8).
 constexpr double kTrainCellRateProduct = 3.0;
 
 // Stretches a run's observer keeps before it searches them in the middle of a flow (as
