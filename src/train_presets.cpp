@@ -419,13 +419,35 @@ const TrainBodyData& body_named(const TrainCase& t, const std::string& name) {
                        [&](const TrainBodyData& b) { return b.name == name; });
 }
 
+// Defined below with train_mesh_pair.
+Case internal_mesh_pair(const Case& c, const std::string& mesh);
+
 }  // namespace
 
-GearPairToRead gear_pair_to_read(const Case& c, const std::string& mesh) {
-  if (c.model.form == ModelForm::kTrain)
+GearPairToRead gear_pair_to_read(const Case& c, const std::string& mesh, bool internal_too) {
+  if (c.model.form == ModelForm::kTrain) {
+    const TrainCase t = expand_planets(*c.train);
+    const TrainMeshData& m = t.meshes.at(mesh_to_read(c, mesh));
+    if (m.kind == "internal") {
+      if (!internal_too) {
+        const auto origin = t.origins.find(fmt::format("mesh '{}'", m.name));
+        throw InputError(fmt::format("{}train: {}",
+                                     origin == t.origins.end() ? "" : origin->second + ": ",
+                                     internal_pair_has_no_geometry(m.name)));
+      }
+      return {internal_mesh_pair(c, mesh), {}, true};
+    }
     return {train_mesh_pair(c, mesh), train_mesh_pair_warnings(c, mesh)};
+  }
   (void)mesh_to_read(c, mesh);  // refuses a name
   return {c, case_geometry(c).warnings};
+}
+
+std::string internal_pair_has_no_geometry(const std::string& mesh) {
+  return fmt::format(
+      "mesh '{0}': is internal: its geometry is no external gear pair's (`geardyn stiffness "
+      "--mesh {0}` reads its stiffness: ISO 6336-1 and the energy method of a pinion in its ring)",
+      mesh);
 }
 
 std::vector<std::string> train_mesh_pair_warnings(const Case& c, const std::string& mesh) {
@@ -439,6 +461,59 @@ std::vector<std::string> train_mesh_pair_warnings(const Case& c, const std::stri
   return out;
 }
 
+namespace {
+// The mesh's stiffness source, k_m, harmonics or table as the train mesh x runs with them, and as
+// load.torque_nm the torque F cos(beta_b) r_b of its force at the train's static state on its
+// gear `first` (0 without one), on the pair `pair`.
+void take_mesh_load(Case& pair, const train::Assembled& a, std::size_t i, const TrainMeshData& m,
+                    double first_base_radius_m) {
+  const train::Mesh& x = a.train().meshes[i];
+  if (m.stiffness_source == "harmonics" || m.stiffness_source == "iso6336") {
+    pair.mesh.stiffness_source =
+        m.stiffness_source == "harmonics" ? StiffnessSource::kHarmonics : StiffnessSource::kIso6336;
+    pair.mesh.mean_stiffness_n_per_m = x.mean_stiffness_n_per_m;
+    pair.mesh.stiffness_harmonics = m.stiffness_harmonics;
+  } else if (m.stiffness_source == "table") {
+    pair.mesh.stiffness_source = StiffnessSource::kTable;
+    pair.mesh.stiffness_table = m.stiffness_table;
+  }
+  if (const std::optional<Eigen::VectorXd> y = static_state(a))
+    pair.load.torque_nm =
+        static_mesh_forces_n(a, *y)[i] * std::cos(x.base_helix_angle_rad) * first_base_radius_m;
+  else
+    pair.load.torque_nm = 0;
+}
+
+// gear_pair_to_read's pair of an internal mesh.
+Case internal_mesh_pair(const Case& c, const std::string& mesh) {
+  const std::size_t i = mesh_to_read(c, mesh);
+  const train::Assembled a = assembled_train(c);
+  const TrainCase t = expand_planets(*c.train);
+  const TrainMeshData& m = t.meshes.at(i);
+  const TrainBodyData &driving = body_named(t, m.driving), &driven = body_named(t, m.driven);
+  const bool ring_drives = driving.teeth > driven.teeth;
+  const TrainBodyData& pinion = ring_drives ? driven : driving;
+  const TrainBodyData& ring = ring_drives ? driving : driven;
+  Case pair;
+  try {
+    pair = mesh_pair_case(m, pinion, ring);
+  } catch (const InputError& e) {
+    const auto origin = t.origins.find(fmt::format("mesh '{}'", m.name));
+    throw InputError(fmt::format("{}train: mesh '{}': {}",
+                                 origin == t.origins.end() ? "" : origin->second + ": ", m.name,
+                                 train_keys_in(e.what(), pinion, ring)));
+  }
+  pair.gear.center_distance_mm = m.center_distance_mm.value_or(0.0);
+  pair.name = fmt::format("{}, mesh '{}'", c.name, m.name);
+  pair.directory = c.directory;
+  const train::Mesh& x = a.train().meshes[i];
+  // The pinion's speed relative to the carrier: the mesh frequency over its teeth.
+  pair.speed.shaft_frequency_hz = a.mesh_frequency_hz(static_cast<int>(i)) / pinion.teeth;
+  take_mesh_load(pair, a, i, m, ring_drives ? x.base_radius_driven_m : x.base_radius_driving_m);
+  return pair;
+}
+}  // namespace
+
 Case train_mesh_pair(const Case& c, const std::string& mesh) {
   const std::size_t i = mesh_to_read(c, mesh);
   const train::Assembled a = assembled_train(c);
@@ -450,10 +525,7 @@ Case train_mesh_pair(const Case& c, const std::string& mesh) {
   const auto origin = t.origins.find(fmt::format("mesh '{}'", m.name));
   const std::string where = origin == t.origins.end() ? "" : origin->second + ": ";
   if (m.kind == "internal")
-    throw InputError(
-        fmt::format("{}train: mesh '{}': is internal: the gear pair of a mesh is an "
-                    "external one",
-                    where, m.name));
+    throw InputError(fmt::format("{}train: {}", where, internal_pair_has_no_geometry(m.name)));
   Case pair;
   try {
     pair = mesh_pair_case(m, body(m.driving), body(m.driven));
@@ -466,20 +538,7 @@ Case train_mesh_pair(const Case& c, const std::string& mesh) {
   pair.directory = c.directory;
   const train::Mesh& x = a.train().meshes[i];
   pair.speed.shaft_frequency_hz = a.mesh_frequency_hz(static_cast<int>(i)) / x.teeth_driving;
-  if (m.stiffness_source == "harmonics" || m.stiffness_source == "iso6336") {
-    pair.mesh.stiffness_source =
-        m.stiffness_source == "harmonics" ? StiffnessSource::kHarmonics : StiffnessSource::kIso6336;
-    pair.mesh.mean_stiffness_n_per_m = x.mean_stiffness_n_per_m;
-    pair.mesh.stiffness_harmonics = m.stiffness_harmonics;
-  } else if (m.stiffness_source == "table") {
-    pair.mesh.stiffness_source = StiffnessSource::kTable;
-    pair.mesh.stiffness_table = m.stiffness_table;
-  }
-  if (const std::optional<Eigen::VectorXd> y = static_state(a))
-    pair.load.torque_nm =
-        static_mesh_forces_n(a, *y)[i] * std::cos(x.base_helix_angle_rad) * x.base_radius_driving_m;
-  else
-    pair.load.torque_nm = 0;
+  take_mesh_load(pair, a, i, m, x.base_radius_driving_m);
   return pair;
 }
 

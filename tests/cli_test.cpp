@@ -1406,6 +1406,51 @@ TEST(Cli, ATrainRunReadsEachMeshAndItsCaseTomlRunsTheSame) {
   EXPECT_FALSE(fs::exists(nm));
 }
 
+// An internal mesh's stiffness is its pinion's in its ring: the wind-turbine gearbox's ring mesh
+// (a planet of 39 teeth in a ring of 99, module 10 mm, 20 degrees, helix 7.5 degrees) gives ISO
+// 6336-1's k_m the train runs with (describe), the internal pair's contact ratio by ISO 21771's
+// closed form, and the energy method of the ring's concave teeth within ISO's scatter; its
+// figure is drawn. Its geometry, no external pair's, is refused, pointing to stiffness.
+TEST(Cli, AnInternalMeshsStiffnessIsItsPinionInItsRing) {
+  const std::string wt = case_path("wind_turbine_grc750.toml");
+  const Outcome s = cli("stiffness " + wt + " --mesh ring_planet1 --json");
+  ASSERT_EQ(s.code, 0) << s.err;
+  const nlohmann::json j = nlohmann::json::parse(s.out);
+  const Outcome d = cli("describe " + wt + " --json");
+  ASSERT_EQ(d.code, 0) << d.err;
+  double train_k = 0;
+  const nlohmann::json described = nlohmann::json::parse(d.out);
+  for (const auto& m : described["meshes"])
+    if (m["name"] == "ring_planet1") train_k = m["mean_stiffness_n_per_m"].get<double>();
+  const double iso_k = j["iso6336"]["mesh_stiffness_n_per_m"].get<double>();
+  EXPECT_NEAR(iso_k / train_k, 1.0, 1e-9);
+  const double energy_k = j["energy"]["mean_n_per_m"].get<double>();
+  EXPECT_GT(energy_k, 0.7 * iso_k);
+  EXPECT_LT(energy_k, 1.3 * iso_k);
+  const double pi = std::numbers::pi, beta = 7.5 * pi / 180;
+  const double mt = 10.0 / std::cos(beta), at = std::atan(std::tan(20 * pi / 180) / std::cos(beta));
+  const double r1 = 39 * mt / 2, r2 = 99 * mt / 2, rb1 = r1 * std::cos(at), rb2 = r2 * std::cos(at);
+  const double ra1 = r1 + 10, ra2 = r2 - 10;
+  const double eps = (std::sqrt(ra1 * ra1 - rb1 * rb1) - std::sqrt(ra2 * ra2 - rb2 * rb2) +
+                      (r2 - r1) * std::sin(at)) /
+                     (pi * mt * std::cos(at));
+  EXPECT_NEAR(j["geometry"]["transverse_contact_ratio"].get<double>(), eps, 1e-12);
+  // The energy method's pairs in contact: eps_alpha + eps_beta to within its resolution.
+  EXPECT_NEAR(j["energy"]["mean_pairs_in_contact"].get<double>(),
+              eps + j["geometry"]["overlap_ratio"].get<double>(), 0.02);
+  const fs::path out = fresh("internal_stiffness");
+  const Outcome f = cli("stiffness " + wt + " --mesh ring_planet1 --out " + out.string());
+  ASSERT_EQ(f.code, 0) << f.err;
+  EXPECT_NE(f.out.find("an internal pair: its pinion, then its ring"), std::string::npos) << f.out;
+  EXPECT_GT(fs::file_size(out / "stiffness.png"), 100U);
+  const Outcome g = cli("geometry " + wt + " --mesh ring_planet1");
+  EXPECT_EQ(g.code, 2);
+  EXPECT_NE(g.err.find("mesh 'ring_planet1': is internal: its geometry is no external gear "
+                       "pair's (`geardyn stiffness --mesh ring_planet1` reads its stiffness"),
+            std::string::npos)
+      << g.err;
+}
+
 TEST(Cli, GeometryAndStiffnessReadATrainMeshsGearPair) {
   // The paper's pair (its gear data and torque, Table 1) as a gear pair and as a two-gear train
   // (the wheel's load balancing the pinion's torque): `stiffness --mesh` and `geometry --mesh`
@@ -1502,7 +1547,8 @@ torque_nm = 49.5
   const std::string planetary = case_path("lin_parker_1999.toml");
   const Outcome ring = cli("geometry " + planetary + " --mesh planet_ring2");
   EXPECT_EQ(ring.code, 2) << ring.err;
-  EXPECT_NE(ring.err.find("is internal: the gear pair of a mesh is an external one"),
+  EXPECT_NE(ring.err.find("mesh 'planet_ring2': is internal: its geometry is no external gear "
+                          "pair's"),
             std::string::npos)
       << ring.err;
 }

@@ -32,6 +32,7 @@
 #include "geardyn/describe.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
+#include "geardyn/mesh_stiffness_report.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/output_folder.hpp"
@@ -853,29 +854,31 @@ constexpr int kFigureHarmonics = 10;
 
 int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& sets,
                   const std::string& mesh, const std::string& out_dir, bool json) {
-  const geardyn::GearPairToRead read = pair_to_read(case_file, sets, mesh, "stiffness");
+  const geardyn::Case of = geardyn::load_case(case_path(case_file), parse_overrides(sets));
+  check_command_takes(of, "stiffness");
+  const geardyn::MeshStiffnessReport read = geardyn::mesh_stiffness_report(of, mesh);
   const geardyn::Case& c = read.pair;
   check_output_folder(out_dir, "stiffness");
-  const geardyn::Geometry g = geardyn::case_geometry(c);
-  const geardyn::Iso6336Stiffness iso = geardyn::iso6336_stiffness(c, g);
-  const geardyn::StiffnessCycle cycle = geardyn::energy_method_cycle(c, g);
-  const geardyn::StiffnessFourier kept = geardyn::fourier_harmonics(cycle, c.mesh.harmonics_kept);
+  const geardyn::Geometry& g = read.geometry;
+  const geardyn::Iso6336Stiffness& iso = read.iso;
+  const geardyn::StiffnessCycle& cycle = read.cycle;
+  const geardyn::StiffnessFourier& kept = read.kept;
   const std::string report = geardyn::stiffness_json(c, g, iso, cycle, kept);
   if (!out_dir.empty()) {
-    // The stiffness a run of this case uses (its source, kept harmonics and mean scaling).
-    const geardyn::MeshStiffness used = geardyn::mesh_stiffness(c, g);
     write_output(out_dir, "stiffness", [&](const std::filesystem::path& d) {
       geardyn::write_files_atomically(
-          d, {{"stiffness.csv", geardyn::stiffness_csv(g, cycle, kept, used.fourier)},
+          d, {{"stiffness.csv", geardyn::stiffness_csv(g, cycle, kept, read.used)},
               {"harmonics.json", report + "\n"}});
       geardyn::write_stiffness_figure(
-          d, c.name + ": mesh stiffness (energy method)", cycle,
-          geardyn::fourier_harmonics(cycle, kFigureHarmonics),
+          d,
+          c.name + (read.internal ? ": mesh stiffness (energy method, internal)"
+                                  : ": mesh stiffness (energy method)"),
+          cycle, geardyn::fourier_harmonics(cycle, kFigureHarmonics),
           c.mesh.stiffness_source == geardyn::StiffnessSource::kHarmonics ||
                   c.mesh.stiffness_source == geardyn::StiffnessSource::kIso6336
               ? 0
               : c.mesh.harmonics_kept,
-          used.fourier);
+          read.used);
     });
   }
   if (json) {
@@ -883,7 +886,8 @@ int cmd_stiffness(const std::string& case_file, const std::vector<std::string>& 
     return 0;
   }
   print_warnings(read.warnings);
-  fmt::print("mesh stiffness of {} (normal direction)\n", c.name);
+  fmt::print("mesh stiffness of {} (normal direction{})\n", c.name,
+             read.internal ? "; an internal pair: its pinion, then its ring" : "");
   fmt::print(
       "  ISO 6336-1 Method B   c'_th {:.4f}, c' {:.4f}, c_gamma_alpha {:.4f}, "
       "c_gamma_beta {:.4f} N/(mm um)\n",

@@ -324,12 +324,20 @@ Case train_mesh_pair(const Case& c, const std::string& mesh);
 std::vector<std::string> train_mesh_pair_warnings(const Case& c, const std::string& mesh);
 // The gear pair that `geardyn geometry` and `geardyn stiffness` (and Python's geometry() and
 // stiffness()) read: a train's mesh's (train_mesh_pair, its warnings in the train's keys), or the
-// case itself with its geometry's warnings (a mesh named for it refused, mesh_to_read).
+// case itself with its geometry's warnings (a mesh named for it refused, mesh_to_read). An
+// internal mesh's (with `internal_too`; else refused, internal_pair_has_no_geometry) is
+// `internal`: its pinion first, its ring second, at the mesh's center_distance_mm or 0 (the
+// standard r_2 - r_1), the rest as train_mesh_pair has it; no external pair's geometry describes
+// it (mesh_stiffness_report reads it).
 struct GearPairToRead {
   Case pair;
   std::vector<std::string> warnings;
+  bool internal = false;
 };
-GearPairToRead gear_pair_to_read(const Case& c, const std::string& mesh);
+GearPairToRead gear_pair_to_read(const Case& c, const std::string& mesh, bool internal_too = false);
+// The refusal of internal mesh `mesh`'s geometry (`geardyn geometry --mesh`, Python's
+// geometry()).
+std::string internal_pair_has_no_geometry(const std::string& mesh);
 
 // The train's settings that nothing reads, "train.mesh[0].position_angle_deg = 30 (where): not
 // used: why" (a mesh's layout when neither of its gears is planar), for unused_settings.

@@ -317,8 +317,8 @@ def stiffness(case, mesh=""):
     ----------
     case : Case
     mesh : str
-        Of a gear train: the external mesh whose gear pair is read (default: the first), as
-        ``--mesh``.
+        Of a gear train: the mesh whose gear pair is read (default: the first), as ``--mesh``;
+        an internal mesh's is its pinion in its ring.
 
     Returns
     -------

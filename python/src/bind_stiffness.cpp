@@ -1,6 +1,7 @@
 #include <pybind11/numpy.h>
 
 #include "bindings.hpp"
+#include "geardyn/mesh_stiffness_report.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
@@ -13,11 +14,13 @@ void bind_stiffness(py::module_& m) {
   m.def(
       "_stiffness",
       [](const Case& of, const std::string& mesh) {
-        const Case c = gear_pair_to_read(of, mesh).pair;  // a train's: its mesh's gear pair
-        const Geometry g = compute_geometry(c.gear);
-        const Iso6336Stiffness iso = iso6336_stiffness(c, g);
-        StiffnessCycle cycle = energy_method_cycle(c, g);
-        const StiffnessFourier kept = fourier_harmonics(cycle, c.mesh.harmonics_kept);
+        // A train's: its mesh's gear pair, external or internal.
+        const MeshStiffnessReport r = mesh_stiffness_report(of, mesh);
+        const Case& c = r.pair;
+        const Geometry& g = r.geometry;
+        const Iso6336Stiffness& iso = r.iso;
+        const StiffnessCycle& cycle = r.cycle;
+        const StiffnessFourier& kept = r.kept;
         py::dict arrays;
         arrays["position"] = py::array_t<double>(cycle.position.size(), cycle.position.data());
         arrays["total_n_per_m"] =

@@ -94,6 +94,14 @@ def test_geometry_and_stiffness_match_the_command_line():
         geardyn.stiffness(train, mesh="stage3")
     with pytest.raises(geardyn.InputError, match="names a gear train's mesh"):
         geardyn.geometry(case, mesh="stage2")
+    # An internal mesh: its pinion in its ring, as --mesh reads it; it has no external geometry.
+    turbine = SOURCE / "cases" / "wind_turbine_grc750.toml"
+    wt = geardyn.Case.from_toml(turbine)
+    ring = geardyn.stiffness(wt, mesh="ring_planet1")
+    assert {k: v for k, v in ring.items() if k != "cycle"} == json.loads(
+        cli("stiffness", str(turbine), "--mesh", "ring_planet1", "--json").stdout)
+    with pytest.raises(geardyn.InputError, match="is internal: its geometry is no external"):
+        geardyn.geometry(wt, mesh="ring_planet1")
 
 
 def test_sweep_returns_columns_and_finds_the_jump():
