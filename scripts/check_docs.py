@@ -73,7 +73,7 @@ CLAIMS = [
      lambda s: [s["steady"]["from_s"]], True),
     ("README.md", r"14 s of it, steady from ([\d.]+) s", ("run", TURBINE),
      lambda s: [s["steady"]["from_s"]], True),
-    ("README.md", r"`geardyn validate` re-runs (\d+) of those comparisons", ("validate", None),
+    ("README.md", r"`geardyn validate` re-runs (\d+) of\s+those comparisons", ("validate", None),
      lambda v: [len(v["rows"])], False),
 ]
 
