@@ -108,6 +108,23 @@ std::string plot_csv(const Timeseries& s) {
   return out;
 }
 
+namespace {
+// The minima and the maxima, column by column, of columns(k) for k in [from, to) (to > from).
+std::pair<std::vector<double>, std::vector<double>> envelope(
+    const std::function<std::vector<double>(std::size_t)>& columns, std::size_t from,
+    std::size_t to) {
+  std::vector<double> low = columns(from), high = low;
+  for (std::size_t k = from + 1; k < to; ++k) {
+    const std::vector<double> v = columns(k);
+    for (std::size_t c = 0; c < v.size(); ++c) {
+      low[c] = std::min(low[c], v[c]);
+      high[c] = std::max(high[c], v[c]);
+    }
+  }
+  return {low, high};
+}
+}  // namespace
+
 std::string decimated_csv(const std::string& header, std::size_t n,
                           const std::function<double(std::size_t)>& t_ms,
                           const std::function<std::vector<double>(std::size_t)>& columns) {
@@ -124,14 +141,7 @@ std::string decimated_csv(const std::string& header, std::size_t n,
   const std::size_t buckets = kMaxPlotPoints / 2;
   for (std::size_t b = 0; b < buckets; ++b) {
     const std::size_t lo = b * n / buckets, hi = (b + 1) * n / buckets;
-    std::vector<double> low = columns(lo), high = low;
-    for (std::size_t k = lo + 1; k < hi; ++k) {
-      const std::vector<double> v = columns(k);
-      for (std::size_t c = 0; c < v.size(); ++c) {
-        low[c] = std::min(low[c], v[c]);
-        high[c] = std::max(high[c], v[c]);
-      }
-    }
+    const auto [low, high] = envelope(columns, lo, hi);
     row(t_ms(lo), low);
     row(t_ms((lo + hi) / 2), high);
   }
@@ -160,14 +170,7 @@ std::string log_decimated_csv(const std::string& header, const std::vector<doubl
       for (; k < end; ++k) row(f[k], columns(k));
       continue;
     }
-    std::vector<double> low = columns(k), high = low;
-    for (std::size_t i = k + 1; i < end; ++i) {
-      const std::vector<double> v = columns(i);
-      for (std::size_t c = 0; c < v.size(); ++c) {
-        low[c] = std::min(low[c], v[c]);
-        high[c] = std::max(high[c], v[c]);
-      }
-    }
+    const auto [low, high] = envelope(columns, k, end);
     row(f[k], low);
     row(f[end - 1], high);
     k = end;

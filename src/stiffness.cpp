@@ -153,34 +153,6 @@ struct Tooth {
     return integrate(a, b, intervals, [this](double r) { return integrands(r); });
   }
 
-  // The compliance at rc integrated afresh over [rf, rc] (the base circle a node), the moment
-  // arm not expanded, with `intervals` intervals on each side: the reference the tabulated
-  // integrals are checked against (EnergyMethodOptions::direct).
-  double compliance_direct(double rc, int intervals) const {
-    const double psi_c = psi(rc);
-    const double alpha1 = std::acos(std::min(1.0, rb / rc)) - psi_c;
-    const double ca = std::cos(alpha1), sa = std::sin(alpha1);
-    const double yc = rc * std::cos(psi_c), hc = rc * std::sin(psi_c);
-    const auto energy = [&](double r) {
-      const double p = psi(r);
-      const double h = r * std::sin(p), y = r * std::cos(p);
-      const double dy_dr =
-          r > rb ? std::cos(p) + std::sin(p) * std::tan(std::acos(rb / r)) : std::cos(p);
-      const double arm = (yc - y) * ca - hc * sa;
-      const double bending = arm * arm / (e * (2.0 / 3.0) * h * h * h);
-      const double shear = kShearCoefficient * ca * ca / (g * 2.0 * h);
-      const double axial = sa * sa / (e * 2.0 * h);
-      return std::array<double, 1>{(bending + shear + axial) * dy_dr};
-    };
-    double beam = 0;
-    if (rf < rb && rc > rb) {
-      beam = integrate(rf, rb, intervals, energy)[0] + integrate(rb, rc, intervals, energy)[0];
-    } else {
-      beam = integrate(rf, rc, intervals, energy)[0];
-    }
-    return beam + load_point(rc).foundation;
-  }
-
   // The compliance at rc per unit face width, in the tooth's own frame (its centre line the x
   // axis, the loaded flank at angle psi(rc)): the unit force along the flank's normal, the line
   // through the contact point P tangent to the base circle (at angle psi(rc) - alpha_c for a
@@ -188,9 +160,11 @@ struct Tooth {
   // (r cos psi(r), 0), its shear and axial parts, integrated from the contact to the root
   // circle over the section's half thickness r sin psi(r); and the fillet foundation's
   // compliance (Sainsot et al. 2004) at the force's angle to the section and the distance from
-  // the root circle at which its line crosses the centre line. The same energy as
-  // compliance_direct, stated without the external tooth's angles: the form a ring's tooth is
-  // computed in (`Energy.TheVectorFormIsTheExternalToothsCompliance`).
+  // the root circle at which its line crosses the centre line. The energy the tables hold in the
+  // external tooth's angles (alpha_1 = alpha_c - psi_c, the arm expanded), stated without them:
+  // the form a ring's tooth is computed in, and for an external tooth, integrated afresh at
+  // every contact radius, the reference its tables are checked against
+  // (EnergyMethodOptions::direct, `EnergyMethod.TheTabulatedIntegralsAreTheDirectQuadrature`).
   double compliance_vector(double rc, int intervals, bool foundation = true) const {
     const double psi_c = psi(rc), alpha_c = std::acos(std::min(1.0, rb / rc));
     const double px = rc * std::cos(psi_c), py = rc * std::sin(psi_c);
@@ -469,9 +443,9 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const Energ
     const double s = s_a + i * ds;
     const double rc1 = std::hypot(rb1, s), rc2 = std::hypot(rb2, t1t2 - s);
     const double c1 =
-        o.direct ? t1.compliance_direct(rc1, o.quadrature_intervals) : table1.compliance(rc1);
+        o.direct ? t1.compliance_vector(rc1, o.quadrature_intervals) : table1.compliance(rc1);
     const double c2 =
-        o.direct ? t2.compliance_direct(rc2, o.quadrature_intervals) : table2.compliance(rc2);
+        o.direct ? t2.compliance_vector(rc2, o.quadrature_intervals) : table2.compliance(rc2);
     k_unit[i] = 1.0 / (hertz + c1 + c2);
   }
   return cycle_from_path(c, g.face_width_m, g.base_helix_angle_rad, pbt, s_a, s_e, k_unit,
@@ -481,11 +455,6 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const Energ
 double tooth_compliance_vector(const Case& c, const Geometry& g, int gear, double rc, int intervals,
                                bool foundation) {
   return make_tooth(c, g, gear).compliance_vector(rc, intervals, foundation);
-}
-
-double tooth_compliance_direct(const Case& c, const Geometry& g, int gear, double rc,
-                               int intervals) {
-  return make_tooth(c, g, gear).compliance_direct(rc, intervals);
 }
 
 double ring_tooth_compliance(const Case& c, double rc, int intervals, bool foundation) {
@@ -570,7 +539,7 @@ StiffnessCycle internal_energy_method_cycle(const Case& c, const EnergyMethodOpt
     // ring's is t1t2 beyond the pinion's.
     const double rc1 = std::hypot(p.rb1, s), rc2 = std::hypot(p.rb2, s + p.t1t2);
     const double c1 =
-        o.direct ? t1.compliance_direct(rc1, o.quadrature_intervals) : table1.compliance(rc1);
+        o.direct ? t1.compliance_vector(rc1, o.quadrature_intervals) : table1.compliance(rc1);
     const double c2 = t2.compliance_vector(rc2, o.quadrature_intervals);
     k_unit[i] = 1.0 / (hertz + c1 + c2);
   }

@@ -242,6 +242,25 @@ Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& driving,
 }  // namespace
 
 namespace {
+// A pair's mesh stiffness `of` it (a series in time at its gear 0's speed) as a train mesh has
+// it: k_m and the ratios and phases at orders of its mesh frequency; an InputError of the pair
+// in the train's keys of `first` and `second`.
+template <class Series>
+PairMeshStiffness pair_stiffness_of(const Case& c, Series&& of, const TrainBodyData& first,
+                                    const TrainBodyData& second) {
+  HarmonicSeries k;
+  try {
+    k = of();
+  } catch (const InputError& e) {
+    throw InputError(train_keys_in(e.what(), first, second));
+  }
+  PairMeshStiffness out;
+  out.mean_n_per_m = k.offset;
+  out.harmonics = harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi * c.gear.teeth[0], 1 / k.offset,
+                                                  "stiffness_source");
+  return out;
+}
+
 // The energy method of an internal mesh (internal_mesh_stiffness): the pinion first, the ring
 // second, at the mesh's centre distance when given (else the standard r_2 - r_1).
 PairMeshStiffness internal_pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
@@ -251,17 +270,8 @@ PairMeshStiffness internal_pair_mesh_stiffness(const TrainMeshData& m, const Tra
   const TrainBodyData& ring = ring_drives ? driving : driven;
   Case c = mesh_pair_case(m, pinion, ring);
   c.gear.center_distance_mm = m.center_distance_mm.value_or(0.0);
-  HarmonicSeries k;
-  try {
-    k = mesh_stiffness_series(c, internal_mesh_stiffness(c));
-  } catch (const InputError& e) {
-    throw InputError(train_keys_in(e.what(), pinion, ring));
-  }
-  PairMeshStiffness out;
-  out.mean_n_per_m = k.offset;
-  out.harmonics = harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi * c.gear.teeth[0], 1 / k.offset,
-                                                  "stiffness_source");
-  return out;
+  return pair_stiffness_of(
+      c, [&] { return mesh_stiffness_series(c, internal_mesh_stiffness(c)); }, pinion, ring);
 }
 }  // namespace
 
@@ -269,17 +279,8 @@ PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyDat
                                       const TrainBodyData& driven) {
   if (m.kind == "internal") return internal_pair_mesh_stiffness(m, driving, driven);
   const Case c = mesh_pair_case(m, driving, driven);
-  HarmonicSeries k;
-  try {
-    k = mesh_stiffness_series(c, case_geometry(c));
-  } catch (const InputError& e) {
-    throw InputError(train_keys_in(e.what(), driving, driven));
-  }
-  PairMeshStiffness out;
-  out.mean_n_per_m = k.offset;
-  out.harmonics = harmonics_of<StiffnessHarmonic>(c, k, 2 * kPi * c.gear.teeth[0], 1 / k.offset,
-                                                  "stiffness_source");
-  return out;
+  return pair_stiffness_of(
+      c, [&] { return mesh_stiffness_series(c, case_geometry(c)); }, driving, driven);
 }
 
 namespace {

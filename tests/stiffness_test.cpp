@@ -437,24 +437,6 @@ TEST(MeshStiffness, KeptHarmonicsThatMakeItNegativeAreRefused) {
   std::filesystem::remove(path);
 }
 
-// The energy method's tooth stated by its force vector (the form a ring's tooth is computed
-// in) is the tooth of the method's own angles, on both gears of the Table 1 pair and of the
-// ISO/TR example, from the base circle to the tip.
-TEST(Energy, TheVectorFormIsTheExternalToothsCompliance) {
-  for (const Case& c : {Case{}, spur(), iso_tr_example_1()}) {
-    const Geometry g = compute_geometry(c.gear);
-    for (int gear = 0; gear < 2; ++gear) {
-      const double rb = g.base_radius_m[gear], ra = g.tip_radius_m[gear];
-      for (double f : {0.02, 0.3, 0.6, 1.0}) {
-        const double rc = rb + f * (ra - rb);
-        const double direct = tooth_compliance_direct(c, g, gear, rc, 16);
-        EXPECT_NEAR(tooth_compliance_vector(c, g, gear, rc, 16), direct, 1e-11 * direct)
-            << c.name << " gear " << gear << " at " << f;
-      }
-    }
-  }
-}
-
 // A spur internal pair of module m: pinion of z1 teeth, ring of z2, standard tips, unshifted.
 Case internal_spur(int z1, int z2, double m = 2.0) {
   Case c;

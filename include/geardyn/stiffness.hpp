@@ -89,12 +89,10 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g,
                                    const EnergyMethodOptions& o = {});
 
 // One tooth's compliance per unit face width at contact radius rc (m/N per m), gear `gear` of
-// an external pair: by the energy method's angles (compliance_direct, the reference of its
-// tables) and by the force's vector in the tooth's frame (the form a ring's tooth is computed
-// in), `intervals` Gauss intervals each side of the base circle; without `foundation`, the
-// tooth's beam alone (bending, shear and compression).
-double tooth_compliance_direct(const Case& c, const Geometry& g, int gear, double rc,
-                               int intervals);
+// an external pair, integrated afresh by the force's vector in the tooth's frame (the form a
+// ring's tooth is computed in, and the reference of the energy method's tables), `intervals`
+// Gauss intervals each side of the base circle; without `foundation`, the tooth's beam alone
+// (bending, shear and compression).
 double tooth_compliance_vector(const Case& c, const Geometry& g, int gear, double rc, int intervals,
                                bool foundation = true);
 
