@@ -11,9 +11,6 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kMmToM = 1e-3;
-// Centre distance and outside diameters are made to 0.01 m_n in practice (DIN 3964 tolerance
-// classes are of that order for this size); a larger disagreement is worth a warning.
-constexpr double kDimensionToleranceModules = 0.01;
 // Bits of the inverse involute: the angle to about 1e-15 rad.
 constexpr int kInvoluteBits = 50;
 
@@ -21,24 +18,117 @@ constexpr int kInvoluteBits = 50;
 
 double involute(double alpha_rad) { return std::tan(alpha_rad) - alpha_rad; }
 
-double internal_contact_ratio(int z1, int z2, double normal_module_m,
-                              double normal_pressure_angle_rad, double helix_angle_rad) {
+ShiftedCenterDistance shifted_center_distance(bool internal, int z1, int z2, double x1, double x2,
+                                              double normal_module,
+                                              double normal_pressure_angle_rad,
+                                              double helix_angle_rad) {
+  const double an = normal_pressure_angle_rad, beta = helix_angle_rad;
+  const double at = std::atan(std::tan(an) / std::cos(beta));
+  const double z = internal ? static_cast<double>(z1) - z2 : static_cast<double>(z1) + z2;
+  ShiftedCenterDistance out;
+  if (x1 + x2 == 0) {
+    out.working_pressure_angle_rad = at;
+    out.center_distance = 0.5 * std::abs(z) * normal_module / std::cos(beta);
+    return out;
+  }
+  const double inv_wt = involute(at) + 2 * std::tan(an) * (x1 + x2) / z;
+  if (!(inv_wt > 0))
+    throw InputError(fmt::format(
+        "gear.profile_shift = [{}, {}]: too negative for {} and {} teeth{} (no working pressure "
+        "angle)",
+        x1, x2, z1, z2, internal ? " of an internal pair" : ""));
+  out.working_pressure_angle_rad = inverse_involute(inv_wt);
+  out.center_distance = 0.5 * std::abs(z) * normal_module / std::cos(beta) * std::cos(at) /
+                        std::cos(out.working_pressure_angle_rad);
+  return out;
+}
+
+InternalGeometry internal_geometry(const GearData& g) {
+  const int z1 = g.teeth[0], z2 = g.teeth[1];
   if (z2 <= z1)
     throw InputError(fmt::format(
-        "an internal pair needs a ring of more teeth than its pinion ({} and {} teeth)", z1, z2));
-  const double mt = normal_module_m / std::cos(helix_angle_rad);
-  const double at = std::atan(std::tan(normal_pressure_angle_rad) / std::cos(helix_angle_rad));
-  const double r1 = z1 * mt / 2, r2 = z2 * mt / 2;
-  const double rb1 = r1 * std::cos(at), rb2 = r2 * std::cos(at);
-  const double ra1 = r1 + normal_module_m, ra2 = r2 - normal_module_m;
-  if (!(ra2 > rb2))
-    throw InputError(
-        fmt::format("the ring of {} teeth has its tip circle ({:.6g} mm) inside its base circle "
-                    "({:.6g} mm): too few teeth for an involute ring",
-                    z2, 2e3 * ra2, 2e3 * rb2));
-  const double path = std::sqrt(ra1 * ra1 - rb1 * rb1) - std::sqrt(ra2 * ra2 - rb2 * rb2) +
-                      (r2 - r1) * std::sin(at);
-  return path / (std::numbers::pi * mt * std::cos(at));
+        "gear.teeth = [{}, {}]: an internal pair needs a ring of more teeth than its pinion", z1,
+        z2));
+  InternalGeometry p;
+  const double beta = g.helix_angle_deg * kPi / 180, an = g.normal_pressure_angle_deg * kPi / 180;
+  const double mn = g.normal_module_mm * kMmToM, mt = mn / std::cos(beta);
+  const double at = std::atan(std::tan(an) / std::cos(beta));
+  p.transverse_pressure_angle_rad = at;
+  p.base_helix_angle_rad = std::asin(std::sin(beta) * std::cos(an));
+  const double r1 = 0.5 * z1 * mt, r2 = 0.5 * z2 * mt;
+  p.rb1 = r1 * std::cos(at);
+  p.rb2 = r2 * std::cos(at);
+  p.pbt = kPi * mt * std::cos(at);
+  const double x1 = g.profile_shift[0], x2 = g.profile_shift[1];
+  const double tol = kDimensionToleranceModules * mn;
+
+  // The tips: the pinion's d_1 + 2 m_n (1 + x1), the ring's |d_2| - 2 m_n (1 + x2).
+  p.ra1 = 0.5 * g.outside_diameter_mm[0] * kMmToM;
+  p.ra2 = 0.5 * g.outside_diameter_mm[1] * kMmToM;
+  const double ra2_rack = r2 - mn * (1 + x2);
+  if (!(p.ra2 < r2))
+    throw InputError(fmt::format(
+        "gear.outside_diameter_mm[1] = {}: a ring's tip diameter lies inside its reference "
+        "circle, {:.6g} mm (with profile shift {} the standard basic rack gives {:.6g} mm); the "
+        "rim's outside diameter is not read",
+        g.outside_diameter_mm[1], 2 * r2 / kMmToM, x2, 2 * ra2_rack / kMmToM));
+  const double ra2_flipped = r2 - mn * (1 - x2);
+  if (x2 != 0 && std::abs(p.ra2 - ra2_flipped) <= tol && std::abs(p.ra2 - ra2_rack) > tol)
+    throw InputError(fmt::format(
+        "gear.profile_shift[1] = {0}: the ring's tip diameter, {1} mm, is that of a shift of {2} "
+        "in ISO 21771's sign, where a positive shift thickens a ring's teeth and moves its tip "
+        "circle inwards (|d_a| = |d| - 2 m_n (1 + x) = {3:.6g} mm for {0}); if the tip diameter "
+        "is right, write the ring's profile_shift = {2}",
+        x2, g.outside_diameter_mm[1], -x2, 2 * ra2_rack / kMmToM));
+  // (The pinion's tip is its own: often shortened for its mesh with a sun, which says so.)
+  if (std::abs(p.ra2 - ra2_rack) > tol)
+    p.warnings.push_back(fmt::format(
+        "gear.outside_diameter_mm[1] = {} disagrees with the {:.4f} mm of a ring's standard "
+        "basic rack (addendum 1 m_n) with profile shift {} (tolerance {:.4f} mm); the given "
+        "diameter is used",
+        g.outside_diameter_mm[1], 2 * ra2_rack / kMmToM, x2, 2 * tol / kMmToM));
+
+  // The centre distance: the shifts' (zero backlash), or the given one.
+  const ShiftedCenterDistance shifted = shifted_center_distance(true, z1, z2, x1, x2, mn, an, beta);
+  p.center_distance_m = shifted.center_distance;
+  p.working_pressure_angle_rad = shifted.working_pressure_angle_rad;
+  if (g.center_distance_mm > 0) {
+    p.center_distance_m = g.center_distance_mm * kMmToM;
+    const double cos_w = (r2 - r1) * std::cos(at) / p.center_distance_m;
+    if (!(cos_w > 0 && cos_w < 1))
+      throw InputError(
+          fmt::format("gear.center_distance_mm = {}: no working pressure angle for "
+                      "an internal pair of standard centre distance {:.6g} mm",
+                      g.center_distance_mm, (r2 - r1) / kMmToM));
+    p.working_pressure_angle_rad = std::acos(cos_w);
+    if (std::abs(p.center_distance_m - shifted.center_distance) > tol)
+      p.warnings.push_back(fmt::format(
+          "gear.center_distance_mm = {} disagrees with the {:.4f} mm that the profile shifts "
+          "x1 + x2 = {} of the internal pair imply (tolerance {:.4f} mm); the given centre "
+          "distance is used",
+          g.center_distance_mm, shifted.center_distance / kMmToM, x1 + x2, tol / kMmToM));
+  }
+  p.t1t2 = p.center_distance_m * std::sin(p.working_pressure_angle_rad);
+
+  if (!(p.ra1 > p.rb1))
+    throw InputError(fmt::format(
+        "gear.outside_diameter_mm[0] = {}: must exceed the pinion's base diameter {:.6g} mm",
+        g.outside_diameter_mm[0], 2 * p.rb1 / kMmToM));
+  if (!(p.ra2 > p.rb2))
+    throw InputError(fmt::format(
+        "gear.teeth[1] = {}: the ring's tip circle ({:.6g} mm) lies inside its base circle "
+        "({:.6g} mm): too few teeth for an involute ring, or too large a profile shift ({})",
+        z2, 2 * p.ra2 / kMmToM, 2 * p.rb2 / kMmToM, x2));
+  p.s_e = std::sqrt(p.ra1 * p.ra1 - p.rb1 * p.rb1);
+  p.s_a = std::sqrt(p.ra2 * p.ra2 - p.rb2 * p.rb2) - p.t1t2;
+  if (!(p.s_a > 0))
+    throw InputError(fmt::format(
+        "gear.teeth = [{}, {}]: the ring's tip reaches below the pinion's base circle (involute "
+        "interference: the path of contact would start {:.4g} mm before it)",
+        z1, z2, -p.s_a / kMmToM));
+  if (!(p.s_e > p.s_a))
+    throw InputError(fmt::format("gear.teeth = [{}, {}]: the pair has no path of contact", z1, z2));
+  return p;
 }
 
 double inverse_involute(double inv) {

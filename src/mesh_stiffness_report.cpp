@@ -21,20 +21,16 @@ MeshStiffnessReport mesh_stiffness_report(const Case& c, const std::string& mesh
     r.cycle = energy_method_cycle(pair, r.geometry);
     r.used = mesh_stiffness(pair, r.geometry).fourier;
   } else {
-    // ISO 6336-1 reads the pinion's data and the pair's contact ratio: the external pair of the
-    // same teeth at its reference centre distance gives the rest of its geometry.
-    const GearData& gd = pair.gear;
-    const double beta = gd.helix_angle_deg * std::numbers::pi / 180;
-    Case outer = pair;
-    outer.gear.center_distance_mm =
-        0.5 * (gd.teeth[0] + gd.teeth[1]) * gd.normal_module_mm / std::cos(beta);
-    outer.gear.outside_diameter_mm[1] =
-        gd.teeth[1] * gd.normal_module_mm / std::cos(beta) + 2 * gd.normal_module_mm;
-    r.geometry = case_geometry(outer);
-    r.geometry.transverse_contact_ratio =
-        internal_contact_ratio(gd.teeth[0], gd.teeth[1], 1e-3 * gd.normal_module_mm,
-                               gd.normal_pressure_angle_deg * std::numbers::pi / 180, beta);
-    r.iso = iso6336_internal_stiffness(outer, r.geometry, r.geometry.transverse_contact_ratio);
+    // The internal pair's geometry in the report's terms: its contact and overlap ratios, its
+    // base helix angle and pitch.
+    const InternalGeometry g = internal_geometry(pair.gear);
+    r.geometry.transverse_contact_ratio = g.transverse_contact_ratio();
+    r.geometry.overlap_ratio = 1e-3 * pair.gear.face_width_mm *
+                               std::sin(pair.gear.helix_angle_deg * std::numbers::pi / 180) /
+                               (std::numbers::pi * 1e-3 * pair.gear.normal_module_mm);
+    r.geometry.base_helix_angle_rad = g.base_helix_angle_rad;
+    r.geometry.transverse_base_pitch_m = g.pbt;
+    r.iso = iso6336_internal_stiffness(pair, g);
     r.cycle = internal_energy_method_cycle(pair);
     switch (pair.mesh.stiffness_source) {
       case StiffnessSource::kEnergy:

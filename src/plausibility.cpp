@@ -64,9 +64,13 @@ void check_backlash(const TrainCase& t, const Origins& origin, std::vector<std::
     const TrainMeshData& m = t.meshes[i];
     const TrainBodyData *a = body_named(t, m.driving), *b = body_named(t, m.driven);
     if (!is_gear(a) || !is_gear(b) || !(m.backlash_um > 0)) continue;
-    const int teeth = m.kind == "internal" ? std::abs(a->teeth - b->teeth) : a->teeth + b->teeth;
-    const double center_mm = m.center_distance_mm.value_or(
-        a->normal_module_mm * teeth / (2 * std::cos(a->helix_angle_deg * kPi / 180)));
+    double center_mm = 0;
+    try {
+      center_mm =
+          m.center_distance_mm.value_or(mesh_center_distance_from_gears(m, *a, *b).center_distance);
+    } catch (const InputError&) {
+      continue;  // the assembly says why
+    }
     const double least_um =
         1e3 * (2.0 / 3.0) * (0.06 + 0.0005 * center_mm + 0.03 * a->normal_module_mm) / 2;
     if (m.backlash_um < kLeastBacklashShare * least_um)
@@ -79,19 +83,44 @@ void check_backlash(const TrainCase& t, const Origins& origin, std::vector<std::
   }
 }
 
-// A pin off the centre distance its planet's teeth mesh at.
+// A pin off the centre distance its planet's teeth mesh at; a planet whose meshes put it at two.
 void check_pins(const TrainCase& t, const Origins& origin, std::vector<std::string>& out) {
   for (std::size_t i = 0; i < t.bearings.size(); ++i) {
     const TrainBearingData& b = t.bearings[i];
-    if (b.on.empty() || b.pin_radius_mm == 0) continue;
+    if (b.on.empty()) continue;
     const std::optional<double> gears = pin_radius_from_gears_mm(t, b);
-    if (gears && std::abs(b.pin_radius_mm - *gears) > kPinRadiusTolerance * *gears)
+    if (b.pin_radius_mm != 0 && gears &&
+        std::abs(b.pin_radius_mm - *gears) > kPinRadiusTolerance * *gears)
       out.push_back(fmt::format(
           "train.bearing[{}].pin_radius_mm = {}{}: bearing '{}' holds its pin {:.3g} % off the "
-          "centre distance its gears' teeth and module give, {:.6g} mm: the planet does not sit "
-          "where its teeth mesh (leave pin_radius_mm out to have it from the gears)",
+          "centre distance its gears' teeth, module and profile shifts give, {:.6g} mm: the "
+          "planet does not sit where its teeth mesh (leave pin_radius_mm out to have it from the "
+          "gears)",
           i, b.pin_radius_mm, origin(fmt::format("bearing '{}': pin_radius_mm", b.name)), b.name,
           100 * (b.pin_radius_mm - *gears) / *gears, *gears));
+    if (!gears) continue;
+    // Each of the planet's meshes with a gear on no pin, against the first's.
+    const TrainBodyData* planet = body_named(t, b.body);
+    for (const TrainMeshData& m : t.meshes) {
+      const std::string other = m.driving == b.body  ? m.driven
+                                : m.driven == b.body ? m.driving
+                                                     : std::string();
+      const TrainBodyData* gear = other.empty() ? nullptr : body_named(t, other);
+      if (!is_gear(planet) || !is_gear(gear)) continue;
+      double a_mm = 0;
+      try {
+        a_mm = mesh_center_distance_from_gears(m, *planet, *gear).center_distance;
+      } catch (const InputError&) {
+        continue;  // the assembly says why
+      }
+      if (std::abs(a_mm - *gears) > kPinRadiusTolerance * *gears)
+        out.push_back(fmt::format(
+            "mesh '{}'{}: its gears' teeth, module and profile shifts put planet '{}' {:.6g} mm "
+            "from '{}', where its other mesh puts it {:.6g} mm from the carrier's axis: one pin "
+            "cannot hold it at both (a ring's profile_shift is in ISO 21771's sign: positive "
+            "thickens its teeth and moves its tip circle inwards)",
+            m.name, origin(fmt::format("mesh '{}'", m.name)), b.body, a_mm, other, *gears));
+    }
   }
 }
 

@@ -272,20 +272,21 @@ Tooth make_tooth(const Case& c, const Geometry& g, int i) {
   return t;
 }
 
-// Gear 1 of an internal pair, the ring (unshifted, z teeth; transverse base radius rb and
-// pressure angle alpha_t): its tooth space is an external tooth's, so its tooth's half angle at
-// r is pi / (2 z) - inv(alpha_t) + inv(alpha_r), half the pitch at the reference circle; its
-// root circle r + m_n h_fP outside. The foundation is Sainsot's with the ring's root angle and a
-// solid body (h_fi = kSolidBlankHubRatio): a rim thick against the tooth, its own bending not
-// modelled.
+// Gear 1 of an internal pair, the ring (z teeth, profile shift x in ISO 21771's sign; transverse
+// base radius rb and pressure angle alpha_t): its tooth space is an external tooth's, so its
+// tooth's half angle at r is (pi / 2 + 2 x tan(alpha_n)) / z - inv(alpha_t) + inv(alpha_r), its
+// thickness at the reference circle m_t (pi / 2 + 2 x tan(alpha_n)); its root circle
+// r + m_n (h_fP - x) outside. The foundation is Sainsot's with the ring's root angle and a solid
+// body (h_fi = kSolidBlankHubRatio): a rim thick against the tooth, its own bending not modelled.
 Tooth make_ring_tooth(const Case& c, double rb, double alpha_t) {
   const GearData& gd = c.gear;
   Tooth t;
   t.ring = true;
   t.rb = rb;
-  const double r = rb / std::cos(alpha_t);
-  t.rf = r + 1e-3 * gd.normal_module_mm * gd.basic_rack_dedendum[1];
-  t.psi_b = kPi / (2.0 * gd.teeth[1]) - involute_fn(alpha_t);
+  const double r = rb / std::cos(alpha_t), x = gd.profile_shift[1];
+  t.rf = r + 1e-3 * gd.normal_module_mm * (gd.basic_rack_dedendum[1] - x);
+  t.psi_b = (kPi / 2 + 2 * x * std::tan(gd.normal_pressure_angle_deg * kPi / 180)) / gd.teeth[1] -
+            involute_fn(alpha_t);
   t.e = gd.youngs_modulus_gpa[1] * 1e9;
   t.g = t.e / (2 * (1 + gd.poisson_ratio[1]));
   t.theta_f = t.psi(t.rf);
@@ -411,8 +412,14 @@ Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g) {
   return iso6336(c, g, false, g.transverse_contact_ratio);
 }
 
-Iso6336Stiffness iso6336_internal_stiffness(const Case& c, const Geometry& g, double eps_alpha) {
-  return iso6336(c, g, true, eps_alpha);
+Iso6336Stiffness iso6336_internal_stiffness(const Case& c, const InternalGeometry& g) {
+  // What Method B reads of the geometry: the helix angles and the pinion's reference diameter.
+  Geometry read;
+  read.helix_angle_rad = c.gear.helix_angle_deg * kPi / 180;
+  read.base_helix_angle_rad = g.base_helix_angle_rad;
+  read.reference_diameter_m[0] =
+      c.gear.teeth[0] * (c.gear.normal_module_mm * 1e-3 / std::cos(read.helix_angle_rad));
+  return iso6336(c, read, true, g.transverse_contact_ratio());
 }
 
 StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const EnergyMethodOptions& o) {
@@ -458,72 +465,23 @@ double tooth_compliance_vector(const Case& c, const Geometry& g, int gear, doubl
 }
 
 double ring_tooth_compliance(const Case& c, double rc, int intervals, bool foundation) {
-  const InternalPath p = internal_path(c);
-  return make_ring_tooth(c, p.rb2, p.alpha_t).compliance_vector(rc, intervals, foundation);
-}
-
-InternalPath internal_path(const Case& c) {
-  const GearData& gd = c.gear;
-  for (int i = 0; i < 2; ++i)
-    if (gd.profile_shift[i] != 0)
-      throw InputError(fmt::format(
-          "gear.profile_shift[{}] = {}: the energy method of an internal pair is computed for "
-          "unshifted gears",
-          i, gd.profile_shift[i]));
-  if (gd.teeth[1] <= gd.teeth[0])
-    throw InputError(fmt::format(
-        "gear.teeth = [{}, {}]: an internal pair needs a ring of more teeth than its pinion",
-        gd.teeth[0], gd.teeth[1]));
-  InternalPath p;
-  const double beta = gd.helix_angle_deg * kPi / 180, an = gd.normal_pressure_angle_deg * kPi / 180;
-  const double mn = 1e-3 * gd.normal_module_mm, mt = mn / std::cos(beta);
-  p.alpha_t = std::atan(std::tan(an) / std::cos(beta));
-  p.base_helix_rad = std::asin(std::sin(beta) * std::cos(an));
-  const double r1 = 0.5 * gd.teeth[0] * mt, r2 = 0.5 * gd.teeth[1] * mt;
-  p.rb1 = r1 * std::cos(p.alpha_t);
-  p.rb2 = r2 * std::cos(p.alpha_t);
-  p.ra1 = 0.5e-3 * gd.outside_diameter_mm[0];
-  p.ra2 = r2 - mn;
-  p.pbt = kPi * mt * std::cos(p.alpha_t);
-  // The working pressure angle at the centre distance a: cos(alpha_wt) = (r2 - r1) cos(alpha_t)
-  // / a, the standard one (a = r2 - r1) when none is given.
-  const double a0 = r2 - r1;
-  const double a = gd.center_distance_mm > 0 ? 1e-3 * gd.center_distance_mm : a0;
-  const double cos_w = a0 * std::cos(p.alpha_t) / a;
-  if (!(cos_w > 0 && cos_w < 1))
-    throw InputError(
-        fmt::format("gear.center_distance_mm = {}: no working pressure angle for "
-                    "an internal pair of standard centre distance {:.6g} mm",
-                    gd.center_distance_mm, 1e3 * a0));
-  p.t1t2 = a * std::sin(std::acos(cos_w));
-  if (!(p.ra2 > p.rb2))
-    throw InputError(fmt::format(
-        "gear.teeth[1] = {}: the ring's tip circle ({:.6g} mm) lies inside its base circle "
-        "({:.6g} mm): too few teeth for an involute ring",
-        gd.teeth[1], 2e3 * p.ra2, 2e3 * p.rb2));
-  p.s_e = std::sqrt(p.ra1 * p.ra1 - p.rb1 * p.rb1);
-  p.s_a = std::sqrt(p.ra2 * p.ra2 - p.rb2 * p.rb2) - p.t1t2;
-  if (!(p.s_a > 0))
-    throw InputError(fmt::format(
-        "gear.teeth = [{}, {}]: the ring's tip reaches below the pinion's base circle (involute "
-        "interference: the path of contact would start {:.4g} mm before it)",
-        gd.teeth[0], gd.teeth[1], -1e3 * p.s_a));
-  if (!(p.s_e > p.s_a))
-    throw InputError(fmt::format("gear.teeth = [{}, {}]: the pair has no path of contact",
-                                 gd.teeth[0], gd.teeth[1]));
-  return p;
+  const InternalGeometry p = internal_geometry(c.gear);
+  return make_ring_tooth(c, p.rb2, p.transverse_pressure_angle_rad)
+      .compliance_vector(rc, intervals, foundation);
 }
 
 StiffnessCycle internal_energy_method_cycle(const Case& c, const EnergyMethodOptions& o) {
-  const InternalPath p = internal_path(c);
+  const InternalGeometry p = internal_geometry(c.gear);
+  const double alpha_t = p.transverse_pressure_angle_rad;
   // The pinion's tooth from its own geometry (its base and root circles and pressure angles).
   Geometry g;
   g.normal_pressure_angle_rad = c.gear.normal_pressure_angle_deg * kPi / 180;
-  g.transverse_pressure_angle_rad = p.alpha_t;
+  g.transverse_pressure_angle_rad = alpha_t;
   g.base_radius_m = {p.rb1, p.rb2};
-  const double r1 = p.rb1 / std::cos(p.alpha_t);
-  g.root_diameter_m[0] = 2 * r1 - 2e-3 * c.gear.normal_module_mm * c.gear.basic_rack_dedendum[0];
-  const Tooth t1 = make_tooth(c, g, 0), t2 = make_ring_tooth(c, p.rb2, p.alpha_t);
+  const double r1 = p.rb1 / std::cos(alpha_t);
+  g.root_diameter_m[0] = 2 * r1 - 2e-3 * c.gear.normal_module_mm *
+                                      (c.gear.basic_rack_dedendum[0] - c.gear.profile_shift[0]);
+  const Tooth t1 = make_tooth(c, g, 0), t2 = make_ring_tooth(c, p.rb2, alpha_t);
   const GearData& gd = c.gear;
   const double e_star =
       1.0 / ((1 - gd.poisson_ratio[0] * gd.poisson_ratio[0]) / (gd.youngs_modulus_gpa[0] * 1e9) +
@@ -543,8 +501,8 @@ StiffnessCycle internal_energy_method_cycle(const Case& c, const EnergyMethodOpt
     const double c2 = t2.compliance_vector(rc2, o.quadrature_intervals);
     k_unit[i] = 1.0 / (hertz + c1 + c2);
   }
-  return cycle_from_path(c, 1e-3 * gd.face_width_mm, p.base_helix_rad, p.pbt, p.s_a, p.s_e, k_unit,
-                         o.first_position);
+  return cycle_from_path(c, 1e-3 * gd.face_width_mm, p.base_helix_angle_rad, p.pbt, p.s_a, p.s_e,
+                         k_unit, o.first_position);
 }
 
 std::vector<double> read_cycle_table(const Case& c, const CycleTableSpec& spec) {

@@ -105,9 +105,13 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
       {"eccentricity_angle_deg", &B::eccentricity_angle_deg, "deg", closed(-360, 360), false,
        "where that centre lies at t = 0, counterclockwise from x in the train's frame"},
       {"profile_shift", &B::profile_shift, "", closed(-1.5, 1.5), false,
-       "profile shift coefficient x, for a mesh's stiffness_source = \"energy\""},
+       "profile shift coefficient x, a ring's in ISO 21771's sign (positive thickens its teeth): "
+       "its meshes' centre distance, working pressure angle and stiffness from the gears"},
       {"outside_diameter_mm", &B::outside_diameter_mm, "mm", above(0), false,
-       "tip diameter d_a, for a mesh's stiffness_source = \"energy\"; absent: d + 2 m_n (1 + x)"},
+       "tip diameter d_a (a ring's inner one), for a mesh's stiffness_source = \"energy\" or "
+       "\"iso6336\"; absent: d + 2 m_n (1 + x - k) in an external mesh, k the tip shortening "
+       "its centre distance leaves (ISO 21771), d + 2 m_n (1 + x) in an internal one, a ring's "
+       "d - 2 m_n (1 + x)"},
       {"youngs_modulus_gpa", &B::youngs_modulus_gpa, "GPa", above(0), false,
        "Young's modulus, for a mesh's stiffness_source = \"energy\""},
       {"poisson_ratio", &B::poisson_ratio, "", open(0, 0.5), false,
@@ -269,8 +273,8 @@ const std::vector<ElementKey<TrainBearingData>>& bearing_keys() {
        "absent: the ground"},
       {"pin_radius_mm", &G::pin_radius_mm, "mm", at_least(0), false,
        "where the pin is on that body: its distance from the body's centre; absent (or 0): the "
-       "centre distance of the carried gear's mesh with its sun or ring, from their teeth and "
-       "module (a radius more than 0.1 % off it is warned of)"},
+       "centre distance of the carried gear's mesh with its sun or ring, from their teeth, "
+       "module and profile shifts (a radius more than 0.1 % off it is warned of)"},
       {"pin_angle_deg", &G::pin_angle_deg, "deg", closed(-360, 360), false,
        "and its direction, counterclockwise from x (on the ground: the direction its errors "
        "are read in)"},
@@ -718,8 +722,8 @@ namespace {
 }
 
 struct GearGeometry {
-  double base_radius_m = 0, base_helix_rad = 0, transverse_pressure_rad = 0, inertia_kg_m2 = 0,
-         mass_kg = 0, tilt_inertia_kg_m2 = 0;
+  double base_radius_m = 0, base_helix_rad = 0, inertia_kg_m2 = 0, mass_kg = 0,
+         tilt_inertia_kg_m2 = 0;
 };
 
 // A body whose centre moves in the plane: planar, axial or spatial, or held to its line.
@@ -747,7 +751,6 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
   const double d = b.teeth * b.normal_module_mm * kMmToM / std::cos(beta);  // reference
   g.base_radius_m = 0.5 * d * std::cos(alpha_t);
   g.base_helix_rad = std::atan(std::tan(beta) * std::cos(alpha_t));
-  g.transverse_pressure_rad = alpha_t;
   // The blank, a cylinder of the reference diameter: for what is not given.
   const bool planar = keeps_plane(b), spatial = b.dof == "spatial";
   if (!b.inertia_kg_m2 || (planar && !b.mass_kg) || (spatial && !b.tilt_inertia_kg_m2)) {
@@ -788,6 +791,18 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
 
 }  // namespace
 
+ShiftedCenterDistance mesh_center_distance_from_gears(const TrainMeshData& m,
+                                                      const TrainBodyData& a,
+                                                      const TrainBodyData& b) {
+  const bool internal = m.kind == "internal";
+  const TrainBodyData& first = internal && a.teeth > b.teeth ? b : a;
+  const TrainBodyData& second = &first == &a ? b : a;
+  return shifted_center_distance(internal, first.teeth, second.teeth, first.profile_shift,
+                                 second.profile_shift, first.normal_module_mm,
+                                 first.normal_pressure_angle_deg * kDegToRad,
+                                 first.helix_angle_deg * kDegToRad);
+}
+
 std::optional<double> pin_radius_from_gears_mm(const TrainCase& t, const TrainBearingData& b) {
   if (b.on.empty()) return std::nullopt;
   const auto find = [&](const std::string& name) -> const TrainBodyData* {
@@ -806,10 +821,11 @@ std::optional<double> pin_radius_from_gears_mm(const TrainCase& t, const TrainBe
     if (other.empty() || pinned(other)) continue;
     const TrainBodyData *x = find(b.body), *y = find(other);
     if (!x || !y || x->teeth <= 0 || y->teeth <= 0 || !(x->normal_module_mm > 0)) continue;
-    // The reference centre distance m_n (z_a +- z_b) / (2 cos beta): the base radii's sum (or
-    // difference) over cos(alpha_t), the geometry the meshes' lines of action are drawn with.
-    const int teeth = m.kind == "internal" ? std::abs(x->teeth - y->teeth) : x->teeth + y->teeth;
-    return x->normal_module_mm * teeth / (2 * std::cos(x->helix_angle_deg * kDegToRad));
+    try {
+      return mesh_center_distance_from_gears(m, *x, *y).center_distance;
+    } catch (const InputError&) {
+      continue;  // the mesh's assembly says why
+    }
   }
   return std::nullopt;
 }
@@ -1089,7 +1105,41 @@ train::Train train_of(const Case& c) {
                              ring->name, m.name, keeps_plane(*ring) ? " and mass_kg" : ""));
       }
       x.base_helix_angle_rad = gears[m.driving].base_helix_rad;
-      x.transverse_pressure_angle_rad = gears[m.driving].transverse_pressure_rad;
+      // The line of action at the working pressure angle of the gears' shifts; a planet's, at
+      // the one of its pin's radius, cos(alpha_w) = (r_b,a +- r_b,b) / a, where that radius
+      // differs from the shifts' centre distance by a drawing's rounding (kPinRadiusTolerance),
+      // so that the carrier's lever and the teeth's agree and the set's torques balance as its
+      // speeds say. (A pin further off is warned of, and its lines keep the shifts' angle.)
+      ShiftedCenterDistance at{};
+      try {
+        at = mesh_center_distance_from_gears(m, *a->second, *b->second);
+      } catch (const InputError& e) {
+        std::string what = e.what();
+        what.replace(0, std::string_view("gear.profile_shift").size(),
+                     fmt::format("the profile_shift of '{}' and '{}'", m.driving, m.driven));
+        rethrow_with_origin(t, fmt::format("mesh '{}': {}", m.name, what));
+      }
+      x.transverse_pressure_angle_rad = at.working_pressure_angle_rad;
+      for (const TrainBearingData& pin : t.bearings) {
+        if (pin.on.empty() || (pin.body != m.driving && pin.body != m.driven)) continue;
+        const double radius_mm = pin.pin_radius_mm != 0
+                                     ? pin.pin_radius_mm
+                                     : pin_radius_from_gears_mm(t, pin).value_or(0);
+        if (radius_mm == 0 || radius_mm == at.center_distance ||
+            std::abs(radius_mm - at.center_distance) > kPinRadiusTolerance * at.center_distance)
+          break;
+        const double base_mm =
+            (x.base_radius_driving_m + (x.internal ? -1.0 : 1.0) * x.base_radius_driven_m) / kMmToM;
+        const double cos_w = std::abs(base_mm) / radius_mm;
+        if (!(cos_w < 1))
+          rethrow_with_origin(
+              t, fmt::format("bearing '{}': pin_radius_mm = {}: its planet's mesh '{}' needs a "
+                             "centre distance above {:.6g} mm, where its teeth's base circles "
+                             "touch",
+                             pin.name, radius_mm, m.name, std::abs(base_mm)));
+        x.transverse_pressure_angle_rad = std::acos(cos_w);
+        break;
+      }
       x.position_angle_rad = m.position_angle_deg * kDegToRad;
       x.axial_sense = m.thrust == "-z" ? -1 : 1;
       // The damping of the mesh's own oscillator: its two gears, m_n = 1 / (V J^-1 V^T).
@@ -1646,10 +1696,15 @@ std::vector<std::string> train_unused_settings(const TrainCase& t) {
                       "eccentricity_um to direct",
                       i, b.eccentricity_angle_deg, where("eccentricity_angle_deg"), b.name));
     // Its flanks and material are read by a mesh that computes its stiffness from its gears
-    // (ISO 6336-1 reads no Poisson's ratio).
+    // (ISO 6336-1 reads no Poisson's ratio); the shifts by every mesh where a body moves in the
+    // plane or sits on a pin (the line of action at the working pressure angle, the pin radius).
+    const bool plane_read = std::any_of(t.bodies.begin(), t.bodies.end(),
+                                        [](const TrainBodyData& x) { return keeps_plane(x); }) ||
+                            std::any_of(t.bearings.begin(), t.bearings.end(),
+                                        [](const TrainBearingData& x) { return !x.on.empty(); });
     const auto flanks_read = [&](std::string_view leaf) {
       return std::any_of(t.meshes.begin(), t.meshes.end(), [&](const auto& m) {
-        return (m.stiffness_source == "energy" ||
+        return (m.stiffness_source == "energy" || (leaf == "profile_shift" && plane_read) ||
                 (m.stiffness_source == "iso6336" && leaf != "poisson_ratio")) &&
                (m.driving == b.name || m.driven == b.name);
       });

@@ -180,25 +180,42 @@ std::string train_keys_in(std::string what, const TrainBodyData& driving,
   return what;
 }
 
+// An internal mesh's gears, its pinion and its ring, whichever drives.
+struct PinionInRing {
+  const TrainBodyData& pinion;
+  const TrainBodyData& ring;
+  bool ring_drives;
+};
+PinionInRing pinion_in_ring(const TrainBodyData& driving, const TrainBodyData& driven) {
+  const bool ring_drives = driving.teeth > driven.teeth;
+  return {ring_drives ? driven : driving, ring_drives ? driving : driven, ring_drives};
+}
+
 // The gear pair of a train mesh's two gears (pair_mesh_stiffness): its [gear] and [mesh] keys
-// from the bodies' and the mesh's. Throws InputError in the train's keys.
-Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& driving,
-                    const TrainBodyData& driven) {
-  const std::array<const TrainBodyData*, 2> body = {&driving, &driven};
+// from the bodies' and the mesh's; of an internal mesh, `first` the pinion and `second` the ring
+// (pinion_in_ring), the ring's outside_diameter_mm its tip (inner) diameter. The centre distance
+// absent: the shifts' (an internal pair's computed by internal_geometry, 0 here); the tips
+// absent: the standard basic rack's, an external pair's with its tip shortening. Throws
+// InputError in the train's keys.
+Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& first,
+                    const TrainBodyData& second) {
+  const bool internal = m.kind == "internal";
+  const std::array<const TrainBodyData*, 2> body = {&first, &second};
   Case c;
   GearData& g = c.gear;
-  g.normal_module_mm = driving.normal_module_mm;
-  g.normal_pressure_angle_deg = driving.normal_pressure_angle_deg;
-  g.helix_angle_deg = driving.helix_angle_deg;
-  g.face_width_mm = std::min(driving.face_width_mm, driven.face_width_mm);
+  g.normal_module_mm = first.normal_module_mm;
+  g.normal_pressure_angle_deg = first.normal_pressure_angle_deg;
+  g.helix_angle_deg = first.helix_angle_deg;
+  g.face_width_mm = std::min(first.face_width_mm, second.face_width_mm);
   const double beta = g.helix_angle_deg / kRadToDeg;
   for (std::size_t i = 0; i < 2; ++i) {
     const TrainBodyData& b = *body[i];
     g.teeth[i] = b.teeth;
     g.profile_shift[i] = b.profile_shift;
+    const double sign = internal && i == 1 ? -1.0 : 1.0;  // a ring's tip lies inside
     g.outside_diameter_mm[i] =
         b.outside_diameter_mm.value_or(b.teeth * b.normal_module_mm / std::cos(beta) +
-                                       2 * b.normal_module_mm * (1 + b.profile_shift));
+                                       sign * 2 * b.normal_module_mm * (1 + b.profile_shift));
     g.bore_diameter_mm[i] = b.bore_diameter_mm;
     g.youngs_modulus_gpa[i] = b.youngs_modulus_gpa;
     g.poisson_ratio[i] = b.poisson_ratio;
@@ -210,25 +227,33 @@ Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& driving,
   if (!(g.face_width_mm > 0))
     throw InputError(
         train_keys_in("gear.face_width_mm = 0: a stiffness from the gears needs their face width",
-                      driving, driven));
+                      first, second));
   if (m.center_distance_mm) {
     g.center_distance_mm = *m.center_distance_mm;
+  } else if (internal) {
+    g.center_distance_mm = 0;
   } else {
-    // Zero backlash at the shifts: inv(alpha_wt) = inv(alpha_t) + 2 tan(alpha_n) (x1 + x2) /
-    // (z1 + z2), a = a_0 cos(alpha_t) / cos(alpha_wt) (ISO 21771).
-    const double an = g.normal_pressure_angle_deg / kRadToDeg;
-    const double at = std::atan(std::tan(an) / std::cos(beta));
-    const double z = g.teeth[0] + g.teeth[1];
-    const double inv_wt =
-        involute(at) + 2 * std::tan(an) * (g.profile_shift[0] + g.profile_shift[1]) / z;
-    if (!(inv_wt > 0))
-      throw InputError(train_keys_in(
-          fmt::format("gear.profile_shift = [{}, {}]: too negative for {} and {} teeth (no "
-                      "working pressure angle); give center_distance_mm",
-                      g.profile_shift[0], g.profile_shift[1], g.teeth[0], g.teeth[1]),
-          driving, driven));
-    g.center_distance_mm = 0.5 * z * g.normal_module_mm / std::cos(beta) * std::cos(at) /
-                           std::cos(inverse_involute(inv_wt));
+    try {
+      g.center_distance_mm =
+          shifted_center_distance(false, g.teeth[0], g.teeth[1], g.profile_shift[0],
+                                  g.profile_shift[1], g.normal_module_mm,
+                                  g.normal_pressure_angle_deg / kRadToDeg, beta)
+              .center_distance;
+    } catch (const InputError& e) {
+      throw InputError(
+          train_keys_in(std::string(e.what()) + "; give center_distance_mm", first, second));
+    }
+  }
+  // An external pair's tips not given: the standard basic rack's less the tip shortening k m_n
+  // that the centre distance leaves of the shifts, k = x1 + x2 - (a - a_0) / m_n (ISO 21771),
+  // as compute_geometry expects them.
+  if (!internal) {
+    const double a0 = 0.5 * (g.teeth[0] + g.teeth[1]) * g.normal_module_mm / std::cos(beta);
+    const double k = std::max(0.0, g.profile_shift[0] + g.profile_shift[1] -
+                                       (g.center_distance_mm - a0) / g.normal_module_mm);
+    for (std::size_t i = 0; i < 2; ++i)
+      if (!body[i]->outside_diameter_mm && k > 0)
+        g.outside_diameter_mm[i] -= 2 * g.normal_module_mm * k;
   }
   c.mesh.stiffness_source = StiffnessSource::kEnergy;
   // Absent: 0, the curve's own mean.
@@ -262,16 +287,13 @@ PairMeshStiffness pair_stiffness_of(const Case& c, Series&& of, const TrainBodyD
 }
 
 // The energy method of an internal mesh (internal_mesh_stiffness): the pinion first, the ring
-// second, at the mesh's centre distance when given (else the standard r_2 - r_1).
+// second, at the mesh's centre distance when given (else the one their shifts give).
 PairMeshStiffness internal_pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                                const TrainBodyData& driven) {
-  const bool ring_drives = driving.teeth > driven.teeth;
-  const TrainBodyData& pinion = ring_drives ? driven : driving;
-  const TrainBodyData& ring = ring_drives ? driving : driven;
-  Case c = mesh_pair_case(m, pinion, ring);
-  c.gear.center_distance_mm = m.center_distance_mm.value_or(0.0);
+  const PinionInRing g = pinion_in_ring(driving, driven);
+  const Case c = mesh_pair_case(m, g.pinion, g.ring);
   return pair_stiffness_of(
-      c, [&] { return mesh_stiffness_series(c, internal_mesh_stiffness(c)); }, pinion, ring);
+      c, [&] { return mesh_stiffness_series(c, internal_mesh_stiffness(c)); }, g.pinion, g.ring);
 }
 }  // namespace
 
@@ -289,18 +311,7 @@ namespace {
 PairMeshStiffness iso_internal_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                               const TrainBodyData& driven,
                                               std::optional<double> driving_torque_nm) {
-  const bool ring_drives = driving.teeth > driven.teeth;
-  const TrainBodyData& pinion = ring_drives ? driven : driving;
-  const TrainBodyData& ring = ring_drives ? driving : driven;
-  for (const TrainBodyData* b : {&pinion, &ring})
-    if (b->profile_shift != 0)
-      throw InputError(train_keys_in(
-          fmt::format("gear.profile_shift = {} on '{}': ISO 6336-1's stiffness of an internal "
-                      "mesh is computed here for unshifted gears; give the mesh's "
-                      "mean_stiffness_n_per_m and stiffness_harmonics (stiffness_source = "
-                      "\"harmonics\")",
-                      b->profile_shift, b->name),
-          driving, driven));
+  const auto [pinion, ring, ring_drives] = pinion_in_ring(driving, driven);
   Case c = mesh_pair_case(m, pinion, ring);
   c.mesh.stiffness_source = StiffnessSource::kIso6336;
   c.mesh.stiffness_harmonics = m.stiffness_harmonics;
@@ -311,14 +322,11 @@ PairMeshStiffness iso_internal_mesh_stiffness(const TrainMeshData& m, const Trai
                                        : 2 * kIsoFullLoadNPerMm * c.gear.face_width_mm * d_m / 2;
   PairMeshStiffness out;
   try {
-    const double eps =
-        internal_contact_ratio(pinion.teeth, ring.teeth, pinion.normal_module_mm * 1e-3,
-                               pinion.normal_pressure_angle_deg / kRadToDeg, beta);
-    const Iso6336Stiffness iso = iso6336_internal_stiffness(c, case_geometry(c), eps);
+    const Iso6336Stiffness iso = iso6336_internal_stiffness(c, internal_geometry(c.gear));
     out.mean_n_per_m = iso.mesh_stiffness_n_per_m;
     out.harmonics = m.stiffness_harmonics;
   } catch (const InputError& e) {
-    throw InputError(train_keys_in(e.what(), driving, driven));
+    throw InputError(train_keys_in(e.what(), pinion, ring));
   }
   return out;
 }
@@ -436,7 +444,7 @@ GearPairToRead gear_pair_to_read(const Case& c, const std::string& mesh, bool in
                                      origin == t.origins.end() ? "" : origin->second + ": ",
                                      internal_pair_has_no_geometry(m.name)));
       }
-      return {internal_mesh_pair(c, mesh), {}, true};
+      return {internal_mesh_pair(c, mesh), train_mesh_pair_warnings(c, mesh), true};
     }
     return {train_mesh_pair(c, mesh), train_mesh_pair_warnings(c, mesh)};
   }
@@ -492,9 +500,7 @@ Case internal_mesh_pair(const Case& c, const std::string& mesh) {
   const TrainCase t = expand_planets(*c.train);
   const TrainMeshData& m = t.meshes.at(i);
   const TrainBodyData &driving = body_named(t, m.driving), &driven = body_named(t, m.driven);
-  const bool ring_drives = driving.teeth > driven.teeth;
-  const TrainBodyData& pinion = ring_drives ? driven : driving;
-  const TrainBodyData& ring = ring_drives ? driving : driven;
+  const auto [pinion, ring, ring_drives] = pinion_in_ring(driving, driven);
   Case pair;
   try {
     pair = mesh_pair_case(m, pinion, ring);
@@ -504,7 +510,6 @@ Case internal_mesh_pair(const Case& c, const std::string& mesh) {
                                  origin == t.origins.end() ? "" : origin->second + ": ", m.name,
                                  train_keys_in(e.what(), pinion, ring)));
   }
-  pair.gear.center_distance_mm = m.center_distance_mm.value_or(0.0);
   pair.name = fmt::format("{}, mesh '{}'", c.name, m.name);
   pair.directory = c.directory;
   const train::Mesh& x = a.train().meshes[i];
@@ -547,6 +552,13 @@ std::vector<std::string> pair_mesh_warnings(const TrainMeshData& m, const TrainB
                                             const TrainBodyData& driven) {
   std::vector<std::string> out;
   try {
+    if (m.kind == "internal") {
+      const PinionInRing g = pinion_in_ring(driving, driven);
+      for (const std::string& w :
+           internal_geometry(mesh_pair_case(m, g.pinion, g.ring).gear).warnings)
+        out.push_back(train_keys_in(w, g.pinion, g.ring));
+      return out;
+    }
     for (const std::string& w : case_geometry(mesh_pair_case(m, driving, driven)).warnings)
       out.push_back(train_keys_in(w, driving, driven));
   } catch (const InputError&) {

@@ -260,7 +260,8 @@ TEST(TrainCase, ABackFlankAtRestAndAPinOffItsGearsAreWarnedOf) {
   const std::vector<std::string> off = train_plausibility(pin);
   ASSERT_FALSE(off.empty());
   EXPECT_NE(off[0].find("train.bearing[3].pin_radius_mm = 52"), std::string::npos) << off[0];
-  EXPECT_NE(off[0].find("1.96 % off the centre distance its gears' teeth and module give, 51 mm"),
+  EXPECT_NE(off[0].find("1.96 % off the centre distance its gears' teeth, module and profile "
+                        "shifts give, 51 mm"),
             std::string::npos)
       << off[0];
   set_case_value(pin, {"train.bearing[3].pin_radius_mm", "51.04"});  // within 0.1 %
@@ -465,7 +466,13 @@ TEST(TrainCase, ARingsMeshTakesItsStiffnessFromIso6336) {
   const double c_th = 1 / (0.04723 + 0.15551 / zn1);
   const double c_b = 1 + 0.5 * (1.2 - 1.25);
   const double c_prime = 0.8 * c_b * std::cos(beta) * c_th;
-  const double eps = internal_contact_ratio(39, 99, 10e-3, alpha, beta);
+  // The internal pair's transverse contact ratio (ISO 21771), unshifted, standard tips.
+  const double mt = 10e-3 / std::cos(beta), alpha_t = std::atan(std::tan(alpha) / std::cos(beta));
+  const double r1 = 39 * mt / 2, r2 = 99 * mt / 2, ra1 = r1 + 10e-3, ra2 = r2 - 10e-3;
+  const double rb1 = r1 * std::cos(alpha_t), rb2 = r2 * std::cos(alpha_t);
+  const double eps = (std::sqrt(ra1 * ra1 - rb1 * rb1) - std::sqrt(ra2 * ra2 - rb2 * rb2) +
+                      (r2 - r1) * std::sin(alpha_t)) /
+                     (kPi * mt * std::cos(alpha_t));
   EXPECT_GT(eps, 1.5);
   const double expected = c_prime * (0.75 * eps + 0.25) * 227.5 * 1e6;
   for (const char* ring : {"ring_planet1", "ring_planet2", "ring_planet3"}) {
@@ -484,10 +491,70 @@ TEST(TrainCase, ARingsMeshTakesItsStiffnessFromIso6336) {
       EXPECT_LT(m.mean_stiffness_n_per_m, 1.3 * expected) << m.name;
       EXPECT_FALSE(m.stiffness.empty()) << m.name;
     }
+  // Shifted gears are taken (ISO's terms in x): a planet shifted by 0.2 and its ring by -0.4
+  // mesh at one centre distance (99 - 39 = 21 + 39 teeth), where the pins sit.
   Case shifted = c;
   set_case_value(shifted, {"train.body[2].profile_shift", "0.2", "--set"});
-  const std::string shift = testing::error_of([&] { (void)assembled_train(shifted); });
-  EXPECT_NE(shift.find("computed here for unshifted gears"), std::string::npos) << shift;
+  set_case_value(shifted, {"train.body[4].profile_shift", "-0.4", "--set"});
+  EXPECT_TRUE(train_plausibility(shifted).empty());
+  const train::Assembled moved = assembled_train(shifted);
+  for (const train::Mesh& m : moved.train().meshes)
+    if (m.name.rfind("ring_planet", 0) == 0) EXPECT_NE(m.mean_stiffness_n_per_m, k[m.name]);
+  for (const train::Bearing& b : moved.train().bearings)
+    if (!b.on.empty()) EXPECT_GT(b.pin_radius_m, 0.3026 + 1e-3) << b.name;  // 302.6 mm unshifted
+  // The planet alone shifted: its sun's and its ring's meshes put it at two centre distances,
+  // said before any work.
+  set_case_value(shifted, {"train.body[4].profile_shift", "0", "--set"});
+  const std::vector<std::string> w = train_plausibility(shifted);
+  ASSERT_EQ(w.size(), 1U) << fmt::format("{}", fmt::join(w, "\n"));
+  EXPECT_NE(w[0].find("put planet 'planet'"), std::string::npos) << w[0];
+  EXPECT_NE(w[0].find("one pin cannot hold it at both"), std::string::npos) << w[0];
+}
+
+// A shifted planetary set: its pins sit at the centre distance its shifts give (ISO 21771), the
+// same for the sun's and the ring's meshes when the ring's shift is x_r = (inv(alpha) -
+// inv(alpha_w')) (z_r - z_p) / (2 tan(alpha)) - x_p at that distance, and each mesh's line of
+// action lies at its own working pressure angle, cos(alpha_w) = (r_b,a +- r_b,b) / a; with the
+// ring's shift of the other sign the meshes disagree, said before any work.
+TEST(TrainCase, AShiftedPlanetarySetsPinsSitWhereItsTeethMesh) {
+  const double alpha = 20 * kPi / 180, m = 2e-3;  // planetary_set.toml: 24, 27, 78 teeth
+  const double x_sun = 0.3, x_planet = 0.2;
+  const double inv_w = std::tan(alpha) - alpha + 2 * std::tan(alpha) * (x_sun + x_planet) / 51;
+  double w = alpha;  // Newton on inv(w) = inv_w
+  for (int i = 0; i < 50; ++i) w -= (std::tan(w) - w - inv_w) / std::pow(std::tan(w), 2);
+  const double a = 0.5 * m * 51 * std::cos(alpha) / std::cos(w);
+  const double w_ring = std::acos(0.5 * m * 51 * std::cos(alpha) / a);
+  const double x_ring =
+      (std::tan(alpha) - alpha - (std::tan(w_ring) - w_ring)) * 51 / (2 * std::tan(alpha)) -
+      x_planet;
+  Case c = shipped_case("planetary_set.toml", {});
+  set_case_value(c, {"train.body[0].profile_shift", fmt::format("{}", x_sun), "--set"});
+  set_case_value(c, {"train.body[1].profile_shift", fmt::format("{}", x_planet), "--set"});
+  set_case_value(c, {"train.body[2].profile_shift", fmt::format("{:.17g}", x_ring), "--set"});
+  set_case_value(c, {"train.bearing[3].pin_radius_mm", "0", "--set"});
+  EXPECT_TRUE(train_plausibility(c).empty())
+      << fmt::format("{}", fmt::join(train_plausibility(c), "\n"));
+  const train::Assembled set = assembled_train(c);
+  for (const train::Bearing& b : set.train().bearings)
+    if (!b.on.empty()) EXPECT_NEAR(b.pin_radius_m, a, 1e-12) << b.name;
+  for (const train::Mesh& x : set.train().meshes)
+    EXPECT_NEAR(std::cos(x.transverse_pressure_angle_rad),
+                (x.base_radius_driving_m + (x.internal ? -1 : 1) * x.base_radius_driven_m) /
+                    (x.internal ? -a : a),
+                1e-9)
+        << x.name;
+  // The ring's shift as a drawing rounds it (-0.697: its mesh a few um off the pins' radius,
+  // within their tolerance): nothing said, and the set's torques still balance at rest (each
+  // planet's lines of action at its pin's radius).
+  set_case_value(c,
+                 {"train.body[2].profile_shift", fmt::format("{:.3f}", x_ring + 0.003), "--set"});
+  EXPECT_TRUE(train_plausibility(c).empty());
+  std::string why;
+  EXPECT_TRUE(static_state(assembled_train(c), &why).has_value()) << why;
+  set_case_value(c, {"train.body[2].profile_shift", fmt::format("{:.17g}", -x_ring), "--set"});
+  const std::vector<std::string> said = train_plausibility(c);
+  ASSERT_EQ(said.size(), 1U) << fmt::format("{}", fmt::join(said, "\n"));
+  EXPECT_NE(said[0].find("mesh 'planet_ring'"), std::string::npos) << said[0];
 }
 
 // A load given as what a user knows, the generator's power: its torque is P / (2 pi n) at the
@@ -1181,6 +1248,13 @@ TEST(TrainCase, AMeshTakesItsStiffnessFromItsGearsByTheEnergyMethod) {
         2 * g.normal_module_mm * (1 + shifted.gear.profile_shift[i]);
   shifted.gear.center_distance_mm = compute_geometry(shifted.gear).shift_center_distance_m * 1e3;
   EXPECT_GT(std::abs(shifted.gear.center_distance_mm - 150), 0.4);
+  // Tips not given: the standard basic rack's with the tip shortening that centre distance
+  // leaves (ISO 21771).
+  const Geometry standard = compute_geometry(shifted.gear);
+  for (std::size_t i = 0; i < 2; ++i)
+    shifted.gear.outside_diameter_mm[i] = standard.expected_outside_diameter_m[i] * 1e3;
+  EXPECT_LT(shifted.gear.outside_diameter_mm[0],
+            g.teeth[0] * g.normal_module_mm / std::cos(beta) + 2 * g.normal_module_mm * 1.5 - 0.01);
   expect_same(curve(assembled_train(parse_case(
                   text({"profile_shift = 0.5\n", "profile_shift = 0.1\n"}, ""), "t.toml"))),
               curve(assembled_train(shifted)));

@@ -56,13 +56,48 @@ constexpr double kMaxContactRatio = 20.0;
 // base circle, total contact ratio below 1, bore not inside the root circle).
 Geometry compute_geometry(const GearData& gear);
 
-// The transverse contact ratio of an internal pair of unshifted gears, a pinion of z1 teeth in
-// a ring of z2, at their reference centre distance a = m_t (z2 - z1) / 2 and with the standard
-// addendum m_n (ISO 21771): eps_alpha = (sqrt(r_a1^2 - r_b1^2) - sqrt(r_a2^2 - r_b2^2) +
-// a sin(alpha_t)) / p_bt, the ring's tip circle r_a2 = r_2 - m_n inside its reference circle.
-// Throws InputError when z2 <= z1 or the ring's tip circle falls inside its base circle.
-double internal_contact_ratio(int z1, int z2, double normal_module_m,
-                              double normal_pressure_angle_rad, double helix_angle_rad);
+// Two gears of z1 and z2 teeth shifted by x1 and x2, meshing without backlash (ISO 21771):
+// inv(alpha_wt) = inv(alpha_t) + 2 tan(alpha_n) (x1 + x2) / (z1 + z2) and a = |a_0| cos(alpha_t)
+// / cos(alpha_wt), a_0 = m_t (z1 + z2) / 2, with z2 negative for an internal pair (gear 2 the
+// ring). A ring's shift has ISO 21771's sign: positive thickens its teeth and moves its tip
+// circle inwards, |d_a| = |d| - 2 m_n (1 + x). Unshifted (x1 + x2 = 0), alpha_t and a_0 exactly.
+// The centre distance is in the module's unit. Throws InputError when no working pressure angle
+// exists (shifts too negative).
+struct ShiftedCenterDistance {
+  double working_pressure_angle_rad = 0;
+  double center_distance = 0;  // in the unit of the module given
+};
+ShiftedCenterDistance shifted_center_distance(bool internal, int z1, int z2, double x1, double x2,
+                                              double normal_module,
+                                              double normal_pressure_angle_rad,
+                                              double helix_angle_rad);
+
+// How far a given diameter may lie from the one the gear data give before it is worth a warning:
+// centre distances and outside diameters are made to about 0.01 m_n (DIN 3964's classes).
+constexpr double kDimensionToleranceModules = 0.01;
+
+// An internal pair at work, g's gear 0 the pinion and gear 1 the ring (ISO 21771): the ring's
+// profile shift g.profile_shift[1] in ISO 21771's sign (shifted_center_distance), its tip (inner)
+// diameter g.outside_diameter_mm[1] (|d_2| - 2 m_n (1 + x2) for the standard basic rack), the
+// centre distance g.center_distance_mm (0: the one the shifts give). Transverse radii (m), the
+// working pressure angle, the path of contact [s_a, s_e] on the line of action measured from the
+// pinion's base tangent point T1 (the ring's T2 lies t1t2 = a sin(alpha_wt) beyond it, on the
+// same side) and the transverse base pitch. Throws InputError for a ring of fewer teeth than its
+// pinion, a ring's tip diameter outside its reference circle or matching the shift of the other
+// sign (a convention some sources use), a ring's tip inside its base circle, involute
+// interference (s_a <= 0) or no path of contact; a centre distance or tip diameter off the
+// gear data by more than kDimensionToleranceModules m_n is a warning naming both values (the
+// ring's tip; the pinion's is often shortened for its other mesh).
+struct InternalGeometry {
+  double transverse_pressure_angle_rad = 0, base_helix_angle_rad = 0;
+  double working_pressure_angle_rad = 0, center_distance_m = 0;
+  double rb1 = 0, rb2 = 0, ra1 = 0, ra2 = 0;
+  double t1t2 = 0, s_a = 0, s_e = 0, pbt = 0;
+  std::vector<std::string> warnings;
+
+  double transverse_contact_ratio() const { return (s_e - s_a) / pbt; }
+};
+InternalGeometry internal_geometry(const GearData& g);
 
 // The involute function inv(alpha) = tan(alpha) - alpha and its inverse on (0, pi/2).
 double involute(double alpha_rad);

@@ -14,7 +14,10 @@ namespace geardyn {
 // The warnings of a train case (empty for a case of another form):
 // - a mesh loaded on its back flank at rest (its driving and driven gears the wrong way round,
 //   or a torque's sign);
-// - a planet pin's radius off its gears' centre distance by more than kPinRadiusTolerance;
+// - a planet pin's radius off its gears' centre distance by more than kPinRadiusTolerance
+//   (train_case.hpp), or a
+//   planet whose meshes (with its sun and its ring) put it at centre distances that differ by
+//   more (profile shifts that make no planetary set, or a ring's shift of the other sign);
 // - a backlash below kLeastBacklashShare of the least a gear pair of its module and centre
 //   distance is cut with (a value in millimetres read as micrometres);
 // - a module below kFinestModuleMm (a value in metres read as millimetres);
@@ -24,9 +27,6 @@ namespace geardyn {
 // to the run, which says why.
 std::vector<std::string> train_plausibility(const Case& c);
 
-// A pin radius this far from the gears' centre distance, relative, is more than a drawing's
-// rounding: a pin that does not hold its planet where the teeth mesh.
-constexpr double kPinRadiusTolerance = 1e-3;
 // The least backlash of a gear pair (the normal backlash j_bn of AGMA's recommendation, (2/3)
 // (0.06 + 0.0005 a + 0.03 m_n) mm, for a centre distance a and module m_n in mm; a mesh's b is
 // half of it): a backlash under this share of it is no gear's.

@@ -46,12 +46,12 @@ struct Iso6336Stiffness {
 
 Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g);
 
-// The same for an internal pair, gear 0 the pinion and gear 1 the ring (c's gear data; g's
-// helix and reference diameters): the standard takes the ring's virtual number of teeth as
+// The same for an internal pair, gear 0 the pinion and gear 1 the ring (c's gear data and their
+// internal_geometry g): the standard takes the ring's virtual number of teeth as
 // infinite (z_n2 = inf: the terms C3 / z_n2 and C7 x2 / z_n2 of q' vanish, virtual_teeth[1] is
-// infinite) and c_gamma_alpha from the internal pair's transverse contact ratio `eps_alpha`
-// (internal_contact_ratio).
-Iso6336Stiffness iso6336_internal_stiffness(const Case& c, const Geometry& g, double eps_alpha);
+// infinite; the ring's shift x2 enters C6 x2 + C9 x2^2 in ISO 21771's sign) and c_gamma_alpha
+// from the internal pair's transverse contact ratio.
+Iso6336Stiffness iso6336_internal_stiffness(const Case& c, const InternalGeometry& g);
 
 // Numerical settings of the energy method beyond the case's positions and slices.
 struct EnergyMethodOptions {
@@ -96,25 +96,13 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g,
 double tooth_compliance_vector(const Case& c, const Geometry& g, int gear, double rc, int intervals,
                                bool foundation = true);
 
-// The path of contact of an internal pair, c.gear's gear 1 the ring (its tip circle r_2 - m_n
-// inside its reference circle), both unshifted, at c.gear.center_distance_mm (0: the standard
-// r_2 - r_1): transverse radii (m), the path [s_a, s_e] measured from the pinion's base tangent
-// point T1 (the ring's T2 lies t1t2 = a sin(alpha_wt) beyond it, on the same side), its base
-// pitch. Throws InputError for a shifted gear, a ring of fewer teeth than its pinion, a ring's
-// tip inside its base circle, or involute interference (s_a <= 0).
-struct InternalPath {
-  double alpha_t = 0, base_helix_rad = 0;
-  double rb1 = 0, rb2 = 0, ra1 = 0, ra2 = 0;
-  double t1t2 = 0, s_a = 0, s_e = 0, pbt = 0;
-};
-InternalPath internal_path(const Case& c);
-
 // The ring's tooth compliance per unit face width at contact radius rc (energy method, concave
 // flank; docs/stiffness.md); without `foundation`, its beam alone.
 double ring_tooth_compliance(const Case& c, double rc, int intervals = 8, bool foundation = true);
 
-// The energy method's mesh cycle of an internal pair (internal_path): the pinion's tooth as an
-// external pair's, the ring's with its concave flanks thickening to its root circle outside.
+// The energy method's mesh cycle of an internal pair (internal_geometry of c.gear, whose
+// InputErrors it throws): the pinion's tooth as an external pair's, the ring's with its concave
+// flanks thickening to its root circle outside, both with their profile shifts.
 StiffnessCycle internal_energy_method_cycle(const Case& c, const EnergyMethodOptions& o = {});
 
 // A table over one mesh cycle, as a CSV `position,<column>`: positions increasing in [0, 1),

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "geardyn/case.hpp"
+#include "geardyn/geometry.hpp"
 #include "geardyn/train.hpp"
 
 namespace geardyn {
@@ -207,12 +208,25 @@ struct TrainCase {
 // is no body, a count without a planet (or the reverse), and angles that are not one per planet.
 TrainCase expand_planets(const TrainCase& t);
 
+// The centre distance (mm) and working transverse pressure angle at which mesh m's gears a and b
+// (its driving and driven) mesh without backlash, from their teeth, module, angles and profile
+// shifts (shifted_center_distance: of an internal mesh the ring is the gear of more teeth, its
+// shift in ISO 21771's sign). The line of action of a mesh lies at that angle. Throws InputError
+// as shifted_center_distance does.
+ShiftedCenterDistance mesh_center_distance_from_gears(const TrainMeshData& m,
+                                                      const TrainBodyData& a,
+                                                      const TrainBodyData& b);
+
 // The radius at which bearing b's pin holds its body for its teeth to mesh: the centre distance
-// of the body's mesh with a gear on no pin (a planet's with its sun or its ring), (r_b,a +-
-// r_b,b) / cos(alpha_t) of their base radii and transverse pressure angle (mm, from teeth,
-// module and angles); none for a bearing on the ground or where the gear data do not give it.
-// A pin written without pin_radius_mm sits there (train_of).
+// (mesh_center_distance_from_gears) of the body's first mesh with a gear on no pin (a planet's
+// with its sun or its ring); none for a bearing on the ground or where the gear data do not give
+// it. A pin written without pin_radius_mm sits there (train_of).
 std::optional<double> pin_radius_from_gears_mm(const TrainCase& t, const TrainBearingData& b);
+
+// A pin radius this far from the gears' centre distance, relative, is more than a drawing's
+// rounding: a pin that does not hold its planet where the teeth mesh (train_plausibility says
+// so). Within it, the planet's lines of action lie at the pin's radius (train_of).
+constexpr double kPinRadiusTolerance = 1e-3;
 
 // The train of a case with model.form = "train", in SI: base radii and inertias from the gear
 // data, each mesh's damping from its ratio. Throws InputError naming the element, its key and
