@@ -359,6 +359,75 @@ const std::vector<ElementKey<TrainSpeedData>>& speed_keys() {
   return keys;
 }
 
+const std::vector<ElementKey<TrainPlanetaryData>>& planetary_keys() {
+  using P = TrainPlanetaryData;
+  static const std::vector<ElementKey<P>> keys = {
+      {"name", &P::name, "", {}, false, "the set's name in messages"},
+      {"sun_teeth", &P::sun_teeth, "", closed(1, 10000), true, "the sun's teeth"},
+      {"planet_teeth", &P::planet_teeth, "", closed(1, 10000), true, "each planet's teeth"},
+      {"ring_teeth", &P::ring_teeth, "", closed(0, 10000), false,
+       "the ring's teeth; absent (or 0): sun_teeth + 2 planet_teeth"},
+      {"normal_module_mm", &P::normal_module_mm, "mm", closed(0, 100), true,
+       "normal module m_n of the three gears"},
+      {"normal_pressure_angle_deg", &P::normal_pressure_angle_deg, "deg", open(0, 45), false,
+       "normal pressure angle alpha_n"},
+      {"helix_angle_deg", &P::helix_angle_deg, "deg", closed_open(0, 60), false,
+       "helix angle beta (0: spur)"},
+      {"face_width_mm", &P::face_width_mm, "mm", at_least(0), false,
+       "face width of the three gears: their blanks' inertias when not given, ISO 6336-1's "
+       "stiffness"},
+      {"sun_profile_shift", &P::sun_profile_shift, "", closed(-1.5, 1.5), false,
+       "the sun's profile shift coefficient x"},
+      {"planet_profile_shift", &P::planet_profile_shift, "", closed(-1.5, 1.5), false,
+       "each planet's"},
+      {"ring_profile_shift", &P::ring_profile_shift, "", closed(-1.5, 1.5), false,
+       "the ring's, in ISO 21771's sign (positive thickens its teeth)"},
+      {"input",
+       &P::input,
+       "",
+       {},
+       false,
+       "the member that drives: \"sun\" (the sun pushes the planets, which push the ring), "
+       "\"carrier\" or \"ring\" (the ring pushes the planets, which push the sun)",
+       "sun carrier ring"},
+      {"held",
+       &P::held,
+       "",
+       {},
+       false,
+       "the member held in the housing by a shaft <held>_support to the ground, or \"none\"",
+       "ring carrier sun none"},
+      {"support_n_m_per_rad", &P::support_n_m_per_rad, "N m/rad", at_least(0), false,
+       "that shaft's torsional stiffness (required unless held = \"none\")"},
+      {"sun_inertia_kg_m2", &P::sun_inertia_kg_m2, "kg m^2", above(0), false,
+       "absent: its blank's, a cylinder of the reference diameter and face width"},
+      {"sun_mass_kg", &P::sun_mass_kg, "kg", above(0), false, "absent: its blank's"},
+      {"planet_inertia_kg_m2", &P::planet_inertia_kg_m2, "kg m^2", above(0), false,
+       "absent: its blank's"},
+      {"planet_mass_kg", &P::planet_mass_kg, "kg", above(0), false, "absent: its blank's"},
+      {"ring_inertia_kg_m2", &P::ring_inertia_kg_m2, "kg m^2", above(0), true,
+       "the ring's (a ring's blank is no solid cylinder)"},
+      {"ring_mass_kg", &P::ring_mass_kg, "kg", above(0), true, "the ring's"},
+      {"carrier_inertia_kg_m2", &P::carrier_inertia_kg_m2, "kg m^2", above(0), true,
+       "the carrier's, its pins and what turns with it"},
+      {"carrier_mass_kg", &P::carrier_mass_kg, "kg", above(0), true, "the carrier's"},
+      {"mesh_stiffness_n_per_m", &P::mesh_stiffness_n_per_m, "N/m", above(0), false,
+       "both meshes' k_m; absent: ISO 6336-1's c_gamma_alpha b from the gears at the static "
+       "load (stiffness_source = \"iso6336\")"},
+      {"mesh_stiffness_harmonics", &P::mesh_stiffness_harmonics, "", closed_open(0, 1), false,
+       "[[ratio k_i/k_m, phase_deg], ...] of both meshes at i times the mesh frequency"},
+      {"backlash_um", &P::backlash_um, "um", above(1e-3), false,
+       "both meshes' b; absent: a mesh's default"},
+      {"mesh_damping_ratio", &P::mesh_damping_ratio, "", closed_open(0, 1), false,
+       "both meshes' damping_ratio; absent: a mesh's default"},
+      {"bearing_stiffness_n_per_m", &P::bearing_stiffness_n_per_m, "N/m", above(0), true,
+       "the sun's, the ring's and the carrier's bearings on the ground, in x and y"},
+      {"pin_stiffness_n_per_m", &P::pin_stiffness_n_per_m, "N/m", above(0), false,
+       "each planet's bearing on its pin; absent: bearing_stiffness_n_per_m"},
+  };
+  return keys;
+}
+
 // The words of a key's choices, "torsion planar".
 std::vector<std::string_view> words_of(std::string_view text) {
   std::vector<std::string_view> out;
@@ -558,7 +627,7 @@ void read_array(const toml::table& train, const std::string& source,
 
 constexpr std::string_view kTrainKeys =
     "reference, reference_speed_hz, mesh_phase, frame_terms, planet, planets, planet_angles_deg, "
-    "planet_pin_errors_um, body, mesh, shaft, bearing, torque, drag, speed";
+    "planet_pin_errors_um, body, mesh, shaft, bearing, torque, drag, speed, planetary";
 // At most this many planets: sets are built with 3 to 7, and the regions of 2 N meshes grow
 // as 3^(2 N).
 constexpr int kMaxPlanets = 12;
@@ -586,7 +655,8 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
                                                    "bearing",
                                                    "torque",
                                                    "drag",
-                                                   "speed"};
+                                                   "speed",
+                                                   "planetary"};
   for (auto&& [k, v] : *train) {
     if (!known.count(k.str()))
       throw InputError(fmt::format(
@@ -690,6 +760,8 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
   read_array(*train, source, overrides, "torque", torque_keys(), t.torques, t.origins);
   read_array(*train, source, overrides, "drag", drag_keys(), t.drags, t.origins);
   read_array(*train, source, overrides, "speed", speed_keys(), t.speeds, t.origins);
+  read_array(*train, source, overrides, "planetary", planetary_keys(), t.planetaries, t.origins);
+  add_planetary_elements(t);
   if (t.reference.empty() && !t.bodies.empty()) t.reference = t.bodies.front().name;
   t.origins["the train"] = where(train->source(), source);
   return t;
@@ -1484,6 +1556,7 @@ const std::vector<TrainKeyInfo>& train_key_list() {
     describe("torque", torque_keys(), out);
     describe("drag", drag_keys(), out);
     describe("speed", speed_keys(), out);
+    describe("planetary", planetary_keys(), out);
     return out;
   }();
   return list;
@@ -1551,6 +1624,7 @@ std::string train_key_not_sweepable(std::string_view dotted) {
   if (kind == "torque") real = real_leaf(torque_keys(), leaf);
   if (kind == "drag") real = real_leaf(drag_keys(), leaf);
   if (kind == "speed") real = real_leaf(speed_keys(), leaf);
+  if (kind == "planetary") real = real_leaf(planetary_keys(), leaf);
   if (!real) return "unknown key";
   if (!*real)
     return "not a real number the model reads (names and counts are not varied by a study; a "
@@ -1806,7 +1880,9 @@ template <class E, class Set>
 bool set_element_member(TrainCase& t, std::vector<E>& elements, std::string_view kind,
                         const std::vector<ElementKey<E>>& keys, std::size_t i,
                         std::string_view leaf, const std::string& label, Set&& set) {
-  if (i >= elements.size()) return false;
+  // A preset's element is set through the preset's keys (read again from the case's text).
+  if (i >= elements.size() || t.generated.count(fmt::format("{} '{}'", kind, elements[i].name)))
+    return false;
   for (const ElementKey<E>& key : keys) {
     if (key.leaf != leaf) continue;
     E& e = elements[i];
@@ -1956,15 +2032,23 @@ std::string train_toml(const TrainCase& t) {
       pairs.push_back(fmt::format("[{}, {}]", e[0], e[1]));
     out += fmt::format("planet_pin_errors_um = [{}]\n", fmt::join(pairs, ", "));
   }
-  out += toml_tables("body", body_keys(), t.bodies);
-  out += toml_tables("mesh", mesh_keys(), t.meshes);
+  // A preset's elements as the preset alone.
+  const auto written = [&t](std::string_view kind, const auto& elements) {
+    std::remove_cvref_t<decltype(elements)> out;
+    for (const auto& e : elements)
+      if (!t.generated.count(fmt::format("{} '{}'", kind, e.name))) out.push_back(e);
+    return out;
+  };
+  out += toml_tables("body", body_keys(), written("body", t.bodies));
+  out += toml_tables("mesh", mesh_keys(), written("mesh", t.meshes));
   // A shaft damped by its mode's ratio or a coefficient has no damping_ratio (the reader refuses
   // two ways of damping one shaft).
-  out += toml_tables<TrainShaftData>(
-      "shaft", shaft_keys(), t.shafts, [](const TrainShaftData& s, std::string_view leaf) {
-        return leaf == "damping_ratio" && (s.mode_damping_ratio || s.damping_n_m_s_per_rad);
-      });
-  out += toml_tables("bearing", bearing_keys(), t.bearings);
+  out += toml_tables<TrainShaftData>("shaft", shaft_keys(), written("shaft", t.shafts),
+                                     [](const TrainShaftData& s, std::string_view leaf) {
+                                       return leaf == "damping_ratio" &&
+                                              (s.mode_damping_ratio || s.damping_n_m_s_per_rad);
+                                     });
+  out += toml_tables("bearing", bearing_keys(), written("bearing", t.bearings));
   // A torque whose mean is a power's or a reaction's has no mean_nm written.
   out += toml_tables<TrainTorqueData>("torque", torque_keys(), t.torques,
                                       [](const TrainTorqueData& q, std::string_view leaf) {
@@ -1972,6 +2056,7 @@ std::string train_toml(const TrainCase& t) {
                                       });
   out += toml_tables("drag", drag_keys(), t.drags);
   out += toml_tables("speed", speed_keys(), t.speeds);
+  out += toml_tables("planetary", planetary_keys(), t.planetaries);
   return out;
 }
 

@@ -874,76 +874,35 @@ void train_loose_gear(Rows& rows, bool) {
 
 // ---- planetary_lin_parker ----------------------------------------------------------------
 
-// Lin and Parker's (1999) planetary set, Table 1, as cases/lin_parker_1999.toml writes it: each
-// inertia their I / r^2 times this gear's r_b^2 (the carrier's with its pin radius), the ring
-// held by 1e9 N/m on u_r = r_b theta_r.
+// Lin and Parker's (1999) planetary set, Table 1, as cases/lin_parker_1999.toml writes it (a
+// [[train.planetary]] preset): each inertia their I / r^2 times this gear's r_b^2, the carrier's
+// times its pin radius squared (the 97.5 mm its teeth mesh at; the frequencies depend on r only
+// through I / r^2), the ring held by 1e9 N/m on u_r = r_b theta_r.
 constexpr const char* kLinParker = R"(
 [model]
 form = "train"
 [train]
 reference = "sun"
 reference_speed_hz = 10
-planet = "planet"
 planets = 3
-[[train.body]]
-name = "sun"
-dof = "planar"
-teeth = 85
+[[train.planetary]]
+sun_teeth = 85
+planet_teeth = 110
+ring_teeth = 305
 normal_module_mm = 1
 normal_pressure_angle_deg = 24.6
-inertia_kg_m2 = 0.000582366
-mass_kg = 0.4
-[[train.body]]
-name = "ring"
-dof = "planar"
-teeth = 305
-normal_module_mm = 1
-normal_pressure_angle_deg = 24.6
-inertia_kg_m2 = 0.0576785
-mass_kg = 2.35
-[[train.body]]
-name = "carrier"
-dof = "planar"
-inertia_kg_m2 = 0.0491536
-mass_kg = 5.43
-[[train.body]]
-name = "planet"
-dof = "planar"
-teeth = 110
-normal_module_mm = 1
-normal_pressure_angle_deg = 24.6
-inertia_kg_m2 = 0.00152549
-mass_kg = 0.66
-[[train.mesh]]
-name = "sun_planet"
-driving = "sun"
-driven = "planet"
-mean_stiffness_n_per_m = 5e8
-[[train.mesh]]
-name = "planet_ring"
-driving = "planet"
-driven = "ring"
-kind = "internal"
-mean_stiffness_n_per_m = 5e8
-position_angle_deg = 180
-[[train.shaft]]
-from = "ring"
-to = "ground"
-stiffness_n_m_per_rad = 1.92262e7
-[[train.bearing]]
-body = "sun"
-stiffness_n_per_m = 1e8
-[[train.bearing]]
-body = "ring"
-stiffness_n_per_m = 1e8
-[[train.bearing]]
-body = "carrier"
-stiffness_n_per_m = 1e8
-[[train.bearing]]
-body = "planet"
-on = "carrier"
-pin_radius_mm = 88.4
-stiffness_n_per_m = 1e8
+sun_inertia_kg_m2 = 0.000582366
+sun_mass_kg = 0.4
+planet_inertia_kg_m2 = 0.00152549
+planet_mass_kg = 0.66
+ring_inertia_kg_m2 = 0.0576785
+ring_mass_kg = 2.35
+carrier_inertia_kg_m2 = 0.0597943
+carrier_mass_kg = 5.43
+mesh_stiffness_n_per_m = 5e8
+bearing_stiffness_n_per_m = 1e8
+held = "ring"
+support_n_m_per_rad = 1.92262e7
 )";
 
 // Table 2: the distinct natural frequencies (Hz) for N = 3, 4, 5 planets, with each one's type

@@ -1138,8 +1138,7 @@ TEST(PlanetaryPhasing, PhasingSuppressesTheInstabilitiesItsRulesSay) {
   const auto largest_multiplier = [](const std::string& phase, double speed_hz) {
     Case c =
         load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "lin_parker_1999.toml");
-    set_case_value(c, {"train.mesh[0].stiffness_harmonics", "[[0.2, 0]]"});
-    set_case_value(c, {"train.mesh[1].stiffness_harmonics", "[[0.2, 0]]"});
+    set_case_value(c, {"train.planetary[0].mesh_stiffness_harmonics", "[[0.2, 0]]"});
     set_case_value(c, {"train.mesh_phase", "\"" + phase + "\""});
     set_case_value(c, {"train.reference_speed_hz", fmt::format("{}", speed_hz)});
     return contact_monodromy(c).eigenvalues().cwiseAbs().maxCoeff();

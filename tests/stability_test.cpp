@@ -488,8 +488,7 @@ TEST(Stability, TheStudyReadsAFreeTrainWithoutItsNeutralRate) {
   EXPECT_EQ(geardyn::elastic_contact_monodromy(loose), geardyn::contact_monodromy(loose));
 
   Case set = geardyn::load_case(std::string(GEARDYN_SOURCE_DIR) + "/cases/lin_parker_1999.toml");
-  geardyn::set_case_value(set, {"train.mesh[0].stiffness_harmonics", "[[0.2, 0]]"});
-  geardyn::set_case_value(set, {"train.mesh[1].stiffness_harmonics", "[[0.2, 0]]"});
+  geardyn::set_case_value(set, {"train.planetary[0].mesh_stiffness_harmonics", "[[0.2, 0]]"});
   // The sun's own speed; the meshes engage at 85 times its speed relative to the carrier, 305 /
   // 390 of it with the ring held: 250 to 300 Hz there.
   constexpr double kOwn = 390.0 / 305;

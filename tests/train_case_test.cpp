@@ -2377,6 +2377,185 @@ TEST(TrainCase, ATrainWrittenBackReadsAsTheSame) {
   }
 }
 
+// Lin and Parker's set as its elements were written by hand before the preset (bodies, meshes,
+// the ring's support, bearings and pin): cases/lin_parker_1999.toml's [[train.planetary]]
+// assembles to the same train, bit for bit.
+constexpr const char* kLinParkerByHand = R"(
+[model]
+form = "train"
+[train]
+reference = "sun"
+reference_speed_hz = 10
+planet = "planet"
+planets = 3
+[[train.body]]
+name = "sun"
+dof = "planar"
+teeth = 85
+normal_module_mm = 1
+normal_pressure_angle_deg = 24.6
+inertia_kg_m2 = 0.000582366
+mass_kg = 0.4
+[[train.body]]
+name = "ring"
+dof = "planar"
+teeth = 305
+normal_module_mm = 1
+normal_pressure_angle_deg = 24.6
+inertia_kg_m2 = 0.0576785
+mass_kg = 2.35
+[[train.body]]
+name = "carrier"
+dof = "planar"
+inertia_kg_m2 = 0.0597943
+mass_kg = 5.43
+[[train.body]]
+name = "planet"
+dof = "planar"
+teeth = 110
+normal_module_mm = 1
+normal_pressure_angle_deg = 24.6
+inertia_kg_m2 = 0.00152549
+mass_kg = 0.66
+[[train.mesh]]
+name = "sun_planet"
+driving = "sun"
+driven = "planet"
+mean_stiffness_n_per_m = 5e8
+position_angle_deg = 0
+[[train.mesh]]
+name = "planet_ring"
+driving = "planet"
+driven = "ring"
+kind = "internal"
+mean_stiffness_n_per_m = 5e8
+position_angle_deg = 180
+[[train.shaft]]
+name = "ring_support"
+from = "ring"
+to = "ground"
+stiffness_n_m_per_rad = 1.92262e7
+[[train.bearing]]
+name = "sun_bearing"
+body = "sun"
+stiffness_n_per_m = 1e8
+[[train.bearing]]
+name = "ring_bearing"
+body = "ring"
+stiffness_n_per_m = 1e8
+[[train.bearing]]
+name = "carrier_bearing"
+body = "carrier"
+stiffness_n_per_m = 1e8
+[[train.bearing]]
+name = "pin"
+body = "planet"
+on = "carrier"
+pin_angle_deg = 0
+stiffness_n_per_m = 1e8
+)";
+
+TEST(TrainCase, APlanetaryPresetIsTheElementsItWrites) {
+  const Case preset =
+      load_case(std::filesystem::path(GEARDYN_SOURCE_DIR) / "cases" / "lin_parker_1999.toml");
+  const Case by_hand = parse_case(kLinParkerByHand, "by_hand.toml");
+  for (int planets : {3, 4}) {
+    Case a = preset, b = by_hand;
+    set_case_value(a, {"train.planets", fmt::format("{}", planets)});
+    set_case_value(b, {"train.planets", fmt::format("{}", planets)});
+    const train::Assembled x = assembled_train(a), y = assembled_train(b);
+    EXPECT_EQ(x.mass(), y.mass()) << planets;
+    EXPECT_EQ(x.contact_stiffness(), y.contact_stiffness()) << planets;
+    EXPECT_EQ(x.contact_damping(), y.contact_damping()) << planets;
+    EXPECT_EQ(x.train().meshes.size(), y.train().meshes.size());
+  }
+  // Written back as the preset alone, and read again the same; its keys set like any other.
+  const std::string text = to_toml(preset);
+  EXPECT_NE(text.find("[[train.planetary]]"), std::string::npos) << text;
+  EXPECT_EQ(text.find("[[train.body]]"), std::string::npos) << text;
+  EXPECT_EQ(to_toml(parse_case(text, "again.toml")), text);
+  Case stiffer = preset;
+  set_case_value(stiffer, {"train.planetary[0].mesh_stiffness_n_per_m", "6e8"});
+  for (const train::Mesh& m : assembled_train(stiffer).train().meshes)
+    EXPECT_EQ(m.mean_stiffness_n_per_m, 6e8) << m.name;
+  EXPECT_TRUE(train_key_not_sweepable("train.planetary[0].mesh_stiffness_n_per_m").empty());
+  // An element it wrote is set through its keys: by its index, it is no element of the file.
+  const std::string by_index = testing::error_of([&] {
+    set_case_value(stiffer, {"train.mesh[0].backlash_um", "20", "--set"});
+  });
+  EXPECT_NE(by_index.find("train.mesh"), std::string::npos) << by_index;
+}
+
+// A set driven through its carrier (a wind turbine's): the planet pushes the sun and the ring
+// pushes the planet, so at rest every mesh is loaded on its drive flank; the preset's line
+// where an element beside it takes one of its names, a second set, a held member without its
+// support.
+TEST(TrainCase, APlanetaryPresetDrivenThroughItsCarrier) {
+  const std::string head = R"(
+[model]
+form = "train"
+[train]
+reference = "carrier"
+reference_speed_hz = 0.4
+planets = 3
+[[train.body]]
+name = "rotor"
+inertia_kg_m2 = 1e5
+[[train.shaft]]
+name = "main_shaft"
+from = "rotor"
+to = "carrier"
+stiffness_n_m_per_rad = 1e8
+[[train.torque]]
+name = "wind"
+body = "rotor"
+balances = true
+[[train.torque]]
+name = "load"
+body = "sun"
+mean_nm = -2000
+)";
+  const std::string set = R"(
+[[train.planetary]]
+name = "stage1"
+sun_teeth = 21
+planet_teeth = 39
+normal_module_mm = 10
+helix_angle_deg = 7.5
+face_width_mm = 227.5
+input = "carrier"
+ring_inertia_kg_m2 = 130
+ring_mass_kg = 460
+carrier_inertia_kg_m2 = 60
+carrier_mass_kg = 800
+bearing_stiffness_n_per_m = 5e9
+pin_stiffness_n_per_m = 1.5e9
+support_n_m_per_rad = 5e8
+)";
+  const Case c = parse_case(head + set, "t.toml");
+  EXPECT_TRUE(train_plausibility(c).empty())
+      << fmt::format("{}", fmt::join(train_plausibility(c), "\n"));
+  const train::Assembled a = assembled_train(c);
+  std::vector<std::string> meshes;
+  for (const train::Mesh& m : a.train().meshes) meshes.push_back(m.name);
+  EXPECT_EQ(meshes, (std::vector<std::string>{"planet_sun1", "planet_sun2", "planet_sun3",
+                                              "ring_planet1", "ring_planet2", "ring_planet3"}));
+  // ISO 6336-1's k_m at the static load, the ring's teeth 21 + 2 x 39, the sun's speed by Willis.
+  for (const train::Mesh& m : a.train().meshes) EXPECT_GT(m.mean_stiffness_n_per_m, 1e9) << m.name;
+  EXPECT_NEAR(std::abs(a.body_speed_hz(a.index("sun"))), 0.4 * (1 + 99.0 / 21), 1e-12);
+  const auto refused = [&](const std::string& text, const std::string& what) {
+    const std::string e = testing::error_of([&] { (void)parse_case(text, "t.toml"); });
+    EXPECT_NE(e.find("t.toml:"), std::string::npos) << e;
+    EXPECT_NE(e.find("planetary 'stage1'"), std::string::npos) << e;
+    EXPECT_NE(e.find(what), std::string::npos) << e;
+  };
+  refused(head + "[[train.body]]\nname = \"sun\"\ninertia_kg_m2 = 1\n" + set,
+          "writes body 'sun', and a [[train.body]] of that name is written too");
+  refused(head + set + set, "a train has one planetary set written as a preset");
+  refused(std::regex_replace(head + set, std::regex("support_n_m_per_rad = 5e8\n"), ""),
+          "held = \"ring\": give support_n_m_per_rad");
+}
+
 TEST(TrainCase, PlanetsWrittenOnceAreCopiedTurnedAboutTheSetsAxis) {
   // cases/lin_parker_1999.toml names its planet once: train.planets copies it and every element
   // that names it, in their places, each turned by its angle (equally spaced, or given).
@@ -2408,10 +2587,11 @@ TEST(TrainCase, PlanetsWrittenOnceAreCopiedTurnedAboutTheSetsAxis) {
   set_case_value(c, {"train.planet_angles_deg", "[0, 100, 250]"});
   EXPECT_NEAR(train_of(c).bearings[4].pin_angle_rad, 100 * kDeg, 1e-15);
   // A copy's error names the copy and where its template was written (here the --set that
-  // changed it; cli_test shows a file's line).
-  set_case_value(c, {"train.bearing[3].on", "\"sun\""});
+  // changed it; cli_test shows a file's line), in the set written element by element.
+  Case by_hand = parse_case(kLinParkerByHand, "by_hand.toml");
+  set_case_value(by_hand, {"train.bearing[3].on", "\"sun\""});
   try {
-    assembled_train(c);
+    assembled_train(by_hand);
     ADD_FAILURE() << "a pin on the sun assembled";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("--set train.bearing[3].on"), std::string::npos)

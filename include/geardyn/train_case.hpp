@@ -22,12 +22,14 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "geardyn/case.hpp"
 #include "geardyn/geometry.hpp"
+#include "geardyn/planetary_preset.hpp"
 #include "geardyn/train.hpp"
 
 namespace geardyn {
@@ -191,6 +193,11 @@ struct TrainCase {
   std::vector<TrainTorqueData> torques;
   std::vector<TrainDragData> drags;
   std::vector<TrainSpeedData> speeds;
+  // A planetary set written as a preset (add_planetary_elements), and the labels ("body 'sun'")
+  // of the elements it wrote into the vectors above: written back as the preset alone, never
+  // set by their index.
+  std::vector<TrainPlanetaryData> planetaries;
+  std::set<std::string> generated;
   // Where each element was written, "file:line:column" of its table (or the --set), by its
   // label "mesh 'stage1'" ("the train" for [train], "the train: reference" for its reference
   // key), and each of its keys by "mesh 'stage1': backlash_um": the assembler's messages name
