@@ -680,6 +680,15 @@ void set_element(toml::table& root, const Override& o, const std::string& given)
     pos = close + 1;
   }
   toml::node* node = root.at_path(base).node();
+  // An element's key where the case writes no such element (a planetary preset's elements are
+  // set through the preset's keys).
+  if ((!node || !node->is_array()) && !member.empty())
+    throw InputError(fmt::format(
+        "{}: the case writes no [[{}]] table{}", origin, base,
+        root.at_path("train.planetary").is_array()
+            ? " (the elements its [[train.planetary]] writes are set through the preset's keys, "
+              "train.planetary[0].<key>: `geardyn keys` lists them)"
+            : ""));
   if (!node || !node->is_array())
     throw InputError(fmt::format(
         "{}: {} is not an array set in this case; set the whole array first (e.g. --set "

@@ -109,9 +109,9 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
        "its meshes' centre distance, working pressure angle and stiffness from the gears"},
       {"outside_diameter_mm", &B::outside_diameter_mm, "mm", above(0), false,
        "tip diameter d_a (a ring's inner one), for a mesh's stiffness_source = \"energy\" or "
-       "\"iso6336\"; absent: d + 2 m_n (1 + x - k) in an external mesh, k the tip shortening "
-       "its centre distance leaves (ISO 21771), d + 2 m_n (1 + x) in an internal one, a ring's "
-       "d - 2 m_n (1 + x)"},
+       "\"iso6336\"; absent: d + 2 m_n (1 + x - k), k the tip shortening its (first) external "
+       "mesh's centre distance leaves (ISO 21771), in its internal mesh too; a ring's d - 2 m_n "
+       "(1 + x)"},
       {"youngs_modulus_gpa", &B::youngs_modulus_gpa, "GPa", above(0), false,
        "Young's modulus, for a mesh's stiffness_source = \"energy\""},
       {"poisson_ratio", &B::poisson_ratio, "", open(0, 0.5), false,
@@ -1005,6 +1005,12 @@ TrainCase expand_planets(const TrainCase& written) {
 
 namespace {
 
+// Gear b of mesh m as the mesh's stiffness reads it: an internal mesh's pinion with the tip its
+// external mesh gives it (pinion_as_meshed).
+TrainBodyData as_meshed(const TrainCase& t, const TrainMeshData& m, const TrainBodyData& b) {
+  return m.kind == "internal" ? pinion_as_meshed(t, b) : b;
+}
+
 // ISO 6336-1's stiffness of the meshes whose stiffness_source is "iso6336" at the load each
 // carries at the train's static state (static_state): the train at their full-load stiffness,
 // then again at the loads found until they settle (at once where the train's statics do not
@@ -1054,7 +1060,8 @@ void iso_meshes_at_their_load(const TrainCase& t, train::Train& out) {
       const double torque = force[i] * std::cos(x.base_helix_angle_rad) * x.base_radius_driving_m;
       PairMeshStiffness k;
       try {
-        k = iso_mesh_stiffness(m, body(m.driving), body(m.driven), torque);
+        k = iso_mesh_stiffness(m, as_meshed(t, m, body(m.driving)), as_meshed(t, m, body(m.driven)),
+                               torque);
       } catch (const InputError& e) {
         rethrow_with_origin(
             t, fmt::format("mesh '{}': stiffness_source = \"iso6336\": {}", m.name, e.what()));
@@ -1223,8 +1230,9 @@ train::Train train_of(const Case& c) {
         PairMeshStiffness k;
         try {
           // ISO's at its full load here; at the mesh's static load below.
-          k = m.stiffness_source == "energy" ? pair_mesh_stiffness(m, *a->second, *b->second)
-                                             : iso_mesh_stiffness(m, *a->second, *b->second);
+          const TrainBodyData x = as_meshed(t, m, *a->second), y = as_meshed(t, m, *b->second);
+          k = m.stiffness_source == "energy" ? pair_mesh_stiffness(m, x, y)
+                                             : iso_mesh_stiffness(m, x, y);
         } catch (const InputError& e) {
           rethrow_with_origin(t, fmt::format("mesh '{}': stiffness_source = \"{}\": {}", m.name,
                                              m.stiffness_source, e.what()));

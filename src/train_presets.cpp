@@ -266,6 +266,27 @@ Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& first,
 
 }  // namespace
 
+TrainBodyData pinion_as_meshed(const TrainCase& t, const TrainBodyData& b) {
+  if (b.outside_diameter_mm || b.teeth <= 0) return b;
+  for (const TrainMeshData& m : t.meshes) {
+    if (m.kind == "internal" || (m.driving != b.name && m.driven != b.name)) continue;
+    const std::string& other = m.driving == b.name ? m.driven : m.driving;
+    const auto x = std::find_if(t.bodies.begin(), t.bodies.end(),
+                                [&](const TrainBodyData& y) { return y.name == other; });
+    if (x == t.bodies.end() || x->teeth <= 0) continue;
+    const bool first = m.driving == b.name;
+    TrainBodyData out = b;
+    try {
+      out.outside_diameter_mm = (first ? mesh_pair_case(m, b, *x) : mesh_pair_case(m, *x, b))
+                                    .gear.outside_diameter_mm[first ? 0 : 1];
+    } catch (const InputError&) {
+      return b;  // that mesh says why
+    }
+    return out;
+  }
+  return b;
+}
+
 namespace {
 // A pair's mesh stiffness `of` it (a series in time at its gear 0's speed) as a train mesh has
 // it: k_m and the ratios and phases at orders of its mesh frequency; an InputError of the pair
@@ -503,7 +524,7 @@ Case internal_mesh_pair(const Case& c, const std::string& mesh) {
   const auto [pinion, ring, ring_drives] = pinion_in_ring(driving, driven);
   Case pair;
   try {
-    pair = mesh_pair_case(m, pinion, ring);
+    pair = mesh_pair_case(m, pinion_as_meshed(t, pinion), ring);
   } catch (const InputError& e) {
     const auto origin = t.origins.find(fmt::format("mesh '{}'", m.name));
     throw InputError(fmt::format("{}train: mesh '{}': {}",

@@ -3,7 +3,9 @@
 // The standard involute relations of ISO 21771 for an external helical pair (docs/model.md,
 // "Geometry"): transverse and working pressure angles, reference and base circles, base helix
 // angle, contact and overlap ratios, and the inertias and equivalent mass of the torsional model
-// (eq. 6). All members are SI (m, rad, kg); the suffix names the unit.
+// (eq. 6); and for an internal pair, a pinion in its ring (internal_geometry), and the centre
+// distance of shifted gears (shifted_center_distance). All members are SI (m, rad, kg); the
+// suffix names the unit.
 #pragma once
 
 #include <array>

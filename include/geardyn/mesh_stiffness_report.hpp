@@ -29,8 +29,8 @@ struct MeshStiffnessReport {
 };
 
 // The report of the mesh `mesh` of c ("" for its only one). Throws InputError as
-// gear_pair_to_read, and for what the pair's methods refuse (a shifted internal pair, involute
-// interference), naming the key.
+// gear_pair_to_read, and for what the pair's methods refuse (involute interference, a ring's
+// tip diameter of the other sign's shift), naming the key.
 MeshStiffnessReport mesh_stiffness_report(const Case& c, const std::string& mesh);
 
 }  // namespace geardyn

@@ -230,6 +230,12 @@ ShiftedCenterDistance mesh_center_distance_from_gears(const TrainMeshData& m,
 // it. A pin written without pin_radius_mm sits there (train_of).
 std::optional<double> pin_radius_from_gears_mm(const TrainCase& t, const TrainBearingData& b);
 
+// Gear b of t as an internal mesh reads it, its pinion: b itself when it gives its tip diameter
+// or meshes with no external gear; else with the tip its first external mesh gives it, the
+// standard basic rack's less that mesh's tip shortening (ISO 21771), so that a planet meshes
+// with its ring at the tip its sun mesh shortens.
+TrainBodyData pinion_as_meshed(const TrainCase& t, const TrainBodyData& b);
+
 // A pin radius this far from the gears' centre distance, relative, is more than a drawing's
 // rounding: a pin that does not hold its planet where the teeth mesh (train_plausibility says
 // so). Within it, the planet's lines of action lie at the pin's radius (train_of).
