@@ -27,6 +27,7 @@
 
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_statics.hpp"
 #include "timing.hpp"
 #include "user_odeint.hpp"
 

@@ -36,6 +36,7 @@
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/train_presets.hpp"
 #include "geardyn/validation.hpp"
 #include "timing.hpp"
 #include "user_odeint.hpp"

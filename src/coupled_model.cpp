@@ -16,6 +16,7 @@
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train.hpp"
+#include "geardyn/train_statics.hpp"
 #include "geardyn/transmission_error.hpp"
 
 namespace geardyn {

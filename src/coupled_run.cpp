@@ -19,6 +19,7 @@
 #include "geardyn/engine.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/train_statics.hpp"
 
 namespace geardyn {
 namespace {

@@ -10,7 +10,7 @@
 #include "geardyn/plausibility.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
-#include "geardyn/train_run.hpp"
+#include "geardyn/train_statics.hpp"
 
 namespace geardyn {
 namespace {

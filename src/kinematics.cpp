@@ -9,7 +9,7 @@
 #include <optional>
 #include <queue>
 
-#include "geardyn/case.hpp"
+#include "geardyn/input_error.hpp"
 
 namespace geardyn::train {
 namespace {

@@ -5,6 +5,7 @@
 
 #include "geardyn/run.hpp"  // case_geometry
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_presets.hpp"
 
 namespace geardyn {
 

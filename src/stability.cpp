@@ -20,6 +20,7 @@
 #include "geardyn/run.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_presets.hpp"
 
 namespace geardyn {
 namespace {

@@ -30,6 +30,7 @@
 #include "geardyn/steady.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_presets.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/train_steadiness.hpp"
 #include "shooting.hpp"

@@ -19,7 +19,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "geardyn/case.hpp"
+#include "geardyn/input_error.hpp"
 
 namespace geardyn::train {
 namespace {

@@ -21,7 +21,8 @@
 #include "geardyn/case_keys.hpp"
 #include "geardyn/plausibility.hpp"
 #include "geardyn/suggest.hpp"
-#include "geardyn/train_run.hpp"
+#include "geardyn/train_presets.hpp"
+#include "geardyn/train_statics.hpp"
 #include "geardyn/validation.hpp"
 #include "toml_source.hpp"
 

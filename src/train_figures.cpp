@@ -1,5 +1,7 @@
 // The figures of a gear train: a run's time histories, one row per mesh, and the Campbell
 // diagram of its modes against every mesh's orders.
+#include "geardyn/train_figures.hpp"
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 

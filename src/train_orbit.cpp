@@ -13,6 +13,7 @@
 #include "geardyn/run.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_statics.hpp"
 #include "shooting.hpp"
 
 namespace geardyn {

@@ -1,5 +1,7 @@
-// The gear pair's dimensional forms as trains of elements (train_form_of, train_case.hpp), and
+// The gear pair's dimensional forms as trains of elements (train_form_of, train_presets.hpp), and
 // the gear pair of a train mesh's two gears (pair_mesh_stiffness).
+#include "geardyn/train_presets.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -16,7 +18,7 @@
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
-#include "geardyn/train_run.hpp"
+#include "geardyn/train_statics.hpp"
 #include "geardyn/transmission_error.hpp"
 
 namespace geardyn {

@@ -31,6 +31,8 @@
 #include "geardyn/stability.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_orbit.hpp"
+#include "geardyn/train_presets.hpp"
 #include "geardyn/train_run.hpp"
 
 namespace geardyn {

@@ -10,6 +10,7 @@
 #include "geardyn/orbit.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/train_orbit.hpp"
 
 namespace geardyn {
 namespace {

@@ -17,6 +17,8 @@
 #include <sstream>
 #include <tuple>
 
+#include "geardyn/train_presets.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;

@@ -16,6 +16,7 @@
 
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/train_orbit.hpp"
 #include "geardyn/validation.hpp"
 #include "test_support.hpp"
 

@@ -25,6 +25,7 @@
 #include "geardyn/continuation.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_orbit.hpp"
+#include "geardyn/train_presets.hpp"
 #include "geardyn/train_run.hpp"
 
 namespace geardyn {

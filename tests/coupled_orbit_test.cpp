@@ -14,6 +14,7 @@
 #include <complex>
 #include <numbers>
 
+#include "geardyn/train_statics.hpp"
 #include "test_support.hpp"
 
 namespace geardyn {

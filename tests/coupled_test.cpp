@@ -25,6 +25,8 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/train_presets.hpp"
+#include "geardyn/train_statics.hpp"
 #include "test_support.hpp"
 
 namespace geardyn {

@@ -15,6 +15,7 @@
 
 #include "geardyn/coupled_orbit.hpp"
 #include "geardyn/run.hpp"
+#include "geardyn/train_orbit.hpp"
 
 namespace {
 

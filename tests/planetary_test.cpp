@@ -21,6 +21,7 @@
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_statics.hpp"
 #include "test_support.hpp"
 
 namespace geardyn::train {

@@ -23,6 +23,7 @@
 #include "geardyn/run.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_presets.hpp"
 #include "geardyn/validation.hpp"
 #include "test_support.hpp"
 

@@ -31,7 +31,9 @@
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
+#include "geardyn/train_presets.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_statics.hpp"
 #include "geardyn/validation.hpp"
 #include "test_support.hpp"
 

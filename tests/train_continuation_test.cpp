@@ -17,7 +17,9 @@
 #include "geardyn/orbit.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_orbit.hpp"
+#include "geardyn/train_presets.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_statics.hpp"
 #include "geardyn/validation.hpp"
 #include "test_support.hpp"
 

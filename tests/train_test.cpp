@@ -25,6 +25,7 @@
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_run.hpp"
+#include "geardyn/train_statics.hpp"
 #include "geardyn/validation.hpp"
 #include "test_support.hpp"
 

@@ -21,15 +21,9 @@
 #include <utility>
 #include <vector>
 
-namespace geardyn {
+#include "geardyn/input_error.hpp"
 
-// Bad input: an unknown key, a wrong type, a value out of range, a file that cannot be read.
-// The message names the source (file and line, or the --set override), the key, the value and
-// what is allowed. The command-line tool exits with code 2 on it.
-class InputError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+namespace geardyn {
 
 // [gear]: Table 1 of the paper. Index 0 is the driving gear (pinion), 1 the driven gear.
 struct GearData {

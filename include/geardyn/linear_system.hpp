@@ -99,6 +99,13 @@ struct LinearSwitchedSystem {
   std::shared_ptr<LazyRegionStore> lazy_;
 };
 
+// A frequency fits a period when its cycles over it are an integer to within this fraction
+// (of the cycles, at least of one): the tolerance validate() holds the coefficients to.
+inline constexpr double kHarmonicFit = 1e-9;
+// Whether w_rad_s makes a whole number of cycles over period_s, to within `fraction` of the
+// cycles (at least of one).
+bool harmonic_of(double w_rad_s, double period_s, double fraction);
+
 // Empty when a flow may start from (t0, y0) in `region` to t1 of s: a region of s, y0 of its
 // dimension, finite times with t1 >= t0; otherwise what is wrong. Both flows (ExactEngine::flow,
 // adaptive_flow) throw std::invalid_argument with it, in every build: a state of the wrong size

@@ -121,18 +121,6 @@ ode::Vector balance(ode::Matrix& m);
 // largest modulus first.
 std::vector<std::complex<double>> floquet_multipliers(const ode::Matrix& monodromy);
 
-// Finds the periodic orbit of period N T0 of a one-degree form's case (model.form "gear_pair"
-// or "nondimensional"), from `start` (x = delta and delta' on the section t = 0) or, without it,
-// from the state after settle_periods of simulation. The orbit is its train's (the one path:
-// find_train_orbit on train_form_of, the two gears turning freely on their mesh, modulo their
-// rigid rotation) read in the one-degree model's terms (train_orbit.cpp): its section state
-// and monodromy in (x, x'), the mesh's contact sequence and reading. Uses the exact engine,
-// finer than options.tolerance, whatever solver.method says. Throws InputError on bad input
-// and for the other forms; a failure to converge is reported in the result (converged false,
-// message).
-Orbit find_orbit(const Case& c, const OrbitOptions& options,
-                 const std::optional<ode::State>& start = std::nullopt);
-
 // The same orbit found by the one-degree model's own shooting (its state (x, x'), its exact
 // engine): the independent reference the tests hold find_orbit and the continuation to.
 Orbit find_one_degree_orbit(const Case& c, const OrbitOptions& options,

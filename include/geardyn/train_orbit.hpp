@@ -45,6 +45,18 @@ struct TrainOrbit : PeriodicSolution {
   std::vector<TrainContactEvent> sequence;
 };
 
+// Finds the periodic orbit of period N T0 of a one-degree form's case (model.form "gear_pair"
+// or "nondimensional"), from `start` (x = delta and delta' on the section t = 0) or, without it,
+// from the state after settle_periods of simulation. The orbit is its train's (the one path:
+// find_train_orbit on train_form_of, the two gears turning freely on their mesh, modulo their
+// rigid rotation) read in the one-degree model's terms: its section state
+// and monodromy in (x, x'), the mesh's contact sequence and reading. Uses the exact engine,
+// finer than options.tolerance, whatever solver.method says. Throws InputError on bad input
+// and for the other forms; a failure to converge is reported in the result (converged false,
+// message).
+Orbit find_orbit(const Case& c, const OrbitOptions& options,
+                 const std::optional<ode::State>& start = std::nullopt);
+
 // The orbit of N system periods (options.periods) of a train case: from a first guess settled
 // over options.settle_periods system periods from solver.initial, Newton's method on M
 // segments (options.segments; 0: N) to options.tolerance on the residual scaled as

@@ -6,6 +6,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_presets.hpp"
 
 namespace py = pybind11;
 

@@ -2,6 +2,7 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/train_case.hpp"
+#include "geardyn/train_presets.hpp"
 
 namespace py = pybind11;
 

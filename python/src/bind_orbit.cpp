@@ -10,6 +10,7 @@
 #include "geardyn/orbit.hpp"
 #include "geardyn/stability.hpp"
 #include "geardyn/train_orbit.hpp"
+#include "geardyn/train_presets.hpp"
 
 namespace py = pybind11;
 

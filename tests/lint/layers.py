@@ -1,0 +1,156 @@
+#!/usr/bin/env python3
+"""The library's layers and where its declarations live, checked from the sources.
+
+Layers, lowest first; a file may include its own layer's headers and those below, never one
+above:
+
+  support   what knows nothing of dynamics: errors, threads, CSV, folders, spelling
+  engine    the piecewise-linear systems and their integrators: nothing of gears
+  elements  the train's elements and their assembly into such a system
+  model     case files, gear data, stiffness, presets, the static state
+  studies   runs, sweeps, orbits, continuation, stability, samples, reproduction, validation
+  output    summaries, files and figures of the studies' results
+
+The command line (apps/) and the Python package (python/src/) sit above them all. Every file of
+src/ and include/geardyn/ must be in LAYERS, so that a new file is placed on purpose.
+
+KNOTS lists the upward includes not yet untied, each with what ties it: an include that points
+up and is not listed fails, and so does a listed one that is gone (the list only shrinks).
+
+Every function declared at namespace scope in include/geardyn/NAME.hpp and defined in src/ is
+defined in src/NAME.cpp: a declaration sits beside its definition.
+
+    python3 tests/lint/layers.py [SOURCE_DIR]
+
+Exit 0 when all holds, 1 with each breach on its own line otherwise. Before reading the tree it
+checks itself on a planted upward include (an engine file including a study's header), which
+it must report.
+"""
+import pathlib
+import re
+import sys
+
+ORDER = ["support", "engine", "elements", "model", "studies", "output"]
+
+LAYERS = {
+    "support": ["input_error", "parallel", "csv", "suggest", "output_folder", "harmonic_series"],
+    "engine": ["integrator", "linear_system", "engine", "adaptive", "newmark_flow",
+               "rigid_split", "steady", "spectrum", "guard_crossing"],
+    "elements": ["kinematics", "train"],
+    "model": ["case", "case_keys", "toml_source", "geometry", "stiffness", "transmission_error",
+              "train_case", "train_presets", "planetary_preset", "train_statics", "plausibility",
+              "describe", "model", "coupled_model"],
+    "studies": ["analysis", "contact_tracker", "run", "train_run", "train_steadiness", "orbit",
+                "train_orbit", "shooting", "continuation", "stability", "sweep",
+                "study_sample", "reproduce", "coupled_run", "coupled_orbit", "validation"],
+    "output": ["output", "figures", "train_figures", "mesh_stiffness_report"],
+}
+
+# (file, included header) -> what ties it, until it is untied.
+KNOTS = {
+    ("model.cpp", "validation.hpp"):
+        "the validation's mutant switch (test_mutant) read in the one-degree model",
+    ("train_case.cpp", "validation.hpp"):
+        "the validation's mutant switch (test_mutant) read in the pair's train",
+    ("train_presets.cpp", "run.hpp"):
+        "a pair form's train built from the one-degree model's build_model",
+    ("coupled_model.cpp", "run.hpp"):
+        "the coupled model built on the one-degree model's build_model",
+    # Studies that write their own files and figures beside computing them: their writers
+    # belong in the output layer (one idea per file).
+    ("continuation.cpp", "figures.hpp"): "the study's own writers",
+    ("continuation.cpp", "output.hpp"): "the study's own writers",
+    ("reproduce.cpp", "figures.hpp"): "the study's own writers",
+    ("reproduce.cpp", "output.hpp"): "the study's own writers",
+    ("stability.cpp", "figures.hpp"): "the study's own writers",
+    ("stability.cpp", "output.hpp"): "the study's own writers",
+    ("study_sample.cpp", "output.hpp"): "the study's own writers",
+    ("sweep.cpp", "figures.hpp"): "the study's own writers",
+    ("sweep.cpp", "output.hpp"): "the study's own writers",
+    ("validation.cpp", "output.hpp"): "the study's own writers",
+}
+
+INCLUDE = re.compile(r'^#include "(?:geardyn/)?([a-z_]+)\.hpp"', re.M)
+
+
+def layer_of():
+    table = {}
+    for layer, stems in LAYERS.items():
+        for stem in stems:
+            table[stem] = ORDER.index(layer)
+    return table
+
+
+def includes(root):
+    """{(file name, header name)} of every quoted include in src/ and include/geardyn/."""
+    found = set()
+    for path in sorted((root / "src").glob("*.[ch]pp")) + sorted(
+            (root / "include" / "geardyn").glob("*.hpp")):
+        for stem in INCLUDE.findall(path.read_text()):
+            found.add((path.name, stem + ".hpp"))
+    return found
+
+
+def layer_breaches(found, layers, knots):
+    out = []
+    for name, header in sorted(found):
+        here, there = pathlib.Path(name).stem, pathlib.Path(header).stem
+        for stem in (here, there):
+            if stem not in layers:
+                out.append(f"{stem}: in no layer (add it to LAYERS in tests/lint/layers.py)")
+        if here not in layers or there not in layers or layers[there] <= layers[here]:
+            continue
+        if (name, header) in knots:
+            continue
+        out.append(f"{name} ({ORDER[layers[here]]}) includes {header} ({ORDER[layers[there]]}):"
+                   " an include that points up a layer")
+    for name, header in sorted(knots):
+        if (name, header) not in found:
+            out.append(f"{name} no longer includes {header}: strike it from KNOTS")
+    return sorted(set(out))
+
+
+DECLARATION = re.compile(
+    r"^(?!namespace|struct|class|using|enum|template|constexpr|inline|extern|static|friend|"
+    r"return|typedef)[A-Za-z][\w:<>,*& ]*?[\s*&]([a-z_]\w*)\(([^;{}]*?)\)\s*(?:const)?\s*;",
+    re.M)
+DEFINITION = re.compile(
+    r"^(?!namespace|struct|class|using|static|constexpr)[A-Za-z][\w:<>,*& ]*?[\s*&]"
+    r"(?:[\w:<>]+::)?([a-z_]\w*)\(([^;{}]*?)\)\s*(?:const)?\s*(?:->[^{;]*)?\{",
+    re.M)
+
+
+def declaration_breaches(root):
+    defined = {}
+    for path in (root / "src").glob("*.cpp"):
+        for name, _ in DEFINITION.findall(path.read_text()):
+            defined.setdefault(name, set()).add(path.stem)
+    out = []
+    for header in sorted((root / "include" / "geardyn").glob("*.hpp")):
+        for name, _ in DECLARATION.findall(header.read_text()):
+            where = defined.get(name, set())
+            if where and header.stem not in where:
+                out.append(f"{name}: declared in include/geardyn/{header.name}, defined in "
+                           + ", ".join(f"src/{s}.cpp" for s in sorted(where)))
+    return out
+
+
+def main():
+    root = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else
+                        pathlib.Path(__file__).resolve().parents[2])
+    layers = layer_of()
+    planted = layer_breaches({("engine.cpp", "train_run.hpp")}, layers, {})
+    if not any("points up" in b for b in planted):
+        print("layers.py: the planted include engine.cpp -> train_run.hpp was not reported")
+        return 1
+    breaches = layer_breaches(includes(root), layers, KNOTS) + declaration_breaches(root)
+    for b in breaches:
+        print(b)
+    if not breaches:
+        print(f"{len(LAYERS)} layers, {sum(map(len, LAYERS.values()))} files, "
+              f"{len(KNOTS)} knots left; every declaration beside its definition")
+    return 1 if breaches else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
