@@ -14,6 +14,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "geardyn/continuation_output.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
 #include "geardyn/train_orbit.hpp"

@@ -25,6 +25,7 @@
 #include "geardyn/geometry.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/sweep_output.hpp"
 #include "geardyn/train_presets.hpp"
 #include "geardyn/train_statics.hpp"
 #include "test_support.hpp"

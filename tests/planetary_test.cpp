@@ -18,6 +18,7 @@
 #include "geardyn/case_keys.hpp"
 #include "geardyn/stability.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/sweep_output.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"

@@ -18,6 +18,7 @@
 #include "geardyn/case_keys.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/steady.hpp"
+#include "geardyn/sweep_output.hpp"
 #include "geardyn/train_orbit.hpp"
 #include "test_support.hpp"
 

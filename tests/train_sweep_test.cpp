@@ -18,6 +18,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/steady.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/sweep_output.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/train_steadiness.hpp"

@@ -29,6 +29,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/continuation.hpp"
+#include "geardyn/continuation_output.hpp"
 #include "geardyn/describe.hpp"
 #include "geardyn/figures.hpp"
 #include "geardyn/geometry.hpp"
@@ -40,8 +41,10 @@
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stability.hpp"
+#include "geardyn/stability_output.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/sweep.hpp"
+#include "geardyn/sweep_output.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_figures.hpp"
 #include "geardyn/train_orbit.hpp"
@@ -49,6 +52,7 @@
 #include "geardyn/train_run.hpp"
 #include "geardyn/train_steadiness.hpp"
 #include "geardyn/validation.hpp"
+#include "geardyn/validation_output.hpp"
 
 namespace {
 

@@ -81,14 +81,4 @@ struct StabilityResult {
 // Samples and boundaries. Throws InputError on bad input.
 StabilityResult stability(const Case& c, const StabilityOptions& o);
 
-// stability.csv (param[,param2],stable,max_multiplier,mu1_re,mu1_im,mu2_re,mu2_im) and
-// boundaries.json ({"boundaries": [{"param", ["param2",] "type"}]}), all or nothing; with
-// `figures`, the figure `stability` (max |mu| along the key with the boundaries marked, or the
-// chart of the unstable regions over the two keys).
-void write_stability(const std::filesystem::path& dir, const StabilityResult& r,
-                     const StabilityOptions& o, bool figures = true);
-
-// boundaries.json's text.
-std::string boundaries_json(const StabilityResult& r, bool chart);
-
 }  // namespace geardyn

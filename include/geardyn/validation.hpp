@@ -68,19 +68,6 @@ struct ValidationResult {
 
 ValidationResult validate(const ValidationOptions& options = {});
 
-// The result as a terminal table, Markdown, self-contained HTML (no scripts, no external
-// files: readable offline) and JSON.
-std::string validation_table(const ValidationResult& r);
-std::string validation_markdown(const ValidationResult& r);
-std::string validation_html(const ValidationResult& r);
-std::string validation_json(const ValidationResult& r);
-
-// Writes DIR/validation.md, validation.html and validation.json as the named set "validate"
-// (output_folder.hpp: the user's files in DIR are never touched). Returns the files of an
-// earlier set kept because the user changed them (write_set).
-std::vector<std::string> write_validation(const std::filesystem::path& dir,
-                                          const ValidationResult& r);
-
 // Cases the validation and the unit tests share, one definition each.
 // ISO/TR 6336-30:2017, example 1 (iso6336_example), with standard tip diameters.
 Case iso_tr_6336_30_example_1();

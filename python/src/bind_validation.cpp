@@ -4,6 +4,7 @@
 
 #include "bindings.hpp"
 #include "geardyn/validation.hpp"
+#include "geardyn/validation_output.hpp"
 
 namespace py = pybind11;
 

@@ -43,7 +43,8 @@ LAYERS = {
     "studies": ["analysis", "contact_tracker", "run", "train_run", "train_steadiness", "orbit",
                 "train_orbit", "shooting", "continuation", "stability", "sweep",
                 "study_sample", "reproduce", "coupled_run", "coupled_orbit", "validation"],
-    "output": ["output", "figures", "train_figures", "mesh_stiffness_report"],
+    "output": ["output", "figures", "train_figures", "mesh_stiffness_report", "sweep_output",
+               "continuation_output", "stability_output", "validation_output"],
 }
 
 # (file, included header) -> what ties it, until it is untied.
@@ -56,18 +57,12 @@ KNOTS = {
         "a pair form's train built from the one-degree model's build_model",
     ("coupled_model.cpp", "run.hpp"):
         "the coupled model built on the one-degree model's build_model",
+    ("study_sample.cpp", "output.hpp"):
+        "a sample's readings named by the pair form's names (form_key)",
     # Studies that write their own files and figures beside computing them: their writers
     # belong in the output layer (one idea per file).
-    ("continuation.cpp", "figures.hpp"): "the study's own writers",
-    ("continuation.cpp", "output.hpp"): "the study's own writers",
     ("reproduce.cpp", "figures.hpp"): "the study's own writers",
     ("reproduce.cpp", "output.hpp"): "the study's own writers",
-    ("stability.cpp", "figures.hpp"): "the study's own writers",
-    ("stability.cpp", "output.hpp"): "the study's own writers",
-    ("study_sample.cpp", "output.hpp"): "the study's own writers",
-    ("sweep.cpp", "figures.hpp"): "the study's own writers",
-    ("sweep.cpp", "output.hpp"): "the study's own writers",
-    ("validation.cpp", "output.hpp"): "the study's own writers",
 }
 
 INCLUDE = re.compile(r'^#include "(?:geardyn/)?([a-z_]+)\.hpp"', re.M)
