@@ -8,8 +8,6 @@
 #include <numbers>
 #include <vector>
 
-#include "geardyn/validation.hpp"
-
 namespace geardyn {
 
 double GearPairParameters::natural_angular_frequency_rad_s() const {
@@ -74,8 +72,6 @@ GearPairParameters gear_pair_parameters(const Case& c, const Geometry& g,
   p.damping_n_s_per_m = 2.0 * c.mesh.damping_ratio *
                         std::sqrt(p.equivalent_mass_kg * stiffness_n_per_m.offset) /
                         p.cos_base_helix;
-  // The validation's tests break this element on purpose (validation.hpp, test_mutant).
-  if (test_mutant("gear_pair_damping_sign")) p.damping_n_s_per_m = -p.damping_n_s_per_m;
   p.damping = c.mesh.damping;
   p.tension = c.mesh.tension;
 

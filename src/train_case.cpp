@@ -23,7 +23,6 @@
 #include "geardyn/suggest.hpp"
 #include "geardyn/train_presets.hpp"
 #include "geardyn/train_statics.hpp"
-#include "geardyn/validation.hpp"
 #include "toml_source.hpp"
 
 namespace geardyn {
@@ -1439,10 +1438,6 @@ train::Assembled assembled_train(const Case& c, const MeshStiffness* stiffness) 
   const Case form = c.model.form == ModelForm::kTrain ? Case{} : train_form_of(c, stiffness);
   const Case& as_train = c.model.form == ModelForm::kTrain ? c : form;
   train::Train t = train_of(as_train);
-  // The validation's tests break the gear pair's mesh damping on purpose (validation.hpp,
-  // test_mutant), in its train as in the one-degree model (gear_pair_parameters).
-  if (c.model.form == ModelForm::kGearPair && test_mutant("gear_pair_damping_sign"))
-    for (train::Mesh& m : t.meshes) m.damping_n_s_per_m = -m.damping_n_s_per_m;
   try {
     return train::Assembled(std::move(t));
   } catch (const InputError& e) {

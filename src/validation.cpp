@@ -1108,9 +1108,4 @@ ValidationResult validate(const ValidationOptions& options) {
   return result;
 }
 
-bool test_mutant(std::string_view mutant) {
-  const char* set = std::getenv("GEARDYN_TEST_MUTANT");
-  return set != nullptr && mutant == set;
-}
-
 }  // namespace geardyn

@@ -16,7 +16,6 @@
 #include <filesystem>
 #include <functional>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "geardyn/case.hpp"
@@ -84,11 +83,5 @@ Case park2010_pair_case();
 Case kahraman_singh_case(double omega);
 // ... and the same pair written as a train of two gears, read from its case-file text.
 Case park2010_pair_as_train();
-
-// A test-only switch, so that the tests can show which checks catch a broken element: true when
-// the environment variable GEARDYN_TEST_MUTANT names `mutant`. Known mutants:
-// "gear_pair_damping_sign" (the gear pair's mesh damping negated: in the one-degree model and
-// in the pair's train, assembled_train). Never set in use.
-bool test_mutant(std::string_view mutant);
 
 }  // namespace geardyn

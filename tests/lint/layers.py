@@ -49,10 +49,6 @@ LAYERS = {
 
 # (file, included header) -> what ties it, until it is untied.
 KNOTS = {
-    ("model.cpp", "validation.hpp"):
-        "the validation's mutant switch (test_mutant) read in the one-degree model",
-    ("train_case.cpp", "validation.hpp"):
-        "the validation's mutant switch (test_mutant) read in the pair's train",
     ("train_presets.cpp", "run.hpp"):
         "a pair form's train built from the one-degree model's build_model",
     ("coupled_model.cpp", "run.hpp"):
