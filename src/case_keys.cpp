@@ -618,4 +618,22 @@ std::string unread_study_key(const Case& c, const std::vector<std::vector<Overri
   return line;
 }
 
+std::string form_key(const std::string& key, ModelForm form) {
+  if (form == ModelForm::kGearPair || key == "wall_time_s") return key;
+  if (key == "t_s") return "tau";
+  const auto ends = [&](std::string_view suffix) {
+    return key.size() > suffix.size() &&
+           key.compare(key.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  const auto stem = [&](std::string_view suffix) {
+    return key.substr(0, key.size() - suffix.size());
+  };
+  // Longest suffixes first: "_n_s_per_m" and "_m_s" end in "_s" too.
+  for (std::string_view dropped : {"_n_s_per_m", "_n_per_m", "_m_s", "_kg", "_um", "_n"})
+    if (ends(dropped)) return stem(dropped);
+  if (ends("_s")) return stem("_s") + "_tau";
+  if (ends("_hz")) return stem("_hz") + "_per_tau";
+  return key;
+}
+
 }  // namespace geardyn

@@ -12,8 +12,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "geardyn/case_model.hpp"
 #include "geardyn/model.hpp"
-#include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_statics.hpp"

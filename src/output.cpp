@@ -66,24 +66,6 @@ nlohmann::json in_form(const nlohmann::json& j, ModelForm form) {
 
 }  // namespace
 
-std::string form_key(const std::string& key, ModelForm form) {
-  if (form == ModelForm::kGearPair || key == "wall_time_s") return key;
-  if (key == "t_s") return "tau";
-  const auto ends = [&](std::string_view suffix) {
-    return key.size() > suffix.size() &&
-           key.compare(key.size() - suffix.size(), suffix.size(), suffix) == 0;
-  };
-  const auto stem = [&](std::string_view suffix) {
-    return key.substr(0, key.size() - suffix.size());
-  };
-  // Longest suffixes first: "_n_s_per_m" and "_m_s" end in "_s" too.
-  for (std::string_view dropped : {"_n_s_per_m", "_n_per_m", "_m_s", "_kg", "_um", "_n"})
-    if (ends(dropped)) return stem(dropped);
-  if (ends("_s")) return stem("_s") + "_tau";
-  if (ends("_hz")) return stem("_hz") + "_per_tau";
-  return key;
-}
-
 std::string geometry_json(const Geometry& g) {
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   constexpr double kMm = 1e3;

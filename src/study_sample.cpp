@@ -7,8 +7,8 @@
 #include <string>
 #include <utility>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/integrator.hpp"
-#include "geardyn/output.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_run.hpp"
 

@@ -12,10 +12,10 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/case_model.hpp"
 #include "geardyn/coupled_model.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/model.hpp"
-#include "geardyn/run.hpp"
 #include "geardyn/stiffness.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_statics.hpp"

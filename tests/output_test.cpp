@@ -13,6 +13,7 @@
 #include <string_view>
 #include <vector>
 
+#include "geardyn/case_keys.hpp"
 #include "geardyn/csv.hpp"
 
 namespace geardyn {

@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "geardyn/reproduce_output.hpp"
+
 namespace geardyn {
 namespace {
 

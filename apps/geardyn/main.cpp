@@ -39,6 +39,7 @@
 #include "geardyn/output_folder.hpp"
 #include "geardyn/plausibility.hpp"
 #include "geardyn/reproduce.hpp"
+#include "geardyn/reproduce_output.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/stability.hpp"
 #include "geardyn/stability_output.hpp"

@@ -135,4 +135,12 @@ constexpr std::string_view kExactEngineOnly =
 // default, allowed, meaning.
 std::string case_keys_markdown();
 
+// A key or column name in the units of a model form. As written (SI suffixes) for the gear
+// pair; in the non-dimensional form, where time is tau and lengths, masses and forces are in
+// units of b, m and b k_m: times in tau ("t_s" -> "tau", "_s" -> "_tau"), frequencies in cycles
+// per tau ("_hz" -> "_per_tau"), the suffixes of velocities, masses, forces and damping
+// dropped ("velocity_m_s" -> "velocity", "mean_force_n" -> "mean_force"). "wall_time_s" is
+// real time in either form.
+std::string form_key(const std::string& key, ModelForm form);
+
 }  // namespace geardyn

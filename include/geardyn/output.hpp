@@ -24,14 +24,6 @@ std::string html_escape(const std::string& s);
 // The derived geometry in case-file units (mm, deg), as `geardyn geometry --json` prints it.
 std::string geometry_json(const Geometry& g);
 
-// A key or column name in the units of a model form. As written (SI suffixes) for the gear
-// pair; in the non-dimensional form, where time is tau and lengths, masses and forces are in
-// units of b, m and b k_m: times in tau ("t_s" -> "tau", "_s" -> "_tau"), frequencies in cycles
-// per tau ("_hz" -> "_per_tau"), the suffixes of velocities, masses, forces and damping
-// dropped ("velocity_m_s" -> "velocity", "mean_force_n" -> "mean_force"). "wall_time_s" is
-// real time in either form.
-std::string form_key(const std::string& key, ModelForm form);
-
 // summary.json of a run, as text (every key of docs/outputs.md, named by form_key).
 std::string summary_json(const RunResult& r, int indent = 2);
 

@@ -14,9 +14,6 @@ above:
 The command line (apps/) and the Python package (python/src/) sit above them all. Every file of
 src/ and include/geardyn/ must be in LAYERS, so that a new file is placed on purpose.
 
-KNOTS lists the upward includes not yet untied, each with what ties it: an include that points
-up and is not listed fails, and so does a listed one that is gone (the list only shrinks).
-
 Every function declared at namespace scope in include/geardyn/NAME.hpp and defined in src/ is
 defined in src/NAME.cpp: a declaration sits beside its definition.
 
@@ -39,26 +36,13 @@ LAYERS = {
     "elements": ["kinematics", "train"],
     "model": ["case", "case_keys", "toml_source", "geometry", "stiffness", "transmission_error",
               "train_case", "train_presets", "planetary_preset", "train_statics", "plausibility",
-              "describe", "model", "coupled_model"],
+              "describe", "model", "case_model", "coupled_model"],
     "studies": ["analysis", "contact_tracker", "run", "train_run", "train_steadiness", "orbit",
                 "train_orbit", "shooting", "continuation", "stability", "sweep",
                 "study_sample", "reproduce", "coupled_run", "coupled_orbit", "validation"],
     "output": ["output", "figures", "train_figures", "mesh_stiffness_report", "sweep_output",
-               "continuation_output", "stability_output", "validation_output"],
-}
-
-# (file, included header) -> what ties it, until it is untied.
-KNOTS = {
-    ("train_presets.cpp", "run.hpp"):
-        "a pair form's train built from the one-degree model's build_model",
-    ("coupled_model.cpp", "run.hpp"):
-        "the coupled model built on the one-degree model's build_model",
-    ("study_sample.cpp", "output.hpp"):
-        "a sample's readings named by the pair form's names (form_key)",
-    # Studies that write their own files and figures beside computing them: their writers
-    # belong in the output layer (one idea per file).
-    ("reproduce.cpp", "figures.hpp"): "the study's own writers",
-    ("reproduce.cpp", "output.hpp"): "the study's own writers",
+               "continuation_output", "stability_output", "validation_output",
+               "reproduce_output"],
 }
 
 INCLUDE = re.compile(r'^#include "(?:geardyn/)?([a-z_]+)\.hpp"', re.M)
@@ -82,7 +66,7 @@ def includes(root):
     return found
 
 
-def layer_breaches(found, layers, knots):
+def layer_breaches(found, layers):
     out = []
     for name, header in sorted(found):
         here, there = pathlib.Path(name).stem, pathlib.Path(header).stem
@@ -91,13 +75,8 @@ def layer_breaches(found, layers, knots):
                 out.append(f"{stem}: in no layer (add it to LAYERS in tests/lint/layers.py)")
         if here not in layers or there not in layers or layers[there] <= layers[here]:
             continue
-        if (name, header) in knots:
-            continue
         out.append(f"{name} ({ORDER[layers[here]]}) includes {header} ({ORDER[layers[there]]}):"
                    " an include that points up a layer")
-    for name, header in sorted(knots):
-        if (name, header) not in found:
-            out.append(f"{name} no longer includes {header}: strike it from KNOTS")
     return sorted(set(out))
 
 
@@ -130,16 +109,16 @@ def main():
     root = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else
                         pathlib.Path(__file__).resolve().parents[2])
     layers = layer_of()
-    planted = layer_breaches({("engine.cpp", "train_run.hpp")}, layers, {})
+    planted = layer_breaches({("engine.cpp", "train_run.hpp")}, layers)
     if not any("points up" in b for b in planted):
         print("layers.py: the planted include engine.cpp -> train_run.hpp was not reported")
         return 1
-    breaches = layer_breaches(includes(root), layers, KNOTS) + declaration_breaches(root)
+    breaches = layer_breaches(includes(root), layers) + declaration_breaches(root)
     for b in breaches:
         print(b)
     if not breaches:
-        print(f"{len(LAYERS)} layers, {sum(map(len, LAYERS.values()))} files, "
-              f"{len(KNOTS)} knots left; every declaration beside its definition")
+        print(f"{len(LAYERS)} layers, {sum(map(len, LAYERS.values()))} files: no include points "
+              "up a layer, every declaration beside its definition")
     return 1 if breaches else 0
 
 
