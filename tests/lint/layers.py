@@ -10,12 +10,15 @@ above:
   model     case files, gear data, stiffness, presets, the static state
   studies   runs, sweeps, orbits, continuation, stability, samples, reproduction, validation
   output    summaries, files and figures of the studies' results
+  reference the reference implementations the tests and `geardyn validate` hold the library to
+            (reference/: the coupled model's own run and orbits, the validation): nothing of
+            the library includes them
 
 The command line (apps/) and the Python package (python/src/) sit above them all. Every file of
-src/ and include/geardyn/ must be in LAYERS, so that a new file is placed on purpose.
+src/, include/geardyn/, reference/ and reference/include/geardyn/ must be in LAYERS, so that a new file is placed on purpose.
 
-Every function declared at namespace scope in include/geardyn/NAME.hpp and defined in src/ is
-defined in src/NAME.cpp: a declaration sits beside its definition.
+Every function declared at namespace scope in a header NAME.hpp and defined in a source is
+defined in NAME.cpp: a declaration sits beside its definition.
 
     python3 tests/lint/layers.py [SOURCE_DIR]
 
@@ -27,7 +30,7 @@ import pathlib
 import re
 import sys
 
-ORDER = ["support", "engine", "elements", "model", "studies", "output"]
+ORDER = ["support", "engine", "elements", "model", "studies", "output", "reference"]
 
 LAYERS = {
     "support": ["input_error", "parallel", "csv", "suggest", "output_folder", "harmonic_series"],
@@ -39,10 +42,10 @@ LAYERS = {
               "describe", "model", "case_model", "coupled_model"],
     "studies": ["analysis", "contact_tracker", "run", "train_run", "train_steadiness", "orbit",
                 "train_orbit", "shooting", "continuation", "stability", "sweep",
-                "study_sample", "reproduce", "coupled_run", "coupled_orbit", "validation"],
+                "study_sample", "reproduce"],
     "output": ["output", "figures", "train_figures", "mesh_stiffness_report", "sweep_output",
-               "continuation_output", "stability_output", "validation_output",
-               "reproduce_output"],
+               "continuation_output", "stability_output", "reproduce_output"],
+    "reference": ["coupled_run", "coupled_orbit", "validation", "validation_output"],
 }
 
 INCLUDE = re.compile(r'^#include "(?:geardyn/)?([a-z_]+)\.hpp"', re.M)
@@ -56,11 +59,20 @@ def layer_of():
     return table
 
 
+def sources(root):
+    """Every source and header of the library and of its references."""
+    out = []
+    for folder in ("src", "reference"):
+        out += sorted((root / folder).glob("*.[ch]pp"))
+    for folder in ("include", "reference/include"):
+        out += sorted((root / folder / "geardyn").glob("*.hpp"))
+    return out
+
+
 def includes(root):
-    """{(file name, header name)} of every quoted include in src/ and include/geardyn/."""
+    """{(file name, header name)} of every quoted include of sources(root)."""
     found = set()
-    for path in sorted((root / "src").glob("*.[ch]pp")) + sorted(
-            (root / "include" / "geardyn").glob("*.hpp")):
+    for path in sources(root):
         for stem in INCLUDE.findall(path.read_text()):
             found.add((path.name, stem + ".hpp"))
     return found
@@ -92,16 +104,19 @@ DEFINITION = re.compile(
 
 def declaration_breaches(root):
     defined = {}
-    for path in (root / "src").glob("*.cpp"):
-        for name, _ in DEFINITION.findall(path.read_text()):
-            defined.setdefault(name, set()).add(path.stem)
+    for path in sources(root):
+        if path.suffix == ".cpp":
+            for name, _ in DEFINITION.findall(path.read_text()):
+                defined.setdefault(name, set()).add(path.stem)
     out = []
-    for header in sorted((root / "include" / "geardyn").glob("*.hpp")):
+    for header in sources(root):
+        if header.suffix != ".hpp" or header.parent.name != "geardyn":
+            continue
         for name, _ in DECLARATION.findall(header.read_text()):
             where = defined.get(name, set())
             if where and header.stem not in where:
-                out.append(f"{name}: declared in include/geardyn/{header.name}, defined in "
-                           + ", ".join(f"src/{s}.cpp" for s in sorted(where)))
+                out.append(f"{name}: declared in {header.relative_to(root)}, defined in "
+                           + ", ".join(f"{s}.cpp" for s in sorted(where)))
     return out
 
 

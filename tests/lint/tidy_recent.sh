@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The test command's short clang-tidy: the C++ sources (src/, apps/) of the newest commit that
-# changed any, at most MAX of them; src/output_folder.cpp (the code that guards the user's
+# The test command's short clang-tidy: the C++ sources (src/, reference/, apps/) of the newest
+# commit that changed any, at most MAX of them; src/output_folder.cpp (the code that guards the user's
 # files) when git cannot say. scripts/lint.sh checks every source.
 #
 #   tidy_recent.sh CLANG_TIDY BUILD_DIR SOURCE_DIR [MAX]
@@ -11,7 +11,8 @@ files=()
 if git rev-parse --git-dir >/dev/null 2>&1; then
   while IFS= read -r f; do
     [[ -f $f ]] && files+=("$f")
-  done < <(git log -1 --format= --name-only --diff-filter=AM -- 'src/*.cpp' 'apps/*.cpp' |
+  done < <(git log -1 --format= --name-only --diff-filter=AM -- 'src/*.cpp' 'reference/*.cpp' \
+           'apps/*.cpp' |
            head -n "$max")
 fi
 ((${#files[@]})) || files=(src/output_folder.cpp)

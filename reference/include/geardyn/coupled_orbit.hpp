@@ -12,6 +12,10 @@
 // The unknowns are scaled for the Newton residual: a coordinate in m by the backlash b, one in
 // rad by b / R_b1, a rate by the same times the one-degree contact natural frequency w_n; the
 // tolerance is on that scaled residual.
+//
+// A reference implementation: in the geardyn_reference library (reference/), linked by the tests,
+// the benchmarks and `geardyn validate` alone; a coupled case's orbits are its train's
+// (train_orbit.hpp).
 #pragma once
 
 #include <complex>

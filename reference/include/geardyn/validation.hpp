@@ -10,6 +10,10 @@
 //
 // Contract: validate() throws nothing a check throws; a check that cannot run is a failed row
 // saying why. A row passes when its error is finite and at most its tolerance.
+//
+// In the geardyn_reference library (reference/), beside the reference implementations it uses,
+// linked by the command line and the Python package for `validate`, and by the tests; the
+// library never calls it.
 #pragma once
 
 #include <cstddef>

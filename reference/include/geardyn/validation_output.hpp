@@ -1,4 +1,5 @@
-// geardyn: the reports of the validation (validation_output.cpp), output layer.
+// geardyn: the reports of the validation (validation_output.cpp). A reference: in the
+// geardyn_reference library (reference/), linked by `geardyn validate` and the tests alone.
 #pragma once
 
 #include <filesystem>

@@ -1,7 +1,8 @@
 // geardyn: a run of the coupled model (coupled_model.hpp) with the exact engine, read per
 // nonlinearity (the mesh and each bearing clearance). No run, sweep or study goes through it: a
 // coupled case runs as its train (train_presets.cpp, run_train); `geardyn validate` and the
-// tests run it as the independent reference that train is checked against.
+// tests run it as the independent reference that train is checked against: a reference
+// implementation, in the geardyn_reference library (reference/), which the library never calls.
 #pragma once
 
 #include <Eigen/Core>
