@@ -21,6 +21,7 @@
 #include <string_view>
 #include <vector>
 
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/validation.hpp"
 #include "user_odeint.hpp"

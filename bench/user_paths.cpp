@@ -32,6 +32,7 @@
 #include <string_view>
 #include <vector>
 
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/output.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"

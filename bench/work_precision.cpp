@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"
 #include "timing.hpp"

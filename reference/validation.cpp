@@ -23,6 +23,8 @@
 #include "geardyn/coupled_model.hpp"
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/geometry.hpp"
+#include "geardyn/one_degree_orbit.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/output_folder.hpp"
 #include "geardyn/reproduce.hpp"

@@ -7,6 +7,8 @@
 #include <string>
 
 #include "geardyn/engine.hpp"
+#include "geardyn/one_degree_orbit.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"

@@ -15,6 +15,8 @@
 #include <sstream>
 
 #include "geardyn/continuation_output.hpp"
+#include "geardyn/one_degree_orbit.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
 #include "geardyn/train_orbit.hpp"

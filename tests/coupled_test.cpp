@@ -23,6 +23,7 @@
 #include "geardyn/coupled_orbit.hpp"
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/geometry.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/sweep.hpp"
 #include "geardyn/sweep_output.hpp"

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "geardyn/case.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_run.hpp"
 

@@ -14,6 +14,8 @@
 #include <numbers>
 
 #include "geardyn/coupled_orbit.hpp"
+#include "geardyn/one_degree_orbit.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_orbit.hpp"
 

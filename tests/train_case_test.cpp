@@ -27,6 +27,7 @@
 #include "geardyn/coupled_run.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/model.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/plausibility.hpp"
 #include "geardyn/reproduce.hpp"
 #include "geardyn/run.hpp"

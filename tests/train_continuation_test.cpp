@@ -14,6 +14,7 @@
 #include "geardyn/case.hpp"
 #include "geardyn/continuation.hpp"
 #include "geardyn/engine.hpp"
+#include "geardyn/one_degree_orbit.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_orbit.hpp"

@@ -16,6 +16,8 @@
 #include "geardyn/case.hpp"
 #include "geardyn/coupled_orbit.hpp"
 #include "geardyn/engine.hpp"
+#include "geardyn/one_degree_orbit.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"

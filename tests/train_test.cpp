@@ -23,6 +23,7 @@
 #include "geardyn/engine.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/model.hpp"
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/train_statics.hpp"

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <memory>
 
+#include "geardyn/one_degree_run.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"

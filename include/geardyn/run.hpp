@@ -101,39 +101,6 @@ struct RunResult {
 // grows with the number of cells and events; the default 1e-10 then holds delta/b to ~1e-12).
 constexpr double kExactToleranceFraction = 1e-4;
 
-// Integrates a gear model with a case's [solver] (method, tolerance, time step), the one
-// place that chooses an integrator: runs and sweep points call it. The exact engine's cells
-// are computed once, at construction.
-class Solver {
- public:
-  // `period_s`, when > 0, makes the Newmark step divide it (a sweep's blocks end on period
-  // ends). Throws InputError if the model cannot be put in the exact engine's form.
-  Solver(const GearPairModel& model, const SolverData& s, double period_s = 0);
-  ~Solver();
-
-  // From `initial` to t1, samples on `grid`, read by `reader`. With the exact engine the
-  // extremes inside its cells are searched at the end of the flow, or, given `extremes` (of
-  // this solver's engine and `reader`), left to it: the caller's to finish, so that one search
-  // serves several pieces of a run.
-  ode::IntegrationSummary run(const ode::State& initial, double t1, const ode::OutputGrid& grid,
-                              RunReader& reader, CellExtremes* extremes = nullptr) const;
-  // From `initial` to t1 with nothing read (a settling phase): the end state and the outcome.
-  ode::IntegrationSummary advance(const ode::State& initial, double t1) const;
-  // The Newmark step actually taken (0 for the other methods).
-  double time_step_s() const { return dt_; }
-  const ode::ExactEngine* engine() const { return engine_.get(); }
-
- private:
-  ode::Dopri5Options dopri5_options() const;
-  static ode::Vector to_vector(const ode::State& s);
-  ode::IntegrationSummary summary(const ode::FlowResult& f) const;
-
-  const GearPairModel& model_;
-  SolverData s_;
-  double dt_ = 0;
-  std::unique_ptr<ode::ExactEngine> engine_;
-};
-
 // The shortest time scale of a model: the linearised contact period at the largest stiffness,
 // the period of the highest stiffness harmonic and of the torque fluctuation.
 double fastest_period_s(const GearPairParameters& p);
@@ -141,16 +108,22 @@ double fastest_period_s(const GearPairParameters& p);
 // The automatic Newmark step: fastest_period_s / kStepsPerFastestPeriod.
 double automatic_time_step_s(const GearPairParameters& p);
 
-// The state a case starts from at t0_s (solver.initial: at rest mid-backlash, or in static
-// contact), with its region.
-ode::State initial_state(const Case& c, const GearPairModel& model, double t0_s = 0);
-
 // The output interval of a run of `c` whose fastest time scale is `fastest_period_s` (the
 // model's fastest natural period in contact or excitation): solver.output_interval_s, or when it
 // is 0 the automatic one (kAutomaticSamples). Throws InputError, naming the key and
 // where it was given, past the work bounds above (kMaxSamples samples, kMaxFastestPeriods
 // periods of the fastest scale in the window); `what` names the model in that message.
 double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what);
+
+// What a pair's run fills before it integrates (run(), and the one-degree model's own run among
+// the references): the one-degree model's derived quantities and output interval in
+// result.derived, its geometry's in result.geometry read; throws InputError past the work bounds
+// (checked_output_interval_s's, and a Newmark step that does not resolve the fastest scale).
+void derive_run(const Case& c, const GearPairModel& model, RunResult& result);
+
+// A reading that is not finite (an overflow, a denormal backlash) makes `s` a numerical failure
+// (Termination::kDiverged, naming the reading), never "completed".
+void refuse_non_finite(const RunReading& x, ode::IntegrationSummary& s);
 
 // Fills r's spectra and their peaks from r.samples over t >= r.steady_start_s, sampled every
 // r.derived.output_interval_s (run calls it; so does a result read back from storage).
@@ -165,10 +138,5 @@ void compute_spectra(RunResult& r);
 // and message), never thrown. result.integration's steps are the train's cells (exact) or steps,
 // its end state is not filled.
 RunResult run(const Case& c, const RunOptions& options = {});
-
-// The same run integrated on the one-degree model itself (model.hpp: its own reader, cells and
-// closed-form extremes), kept as the independent reference that run()'s train is checked
-// against (tests, docs/performance.md); its integration summary carries the end state.
-RunResult run_one_degree_model(const Case& c, const RunOptions& options = {});
 
 }  // namespace geardyn

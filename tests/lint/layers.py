@@ -11,7 +11,8 @@ above:
   studies   runs, sweeps, orbits, continuation, stability, samples, reproduction, validation
   output    summaries, files and figures of the studies' results
   reference the reference implementations the tests and `geardyn validate` hold the library to
-            (reference/: the coupled model's own run and orbits, the validation): nothing of
+            (reference/: the one-degree and coupled models' own runs and orbits, the
+            validation): nothing of
             the library includes them
 
 The command line (apps/) and the Python package (python/src/) sit above them all. Every file of
@@ -45,7 +46,8 @@ LAYERS = {
                 "study_sample", "reproduce"],
     "output": ["output", "figures", "train_figures", "mesh_stiffness_report", "sweep_output",
                "continuation_output", "stability_output", "reproduce_output"],
-    "reference": ["coupled_run", "coupled_orbit", "validation", "validation_output"],
+    "reference": ["one_degree_reader", "one_degree_run", "one_degree_shooting", "one_degree_orbit",
+                  "coupled_run", "coupled_orbit", "validation", "validation_output"],
 }
 
 INCLUDE = re.compile(r'^#include "(?:geardyn/)?([a-z_]+)\.hpp"', re.M)
