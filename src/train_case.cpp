@@ -428,6 +428,50 @@ const std::vector<ElementKey<TrainPlanetaryData>>& planetary_keys() {
   return keys;
 }
 
+// One row per kind of element, in the case file's order: its name (train.<name>[]), its key
+// table, its list in the train, whether a study sets its numbers by index (a planetary preset's
+// are set through its text, read again), and the keys its TOML leaves out of an element (a key
+// whose default another key of the element replaces). The reader, the writer, the key tables of
+// the docs, --set and the sweepable keys iterate these rows (for_each_kind).
+template <class E>
+struct ElementKind {
+  std::string_view name;
+  const std::vector<ElementKey<E>>& (*keys)();
+  std::vector<E> TrainCase::*list;
+  bool set_by_index = true;
+  bool (*left_out)(const E&, std::string_view leaf) = nullptr;
+};
+
+// A shaft damped by its mode's ratio or a coefficient has no damping_ratio (the reader refuses
+// two ways of damping one shaft).
+bool shaft_left_out(const TrainShaftData& s, std::string_view leaf) {
+  return leaf == "damping_ratio" && (s.mode_damping_ratio || s.damping_n_m_s_per_rad);
+}
+// A torque whose mean is a power's or a reaction's has no mean_nm written.
+bool torque_left_out(const TrainTorqueData& q, std::string_view leaf) {
+  return leaf == "mean_nm" && (q.power_kw || q.balances);
+}
+
+const auto& element_kinds() {
+  static const auto kinds = std::tuple{
+      ElementKind<TrainBodyData>{"body", body_keys, &TrainCase::bodies},
+      ElementKind<TrainMeshData>{"mesh", mesh_keys, &TrainCase::meshes},
+      ElementKind<TrainShaftData>{"shaft", shaft_keys, &TrainCase::shafts, true, shaft_left_out},
+      ElementKind<TrainBearingData>{"bearing", bearing_keys, &TrainCase::bearings},
+      ElementKind<TrainTorqueData>{"torque", torque_keys, &TrainCase::torques, true,
+                                   torque_left_out},
+      ElementKind<TrainDragData>{"drag", drag_keys, &TrainCase::drags},
+      ElementKind<TrainSpeedData>{"speed", speed_keys, &TrainCase::speeds},
+      ElementKind<TrainPlanetaryData>{"planetary", planetary_keys, &TrainCase::planetaries, false}};
+  return kinds;
+}
+
+// f(row) for every row of element_kinds(), in order.
+template <class F>
+void for_each_kind(F&& f) {
+  std::apply([&](const auto&... kind) { (f(kind), ...); }, element_kinds());
+}
+
 // The words of a key's choices, "torsion planar".
 std::vector<std::string_view> words_of(std::string_view text) {
   std::vector<std::string_view> out;
@@ -753,14 +797,9 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
   t.reference_speed_hz = *f->value<double>();
   t.origins["the train: reference_speed_hz"] =
       origin_of(overrides, "train.reference_speed_hz", f->source(), source);
-  read_array(*train, source, overrides, "body", body_keys(), t.bodies, t.origins);
-  read_array(*train, source, overrides, "mesh", mesh_keys(), t.meshes, t.origins);
-  read_array(*train, source, overrides, "shaft", shaft_keys(), t.shafts, t.origins);
-  read_array(*train, source, overrides, "bearing", bearing_keys(), t.bearings, t.origins);
-  read_array(*train, source, overrides, "torque", torque_keys(), t.torques, t.origins);
-  read_array(*train, source, overrides, "drag", drag_keys(), t.drags, t.origins);
-  read_array(*train, source, overrides, "speed", speed_keys(), t.speeds, t.origins);
-  read_array(*train, source, overrides, "planetary", planetary_keys(), t.planetaries, t.origins);
+  for_each_kind([&](const auto& kind) {
+    read_array(*train, source, overrides, kind.name, kind.keys(), t.*kind.list, t.origins);
+  });
   add_planetary_elements(t);
   if (t.reference.empty() && !t.bodies.empty()) t.reference = t.bodies.front().name;
   t.origins["the train"] = where(train->source(), source);
@@ -1553,14 +1592,7 @@ const std::vector<TrainKeyInfo>& train_key_list() {
         {"", "planet_pin_errors_um", "um", "none", "one [radial, tangential] pair per planet",
          "each copy's pin position error, added to the pin errors of the bearings that carry "
          "it (planet load sharing)"}};
-    describe("body", body_keys(), out);
-    describe("mesh", mesh_keys(), out);
-    describe("shaft", shaft_keys(), out);
-    describe("bearing", bearing_keys(), out);
-    describe("torque", torque_keys(), out);
-    describe("drag", drag_keys(), out);
-    describe("speed", speed_keys(), out);
-    describe("planetary", planetary_keys(), out);
+    for_each_kind([&](const auto& kind) { describe(kind.name, kind.keys(), out); });
     return out;
   }();
   return list;
@@ -1621,14 +1653,9 @@ std::string train_key_not_sweepable(std::string_view dotted) {
     return "unknown key (an element's key is written train.<kind>[i].<key>)";
   const std::string_view kind = dotted.substr(6, open - 6), leaf = dotted.substr(close + 2);
   std::optional<bool> real;
-  if (kind == "body") real = real_leaf(body_keys(), leaf);
-  if (kind == "mesh") real = real_leaf(mesh_keys(), leaf);
-  if (kind == "shaft") real = real_leaf(shaft_keys(), leaf);
-  if (kind == "bearing") real = real_leaf(bearing_keys(), leaf);
-  if (kind == "torque") real = real_leaf(torque_keys(), leaf);
-  if (kind == "drag") real = real_leaf(drag_keys(), leaf);
-  if (kind == "speed") real = real_leaf(speed_keys(), leaf);
-  if (kind == "planetary") real = real_leaf(planetary_keys(), leaf);
+  for_each_kind([&](const auto& row) {
+    if (kind == row.name) real = real_leaf(row.keys(), leaf);
+  });
   if (!real) return "unknown key";
   if (!*real)
     return "not a real number the model reads (names and counts are not varied by a study; a "
@@ -1999,26 +2026,20 @@ bool set_train_number_in_place(TrainCase& t, const Override& o) {
     }
     if (!rest.empty()) return false;
     leaf = leaf.substr(0, bracket);
-    const auto entry = [&](auto& elements, const auto& keys) {
-      return set_element_entry(t, elements, kind, keys, i, leaf, index[0], index[1], v, label);
-    };
-    if (kind == "mesh") return entry(t.meshes, mesh_keys());
-    if (kind == "torque") return entry(t.torques, torque_keys());
-    if (kind == "speed") return entry(t.speeds, speed_keys());
-    return false;
+    bool set = false;
+    for_each_kind([&](const auto& row) {
+      if (row.set_by_index && kind == row.name)
+        set = set_element_entry(t, t.*row.list, kind, row.keys(), i, leaf, index[0], index[1], v,
+                                label);
+    });
+    return set;
   }
-  if (kind == "body") return set_element_number(t, t.bodies, kind, body_keys(), i, leaf, v, label);
-  if (kind == "mesh") return set_element_number(t, t.meshes, kind, mesh_keys(), i, leaf, v, label);
-  if (kind == "shaft")
-    return set_element_number(t, t.shafts, kind, shaft_keys(), i, leaf, v, label);
-  if (kind == "bearing")
-    return set_element_number(t, t.bearings, kind, bearing_keys(), i, leaf, v, label);
-  if (kind == "torque")
-    return set_element_number(t, t.torques, kind, torque_keys(), i, leaf, v, label);
-  if (kind == "drag") return set_element_number(t, t.drags, kind, drag_keys(), i, leaf, v, label);
-  if (kind == "speed")
-    return set_element_number(t, t.speeds, kind, speed_keys(), i, leaf, v, label);
-  return false;
+  bool set = false;
+  for_each_kind([&](const auto& row) {
+    if (row.set_by_index && kind == row.name)
+      set = set_element_number(t, t.*row.list, kind, row.keys(), i, leaf, v, label);
+  });
+  return set;
 }
 
 std::string train_toml(const TrainCase& t) {
@@ -2036,31 +2057,14 @@ std::string train_toml(const TrainCase& t) {
       pairs.push_back(fmt::format("[{}, {}]", e[0], e[1]));
     out += fmt::format("planet_pin_errors_um = [{}]\n", fmt::join(pairs, ", "));
   }
-  // A preset's elements as the preset alone.
-  const auto written = [&t](std::string_view kind, const auto& elements) {
-    std::remove_cvref_t<decltype(elements)> out;
-    for (const auto& e : elements)
-      if (!t.generated.count(fmt::format("{} '{}'", kind, e.name))) out.push_back(e);
-    return out;
-  };
-  out += toml_tables("body", body_keys(), written("body", t.bodies));
-  out += toml_tables("mesh", mesh_keys(), written("mesh", t.meshes));
-  // A shaft damped by its mode's ratio or a coefficient has no damping_ratio (the reader refuses
-  // two ways of damping one shaft).
-  out += toml_tables<TrainShaftData>("shaft", shaft_keys(), written("shaft", t.shafts),
-                                     [](const TrainShaftData& s, std::string_view leaf) {
-                                       return leaf == "damping_ratio" &&
-                                              (s.mode_damping_ratio || s.damping_n_m_s_per_rad);
-                                     });
-  out += toml_tables("bearing", bearing_keys(), written("bearing", t.bearings));
-  // A torque whose mean is a power's or a reaction's has no mean_nm written.
-  out += toml_tables<TrainTorqueData>("torque", torque_keys(), t.torques,
-                                      [](const TrainTorqueData& q, std::string_view leaf) {
-                                        return leaf == "mean_nm" && (q.power_kw || q.balances);
-                                      });
-  out += toml_tables("drag", drag_keys(), t.drags);
-  out += toml_tables("speed", speed_keys(), t.speeds);
-  out += toml_tables("planetary", planetary_keys(), t.planetaries);
+  // Every kind's elements, a preset's as the preset alone.
+  for_each_kind([&](const auto& kind) {
+    std::remove_cvref_t<decltype(t.*kind.list)> written;
+    for (const auto& e : t.*kind.list)
+      if (!t.generated.count(fmt::format("{} '{}'", kind.name, e.name))) written.push_back(e);
+    using E = typename decltype(written)::value_type;
+    out += toml_tables<E>(kind.name, kind.keys(), written, kind.left_out);
+  });
   return out;
 }
 
