@@ -21,7 +21,7 @@ TrainBodyData gear(const TrainPlanetaryData& p, const char* name, int teeth, dou
                    std::optional<double> inertia_kg_m2, std::optional<double> mass_kg) {
   TrainBodyData b;
   b.name = name;
-  b.dof = "planar";
+  b.dof = BodyDof::kPlanar;
   b.teeth = teeth;
   b.normal_module_mm = p.normal_module_mm;
   b.normal_pressure_angle_deg = p.normal_pressure_angle_deg;
@@ -39,7 +39,7 @@ TrainMeshData mesh(const TrainPlanetaryData& p, const char* name, const char* dr
   m.name = name;
   m.driving = driving;
   m.driven = driven;
-  if (internal) m.kind = "internal";
+  if (internal) m.kind = MeshKind::kInternal;
   if (p.mesh_stiffness_n_per_m)
     m.mean_stiffness_n_per_m = p.mesh_stiffness_n_per_m;
   else
@@ -90,7 +90,7 @@ void add_planetary_elements(TrainCase& t) {
       gear(p, "planet", p.planet_teeth, p.planet_profile_shift, p.planet_inertia_kg_m2,
            p.planet_mass_kg)};
   bodies[2].name = "carrier";
-  bodies[2].dof = "planar";
+  bodies[2].dof = BodyDof::kPlanar;
   bodies[2].inertia_kg_m2 = p.carrier_inertia_kg_m2;
   bodies[2].mass_kg = p.carrier_mass_kg;
 

@@ -51,14 +51,16 @@ struct ElementKey {
   std::string_view leaf;
   std::variant<std::string E::*, double E::*, std::optional<double> E::*, int E::*, bool E::*,
                std::vector<StiffnessHarmonic> E::*, std::vector<ErrorHarmonic> E::*,
-               std::vector<OrderHarmonic> E::*>
+               std::vector<OrderHarmonic> E::*, BodyDof E::*, MeshKind E::*>
       field;
   std::string_view unit;
   Range range;
   bool required;
   std::string_view doc;
-  std::string_view choices = "";  // of a name that is one of a few words: "torsion planar"
-  bool file = false;              // of a name that is a file's path
+  // Of a name that is one of a few words, "contact always"; an enumeration's are its own
+  // (words_of_enum).
+  std::string_view choices = "";
+  bool file = false;  // of a name that is a file's path
 };
 
 // The keys of each kind of element: the one table the reader, its messages and the docs use.
@@ -77,8 +79,7 @@ const std::vector<ElementKey<TrainBodyData>>& body_keys() {
        "moment; not in a planetary set), or along its axis without tilting (\"axial\", its "
        "tilts held: the coupled pair's dof 6); \"line\" and \"line_axial\" as \"planar\" and "
        "\"axial\" with the centre held to its one mesh's line of action (Kahraman and Singh's "
-       "lumped pair: the coupled pair's dof 3 and 6)",
-       "torsion planar axial spatial line line_axial"},
+       "lumped pair: the coupled pair's dof 3 and 6)"},
       {"inertia_kg_m2", &B::inertia_kg_m2, "kg m^2", above(0), false,
        "polar moment of inertia; absent: a cylinder of the reference diameter and face width "
        "(a gear's)"},
@@ -134,8 +135,7 @@ const std::vector<ElementKey<TrainMeshData>>& mesh_keys() {
        {},
        false,
        "\"external\", or \"internal\" for a pinion and a ring gear (the gear with more teeth, "
-       "turning the same way)",
-       "external internal"},
+       "turning the same way)"},
       {"backlash_um", &M::backlash_um, "um", above(1e-3), false,
        "b, half the total normal backlash 2b"},
       {"stiffness_source",
@@ -472,6 +472,17 @@ void for_each_kind(F&& f) {
   std::apply([&](const auto&... kind) { (f(kind), ...); }, element_kinds());
 }
 
+// Each enumeration's words in the case file, in its order.
+constexpr std::array<std::string_view, 6> kBodyDofWords = {"torsion", "planar", "axial",
+                                                           "spatial", "line",   "line_axial"};
+constexpr std::array<std::string_view, 2> kMeshKindWords = {"external", "internal"};
+std::vector<std::string_view> words_of_enum(BodyDof /*tag*/) {
+  return {kBodyDofWords.begin(), kBodyDofWords.end()};
+}
+std::vector<std::string_view> words_of_enum(MeshKind /*tag*/) {
+  return {kMeshKindWords.begin(), kMeshKindWords.end()};
+}
+
 // The words of a key's choices, "torsion planar".
 std::vector<std::string_view> words_of(std::string_view text) {
   std::vector<std::string_view> out;
@@ -491,10 +502,14 @@ std::string allowed(const ElementKey<E>& key) {
         using T = std::remove_reference_t<decltype(std::declval<E&>().*member)>;
         const std::string unit = key.unit.empty() ? "" : fmt::format(" {}", key.unit);
         const std::string bound = key.range.text(std::is_same_v<T, int>);
-        if constexpr (std::is_same_v<T, std::string>) {
-          if (!key.choices.empty()) {
+        if constexpr (std::is_same_v<T, std::string> || std::is_enum_v<T>) {
+          if (std::is_enum_v<T> || !key.choices.empty()) {
             // "a" or "b"; "a", "b" or "c".
-            const std::vector<std::string_view> all = words_of(key.choices);
+            std::vector<std::string_view> all;
+            if constexpr (std::is_enum_v<T>)
+              all = words_of_enum(T{});
+            else
+              all = words_of(key.choices);
             std::string words;
             for (std::size_t i = 0; i < all.size(); ++i)
               words += fmt::format("{}\"{}\"",
@@ -585,6 +600,16 @@ class ElementReader {
       const std::vector<std::string_view> words = words_of(key.choices);
       if (std::find(words.begin(), words.end(), out) == words.end()) fail(n, key);
     }
+  }
+  // An enumeration: one of its words, read into its value once, here.
+  template <class E, class T>
+  requires std::is_enum_v<T>
+  void set(const toml::node& n, const ElementKey<E>& key, T& out) const {
+    if (!n.is_string()) fail(n, key);
+    const std::vector<std::string_view> words = words_of_enum(T{});
+    const auto at = std::find(words.begin(), words.end(), *n.value<std::string>());
+    if (at == words.end()) fail(n, key);
+    out = static_cast<T>(at - words.begin());
   }
   template <class E>
   void set(const toml::node& n, const ElementKey<E>& key, double& out) const {
@@ -838,14 +863,11 @@ struct GearGeometry {
 };
 
 // A body whose centre moves in the plane: planar, axial or spatial, or held to its line.
-bool keeps_plane(const TrainBodyData& b) {
-  return b.dof == "planar" || b.dof == "axial" || b.dof == "spatial" || b.dof == "line" ||
-         b.dof == "line_axial";
-}
+bool keeps_plane(const TrainBodyData& b) { return b.dof != BodyDof::kTorsion; }
 
 // A body that moves along its axis: axial (or line_axial), or spatial (which tilts too).
 bool keeps_axis(const TrainBodyData& b) {
-  return b.dof == "axial" || b.dof == "spatial" || b.dof == "line_axial";
+  return b.dof == BodyDof::kAxial || b.dof == BodyDof::kSpatial || b.dof == BodyDof::kLineAxial;
 }
 
 // A body's base radius, base helix angle and inertia (docs/model.md, "Geometry", as the gear
@@ -863,7 +885,7 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
   g.base_radius_m = 0.5 * d * std::cos(alpha_t);
   g.base_helix_rad = std::atan(std::tan(beta) * std::cos(alpha_t));
   // The blank, a cylinder of the reference diameter: for what is not given.
-  const bool planar = keeps_plane(b), spatial = b.dof == "spatial";
+  const bool planar = keeps_plane(b), spatial = b.dof == BodyDof::kSpatial;
   if (!b.inertia_kg_m2 || (planar && !b.mass_kg) || (spatial && !b.tilt_inertia_kg_m2)) {
     const double di = b.bore_diameter_mm * kMmToM;
     if (!(b.teeth > 0 && b.face_width_mm > 0))
@@ -905,7 +927,7 @@ GearGeometry body_geometry(const TrainCase& t, const TrainBodyData& b) {
 ShiftedCenterDistance mesh_center_distance_from_gears(const TrainMeshData& m,
                                                       const TrainBodyData& a,
                                                       const TrainBodyData& b) {
-  const bool internal = m.kind == "internal";
+  const bool internal = m.kind == MeshKind::kInternal;
   const TrainBodyData& first = internal && a.teeth > b.teeth ? b : a;
   const TrainBodyData& second = &first == &a ? b : a;
   return shifted_center_distance(internal, first.teeth, second.teeth, first.profile_shift,
@@ -1047,7 +1069,7 @@ namespace {
 // Gear b of mesh m as the mesh's stiffness reads it: an internal mesh's pinion with the tip its
 // external mesh gives it (pinion_as_meshed).
 TrainBodyData as_meshed(const TrainCase& t, const TrainMeshData& m, const TrainBodyData& b) {
-  return m.kind == "internal" ? pinion_as_meshed(t, b) : b;
+  return m.kind == MeshKind::kInternal ? pinion_as_meshed(t, b) : b;
 }
 
 // ISO 6336-1's stiffness of the meshes whose stiffness_source is "iso6336" at the load each
@@ -1176,14 +1198,15 @@ train::Train train_of(const Case& c) {
       rethrow_with_origin(t, fmt::format("body '{}': mass_kg = {} is read only for a planar "
                                          "body (dof = \"planar\"); this one keeps torsion only",
                                          b.name, *b.mass_kg));
-    if (b.tilt_inertia_kg_m2 && b.dof != "spatial")
+    if (b.tilt_inertia_kg_m2 && b.dof != BodyDof::kSpatial)
       rethrow_with_origin(t, fmt::format("body '{}': tilt_inertia_kg_m2 = {} is read only for a "
                                          "spatial body (dof = \"spatial\"); this one is {}",
-                                         b.name, *b.tilt_inertia_kg_m2, b.dof));
+                                         b.name, *b.tilt_inertia_kg_m2, to_string(b.dof)));
     out.bodies.push_back({b.name, g.inertia_kg_m2, keeps_plane(b), g.mass_kg,
                           b.eccentricity_um * kUmToM, b.eccentricity_angle_deg * kDegToRad,
-                          keeps_axis(b), b.dof == "spatial" ? g.tilt_inertia_kg_m2 : 0.0,
-                          b.dof == "spatial", b.dof == "line" || b.dof == "line_axial"});
+                          keeps_axis(b), b.dof == BodyDof::kSpatial ? g.tilt_inertia_kg_m2 : 0.0,
+                          b.dof == BodyDof::kSpatial,
+                          b.dof == BodyDof::kLine || b.dof == BodyDof::kLineAxial});
   }
   for (const TrainMeshData& m : t.meshes) {
     train::Mesh x;
@@ -1212,7 +1235,7 @@ train::Train train_of(const Case& c) {
       x.teeth_driven = b->second->teeth;
       x.base_radius_driving_m = gears[m.driving].base_radius_m;
       x.base_radius_driven_m = gears[m.driven].base_radius_m;
-      x.internal = m.kind == "internal";
+      x.internal = m.kind == MeshKind::kInternal;
       if (x.internal) {
         // The ring's blank is no solid cylinder of its reference diameter: its inertia is given.
         const TrainBodyData* ring = a->second->teeth > b->second->teeth ? a->second : b->second;
@@ -1380,13 +1403,14 @@ train::Train train_of(const Case& c) {
          {std::pair{"axial_stiffness_n_per_m", b.axial_stiffness_n_per_m},
           std::pair{"tilt_stiffness_n_m_per_rad", b.tilt_stiffness_n_m_per_rad}})
       if (value != 0 && carried != bodies.end() &&
-          (leaf[0] == 'a' ? !keeps_axis(*carried->second) : carried->second->dof != "spatial"))
+          (leaf[0] == 'a' ? !keeps_axis(*carried->second)
+                          : carried->second->dof != BodyDof::kSpatial))
         rethrow_with_origin(
             t, fmt::format("bearing '{}': {} = {} is read only for a body that {} (dof = {}); "
                            "body '{}' is {}",
                            b.name, leaf, value, leaf[0] == 'a' ? "moves along its axis" : "tilts",
                            leaf[0] == 'a' ? "\"axial\" or \"spatial\"" : "\"spatial\"", b.body,
-                           carried->second->dof));
+                           to_string(carried->second->dof)));
     x.axial_stiffness_n_per_m = b.axial_stiffness_n_per_m;
     x.tilt_stiffness_n_m_per_rad = b.tilt_stiffness_n_m_per_rad;
     if (const auto g = gears.find(b.body); g != gears.end()) {
@@ -1500,6 +1524,8 @@ void describe(std::string_view kind, const std::vector<ElementKey<E>>& keys,
           if constexpr (std::is_same_v<T, std::string>) {
             if (k.leaf == "name") return fmt::format("{0}1, {0}2, ...", kind);
             return v.empty() ? std::string("absent") : fmt::format("\"{}\"", v);
+          } else if constexpr (std::is_enum_v<T>) {
+            return fmt::format("\"{}\"", to_string(v));
           } else if constexpr (std::is_same_v<T, std::optional<double>>) {
             return "absent";
           } else if constexpr (std::is_arithmetic_v<T>) {
@@ -1519,6 +1545,8 @@ std::string toml_value(const std::string& v) {
   return v.empty() ? std::string() : fmt::format("\"{}\"", v);
 }
 std::string toml_value(double v) { return fmt::format("{}", v); }
+std::string toml_value(BodyDof v) { return fmt::format("\"{}\"", to_string(v)); }
+std::string toml_value(MeshKind v) { return fmt::format("\"{}\"", to_string(v)); }
 std::string toml_value(int v) { return fmt::format("{}", v); }
 std::string toml_value(bool v) { return v ? "true" : ""; }  // false: the default, left out
 std::string toml_value(const std::optional<double>& v) { return v ? toml_value(*v) : ""; }
@@ -2066,6 +2094,11 @@ std::string train_toml(const TrainCase& t) {
     out += toml_tables<E>(kind.name, kind.keys(), written, kind.left_out);
   });
   return out;
+}
+
+std::string_view to_string(BodyDof dof) { return kBodyDofWords.at(static_cast<std::size_t>(dof)); }
+std::string_view to_string(MeshKind kind) {
+  return kMeshKindWords.at(static_cast<std::size_t>(kind));
 }
 
 }  // namespace geardyn

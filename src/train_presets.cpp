@@ -201,7 +201,7 @@ PinionInRing pinion_in_ring(const TrainBodyData& driving, const TrainBodyData& d
 // InputError in the train's keys.
 Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& first,
                     const TrainBodyData& second) {
-  const bool internal = m.kind == "internal";
+  const bool internal = m.kind == MeshKind::kInternal;
   const std::array<const TrainBodyData*, 2> body = {&first, &second};
   Case c;
   GearData& g = c.gear;
@@ -271,7 +271,7 @@ Case mesh_pair_case(const TrainMeshData& m, const TrainBodyData& first,
 TrainBodyData pinion_as_meshed(const TrainCase& t, const TrainBodyData& b) {
   if (b.outside_diameter_mm || b.teeth <= 0) return b;
   for (const TrainMeshData& m : t.meshes) {
-    if (m.kind == "internal" || (m.driving != b.name && m.driven != b.name)) continue;
+    if (m.kind == MeshKind::kInternal || (m.driving != b.name && m.driven != b.name)) continue;
     const std::string& other = m.driving == b.name ? m.driven : m.driving;
     const auto x = std::find_if(t.bodies.begin(), t.bodies.end(),
                                 [&](const TrainBodyData& y) { return y.name == other; });
@@ -322,7 +322,7 @@ PairMeshStiffness internal_pair_mesh_stiffness(const TrainMeshData& m, const Tra
 
 PairMeshStiffness pair_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                       const TrainBodyData& driven) {
-  if (m.kind == "internal") return internal_pair_mesh_stiffness(m, driving, driven);
+  if (m.kind == MeshKind::kInternal) return internal_pair_mesh_stiffness(m, driving, driven);
   const Case c = mesh_pair_case(m, driving, driven);
   return pair_stiffness_of(
       c, [&] { return mesh_stiffness_series(c, case_geometry(c)); }, driving, driven);
@@ -358,7 +358,7 @@ PairMeshStiffness iso_internal_mesh_stiffness(const TrainMeshData& m, const Trai
 PairMeshStiffness iso_mesh_stiffness(const TrainMeshData& m, const TrainBodyData& driving,
                                      const TrainBodyData& driven,
                                      std::optional<double> driving_torque_nm) {
-  if (m.kind == "internal")
+  if (m.kind == MeshKind::kInternal)
     return iso_internal_mesh_stiffness(m, driving, driven, driving_torque_nm);
   Case c = mesh_pair_case(m, driving, driven);
   c.mesh.stiffness_source = StiffnessSource::kIso6336;
@@ -460,7 +460,7 @@ GearPairToRead gear_pair_to_read(const Case& c, const std::string& mesh, bool in
   if (c.model.form == ModelForm::kTrain) {
     const TrainCase t = expand_planets(*c.train);
     const TrainMeshData& m = t.meshes.at(mesh_to_read(c, mesh));
-    if (m.kind == "internal") {
+    if (m.kind == MeshKind::kInternal) {
       if (!internal_too) {
         const auto origin = t.origins.find(fmt::format("mesh '{}'", m.name));
         throw InputError(fmt::format("{}train: {}",
@@ -553,7 +553,7 @@ Case train_mesh_pair(const Case& c, const std::string& mesh) {
   };
   const auto origin = t.origins.find(fmt::format("mesh '{}'", m.name));
   const std::string where = origin == t.origins.end() ? "" : origin->second + ": ";
-  if (m.kind == "internal")
+  if (m.kind == MeshKind::kInternal)
     throw InputError(fmt::format("{}train: {}", where, internal_pair_has_no_geometry(m.name)));
   Case pair;
   try {
@@ -575,7 +575,7 @@ std::vector<std::string> pair_mesh_warnings(const TrainMeshData& m, const TrainB
                                             const TrainBodyData& driven) {
   std::vector<std::string> out;
   try {
-    if (m.kind == "internal") {
+    if (m.kind == MeshKind::kInternal) {
       const PinionInRing g = pinion_in_ring(driving, driven);
       for (const std::string& w :
            internal_geometry(mesh_pair_case(m, g.pinion, g.ring).gear).warnings)
@@ -607,10 +607,10 @@ Case train_form_of(const Case& c, const MeshStiffness* stiffness) {
   t.reference_speed_hz = f1;
   // The coupled model moves each gear along the line of action alone at dof 3 and 6, and keeps
   // its whole plane at dof 12.
-  const std::string dof = !coupled           ? "torsion"
-                          : c.model.dof == 3 ? "line"
-                          : c.model.dof == 6 ? "line_axial"
-                                             : "spatial";
+  const BodyDof dof = !coupled           ? BodyDof::kTorsion
+                      : c.model.dof == 3 ? BodyDof::kLine
+                      : c.model.dof == 6 ? BodyDof::kLineAxial
+                                         : BodyDof::kSpatial;
   for (int i = 0; i < 2; ++i) {
     TrainBodyData b;
     b.name = i == 0 ? "pinion" : "wheel";

@@ -50,9 +50,18 @@ struct OrderHarmonic {
 // of the reference diameter, as the gear pair's); a plain inertia (motor, load) gives
 // inertia_kg_m2 alone. dof = "planar" lets the body's centre move in the plane on its bearings
 // (its mass from the same cylinder when mass_kg is absent).
+// The degrees of freedom a body keeps (dof = "torsion", "planar", "axial", "spatial", "line",
+// "line_axial": the key's words, in this order), read once by the case reader.
+enum class BodyDof { kTorsion, kPlanar, kAxial, kSpatial, kLine, kLineAxial };
+// Two external gears, or a pinion in a ring gear (kind = "external", "internal").
+enum class MeshKind { kExternal, kInternal };
+// The word a case file writes for each.
+std::string_view to_string(BodyDof dof);
+std::string_view to_string(MeshKind kind);
+
 struct TrainBodyData {
   std::string name;
-  std::string dof = "torsion";  // or "planar", or "spatial" (planar, with z and the tilts)
+  BodyDof dof = BodyDof::kTorsion;
   std::optional<double> inertia_kg_m2;
   std::optional<double> mass_kg;
   std::optional<double> tilt_inertia_kg_m2;  // about a diameter, of a spatial body
@@ -79,8 +88,8 @@ struct TrainBodyData {
 // given: its blank is no solid cylinder).
 struct TrainMeshData {
   std::string name, driving, driven;
-  std::string kind = "external";  // or "internal"
-  double backlash_um = 100;       // b, half the total normal backlash
+  MeshKind kind = MeshKind::kExternal;
+  double backlash_um = 100;  // b, half the total normal backlash
   // "harmonics": k_m and its harmonics as given; "energy": the gear pair's energy method on
   // the two gears' data (pair_mesh_stiffness); "table": stiffness_table's curve
   // (table_mesh_stiffness); "iso6336": ISO 6336-1's c_gamma_alpha b of the two gears under the
