@@ -116,9 +116,10 @@ double automatic_time_step_s(const GearPairParameters& p);
 double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what);
 
 // What a pair's run fills before it integrates (run(), and the one-degree model's own run among
-// the references): the one-degree model's derived quantities and output interval in
-// result.derived, its geometry's in result.geometry read; throws InputError past the work bounds
-// (checked_output_interval_s's, and a Newmark step that does not resolve the fastest scale).
+// the references): result.derived, the one-degree model's derived quantities and output
+// interval, from `model` and result.geometry (build_model's, filled first). Throws InputError
+// past the work bounds (checked_output_interval_s's; a Newmark step too long for the fastest
+// time scale).
 void derive_run(const Case& c, const GearPairModel& model, RunResult& result);
 
 // A reading that is not finite (an overflow, a denormal backlash) makes `s` a numerical failure
