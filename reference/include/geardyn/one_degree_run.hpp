@@ -16,9 +16,9 @@
 
 namespace geardyn {
 
-// Integrates a gear model with a case's [solver] (method, tolerance, time step), the one
-// place that chooses an integrator: runs and sweep points call it. The exact engine's cells
-// are computed once, at construction.
+// Integrates the one-degree model with a case's [solver] (method, tolerance, time step): its own
+// run, its shooting and the validation's references call it. The exact engine's cells are
+// computed once, at construction.
 class Solver {
  public:
   // `period_s`, when > 0, makes the Newmark step divide it (a sweep's blocks end on period
