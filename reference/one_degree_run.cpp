@@ -212,9 +212,7 @@ OnePass integrate_once(const Case& c, const GearPairModel& model, const ode::Sta
 RunResult run_one_degree_model(const Case& c, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   RunResult result;
-  result.input = c;
-  const GearPairModel model = build_model(c, &result.geometry, options.stiffness);
-  derive_run(c, model, result);
+  const GearPairModel model = begin_pair_run(c, options.stiffness, result);
   Derived& d = result.derived;
   const double t0 = 0.0, t1 = c.solver.duration_s;
   const ode::OutputGrid grid = ode::make_output_grid(t0, t1, d.output_interval_s);

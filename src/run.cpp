@@ -165,7 +165,9 @@ double checked_output_interval_s(const Case& c, double fastest_period_s, const c
   return interval;
 }
 
-void derive_run(const Case& c, const GearPairModel& model, RunResult& result) {
+GearPairModel begin_pair_run(const Case& c, const MeshStiffness* stiffness, RunResult& result) {
+  result.input = c;
+  GearPairModel model = build_model(c, &result.geometry, stiffness);
   const GearPairParameters& p = model.parameters();
   const Geometry& g = result.geometry;
   Derived& d = result.derived;
@@ -194,6 +196,7 @@ void derive_run(const Case& c, const GearPairModel& model, RunResult& result) {
                                        std::min(t1 / kAutomaticSamples,
                                                 d.fastest_period_s / kSamplesPerFastestPeriod));
   check_work(c, p, d, t1);
+  return model;
 }
 
 namespace {
@@ -221,14 +224,12 @@ RunReading pair_reading(const TrainMeshPart& x, double backlash_m, double force_
 RunResult run(const Case& c, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   RunResult result;
-  result.input = c;
   // The mesh stiffness computed once, for the model's derived quantities and for its train.
   std::optional<MeshStiffness> own;
   const MeshStiffness* stiffness = options.stiffness;
   if (!stiffness && c.model.form == ModelForm::kGearPair)
     stiffness = &own.emplace(case_stiffness(c));
-  const GearPairModel model = build_model(c, &result.geometry, stiffness);
-  derive_run(c, model, result);
+  begin_pair_run(c, stiffness, result);
   const double t1 = c.solver.duration_s;
 
   // The pair's own output interval (its automatic one is the one-degree model's).

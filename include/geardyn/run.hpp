@@ -115,12 +115,12 @@ double automatic_time_step_s(const GearPairParameters& p);
 // periods of the fastest scale in the window); `what` names the model in that message.
 double checked_output_interval_s(const Case& c, double fastest_period_s, const char* what);
 
-// What a pair's run fills before it integrates (run(), and the one-degree model's own run among
-// the references): result.derived, the one-degree model's derived quantities and output
-// interval, from `model` and result.geometry (build_model's, filled first). Throws InputError
-// past the work bounds (checked_output_interval_s's; a Newmark step too long for the fastest
-// time scale).
-void derive_run(const Case& c, const GearPairModel& model, RunResult& result);
+// The start of a pair's run (run(), and the one-degree model's own run among the references): its
+// one-degree model (build_model, with `stiffness` as there), returned, and what the result
+// holds before it integrates: result.input, result.geometry and result.derived (the model's
+// derived quantities and output interval). Throws InputError on bad input and past the work
+// bounds (checked_output_interval_s's; a Newmark step too long for the fastest time scale).
+GearPairModel begin_pair_run(const Case& c, const MeshStiffness* stiffness, RunResult& result);
 
 // A reading that is not finite (an overflow, a denormal backlash) makes `s` a numerical failure
 // (Termination::kDiverged, naming the reading), never "completed".
