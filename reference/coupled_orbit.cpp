@@ -143,46 +143,23 @@ CoupledOrbit find_coupled_orbit(const Case& c, const OrbitOptions& options,
       const ode::FlowResult settled =
           solver.advance(0.0, y0, options.settle_periods * orbit.system_period_s);
       if (!settled.ok()) {
-        orbit.message = fmt::format("the settling simulation failed ({}): {}",
-                                    ode::to_string(settled.termination), settled.message);
+        orbit.message = detail::settling_failed(settled.termination, settled.message);
         return orbit;
       }
       y0 = settled.state;
     }
   }
-  ode::Vector x;
-  std::string why;
-  if (!shooting.shooting().guess(y0, x, why)) {
-    orbit.message = why;
-    return orbit;
-  }
   // Without settling, the start given (or the case's) is the one start.
-  OrbitOptions once = options;
-  if (start || options.settle_periods == 0) once.starts = 1;
-  const auto next = [&](ode::Vector& next_x, std::string& next_why) {
+  const auto next = [&](ode::Vector& y, std::string& why) {
     const ode::FlowResult later = solver.advance(0.0, y0, orbit.period_s);
     if (!later.ok()) {
-      next_why = fmt::format("the settling simulation failed ({}): {}",
-                             ode::to_string(later.termination), later.message);
+      why = detail::settling_failed(later.termination, later.message);
       return false;
     }
-    y0 = later.state;
-    return shooting.shooting().guess(y0, next_x, next_why);
+    y = y0 = later.state;
+    return true;
   };
-  const detail::NewtonOutcome newton =
-      detail::solve_periodic_from_settled(shooting.shooting(), x, once, next);
-  orbit.iterations = newton.iterations;
-  orbit.residual = newton.residual;
-  if (!newton.converged) {
-    orbit.message = newton.message;
-    return orbit;
-  }
-  if (!shooting.read(x, newton.jacobians, orbit, why)) {
-    orbit.message = why;
-    return orbit;
-  }
-  orbit.converged = true;
-  orbit.message = newton.message;
+  detail::find_periodic(shooting, y0, options, start || options.settle_periods == 0, next, orbit);
   return orbit;
 }
 

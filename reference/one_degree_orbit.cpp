@@ -149,49 +149,26 @@ Orbit find_one_degree_orbit(const Case& c, const OrbitOptions& options,
     const auto settled =
         shooting.solver().advance(s0, options.settle_periods * orbit.system_period_s);
     if (!settled.ok()) {
-      orbit.message = fmt::format("the settling simulation failed ({}): {}",
-                                  ode::to_string(settled.termination), settled.message);
+      orbit.message = detail::settling_failed(settled.termination, settled.message);
       return orbit;
     }
     s0 = settled.end_state;
   }
-  ode::Vector y0(2), x;
+  ode::Vector y0(2);
   y0 << s0.q, s0.v;
-  std::string why;
-  if (!shooting.guess(y0, x, why)) {
-    orbit.message = why;
-    return orbit;
-  }
   // Without settling, the start given (or the case's) is the one start.
-  OrbitOptions once = options;
-  if (start || options.settle_periods == 0) once.starts = 1;
-  const auto next = [&](ode::Vector& next_x, std::string& next_why) {
+  const auto next = [&](ode::Vector& y, std::string& why) {
     const auto later = shooting.solver().advance(s0, s0.t + orbit.period_s);
     if (!later.ok()) {
-      next_why = fmt::format("the settling simulation failed ({}): {}",
-                             ode::to_string(later.termination), later.message);
+      why = detail::settling_failed(later.termination, later.message);
       return false;
     }
     s0 = later.end_state;
-    ode::Vector y(2);
+    y.resize(2);
     y << s0.q, s0.v;
-    return shooting.guess(y, next_x, next_why);
+    return true;
   };
-  detail::NewtonOutcome newton =
-      detail::solve_periodic_from_settled(shooting.shooting(), x, once, next);
-  orbit.iterations = newton.iterations;
-  orbit.residual = newton.residual;
-  if (!newton.converged) {
-    orbit.message = newton.message;
-    return orbit;
-  }
-  const std::vector<ode::Matrix>& jacobians = newton.jacobians;
-  if (!shooting.read(x, jacobians, orbit, why)) {
-    orbit.message = why;
-    return orbit;
-  }
-  orbit.converged = true;
-  orbit.message = newton.message;
+  detail::find_periodic(shooting, y0, options, start || options.settle_periods == 0, next, orbit);
   return orbit;
 }
 

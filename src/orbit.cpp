@@ -211,6 +211,11 @@ NewtonOutcome solve_periodic(const Segments& s, ode::Vector& x, const OrbitOptio
   return out;
 }
 
+std::string settling_failed(ode::Termination termination, const std::string& message) {
+  return fmt::format("the settling simulation failed ({}): {}", ode::to_string(termination),
+                     message);
+}
+
 NewtonOutcome solve_periodic_from_settled(
     const Segments& s, ode::Vector& x, const OrbitOptions& options,
     const std::function<bool(ode::Vector& x, std::string& why)>& next) {

@@ -82,6 +82,46 @@ NewtonOutcome solve_periodic_from_settled(
     const Segments& s, ode::Vector& x, const OrbitOptions& options,
     const std::function<bool(ode::Vector& x, std::string& why)>& next);
 
+// Why a settling simulation (the first guess's, or the next start's) failed, in an orbit's
+// message.
+std::string settling_failed(ode::Termination termination, const std::string& message);
+
+// The periodic solution s of `shooting` (its segments, shooting.shooting(), and its reading,
+// shooting.read(x, jacobians, s, why)) from the section state `first` (as the segments' flow
+// takes it): Newton from there (solve_periodic_from_settled), each further start the section
+// state next(y, why) gives (false, with why, when its flow fails; with `one_start` none). s's
+// iterations, residual and message are Newton's; when it converged s is read at its unknowns
+// and converged, unless that reading fails (its message then why). Every orbit finder's
+// common end (trains', and the references').
+template <class Shooting, class Solution>
+void find_periodic(const Shooting& shooting, const ode::Vector& first, const OrbitOptions& options,
+                   bool one_start,
+                   const std::function<bool(ode::Vector& y, std::string& why)>& next, Solution& s) {
+  const Segments& segments = shooting.shooting();
+  ode::Vector x;
+  std::string why;
+  if (!segments.guess(first, x, why)) {
+    s.message = why;
+    return;
+  }
+  OrbitOptions once = options;
+  if (one_start) once.starts = 1;
+  const NewtonOutcome newton = solve_periodic_from_settled(
+      segments, x, once, [&](ode::Vector& next_x, std::string& next_why) {
+        ode::Vector y;
+        return next(y, next_why) && segments.guess(y, next_x, next_why);
+      });
+  s.iterations = newton.iterations;
+  s.residual = newton.residual;
+  s.message = newton.message;
+  if (!newton.converged) return;
+  if (!shooting.read(x, newton.jacobians, s, why)) {
+    s.message = why;
+    return;
+  }
+  s.converged = true;
+}
+
 // The monodromy matrix (the product of the segments' Jacobians, last on the left) and its
 // eigenvalues, largest modulus first.
 void floquet(const std::vector<ode::Matrix>& segment_jacobians, ode::Matrix& monodromy,

@@ -310,46 +310,27 @@ TrainOrbit train_orbit(const detail::TrainShooting& shooting, const Case& c,
       const ode::FlowResult settled =
           shooting.solver().advance(0.0, y0, options.settle_periods * orbit.system_period_s);
       if (!settled.ok()) {
-        orbit.message = fmt::format("the settling simulation failed ({}): {}",
-                                    ode::to_string(settled.termination), settled.message);
+        orbit.message = detail::settling_failed(settled.termination, settled.message);
         return orbit;
       }
       y0 = settled.state;  // at a whole number of system periods: the section's phase
     }
     z0 = shooting.reduce(y0);
   }
-  ode::Vector x;
-  std::string why;
-  if (!shooting.shooting().guess(z0, x, why)) {
-    orbit.message = why;
-    return orbit;
-  }
   // Without settling, the start given (or the case's) is the one start.
-  OrbitOptions once = options;
-  if (start || options.settle_periods == 0) once.starts = 1;
-  const auto next = [&](ode::Vector& next_x, std::string& next_why) {
+  const auto next = [&](ode::Vector& z, std::string& why) {
     // From the section state as the orbits read it (a prescribed body at its prescription).
     const ode::FlowResult later =
         shooting.solver().advance(0.0, shooting.full(0.0, shooting.reduce(y0)), orbit.period_s);
     if (!later.ok()) {
-      next_why = fmt::format("the settling simulation failed ({}): {}",
-                             ode::to_string(later.termination), later.message);
+      why = detail::settling_failed(later.termination, later.message);
       return false;
     }
     y0 = later.state;
-    return shooting.shooting().guess(shooting.reduce(y0), next_x, next_why);
+    z = shooting.reduce(y0);
+    return true;
   };
-  const detail::NewtonOutcome newton =
-      detail::solve_periodic_from_settled(shooting.shooting(), x, once, next);
-  orbit.iterations = newton.iterations;
-  orbit.residual = newton.residual;
-  orbit.message = newton.message;
-  if (!newton.converged) return orbit;
-  if (!shooting.read(x, newton.jacobians, orbit, why)) {
-    orbit.message = why;
-    return orbit;
-  }
-  orbit.converged = true;
+  detail::find_periodic(shooting, z0, options, start || options.settle_periods == 0, next, orbit);
   return orbit;
 }
 
