@@ -82,6 +82,24 @@ Json describe(const Case& c) {
     bearings.push_back(x);
   }
   j["bearings"] = bearings;
+  // Each joint read as a part (an element's: a clutch damper): its edges, each stage's stiffness
+  // and damping, and the stage the static state loads it in (its index among them).
+  Json joints = Json::array();
+  for (std::size_t k = 0; k < a.joints().size(); ++k) {
+    const train::Joint& x = a.joints()[k];
+    if (!x.read) continue;
+    Json stiffness = Json::array(), damping = Json::array();
+    for (const train::JointStage& g : x.stages) {
+      stiffness.push_back(g.stiffness);
+      damping.push_back(g.damping);
+    }
+    joints.push_back({{"name", x.name},
+                      {"edges", x.edges},
+                      {"stiffness", stiffness},
+                      {"damping", damping},
+                      {"static_stage", a.operating_stages()[k]}});
+  }
+  j["joints"] = joints;
   Json torques = Json::array();
   for (const train::Torque& q : t.torques)
     torques.push_back({{"name", q.name}, {"body", q.body}, {"mean_nm", q.mean_nm}});
@@ -133,6 +151,18 @@ std::string describe_text(const Case& c) {
                        b.contains("pin_radius_m")
                            ? fmt::format("{:.6g}", 1e3 * b["pin_radius_m"].get<double>())
                            : std::string("-"));
+  // A joint's stages from its most negative x up, each stiffness with the edge between them; the
+  // stage the static state loads marked.
+  for (const Json& x : j["joints"]) {
+    const std::vector<double> k = x["stiffness"], edges = x["edges"];
+    std::string stages;
+    const int loaded = x["static_stage"].get<int>();
+    for (std::size_t s = 0; s < k.size(); ++s)
+      stages += fmt::format("{}{:.6g}{}", s == 0 ? "" : fmt::format(" |{:.6g}| ", edges[s - 1]),
+                            k[s], static_cast<int>(s) == loaded ? "*" : "");
+    out += fmt::format("  joint {:<10} stiffness by stage, |edge| between (* static): {}\n",
+                       x["name"].get<std::string>(), stages);
+  }
   for (const Json& q : j["torques"])
     out += fmt::format("  torque {:<9} on {}: mean {:.6g} N m\n", q["name"].get<std::string>(),
                        q["body"].get<std::string>(), q["mean_nm"].get<double>());

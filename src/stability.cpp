@@ -126,9 +126,13 @@ ode::Matrix monodromy_in_contact(const Case& c, double tolerance, double period_
     }
     sys = a.linear_system();
     // (A bearing with a clearance engaged, as the modes read it: its stiffness is the same on
-    // either side, and the Floquet multipliers read only the homogeneous flow.)
-    contact = a.region(std::vector<int>(a.train().meshes.size(), 1),
-                       std::vector<int>(a.clearances().size(), 1));
+    // either side, and the Floquet multipliers read only the homogeneous flow; every other
+    // joint at its operating stage.)
+    std::vector<int> joint_states;
+    for (std::size_t j = 0; j < a.joints().size(); ++j)
+      joint_states.push_back(
+          a.operating_stages()[j] < 0 ? 1 : a.operating_stages()[j] - a.joints()[j].rest);
+    contact = a.region(std::vector<int>(a.train().meshes.size(), 1), joint_states);
     // The system period is needed only where the meshes' stiffness is constant: the forcing
     // (torques, transmission errors) does not enter the monodromy.
     std::string why;

@@ -183,8 +183,7 @@ class PointRunner {
       const train::Assembled a = assembled_train(base);
       for (const train::Mesh& m : a.train().meshes) meshes_.push_back(m.name);
       groups_ = load_sharing_groups(a);
-      for (std::size_t j = 0; j < a.clearances().size(); ++j)
-        clearances_.push_back(a.clearance_name(static_cast<int>(j)));
+      for (const train::Joint& j : a.joints()) clearances_.push_back(j.name);
       TrainRunResult named;
       add_parts(a, std::nullopt, named);
       for (const TrainPartQuantity& q : part_quantities(named)) parts_.push_back({q.part, q.what});
@@ -541,7 +540,7 @@ class PointRunner {
     const TrainSamples& smp = r.samples;
     const double count = static_cast<double>(smp.t_s.size());
     // Every mesh in contact throughout and no bearing clearance: the train is linear there.
-    bool contact_only = a.clearances().empty();
+    bool contact_only = a.joints().empty();
     for (std::size_t i = 0; i < r.meshes.size(); ++i) {
       const TrainMeshReading& x = r.meshes[i];
       const double b = x.backlash_m;
@@ -568,11 +567,9 @@ class PointRunner {
           contact_only && x.impacts == 0 && x.separations == 0 && x.separated_fraction == 0;
     }
     // Each clearance direction over the whole measurement.
-    for (const auto& [k, axis] : a.clearances()) {
-      const TrainBearingReading& b = r.bearings[static_cast<std::size_t>(k)];
-      const ContactReading& c = axis == 0 ? b.clearance_x : b.clearance_y;
-      pt.clearances.push_back({static_cast<double>(c.impacts) / m, c.separated_fraction});
-    }
+    for (const TrainJointReading& j : r.joints)
+      pt.clearances.push_back(
+          {static_cast<double>(j.contact.impacts) / m, j.contact.separated_fraction});
     // Each load-sharing group over the whole measurement.
     for (const TrainLoadSharing& x : r.load_sharing) {
       const LoadSharingGroup& g = groups_[pt.load_sharing.size()];
@@ -641,7 +638,7 @@ class PointRunner {
   std::optional<MeshStiffness> stiffness_;
   std::vector<std::string> meshes_;  // a train's
   std::vector<LoadSharingGroup> groups_;
-  std::vector<std::string> clearances_;  // a train's clearance directions
+  std::vector<std::string> clearances_;  // a train's joints (its clearance directions first)
   std::vector<SweepPart> parts_;         // a train's shaft and bearing quantities
   std::size_t mesh_ = 0;                 // the one the points' statistics read
 };

@@ -182,6 +182,9 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     if (s.b == kGround) body(e, "a", s.a);
     if (!(s.stiffness_n_m_per_rad > 0)) bad(e, "stiffness must be > 0 N m/rad");
   }
+  for (const auto& x : t_.elements)
+    for (const auto& [key, name] : x->bodies())
+      if (name != kGround) body(x->label(), key.c_str(), name);
   std::set<int> supported;
   std::vector<double> axial_held(t_.bodies.size(), 0.0), tilt_held(t_.bodies.size(), 0.0);
   const bool pinned = std::any_of(t_.bearings.begin(), t_.bearings.end(),
@@ -286,6 +289,10 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     for (const Shaft& s : t_.shafts)
       g.shafts.push_back({fmt::format("shaft '{}'", s.name), index(s.a),
                           s.b == kGround ? KinematicGraph::kToGround : index(s.b)});
+    for (const auto& x : t_.elements)
+      for (const auto& [a, b] : x->couplings())
+        g.shafts.push_back(
+            {x->label(), index(a), b == kGround ? KinematicGraph::kToGround : index(b)});
     for (const Bearing& x : t_.bearings)
       if (!x.on.empty())
         g.pins.push_back({fmt::format("bearing '{}'", x.name), index(x.body), index(x.on)});
@@ -384,6 +391,52 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
         frame_rates_[static_cast<std::size_t>(i)] = body_speed_hz(c) * kTwoPi;
         if (frame_rate_ == 0) frame_rate_ = frame_rates_[static_cast<std::size_t>(i)];
       }
+  // The joints: each clearance direction, k (x -+ c) beyond +-c and nothing inside, its
+  // damping in contact only; then each element's.
+  for (const auto& [k, axis] : clearances_) {
+    const Bearing& x = t_.bearings[static_cast<std::size_t>(k)];
+    const double c = x.clearance_m, kb = x.stiffness_n_per_m, cb = x.damping_n_s_per_m;
+    Joint j;
+    j.name = x.name + (axis == 0 ? "_x" : "_y");
+    j.row = bearing_matrix(k).row(axis);
+    j.offset = bearing_offset(k)(axis);
+    j.edges = {-c, c};
+    j.stages = {{kb, kb * c, cb}, {0, 0, 0}, {kb, -kb * c, cb}};
+    j.rest = 1;
+    j.scale = c;
+    j.linearised = false;
+    joints_.push_back(std::move(j));
+  }
+  for (const auto& x : t_.elements)
+    for (Joint& j : x->joints(*this)) {
+      if (j.row.size() != size() || j.stages.size() != j.edges.size() + 1 ||
+          !std::is_sorted(j.edges.begin(), j.edges.end()) || j.rest < 0 ||
+          j.rest >= j.stage_count() || j.operating < 0 || j.operating >= j.stage_count())
+        throw std::logic_error(x->label() + ": a joint out of its contract (joint.hpp)");
+      joints_.push_back(std::move(j));
+    }
+  for (const Joint& j : joints_) operating_.push_back(j.linearised ? j.operating : -1);
+}
+
+void Assembled::set_operating_stages(std::vector<int> stages) {
+  if (stages.size() != joints_.size())
+    throw std::logic_error("set_operating_stages: one stage per joint");
+  for (std::size_t j = 0; j < stages.size(); ++j)
+    if (!joints_[j].linearised)
+      stages[j] = -1;
+    else if (stages[j] < 0 || stages[j] >= joints_[j].stage_count())
+      throw std::logic_error("set_operating_stages: a stage the joint does not have");
+  operating_ = std::move(stages);
+}
+
+Eigen::VectorXd Assembled::joint_load() const {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(size());
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    if (operating_[j] < 0) continue;
+    const JointStage& s = joints_[j].stages[static_cast<std::size_t>(operating_[j])];
+    q += (s.stiffness * joints_[j].offset - s.force_at_zero) * joints_[j].row.transpose();
+  }
+  return q;
 }
 
 double Assembled::body_speed_hz(int body) const {
@@ -568,6 +621,13 @@ int Assembled::shaft_observable(int shaft) const {
 int Assembled::bearing_observable(int bearing) const {
   int i = 2 * static_cast<int>(t_.meshes.size()) + static_cast<int>(t_.shafts.size());
   for (int k = 0; k < bearing; ++k) i += 2 + static_cast<int>(support_matrix(k).rows());
+  return i;
+}
+
+int Assembled::joint_observable(int joint) const {
+  if (!joints_[static_cast<std::size_t>(joint)].read) return -1;
+  int i = bearing_observable(static_cast<int>(t_.bearings.size()));
+  for (int j = 0; j < joint; ++j) i += joints_[static_cast<std::size_t>(j)].read ? 2 : 0;
   return i;
 }
 
@@ -883,9 +943,9 @@ Eigen::Vector3d support_diagonal(const Bearing& x, bool damping) {
                                    x.tilt_stiffness_n_m_per_rad);
 }
 
-// The shafts', bearings' and drags' K and C, which every region shares; a bearing with a
-// clearance only with `engaged` (as if it had none: the linearisation that modes and the static
-// state read), its region's otherwise.
+// The shafts', bearings' and drags' K and C, which every region shares; with `engaged` (the
+// linearisation that modes and the static state read) a bearing with a clearance as if it had
+// none and every other joint at its operating stage, each joint its region's otherwise.
 void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c, bool engaged) {
   const Train& t = a.train();
   k = Eigen::MatrixXd::Zero(a.size(), a.size());
@@ -912,6 +972,17 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c, bo
   if (a.frame_rate_rad_s() != 0) {
     k += a.frame_stiffness();
     c += a.frame_damping();
+  }
+  // The linearised joints at their operating stages (with `engaged`: in a region each joint
+  // stamps its region's stage).
+  if (!engaged) return;
+  for (std::size_t j = 0; j < a.joints().size(); ++j) {
+    const int stage = a.operating_stages()[j];
+    if (stage < 0) continue;
+    const Joint& x = a.joints()[j];
+    const JointStage& g = x.stages[static_cast<std::size_t>(stage)];
+    k += g.stiffness * x.row.transpose() * x.row;
+    c += g.damping * x.row.transpose() * x.row;
   }
 }
 
@@ -955,21 +1026,20 @@ int radix(const Mesh& x) { return x.clips() ? 5 : 3; }
 int Assembled::region_count() const {
   int n = 1;
   for (const Mesh& x : t_.meshes) n *= radix(x);
-  for (std::size_t j = 0; j < clearances_.size(); ++j) n *= 3;
+  for (const Joint& j : joints_) n *= j.stage_count();
   return n;
 }
 
-int Assembled::region(const std::vector<int>& states,
-                      const std::vector<int>& clearance_states) const {
+int Assembled::region(const std::vector<int>& states, const std::vector<int>& joint_states) const {
   int r = 0, p = 1;
   for (std::size_t m = 0; m < states.size(); ++m) {
     const int base = radix(t_.meshes[m]);
     r += (states[m] + base / 2) * p;
     p *= base;
   }
-  for (std::size_t j = 0; j < clearances_.size(); ++j) {
-    r += ((j < clearance_states.size() ? clearance_states[j] : 0) + 1) * p;
-    p *= 3;
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    r += ((j < joint_states.size() ? joint_states[j] : 0) + joints_[j].rest) * p;
+    p *= joints_[j].stage_count();
   }
   return r;
 }
@@ -984,12 +1054,12 @@ std::vector<int> Assembled::states(int region) const {
   return s;
 }
 
-std::vector<int> Assembled::clearance_states(int region) const {
+std::vector<int> Assembled::joint_states(int region) const {
   for (const Mesh& x : t_.meshes) region /= radix(x);
   std::vector<int> s;
-  for (std::size_t j = 0; j < clearances_.size(); ++j) {
-    s.push_back(region % 3 - 1);
-    region /= 3;
+  for (const Joint& j : joints_) {
+    s.push_back(region % j.stage_count() - j.rest);
+    region /= j.stage_count();
   }
   return s;
 }
@@ -1072,11 +1142,8 @@ int Assembled::classify(double t_s, const Eigen::VectorXd& y) const {
     if (side * f < 0) s.back() = 2 * side;
   }
   std::vector<int> c;
-  for (const auto& [k, axis] : clearances_) {
-    const double w = bearing_matrix(k).row(axis).dot(y.head(size())) - bearing_offset(k)(axis);
-    const double gap = t_.bearings[static_cast<std::size_t>(k)].clearance_m;
-    c.push_back(w >= gap ? 1 : w <= -gap ? -1 : 0);
-  }
+  for (const Joint& j : joints_)
+    c.push_back(j.stage_at(j.row.dot(y.head(size())) - j.offset) - j.rest);
   return region(s, c);
 }
 
@@ -1123,7 +1190,7 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
   for (std::size_t d = 0; d < t_.drags.size(); ++d)
     q_common(index(t_.drags[d].body)) += constant_drag_nm(static_cast<int>(d));
   for (std::size_t k = 0; k < t_.bearings.size(); ++k)
-    if (!(t_.bearings[k].clearance_m > 0))
+    if (!(t_.bearings[k].clearance_m > 0))  // with one: its joints' stages
       q_common += t_.bearings[k].stiffness_n_per_m *
                   bearing_matrix(static_cast<int>(k)).transpose() *
                   bearing_offset(static_cast<int>(k));
@@ -1186,7 +1253,7 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
       return g;
     };
 
-    const std::vector<int> st = a.states(r), cs = a.clearance_states(r);
+    const std::vector<int> st = a.states(r), cs = a.joint_states(r);
     ode::LinearRegion lr;
     lr.a.constant = Matrix::Zero(dim, dim);
     lr.a.constant.topRightCorner(n, n) = Matrix::Identity(n, n);
@@ -1259,42 +1326,37 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
         lr.observables.push_back(f);
       }
     }
-    // Each clearance direction j (bearing k's axis): in contact beyond +-c, k (w - o -+ c) +
-    // c_b w' on B_j^T; its guards on w - o against +-c, as a mesh's on d - e against +-b.
-    for (std::size_t j = 0; j < a.clearances().size(); ++j) {
-      const auto [k, axis] = a.clearances()[j];
-      const Bearing& x = t.bearings[static_cast<std::size_t>(k)];
-      const RowVector bj = a.bearing_matrix(k).row(axis);
-      const double o = a.bearing_offset(k)(axis), gap = x.clearance_m;
-      if (cs[j] != 0) {
-        const Matrix block = m_inv * bj.transpose() * bj;
-        lr.a.constant.bottomLeftCorner(n, n) -= x.stiffness_n_per_m * block;
-        lr.a.constant.bottomRightCorner(n, n) -= x.damping_n_s_per_m * block;
-        lr.u.constant.tail(n) += x.stiffness_n_per_m * (o + cs[j] * gap) * (m_inv * bj.transpose());
-      }
-      // sign (w - o) - edge.
+    // Each joint j in its stage: k_s x + f_s + c_s x' on -row^T, x = row q - offset; its
+    // guards on x against its stage's edges, as a mesh's on d - e against +-b.
+    for (std::size_t j = 0; j < a.joints().size(); ++j) {
+      const Joint& x = a.joints()[j];
+      const int stage = cs[j] + x.rest;
+      const JointStage& g = x.stages[static_cast<std::size_t>(stage)];
+      const Matrix block = m_inv * x.row.transpose() * x.row;
+      lr.a.constant.bottomLeftCorner(n, n) -= g.stiffness * block;
+      lr.a.constant.bottomRightCorner(n, n) -= g.damping * block;
+      lr.u.constant.tail(n) +=
+          (g.stiffness * x.offset - g.force_at_zero) * (m_inv * x.row.transpose());
+      // sign x - edge.
       const auto beyond = [&](double sign, double edge) {
-        ode::LinearGuard g = functional();
-        g.row.constant.head(n) = sign * bj;
-        g.offset.constant = -sign * o - edge;
-        g.scale = gap;
-        return g;
+        ode::LinearGuard guard = functional();
+        guard.row.constant.head(n) = sign * x.row;
+        guard.offset.constant = -sign * x.offset - edge;
+        guard.scale = x.scale;
+        return guard;
       };
       std::vector<int> to = cs;
-      if (cs[j] == 0) {
-        to[j] = 1;
-        ode::LinearGuard up = beyond(-1.0, -gap);  // c - (w - o)
+      if (stage + 1 < x.stage_count()) {
+        to[j] = cs[j] + 1;
+        ode::LinearGuard up = beyond(-1.0, -x.edges[static_cast<std::size_t>(stage)]);
         up.target = a.region(st, to);
-        to[j] = -1;
-        ode::LinearGuard down = beyond(1.0, -gap);  // (w - o) + c
-        down.target = a.region(st, to);
         lr.guards.push_back(up);
+      }
+      if (stage > 0) {
+        to[j] = cs[j] - 1;
+        ode::LinearGuard down = beyond(1.0, x.edges[static_cast<std::size_t>(stage - 1)]);
+        down.target = a.region(st, to);
         lr.guards.push_back(down);
-      } else {
-        to[j] = 0;
-        ode::LinearGuard out = beyond(cs[j] > 0 ? 1.0 : -1.0, gap);
-        out.target = a.region(st, to);
-        lr.guards.push_back(out);
       }
     }
     // Each shaft's torque and each bearing's force on the ground, the same in every region.
@@ -1311,7 +1373,8 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
       const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(k));
       const Eigen::Vector2d o = a.bearing_offset(static_cast<int>(k));
       for (const int axis : {0, 1}) {
-        // With a clearance: its direction's state, 0 (no force) inside.
+        // With a clearance: its direction's state, 0 (no force) inside (its joints are the
+        // first, in clearances()' order).
         int state = 1;
         double edge = 0;
         for (std::size_t j = 0; j < a.clearances().size(); ++j)
@@ -1336,6 +1399,21 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
         g.row.constant.tail(n) = cs_(row) * s.row(row);
         lr.observables.push_back(g);
       }
+    }
+    // Each joint read as a part: its force k_s x + f_s + c_s x', then x.
+    for (std::size_t j = 0; j < a.joints().size(); ++j) {
+      const Joint& x = a.joints()[j];
+      if (!x.read) continue;
+      const JointStage& g = x.stages[static_cast<std::size_t>(cs[j] + x.rest)];
+      ode::LinearGuard f = functional();
+      f.row.constant.head(n) = g.stiffness * x.row;
+      f.row.constant.tail(n) = g.damping * x.row;
+      f.offset.constant = g.force_at_zero - g.stiffness * x.offset;
+      lr.observables.push_back(f);
+      ode::LinearGuard d = functional();
+      d.row.constant.head(n) = x.row;
+      d.offset.constant = -x.offset;
+      lr.observables.push_back(d);
     }
     // A prescribed body's row is its prescription's acceleration, nothing of the train's.
     for (const Speed& v : t.speeds) {
@@ -1405,6 +1483,15 @@ void strain_energies(const Assembled& a, const Shape& shape, double total, Train
     for (const double x : parts) sum += x;
     mode.bearing_energy.push_back(sum);
     mode.bearing_parts.push_back(parts);
+  }
+  for (std::size_t j = 0; j < a.joints().size(); ++j) {
+    const Joint& x = a.joints()[j];
+    if (!x.read) continue;
+    const int stage = a.operating_stages()[j];
+    mode.joint_energy.push_back(
+        stage < 0 ? 0.0
+                  : share(strain(x.stages[static_cast<std::size_t>(stage)].stiffness,
+                                 x.row.template cast<Scalar>().dot(shape))));
   }
 }
 

@@ -18,6 +18,7 @@
 #include <utility>
 #include <variant>
 
+#include "element_keys.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/plausibility.hpp"
 #include "geardyn/suggest.hpp"
@@ -28,7 +29,8 @@
 namespace geardyn {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using namespace element_keys;
+
 constexpr double kPi = std::numbers::pi;
 constexpr double kMmToM = 1e-3;
 constexpr double kUmToM = 1e-6;
@@ -37,31 +39,6 @@ constexpr double kDegToRad = kPi / 180.0;
 // (iso_meshes_at_their_load): relative change of k_m.
 constexpr int kIsoLoadPasses = 50;
 constexpr double kIsoLoadTolerance = 1e-12;
-
-Range above(double lo) { return {lo, kInf, false, true}; }
-Range at_least(double lo) { return {lo, kInf, true, true}; }
-Range closed_open(double lo, double hi) { return {lo, hi, true, false}; }
-Range open(double lo, double hi) { return {lo, hi, false, false}; }
-Range closed(double lo, double hi) { return {lo, hi, true, true}; }
-
-// One key of an element: the member it sets, its unit and bounds (of a number, or of each
-// harmonic's first entry), whether it must be given, and its meaning.
-template <class E>
-struct ElementKey {
-  std::string_view leaf;
-  std::variant<std::string E::*, double E::*, std::optional<double> E::*, int E::*, bool E::*,
-               std::vector<StiffnessHarmonic> E::*, std::vector<ErrorHarmonic> E::*,
-               std::vector<OrderHarmonic> E::*, BodyDof E::*, MeshKind E::*>
-      field;
-  std::string_view unit;
-  Range range;
-  bool required;
-  std::string_view doc;
-  // Of a name that is one of a few words, "contact always"; an enumeration's are its own
-  // (words_of_enum).
-  std::string_view choices = "";
-  bool file = false;  // of a name that is a file's path
-};
 
 // The keys of each kind of element: the one table the reader, its messages and the docs use.
 const std::vector<ElementKey<TrainBodyData>>& body_keys() {
@@ -694,9 +671,10 @@ void read_array(const toml::table& train, const std::string& source,
   }
 }
 
-constexpr std::string_view kTrainKeys =
-    "reference, reference_speed_hz, mesh_phase, frame_terms, planet, planets, planet_angles_deg, "
-    "planet_pin_errors_um, body, mesh, shaft, bearing, torque, drag, speed, planetary";
+// The keys of [train] itself; its elements' arrays follow, one per kind (element_kinds()).
+constexpr std::array<std::string_view, 8> kTrainOwnKeys = {
+    "reference", "reference_speed_hz", "mesh_phase",          "frame_terms", "planet",
+    "planets",   "planet_angles_deg",  "planet_pin_errors_um"};
 // At most this many planets: sets are built with 3 to 7, and the regions of 2 N meshes grow
 // as 3^(2 N).
 constexpr int kMaxPlanets = 12;
@@ -710,27 +688,14 @@ TrainCase read_train_case(const toml::node& node, const std::string& source,
     throw InputError(fmt::format("{}: train = {}: must be a table [train]",
                                  where(node.source(), source), node_text(node)));
   TrainCase t;
-  static const std::set<std::string_view> known = {"reference",
-                                                   "reference_speed_hz",
-                                                   "mesh_phase",
-                                                   "frame_terms",
-                                                   "planet",
-                                                   "planets",
-                                                   "planet_angles_deg",
-                                                   "planet_pin_errors_um",
-                                                   "body",
-                                                   "mesh",
-                                                   "shaft",
-                                                   "bearing",
-                                                   "torque",
-                                                   "drag",
-                                                   "speed",
-                                                   "planetary"};
+  std::vector<std::string_view> keys(kTrainOwnKeys.begin(), kTrainOwnKeys.end());
+  for_each_kind([&](const auto& kind) { keys.push_back(kind.name); });
+  const std::set<std::string_view> known(keys.begin(), keys.end());
   for (auto&& [k, v] : *train) {
     if (!known.count(k.str()))
       throw InputError(fmt::format(
           "{}: unknown key 'train.{}'{}; allowed in [train]: {}", where(k.source(), source),
-          k.str(), did_you_mean(k.str(), {known.begin(), known.end()}), kTrainKeys));
+          k.str(), did_you_mean(k.str(), {known.begin(), known.end()}), fmt::join(keys, ", ")));
   }
   // A body's name given in [train] (its reference, its planet), with where it was given.
   const auto body_name = [&](std::string_view leaf, std::string& out) {
@@ -1208,6 +1173,17 @@ train::Train train_of(const Case& c) {
                           b.dof == BodyDof::kSpatial,
                           b.dof == BodyDof::kLine || b.dof == BodyDof::kLineAxial});
   }
+  // The elements of the kinds the assembler does not know, each as its own file makes it
+  // (element()).
+  for_each_kind([&](const auto& kind) {
+    using E = typename std::remove_cvref_t<decltype(t.*kind.list)>::value_type;
+    if constexpr (requires(const E& e) { e.element(); })
+      for (const E& e : t.*kind.list) try {
+          out.elements.push_back(e.element());
+        } catch (const InputError& error) {
+          rethrow_with_origin(t, error.what());
+        }
+  });
   for (const TrainMeshData& m : t.meshes) {
     train::Mesh x;
     x.name = m.name;
@@ -1502,7 +1478,9 @@ train::Assembled assembled_train(const Case& c, const MeshStiffness* stiffness) 
   const Case& as_train = c.model.form == ModelForm::kTrain ? c : form;
   train::Train t = train_of(as_train);
   try {
-    return train::Assembled(std::move(t));
+    train::Assembled a(std::move(t));
+    settle_joints(a);
+    return a;
   } catch (const InputError& e) {
     rethrow_with_origin(expand_planets(*as_train.train), e.what());
   }

@@ -280,12 +280,16 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r, bool 
   // A row for the shafts' torques (N m) and one for the bearings' radial forces (N), each on its
   // own axis, when there are any, and a last one for the axial forces of the bearings of bodies
   // that move along their axis.
-  const bool parts = shafts + bearings > 0;
+  // And a row for the forces of the joints read as parts (a clutch damper's torque).
+  std::vector<std::size_t> joints;  // their indices among r.joints
+  for (std::size_t q = 0; q < r.joints.size(); ++q)
+    if (r.joints[q].read) joints.push_back(q);
+  const bool parts = shafts + bearings + joints.size() > 0;
   std::vector<std::size_t> axial;  // the bearings with an axial force
   for (std::size_t q = 0; q < bearings; ++q)
     if (r.bearings[q].spatial) axial.push_back(q);
-  const std::size_t rows =
-      meshes + (shafts > 0 ? 1 : 0) + (bearings > 0 ? 1 : 0) + (axial.empty() ? 0 : 1);
+  const std::size_t rows = meshes + (shafts > 0 ? 1 : 0) + (bearings > 0 ? 1 : 0) +
+                           (axial.empty() ? 0 : 1) + (joints.empty() ? 0 : 1);
   std::string header = "t_ms";
   for (const TrainMeshReading& m : r.meshes)
     header += fmt::format(",{0}_deflection_bar,{0}_force_n", m.name);
@@ -293,13 +297,16 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r, bool 
   for (const TrainBearingReading& x : r.bearings)
     header += fmt::format(",{}_radial_force_n", x.name);
   for (const std::size_t q : axial) header += fmt::format(",{}_axial_force_n", r.bearings[q].name);
+  for (const std::size_t q : joints)
+    header += fmt::format(",{}_{}", r.joints[q].name, r.joints[q].force_what);
   header += "\n";
   // Each bearing's x force among the parts (a spatial body's has its axial force and moments
   // after its y).
   std::vector<std::size_t> bearing_part;
-  for (std::size_t q = 0, k = shafts; q < bearings; ++q) {
-    bearing_part.push_back(k);
-    k += static_cast<std::size_t>(r.bearings[q].part_count());
+  std::size_t first_joint = shafts;  // the first joint's force among the parts
+  for (std::size_t q = 0; q < bearings; ++q) {
+    bearing_part.push_back(first_joint);
+    first_joint += static_cast<std::size_t>(r.bearings[q].part_count());
   }
   write_files_atomically(
       dir, {{"train_plot.csv",
@@ -316,6 +323,8 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r, bool 
                    for (std::size_t q = 0; q < bearings; ++q)
                      v.push_back(std::hypot(p[bearing_part[q]], p[bearing_part[q] + 1]));
                    for (const std::size_t q : axial) v.push_back(p[bearing_part[q] + 2]);
+                   for (std::size_t q = 0; q < joints.size(); ++q)
+                     v.push_back(p[first_joint + 2 * q]);
                    return v;
                  })}});
   std::string g =
@@ -366,11 +375,13 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r, bool 
   if (shafts > 0)
     part_panel(
         "shafts", "torque (N m)", shafts, 0, "shaft",
-        [&](std::size_t q) { return r.shafts[q].name; }, " (N m)", bearings == 0 && axial.empty());
+        [&](std::size_t q) { return r.shafts[q].name; }, " (N m)",
+        bearings == 0 && axial.empty() && joints.empty());
   if (bearings > 0)
     part_panel(
         "bearings", "radial force |F| (N)", bearings, shafts, "bearing",
-        [&](std::size_t q) { return r.bearings[q].name; }, " |F| (N)", axial.empty());
+        [&](std::size_t q) { return r.bearings[q].name; }, " |F| (N)",
+        axial.empty() && joints.empty());
   if (!axial.empty()) {
     // Each axial or spatial body's bearing's axial force (a helical mesh's thrust on it).
     std::string plots;
@@ -381,9 +392,15 @@ void write_train_run_figures(const fs::path& dir, const TrainRunResult& r, bool 
           i == 0 ? "" : ", ", column, colour(shafts + axial[i]), quoted(r.bearings[axial[i]].name));
     fmt::format_to(std::back_inserter(g),
                    "set title \"axial bearing forces\" font ',10'\nset ylabel 'axial force (N)'\n"
-                   "set y2label ''\nunset y2tics\nset xlabel 't (ms)'\nplot {}\n",
-                   plots);
+                   "set y2label ''\nunset y2tics\n{}\nplot {}\nset y2tics\n",
+                   joints.empty() ? "set xlabel 't (ms)'" : "unset xlabel", plots);
   }
+  if (!joints.empty())
+    part_panel(
+        "joints", r.joints[joints[0]].force_what == "torque_nm" ? "torque (N m)" : "force",
+        joints.size(), shafts + bearings, "joint",
+        [&](std::size_t q) { return r.joints[joints[q]].name; },
+        fmt::format(" ({})", r.joints[joints[0]].force_what).c_str(), true);
   g += "unset multiplot\n";
   render_figure(dir, "train_time", g, 1000, 260 * static_cast<int>(std::max<std::size_t>(rows, 1)));
 }

@@ -251,12 +251,9 @@ bool TrainShooting::read(const ode::Vector& x, const std::vector<ode::Matrix>& s
   orbit.sequence = r.contact_events;
   orbit.clearances.clear();
   orbit.clearance_readings.clear();
-  const train::Assembled& a = solver_.assembled();
-  for (std::size_t j = 0; j < a.clearances().size(); ++j) {
-    const auto [bearing, axis] = a.clearances()[j];
-    const TrainBearingReading& b = r.bearings[static_cast<std::size_t>(bearing)];
-    orbit.clearances.push_back(a.clearance_name(static_cast<int>(j)));
-    orbit.clearance_readings.push_back(axis == 0 ? b.clearance_x : b.clearance_y);
+  for (const TrainJointReading& j : r.joints) {
+    orbit.clearances.push_back(j.name);
+    orbit.clearance_readings.push_back(j.contact);
   }
   orbit.impacts_per_period.clear();
   orbit.backside_impacts_per_period.clear();

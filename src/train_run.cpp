@@ -73,20 +73,17 @@ class TrainObserver : public ode::FlowObserver {
         grid_(grid) {
     for (const int state : states_) trackers_.emplace_back(t0, t1, final_from, state);
     // The rows whose product with q' is each nonlinearity's rate: a mesh's V (less its error's
-    // rate), a clearance direction's row of its bearing's B.
+    // rate), a joint's row.
     const Eigen::Index n = a.size();
-    rate_rows_.resize(static_cast<Eigen::Index>(states_.size() + a.clearances().size()), n);
+    rate_rows_.resize(static_cast<Eigen::Index>(states_.size() + a.joints().size()), n);
     for (std::size_t m = 0; m < states_.size(); ++m) {
       rate_rows_.row(static_cast<Eigen::Index>(m)) = a.mesh_vector(static_cast<int>(m));
       errors_.push_back(a.error_series(static_cast<int>(m)));
     }
-    for (std::size_t j = 0; j < a.clearances().size(); ++j) {
-      const auto [bearing, axis] = a.clearances()[j];
-      rate_rows_.row(static_cast<Eigen::Index>(states_.size() + j)) =
-          a.bearing_matrix(bearing).row(axis);
-    }
-    clearance_states_ = a.clearance_states(region);
-    for (const int state : clearance_states_) gaps_.emplace_back(t0, t1, final_from, state);
+    for (std::size_t j = 0; j < a.joints().size(); ++j)
+      rate_rows_.row(static_cast<Eigen::Index>(states_.size() + j)) = a.joints()[j].row;
+    joint_states_ = a.joint_states(region);
+    for (const int state : joint_states_) gaps_.emplace_back(t0, t1, final_from, state);
     // Each region's readers, made when the flow first enters it (region()).
     ranges_.resize(static_cast<std::size_t>(sys.region_count()));
     readers_.resize(ranges_.size());
@@ -105,7 +102,7 @@ class TrainObserver : public ode::FlowObserver {
     part_trackers_.clear();
     for (const int state : states_) part_trackers_.emplace_back(t, t1_, t, state);
     part_gaps_.clear();
-    for (const int state : clearance_states_) part_gaps_.emplace_back(t, t1_, t, state);
+    for (const int state : joint_states_) part_gaps_.emplace_back(t, t1_, t, state);
     part_.assign(states_.size(), Tally{});
     part_parts_.assign(whole_parts_.size(), kNoExtremes);
   }
@@ -177,15 +174,18 @@ class TrainObserver : public ode::FlowObserver {
         if (x) x->max_impact_velocity = std::max(x->max_impact_velocity, std::abs(v));
     }
     states_ = b;
-    const std::vector<int> c = a_.clearance_states(to);
+    const std::vector<int> c = a_.joint_states(to);
     for (std::size_t j = 0; j < c.size(); ++j) {
-      if (c[j] == clearance_states_[j]) continue;
+      if (c[j] == joint_states_[j]) continue;
       gaps_[j].change(t, c[j]);
       if (!part_gaps_.empty()) part_gaps_[j].change(t, c[j]);
-      const std::size_t k = states_.size() + j;
-      add_event(t, k, clearance_states_[j], c[j], rate(k, y));
+      // A change between stages beyond the rest is no contact change.
+      if ((joint_states_[j] == 0) != (c[j] == 0)) {
+        const std::size_t k = states_.size() + j;
+        add_event(t, k, joint_states_[j], c[j], rate(k, y));
+      }
     }
-    clearance_states_ = c;
+    joint_states_ = c;
   }
 
   void on_sample(double t, const ode::Vector& y, int region) override {
@@ -262,44 +262,42 @@ class TrainObserver : public ode::FlowObserver {
       static_cast<TrainMeshPart&>(r) = reading(trackers_[m], whole_[m]);
       if (!part_trackers_.empty()) r.steady = reading(part_trackers_[m], part_[m]);
     }
-    // The shafts' and bearings' extremes, in the order of their observables.
-    const auto extremes = [&](const std::vector<std::array<double, 2>>& x, std::size_t k) {
-      return TrainExtremes{x[k][0], x[k][1]};
-    };
-    const bool steady = !part_parts_.empty();
-    std::size_t k = 0;
-    for (TrainShaftReading& r : out_.shafts) {
-      r.torque_nm = extremes(whole_parts_, k);
-      if (steady) r.steady_torque_nm = extremes(part_parts_, k);
-      ++k;
-    }
     for (std::size_t j = 0; j < gaps_.size(); ++j) {
+      TrainJointReading& r = out_.joints[j];
+      r.contact = gaps_[j].reading();
+      if (!part_gaps_.empty()) r.steady_contact = part_gaps_[j].reading();
+    }
+    // A clearance direction's, as its bearing's (the first joints, in clearances()' order).
+    for (std::size_t j = 0; j < a_.clearances().size(); ++j) {
       const auto [bearing, axis] = a_.clearances()[j];
       TrainBearingReading& r = out_.bearings[static_cast<std::size_t>(bearing)];
-      (axis == 0 ? r.clearance_x : r.clearance_y) = gaps_[j].reading();
+      (axis == 0 ? r.clearance_x : r.clearance_y) = out_.joints[j].contact;
       if (!part_gaps_.empty())
-        (axis == 0 ? r.steady_clearance_x : r.steady_clearance_y) = part_gaps_[j].reading();
+        (axis == 0 ? r.steady_clearance_x : r.steady_clearance_y) = out_.joints[j].steady_contact;
     }
-    for (TrainBearingReading& r : out_.bearings) {
-      r.force_x_n = extremes(whole_parts_, k);
-      r.force_y_n = extremes(whole_parts_, k + 1);
-      if (steady) {
-        r.steady_force_x_n = extremes(part_parts_, k);
-        r.steady_force_y_n = extremes(part_parts_, k + 1);
-      }
-      k += 2;
-      if (!r.spatial) continue;
-      r.axial_force_n = extremes(whole_parts_, k);
-      if (steady) r.steady_axial_force_n = extremes(part_parts_, k);
+    // The parts' extremes, each quantity's in turn in the order of their observables
+    // (part_quantities').
+    const bool steady = !part_parts_.empty();
+    std::size_t k = 0;
+    const auto next = [&](TrainExtremes& whole, TrainExtremes& part) {
+      whole = TrainExtremes{whole_parts_[k][0], whole_parts_[k][1]};
+      if (steady) part = TrainExtremes{part_parts_[k][0], part_parts_[k][1]};
       ++k;
+    };
+    for (TrainShaftReading& r : out_.shafts) next(r.torque_nm, r.steady_torque_nm);
+    for (TrainBearingReading& r : out_.bearings) {
+      next(r.force_x_n, r.steady_force_x_n);
+      next(r.force_y_n, r.steady_force_y_n);
+      if (!r.spatial) continue;
+      next(r.axial_force_n, r.steady_axial_force_n);
       if (!r.tilts) continue;
-      r.moment_x_nm = extremes(whole_parts_, k);
-      r.moment_y_nm = extremes(whole_parts_, k + 1);
-      if (steady) {
-        r.steady_moment_x_nm = extremes(part_parts_, k);
-        r.steady_moment_y_nm = extremes(part_parts_, k + 1);
-      }
-      k += 2;
+      next(r.moment_x_nm, r.steady_moment_x_nm);
+      next(r.moment_y_nm, r.steady_moment_y_nm);
+    }
+    for (TrainJointReading& r : out_.joints) {
+      if (!r.read) continue;
+      next(r.force, r.steady_force);
+      next(r.deformation, r.steady_deformation);
     }
   }
 
@@ -516,11 +514,11 @@ class TrainObserver : public ode::FlowObserver {
   std::vector<int> sample_states_;  // region_states'
   int sample_region_ = -1;
   std::vector<ContactTracker> trackers_, part_trackers_;
-  // Each clearance direction's (train::Assembled::clearances()) state now and its trackers.
-  std::vector<int> clearance_states_;
+  // Each joint's (train::Assembled::joints()) state now and its trackers.
+  std::vector<int> joint_states_;
   std::vector<ContactTracker> gaps_, part_gaps_;
   std::vector<Tally> whole_, part_;     // part_ empty until marked
-  Eigen::MatrixXd rate_rows_;           // each mesh's V, then each clearance direction's row of B
+  Eigen::MatrixXd rate_rows_;           // each mesh's V, then each joint's row
   Eigen::MatrixXd reduced_rate_rows_;   // rate_rows_ L, on a split rotation's complement
   std::vector<HarmonicSeries> errors_;  // each mesh's e(t)
   // The shafts' and bearings' observables, from first_part_ on: {max, min} of each.
@@ -863,6 +861,20 @@ void add_parts(const train::Assembled& a, const std::optional<Eigen::VectorXd>& 
     }
     result.bearings.push_back(r);
   }
+  for (std::size_t j = 0; j < a.joints().size(); ++j) {
+    const train::Joint& x = a.joints()[j];
+    TrainJointReading r;
+    r.name = x.name;
+    r.read = x.read;
+    r.force_what = x.force_what;
+    r.deformation_what = x.deformation_what;
+    if (rest && x.read) {
+      const double d = x.row.dot(rest->head(a.size())) - x.offset;
+      r.static_deformation = d;
+      r.static_force = x.force(x.stage_at(d), d, 0.0);
+    }
+    result.joints.push_back(r);
+  }
 }
 
 std::vector<TrainPartQuantity> part_quantities(const TrainRunResult& r) {
@@ -882,6 +894,12 @@ std::vector<TrainPartQuantity> part_quantities(const TrainRunResult& r) {
         TrainPartQuantity{m.name, "moment_y_nm", &m.moment_y_nm, &m.steady_moment_y_nm,
                           &m.static_moment_y_nm}};
     out.insert(out.end(), all.begin(), all.begin() + m.part_count());
+  }
+  for (const TrainJointReading& m : r.joints) {
+    if (!m.read) continue;
+    out.push_back({m.name, m.force_what.c_str(), &m.force, &m.steady_force, &m.static_force});
+    out.push_back({m.name, m.deformation_what.c_str(), &m.deformation, &m.steady_deformation,
+                   &m.static_deformation});
   }
   return out;
 }
@@ -926,9 +944,8 @@ TrainRunResult TrainSolver::read(double t0_s, const ode::Vector& y0, double t1_s
     result.meshes.push_back(r);
     result.contact_parts.push_back(r.name);
   }
-  for (int j = 0; j < static_cast<int>(a.clearances().size()); ++j)
-    result.contact_parts.push_back(a.clearance_name(j));
   add_parts(a, rest, result);
+  for (const TrainJointReading& j : result.joints) result.contact_parts.push_back(j.name);
 
   const int region = a.classify(t0_s, y0);
   const ode::LinearSwitchedSystem& sys = engine_ ? engine_->system() : stepped();
@@ -1193,7 +1210,7 @@ nlohmann::ordered_json peaks_json(const std::vector<SpectralPeak>& peaks) {
     a.push_back({{"frequency_hz", p.frequency_hz}, {"amplitude", p.amplitude}});
   return a;
 }
-// A bearing clearance direction's contact history (summary.json's "clearance_x", "_y").
+// A joint's contact history (summary.json's bearings' "clearance_x", "_y", a joint's "contact").
 nlohmann::ordered_json clearance_json(const ContactReading& whole, const ContactReading& steady) {
   const auto one = [](const ContactReading& c) {
     nlohmann::ordered_json x;
@@ -1295,7 +1312,8 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     meshes.push_back(x);
   }
   j["meshes"] = meshes;
-  // Each part's quantities, in part_quantities' order: a shaft's one, then a bearing's.
+  // Each part's quantities, in part_quantities' order: a shaft's one, then a bearing's, then a
+  // joint's.
   const std::vector<TrainPartQuantity> quantities = part_quantities(r);
   auto next = quantities.begin();
   const auto take = [&](const std::string& name, int count) {
@@ -1316,6 +1334,16 @@ std::string train_summary_json(const TrainRunResult& r, const std::vector<std::s
     bearings.push_back(x);
   }
   j["bearings"] = bearings;
+  // Each joint read as a part (an element's: a clutch damper): its force and x, its contact
+  // history (a clearance direction's is its bearing's above).
+  nlohmann::ordered_json joints = nlohmann::ordered_json::array();
+  for (const TrainJointReading& m : r.joints) {
+    if (!m.read) continue;
+    nlohmann::ordered_json x = take(m.name, 2);
+    x["contact"] = clearance_json(m.contact, m.steady_contact);
+    joints.push_back(x);
+  }
+  j["joints"] = joints;
   nlohmann::ordered_json sharing = nlohmann::ordered_json::array();
   const auto optional = [](const std::optional<double>& x) {
     return x ? nlohmann::ordered_json(*x) : nlohmann::ordered_json();
@@ -1348,12 +1376,7 @@ void write_train_timeseries_csv(std::ostream& out, const TrainRunResult& r) {
   for (const std::string& q : r.coordinates) out << ',' << q << "_s";
   for (const TrainMeshReading& m : r.meshes)
     out << ',' << m.name << "_deflection_bar," << m.name << "_force_n," << m.name << "_contact";
-  for (const TrainShaftReading& m : r.shafts) out << ',' << m.name << "_torque_nm";
-  for (const TrainBearingReading& m : r.bearings) {
-    out << ',' << m.name << "_force_x_n," << m.name << "_force_y_n";
-    if (m.spatial) out << ',' << m.name << "_axial_force_n";
-    if (m.tilts) out << ',' << m.name << "_moment_x_nm," << m.name << "_moment_y_nm";
-  }
+  for (const TrainPartQuantity& q : part_quantities(r)) out << ',' << q.part << '_' << q.what;
   for (const TrainMeshReading& m : r.meshes) out << ',' << m.name << "_deflection_rate_m_s";
   out << '\n';
   const TrainSamples& s = r.samples;
@@ -1395,7 +1418,7 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
     mode["multiplicity"] = x.multiplicity;
     mode["damping_ratio"] = x.damping_ratio;
     if (!x.type.empty()) mode["type"] = x.type;
-    nlohmann::ordered_json shape, shape_imag, mesh, shaft, bearing, parts;
+    nlohmann::ordered_json shape, shape_imag, mesh, shaft, bearing, parts, joint;
     // A rotation by its body's name (rad), a centre's displacement by "<body>_x", "<body>_y",
     // a spatial body's "<body>_z", "<body>_tx", "<body>_ty": the coordinate's name less its
     // unit.
@@ -1421,12 +1444,15 @@ std::string train_modes_json(const train::Assembled& a, const std::vector<train:
       }
       parts[t.bearings[k].name] = p;
     }
+    for (std::size_t k = 0, read = 0; k < a.joints().size(); ++k)
+      if (a.joints()[k].read) joint[a.joints()[k].name] = x.joint_energy[read++];
     mode["shape"] = shape;
     if (!shape_imag.is_null()) mode["shape_imag"] = shape_imag;  // a whirl (frame terms)
     mode["mesh_energy"] = mesh.is_null() ? nlohmann::ordered_json::object() : mesh;
     mode["shaft_energy"] = shaft.is_null() ? nlohmann::ordered_json::object() : shaft;
     mode["bearing_energy"] = bearing.is_null() ? nlohmann::ordered_json::object() : bearing;
     mode["bearing_energy_parts"] = parts.is_null() ? nlohmann::ordered_json::object() : parts;
+    mode["joint_energy"] = joint.is_null() ? nlohmann::ordered_json::object() : joint;
     j.push_back(mode);
   }
   nlohmann::ordered_json damped = nlohmann::ordered_json::array();
@@ -1449,6 +1475,8 @@ std::string train_modes_table(const train::Assembled& a, const std::vector<train
   for (const train::Mesh& x : t.meshes) out += fmt::format("  {:>12}", x.name);
   for (const train::Shaft& x : t.shafts) out += fmt::format("  {:>12}", x.name);
   for (const train::Bearing& x : t.bearings) out += fmt::format("  {:>12}", x.name);
+  for (const train::Joint& x : a.joints())
+    if (x.read) out += fmt::format("  {:>12}", x.name);
   out += "   (strain energy, %)\n";
   for (std::size_t i = 0; i < m.size(); ++i) {
     out += fmt::format("{:>4}  {:>14.6g}  {:>4}  {:>7.4f}", i + 1, m[i].frequency_hz,
@@ -1457,6 +1485,7 @@ std::string train_modes_table(const train::Assembled& a, const std::vector<train
     for (double e : m[i].mesh_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     for (double e : m[i].shaft_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     for (double e : m[i].bearing_energy) out += fmt::format("  {:>12.2f}", 100 * e);
+    for (double e : m[i].joint_energy) out += fmt::format("  {:>12.2f}", 100 * e);
     out += "\n";
   }
   return out;

@@ -152,6 +152,7 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
     q_load += t.bearings[b].stiffness_n_per_m * a.bearing_matrix(static_cast<int>(b)).transpose() *
               a.bearing_offset(static_cast<int>(b));
   q_load += a.frame_load();
+  q_load += a.joint_load();
   // In drive contact a mesh pushes with k_m (V q - e - b): its b is a load k_m b V^T, and so is
   // its error's constant part (the mean state) or, at a time, its error's value and rate.
   for (std::size_t m = 0; m < t.meshes.size(); ++m)
@@ -168,6 +169,20 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
     }
   }
   return quasi_static(a, q_load, rate_load, y, why);
+}
+
+void settle_joints(train::Assembled& a) {
+  const std::vector<train::Joint>& joints = a.joints();
+  for (int pass = 0; pass < kJointSettlingPasses; ++pass) {
+    const std::optional<Eigen::VectorXd> y = static_state(a);
+    if (!y) return;
+    std::vector<int> stages = a.operating_stages();
+    for (std::size_t j = 0; j < joints.size(); ++j)
+      if (stages[j] >= 0)
+        stages[j] = joints[j].stage_at(joints[j].row.dot(y->head(a.size())) - joints[j].offset);
+    if (stages == a.operating_stages()) return;
+    a.set_operating_stages(stages);
+  }
 }
 
 Eigen::VectorXd rest_state(const train::Assembled& a, double at_s) {

@@ -469,7 +469,7 @@ TEST(BearingClearance, AnIsolatedCentreRattlesInItsClearanceAsTheClosedFormSays)
   ode::Vector y0 = ode::Vector::Zero(2 * a.size());
   const int x = a.translation(0);
   y0(x) = kX0;
-  EXPECT_EQ(a.clearance_states(a.classify(0.0, y0)), (std::vector<int>{1, 0}));
+  EXPECT_EQ(a.joint_states(a.classify(0.0, y0)), (std::vector<int>{1, 0}));
   ode::FlowObserver nothing;
   for (const auto& [t1, expected] :
        {std::pair{0.5 * period, -kX0}, std::pair{period, kX0}, std::pair{3 * period, kX0}}) {

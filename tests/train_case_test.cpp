@@ -2135,8 +2135,7 @@ TEST(TrainCase, ABearingClearancesEventsCarryTheCentresVelocity) {
   for (std::size_t j = 0; j < a.clearances().size(); ++j) {
     const auto [bearing, axis] = a.clearances()[j];
     const int part = static_cast<int>(1 + j);
-    EXPECT_EQ(x.contact_parts[static_cast<std::size_t>(part)],
-              a.clearance_name(static_cast<int>(j)));
+    EXPECT_EQ(x.contact_parts[static_cast<std::size_t>(part)], a.joints()[j].name);
     const TrainBearingReading& r = x.bearings[static_cast<std::size_t>(bearing)];
     const ContactReading& gap = axis == 0 ? r.clearance_x : r.clearance_y;
     std::int64_t count = 0;
@@ -2162,7 +2161,7 @@ TEST(TrainCase, ABearingClearancesEventsCarryTheCentresVelocity) {
       };
       EXPECT_NEAR(e.velocity_m_s, (w(e.t_s + kH) - w(e.t_s - kH)) / (2 * kH),
                   1e-5 * std::abs(e.velocity_m_s))
-          << a.clearance_name(static_cast<int>(j)) << " at " << e.t_s;
+          << a.joints()[j].name << " at " << e.t_s;
       ++checked;
     }
     EXPECT_EQ(count, gap.impacts + gap.separations);

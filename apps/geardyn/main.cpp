@@ -471,12 +471,15 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot,
   const auto factors = [&](const std::string& part) {
     static const std::map<std::string, std::string> kLabel = {
         {"torque_nm", ""},           {"force_x_n", "x "},          {"force_y_n", "y "},
-        {"axial_force_n", "axial "}, {"moment_x_nm", "moment x "}, {"moment_y_nm", "moment y "}};
+        {"axial_force_n", "axial "}, {"moment_x_nm", "moment x "}, {"moment_y_nm", "moment y "},
+        {"twist_rad", "twist "}};
     std::vector<std::string> out;
     for (const geardyn::TrainPartQuantity& q : quantities)
       if (q.part == part)
         if (const auto f = geardyn::part_dynamic_factor(r, *q.steady, *q.at_rest))
-          out.push_back(fmt::format("{}{:.4g}", kLabel.at(q.what), *f));
+          out.push_back(fmt::format(
+              "{}{:.4g}", kLabel.count(q.what) ? kLabel.at(q.what) : std::string(q.what) + " ",
+              *f));
     return out.empty() ? std::string() : fmt::format(", dynamic factor {}", fmt::join(out, ", "));
   };
   for (const geardyn::TrainShaftReading& x : r.shafts)
@@ -502,6 +505,17 @@ int cmd_run_train(const geardyn::Case& c, const std::string& out_dir, bool plot,
           "inside\n",
           x.clearance_x.impacts, 100 * x.clearance_x.separated_fraction, x.clearance_y.impacts,
           100 * x.clearance_y.separated_fraction);
+  }
+  // A joint read as a part (a clutch damper): its force and x, in the units their names end in,
+  // and its contact history.
+  for (const geardyn::TrainJointReading& x : r.joints) {
+    if (!x.read) continue;
+    fmt::print("  {:<17} {} {:.6g} to {:.6g}, {} {:.6g} to {:.6g}, static ({}, {}){}\n", x.name,
+               x.force_what, x.force.min, x.force.max, x.deformation_what, x.deformation.min,
+               x.deformation.max, fmt_optional(x.static_force, ""),
+               fmt_optional(x.static_deformation, ""), factors(x.name));
+    fmt::print("                    {} impacts out of its rest stage, {:.2f} % of the time in it\n",
+               x.contact.impacts, 100 * x.contact.separated_fraction);
   }
   for (const geardyn::TrainLoadSharing& x : r.load_sharing)
     fmt::print(

@@ -181,9 +181,10 @@ struct SweepPoint {
   std::vector<MeshReading> meshes;
   // A train's load-sharing groups, in SweepResult::load_sharing's order (NaN for a failed point).
   std::vector<LoadSharingReading> load_sharing;
-  // A train's bearing clearance directions, in SweepResult::clearances' order, over the
-  // measurement: impacts on either edge per system period, and the fraction of the time inside
-  // (NaN for a failed point).
+  // A train's joints (its bearing clearance directions, then its elements' springs: a clutch
+  // damper's), in SweepResult::clearances' order, over the measurement: impacts (leaving the rest
+  // stage) per system period, and the fraction of the time inside the rest stage (NaN for a
+  // failed point).
   std::vector<std::array<double, 2>> clearances;
   // A train's shaft and bearing quantities, in SweepResult::parts' order.
   std::vector<PartReading> parts;
@@ -237,8 +238,9 @@ struct SweepResult {
   // A train's load-sharing groups (a sun's planets, a ring's): sweep.csv's
   // <label>_load_sharing_factor and <label>_lost_contact.
   std::vector<LoadSharingGroup> load_sharing;
-  // A train's bearing clearance directions, "<bearing>_x" and "<bearing>_y" (train::Assembled::
-  // clearances()): sweep.csv's <name>_impacts_per_period and <name>_inside_fraction.
+  // A train's joints (train::Assembled::joints()): its bearing clearance directions,
+  // "<bearing>_x" and "<bearing>_y", then its elements' ("<damper>"): sweep.csv's
+  // <name>_impacts_per_period and <name>_inside_fraction.
   std::vector<std::string> clearances;
   // A train's shaft and bearing quantities (part_quantities' order): sweep.csv's two columns
   // each.

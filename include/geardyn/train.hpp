@@ -120,25 +120,31 @@
 //
 // Regions: each mesh has three contact states (back side -1, backlash 0, drive side 1), a mesh
 // that clips its tension (Mesh::clips) five (-2 and 2: in contact on the back or drive side
-// with the force held at 0 where it would pull); a region is one state per mesh, index sum_m
-// (s_m + 1) 3^m for meshes of three states (a mixed radix with five). Guards: for each mesh,
-// d - e crossing -+b, and for a clipping mesh in contact its force F crossing 0.
+// with the force held at 0 where it would pull), and each joint (joint.hpp: a bearing's
+// clearance direction, an element's piecewise-linear spring) one per stage; a region is one
+// state per mesh and per joint, index sum_m (s_m + 1) 3^m for meshes of three states (a mixed
+// radix with five, and with each joint's stage count). Guards: for each mesh, d - e crossing -+b,
+// for a clipping mesh in contact its force F crossing 0, for each joint its x crossing the edges
+// of its stage.
 // Observables per mesh m: 2m its deflection d - e (m), 2m + 1 its force F (N; 0 clipped, its
 // damper's in the backlash when damped at all times); then, the same in every region, each
 // shaft's torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m, positive when a
 // leads b), then each bearing's force on its seat k w + c w' in x and in y (N), on a spatial
-// body followed by its axial force and, when it tilts, its tilt moments: shaft_observable and
-// bearing_observable give their index.
+// body followed by its axial force and, when it tilts, its tilt moments, then each joint read as
+// a part (Joint::read) its force and its x: shaft_observable, bearing_observable and
+// joint_observable give their index.
 #pragma once
 
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "geardyn/harmonic_series.hpp"
+#include "geardyn/joint.hpp"
 #include "geardyn/kinematics.hpp"
 #include "geardyn/linear_system.hpp"
 
@@ -298,6 +304,9 @@ struct Train {
   std::vector<Torque> torques;
   std::vector<Drag> drags;
   std::vector<Speed> speeds;
+  // The elements of the kinds the assembler does not know (joint.hpp's Element: a clutch
+  // damper), in the case's order.
+  std::vector<std::shared_ptr<const Element>> elements;
   std::string reference;                // the body whose speed is given
   double reference_speed_hz = 0;        // its rotation frequency
   bool mesh_phase_from_layout = false;  // (above); false: each mesh's phases as given
@@ -421,9 +430,11 @@ class Assembled {
   double coefficient_period_s() const;
   // The index among the observables of shaft k's torque, and of bearing k's force in x (its y
   // follows, then on a spatial body its axial force (N) and its moments about x and y (N m),
-  // k w_s + c w_s' each).
+  // k w_s + c w_s' each), and of joint j's force (its x follows) when it is read as a part
+  // (Joint::read; -1 otherwise).
   int shaft_observable(int shaft) const;
   int bearing_observable(int bearing) const;
+  int joint_observable(int joint) const;
   // Each mesh's phase u from the layout (above), in cycles; 0 for every mesh without it.
   const std::vector<double>& mesh_phases() const { return phase_; }
   // The period of every excitation together (each mesh's stiffness and transmission error,
@@ -449,26 +460,33 @@ class Assembled {
   // for three planets, 6561 for four; a run in permanent contact enters one), or all here.
   enum class RegionBuild { kEager, kLazy };
   ode::LinearSwitchedSystem linear_system(RegionBuild how = RegionBuild::kLazy) const;
-  // The region of a mesh-state vector (and the clearances' states, 0 when not given: inside),
+  // The region of a mesh-state vector (and the joints' states, 0 when not given: at rest),
   // and back. A region is every mesh's state (1 drive, 0 backlash, -1 back; 2 and -2 clipped in
-  // contact on a mesh that clips) and every clearance direction's (1 or -1 in contact beyond +c
-  // or -c, 0 inside), 3^(meshes + directions) of them (5 for each mesh that clips).
-  int region(const std::vector<int>& states, const std::vector<int>& clearance_states = {}) const;
+  // contact on a mesh that clips) and every joint's (its stage less its rest stage), 3^meshes
+  // times the joints' stage counts of them (5 for each mesh that clips).
+  int region(const std::vector<int>& states, const std::vector<int>& joint_states = {}) const;
   std::vector<int> states(int region) const;
-  std::vector<int> clearance_states(int region) const;
+  std::vector<int> joint_states(int region) const;
   int region_count() const;
-  // The clearance directions: bearing k's x then y for each bearing with a clearance, as
-  // (bearing, axis 0 or 1); of a body held to its line, only those the line has a part along
-  // (a direction it cannot move in never closes its gap).
+  // The joints (joint.hpp): first each bearing clearance direction, bearing k's x then y for each
+  // bearing with a clearance, as clearances() lists them (bearing, axis 0 or 1); of a body held
+  // to its line, only those the line has a part along (a direction it cannot move in never
+  // closes its gap); then each element's (Train::elements), in their order.
+  const std::vector<Joint>& joints() const { return joints_; }
   const std::vector<std::array<int, 2>>& clearances() const { return clearances_; }
-  // Clearance direction j's name in outputs: "<bearing>_x" or "<bearing>_y".
-  std::string clearance_name(int j) const {
-    const auto [bearing, axis] = clearances_[static_cast<std::size_t>(j)];
-    return t_.bearings[static_cast<std::size_t>(bearing)].name + (axis == 0 ? "_x" : "_y");
-  }
+  // Each joint's stage in the linearisation that modes() and the static state take
+  // (contact_stiffness()): each joint's Joint::operating as assembled, the stage its x lies in
+  // at the static state once settle_joints has placed it; -1 for a joint its owner linearises
+  // (Joint::linearised false).
+  const std::vector<int>& operating_stages() const { return operating_; }
+  // Sets them (settle_joints, train_statics.hpp): one stage per joint, each a stage it has
+  // (ignored for a joint its owner linearises).
+  void set_operating_stages(std::vector<int> stages);
+  // The linearised joints' constant load on the coordinates, row^T (k_s offset - f_s) at their
+  // operating stages: what the static state adds to the torques'.
+  Eigen::VectorXd joint_load() const;
   // The region a state belongs to with no history (each mesh by its d - e against +-b, a
-  // clipping mesh in contact also by its force's sign, each clearance direction by w - o against
-  // +-c).
+  // clipping mesh in contact also by its force's sign, each joint by its x against its edges).
   int classify(double t_s, const Eigen::VectorXd& y) const;
   // Sets the coordinates and rates of the bodies with a prescribed speed in y = (theta,
   // theta') to the prescription's at t; the others are left as they are.
@@ -509,6 +527,8 @@ class Assembled {
   KinematicGraph graph_;
   NominalMotion motion_;
   std::vector<std::array<int, 2>> clearances_;
+  std::vector<Joint> joints_;
+  std::vector<int> operating_;
   std::vector<std::string> names_;
   Eigen::MatrixXd m_;
 };
@@ -531,6 +551,9 @@ struct TrainMode {
   std::vector<double> mesh_energy;     // fraction of the strain energy in each mesh
   std::vector<double> shaft_energy;    // and in each shaft
   std::vector<double> bearing_energy;  // and in each bearing (all its directions)
+  // And in each joint read as a part (Joint::read), at its operating stage, in joints() order
+  // among those.
+  std::vector<double> joint_energy;
   // Each bearing's by direction: x, y (its seat's radial stiffness; a body held to its line
   // along the line's parts in them), axial, tilt about x, tilt about y (0 where it has none).
   std::vector<std::array<double, 5>> bearing_parts;

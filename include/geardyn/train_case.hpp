@@ -249,8 +249,8 @@ constexpr double kPinRadiusTolerance = 1e-3;
 // where it was written (file:line), for an arrangement the assembler refuses (an unknown body,
 // a body named twice, no mesh, a train that cannot turn) and for a case of another form.
 train::Train train_of(const Case& c);
-// The same, assembled; a case of the gear pair's forms as its train form (train_form_of, with
-// `stiffness` as there).
+// The same, assembled, its joints settled at the static state (settle_joints); a case of the
+// gear pair's forms as its train form (train_form_of, with `stiffness` as there).
 train::Assembled assembled_train(const Case& c, const MeshStiffness* stiffness = nullptr);
 
 // Every key of [train] and of its elements, described from the tables the reader uses: for

@@ -37,7 +37,8 @@ struct TrainOrbit : PeriodicSolution {
   std::vector<std::int64_t> impacts_per_period, backside_impacts_per_period;  // per mesh
   // Each mesh over one period of the orbit: its contact history and exact extremes.
   std::vector<TrainMeshReading> readings;
-  // Each bearing clearance direction's (train::Assembled::clearance_name) over the period.
+  // Each joint's (train::Assembled::joints(): a bearing clearance direction, an element's
+  // spring) over the period.
   std::vector<std::string> clearances;
   std::vector<ContactReading> clearance_readings;
   // The contact changes of one period, in order, their times from the section (the one-degree

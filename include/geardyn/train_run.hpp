@@ -117,11 +117,26 @@ struct TrainBearingReading {
   std::optional<double> static_axial_force_n, static_moment_x_nm, static_moment_y_nm;
 };
 
+// A joint of a train run (train::Assembled::joints(): each bearing clearance direction, then
+// each element's piecewise-linear spring): its contact history over the window and its steady
+// part (an impact: leaving its rest stage, into +x or, a backside impact, into -x; a separation:
+// back into its rest stage; stages changed beyond the rest are no contact change), and when it is
+// read as a part (train::Joint::read) the extremes of its force and of its x, and their static
+// values, as a shaft's torque (named force_what and deformation_what: "torque_nm", "twist_rad").
+struct TrainJointReading {
+  std::string name;
+  ContactReading contact, steady_contact;
+  bool read = false;
+  std::string force_what, deformation_what;
+  TrainExtremes force, steady_force, deformation, steady_deformation;
+  std::optional<double> static_force, static_deformation;
+};
+
 // One quantity of a shaft or bearing of a train run: which (`what`), its extremes over the
 // window and the steady part, and its static value (absent without a static state). The one list
 // of them (part_quantities) is what summary.json, the terminal and a sweep's part columns read.
 struct TrainPartQuantity {
-  std::string part;  // the shaft's or bearing's name
+  std::string part;  // the shaft's, bearing's or joint's name
   const char* what;  // "torque_nm", "force_x_n", "force_y_n", "axial_force_n", "moment_x_nm", ...
   const TrainExtremes* whole;
   const TrainExtremes* steady;
@@ -258,7 +273,9 @@ struct TrainSamples {
   // Per sample, per mesh: d' - e' (m/s), V q' - e'(t) of the state's rates.
   SampleRows<double> deflection_rate_m_s;
   SampleRows<int> contact;  // per sample, per mesh: 1, 0, -1
-  // Per sample: each shaft's torque (N m), then each bearing's force in x and y (N).
+  // Per sample: each part's quantities in part_quantities' order: each shaft's torque (N m),
+  // then each bearing's force in x and y (N) and what else it carries, then each joint's read as
+  // a part, its force and its x.
   SampleRows<double> parts;
 };
 
@@ -292,12 +309,14 @@ struct TrainRunResult {
   // "newmark": steps that met more contact changes than it locates in one (taken unsplit).
   std::int64_t unsplit_steps = 0;
   std::vector<TrainMeshReading> meshes;
-  // The nonlinearities whose contact changes are events: each mesh's name, then each clearance
-  // direction's (train::Assembled::clearance_name); and every change located, in time order.
+  // The nonlinearities whose contact changes are events: each mesh's name, then each joint's
+  // (train::Assembled::joints(): a clearance direction's, an element spring's); and every change
+  // located, in time order.
   std::vector<std::string> contact_parts;
   std::vector<TrainContactEvent> contact_events;
   std::vector<TrainShaftReading> shafts;
   std::vector<TrainBearingReading> bearings;
+  std::vector<TrainJointReading> joints;  // every joint, in train::Assembled::joints()' order
   std::vector<TrainLoadSharing> load_sharing;
   TrainSamples samples;
   double output_interval_s = 0;  // the samples' spacing (s); 0 when none were asked for
@@ -313,14 +332,14 @@ struct MeshSpectra {
 };
 MeshSpectra mesh_spectra(const TrainRunResult& r, std::size_t m);
 
-// Every quantity of r's shafts and bearings, referring into r: each shaft's torque_nm, then each
-// bearing's force_x_n and force_y_n, on a spatial body its axial_force_n, and when it tilts its
-// moment_x_nm and moment_y_nm.
+// Every quantity of r's shafts, bearings and joints, referring into r: each shaft's torque_nm,
+// then each bearing's force_x_n and force_y_n, on a spatial body its axial_force_n, and when it
+// tilts its moment_x_nm and moment_y_nm, then each joint read as a part its force and its x.
 std::vector<TrainPartQuantity> part_quantities(const TrainRunResult& r);
 
-// Appends a's shafts and bearings to r.shafts and r.bearings as a run reads them before its
-// first sample: named, what each bearing carries (spatial, tilts), the static values at `rest`
-// when given (static_state), the extremes yet to come.
+// Appends a's shafts, bearings and joints to r.shafts, r.bearings and r.joints as a run reads
+// them before its first sample: named, what each bearing carries (spatial, tilts), which joints
+// are read, the static values at `rest` when given (static_state), the extremes yet to come.
 void add_parts(const train::Assembled& a, const std::optional<Eigen::VectorXd>& rest,
                TrainRunResult& r);
 

@@ -28,6 +28,13 @@ namespace geardyn {
 
 std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::string* why = nullptr,
                                             std::optional<double> at_s = std::nullopt);
+// Places each joint's operating stage (train::Assembled::operating_stages) where the static
+// state puts its x: the static state solved with the joints at their stages, each moved to the
+// stage its x lies in, until none moves (at most kJointSettlingPasses solves; a joint's
+// characteristic that stiffens as it turns settles in a few). Left as assembled where the train
+// has no static state.
+constexpr int kJointSettlingPasses = 20;
+void settle_joints(train::Assembled& a);
 // solver.initial = "center" at t: at rest in the middle of every backlash relative to its mesh's
 // error, as the one-degree model's x = delta - e = 0, x' = 0: the quasi-static state under the
 // errors alone at t (no torque, no backlash), each mesh's d = e(t) and d' = e'(t) where the

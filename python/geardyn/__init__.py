@@ -463,9 +463,14 @@ class TrainRunResult:
         Samples x bearings x 3: a spatial body's bearing's axial force (N) and moments about x
         and y (N m); an axial body's (dof "axial") its axial force, its moments nan; nan for a
         bearing of any other body.
+    joints : list of str
+        The joints read as parts (a clutch damper's), by name.
+    joint_force, joint_deformation : numpy.ndarray
+        Samples x joints: each one's force (a damper's torque, N m) and its x (a damper's twist,
+        rad).
     events : dict
         Every contact change located, as the one-degree run's: ``t_s`` (s), ``part`` (a mesh's
-        name, or a bearing clearance direction's, ``<bearing>_x`` or ``_y``), ``kind``
+        name, a bearing clearance direction's, ``<bearing>_x`` or ``_y``, or a joint's), ``kind``
         (impact, backside_impact, separation) and ``velocity_m_s`` (the part's rate there: a
         mesh's d' - e', a clearance's centre velocity along it), as events.csv.
     ok : bool
@@ -504,6 +509,10 @@ class TrainRunResult:
             has = sum(f"max_{q}" in b for q in ("axial_force_n", "moment_x_nm", "moment_y_nm"))
             self.bearing_axial[:, j, :has] = arrays["parts"][:, k:k + has]
             k += has
+        # Each joint read as a part (a clutch damper): its force and its x.
+        self.joints = [x["name"] for x in summary.get("joints", [])]
+        self.joint_force = arrays["parts"][:, k:k + 2 * len(self.joints):2]
+        self.joint_deformation = arrays["parts"][:, k + 1:k + 2 * len(self.joints):2]
         self.events = arrays["events"]
         self.ok = summary["termination"] == "completed"
 
@@ -665,6 +674,7 @@ def modes(case):
             "mesh_energy": by_name("mesh_energy"),
             "shaft_energy": by_name("shaft_energy"),
             "bearing_energy": by_name("bearing_energy"),
+            "joint_energy": by_name("joint_energy"),
             "bearing_energy_parts": {
                 b: {d: np.array([m["bearing_energy_parts"][b][d] for m in ms]) for d in dirs}
                 for b, dirs in (ms[0]["bearing_energy_parts"].items() if ms else ())},

@@ -49,10 +49,10 @@ py::tuple train_result(TrainRunResult& r) {
       table<int>(n, meshes, [&](std::size_t i, std::size_t m) { return s.contact[i][m]; });
   arrays["deflection_rate"] = table<double>(
       n, meshes, [&](std::size_t i, std::size_t m) { return s.deflection_rate_m_s[i][m]; });
-  // Each shaft's torque (N m), then each bearing's force in x and y (N), a spatial body's
-  // followed by its axial force (N) and, when it tilts, its moments about x and y (N m).
-  std::size_t parts = r.shafts.size();
-  for (const TrainBearingReading& b : r.bearings) parts += static_cast<std::size_t>(b.part_count());
+  // Each part's quantities (part_quantities): each shaft's torque (N m), then each bearing's
+  // force in x and y (N), a spatial body's followed by its axial force (N) and, when it tilts,
+  // its moments about x and y (N m), then each joint's read as a part, its force and its x.
+  const std::size_t parts = part_quantities(r).size();
   arrays["parts"] =
       table<double>(n, parts, [&](std::size_t i, std::size_t k) { return s.parts[i][k]; });
   // The located contact changes as the one-degree run's events: t_s, part (its name), kind and
