@@ -439,6 +439,7 @@ const auto& element_kinds() {
                                    torque_left_out},
       ElementKind<TrainDragData>{"drag", drag_keys, &TrainCase::drags},
       ElementKind<TrainSpeedData>{"speed", speed_keys, &TrainCase::speeds},
+      ElementKind<TrainDamperData>{"damper", damper_keys, &TrainCase::dampers},
       ElementKind<TrainPlanetaryData>{"planetary", planetary_keys, &TrainCase::planetaries, false}};
   return kinds;
 }

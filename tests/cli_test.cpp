@@ -2089,6 +2089,55 @@ TEST(Cli, TheLooseGearRattles) {
   fs::remove_all(d);
 }
 
+TEST(Cli, AClutchDamperRunsInEveryStudyAsAnyElement) {
+  // The shipped loose gear behind a clutch damper: every command takes the damper as it takes a
+  // shaft, and reads its torque, twist, contact history and strain energy by its name.
+  const std::string c = case_path("loose_gear_damper.toml");
+  const fs::path d = fresh("damper");
+  const Outcome run = cli("run " + c + " --out " + (d / "run").string());
+  ASSERT_EQ(run.code, 0) << run.err;
+  const nlohmann::json s = nlohmann::json::parse(slurp(d / "run" / "summary.json"));
+  ASSERT_EQ(s["joints"].size(), 1U);
+  const nlohmann::json& clutch = s["joints"][0];
+  EXPECT_EQ(clutch["name"], "clutch");
+  // The drag's 0.15 N m reflected onto the input at rest, carried by the idle spring.
+  EXPECT_NEAR(clutch["static_torque_nm"].get<double>(), 0.2 * 30 / 40, 1e-9);
+  EXPECT_NEAR(clutch["static_twist_rad"].get<double>(), 0.15 / 8, 1e-9);
+  EXPECT_GT(clutch["max_torque_nm"].get<double>(), clutch["min_torque_nm"].get<double>());
+  EXPECT_TRUE(clutch["contact"].contains("inside_fraction"));
+  // The damper isolates the loose gear: no rattle once settled.
+  EXPECT_EQ(s["meshes"][0]["steady"]["impacts"], 0) << s["meshes"][0];
+  EXPECT_NE(slurp(d / "run" / "timeseries.csv").find(",clutch_torque_nm,clutch_twist_rad"),
+            std::string::npos);
+  const Outcome modes = cli("modes " + c + " --out " + (d / "modes").string());
+  ASSERT_EQ(modes.code, 0) << modes.err;
+  EXPECT_NE(modes.out.find("clutch"), std::string::npos) << modes.out;
+  const nlohmann::json m = nlohmann::json::parse(slurp(d / "modes" / "modes.json"));
+  // The engine's speed is prescribed: its first mode is the input's on the idle spring.
+  EXPECT_GT(m["modes"][0]["joint_energy"]["clutch"].get<double>(), 0.99) << m["modes"][0];
+  const std::string amplitude = " --param 'train.speed[0].acceleration_harmonics[0][0]'";
+  const Outcome sweep = cli("sweep " + c + amplitude + " --from 1000 --to 4000 --points 2 --out " +
+                            (d / "sweep").string() + " --no-figures");
+  ASSERT_EQ(sweep.code, 0) << sweep.err;
+  const std::string csv = slurp(d / "sweep" / "sweep.csv");
+  for (const char* column :
+       {"clutch_impacts_per_period", "clutch_torque_nm_peak", "clutch_twist_rad_peak"})
+    EXPECT_NE(csv.find(column), std::string::npos) << column;
+  const Outcome orbit = cli("orbit " + c + " --json");
+  ASSERT_EQ(orbit.code, 0) << orbit.err;
+  const nlohmann::json o = nlohmann::json::parse(orbit.out);
+  EXPECT_TRUE(o["converged"].get<bool>()) << o;
+  EXPECT_EQ(o["clearances"][0]["name"], "clutch");
+  const std::string idle = " --param 'train.damper[0].free_play_stiffness_n_m_per_rad'";
+  const Outcome stability = cli("stability " + c + idle + " --from 7.5 --to 8.5 --points 2 --out " +
+                                (d / "stability").string() + " --no-figures");
+  ASSERT_EQ(stability.code, 0) << stability.err;
+  const Outcome cont = cli("continue " + c + idle + " --from 8 --to 8.4 --out " +
+                           (d / "continue").string() + " --no-figures");
+  ASSERT_EQ(cont.code, 0) << cont.err;
+  fs::remove_all(d);
+}
+
 // ---- geardyn validate (docs/validation.md) ----------------------------------------------
 
 std::set<std::string> failing_checks(const nlohmann::json& j) {

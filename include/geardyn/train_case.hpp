@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "geardyn/case.hpp"
+#include "geardyn/damper.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/planetary_preset.hpp"
 #include "geardyn/train.hpp"
@@ -202,6 +203,7 @@ struct TrainCase {
   std::vector<TrainTorqueData> torques;
   std::vector<TrainDragData> drags;
   std::vector<TrainSpeedData> speeds;
+  std::vector<TrainDamperData> dampers;
   // A planetary set written as a preset (add_planetary_elements), and the labels ("body 'sun'")
   // of the elements it wrote into the vectors above: written back as the preset alone, never
   // set by their index.

@@ -449,6 +449,23 @@ def test_a_trains_element_key_is_an_input_and_each_mesh_is_read():
         assert ds["rattle.impacts"][i] == r.summary["meshes"][0]["impacts"]
 
 
+def test_a_clutch_dampers_key_is_an_input_and_its_run_is_read_as_any_element():
+    # The loose gear behind a clutch damper: its idle spring an input; each sample's reading is
+    # its own run's, whose result names the damper's torque and twist.
+    c = geardyn.Case.from_toml(os.path.join(os.environ.get("GEARDYN_SOURCE_DIR", "."), "cases",
+                                            "loose_gear_damper.toml")).with_(
+        {"solver.duration_s": 0.2})
+    key = "train.damper[0].free_play_stiffness_n_m_per_rad"
+    ds = geardyn.study(c, {key: {"distribution": "uniform", "lower": 1.5, "upper": 3}},
+                       samples=3, seed=4)
+    for i in range(3):
+        r = geardyn.run(c.with_({key: float(ds[key][i])}))
+        assert ds["rattle.impacts"][i] == r.summary["meshes"][0]["impacts"]
+        assert r.joints == ["clutch"]
+        twist = r.theta[:, r.bodies.index("engine")] - r.theta[:, r.bodies.index("input")]
+        np.testing.assert_allclose(r.joint_deformation[:, 0], twist, rtol=0, atol=1e-12)
+
+
 def test_a_trains_study_on_two_dask_workers_is_the_in_process_one_bit_for_bit(cluster):
     # A train's samples run in the library's batch on the workers as in this process.
     c = geardyn.Case.from_toml(os.path.join(os.environ.get("GEARDYN_SOURCE_DIR", "."), "cases",
