@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "geardyn/model.hpp"
-#include "shooting.hpp"
+#include "studies/shooting.hpp"
 
 namespace geardyn {
 namespace detail {

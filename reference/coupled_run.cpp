@@ -14,12 +14,12 @@
 #include <utility>
 #include <vector>
 
-#include "contact_tracker.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/model.hpp"
 #include "geardyn/run.hpp"
 #include "geardyn/train_statics.hpp"
+#include "studies/contact_tracker.hpp"
 
 namespace geardyn {
 namespace {

@@ -1,5 +1,6 @@
 // The one-degree model's multiple shooting (one_degree_orbit.cpp), a reference implementation
-// beside the shooting of trains (src/shooting.hpp, whose segments and Newton iteration it uses).
+// beside the shooting of trains (src/studies/shooting.hpp, whose segments and Newton iteration it
+// uses).
 #pragma once
 
 #include <string>
@@ -7,7 +8,7 @@
 
 #include "geardyn/one_degree_run.hpp"
 #include "geardyn/orbit.hpp"
-#include "shooting.hpp"
+#include "studies/shooting.hpp"
 
 namespace geardyn::detail {
 

@@ -15,8 +15,8 @@ root=$PWD
 
 # name | file | the line as written | the line broken | the checks that must fail
 mutants=(
-  "gear_pair_damping_sign|src/model.cpp|  p.damping_n_s_per_m = 2.0 * c.mesh.damping_ratio *|  p.damping_n_s_per_m = -2.0 * c.mesh.damping_ratio *|"
-  "pair_train_damping_sign|src/train_presets.cpp|  m.damping_ratio = c.mesh.damping_ratio;|  m.damping_ratio = -c.mesh.damping_ratio;|"
+  "gear_pair_damping_sign|src/model/model.cpp|  p.damping_n_s_per_m = 2.0 * c.mesh.damping_ratio *|  p.damping_n_s_per_m = -2.0 * c.mesh.damping_ratio *|"
+  "pair_train_damping_sign|src/model/train_presets.cpp|  m.damping_ratio = c.mesh.damping_ratio;|  m.damping_ratio = -c.mesh.damping_ratio;|"
 )
 # The checks each must fail, as a sorted comma-separated list. The one-degree model is a
 # reference only: broken, it fails the checks that compare with it (train_pair, pair_forms, and

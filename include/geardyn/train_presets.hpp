@@ -65,7 +65,7 @@ std::vector<std::string> pair_mesh_warnings(const TrainMeshData& m, const TrainB
 
 // The train form (model.form = "train") of a case of the gear pair's forms: the preset the
 // forms "gear_pair", "coupled" and "nondimensional" are of the elements
-// (src/train_presets.cpp); a train case is returned as it is.
+// (src/model/train_presets.cpp); a train case is returned as it is.
 // - Bodies "pinion" and "wheel": the case's gears with their inertias as computed; with form
 //   "coupled" held to the line of action as the coupled model holds them ("line" with dof 3,
 //   "line_axial" with dof 6) or spatial (dof 12) on bearings "pinion_bearing"

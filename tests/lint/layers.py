@@ -16,7 +16,9 @@ above:
             the library includes them
 
 The command line (apps/) and the Python package (python/src/) sit above them all. Every file of
-src/, include/geardyn/, reference/ and reference/include/geardyn/ must be in LAYERS, so that a new file is placed on purpose.
+src/, include/geardyn/, reference/ and reference/include/geardyn/ must be in LAYERS, so that a new file is placed on purpose,
+and a source of src/ lies in its layer's folder, src/<layer>/ (the public headers stay together
+in include/geardyn/, as users include them).
 
 Every function declared at namespace scope in a header NAME.hpp and defined in a source is
 defined in NAME.cpp: a declaration sits beside its definition.
@@ -50,7 +52,7 @@ LAYERS = {
                   "coupled_run", "coupled_orbit", "validation", "validation_output"],
 }
 
-INCLUDE = re.compile(r'^#include "(?:geardyn/)?([a-z_]+)\.hpp"', re.M)
+INCLUDE = re.compile(r'^#include "(?:geardyn/|[a-z]+/)?([a-z_]+)\.hpp"', re.M)
 
 
 def layer_of():
@@ -63,9 +65,7 @@ def layer_of():
 
 def sources(root):
     """Every source and header of the library and of its references."""
-    out = []
-    for folder in ("src", "reference"):
-        out += sorted((root / folder).glob("*.[ch]pp"))
+    out = sorted((root / "src").rglob("*.[ch]pp")) + sorted((root / "reference").glob("*.[ch]pp"))
     for folder in ("include", "reference/include"):
         out += sorted((root / folder / "geardyn").glob("*.hpp"))
     return out
@@ -78,6 +78,17 @@ def includes(root):
         for stem in INCLUDE.findall(path.read_text()):
             found.add((path.name, stem + ".hpp"))
     return found
+
+
+def folder_breaches(root, layers):
+    """A source of src/ outside the folder of its layer (src/<layer>/)."""
+    out = []
+    for path in sorted((root / "src").rglob("*.[ch]pp")):
+        layer = layers.get(path.stem)
+        if layer is not None and path.parent != root / "src" / ORDER[layer]:
+            out.append(f"{path.relative_to(root)}: its layer is {ORDER[layer]}, its folder "
+                       f"src/{ORDER[layer]}/")
+    return out
 
 
 def layer_breaches(found, layers):
@@ -130,12 +141,14 @@ def main():
     if not any("points up" in b for b in planted):
         print("layers.py: the planted include engine.cpp -> train_run.hpp was not reported")
         return 1
-    breaches = layer_breaches(includes(root), layers) + declaration_breaches(root)
+    breaches = (layer_breaches(includes(root), layers) + declaration_breaches(root) +
+                folder_breaches(root, layers))
     for b in breaches:
         print(b)
     if not breaches:
         print(f"{len(LAYERS)} layers, {sum(map(len, LAYERS.values()))} files: no include points "
-              "up a layer, every declaration beside its definition")
+              "up a layer, every source in its layer's folder, every declaration beside its "
+              "definition")
     return 1 if breaches else 0
 
 

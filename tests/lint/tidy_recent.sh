@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The test command's short clang-tidy: the C++ sources (src/, reference/, apps/) of the newest
-# commit that changed any, at most MAX of them; src/output_folder.cpp (the code that guards the user's
-# files) when git cannot say. scripts/lint.sh checks every source.
+# commit that changed any, at most MAX of them; src/support/output_folder.cpp (the code that
+# guards the user's files) when git cannot say. scripts/lint.sh checks every source.
 #
 #   tidy_recent.sh CLANG_TIDY BUILD_DIR SOURCE_DIR [MAX]
 set -euo pipefail
@@ -15,6 +15,6 @@ if git rev-parse --git-dir >/dev/null 2>&1; then
            'apps/*.cpp' |
            head -n "$max")
 fi
-((${#files[@]})) || files=(src/output_folder.cpp)
+((${#files[@]})) || files=(src/support/output_folder.cpp)
 echo "clang-tidy on: ${files[*]}"
 "$tidy" --quiet -p "$build" "${files[@]}"

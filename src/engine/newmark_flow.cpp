@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "guard_crossing.hpp"
+#include "engine/guard_crossing.hpp"
 
 namespace geardyn::ode {
 namespace {

@@ -17,7 +17,7 @@
 #include "geardyn/harmonic_series.hpp"
 #include "geardyn/suggest.hpp"
 #include "geardyn/train_case.hpp"
-#include "toml_source.hpp"
+#include "model/toml_source.hpp"
 
 namespace geardyn {
 

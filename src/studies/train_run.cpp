@@ -18,7 +18,6 @@
 #include <ostream>
 #include <stdexcept>
 
-#include "contact_tracker.hpp"
 #include "geardyn/adaptive.hpp"
 #include "geardyn/csv.hpp"
 #include "geardyn/newmark_flow.hpp"
@@ -27,6 +26,7 @@
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_statics.hpp"
 #include "geardyn/train_steadiness.hpp"
+#include "studies/contact_tracker.hpp"
 
 namespace geardyn {
 namespace {

@@ -31,7 +31,7 @@
 #include "geardyn/train_presets.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/train_steadiness.hpp"
-#include "shooting.hpp"
+#include "studies/shooting.hpp"
 
 namespace geardyn {
 namespace {

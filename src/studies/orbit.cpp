@@ -10,7 +10,7 @@
 #include <stdexcept>
 
 #include "geardyn/run.hpp"
-#include "shooting.hpp"
+#include "studies/shooting.hpp"
 
 namespace geardyn {
 namespace {

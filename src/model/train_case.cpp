@@ -18,13 +18,13 @@
 #include <utility>
 #include <variant>
 
-#include "element_keys.hpp"
 #include "geardyn/case_keys.hpp"
 #include "geardyn/plausibility.hpp"
 #include "geardyn/suggest.hpp"
 #include "geardyn/train_presets.hpp"
 #include "geardyn/train_statics.hpp"
-#include "toml_source.hpp"
+#include "model/element_keys.hpp"
+#include "model/toml_source.hpp"
 
 namespace geardyn {
 namespace {

@@ -17,7 +17,7 @@
 #include "geardyn/case_keys.hpp"
 #include "geardyn/orbit.hpp"
 #include "geardyn/train_case.hpp"
-#include "shooting.hpp"
+#include "studies/shooting.hpp"
 
 namespace geardyn {
 namespace {

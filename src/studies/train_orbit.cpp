@@ -14,7 +14,7 @@
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
 #include "geardyn/train_statics.hpp"
-#include "shooting.hpp"
+#include "studies/shooting.hpp"
 
 namespace geardyn {
 namespace detail {

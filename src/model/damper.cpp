@@ -5,9 +5,9 @@
 #include <numbers>
 #include <utility>
 
-#include "element_keys.hpp"
 #include "geardyn/input_error.hpp"
 #include "geardyn/train.hpp"
+#include "model/element_keys.hpp"
 
 namespace geardyn {
 namespace {
