@@ -131,8 +131,8 @@
 // shaft's torque k_s (theta_a - theta_b) + c_s (theta_a' - theta_b') (N m, positive when a
 // leads b), then each bearing's force on its seat k w + c w' in x and in y (N), on a spatial
 // body followed by its axial force and, when it tilts, its tilt moments, then each joint read as
-// a part (Joint::read) its force and its x: shaft_observable, bearing_observable and
-// joint_observable give their index.
+// a part (Joint::read) its force and its x: shaft_observable and bearing_observable give their
+// index.
 #pragma once
 
 #include <Eigen/Core>
@@ -430,11 +430,10 @@ class Assembled {
   double coefficient_period_s() const;
   // The index among the observables of shaft k's torque, and of bearing k's force in x (its y
   // follows, then on a spatial body its axial force (N) and its moments about x and y (N m),
-  // k w_s + c w_s' each), and of joint j's force (its x follows) when it is read as a part
-  // (Joint::read; -1 otherwise).
+  // k w_s + c w_s' each). The joints read as parts follow the bearings, two each (their force
+  // and x, in joints()' order).
   int shaft_observable(int shaft) const;
   int bearing_observable(int bearing) const;
-  int joint_observable(int joint) const;
   // Each mesh's phase u from the layout (above), in cycles; 0 for every mesh without it.
   const std::vector<double>& mesh_phases() const { return phase_; }
   // The period of every excitation together (each mesh's stiffness and transmission error,

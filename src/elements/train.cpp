@@ -624,13 +624,6 @@ int Assembled::bearing_observable(int bearing) const {
   return i;
 }
 
-int Assembled::joint_observable(int joint) const {
-  if (!joints_[static_cast<std::size_t>(joint)].read) return -1;
-  int i = bearing_observable(static_cast<int>(t_.bearings.size()));
-  for (int j = 0; j < joint; ++j) i += joints_[static_cast<std::size_t>(j)].read ? 2 : 0;
-  return i;
-}
-
 Eigen::VectorXd Assembled::rigid_rotation() const {
   Eigen::VectorXd r = Eigen::VectorXd::Zero(size());
   for (int i = 0; i < body_count(); ++i) r(i) = value(motion_.speed[static_cast<std::size_t>(i)]);
