@@ -1397,7 +1397,8 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
     for (std::size_t j = 0; j < a.joints().size(); ++j) {
       const Joint& x = a.joints()[j];
       if (!x.read) continue;
-      const JointStage& g = x.stages[static_cast<std::size_t>(cs[j] + x.rest)];
+      const int stage = cs[j] + x.rest;
+      const JointStage& g = x.stages[static_cast<std::size_t>(stage)];
       ode::LinearGuard f = functional();
       f.row.constant.head(n) = g.stiffness * x.row;
       f.row.constant.tail(n) = g.damping * x.row;
