@@ -22,6 +22,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -91,7 +92,15 @@ UserTrain user_train(const geardyn::train::Assembled& a) {
   }
   for (int i = 0; i < u.n; ++i)
     if (seat_loads(i) != 0) u.torques.push_back({i, {seat_loads(i), {}}});
-  for (const auto& d : t.drags) u.cs(a.index(d.body), a.index(d.body)) += d.viscous_n_m_s_per_rad;
+  // The joints of one stage (a drag): their damping, and their constant force below. (A
+  // bearing's clearance is its bearing's, stamped above as if it had none.)
+  for (const geardyn::train::Joint& j : a.joints()) {
+    if (!j.linearised) continue;
+    if (j.stage_count() != 1)
+      throw std::invalid_argument(j.name + ": a joint of stages, which this program does not take");
+    u.cs += j.stages[0].damping * j.row.transpose() * j.row;
+    u.ks += j.stages[0].stiffness * j.row.transpose() * j.row;
+  }
   for (std::size_t m = 0; m < t.meshes.size(); ++m) {
     const int i = static_cast<int>(m);
     const geardyn::HarmonicSeries k = a.stiffness_series(i), e = a.error_series(i);
@@ -102,7 +111,11 @@ UserTrain user_train(const geardyn::train::Assembled& a) {
     const geardyn::HarmonicSeries s = a.torque_series(static_cast<int>(q));
     u.torques.push_back({a.index(t.torques[q].body), {s.offset, terms(s)}});
   }
-  for (const auto& d : t.drags) u.torques.push_back({a.index(d.body), {-d.constant_nm, {}}});
+  for (const geardyn::train::Joint& j : a.joints())
+    for (Eigen::Index i = 0; j.linearised && i < j.row.size(); ++i)
+      if (const double f = j.stages[0].stiffness * j.offset - j.stages[0].force_at_zero;
+          f * j.row(i) != 0)
+        u.torques.push_back({static_cast<int>(i), {f * j.row(i), {}}});
   return u;
 }
 

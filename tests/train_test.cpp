@@ -20,6 +20,7 @@
 #include "geardyn/adaptive.hpp"
 #include "geardyn/case.hpp"
 #include "geardyn/coupled_model.hpp"
+#include "geardyn/drag.hpp"
 #include "geardyn/engine.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/model.hpp"
@@ -506,7 +507,7 @@ struct LooseGear {
     t.meshes = {m};
     // A sine: the driver's acceleration is 0 at the start, where the gear rests on its flank.
     t.speeds = {{"engine", "driver", {{amplitude_rad, order, -std::numbers::pi / 2}}}};
-    t.drags = {{"oil", "loose", drag_nm, 0.0}};
+    t.elements = {TrainDragData{"oil", "loose", drag_nm, 0.0}.element()};
     t.reference = "driver";
     t.reference_speed_hz = speed_hz;
     return t;

@@ -14,6 +14,9 @@
 // stage as one region and locates x crossing an edge as a guard: the joint is exact, no
 // smoothing.
 //
+// A joint of one stage that is not read (a drag) is a link (train.hpp, Assembled::links()): it
+// acts alike in every region, so it has no contact states and is no contact part of a study.
+//
 // Contact states. A joint's state is its stage less its rest stage (the stage x = 0 lies in):
 // 0 at rest, > 0 beyond it in +x (the drive side), < 0 in -x. A joint of three stages has the
 // states -1, 0, 1, as a mesh's back side, backlash and drive side.

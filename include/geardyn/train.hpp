@@ -78,7 +78,9 @@
 //           coupled pair places it: the tilts are the small rotations (tx, ty, 0) of its face).
 //   Torque  a torque T(t) = T_mean + sum_i T_i cos(i Omega t + phi_i) on a body (a drive
 //           positive, a load negative), Omega the body's own angular speed.
-//   Drag    a drag on a body: -T_drag - c_v theta' (constant and viscous; a loose gear's oil).
+//   Joint   a piecewise-linear force along one deformation (joint.hpp), given by an element
+//           of a kind this file does not know (Train::elements): a drag (drag.hpp), a clutch
+//           damper (damper.hpp).
 //   Speed   a prescribed rotation of a body (below): its row of the equations is the
 //           prescription's acceleration.
 //
@@ -272,13 +274,6 @@ struct Torque {
   std::vector<TorqueHarmonic> harmonics;
 };
 
-struct Drag {
-  std::string name;
-  std::string body;
-  double constant_nm = 0;            // opposes the nominal rotation
-  double viscous_n_m_s_per_rad = 0;  // on theta'
-};
-
 // A prescribed speed: the body's rotation about its nominal one is
 // theta(t) = sum_i a_i cos(order_i Omega t + phase_i), Omega its nominal angular speed, whatever
 // the train does to it (an engine's speed fluctuation at its firing orders driving a gearbox).
@@ -302,10 +297,9 @@ struct Train {
   std::vector<Shaft> shafts;
   std::vector<Bearing> bearings;
   std::vector<Torque> torques;
-  std::vector<Drag> drags;
   std::vector<Speed> speeds;
-  // The elements of the kinds the assembler does not know (joint.hpp's Element: a clutch
-  // damper), in the case's order.
+  // The elements of the kinds the assembler does not know (joint.hpp's Element: a drag, a
+  // clutch damper), in the case's order.
   std::vector<std::shared_ptr<const Element>> elements;
   std::string reference;                // the body whose speed is given
   double reference_speed_hz = 0;        // its rotation frequency
@@ -380,11 +374,14 @@ class Assembled {
   double body_speed_hz(int body) const;
   double turning_hz(int body) const;
   Ratio relative_speed_ratio(int body, int f) const { return motion_.relative(body, f); }
-  // Drag d's constant torque on its body (N m, in the body's sense): -T_drag against its turning.
-  double constant_drag_nm(int drag) const;
-  // The net power of the mean torques and constant drags at the nominal speeds over the
-  // reference's angular speed (N m): sum T_k w_k / w_ref, 0 when they balance.
+  // The net power of the mean torques and of the joints' and links' constant forces (a drag's
+  // constant torque) at the nominal speeds over the reference's angular speed (N m): sum T_k
+  // w_k / w_ref, 0 when they balance. A joint's at its operating stage: -f_s (row r), r the
+  // speed ratios.
   double mean_power_nm() const;
+  // Whether a joint's or link's damping acts along a rigid motion (rigid_motions(): a viscous drag
+  // on a turning body), so that the motion's rate is damped rather than neutral.
+  bool damps_rigid_motions() const;
   // Omega, the angular speed (rad/s, counterclockwise positive) of the first carrier's frame
   // that Train::frame_terms turns a planar body in; 0 without them. Each body's own: its
   // carrier's absolute speed when it is planar in a carrier's frame, 0 otherwise.
@@ -450,7 +447,7 @@ class Assembled {
   // V of mesh m: d = V q.
   Eigen::RowVectorXd mesh_vector(int mesh) const;
   // K and C with every mesh in drive contact at its mean stiffness (the shafts', bearings' and
-  // drags' terms included): the linearisation that modes() uses.
+  // joints' terms included): the linearisation that modes() uses.
   Eigen::MatrixXd contact_stiffness() const;
   Eigen::MatrixXd contact_damping() const;
 
@@ -470,8 +467,13 @@ class Assembled {
   // The joints (joint.hpp): first each bearing clearance direction, bearing k's x then y for each
   // bearing with a clearance, as clearances() lists them (bearing, axis 0 or 1); of a body held
   // to its line, only those the line has a part along (a direction it cannot move in never
-  // closes its gap); then each element's (Train::elements), in their order.
+  // closes its gap); then each element's (Train::elements), in their order, but its links.
   const std::vector<Joint>& joints() const { return joints_; }
+  // The elements' links: each joint of one stage that is not read as a part (a drag). A link
+  // has no contact states and no reading: it acts in every region alike, its K, C and constant
+  // force stamped with the shafts' (and in joint_load()), and it is no contact part of any
+  // study. (Its strain energy is in no mode's reading: a drag stores none.)
+  const std::vector<Joint>& links() const { return links_; }
   const std::vector<std::array<int, 2>>& clearances() const { return clearances_; }
   // Each joint's stage in the linearisation that modes() and the static state take
   // (contact_stiffness()): each joint's Joint::operating as assembled, the stage its x lies in
@@ -482,7 +484,7 @@ class Assembled {
   // (ignored for a joint its owner linearises).
   void set_operating_stages(std::vector<int> stages);
   // The linearised joints' constant load on the coordinates, row^T (k_s offset - f_s) at their
-  // operating stages: what the static state adds to the torques'.
+  // operating stages, and the links': what the static state adds to the torques'.
   Eigen::VectorXd joint_load() const;
   // The region a state belongs to with no history (each mesh by its d - e against +-b, a
   // clipping mesh in contact also by its force's sign, each joint by its x against its edges).
@@ -527,6 +529,7 @@ class Assembled {
   NominalMotion motion_;
   std::vector<std::array<int, 2>> clearances_;
   std::vector<Joint> joints_;
+  std::vector<Joint> links_;
   std::vector<int> operating_;
   std::vector<std::string> names_;
   Eigen::MatrixXd m_;

@@ -29,6 +29,7 @@
 
 #include "geardyn/case.hpp"
 #include "geardyn/damper.hpp"
+#include "geardyn/drag.hpp"
 #include "geardyn/geometry.hpp"
 #include "geardyn/planetary_preset.hpp"
 #include "geardyn/train.hpp"
@@ -163,13 +164,6 @@ struct TrainTorqueData {
   // Instead of mean_nm: the mean power it delivers (kW, > 0 a drive, < 0 a load), its mean
   // torque P / (2 pi |n|) at its body's absolute speed n (train_of computes it).
   std::optional<double> power_kw;
-};
-
-// [[train.drag]]: a drag torque on a body, constant and viscous (a loose gear's oil).
-struct TrainDragData {
-  std::string name, body;
-  double constant_nm = 0;
-  double viscous_n_m_s_per_rad = 0;
 };
 
 // [[train.speed]]: a prescribed speed: the body turns at its nominal speed with a fluctuation

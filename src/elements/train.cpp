@@ -34,6 +34,9 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // rounding leaves some 1e-15 of the largest there, and only an elastic mode below a millionth of
 // the fastest mode's frequency would be taken for rigid.
 constexpr double kRigidEigenvalueFraction = 1e-12;
+// A joint acts along a rigid motion when |row r| exceeds this fraction of |row| |r|: more than
+// the rounding of a joint between two bodies the motion turns alike.
+constexpr double kAlongRigidMotion = 1e-9;
 // An eigenvalue of the gyroscopic problem whose imaginary part is below this fraction of the
 // largest eigenvalue modulus is real (a divergence): rounding leaves some 1e-14 there.
 constexpr double kRealEigenvalueFraction = 1e-10;
@@ -265,15 +268,11 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
       if (!(std::isfinite(h.amplitude_rad) && h.order > 0 && std::isfinite(h.order)))
         bad(e, "each harmonic needs a finite amplitude (rad) and an order > 0");
   }
-  // A torque or drag on a body whose speed is prescribed would do nothing: refused, not dropped.
+  // A torque on a body whose speed is prescribed would do nothing: refused, not dropped.
   for (const Torque& q : t_.torques)
     if (prescribed_bodies.count(body(fmt::format("torque '{}'", q.name), "body", q.body)))
       bad(fmt::format("torque '{}'", q.name),
           fmt::format("body = \"{}\": its speed is prescribed, so no torque acts on it", q.body));
-  for (const Drag& d : t_.drags)
-    if (prescribed_bodies.count(body(fmt::format("drag '{}'", d.name), "body", d.body)))
-      bad(fmt::format("drag '{}'", d.name),
-          fmt::format("body = \"{}\": its speed is prescribed, so no drag acts on it", d.body));
   const int ref = body("the train", "reference", t_.reference);
   if (!(t_.reference_speed_hz > 0)) bad("the train", "reference_speed_hz must be > 0");
 
@@ -321,12 +320,6 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
           fmt::format("body = \"{}\" is at rest (held, or turned by nothing): harmonics at "
                       "orders of its speed have no frequency (give its mean torque only)",
                       q.body));
-  for (const Drag& d : t_.drags)
-    if (motion_.speed[static_cast<std::size_t>(index(d.body))].num == 0 && d.constant_nm != 0)
-      bad(fmt::format("drag '{}'", d.name),
-          fmt::format("body = \"{}\" is at rest: a constant drag has no rotation to oppose "
-                      "(give its viscous part only)",
-                      d.body));
   for (const Speed& v : t_.speeds)
     if (motion_.speed[static_cast<std::size_t>(index(v.body))].num == 0)
       bad(fmt::format("speed '{}'", v.name),
@@ -413,7 +406,7 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
           !std::is_sorted(j.edges.begin(), j.edges.end()) || j.rest < 0 ||
           j.rest >= j.stage_count() || j.operating < 0 || j.operating >= j.stage_count())
         throw std::logic_error(x->label() + ": a joint out of its contract (joint.hpp)");
-      joints_.push_back(std::move(j));
+      (j.stage_count() == 1 && !j.read ? links_ : joints_).push_back(std::move(j));
     }
   for (const Joint& j : joints_) operating_.push_back(j.linearised ? j.operating : -1);
 }
@@ -436,6 +429,8 @@ Eigen::VectorXd Assembled::joint_load() const {
     const JointStage& s = joints_[j].stages[static_cast<std::size_t>(operating_[j])];
     q += (s.stiffness * joints_[j].offset - s.force_at_zero) * joints_[j].row.transpose();
   }
+  for (const Joint& x : links_)
+    q += (x.stages[0].stiffness * x.offset - x.stages[0].force_at_zero) * x.row.transpose();
   return q;
 }
 
@@ -446,19 +441,33 @@ double Assembled::body_speed_hz(int body) const {
          0.0;
 }
 
-double Assembled::constant_drag_nm(int drag) const {
-  const Drag& d = t_.drags[static_cast<std::size_t>(drag)];
-  return (motion_.speed[static_cast<std::size_t>(index(d.body))].num < 0 ? 1 : -1) * d.constant_nm;
-}
-
 double Assembled::mean_power_nm() const {
   double p = 0;
   for (const Torque& q : t_.torques)
     p += q.mean_nm * value(motion_.speed[static_cast<std::size_t>(index(q.body))]);
-  for (std::size_t d = 0; d < t_.drags.size(); ++d)
-    p += constant_drag_nm(static_cast<int>(d)) *
-         value(motion_.speed[static_cast<std::size_t>(index(t_.drags[d].body))]);
+  // The joints' constant forces along the nominal motion: -f_s (row r).
+  Eigen::VectorXd r = Eigen::VectorXd::Zero(size());
+  for (int i = 0; i < body_count(); ++i) r(i) = value(motion_.speed[static_cast<std::size_t>(i)]);
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    const int stage = operating_[j] >= 0 ? operating_[j] : joints_[j].rest;
+    p -= joints_[j].stages[static_cast<std::size_t>(stage)].force_at_zero * joints_[j].row.dot(r);
+  }
+  for (const Joint& x : links_) p -= x.stages[0].force_at_zero * x.row.dot(r);
   return p;
+}
+
+bool Assembled::damps_rigid_motions() const {
+  const Eigen::MatrixXd rigid = rigid_motions();
+  if (rigid.cols() == 0) return false;
+  for (const std::vector<Joint>* joints : {&joints_, &links_})
+    for (const Joint& j : *joints) {
+      const bool damped = std::any_of(j.stages.begin(), j.stages.end(),
+                                      [](const JointStage& s) { return s.damping != 0; });
+      if (damped &&
+          (j.row * rigid).cwiseAbs().maxCoeff() > kAlongRigidMotion * j.row.norm() * rigid.norm())
+        return true;
+    }
+  return false;
 }
 
 double Assembled::turning_hz(int body) const { return std::abs(body_speed_hz(body)); }
@@ -936,7 +945,7 @@ Eigen::Vector3d support_diagonal(const Bearing& x, bool damping) {
                                    x.tilt_stiffness_n_m_per_rad);
 }
 
-// The shafts', bearings' and drags' K and C, which every region shares; with `engaged` (the
+// The shafts', bearings' and links' K and C, which every region shares; with `engaged` (the
 // linearisation that modes and the static state read) a bearing with a clearance as if it had
 // none and every other joint at its operating stage, each joint its region's otherwise.
 void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c, bool engaged) {
@@ -948,7 +957,6 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c, bo
     k += t.shafts[i].stiffness_n_m_per_rad * v.transpose() * v;
     c += t.shafts[i].damping_n_m_s_per_rad * v.transpose() * v;
   }
-  for (const Drag& d : t.drags) c(a.index(d.body), a.index(d.body)) += d.viscous_n_m_s_per_rad;
   for (std::size_t i = 0; i < t.bearings.size(); ++i) {
     if (t.bearings[i].clearance_m > 0 && !engaged) continue;
     const Eigen::MatrixXd b = a.bearing_matrix(static_cast<int>(i));
@@ -965,6 +973,10 @@ void stamp_common(const Assembled& a, Eigen::MatrixXd& k, Eigen::MatrixXd& c, bo
   if (a.frame_rate_rad_s() != 0) {
     k += a.frame_stiffness();
     c += a.frame_damping();
+  }
+  for (const Joint& x : a.links()) {
+    k += x.stages[0].stiffness * x.row.transpose() * x.row;
+    c += x.stages[0].damping * x.row.transpose() * x.row;
   }
   // The linearised joints at their operating stages (with `engaged`: in a region each joint
   // stamps its region's stage).
@@ -1178,10 +1190,11 @@ ode::LinearSwitchedSystem Assembled::linear_system(RegionBuild how) const {
   const Eigen::MatrixXd m_inv = m_.inverse();
   Eigen::MatrixXd k_common, c_common;
   stamp_common(*this, k_common, c_common, false);
-  // The drags, and the loads of the bearings' seat errors k B^T o.
+  // The loads of the bearings' seat errors k B^T o and the links' constant forces (the joints'
+  // are their stages').
   Eigen::VectorXd q_common = Eigen::VectorXd::Zero(n);
-  for (std::size_t d = 0; d < t_.drags.size(); ++d)
-    q_common(index(t_.drags[d].body)) += constant_drag_nm(static_cast<int>(d));
+  for (const Joint& x : links_)
+    q_common += (x.stages[0].stiffness * x.offset - x.stages[0].force_at_zero) * x.row.transpose();
   for (std::size_t k = 0; k < t_.bearings.size(); ++k)
     if (!(t_.bearings[k].clearance_m > 0))  // with one: its joints' stages
       q_common += t_.bearings[k].stiffness_n_per_m *

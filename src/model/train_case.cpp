@@ -311,19 +311,6 @@ const std::vector<ElementKey<TrainTorqueData>>& torque_keys() {
   return keys;
 }
 
-const std::vector<ElementKey<TrainDragData>>& drag_keys() {
-  using D = TrainDragData;
-  static const std::vector<ElementKey<D>> keys = {
-      {"name", &D::name, "", {}, false, "the drag's name"},
-      {"body", &D::body, "", {}, true, "the body it acts on"},
-      {"constant_nm", &D::constant_nm, "N m", at_least(0), false,
-       "constant drag torque against the rotation"},
-      {"viscous_n_m_s_per_rad", &D::viscous_n_m_s_per_rad, "N m s/rad", at_least(0), false,
-       "viscous drag on the body's speed fluctuation"},
-  };
-  return keys;
-}
-
 const std::vector<ElementKey<TrainSpeedData>>& speed_keys() {
   using V = TrainSpeedData;
   static const std::vector<ElementKey<V>> keys = {
@@ -1413,8 +1400,6 @@ train::Train train_of(const Case& c) {
       x.harmonics.push_back({h.amplitude, h.order, h.phase_deg * kDegToRad});
     out.torques.push_back(std::move(x));
   }
-  for (const TrainDragData& d : t.drags)
-    out.drags.push_back({d.name, d.body, d.constant_nm, d.viscous_n_m_s_per_rad});
   // A prescribed acceleration a cos(n Omega t + phi) is the rotation a / (n Omega)^2 cos(n Omega
   // t + phi + pi): Omega, the body's speed, is known once the train is assembled.
   for (const TrainSpeedData& v : t.speeds) out.speeds.push_back({v.name, v.body, {}});

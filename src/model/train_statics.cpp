@@ -146,8 +146,6 @@ std::optional<Eigen::VectorXd> static_state(const train::Assembled& a, std::stri
   const int n = a.size();
   Eigen::VectorXd q_load = Eigen::VectorXd::Zero(n), rate_load = q_load;
   for (const train::Torque& q : t.torques) q_load(a.index(q.body)) += q.mean_nm;
-  for (std::size_t d = 0; d < t.drags.size(); ++d)
-    q_load(a.index(t.drags[d].body)) += a.constant_drag_nm(static_cast<int>(d));
   for (std::size_t b = 0; b < t.bearings.size(); ++b)
     q_load += t.bearings[b].stiffness_n_per_m * a.bearing_matrix(static_cast<int>(b)).transpose() *
               a.bearing_offset(static_cast<int>(b));

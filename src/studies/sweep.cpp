@@ -91,8 +91,7 @@ std::optional<ode::Matrix> rigid_free(const train::Assembled& a) {
   const Eigen::MatrixXd r = a.rigid_motions();
   ode::Matrix p = ode::Matrix::Identity(2 * n, 2 * n);
   if (r.cols() == 0) return p;
-  for (const train::Drag& d : a.train().drags)
-    if (d.viscous_n_m_s_per_rad > 0) return std::nullopt;
+  if (a.damps_rigid_motions()) return std::nullopt;
   const Eigen::MatrixXd& m = a.mass();
   const Eigen::MatrixXd rm = r.transpose() * m;
   const Eigen::MatrixXd q = Eigen::MatrixXd::Identity(n, n) - r * (rm * r).ldlt().solve(rm);

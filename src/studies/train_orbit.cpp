@@ -46,8 +46,7 @@ TrainShooting::TrainShooting(const Case& c, int periods, int segments, const ode
     throw InputError(with_origins(c,
                                   "the train's rigid motion leaves its reference at rest: "
                                   "choose a reference that turns with it"));
-  bool viscous = false;
-  for (const train::Drag& d : t.drags) viscous = viscous || d.viscous_n_m_s_per_rad > 0;
+  const bool viscous = a.damps_rigid_motions();
   if (free_turning_) {
     // Modulo the rigid rotation: the reference's angle is 0, and its rate follows the momentum
     // unless a viscous drag damps it (the class's comment).

@@ -714,10 +714,8 @@ TrainSolver::TrainSolver(const Case& c, const MeshStiffness* stiffness) : case_(
   // them six times (the shipped reducer took 1.7 times as long a step on its complement).
   ode::LinearSwitchedSystem full = a_->linear_system();
   const train::Train& t = a_->train();
-  const bool viscous = std::any_of(t.drags.begin(), t.drags.end(), [](const train::Drag& d) {
-    return d.viscous_n_m_s_per_rad != 0;
-  });
-  if (method_ != Method::kDopri5 && t.speeds.empty() && !t.frame_terms && !viscous) {
+  if (method_ != Method::kDopri5 && t.speeds.empty() && !t.frame_terms &&
+      !a_->damps_rigid_motions()) {
     const Eigen::MatrixXd rigid = a_->rigid_motions();
     if (rigid.cols() == 1) {
       try {

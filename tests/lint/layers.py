@@ -41,7 +41,7 @@ LAYERS = {
                "rigid_split", "steady", "spectrum", "guard_crossing"],
     "elements": ["kinematics", "joint", "train"],
     "model": ["case", "case_keys", "toml_source", "geometry", "stiffness", "transmission_error",
-              "train_case", "element_keys", "damper", "train_presets", "planetary_preset", "train_statics", "plausibility",
+              "train_case", "element_keys", "damper", "drag", "train_presets", "planetary_preset", "train_statics", "plausibility",
               "describe", "model", "case_model", "coupled_model"],
     "studies": ["analysis", "contact_tracker", "run", "train_run", "train_steadiness", "orbit",
                 "train_orbit", "shooting", "continuation", "stability", "sweep",
