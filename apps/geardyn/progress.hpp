@@ -58,4 +58,16 @@ class InterruptWatch {
 // True once Ctrl-C or SIGTERM arrived under an InterruptWatch.
 bool interrupted();
 
+// Runs `work` under an InterruptWatch and then ends `bar`'s line: a long command's study, which
+// polls interrupted() through its progress callback. Returns what `work` returns.
+template <class Work>
+auto interruptible(ProgressBar& bar, Work&& work) {
+  auto result = [&] {
+    const InterruptWatch watch;
+    return work();
+  }();
+  bar.finish();
+  return result;
+}
+
 }  // namespace geardyn::cli

@@ -46,10 +46,8 @@ int cmd_continue(const CaseArgs& input, geardyn::ContinuationOptions o, const st
              fmt::format("{} = {:.6g}, {} points", o.key, p, points));
     return !cli::interrupted();
   };
-  std::optional<InterruptWatch> watch(std::in_place);  // Ctrl-C and a polite kill
-  const geardyn::ContinuationResult r = geardyn::continuation(c, o);
-  watch.reset();
-  bar.finish();
+  const geardyn::ContinuationResult r =
+      interruptible(bar, [&] { return geardyn::continuation(c, o); });
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} points computed\n", r.points.size());
   if (!r.points.empty())

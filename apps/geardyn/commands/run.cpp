@@ -143,10 +143,7 @@ auto run_with_progress(const geardyn::Case& c, const std::string& out_dir, const
   ProgressBar bar("run " + c.name);
   Options opts;
   opts.progress = [&](double fraction) { return bar(fraction) && !cli::interrupted(); };
-  std::optional<InterruptWatch> watch(std::in_place);  // Ctrl-C and a polite kill
-  auto r = run(c, opts);
-  watch.reset();
-  bar.finish();
+  auto r = interruptible(bar, [&] { return run(c, opts); });
   interrupted = r.termination == geardyn::ode::Termination::kCancelled;
   if (interrupted)
     fmt::print(stderr, "interrupted: {}; the run up to there is read{}\n", r.message,
@@ -300,10 +297,7 @@ int cmd_run(const CaseArgs& input, const std::string& out_dir, bool plot, bool p
   ProgressBar bar("run " + c.name);
   geardyn::RunOptions opts;
   opts.progress = [&](double fraction) { return bar(fraction) && !cli::interrupted(); };
-  std::optional<InterruptWatch> watch(std::in_place);  // Ctrl-C and a polite kill
-  geardyn::RunResult r = geardyn::run(c, opts);
-  watch.reset();
-  bar.finish();
+  geardyn::RunResult r = interruptible(bar, [&] { return geardyn::run(c, opts); });
   print_warnings(r.geometry.warnings);
   const bool interrupted = r.integration.termination == geardyn::ode::Termination::kCancelled;
   if (interrupted)

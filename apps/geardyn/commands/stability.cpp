@@ -28,10 +28,7 @@ int cmd_stability(const CaseArgs& input, geardyn::StabilityOptions o, const std:
     bar(static_cast<double>(done) / static_cast<double>(total));
     return !cli::interrupted();
   };
-  std::optional<InterruptWatch> watch(std::in_place);  // Ctrl-C and a polite kill
-  const geardyn::StabilityResult r = geardyn::stability(c, o);
-  watch.reset();
-  bar.finish();
+  const geardyn::StabilityResult r = interruptible(bar, [&] { return geardyn::stability(c, o); });
   if (r.cancelled)
     fmt::print(stderr, "interrupted: writing the {} samples computed\n", r.samples.size());
   if (!out_dir.empty() && !r.samples.empty())

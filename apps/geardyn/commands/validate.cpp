@@ -37,10 +37,7 @@ int cmd_validate(bool quick, bool json, const std::string& out_dir) {
     if (interrupt_after > 0 && done >= interrupt_after && !cli::interrupted()) std::raise(SIGINT);
     return !cli::interrupted();
   };
-  std::optional<InterruptWatch> watch(std::in_place);  // Ctrl-C and a polite kill
-  const geardyn::ValidationResult r = geardyn::validate(o);
-  watch.reset();
-  bar.finish();
+  const geardyn::ValidationResult r = interruptible(bar, [&] { return geardyn::validate(o); });
   if (r.cancelled) fmt::print(stderr, "interrupted: reporting the {} checks done\n", r.checks_run);
   if (!out_dir.empty())
     for (const std::string& kept : geardyn::write_validation(out_dir, r))
