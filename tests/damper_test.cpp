@@ -18,6 +18,7 @@
 
 #include "geardyn/case.hpp"
 #include "geardyn/engine.hpp"
+#include "geardyn/plausibility.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
@@ -279,6 +280,31 @@ TEST(Damper, MovesTheLooseGearsRattleOnsetAsTheDampedDrivelineSays) {
           << (damper ? "with" : "without") << " the damper at " << factor * at << " rad/s^2";
     }
   }
+}
+
+TEST(Damper, AStaticLoadOnItsStopIsSaidBeforeAnyWork) {
+  // At 300 N m either way the static twist is past the stop (10 deg): a plausibility warning
+  // names the damper, where it was written, and the torque; at 80 N m (stage 2) and without a
+  // stop there is none.
+  const auto warned = [](const std::string& text) {
+    for (const std::string& w : train_plausibility(parse_case(text, "damper.toml")))
+      if (w.find("rests on its stop") != std::string::npos) return w;
+    return std::string();
+  };
+  for (const double t : {300.0, -300.0}) {
+    const std::string w = warned(driveline(t));
+    EXPECT_NE(w.find("damper 'clutch' (damper.toml:"), std::string::npos) << w;
+    EXPECT_NE(w.find(fmt::format("({:.6g} N m, twist_rad", t)), std::string::npos) << w;
+  }
+  EXPECT_EQ(warned(driveline(80)), "");
+  std::string no_stop = driveline(300);
+  for (const char* line : {"stop_deg = 10\n", "stop_stiffness_n_m_per_rad = 1e5\n"})
+    no_stop.erase(no_stop.find(line), std::string(line).size());
+  EXPECT_EQ(warned(no_stop), "");
+  // Nothing else is said of these cases: the static state settled every joint.
+  for (const double t : {0.05, 20.0, 80.0, 300.0, -80.0})
+    for (const std::string& w : train_plausibility(parse_case(driveline(t), "damper.toml")))
+      EXPECT_EQ(w.find("did not settle"), std::string::npos) << w;
 }
 
 TEST(Damper, RefusesStagesOutOfOrderAndHalfAStage) {

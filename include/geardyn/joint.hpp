@@ -63,6 +63,12 @@ struct Joint {
   // The stage the linearisation takes until the static state places the joint
   // (settle_joints, train_statics.hpp): the stage the element expects to carry the load.
   int operating = 0;
+  // Whether its outermost stages on either side are stops (a clutch damper's): a static load
+  // resting on one is more than the element carries before it, which the case's plausibility
+  // warnings say (plausibility.hpp).
+  bool stops = false;
+  // How messages name the element it belongs to ("damper 'clutch'"), set by the assembler.
+  std::string label;
 
   int stage_count() const { return static_cast<int>(stages.size()); }
   // The stage x lies in (an edge belongs to the stage above it).

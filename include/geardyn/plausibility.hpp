@@ -22,7 +22,10 @@ namespace geardyn {
 //   distance is cut with (a value in millimetres read as micrometres);
 // - a module below kFinestModuleMm (a value in metres read as millimetres);
 // - a pitch-line speed above kFastestPitchLineSpeedMPerS (a speed in rpm read as Hz);
-// - a nominal contact stress at rest above kMostContactStressMpa (a torque in N mm read as N m).
+// - a nominal contact stress at rest above kMostContactStressMpa (a torque in N mm read as N m);
+// - a joint with stops (a clutch damper's) resting on one at the static load (a stage too soft
+//   or too short for the torque), and a joint whose static load lies in another stage than the
+//   one modes and the static state take (settle_joints did not settle it).
 // Where the train does not assemble or has no static state, the checks that need it are left
 // to the run, which says why.
 std::vector<std::string> train_plausibility(const Case& c);

@@ -391,6 +391,7 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
     const double c = x.clearance_m, kb = x.stiffness_n_per_m, cb = x.damping_n_s_per_m;
     Joint j;
     j.name = x.name + (axis == 0 ? "_x" : "_y");
+    j.label = fmt::format("bearing '{}'", x.name);
     j.row = bearing_matrix(k).row(axis);
     j.offset = bearing_offset(k)(axis);
     j.edges = {-c, c};
@@ -406,6 +407,7 @@ Assembled::Assembled(Train t) : t_(std::move(t)) {
           !std::is_sorted(j.edges.begin(), j.edges.end()) || j.rest < 0 ||
           j.rest >= j.stage_count() || j.operating < 0 || j.operating >= j.stage_count())
         throw std::logic_error(x->label() + ": a joint out of its contract (joint.hpp)");
+      j.label = x->label();
       (j.stage_count() == 1 && !j.read ? links_ : joints_).push_back(std::move(j));
     }
   for (const Joint& j : joints_) operating_.push_back(j.linearised ? j.operating : -1);

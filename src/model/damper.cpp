@@ -73,6 +73,7 @@ class Damper final : public train::Element {
     }
     j.scale = n > 0 ? side_.edges.front() : 1.0;
     j.read = true;
+    j.stops = d_.stop_deg.has_value();
     j.force_what = "torque_nm";
     j.deformation_what = "twist_rad";
     // Until the static state places it: in stage 1 on the drive side.

@@ -126,6 +126,37 @@ void check_pins(const TrainCase& t, const Origins& origin, std::vector<std::stri
 
 // What the assembled train at rest shows: a mesh on its back flank, a pitch line faster than
 // any gear's, a contact stress no steel bears.
+// Each joint at the static state: in the stage the linearisation takes (settle_joints stops
+// after kJointSettlingPasses passes: a joint still moving then is said, as modes and the static
+// state read another stage than the one its load lies in), and not resting on a stop.
+void check_joints_at_rest(const train::Assembled& a, const Eigen::VectorXd& rest,
+                          const Origins& origin, std::vector<std::string>& out) {
+  for (std::size_t j = 0; j < a.joints().size(); ++j) {
+    const train::Joint& x = a.joints()[j];
+    const int operating = a.operating_stages()[j];
+    if (operating < 0) continue;
+    const double at = x.row.dot(rest.head(a.size())) - x.offset;
+    const int stage = x.stage_at(at);
+    const double force = x.force(stage, at, 0.0);
+    // Its force's unit, from its reading's name ("torque_nm": N m).
+    const std::string unit = x.force_what.ends_with("_nm")  ? " N m"
+                             : x.force_what.ends_with("_n") ? " N"
+                                                            : "";
+    if (stage != operating)
+      out.push_back(fmt::format(
+          "{}{}: the static state did not settle it: its load ({:.6g}{}) lies in its stage {} but "
+          "modes and the static state take stage {} (its stages' engagement points may lie too "
+          "close to the static load to tell)",
+          x.label, origin(x.label), force, unit, stage, operating));
+    else if (x.stops && x.stage_count() > 1 && (stage == 0 || stage == x.stage_count() - 1))
+      out.push_back(fmt::format(
+          "{}{}: rests on its stop at the static load ({:.6g}{}, {} = {:.6g}): the static "
+          "load is more than its stages carry before the stop; a stiffer or longer stage before "
+          "the stop, or a later stop, is more likely what was meant",
+          x.label, origin(x.label), force, unit, x.deformation_what, at));
+  }
+}
+
 void check_at_rest(const Case& c, const Origins& origin, std::vector<std::string>& out) {
   const train::Assembled a = assembled_train(c);
   const train::Train& t = a.train();
@@ -159,6 +190,7 @@ void check_at_rest(const Case& c, const Origins& origin, std::vector<std::string
   }
   const std::optional<Eigen::VectorXd> rest = static_state(a);
   if (!rest) return;
+  check_joints_at_rest(a, *rest, origin, out);
   const std::vector<double> f = static_mesh_forces_n(a, *rest);
   // Against the largest static force or the mesh's force across its backlash: rounding leaves
   // some 1e-11 N on a train with no torque.
