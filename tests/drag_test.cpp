@@ -9,10 +9,12 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
 #include "geardyn/case.hpp"
+#include "geardyn/describe.hpp"
 #include "geardyn/train.hpp"
 #include "geardyn/train_case.hpp"
 #include "geardyn/train_run.hpp"
@@ -93,6 +95,14 @@ TEST(Drag, ItsConstantTorqueIsWhatTheDriveBalancesAndTheMeshCarries) {
   EXPECT_EQ(a.links().size(), 1U);
   EXPECT_TRUE(a.joints().empty());
   EXPECT_TRUE(r.joints.empty());
+  // `geardyn describe` shows it among the links, its constant force the drag's.
+  const nlohmann::json d = nlohmann::json::parse(describe_json(c));
+  ASSERT_EQ(d["links"].size(), 1U);
+  EXPECT_EQ(d["links"][0]["element"], "drag 'oil'");
+  EXPECT_DOUBLE_EQ(d["links"][0]["constant_force"].get<double>(), kDrag);
+  EXPECT_NE(describe_text(c).find("drag 'oil': stiffness 0, damping 0, constant force 12.5"),
+            std::string::npos)
+      << describe_text(c);
 }
 
 TEST(Drag, ItsViscousPartAloneDampsTheFreeRotation) {

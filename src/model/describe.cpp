@@ -100,6 +100,16 @@ Json describe(const Case& c) {
                       {"static_stage", a.operating_stages()[k]}});
   }
   j["joints"] = joints;
+  // Each link (an element's joint of one stage that nothing reads: a drag): its element, its
+  // stiffness, damping and constant force f (it acts as -row^T (k x + f + c x')).
+  Json links = Json::array();
+  for (const train::Joint& x : a.links())
+    links.push_back({{"name", x.name},
+                     {"element", x.label},
+                     {"stiffness", x.stages[0].stiffness},
+                     {"damping", x.stages[0].damping},
+                     {"constant_force", x.stages[0].force_at_zero}});
+  j["links"] = links;
   Json torques = Json::array();
   for (const train::Torque& q : t.torques)
     torques.push_back({{"name", q.name}, {"body", q.body}, {"mean_nm", q.mean_nm}});
@@ -163,6 +173,12 @@ std::string describe_text(const Case& c) {
     out += fmt::format("  joint {:<10} stiffness by stage, |edge| between (* static): {}\n",
                        x["name"].get<std::string>(), stages);
   }
+  for (const Json& x : j["links"])
+    out += fmt::format(
+        "  {}: stiffness {:.6g}, damping {:.6g}, constant force {:.6g} (each resisting "
+        "its deformation)\n",
+        x["element"].get<std::string>(), x["stiffness"].get<double>(), x["damping"].get<double>(),
+        x["constant_force"].get<double>());
   for (const Json& q : j["torques"])
     out += fmt::format("  torque {:<9} on {}: mean {:.6g} N m\n", q["name"].get<std::string>(),
                        q["body"].get<std::string>(), q["mean_nm"].get<double>());
