@@ -140,14 +140,29 @@ TEST(Cli, AWindTurbineGearboxRunsAtTheSpeedsOfItsRatioChain) {
 // The wind-turbine gearbox's Campbell diagram over its own speeds: the generator from rest to
 // 1.5 times its 30 Hz, up to the high-speed mesh's third order there (3 x 22 x 45 Hz); a mode
 // above every order in that range is not drawn (it was, outside the graph, when the speed axis
-// ran to 4000 Hz to reach the modes with the planetary stage's slow orders).
+// ran to 4000 Hz to reach the modes with the planetary stage's slow orders). The rotor's
+// torque has a third order (the blades passing the tower): its line is drawn, and the frequency
+// axis is logarithmic down to a third of it at the operating speed, so that it shows below the
+// drivetrain's first mode (3.1 Hz).
 TEST(Cli, TheCampbellDiagramSpansTheCasesSpeeds) {
   const fs::path d = fresh("wind_turbine_campbell");
   const Outcome o = cli("modes " + case_path("wind_turbine_grc750.toml") + " --out " + d.string());
   ASSERT_EQ(o.code, 0) << o.err;
   const std::string body = slurp(d / "campbell_body.gp");
   EXPECT_NE(body.find("set xrange [0:45]"), std::string::npos) << body;
-  EXPECT_NE(body.find("set yrange [0:3118.5]"), std::string::npos) << body;  // 1.05 x 2970 Hz
+  EXPECT_NE(body.find("set logscale y"), std::string::npos) << body;
+  const std::size_t range = body.find("set yrange [");
+  ASSERT_NE(range, std::string::npos) << body;
+  const double low = std::stod(body.substr(range + 12));
+  EXPECT_NE(body.find(":3118.5]", range), std::string::npos) << body;  // 1.05 x 2970 Hz
+  EXPECT_NE(body.find("title 'torque ''rotor'' order 3'"), std::string::npos) << body;
+  // The rotor turns at the generator's 30 Hz over the gearbox's ratio.
+  const nlohmann::json j = nlohmann::json::parse(
+      cli("describe " + case_path("wind_turbine_grc750.toml") + " --json").out);
+  double rotor_rpm = 0;
+  for (const auto& b : j["bodies"])
+    if (b["name"] == "rotor") rotor_rpm = b["speed_rpm"].get<double>();
+  EXPECT_NEAR(low, 3 * rotor_rpm / 60 / 3, 1e-9 * low);
   EXPECT_EQ(body.find("set arrow from 0, 3220"), std::string::npos) << body;
   EXPECT_NE(body.find("title 'meshes planet_sun1 and 5 more order 1'"), std::string::npos) << body;
   fs::remove_all(d);
@@ -2115,6 +2130,33 @@ TEST(Cli, AClutchDamperRunsInEveryStudyAsAnyElement) {
   const nlohmann::json m = nlohmann::json::parse(slurp(d / "modes" / "modes.json"));
   // The engine's speed is prescribed: its first mode is the input's on the idle spring.
   EXPECT_GT(m["modes"][0]["joint_energy"]["clutch"].get<double>(), 0.99) << m["modes"][0];
+  // The Campbell diagram draws the firing order (order 2 of the engine, the reference) and
+  // where it meets each mode: at half the mode's frequency; logarithmic in frequency, so that
+  // the clutch's mode at some 7 Hz shows beside the mesh's at some 4 kHz.
+  std::istringstream orders(slurp(d / "modes" / "campbell_orders.csv"));
+  std::string line;
+  std::getline(orders, line);
+  EXPECT_EQ(line, "mode,frequency_hz,excitation,resonance_speed_hz");
+  for (const nlohmann::json& mode : m["modes"]) {
+    ASSERT_TRUE(std::getline(orders, line));
+    const std::string name = "\"speed 'firing' order 2\",";
+    ASSERT_NE(line.find(name), std::string::npos) << line;
+    const double at = std::stod(line.substr(line.find(name) + name.size()));
+    EXPECT_NEAR(at, mode["frequency_hz"].get<double>() / 2, 1e-9 * at) << line;
+  }
+  EXPECT_FALSE(std::getline(orders, line)) << line;
+  const std::string gp = slurp(d / "modes" / "campbell_body.gp");
+  EXPECT_NE(gp.find("title 'speed ''firing'' order 2'"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("set logscale y"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("$order_crossings"), std::string::npos) << gp;
+  // A train without harmonics of its torques or speeds has no excitation order, and keeps a linear
+  // axis.
+  ASSERT_EQ(cli("modes " + case_path("two_stage_reducer.toml") + " --out " +
+                (d / "reducer_modes").string())
+                .code,
+            0);
+  EXPECT_FALSE(fs::exists(d / "reducer_modes" / "campbell_orders.csv"));
+  EXPECT_EQ(slurp(d / "reducer_modes" / "campbell_body.gp").find("logscale"), std::string::npos);
   const std::string amplitude = " --param 'train.speed[0].acceleration_harmonics[0][0]'";
   const Outcome sweep = cli("sweep " + c + amplitude + " --from 1000 --to 4000 --points 2 --out " +
                             (d / "sweep").string() + " --no-figures");

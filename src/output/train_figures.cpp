@@ -6,9 +6,11 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "geardyn/figures.hpp"
@@ -23,6 +25,12 @@ namespace {
 // mesh excites: drawn bold, their resonance speeds marked (as the coupled model's diagram).
 constexpr double kMeshCritical = 0.05;
 constexpr int kMeshOrders = 3;
+// The colours of the torques' and prescribed speeds' orders in the Campbell diagram (apart from
+// the meshes' palette).
+// A Campbell diagram with excitation orders turns logarithmic in frequency when a mode lies below
+// this share of its range.
+constexpr double kLinearCampbellShare = 0.02;
+constexpr std::array<const char*, 4> kOrderColours = {"#8c2d04", "#54278f", "#006d2c", "#7f2704"};
 // The speeds at which a Campbell diagram in a turning frame (train.frame_terms) reads the modes.
 constexpr int kCampbellSpeeds = 48;
 // The Campbell diagram's speeds: from rest to this many times the case's operating speed.
@@ -468,6 +476,29 @@ void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
                        resonance(r, i * per_hz[m]));
   }
   std::vector<std::pair<std::string, std::string>> files{{"campbell.csv", csv}};
+  // The orders of the torques' and prescribed speeds' harmonics (an engine's firing orders), per
+  // hertz of the reference speed (each of its own body's speed), and where each meets each mode:
+  // campbell_orders.csv, with a train that has any.
+  std::vector<std::pair<std::string, double>> orders;  // (its name, per_hz)
+  const auto per_ref_hz = [&](const std::string& body) {
+    return a.turning_hz(a.index(body)) / t.reference_speed_hz;
+  };
+  for (const train::Torque& q : t.torques)
+    for (const train::TorqueHarmonic& h : q.harmonics)
+      orders.emplace_back(fmt::format("torque '{}' order {:g}", q.name, h.order),
+                          h.order * per_ref_hz(q.body));
+  for (const train::Speed& v : t.speeds)
+    for (const train::SpeedHarmonic& h : v.harmonics)
+      orders.emplace_back(fmt::format("speed '{}' order {:g}", v.name, h.order),
+                          h.order * per_ref_hz(v.body));
+  if (!orders.empty()) {
+    std::string o = "mode,frequency_hz,excitation,resonance_speed_hz\n";
+    for (std::size_t r = 0; r < modes.size(); ++r)
+      for (const auto& [name, ratio] : orders)
+        fmt::format_to(std::back_inserter(o), "{},{:.10g},\"{}\",{:.10g}\n", r + 1,
+                       modes[r].frequency_hz, name, resonance(r, ratio));
+    files.emplace_back("campbell_orders.csv", o);
+  }
   std::string table;
   if (turning) {
     table = "speed_hz";
@@ -486,11 +517,27 @@ void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
       "reset\nset encoding utf8\nset datafile separator ','\nset grid lc rgb '#dddddd'\n"
       "set key outside right top font ',9'\n";
   fmt::format_to(std::back_inserter(g),
-                 "set title \"gear train: modes in contact{} and mesh orders (speed of '{}')\"\n"
+                 "set title \"gear train: modes in contact{} and {} orders (speed of '{}')\"\n"
                  "set xlabel 'speed of {} (Hz)'\nset ylabel 'frequency (Hz)'\n"
-                 "set xrange [0:{}]\nset yrange [0:{}]\n",
-                 turning ? ", in the turning frame," : "", quoted(t.reference), quoted(t.reference),
-                 x_max, y_max);
+                 "set xrange [0:{}]\n",
+                 turning ? ", in the turning frame," : "",
+                 orders.empty() ? "mesh" : "mesh and excitation", quoted(t.reference),
+                 quoted(t.reference), x_max);
+  // With excitation orders (an engine's, low) and a mode far below the mesh orders' range (a
+  // clutch damper's), a linear axis would flatten both onto zero: a logarithmic one shows them
+  // beside the meshes'.
+  double lowest = y_max;
+  for (const train::TrainMode& x : modes)
+    if (x.frequency_hz > 0) lowest = std::min(lowest, x.frequency_hz);
+  if (!orders.empty() && lowest < kLinearCampbellShare * y_max) {
+    // Down to a third of the lowest mode and of the slowest order at the operating speed.
+    for (const auto& [name, ratio] : orders)
+      if (ratio > 0) lowest = std::min(lowest, ratio * t.reference_speed_hz);
+    fmt::format_to(std::back_inserter(g), "set logscale y\nset yrange [{}:{}]\n", lowest / 3,
+                   y_max);
+  } else {
+    fmt::format_to(std::back_inserter(g), "set yrange [0:{}]\n", y_max);
+  }
   std::vector<std::string> plots;
   std::string points;
   bool critical = false, other = false;
@@ -539,6 +586,21 @@ void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
       plots.push_back(fmt::format("{} * x with lines lw 1.2 dt {} lc rgb '{}' title '{} order {}'",
                                   i * ratio, i, colour(k + 1), who, i));
   }
+  // The excitation orders, dash-dotted, and where each meets any mode (each mode but the free
+  // rotation: a torque's order strains whatever it reaches).
+  std::string order_points;
+  for (std::size_t k = 0; k < orders.size(); ++k) {
+    plots.push_back(fmt::format("{} * x with lines lw 1.2 dt 4 lc rgb '{}' title '{}'",
+                                orders[k].second, kOrderColours[k % kOrderColours.size()],
+                                quoted(std::as_const(orders[k].first))));
+    for (std::size_t r = 0; r < modes.size(); ++r) {
+      if (modes[r].frequency_hz <= 0) continue;
+      const double speed = resonance(r, orders[k].second);
+      if (speed <= x_max)
+        fmt::format_to(std::back_inserter(order_points), "{},{}\n", speed,
+                       turning ? speed * orders[k].second : modes[r].frequency_hz);
+    }
+  }
   if (critical)
     plots.push_back(
         "keyentry with lines lw 2 lc rgb '#1f4e9c' title 'mode with >= 5 % energy in a mesh'");
@@ -548,10 +610,18 @@ void write_train_campbell_figure(const fs::path& dir, const train::Assembled& a,
     plots.push_back(
         "$crossings using 1:2 with points pt 6 ps 1.5 lc rgb 'black' title 'resonance speed'");
   }
+  if (!order_points.empty()) {
+    g += "$order_crossings << EOD\n" + order_points + "EOD\n";
+    plots.push_back(
+        "$order_crossings using 1:2 with points pt 8 ps 1.5 lc rgb 'black' title 'resonance speed "
+        "of an excitation order'");
+  }
   fmt::format_to(std::back_inserter(g),
-                 "set arrow from {0}, 0 to {0}, {1} nohead lw 1.5 dt 4 lc rgb 'black'\n"
-                 "set label 'operating speed' at {0}, {1} * 0.97 left offset 0.3,0 font ',8'\n",
-                 t.reference_speed_hz, y_max);
+                 "set arrow from first {0}, graph 0 to first {0}, graph 1 nohead lw 1.5 dt 4 lc "
+                 "rgb 'black'\n"
+                 "set label 'operating speed' at first {0}, graph 0.97 left offset 0.3,0 font "
+                 "',8'\n",
+                 t.reference_speed_hz);
   g += "plot ";
   for (std::size_t k = 0; k < plots.size(); ++k) g += (k ? ", " : "") + plots[k];
   g += "\n";
