@@ -87,8 +87,21 @@ struct Tooth {
     return {w, w * u, w * u * u, dy_dr / h};
   }
 
-  // The load point's terms at rc: A, cos(a1), sin(a1), and the fillet foundation's compliance
-  // (Sainsot et al. 2004).
+  // The fillet foundation's compliance (Sainsot et al. 2004) of a unit load whose line meets the
+  // tooth's centre line uf from the root circle, cos2 the square of the cosine of its angle to
+  // the root section and tan_a that angle's tangent.
+  double foundation_compliance(double cos2, double tan_a, double uf) const {
+    double x[4];
+    for (int i = 0; i < 4; ++i) {
+      const double* k = kSainsot[i];
+      x[i] = k[0] / (theta_f * theta_f) + k[1] * h_fi * h_fi + k[2] * h_fi / theta_f +
+             k[3] / theta_f + k[4] * h_fi + k[5];
+    }
+    const double u = uf / sf;
+    return cos2 / e * (x[0] * u * u + x[1] * u + x[2] * (1 + x[3] * tan_a * tan_a));
+  }
+
+  // The load point's terms at rc: A, cos(a1), sin(a1), and the fillet foundation's compliance.
   struct LoadPoint {
     double arm0, ca, sa, foundation;
   };
@@ -98,16 +111,7 @@ struct Tooth {
     const double ca = std::cos(alpha1), sa = std::sin(alpha1);
     const double yc = rc * std::cos(psi_c), hc = rc * std::sin(psi_c);
     const double uf = yc - hc * std::tan(alpha1) - rf;
-    double x[4];
-    for (int i = 0; i < 4; ++i) {
-      const double* k = kSainsot[i];
-      x[i] = k[0] / (theta_f * theta_f) + k[1] * h_fi * h_fi + k[2] * h_fi / theta_f +
-             k[3] / theta_f + k[4] * h_fi + k[5];
-    }
-    const double u = uf / sf;
-    const double foundation =
-        ca * ca / e *
-        (x[0] * u * u + x[1] * u + x[2] * (1 + x[3] * std::tan(alpha1) * std::tan(alpha1)));
+    const double foundation = foundation_compliance(ca * ca, std::tan(alpha1), uf);
     return {(yc - rf) * ca - hc * sa, ca, sa, foundation};
   }
 
@@ -200,14 +204,7 @@ struct Tooth {
     const double tan_a = std::abs(fx / fy);
     const double cross = px - py * fx / fy;
     const double uf = ring ? rf - cross : cross - rf;
-    double x[4];
-    for (int i = 0; i < 4; ++i) {
-      const double* k = kSainsot[i];
-      x[i] = k[0] / (theta_f * theta_f) + k[1] * h_fi * h_fi + k[2] * h_fi / theta_f +
-             k[3] / theta_f + k[4] * h_fi + k[5];
-    }
-    const double u = uf / sf;
-    return beam + fy * fy / e * (x[0] * u * u + x[1] * u + x[2] * (1 + x[3] * tan_a * tan_a));
+    return beam + foundation_compliance(fy * fy, tan_a, uf);
   }
 };
 
@@ -406,6 +403,15 @@ Iso6336Stiffness iso6336(const Case& c, const Geometry& g, bool internal, double
   s.mesh_stiffness_n_per_m = s.c_gamma_alpha * gd.face_width_mm * 1e6;
   return s;
 }
+
+// The Hertzian compliance of a tooth pair's contact per unit face width, 1/k_h = 2 / (pi E*)
+// (Yang and Lin 1987), E* the pair's plane-strain modulus (m/N times m of width).
+double hertz_compliance(const GearData& gd) {
+  const double e_star =
+      1.0 / ((1 - gd.poisson_ratio[0] * gd.poisson_ratio[0]) / (gd.youngs_modulus_gpa[0] * 1e9) +
+             (1 - gd.poisson_ratio[1] * gd.poisson_ratio[1]) / (gd.youngs_modulus_gpa[1] * 1e9));
+  return 2.0 / (kPi * e_star);
+}
 }  // namespace
 
 Iso6336Stiffness iso6336_stiffness(const Case& c, const Geometry& g) {
@@ -432,12 +438,7 @@ StiffnessCycle energy_method_cycle(const Case& c, const Geometry& g, const Energ
   const double s_e = std::sqrt(ra1 * ra1 - rb1 * rb1);
   const double pbt = g.transverse_base_pitch_m;
 
-  // Hertzian contact (Yang and Lin 1987): 1/k_h = 2 / (pi E*) per unit width.
-  const GearData& gd = c.gear;
-  const double e_star =
-      1.0 / ((1 - gd.poisson_ratio[0] * gd.poisson_ratio[0]) / (gd.youngs_modulus_gpa[0] * 1e9) +
-             (1 - gd.poisson_ratio[1] * gd.poisson_ratio[1]) / (gd.youngs_modulus_gpa[1] * 1e9));
-  const double hertz = 2.0 / (kPi * e_star);
+  const double hertz = hertz_compliance(c.gear);
 
   // A tooth pair's stiffness per unit face width along the path, on a uniform grid.
   const int np = o.path_points;
@@ -483,10 +484,7 @@ StiffnessCycle internal_energy_method_cycle(const Case& c, const EnergyMethodOpt
                                       (c.gear.basic_rack_dedendum[0] - c.gear.profile_shift[0]);
   const Tooth t1 = make_tooth(c, g, 0), t2 = make_ring_tooth(c, p.rb2, alpha_t);
   const GearData& gd = c.gear;
-  const double e_star =
-      1.0 / ((1 - gd.poisson_ratio[0] * gd.poisson_ratio[0]) / (gd.youngs_modulus_gpa[0] * 1e9) +
-             (1 - gd.poisson_ratio[1] * gd.poisson_ratio[1]) / (gd.youngs_modulus_gpa[1] * 1e9));
-  const double hertz = 2.0 / (kPi * e_star);
+  const double hertz = hertz_compliance(gd);
   const int np = o.path_points;
   const double ds = (p.s_e - p.s_a) / (np - 1);
   std::vector<double> k_unit(np);
