@@ -75,23 +75,7 @@ reference_speed_hz = 25
 [[train.body]]
 name = "engine"
 inertia_kg_m2 = 0.15
-[[train.body]]
-name = "input"
-teeth = 30
-normal_module_mm = 2.5
-inertia_kg_m2 = 0.004
-[[train.body]]
-name = "output"
-teeth = 45
-normal_module_mm = 2.5
-inertia_kg_m2 = 0.02
-[[train.mesh]]
-name = "gears"
-driving = "input"
-driven = "output"
-backlash_um = 50
-mean_stiffness_n_per_m = 3e8
-damping_ratio = {}
+{}
 [[train.damper]]
 name = "clutch"
 from = "engine"
@@ -113,7 +97,7 @@ name = "load"
 body = "output"
 balances = true
 )",
-                     mesh_damping_ratio, damping, engine_nm);
+                     geardyn::testing::spur_stage_toml(mesh_damping_ratio), damping, engine_nm);
 }
 
 // The damper's twist theta_engine - theta_input in state y.

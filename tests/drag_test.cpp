@@ -33,23 +33,7 @@ form = "train"
 [train]
 reference = "input"
 reference_speed_hz = 25
-[[train.body]]
-name = "input"
-teeth = 30
-normal_module_mm = 2.5
-inertia_kg_m2 = 0.004
-[[train.body]]
-name = "output"
-teeth = 45
-normal_module_mm = 2.5
-inertia_kg_m2 = 0.02
-[[train.mesh]]
-name = "gears"
-driving = "input"
-driven = "output"
-backlash_um = 50
-mean_stiffness_n_per_m = 3e8
-damping_ratio = 0.05
+{}
 [[train.torque]]
 name = "drive"
 body = "input"
@@ -59,7 +43,7 @@ name = "oil"
 body = "output"
 {}
 )",
-                     drag);
+                     geardyn::testing::spur_stage_toml(0.05), drag);
 }
 
 std::string shipped(const char* name) {

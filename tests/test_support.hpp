@@ -1,6 +1,7 @@
 // Helpers shared by the tests.
 #pragma once
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
@@ -16,6 +17,32 @@
 #include "geardyn/validation.hpp"
 
 namespace geardyn::testing {
+
+// A spur stage as [[train.body]] and [[train.mesh]] tables: gear "input" (30 teeth, 4e-3 kg m^2)
+// driving gear "output" (45 teeth, 0.02 kg m^2), module 2.5 mm, mesh "gears" of 3e8 N/m with a
+// backlash of 50 um and the damping ratio given: the gearbox the element tests put an element
+// before or after.
+inline std::string spur_stage_toml(double mesh_damping_ratio) {
+  return R"(
+[[train.body]]
+name = "input"
+teeth = 30
+normal_module_mm = 2.5
+inertia_kg_m2 = 0.004
+[[train.body]]
+name = "output"
+teeth = 45
+normal_module_mm = 2.5
+inertia_kg_m2 = 0.02
+[[train.mesh]]
+name = "gears"
+driving = "input"
+driven = "output"
+backlash_um = 50
+mean_stiffness_n_per_m = 3e8
+damping_ratio = )" +
+         fmt::format("{}", mesh_damping_ratio) + "\n";
+}
 
 // The message of the InputError that `f` throws, or "" if it throws none.
 template <class F>
